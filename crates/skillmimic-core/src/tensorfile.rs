@@ -1,0 +1,230 @@
+//! safetensors files: atomic writing and validated reading, shared by clips, traces and
+//! checkpoints.
+//!
+//! Writing goes to `<path>.tmp` first and is renamed into place, so a crash never leaves a
+//! partially written file under the final name. Reading checks every tensor's dtype and shape and
+//! names the file, the tensor and the expected value in its errors.
+
+use std::collections::{BTreeMap, HashMap};
+use std::path::{Path, PathBuf};
+
+use safetensors::tensor::{Dtype, TensorView};
+
+/// Error reading a tensor file.
+#[derive(Debug, thiserror::Error)]
+pub enum TensorFileError {
+    #[error("{path}: cannot read file: {source}")]
+    Io { path: PathBuf, source: std::io::Error },
+    #[error("{path}: not a safetensors file: {detail}")]
+    Format { path: PathBuf, detail: String },
+    #[error("{path}: tensor '{name}' is missing")]
+    Missing { path: PathBuf, name: String },
+    #[error("{path}: tensor '{name}' has dtype {got}, expected {expected}")]
+    Dtype { path: PathBuf, name: String, got: String, expected: &'static str },
+    #[error("{path}: tensor '{name}' has shape {got:?}, expected {expected}")]
+    Shape { path: PathBuf, name: String, got: Vec<usize>, expected: String },
+    #[error("{path}: tensor '{name}' holds a non-finite value at flat index {index}")]
+    NonFinite { path: PathBuf, name: String, index: usize },
+    #[error("{path}: metadata field '{key}' {detail}")]
+    Metadata { path: PathBuf, key: String, detail: String },
+}
+
+/// An owned tensor to be written.
+#[derive(Clone, Debug)]
+pub struct OwnedTensor {
+    pub name: String,
+    pub dtype: Dtype,
+    pub shape: Vec<usize>,
+    pub bytes: Vec<u8>,
+}
+
+impl OwnedTensor {
+    /// A float32 tensor (little endian).
+    pub fn f32(name: &str, shape: &[usize], data: &[f32]) -> Self {
+        assert_eq!(shape.iter().product::<usize>(), data.len(), "tensor '{name}': shape/data mismatch");
+        Self { name: name.into(), dtype: Dtype::F32, shape: shape.to_vec(), bytes: data.iter().flat_map(|x| x.to_le_bytes()).collect() }
+    }
+    /// A float64 tensor (little endian).
+    pub fn f64(name: &str, shape: &[usize], data: &[f64]) -> Self {
+        assert_eq!(shape.iter().product::<usize>(), data.len(), "tensor '{name}': shape/data mismatch");
+        Self { name: name.into(), dtype: Dtype::F64, shape: shape.to_vec(), bytes: data.iter().flat_map(|x| x.to_le_bytes()).collect() }
+    }
+    /// An int64 tensor (little endian).
+    pub fn i64(name: &str, shape: &[usize], data: &[i64]) -> Self {
+        assert_eq!(shape.iter().product::<usize>(), data.len(), "tensor '{name}': shape/data mismatch");
+        Self { name: name.into(), dtype: Dtype::I64, shape: shape.to_vec(), bytes: data.iter().flat_map(|x| x.to_le_bytes()).collect() }
+    }
+}
+
+/// Serialise tensors + metadata to bytes (tensors are sorted by name by the format).
+pub fn to_bytes(tensors: &[OwnedTensor], metadata: &BTreeMap<String, String>) -> Vec<u8> {
+    let views: Vec<(String, TensorView<'_>)> = tensors
+        .iter()
+        .map(|t| (t.name.clone(), TensorView::new(t.dtype, t.shape.clone(), &t.bytes).expect("consistent tensor")))
+        .collect();
+    let meta: HashMap<String, String> = metadata.iter().map(|(k, v)| (k.clone(), v.clone())).collect();
+    safetensors::tensor::serialize(views, Some(meta)).expect("serialisable tensors")
+}
+
+/// Write a safetensors file atomically (temp file in the same folder, then rename).
+pub fn write_atomic(path: &Path, tensors: &[OwnedTensor], metadata: &BTreeMap<String, String>) -> std::io::Result<()> {
+    write_bytes_atomic(path, &to_bytes(tensors, metadata))
+}
+
+/// Write `bytes` to `path` atomically (temp file in the same folder, fsync, rename).
+pub fn write_bytes_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    use std::io::Write;
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir)?;
+    }
+    let mut tmp = path.as_os_str().to_owned();
+    tmp.push(format!(".tmp{}", std::process::id()));
+    let tmp = PathBuf::from(tmp);
+    {
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(bytes)?;
+        f.sync_all()?;
+    }
+    std::fs::rename(&tmp, path).inspect_err(|_| {
+        let _ = std::fs::remove_file(&tmp);
+    })
+}
+
+/// A safetensors file read into memory.
+pub struct TensorFile {
+    path: PathBuf,
+    bytes: Vec<u8>,
+    metadata: BTreeMap<String, String>,
+}
+
+impl std::fmt::Debug for TensorFile {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "TensorFile({})", self.path.display())
+    }
+}
+
+impl TensorFile {
+    /// Read and parse the header of `path`.
+    pub fn open(path: &Path) -> Result<Self, TensorFileError> {
+        let bytes = std::fs::read(path).map_err(|source| TensorFileError::Io { path: path.into(), source })?;
+        let (_, meta) = safetensors::SafeTensors::read_metadata(&bytes)
+            .map_err(|e| TensorFileError::Format { path: path.into(), detail: e.to_string() })?;
+        let metadata = meta.metadata().clone().unwrap_or_default().into_iter().collect();
+        safetensors::SafeTensors::deserialize(&bytes)
+            .map_err(|e| TensorFileError::Format { path: path.into(), detail: e.to_string() })?;
+        Ok(Self { path: path.into(), bytes, metadata })
+    }
+
+    /// The file's path.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// All metadata entries.
+    pub fn metadata(&self) -> &BTreeMap<String, String> {
+        &self.metadata
+    }
+
+    /// A required metadata entry.
+    pub fn meta(&self, key: &str) -> Result<&str, TensorFileError> {
+        self.metadata.get(key).map(String::as_str).ok_or_else(|| TensorFileError::Metadata {
+            path: self.path.clone(),
+            key: key.into(),
+            detail: "is missing".into(),
+        })
+    }
+
+    /// Metadata entry parsed as `T`.
+    pub fn meta_parse<T: std::str::FromStr>(&self, key: &str, expected: &str) -> Result<T, TensorFileError> {
+        let v = self.meta(key)?;
+        v.parse().map_err(|_| TensorFileError::Metadata {
+            path: self.path.clone(),
+            key: key.into(),
+            detail: format!("is '{v}', expected {expected}"),
+        })
+    }
+
+    /// Names of all tensors.
+    pub fn names(&self) -> Vec<String> {
+        let st = safetensors::SafeTensors::deserialize(&self.bytes).expect("checked on open");
+        let mut n: Vec<String> = st.names().into_iter().map(str::to_owned).collect();
+        n.sort();
+        n
+    }
+
+    /// Shape of tensor `name`, if present.
+    pub fn shape(&self, name: &str) -> Option<Vec<usize>> {
+        let st = safetensors::SafeTensors::deserialize(&self.bytes).expect("checked on open");
+        st.tensor(name).ok().map(|t| t.shape().to_vec())
+    }
+
+    fn raw(&self, name: &str, dtype: Dtype, expected: &'static str, shape: &[Option<usize>]) -> Result<(Vec<usize>, Vec<u8>), TensorFileError> {
+        let st = safetensors::SafeTensors::deserialize(&self.bytes).expect("checked on open");
+        let t = st.tensor(name).map_err(|_| TensorFileError::Missing { path: self.path.clone(), name: name.into() })?;
+        if t.dtype() != dtype {
+            return Err(TensorFileError::Dtype { path: self.path.clone(), name: name.into(), got: format!("{:?}", t.dtype()), expected });
+        }
+        let got = t.shape().to_vec();
+        let ok = got.len() == shape.len() && got.iter().zip(shape).all(|(g, e)| e.is_none_or(|e| e == *g));
+        if !ok {
+            let exp: Vec<String> = shape.iter().map(|e| e.map_or("*".to_string(), |v| v.to_string())).collect();
+            return Err(TensorFileError::Shape { path: self.path.clone(), name: name.into(), got, expected: format!("({})", exp.join(", ")) });
+        }
+        Ok((got, t.data().to_vec()))
+    }
+
+    /// A float32 tensor whose shape matches `shape` (`None` = any size); values must be finite.
+    pub fn f32(&self, name: &str, shape: &[Option<usize>]) -> Result<(Vec<usize>, Vec<f32>), TensorFileError> {
+        let (s, b) = self.raw(name, Dtype::F32, "F32", shape)?;
+        let v: Vec<f32> = b.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+        if let Some(index) = v.iter().position(|x| !x.is_finite()) {
+            return Err(TensorFileError::NonFinite { path: self.path.clone(), name: name.into(), index });
+        }
+        Ok((s, v))
+    }
+
+    /// A float64 tensor whose shape matches `shape`; values must be finite.
+    pub fn f64(&self, name: &str, shape: &[Option<usize>]) -> Result<(Vec<usize>, Vec<f64>), TensorFileError> {
+        let (s, b) = self.raw(name, Dtype::F64, "F64", shape)?;
+        let v: Vec<f64> = b.chunks_exact(8).map(|c| f64::from_le_bytes(c.try_into().unwrap())).collect();
+        if let Some(index) = v.iter().position(|x| !x.is_finite()) {
+            return Err(TensorFileError::NonFinite { path: self.path.clone(), name: name.into(), index });
+        }
+        Ok((s, v))
+    }
+
+    /// An int64 tensor whose shape matches `shape`.
+    pub fn i64(&self, name: &str, shape: &[Option<usize>]) -> Result<(Vec<usize>, Vec<i64>), TensorFileError> {
+        let (s, b) = self.raw(name, Dtype::I64, "I64", shape)?;
+        Ok((s, b.chunks_exact(8).map(|c| i64::from_le_bytes(c.try_into().unwrap())).collect()))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn round_trip_and_validation() {
+        let dir = std::env::temp_dir().join(format!("sm-tensorfile-{}", std::process::id()));
+        let p = dir.join("t.safetensors");
+        let mut meta = BTreeMap::new();
+        meta.insert("fps".to_string(), "60".to_string());
+        write_atomic(&p, &[OwnedTensor::f32("a", &[2, 3], &[1., 2., 3., 4., 5., 6.]), OwnedTensor::f64("b", &[1], &[0.5])], &meta)
+            .unwrap();
+        let f = TensorFile::open(&p).unwrap();
+        assert_eq!(f.meta("fps").unwrap(), "60");
+        assert_eq!(f.meta_parse::<f64>("fps", "a number").unwrap(), 60.0);
+        assert_eq!(f.f32("a", &[None, Some(3)]).unwrap(), (vec![2, 3], vec![1., 2., 3., 4., 5., 6.]));
+        assert_eq!(f.f64("b", &[Some(1)]).unwrap().1, vec![0.5]);
+        let e = f.f32("a", &[Some(3), None]).unwrap_err().to_string();
+        assert!(e.contains("'a'") && e.contains("[2, 3]") && e.contains("(3, *)"), "{e}");
+        assert!(f.f32("b", &[Some(1)]).unwrap_err().to_string().contains("expected F32"));
+        assert!(f.f32("zzz", &[None]).unwrap_err().to_string().contains("missing"));
+        assert!(f.meta("nope").is_err());
+        std::fs::write(&p, b"garbage").unwrap();
+        assert!(TensorFile::open(&p).unwrap_err().to_string().contains("not a safetensors file"));
+        // no temp files left behind
+        assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1);
+    }
+}

@@ -1,0 +1,186 @@
+//! A motion clip in the project's representation, and its decoding from BallPlay-M `.pt` files.
+//!
+//! BallPlay-M column layout (one row per frame, 60 fps):
+//!
+//! | columns | content |
+//! |---|---|
+//! | 0:3 | root (Pelvis) position, world, m (Z-up) |
+//! | 3:6 | root rotation, exponential map (rad), includes the Y-up → Z-up tilt |
+//! | 6:9 | duplicate of 3:6 (ignored) |
+//! | 9:165 | 52 × 3 joint rotations, exp map of each body relative to its parent |
+//! | 165:324 | 53 × 3 world positions of all bodies (not exactly FK of the joints, see docs) |
+//! | 324:327 | ball centre, world, m |
+//! | 327:330 | ball rotation exp map, stored negated (all zero in the shipped data) |
+//! | 330:336 | unused |
+//! | 336 | hand–ball contact label (0/1) |
+
+use std::path::Path;
+
+use skillmimic_core::math::Quat;
+use skillmimic_core::skeleton::{NUM_BODIES, NUM_DOFS};
+
+use crate::error::ClipError;
+use crate::pt::read_pt_matrix;
+
+/// Width of a BallPlay-M row.
+pub const PT_WIDTH: usize = 337;
+/// Frame rate of BallPlay-M clips (Hz).
+pub const BALLPLAY_FPS: f64 = 60.0;
+/// Width of the one-hot skill condition; labels must be below it.
+pub const SKILL_WIDTH: usize = 64;
+
+/// Name of the field a BallPlay-M column belongs to (error messages).
+pub fn pt_column_field(c: usize) -> &'static str {
+    match c {
+        0..=2 => "root position",
+        3..=8 => "root rotation",
+        9..=164 => "joint rotations",
+        165..=323 => "body positions",
+        324..=326 => "ball position",
+        327..=329 => "ball rotation",
+        330..=335 => "unused",
+        _ => "contact label",
+    }
+}
+
+/// A motion clip. Arrays are float32, frame-major; frames and units as in the project format:
+/// positions in metres in the Z-up world frame, quaternions **(w, x, y, z)**, joint rotations as
+/// exp maps (rad) of each body relative to its parent in skeleton order.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Clip {
+    /// Clip name (file stem).
+    pub name: String,
+    /// Where the clip came from (file path or generator description).
+    pub source: String,
+    /// Skill label (0 … 63).
+    pub skill: u32,
+    /// Frames per second.
+    pub fps: f64,
+    /// Number of frames T.
+    pub num_frames: usize,
+    /// `(T, 3)` root position.
+    pub root_pos: Vec<f32>,
+    /// `(T, 4)` root orientation (w, x, y, z), sign-continuous over time.
+    pub root_rot: Vec<f32>,
+    /// `(T, 52, 3)` joint rotations (exp maps).
+    pub dof_rot: Vec<f32>,
+    /// `(T, 53, 3)` body positions.
+    pub body_pos: Vec<f32>,
+    /// `(T, 3)` ball centre.
+    pub ball_pos: Vec<f32>,
+    /// `(T, 4)` ball orientation (w, x, y, z).
+    pub ball_rot: Vec<f32>,
+    /// `(T,)` hand–ball contact label, 0 or 1.
+    pub contact: Vec<f32>,
+}
+
+/// Skill label from a clip file name: the integer of its first three characters
+/// (`013_018pickle_run_3.pt` → 13).
+pub fn skill_label_from_name(path: &Path) -> Result<u32, ClipError> {
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let prefix: String = name.chars().take(3).collect();
+    if prefix.len() != 3 || !prefix.chars().all(|c| c.is_ascii_digit()) {
+        return Err(ClipError::Label { path: path.to_path_buf(), name });
+    }
+    let label: u32 = prefix.parse().map_err(|_| ClipError::Label { path: path.to_path_buf(), name: name.clone() })?;
+    if label as usize >= SKILL_WIDTH {
+        return Err(ClipError::LabelRange { path: path.to_path_buf(), label, width: SKILL_WIDTH });
+    }
+    Ok(label)
+}
+
+/// Convert a rotation vector to a float32 quaternion (w, x, y, z) via f64.
+fn rotvec_to_wxyz(v: [f32; 3]) -> [f32; 4] {
+    Quat::from_rotvec([v[0] as f64, v[1] as f64, v[2] as f64]).to_wxyz().map(|x| x as f32)
+}
+
+impl Clip {
+    /// Load a BallPlay-M `.pt` clip (label from the file name, 60 fps).
+    pub fn from_pt(path: &Path) -> Result<Clip, ClipError> {
+        let skill = skill_label_from_name(path)?;
+        let m = read_pt_matrix(path)?;
+        if m.cols != PT_WIDTH || m.rows == 0 {
+            return Err(ClipError::Shape { path: path.to_path_buf(), shape: vec![m.rows, m.cols], expected_width: PT_WIDTH });
+        }
+        if let Some(k) = m.data.iter().position(|x| !x.is_finite()) {
+            let (frame, column) = (k / PT_WIDTH, k % PT_WIDTH);
+            return Err(ClipError::NonFinite {
+                path: path.to_path_buf(),
+                frame,
+                column,
+                field: pt_column_field(column),
+                value: m.data[k],
+            });
+        }
+        let name = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+        Ok(Self::from_rows(name, path.display().to_string(), skill, BALLPLAY_FPS, m.rows, &m.data))
+    }
+
+    /// Decode `t` rows of the 337-column layout (values must be finite).
+    pub fn from_rows(name: String, source: String, skill: u32, fps: f64, t: usize, rows: &[f32]) -> Clip {
+        assert_eq!(rows.len(), t * PT_WIDTH);
+        let mut clip = Clip {
+            name,
+            source,
+            skill,
+            fps,
+            num_frames: t,
+            root_pos: Vec::with_capacity(3 * t),
+            root_rot: Vec::with_capacity(4 * t),
+            dof_rot: Vec::with_capacity(NUM_DOFS * t),
+            body_pos: Vec::with_capacity(3 * NUM_BODIES * t),
+            ball_pos: Vec::with_capacity(3 * t),
+            ball_rot: Vec::with_capacity(4 * t),
+            contact: Vec::with_capacity(t),
+        };
+        let mut prev: Option<[f32; 4]> = None;
+        for r in rows.chunks_exact(PT_WIDTH) {
+            clip.root_pos.extend_from_slice(&r[0..3]);
+            let mut q = rotvec_to_wxyz([r[3], r[4], r[5]]);
+            // sign continuity: q and −q are the same rotation; keep neighbours in one hemisphere
+            if let Some(p) = prev {
+                if p.iter().zip(&q).map(|(a, b)| a * b).sum::<f32>() < 0.0 {
+                    q = q.map(|x| -x);
+                }
+            }
+            prev = Some(q);
+            clip.root_rot.extend_from_slice(&q);
+            clip.dof_rot.extend_from_slice(&r[9..165]);
+            clip.body_pos.extend_from_slice(&r[165..324]);
+            clip.ball_pos.extend_from_slice(&r[324..327]);
+            // the loaders negate the stored ball exp map
+            clip.ball_rot.extend_from_slice(&rotvec_to_wxyz([-r[327], -r[328], -r[329]]));
+            clip.contact.push(r[336].round());
+        }
+        clip
+    }
+
+    /// Root position of frame `t` (f64).
+    pub fn root_pos_at(&self, t: usize) -> [f64; 3] {
+        std::array::from_fn(|k| self.root_pos[3 * t + k] as f64)
+    }
+    /// Root orientation of frame `t`.
+    pub fn root_quat_at(&self, t: usize) -> Quat {
+        Quat::from_wxyz(std::array::from_fn(|k| self.root_rot[4 * t + k] as f64))
+    }
+    /// The 156 joint exp-map components of frame `t`.
+    pub fn dof_at(&self, t: usize) -> &[f32] {
+        &self.dof_rot[NUM_DOFS * t..NUM_DOFS * (t + 1)]
+    }
+    /// Stored world position of body `b` at frame `t` (f64).
+    pub fn body_pos_at(&self, t: usize, b: usize) -> [f64; 3] {
+        std::array::from_fn(|k| self.body_pos[(t * NUM_BODIES + b) * 3 + k] as f64)
+    }
+    /// Ball centre at frame `t` (f64).
+    pub fn ball_pos_at(&self, t: usize) -> [f64; 3] {
+        std::array::from_fn(|k| self.ball_pos[3 * t + k] as f64)
+    }
+    /// Ball orientation at frame `t`.
+    pub fn ball_quat_at(&self, t: usize) -> Quat {
+        Quat::from_wxyz(std::array::from_fn(|k| self.ball_rot[4 * t + k] as f64))
+    }
+    /// Duration in seconds.
+    pub fn duration(&self) -> f64 {
+        self.num_frames as f64 / self.fps
+    }
+}

@@ -1,0 +1,22 @@
+//! Clip loading errors: every message names the file and what was expected.
+
+use std::path::PathBuf;
+
+/// Error while reading or validating a motion clip.
+#[derive(Debug, thiserror::Error)]
+pub enum ClipError {
+    #[error("{path}: cannot read file: {source}")]
+    Io { path: PathBuf, source: std::io::Error },
+    #[error("{path}: not a PyTorch zip archive ({detail}); expected a file written by torch.save holding one float32 tensor of shape (T, 337)")]
+    NotZip { path: PathBuf, detail: String },
+    #[error("{path}: {detail}")]
+    Format { path: PathBuf, detail: String },
+    #[error("{path}: tensor has shape {shape:?}, expected (T, {expected_width}) with T >= 1")]
+    Shape { path: PathBuf, shape: Vec<usize>, expected_width: usize },
+    #[error("{path}: non-finite value {value} at frame {frame}, column {column} ({field})")]
+    NonFinite { path: PathBuf, frame: usize, column: usize, field: &'static str, value: f32 },
+    #[error("{path}: cannot read the skill label: the file name must start with three digits (e.g. 013_run.pt), got '{name}'")]
+    Label { path: PathBuf, name: String },
+    #[error("{path}: skill label {label} is outside the one-hot width {width}")]
+    LabelRange { path: PathBuf, label: u32, width: usize },
+}

@@ -1,0 +1,23 @@
+//! Simulation layer of skillmimic-rs.
+//!
+//! * [`mjcf`]: generator of the humanoid + ball MJCF (full or box hands), with the modelling
+//!   choices documented;
+//! * [`scene`]: a compiled scene and its index tables (skeleton body → MuJoCo ids, joint
+//!   addresses, actuator → action index, geom owners);
+//! * [`batch`]: N environments stepped in parallel with rayon (PD targets, sub-steps, state and
+//!   contact read-out into contiguous buffers, resets), deterministic for any thread count;
+//! * [`state`], [`contacts`]: the read-out layout and the contact-pair kinds.
+
+pub mod batch;
+pub mod contacts;
+pub mod error;
+pub mod mjcf;
+pub mod scene;
+pub mod state;
+
+pub use batch::BatchSim;
+pub use contacts::{ContactPair, NUM_CONTACT_PAIRS};
+pub use error::SimError;
+pub use mjcf::{BallParams, HandModel, RootJoint, SceneOptions};
+pub use scene::{BALL, NUM_STATE_BODIES, Scene};
+pub use state::{BatchState, EnvState, ResetState};

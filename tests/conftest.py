@@ -1,0 +1,54 @@
+"""Shared fixtures of the Python test-suite (run by scripts/test.sh with the project's .venv).
+
+* ``repo_root``: the checkout;
+* ``skillmimic_bin``: the release CLI built by scripts/test.sh;
+* ``shared_dir``: the reference data folder (``$SKILLMIMIC_SHARED`` or ``<repo>/../shared``); tests
+  that need it skip with a message when it is absent, and fail instead when ``CI`` is set.
+"""
+
+from __future__ import annotations
+
+import os
+import pathlib
+import subprocess
+
+import pytest
+
+REPO = pathlib.Path(__file__).resolve().parent.parent
+
+
+@pytest.fixture(scope="session")
+def repo_root() -> pathlib.Path:
+    return REPO
+
+
+@pytest.fixture(scope="session")
+def skillmimic_bin() -> pathlib.Path:
+    exe = REPO / "target" / "release" / "skillmimic"
+    if not exe.exists():
+        pytest.fail(f"{exe} not found: build it with `cargo build --release -p skillmimic-cli` (scripts/test.sh does)")
+    return exe
+
+
+def find_shared() -> pathlib.Path | None:
+    d = pathlib.Path(os.environ.get("SKILLMIMIC_SHARED", REPO.parent / "shared"))
+    return d if (d / "data").is_dir() else None
+
+
+@pytest.fixture(scope="session")
+def shared_dir() -> pathlib.Path:
+    d = find_shared()
+    if d is None:
+        msg = "reference data not found (set SKILLMIMIC_SHARED or place the shared folder next to the checkout)"
+        if os.environ.get("CI"):
+            pytest.fail(msg + " and CI is set, so this test may not be skipped")
+        pytest.skip(msg)
+    return d
+
+
+def run_cli(exe: pathlib.Path, *args: str) -> subprocess.CompletedProcess:
+    """Run the CLI, failing the test with its stderr on a non-zero exit."""
+    r = subprocess.run([str(exe), *args], capture_output=True, text=True)
+    if r.returncode != 0:
+        pytest.fail(f"skillmimic {' '.join(args)} failed ({r.returncode}):\n{r.stderr}")
+    return r
