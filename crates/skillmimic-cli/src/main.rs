@@ -9,6 +9,7 @@ use clap::{Parser, Subcommand};
 
 mod bench;
 mod cmd_mjcf;
+mod cmd_motion;
 mod cmd_trace;
 mod demo;
 
@@ -26,6 +27,10 @@ enum Command {
     /// Run a benchmark and print throughput ratios measured in one run.
     #[command(subcommand)]
     Bench(bench::BenchCommand),
+    /// Convert BallPlay-M `.pt` clips (a file or a folder tree) into the project clip format.
+    Convert(cmd_motion::ConvertArgs),
+    /// Regenerate the shipped demo clips (IK stand-and-dribble) into `motions/`.
+    SynthMotions(cmd_motion::SynthArgs),
     /// Short simulation demo on the batched core.
     Demo(demo::Args),
     /// Record a physics trace (initial state, actions, final state) for cross-checks with PyPI mujoco.
@@ -44,6 +49,8 @@ fn main() -> ExitCode {
         Command::Mjcf(a) => cmd_mjcf::run(a),
         Command::Bench(b) => bench::run(b),
         Command::Demo(a) => demo::run(a),
+        Command::Convert(a) => cmd_motion::convert(a),
+        Command::SynthMotions(a) => cmd_motion::synth(a),
         Command::Trace(a) => cmd_trace::run(a),
     };
     match result {

@@ -5,10 +5,10 @@
 //! partially written file under the final name. Reading checks every tensor's dtype and shape and
 //! names the file, the tensor and the expected value in its errors.
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use safetensors::tensor::{Dtype, TensorView};
+use safetensors::tensor::Dtype;
 
 /// Error reading a tensor file.
 #[derive(Debug, thiserror::Error)]
@@ -56,14 +56,44 @@ impl OwnedTensor {
     }
 }
 
-/// Serialise tensors + metadata to bytes (tensors are sorted by name by the format).
+/// Serialise tensors + metadata to safetensors bytes, deterministically: the header lists the
+/// metadata keys and the tensors sorted by name (the `safetensors` crate's own serialiser keeps
+/// metadata in a `HashMap`, whose order changes from run to run), padded with spaces to a
+/// multiple of 8 bytes as the format asks; tensor data follows in the same order.
 pub fn to_bytes(tensors: &[OwnedTensor], metadata: &BTreeMap<String, String>) -> Vec<u8> {
-    let views: Vec<(String, TensorView<'_>)> = tensors
-        .iter()
-        .map(|t| (t.name.clone(), TensorView::new(t.dtype, t.shape.clone(), &t.bytes).expect("consistent tensor")))
-        .collect();
-    let meta: HashMap<String, String> = metadata.iter().map(|(k, v)| (k.clone(), v.clone())).collect();
-    safetensors::tensor::serialize(views, Some(meta)).expect("serialisable tensors")
+    let mut sorted: Vec<&OwnedTensor> = tensors.iter().collect();
+    sorted.sort_by(|a, b| a.name.cmp(&b.name));
+    let mut header = serde_json::Map::new();
+    if !metadata.is_empty() {
+        let meta: serde_json::Map<String, serde_json::Value> =
+            metadata.iter().map(|(k, v)| (k.clone(), serde_json::Value::String(v.clone()))).collect();
+        header.insert("__metadata__".into(), serde_json::Value::Object(meta));
+    }
+    let mut offset = 0usize;
+    for t in &sorted {
+        let dtype = match t.dtype {
+            Dtype::F32 => "F32",
+            Dtype::F64 => "F64",
+            Dtype::I64 => "I64",
+            other => panic!("unsupported dtype {other:?}"),
+        };
+        assert_eq!(t.bytes.len(), t.shape.iter().product::<usize>() * t.dtype.bitsize() / 8, "tensor '{}'", t.name);
+        let info = serde_json::json!({ "dtype": dtype, "shape": t.shape, "data_offsets": [offset, offset + t.bytes.len()] });
+        header.insert(t.name.clone(), info);
+        offset += t.bytes.len();
+    }
+    // serde_json's Map is ordered by key (no preserve_order feature): deterministic
+    let mut head = serde_json::to_vec(&serde_json::Value::Object(header)).expect("json header");
+    while head.len() % 8 != 0 {
+        head.push(b' ');
+    }
+    let mut out = Vec::with_capacity(8 + head.len() + offset);
+    out.extend_from_slice(&(head.len() as u64).to_le_bytes());
+    out.extend_from_slice(&head);
+    for t in &sorted {
+        out.extend_from_slice(&t.bytes);
+    }
+    out
 }
 
 /// Write a safetensors file atomically (temp file in the same folder, then rename).
@@ -226,5 +256,20 @@ mod tests {
         assert!(TensorFile::open(&p).unwrap_err().to_string().contains("not a safetensors file"));
         // no temp files left behind
         assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1);
+        // deterministic bytes, readable by the safetensors crate
+        let tensors = [OwnedTensor::f32("z", &[2], &[1.0, 2.0]), OwnedTensor::i64("a", &[1], &[7])];
+        let mut meta = BTreeMap::new();
+        for k in ["b", "c", "a", "d"] {
+            meta.insert(k.to_string(), k.repeat(3));
+        }
+        let bytes = to_bytes(&tensors, &meta);
+        for _ in 0..5 {
+            assert_eq!(to_bytes(&tensors, &meta), bytes);
+        }
+        let st = safetensors::SafeTensors::deserialize(&bytes).unwrap();
+        assert_eq!(st.tensor("a").unwrap().data(), &7i64.to_le_bytes());
+        let (n, m) = safetensors::SafeTensors::read_metadata(&bytes).unwrap();
+        assert_eq!(n % 8, 0);
+        assert_eq!(m.metadata().as_ref().unwrap().get("c").unwrap(), "ccc");
     }
 }

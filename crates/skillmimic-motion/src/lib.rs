@@ -1,12 +1,20 @@
 //! Motion data of skillmimic-rs.
 //!
-//! * [`pt`]: a restricted reader for `torch.save` archives holding one float32 matrix
-//!   (BallPlay-M clips) — no pickle code is executed;
-//! * [`clip`]: the project's clip representation and its decoding from the 337-column layout.
+//! * [`pt`]: a restricted reader (and a writer) for `torch.save` archives holding one float32
+//!   matrix (BallPlay-M clips) — no pickle code is executed;
+//! * [`clip`]: the project's clip representation and its decoding from the 337-column layout;
+//! * [`format`]: the project's clip file format (safetensors, documented field by field);
+//! * [`reference`]: reference quantities derived once per clip (velocities, key bodies);
+//! * [`library`]: many clips, class-balanced clip sampling and random start frames.
 
 pub mod clip;
 pub mod error;
+pub mod format;
+pub mod library;
 pub mod pt;
+pub mod reference;
 
 pub use clip::{BALLPLAY_FPS, Clip, PT_WIDTH, SKILL_WIDTH};
 pub use error::ClipError;
+pub use library::{MotionClip, MotionLibrary};
+pub use reference::{ClipReference, NUM_KEY};

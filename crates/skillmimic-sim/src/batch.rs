@@ -105,6 +105,16 @@ impl BatchSim {
         self.substeps = n;
         Ok(())
     }
+    /// Run `op` inside the simulation thread pool (for per-environment work of the layers above,
+    /// e.g. observations and rewards, parallelised with rayon on the same threads).
+    pub fn install<OP, R>(&self, op: OP) -> R
+    where
+        OP: FnOnce() -> R + Send,
+        R: Send,
+    {
+        self.pool.install(op)
+    }
+
     /// Raw MuJoCo data of environment `i` (read-only; e.g. for rendering).
     pub fn data(&self, i: usize) -> &Data {
         &self.envs[i].data

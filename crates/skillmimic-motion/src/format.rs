@@ -1,0 +1,144 @@
+//! The project's clip file format (`.safetensors`), version 1.
+//!
+//! | tensor | dtype | shape | content |
+//! |---|---|---|---|
+//! | `root_pos` | F32 | (T, 3) | root (Pelvis) position, world, m, Z-up |
+//! | `root_rot` | F32 | (T, 4) | root orientation, quaternion **(w, x, y, z)** (MuJoCo order), unit norm |
+//! | `dof_rot` | F32 | (T, 52, 3) | joint rotations: exp map (axis·angle, rad) of each body relative to its parent, skeleton order |
+//! | `body_pos` | F32 | (T, 53, 3) | world positions of the 53 bodies, m (the reward targets of key bodies) |
+//! | `ball_pos` | F32 | (T, 3) | ball centre, world, m |
+//! | `ball_rot` | F32 | (T, 4) | ball orientation (w, x, y, z) |
+//! | `contact` | F32 | (T,) | hand–ball contact label, 0 or 1 |
+//!
+//! Metadata (strings): `format = "skillmimic-clip"`, `format_version = "1"`, `fps` (frames per
+//! second, > 0), `skill` (label 0…63), `name`, `source`.
+//!
+//! Body order, skeleton frames and bone offsets are those of `skillmimic_core::skeleton`; bring
+//! your own clips by filling these arrays for the same skeleton.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use skillmimic_core::skeleton::{NUM_BODIES, NUM_JOINTS};
+use skillmimic_core::tensorfile::{OwnedTensor, TensorFile, TensorFileError, write_atomic};
+
+use crate::clip::{Clip, SKILL_WIDTH};
+use crate::error::ClipError;
+
+/// Value of the `format` metadata field.
+pub const FORMAT_NAME: &str = "skillmimic-clip";
+/// Current format version.
+pub const FORMAT_VERSION: u32 = 1;
+
+fn tf_err(path: &Path, e: TensorFileError) -> ClipError {
+    match e {
+        TensorFileError::Io { source, .. } => ClipError::Io { path: path.to_path_buf(), source },
+        other => ClipError::Format { path: path.to_path_buf(), detail: strip_path(path, &other.to_string()) },
+    }
+}
+
+fn strip_path(path: &Path, msg: &str) -> String {
+    msg.strip_prefix(&format!("{}: ", path.display())).unwrap_or(msg).to_string()
+}
+
+impl Clip {
+    /// Save in the project format (atomic write).
+    pub fn save(&self, path: &Path) -> std::io::Result<()> {
+        let t = self.num_frames;
+        let mut meta = BTreeMap::new();
+        meta.insert("format".into(), FORMAT_NAME.into());
+        meta.insert("format_version".into(), FORMAT_VERSION.to_string());
+        meta.insert("fps".into(), self.fps.to_string());
+        meta.insert("skill".into(), self.skill.to_string());
+        meta.insert("name".into(), self.name.clone());
+        meta.insert("source".into(), self.source.clone());
+        let tensors = [
+            OwnedTensor::f32("root_pos", &[t, 3], &self.root_pos),
+            OwnedTensor::f32("root_rot", &[t, 4], &self.root_rot),
+            OwnedTensor::f32("dof_rot", &[t, NUM_JOINTS, 3], &self.dof_rot),
+            OwnedTensor::f32("body_pos", &[t, NUM_BODIES, 3], &self.body_pos),
+            OwnedTensor::f32("ball_pos", &[t, 3], &self.ball_pos),
+            OwnedTensor::f32("ball_rot", &[t, 4], &self.ball_rot),
+            OwnedTensor::f32("contact", &[t], &self.contact),
+        ];
+        write_atomic(path, &tensors, &meta)
+    }
+
+    /// Load a clip in the project format, validating every field.
+    pub fn load(path: &Path) -> Result<Clip, ClipError> {
+        let f = TensorFile::open(path).map_err(|e| tf_err(path, e))?;
+        let fmt = f.meta("format").map_err(|e| tf_err(path, e))?;
+        if fmt != FORMAT_NAME {
+            return Err(ClipError::Format { path: path.into(), detail: format!("metadata format is '{fmt}', expected '{FORMAT_NAME}'") });
+        }
+        let version: u32 = f.meta_parse("format_version", "an integer").map_err(|e| tf_err(path, e))?;
+        if version > FORMAT_VERSION {
+            return Err(ClipError::Format {
+                path: path.into(),
+                detail: format!("format_version {version} is newer than this build supports ({FORMAT_VERSION})"),
+            });
+        }
+        let fps: f64 = f.meta_parse("fps", "a positive number").map_err(|e| tf_err(path, e))?;
+        if !(fps.is_finite() && fps > 0.0) {
+            return Err(ClipError::Format { path: path.into(), detail: format!("metadata fps is {fps}, expected a positive number") });
+        }
+        let skill: u32 = f.meta_parse("skill", "an integer 0..63").map_err(|e| tf_err(path, e))?;
+        if skill as usize >= SKILL_WIDTH {
+            return Err(ClipError::LabelRange { path: path.into(), label: skill, width: SKILL_WIDTH });
+        }
+        let (shape, root_pos) = f.f32("root_pos", &[None, Some(3)]).map_err(|e| tf_err(path, e))?;
+        let t = shape[0];
+        if t == 0 {
+            return Err(ClipError::Format { path: path.into(), detail: "clip has 0 frames, expected T >= 1".into() });
+        }
+        let get = |name: &str, dims: &[usize]| {
+            let mut want = vec![Some(t)];
+            want.extend(dims.iter().map(|&d| Some(d)));
+            f.f32(name, &want).map(|(_, v)| v).map_err(|e| tf_err(path, e))
+        };
+        let clip = Clip {
+            name: f.metadata().get("name").cloned().unwrap_or_default(),
+            source: f.metadata().get("source").cloned().unwrap_or_default(),
+            skill,
+            fps,
+            num_frames: t,
+            root_pos,
+            root_rot: get("root_rot", &[4])?,
+            dof_rot: get("dof_rot", &[NUM_JOINTS, 3])?,
+            body_pos: get("body_pos", &[NUM_BODIES, 3])?,
+            ball_pos: get("ball_pos", &[3])?,
+            ball_rot: get("ball_rot", &[4])?,
+            contact: get("contact", &[])?,
+        };
+        for (field, q) in [("root_rot", &clip.root_rot), ("ball_rot", &clip.ball_rot)] {
+            for (frame, q) in q.chunks_exact(4).enumerate() {
+                let n = q.iter().map(|x| x * x).sum::<f32>().sqrt();
+                if (n - 1.0).abs() > 1e-3 {
+                    return Err(ClipError::Format {
+                        path: path.into(),
+                        detail: format!("{field} at frame {frame} has norm {n}, expected a unit quaternion (w, x, y, z)"),
+                    });
+                }
+            }
+        }
+        if let Some(frame) = clip.contact.iter().position(|&c| c != 0.0 && c != 1.0) {
+            return Err(ClipError::Format {
+                path: path.into(),
+                detail: format!("contact at frame {frame} is {}, expected 0 or 1", clip.contact[frame]),
+            });
+        }
+        Ok(clip)
+    }
+
+    /// Load a clip from either format, chosen by extension (`.pt` or `.safetensors`).
+    pub fn load_any(path: &Path) -> Result<Clip, ClipError> {
+        match path.extension().and_then(|e| e.to_str()) {
+            Some("pt") => Clip::from_pt(path),
+            Some("safetensors") => Clip::load(path),
+            _ => Err(ClipError::Format {
+                path: path.into(),
+                detail: "unknown clip extension, expected .pt (BallPlay-M) or .safetensors (skillmimic-clip)".into(),
+            }),
+        }
+    }
+}
