@@ -23,6 +23,24 @@ use crate::hoi::{ContactGraph, HoiState, MAX_CG, dist};
 use crate::obs::{layout, write_observation};
 use crate::reward::{self, NUM_TERMS};
 
+/// Motion source name of the built-in demo clips (the clips of `motions/`, synthesised in memory).
+pub const BUILTIN_DEMO: &str = "builtin:demo";
+
+/// Load a motion library from clip files/folders; the entry `builtin:demo` stands for the
+/// procedurally synthesised demo clips (identical to the shipped `motions/` files).
+pub fn load_motion_library(paths: &[std::path::PathBuf]) -> Result<MotionLibrary, EnvError> {
+    let (builtin, files): (Vec<_>, Vec<_>) = paths.iter().cloned().partition(|p| p.as_os_str() == BUILTIN_DEMO);
+    let mut clips = Vec::new();
+    if !builtin.is_empty() {
+        clips.extend(crate::synth::demo_clips()?);
+    }
+    if !files.is_empty() {
+        let lib = MotionLibrary::load(&files)?;
+        clips.extend(lib.clips().iter().map(|m| m.clip.clone()));
+    }
+    Ok(MotionLibrary::from_clips(clips)?)
+}
+
 /// Per-step evaluation errors stored for every environment.
 pub const NUM_FRAME_METRICS: usize = 4;
 /// Names of the frame metrics: body error (m, mean Euclidean error of root + 17 key bodies),
@@ -116,8 +134,20 @@ impl SkillEnv {
     /// Load the motion library named in the config, then build the environment.
     pub fn from_config(cfg: EnvConfig) -> Result<Self, EnvError> {
         cfg.validate()?;
-        let lib = Arc::new(MotionLibrary::load(&cfg.motion)?);
+        let lib = Arc::new(load_motion_library(&cfg.motion)?);
         Self::new(cfg, lib)
+    }
+
+    /// Recompute every observation from the current simulation state (after raw state edits).
+    pub fn refresh_observations(&mut self) {
+        let Self { sim, episodes, buf, .. } = self;
+        let state = sim.state();
+        sim.install(|| {
+            (episodes.par_iter(), buf.obs.par_chunks_mut(layout::OBS_DIM))
+                .into_par_iter()
+                .enumerate()
+                .for_each(|(i, (ep, obs))| write_observation(&state.env(i), ep.skill, obs));
+        });
     }
 
     /// Number of environments.

@@ -22,4 +22,4 @@ pub mod reward;
 pub mod synth;
 
 pub use config::{ContactGraphMode, EnvConfig, RewardConfig, RewardVariant, StateInit};
-pub use env::{EnvError, SkillEnv, StepBuffers};
+pub use env::{BUILTIN_DEMO, EnvError, SkillEnv, StepBuffers, load_motion_library};

@@ -1,0 +1,263 @@
+//! `skillmimic_rs._core`: the Rust environment exposed to Python.
+//!
+//! The Python package wraps [`CoreEnv`] in a gymnasium `VectorEnv`; this layer only moves data:
+//! numpy arrays in, the Rust core steps with the GIL released, results are written into
+//! preallocated numpy buffers owned by the Python side. Every user mistake raises `ValueError`
+//! (or `RuntimeError` after `close()`), never a crash.
+
+use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyReadwriteArray1, PyReadwriteArray2, PyUntypedArrayMethods};
+use pyo3::exceptions::{PyRuntimeError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use skillmimic_env::env::{FRAME_METRIC_NAMES, NUM_FRAME_METRICS};
+use skillmimic_env::hoi::{MAX_CG, cg_names};
+use skillmimic_env::reward::{NUM_TERMS, TERM_NAMES};
+use skillmimic_env::{EnvConfig, SkillEnv};
+
+fn value_error(e: impl std::fmt::Display) -> PyErr {
+    PyValueError::new_err(e.to_string())
+}
+
+/// The batched SkillMimic environment (Rust core). Use `skillmimic_rs.VecEnv` instead.
+#[pyclass(module = "skillmimic_rs._core")]
+struct CoreEnv {
+    env: Option<SkillEnv>,
+    actions: Vec<f32>,
+}
+
+impl CoreEnv {
+    fn env(&self) -> PyResult<&SkillEnv> {
+        self.env.as_ref().ok_or_else(|| PyRuntimeError::new_err("the environment is closed"))
+    }
+    fn env_mut(&mut self) -> PyResult<&mut SkillEnv> {
+        self.env.as_mut().ok_or_else(|| PyRuntimeError::new_err("the environment is closed"))
+    }
+}
+
+fn check_shape(name: &str, got: &[usize], want: &[usize]) -> PyResult<()> {
+    if got != want {
+        return Err(PyValueError::new_err(format!("{name}: expected shape {want:?}, got {got:?}")));
+    }
+    Ok(())
+}
+
+fn copy_obs(env: &SkillEnv, mut out: PyReadwriteArray2<'_, f32>) -> PyResult<()> {
+    check_shape("obs buffer", out.shape(), &[env.num_envs(), env.obs_dim()])?;
+    out.as_slice_mut().map_err(value_error)?.copy_from_slice(&env.buffers().obs);
+    Ok(())
+}
+
+fn write_flags(name: &str, out: &mut PyReadwriteArray1<'_, bool>, src: &[u8]) -> PyResult<()> {
+    check_shape(name, out.shape(), &[src.len()])?;
+    for (o, &s) in out.as_slice_mut().map_err(value_error)?.iter_mut().zip(src) {
+        *o = s != 0;
+    }
+    Ok(())
+}
+
+fn to_2d<'py>(py: Python<'py>, data: &[f32], cols: usize) -> PyResult<Bound<'py, PyArray2<f32>>> {
+    PyArray1::from_slice(py, data).reshape([data.len() / cols, cols])
+}
+
+#[pymethods]
+impl CoreEnv {
+    /// Build from a JSON object with the fields of the `[env]` config table.
+    #[new]
+    #[pyo3(signature = (config_json, autoreset))]
+    fn new(py: Python<'_>, config_json: &str, autoreset: bool) -> PyResult<Self> {
+        let cfg: EnvConfig = serde_json::from_str(config_json).map_err(|e| PyValueError::new_err(format!("config: {e}")))?;
+        let mut env = py.detach(|| SkillEnv::from_config(cfg)).map_err(value_error)?;
+        env.set_autoreset(autoreset);
+        let n = env.num_envs() * env.act_dim();
+        Ok(Self { env: Some(env), actions: vec![0.0; n] })
+    }
+
+    /// The effective configuration as JSON (defaults filled in).
+    fn config_json(&self) -> PyResult<String> {
+        serde_json::to_string(self.env()?.config()).map_err(value_error)
+    }
+    #[getter]
+    fn num_envs(&self) -> PyResult<usize> {
+        Ok(self.env()?.num_envs())
+    }
+    #[getter]
+    fn obs_dim(&self) -> PyResult<usize> {
+        Ok(self.env()?.obs_dim())
+    }
+    #[getter]
+    fn act_dim(&self) -> PyResult<usize> {
+        Ok(self.env()?.act_dim())
+    }
+    /// Episode length limit in policy steps.
+    #[getter]
+    fn max_episode_length(&self) -> PyResult<usize> {
+        let c = self.env()?.config();
+        Ok(if c.fixed_horizon > 0 { c.fixed_horizon } else { c.episode_length - 1 })
+    }
+    /// Names of the reward terms (columns of `reward_terms()`).
+    #[getter]
+    fn term_names(&self) -> Vec<&'static str> {
+        TERM_NAMES.to_vec()
+    }
+    /// Names of the contact-graph entries of the configured mode.
+    #[getter]
+    fn cg_names(&self) -> PyResult<Vec<&'static str>> {
+        Ok(cg_names(self.env()?.config().reward.contact_graph).to_vec())
+    }
+    /// Names of the columns of `frame_metrics()`.
+    #[getter]
+    fn frame_metric_names(&self) -> Vec<&'static str> {
+        FRAME_METRIC_NAMES.to_vec()
+    }
+    /// MJCF text of the compiled scene.
+    #[getter]
+    fn mjcf_xml(&self) -> PyResult<String> {
+        Ok(self.env()?.sim().scene().xml().to_string())
+    }
+    /// (nq, nv) of the MuJoCo model.
+    #[getter]
+    fn qpos_qvel_sizes(&self) -> PyResult<(usize, usize)> {
+        let (nq, nv, _) = self.env()?.sim().scene().sizes();
+        Ok((nq, nv))
+    }
+    /// Names and skill labels of the clips of the motion library.
+    fn clips(&self) -> PyResult<Vec<(String, u32, usize)>> {
+        let lib = self.env()?.library();
+        Ok(lib.clips().iter().map(|m| (m.clip.name.clone(), m.clip.skill, m.clip.num_frames)).collect())
+    }
+
+    /// Reset every environment (reseeding when `seed` is given); writes the observations.
+    #[pyo3(signature = (seed, obs_out))]
+    fn reset_all(&mut self, py: Python<'_>, seed: Option<u64>, obs_out: PyReadwriteArray2<'_, f32>) -> PyResult<()> {
+        let env = self.env_mut()?;
+        py.detach(|| env.reset_all(seed));
+        copy_obs(env, obs_out)
+    }
+
+    /// Reset the environments where `mask` is true; writes all observations.
+    fn reset_mask(&mut self, py: Python<'_>, mask: PyReadonlyArray1<'_, bool>, obs_out: PyReadwriteArray2<'_, f32>) -> PyResult<()> {
+        let env = self.env_mut()?;
+        check_shape("reset_mask", mask.shape(), &[env.num_envs()])?;
+        let m: Vec<bool> = mask.as_slice().map_err(value_error)?.to_vec();
+        if !m.iter().any(|&x| x) {
+            return Err(PyValueError::new_err("reset_mask selects no environment"));
+        }
+        py.detach(|| env.reset_envs(&m));
+        copy_obs(env, obs_out)
+    }
+
+    /// One policy step for all environments. Outputs are written into the given buffers.
+    #[allow(clippy::too_many_arguments)]
+    fn step(
+        &mut self,
+        py: Python<'_>,
+        actions: PyReadonlyArray2<'_, f32>,
+        obs_out: PyReadwriteArray2<'_, f32>,
+        mut reward_out: PyReadwriteArray1<'_, f32>,
+        mut terminated_out: PyReadwriteArray1<'_, bool>,
+        mut truncated_out: PyReadwriteArray1<'_, bool>,
+        mut final_obs_out: PyReadwriteArray2<'_, f32>,
+        mut final_mask_out: PyReadwriteArray1<'_, bool>,
+    ) -> PyResult<()> {
+        let Self { env, actions: abuf } = self;
+        let env = env.as_mut().ok_or_else(|| PyRuntimeError::new_err("the environment is closed"))?;
+        let (n, a, d) = (env.num_envs(), env.act_dim(), env.obs_dim());
+        check_shape("actions", actions.shape(), &[n, a])?;
+        abuf.copy_from_slice(actions.as_slice().map_err(value_error)?);
+        py.detach(|| env.step(abuf)).map_err(value_error)?;
+        let b = env.buffers();
+        copy_obs(env, obs_out)?;
+        check_shape("reward buffer", reward_out.shape(), &[n])?;
+        reward_out.as_slice_mut().map_err(value_error)?.copy_from_slice(&b.reward);
+        write_flags("terminated buffer", &mut terminated_out, &b.terminated)?;
+        write_flags("truncated buffer", &mut truncated_out, &b.truncated)?;
+        check_shape("final_obs buffer", final_obs_out.shape(), &[n, d])?;
+        check_shape("final_mask buffer", final_mask_out.shape(), &[n])?;
+        let fm = final_mask_out.as_slice_mut().map_err(value_error)?;
+        let fo = final_obs_out.as_slice_mut().map_err(value_error)?;
+        for i in 0..n {
+            fm[i] = b.final_mask[i] != 0;
+            if fm[i] {
+                fo[i * d..(i + 1) * d].copy_from_slice(&b.final_obs[i * d..(i + 1) * d]);
+            }
+        }
+        Ok(())
+    }
+
+    /// `(N, 12)` sub-rewards of the last step (columns: `term_names`).
+    fn reward_terms<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f32>>> {
+        to_2d(py, &self.env()?.buffers().terms, NUM_TERMS)
+    }
+    /// `(N, 4)` simulated contact-graph entries of the last step (columns: `cg_names`, padded).
+    fn contact_graph<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f32>>> {
+        to_2d(py, &self.env()?.buffers().contact_graph, MAX_CG)
+    }
+    /// `(N, 4)` evaluation errors of the last step (columns: `frame_metric_names`).
+    fn frame_metrics<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f32>>> {
+        to_2d(py, &self.env()?.buffers().metrics, NUM_FRAME_METRICS)
+    }
+    /// Per-environment episode state: clip index, start frame, reference frame, progress,
+    /// length, skill label (int64 arrays).
+    fn episode_info<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let env = self.env()?;
+        let d = PyDict::new(py);
+        let col = |f: &dyn Fn(&skillmimic_env::episode::Episode) -> i64| -> Vec<i64> { env.episodes().iter().map(f).collect() };
+        d.set_item("clip", PyArray1::from_vec(py, col(&|e| e.clip as i64)))?;
+        d.set_item("ref_start", PyArray1::from_vec(py, col(&|e| e.ref_start as i64)))?;
+        d.set_item("ref_frame", PyArray1::from_vec(py, col(&|e| e.ref_frame() as i64)))?;
+        d.set_item("progress", PyArray1::from_vec(py, col(&|e| e.progress as i64)))?;
+        d.set_item("length", PyArray1::from_vec(py, col(&|e| e.length as i64)))?;
+        d.set_item("skill", PyArray1::from_vec(py, col(&|e| e.skill as i64)))?;
+        Ok(d)
+    }
+
+    /// MuJoCo `qpos` of environment `i`.
+    fn get_qpos<'py>(&self, py: Python<'py>, i: usize) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let env = self.env()?;
+        if i >= env.num_envs() {
+            return Err(PyValueError::new_err(format!("environment index {i} out of range (num_envs = {})", env.num_envs())));
+        }
+        Ok(PyArray1::from_slice(py, env.sim().qpos(i)))
+    }
+    /// MuJoCo `qvel` of environment `i`.
+    fn get_qvel<'py>(&self, py: Python<'py>, i: usize) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let env = self.env()?;
+        if i >= env.num_envs() {
+            return Err(PyValueError::new_err(format!("environment index {i} out of range (num_envs = {})", env.num_envs())));
+        }
+        Ok(PyArray1::from_slice(py, env.sim().qvel(i)))
+    }
+    /// Overwrite `qpos`/`qvel` of environment `i` (forward kinematics runs; observations of all
+    /// environments are refreshed and written to `obs_out`).
+    fn set_state(&mut self, i: usize, qpos: PyReadonlyArray1<'_, f64>, qvel: PyReadonlyArray1<'_, f64>, obs_out: PyReadwriteArray2<'_, f32>) -> PyResult<()> {
+        let env = self.env_mut()?;
+        let (q, v) = (qpos.as_slice().map_err(value_error)?, qvel.as_slice().map_err(value_error)?);
+        env.sim_mut().set_qpos_qvel(i, q, v).map_err(value_error)?;
+        env.refresh_observations();
+        copy_obs(env, obs_out)
+    }
+
+    /// Release the simulation (further calls raise RuntimeError).
+    fn close(&mut self) {
+        self.env = None;
+    }
+    #[getter]
+    fn closed(&self) -> bool {
+        self.env.is_none()
+    }
+}
+
+/// Version of the Rust core.
+#[pyfunction]
+fn core_version() -> &'static str {
+    env!("CARGO_PKG_VERSION")
+}
+
+#[pymodule]
+fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<CoreEnv>()?;
+    m.add_function(wrap_pyfunction!(core_version, m)?)?;
+    m.add("OBS_DIM", skillmimic_env::obs::layout::OBS_DIM)?;
+    m.add("BUILTIN_DEMO", skillmimic_env::BUILTIN_DEMO)?;
+    Ok(())
+}

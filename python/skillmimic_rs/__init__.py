@@ -1,0 +1,45 @@
+"""skillmimic_rs: SkillMimic / SkillMimic-V2 on MuJoCo with a Rust core.
+
+Quick start::
+
+    import skillmimic_rs
+    env = skillmimic_rs.VecEnv(num_envs=16)          # built-in demo clips, paper defaults
+    obs, info = env.reset(seed=0)
+    obs, rew, term, trunc, info = env.step(env.action_space.sample())
+
+``mujoco`` (3.17.0) is imported first: the Rust extension uses the very same ``libmujoco`` that
+the ``mujoco`` package loaded. Without a display, ``MUJOCO_GL`` defaults to ``egl`` (headless
+rendering).
+"""
+
+from __future__ import annotations
+
+import os
+
+if "MUJOCO_GL" not in os.environ and not os.environ.get("DISPLAY"):
+    os.environ["MUJOCO_GL"] = "egl"
+
+import mujoco as _mujoco  # noqa: E402,F401  (load libmujoco before the extension)
+
+from . import _core  # noqa: E402
+from ._core import BUILTIN_DEMO, OBS_DIM, core_version  # noqa: E402
+from .vec_env import VecEnv, load_config  # noqa: E402
+
+__version__ = core_version()
+
+#: Observation blocks: name -> (start, stop) index range of the 902-wide observation.
+OBS_BLOCKS: dict[str, tuple[int, int]] = {
+    "root_height": (0, 1),
+    "body_pos": (1, 157),
+    "body_rot": (157, 475),
+    "body_linvel": (475, 634),
+    "body_angvel": (634, 793),
+    "fingertip_force": (793, 823),
+    "ball_pos": (823, 826),
+    "ball_rot": (826, 832),
+    "ball_linvel": (832, 835),
+    "ball_angvel": (835, 838),
+    "skill": (838, 902),
+}
+
+__all__ = ["VecEnv", "load_config", "OBS_DIM", "OBS_BLOCKS", "BUILTIN_DEMO", "core_version", "__version__"]

@@ -1,0 +1,75 @@
+"""Type stubs of the Rust extension ``skillmimic_rs._core`` (use ``skillmimic_rs.VecEnv``)."""
+
+import numpy as np
+import numpy.typing as npt
+
+OBS_DIM: int
+BUILTIN_DEMO: str
+
+def core_version() -> str:
+    """Version of the Rust core."""
+
+class CoreEnv:
+    """The batched SkillMimic environment of the Rust core."""
+
+    def __init__(self, config_json: str, autoreset: bool) -> None:
+        """Build from a JSON object with the fields of the ``[env]`` config table."""
+    def config_json(self) -> str:
+        """The effective configuration as JSON (defaults filled in)."""
+    @property
+    def num_envs(self) -> int: ...
+    @property
+    def obs_dim(self) -> int: ...
+    @property
+    def act_dim(self) -> int: ...
+    @property
+    def max_episode_length(self) -> int:
+        """Longest episode in policy steps."""
+    @property
+    def term_names(self) -> list[str]:
+        """Columns of ``reward_terms()``."""
+    @property
+    def cg_names(self) -> list[str]:
+        """Contact-graph entries of the configured mode."""
+    @property
+    def frame_metric_names(self) -> list[str]:
+        """Columns of ``frame_metrics()``."""
+    @property
+    def mjcf_xml(self) -> str:
+        """MJCF text of the compiled scene."""
+    @property
+    def qpos_qvel_sizes(self) -> tuple[int, int]:
+        """(nq, nv) of the MuJoCo model."""
+    @property
+    def closed(self) -> bool: ...
+    def clips(self) -> list[tuple[str, int, int]]:
+        """(name, skill label, frames) of every clip."""
+    def reset_all(self, seed: int | None, obs_out: npt.NDArray[np.float32]) -> None:
+        """Reset every environment; writes observations into ``obs_out`` (N, D)."""
+    def reset_mask(self, mask: npt.NDArray[np.bool_], obs_out: npt.NDArray[np.float32]) -> None:
+        """Reset the environments selected by ``mask``."""
+    def step(
+        self,
+        actions: npt.NDArray[np.float32],
+        obs_out: npt.NDArray[np.float32],
+        reward_out: npt.NDArray[np.float32],
+        terminated_out: npt.NDArray[np.bool_],
+        truncated_out: npt.NDArray[np.bool_],
+        final_obs_out: npt.NDArray[np.float32],
+        final_mask_out: npt.NDArray[np.bool_],
+    ) -> None:
+        """One policy step; outputs are written into the given buffers (GIL released while stepping)."""
+    def reward_terms(self) -> npt.NDArray[np.float32]:
+        """(N, 12) sub-rewards of the last step."""
+    def contact_graph(self) -> npt.NDArray[np.float32]:
+        """(N, 4) contact-graph entries of the last step (padded)."""
+    def frame_metrics(self) -> npt.NDArray[np.float32]:
+        """(N, 4) evaluation errors of the last step."""
+    def episode_info(self) -> dict[str, npt.NDArray[np.int64]]:
+        """clip, ref_start, ref_frame, progress, length, skill per environment."""
+    def get_qpos(self, i: int) -> npt.NDArray[np.float64]: ...
+    def get_qvel(self, i: int) -> npt.NDArray[np.float64]: ...
+    def set_state(self, i: int, qpos: npt.NDArray[np.float64], qvel: npt.NDArray[np.float64], obs_out: npt.NDArray[np.float32]) -> None:
+        """Overwrite qpos/qvel of environment ``i`` and refresh all observations."""
+    def close(self) -> None:
+        """Release the simulation."""

@@ -1,0 +1,59 @@
+"""rsl_rl adapter (supported: rsl-rl-lib >= 3.0, < 6, with tensordict).
+
+``RslRlVecEnv(skillmimic_rs.VecEnv(...))`` implements ``rsl_rl.env.VecEnv``: observations are a
+``TensorDict`` with the group ``"policy"`` (also used for the critic), ``dones`` is a long tensor,
+``extras["time_outs"]`` marks truncations (rsl_rl bootstraps on them) and ``extras["log"]`` holds
+the mean reward terms. ``episode_length_buf`` is writable (``learn(init_at_random_ep_len=True)``
+assigns it); since episodes are driven by their reference clip, a written buffer is kept for the
+runner's bookkeeping but does not shorten the episode in the Rust core.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+from rsl_rl.env import VecEnv as _RslVecEnv
+from tensordict import TensorDict
+
+from .vec_env import VecEnv, _MODES
+
+
+class RslRlVecEnv(_RslVecEnv):
+    """Wrap a same-step ``skillmimic_rs.VecEnv`` for rsl_rl's ``OnPolicyRunner``."""
+
+    def __init__(self, env: VecEnv, device: str | torch.device = "cpu", cfg: dict | None = None):
+        if env.metadata["autoreset_mode"] != _MODES["same_step"]:
+            raise ValueError("RslRlVecEnv needs a VecEnv with autoreset_mode='same_step'")
+        self.env = env
+        self.device = torch.device(device)
+        self.num_envs = env.num_envs
+        self.num_actions = env.single_action_space.shape[0]
+        self.max_episode_length = env.max_episode_length
+        self.cfg = cfg if cfg is not None else env.config
+        obs, _ = env.reset()
+        self._obs = self._wrap(obs)
+        self.episode_length_buf = torch.zeros(self.num_envs, dtype=torch.long, device=self.device)
+
+    def _wrap(self, obs: np.ndarray) -> TensorDict:
+        t = torch.as_tensor(obs, device=self.device)
+        return TensorDict({"policy": t}, batch_size=[self.num_envs], device=self.device)
+
+    def get_observations(self) -> TensorDict:
+        return self._obs
+
+    def step(self, actions: torch.Tensor):
+        a = actions.detach().to("cpu", torch.float32).numpy()
+        obs, rew, term, trunc, info = self.env.step(a)
+        self._obs = self._wrap(obs)
+        dones = torch.as_tensor(term | trunc, device=self.device).long()
+        self.episode_length_buf += 1
+        self.episode_length_buf[dones.bool()] = 0
+        terms = info["reward_terms"].mean(axis=0)
+        extras = {
+            "time_outs": torch.as_tensor(trunc & ~term, device=self.device),
+            "log": {f"reward_{n}": float(v) for n, v in zip(self.env.reward_term_names, terms)},
+        }
+        return self._obs, torch.as_tensor(rew, device=self.device), dones, extras
+
+    def close(self) -> None:
+        self.env.close()

@@ -1,0 +1,302 @@
+"""`VecEnv`: the SkillMimic environment as a gymnasium 1.x vector environment.
+
+The Rust core steps ``num_envs`` MuJoCo environments in parallel (GIL released) and writes
+observations, rewards and flags into numpy buffers preallocated here. Conventions:
+
+* observations ``float32 (num_envs, 902)`` (index table: ``skillmimic_rs.OBS_BLOCKS``), actions
+  ``float32 (num_envs, 156)`` in [-1, 1] (PD target = pi * action, exp-map joint coordinates);
+* ``autoreset_mode="same_step"`` (default): finished environments are reset inside ``step``; the
+  terminal observations are in ``info["final_obs"]`` (object array, ``None`` elsewhere) with the
+  mask ``info["_final_obs"]``, and densely in ``info["final_obs_dense"]``;
+* ``autoreset_mode="disabled"``: nothing resets by itself; call
+  ``reset(options={"reset_mask": mask})`` (the loop of the original SkillMimic learner);
+* ``info`` also carries the per-term reward breakdown (``reward_terms``, columns
+  ``VecEnv.reward_term_names``), the contact graph, frame metrics and episode bookkeeping.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import pathlib
+import tempfile
+from typing import Any, Mapping
+
+import gymnasium as gym
+import numpy as np
+from gymnasium.vector import AutoresetMode
+from gymnasium.vector.utils import batch_space
+
+from . import _core
+
+BUILTIN_DEMO = _core.BUILTIN_DEMO
+
+
+def load_config(config: Mapping[str, Any] | str | os.PathLike | None) -> dict[str, Any]:
+    """The ``[env]`` fields from a dict or a TOML file (the same file the CLI reads).
+
+    A TOML file may hold the fields at top level or in an ``[env]`` table; relative ``motion``
+    paths are resolved against the file's folder.
+    """
+    if config is None:
+        return {}
+    if isinstance(config, Mapping):
+        return dict(config.get("env", config)) if "env" in config and isinstance(config["env"], Mapping) else dict(config)
+    path = pathlib.Path(config)
+    if not path.exists():
+        raise FileNotFoundError(f"config file {path} not found")
+    import tomllib
+
+    with open(path, "rb") as f:
+        data = tomllib.load(f)
+    env = dict(data.get("env", data))
+    if "motion" in env:
+        env["motion"] = [m if m == BUILTIN_DEMO or os.path.isabs(m) else str(path.parent / m) for m in env["motion"]]
+    return env
+
+
+_MODES = {"same_step": AutoresetMode.SAME_STEP, "disabled": AutoresetMode.DISABLED}
+
+
+def _parse_mode(mode: str | AutoresetMode) -> AutoresetMode:
+    if isinstance(mode, AutoresetMode) and mode in _MODES.values():
+        return mode
+    if isinstance(mode, str):
+        key = mode.lower().replace("-", "_")
+        key = {"samestep": "same_step"}.get(key, key)
+        if key in _MODES:
+            return _MODES[key]
+    raise ValueError(f"autoreset_mode {mode!r} is not supported: use 'same_step' or 'disabled' (or the AutoresetMode members)")
+
+
+class VecEnv(gym.vector.VectorEnv):
+    """Batched SkillMimic environment (gymnasium ``VectorEnv``).
+
+    Args:
+        num_envs: number of parallel environments.
+        config: a dict of ``[env]`` config fields or a path to a TOML config file (CLI format).
+            Unknown keys raise ``ValueError``.
+        autoreset_mode: ``"same_step"`` (default) or ``"disabled"``.
+        copy: return copies of the internal buffers (default, safe); ``False`` returns the
+            buffers themselves, which the next call overwrites.
+        render_mode: ``"rgb_array"`` or ``None``.
+        **overrides: individual config fields (e.g. ``hands="box"``, ``threads=2``).
+
+    With no config the environment runs on the built-in demo clips (the stand-and-dribble clips
+    shipped in ``motions/``) with the paper's default reward.
+    """
+
+    metadata = {"autoreset_mode": AutoresetMode.SAME_STEP, "render_modes": ["rgb_array"], "render_fps": 60}
+
+    def __init__(
+        self,
+        num_envs: int = 16,
+        config: Mapping[str, Any] | str | os.PathLike | None = None,
+        *,
+        autoreset_mode: str | AutoresetMode = "same_step",
+        copy: bool = True,
+        render_mode: str | None = None,
+        **overrides: Any,
+    ) -> None:
+        mode = _parse_mode(autoreset_mode)
+        if render_mode not in (None, "rgb_array"):
+            raise ValueError(f"render_mode {render_mode!r} is not supported: use 'rgb_array' or None")
+        if not isinstance(num_envs, int) or num_envs < 1:
+            raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
+        cfg = load_config(config)
+        cfg.update(overrides)
+        cfg["num_envs"] = num_envs
+        cfg.setdefault("motion", [BUILTIN_DEMO])
+        cfg["motion"] = [str(m) for m in cfg["motion"]]
+        self._core = _core.CoreEnv(json.dumps(cfg), mode == AutoresetMode.SAME_STEP)
+        self.metadata = dict(self.metadata, autoreset_mode=mode)
+        self.num_envs = num_envs
+        self.render_mode = render_mode
+        self.copy = copy
+        n, d, a = num_envs, self._core.obs_dim, self._core.act_dim
+        self.single_observation_space = gym.spaces.Box(-np.inf, np.inf, (d,), np.float32)
+        self.single_action_space = gym.spaces.Box(-1.0, 1.0, (a,), np.float32)
+        self.observation_space = batch_space(self.single_observation_space, n)
+        self.action_space = batch_space(self.single_action_space, n)
+        self._obs = np.zeros((n, d), np.float32)
+        self._rew = np.zeros(n, np.float32)
+        self._term = np.zeros(n, bool)
+        self._trunc = np.zeros(n, bool)
+        self._final_obs = np.zeros((n, d), np.float32)
+        self._final_mask = np.zeros(n, bool)
+        self._renderer = None
+        self._render_model = None
+        self._mjcf_path: pathlib.Path | None = None
+        self.render_env_ids: tuple[int, ...] = (0,)
+        self.closed = False
+
+    # --- gymnasium API ---------------------------------------------------------------------
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        """Reset all environments, or those of ``options["reset_mask"]`` (bool array of num_envs)."""
+        self._check_open()
+        if seed is not None:
+            self._np_random, self._np_random_seed = gym.utils.seeding.np_random(seed)
+        mask = None if options is None else options.get("reset_mask")
+        if mask is not None:
+            mask = np.asarray(mask)
+            if mask.dtype != np.bool_ or mask.shape != (self.num_envs,):
+                raise ValueError(f"reset_mask: expected a bool array of shape ({self.num_envs},), got {mask.dtype} {mask.shape}")
+            if seed is not None:
+                raise ValueError("reset: pass either seed (full reset) or reset_mask, not both")
+            self._core.reset_mask(mask, self._obs)
+        else:
+            self._core.reset_all(seed, self._obs)
+        self._final_mask[:] = False
+        return self._out(self._obs), self._info(step=False)
+
+    def step(self, actions):
+        """One 60 Hz policy step. Returns ``(obs, reward, terminated, truncated, info)``."""
+        self._check_open()
+        a = np.asarray(actions)
+        if a.shape != (self.num_envs, self.single_action_space.shape[0]):
+            raise ValueError(f"actions: expected shape {(self.num_envs, self.single_action_space.shape[0])}, got {a.shape}")
+        if not np.issubdtype(a.dtype, np.floating):
+            raise ValueError(f"actions: expected a float array, got dtype {a.dtype}")
+        a = np.ascontiguousarray(a, dtype=np.float32)
+        self._core.step(a, self._obs, self._rew, self._term, self._trunc, self._final_obs, self._final_mask)
+        return self._out(self._obs), self._out(self._rew), self._out(self._term), self._out(self._trunc), self._info(step=True)
+
+    def render(self):
+        """RGB frames (``uint8 (H, W, 3)``) of the environments in ``render_env_ids``."""
+        self._check_open()
+        if self.render_mode != "rgb_array":
+            return None
+        import mujoco
+
+        from .render import make_renderer, render_state
+
+        if self._renderer is None:
+            self._render_model = mujoco.MjModel.from_xml_string(self.mjcf_xml)
+            self._renderer = make_renderer(self._render_model)
+        return tuple(render_state(self._renderer, self._render_model, *self.get_state(i)) for i in self.render_env_ids)
+
+    def close(self, **kwargs) -> None:
+        """Release the simulation; later calls raise ``RuntimeError``."""
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+        if not self.closed:
+            self._core.close()
+        self.closed = True
+
+    # --- research access ---------------------------------------------------------------------
+    @property
+    def reward_term_names(self) -> list[str]:
+        """Columns of ``info["reward_terms"]``."""
+        return list(self._core.term_names)
+
+    @property
+    def contact_graph_names(self) -> list[str]:
+        """Columns of ``info["contact_graph"]`` (the configured contact-graph mode)."""
+        return list(self._core.cg_names)
+
+    @property
+    def frame_metric_names(self) -> list[str]:
+        """Columns of ``info["frame_metrics"]``."""
+        return list(self._core.frame_metric_names)
+
+    @property
+    def max_episode_length(self) -> int:
+        """Longest episode in policy steps."""
+        return self._core.max_episode_length
+
+    @property
+    def config(self) -> dict[str, Any]:
+        """The effective configuration (defaults filled in)."""
+        return json.loads(self._core.config_json())
+
+    @property
+    def clips(self) -> list[tuple[str, int, int]]:
+        """(name, skill label, frames) of every clip in the motion library."""
+        return self._core.clips()
+
+    @property
+    def mjcf_xml(self) -> str:
+        """MJCF text of the scene the core compiled."""
+        self._check_open()
+        return self._core.mjcf_xml
+
+    @property
+    def mjcf_path(self) -> pathlib.Path:
+        """A file holding exactly ``mjcf_xml`` (written once to a temporary folder)."""
+        if self._mjcf_path is None:
+            import hashlib
+
+            xml = self.mjcf_xml
+            folder = pathlib.Path(tempfile.gettempdir()) / "skillmimic_rs"
+            folder.mkdir(parents=True, exist_ok=True)
+            path = folder / f"scene_{hashlib.sha1(xml.encode()).hexdigest()[:16]}.xml"
+            if not path.exists():
+                tmp = path.with_suffix(f".tmp{os.getpid()}")
+                tmp.write_text(xml)
+                tmp.replace(path)
+            self._mjcf_path = path
+        return self._mjcf_path
+
+    def get_state(self, i: int) -> tuple[np.ndarray, np.ndarray]:
+        """MuJoCo ``(qpos, qvel)`` of environment ``i`` (float64 copies)."""
+        self._check_open()
+        return self._core.get_qpos(int(i)), self._core.get_qvel(int(i))
+
+    def set_state(self, i: int, qpos, qvel) -> np.ndarray:
+        """Overwrite environment ``i``'s ``qpos``/``qvel`` (forward kinematics runs, time, controls
+        and warm start are cleared); returns the refreshed observations of all environments."""
+        self._check_open()
+        q = np.ascontiguousarray(qpos, dtype=np.float64)
+        v = np.ascontiguousarray(qvel, dtype=np.float64)
+        self._core.set_state(int(i), q, v, self._obs)
+        return self._out(self._obs)
+
+    def episode_info(self) -> dict[str, np.ndarray]:
+        """Per-environment clip index, start/reference frame, progress, length and skill label."""
+        self._check_open()
+        return self._core.episode_info()
+
+    def reward_terms(self) -> np.ndarray:
+        """``(num_envs, 12)`` sub-rewards of the last step."""
+        self._check_open()
+        return self._core.reward_terms()
+
+    def contact_graph(self) -> np.ndarray:
+        """``(num_envs, k)`` simulated contact-graph entries of the last step."""
+        self._check_open()
+        return self._core.contact_graph()[:, : len(self._core.cg_names)]
+
+    # --- helpers ------------------------------------------------------------------------------
+    def _check_open(self) -> None:
+        if self.closed:
+            raise RuntimeError("VecEnv is closed")
+
+    def _out(self, a: np.ndarray) -> np.ndarray:
+        return a.copy() if self.copy else a
+
+    def _info(self, step: bool) -> dict[str, Any]:
+        n = self.num_envs
+        every = np.ones(n, bool)
+        info: dict[str, Any] = {}
+        ep = self._core.episode_info()
+        for k in ("clip", "ref_frame", "progress", "skill"):
+            info[k], info["_" + k] = ep[k], every
+        if step:
+            info["reward_terms"], info["_reward_terms"] = self._core.reward_terms(), every
+            info["contact_graph"], info["_contact_graph"] = self.contact_graph(), every
+            info["frame_metrics"], info["_frame_metrics"] = self._core.frame_metrics(), every
+            if self.metadata["autoreset_mode"] == AutoresetMode.SAME_STEP and self._final_mask.any():
+                final = np.empty(n, dtype=object)
+                for i in np.flatnonzero(self._final_mask):
+                    final[i] = self._final_obs[i].copy()
+                info["final_obs"], info["_final_obs"] = final, self._final_mask.copy()
+                info["final_obs_dense"] = self._final_obs.copy()
+        return info
+
+    def __del__(self):
+        try:
+            if not self.closed:
+                self.close()
+        except Exception:
+            pass
