@@ -136,7 +136,7 @@ def test_bad_inputs_raise_clear_python_errors(env):
         skillmimic_rs.VecEnv(num_envs=2, hands="claws")
     with pytest.raises(ValueError, match="w_ig"):
         skillmimic_rs.VecEnv(num_envs=2, config={"reward": {"w_ig": -1.0}})
-    with pytest.raises(ValueError, match="no such file"):
+    with pytest.raises(ValueError, match="no such clip file or folder"):
         skillmimic_rs.VecEnv(num_envs=2, motion=["/nonexistent/clips"])
     with pytest.raises(FileNotFoundError):
         skillmimic_rs.VecEnv(num_envs=2, config="/nonexistent/config.toml")

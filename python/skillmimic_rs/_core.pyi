@@ -73,3 +73,45 @@ class CoreEnv:
         """Overwrite qpos/qvel of environment ``i`` and refresh all observations."""
     def close(self) -> None:
         """Release the simulation."""
+
+class Policy:
+    """A trained policy evaluated by the Rust inference path."""
+
+    @staticmethod
+    def load(path: str) -> "Policy":
+        """Load a checkpoint written by ``skillmimic train`` or ``skillmimic export``."""
+    @property
+    def obs_dim(self) -> int: ...
+    @property
+    def act_dim(self) -> int: ...
+    def infer(self, obs: npt.NDArray[np.float32]) -> tuple[npt.NDArray[np.float32], npt.NDArray[np.float32]]:
+        """Action means (N, act_dim) and values (N,)."""
+
+class RunningMeanStd:
+    """The trainer's running mean/std normaliser (rl_games update rule)."""
+
+    def __init__(self, dim: int, eps: float = 1e-5, clip: float = 5.0) -> None: ...
+    def update(self, x: npt.NDArray[np.float32]) -> None:
+        """Merge a batch (N, dim), N >= 2."""
+    def normalize(self, x: npt.NDArray[np.float32]) -> npt.NDArray[np.float32]: ...
+    @property
+    def mean(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def var(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def count(self) -> float: ...
+
+def ppo_loss_and_grads(
+    checkpoint: str,
+    obs_n: npt.NDArray[np.float32],
+    actions: npt.NDArray[np.float32],
+    old_neglogp: npt.NDArray[np.float32],
+    advantages: npt.NDArray[np.float32],
+    returns_n: npt.NDArray[np.float32],
+    clip: float = 0.2,
+    critic_coef: float = 5.0,
+    bounds_coef: float = 10.0,
+    bound: float = 1.0,
+    backend: str = "fast",
+) -> tuple[dict[str, float], dict[str, npt.NDArray[np.float32]]]:
+    """PPO losses and parameter gradients of a checkpoint's policy on one minibatch."""

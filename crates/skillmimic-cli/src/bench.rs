@@ -16,6 +16,10 @@ use skillmimic_sim::{BatchSim, HandModel, ResetState, Scene};
 pub enum BenchCommand {
     /// Simulation throughput: raw mj_step loop vs. the batched core (PD, sub-steps, read-out).
     Sim(SimArgs),
+    /// Policy inference (normalisation + actor + critic) vs. PyTorch, same network and threads.
+    Infer(crate::bench_learner::NetArgs),
+    /// One PPO minibatch update vs. PyTorch, same network and threads.
+    Update(crate::bench_learner::NetArgs),
 }
 
 #[derive(clap::Args)]
@@ -40,6 +44,8 @@ pub struct SimArgs {
 pub fn run(cmd: BenchCommand) -> anyhow::Result<()> {
     match cmd {
         BenchCommand::Sim(a) => bench_sim(a),
+        BenchCommand::Infer(a) => crate::bench_learner::run("infer", a),
+        BenchCommand::Update(a) => crate::bench_learner::run("update", a),
     }
 }
 

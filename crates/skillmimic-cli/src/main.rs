@@ -8,13 +8,20 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 mod bench;
+mod bench_learner;
 mod cmd_mjcf;
 mod cmd_motion;
+mod cmd_play;
+mod cmd_policy;
 mod cmd_trace;
+mod cmd_train;
+mod common;
 mod demo;
+mod plot;
+mod video;
 
 #[derive(Parser)]
-#[command(name = "skillmimic", version, about = "SkillMimic / SkillMimic-V2 on MuJoCo: scenes, simulation, benchmarks")]
+#[command(name = "skillmimic", version, about = "SkillMimic / SkillMimic-V2 on MuJoCo: train, evaluate, play, export, convert, bench")]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -22,6 +29,18 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    /// Train a policy with PPO (writes checkpoints, logs, metrics, curve, video).
+    Train(cmd_train::Args),
+    /// Evaluate a checkpoint: imitation metrics, success rates, optional robustness sweep (JSON).
+    Eval(cmd_policy::EvalArgs),
+    /// Roll out a policy or play back a reference clip; write a headless video and/or the states.
+    Play(cmd_play::Args),
+    /// Export the policy part of a checkpoint (no optimizer state).
+    Export(cmd_policy::ExportArgs),
+    /// Batched inference of a checkpoint on observations from a safetensors file.
+    Infer(cmd_policy::InferArgs),
+    /// PNG learning curves from a training log.
+    Plot(plot::Args),
     /// Write the shipped MJCF scenes (full and box hands) into a folder.
     Mjcf(cmd_mjcf::Args),
     /// Run a benchmark and print throughput ratios measured in one run.
@@ -46,6 +65,12 @@ fn main() -> ExitCode {
         .init();
     let cli = Cli::parse();
     let result = match cli.command {
+        Command::Train(a) => cmd_train::run(a),
+        Command::Eval(a) => cmd_policy::eval(a),
+        Command::Play(a) => cmd_play::run(a),
+        Command::Export(a) => cmd_policy::export(a),
+        Command::Infer(a) => cmd_policy::infer(a),
+        Command::Plot(a) => plot::run(a),
         Command::Mjcf(a) => cmd_mjcf::run(a),
         Command::Bench(b) => bench::run(b),
         Command::Demo(a) => demo::run(a),

@@ -7,6 +7,8 @@ use std::path::PathBuf;
 pub enum ClipError {
     #[error("{path}: cannot read file: {source}")]
     Io { path: PathBuf, source: std::io::Error },
+    #[error("{path}: no such clip file or folder (give .pt/.safetensors files or folders holding them; `builtin:demo` selects the built-in demo clips)")]
+    NotFound { path: PathBuf },
     #[error("{path}: not a PyTorch zip archive ({detail}); expected a file written by torch.save holding one float32 tensor of shape (T, 337)")]
     NotZip { path: PathBuf, detail: String },
     #[error("{path}: {detail}")]

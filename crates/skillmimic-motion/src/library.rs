@@ -38,10 +38,7 @@ pub fn find_clip_files(path: &Path) -> Result<Vec<PathBuf>, ClipError> {
         return Ok(vec![path.to_path_buf()]);
     }
     if !path.is_dir() {
-        return Err(ClipError::Io {
-            path: path.to_path_buf(),
-            source: std::io::Error::new(std::io::ErrorKind::NotFound, "no such file or folder"),
-        });
+        return Err(ClipError::NotFound { path: path.to_path_buf() });
     }
     let mut out = Vec::new();
     let mut stack = vec![path.to_path_buf()];

@@ -247,6 +247,158 @@ impl CoreEnv {
     }
 }
 
+/// A trained policy loaded from a checkpoint, evaluated by the Rust inference path (the one the
+/// trainer uses for rollouts).
+#[pyclass(module = "skillmimic_rs._core")]
+struct Policy {
+    policy: skillmimic_learn::policy::Policy,
+    buf: skillmimic_learn::policy::InferenceBuffers,
+}
+
+#[pymethods]
+impl Policy {
+    /// Load a checkpoint written by `skillmimic train` or `skillmimic export`.
+    #[staticmethod]
+    fn load(path: std::path::PathBuf) -> PyResult<Self> {
+        let c = skillmimic_learn::checkpoint::load(&path, None).map_err(PyValueError::new_err)?;
+        Ok(Self { policy: c.policy, buf: Default::default() })
+    }
+    #[getter]
+    fn obs_dim(&self) -> usize {
+        self.policy.obs_dim()
+    }
+    #[getter]
+    fn act_dim(&self) -> usize {
+        self.policy.act_dim()
+    }
+    /// Action means `(N, act_dim)` and values `(N,)` for observations `(N, obs_dim)`.
+    fn infer<'py>(&mut self, py: Python<'py>, obs: PyReadonlyArray2<'_, f32>) -> PyResult<(Bound<'py, PyArray2<f32>>, Bound<'py, PyArray1<f32>>)> {
+        let (n, d) = (obs.shape()[0], obs.shape()[1]);
+        check_shape("obs", obs.shape(), &[n, self.policy.obs_dim()])?;
+        let x = obs.as_slice().map_err(value_error)?.to_vec();
+        let a = self.policy.act_dim();
+        let (mut mu, mut v) = (vec![0.0f32; n * a], vec![0.0f32; n]);
+        let Self { policy, buf } = self;
+        py.detach(|| policy.infer(&x, n, buf, &mut mu, &mut v, 0));
+        let _ = d;
+        Ok((PyArray1::from_vec(py, mu).reshape([n, a])?, PyArray1::from_vec(py, v)))
+    }
+}
+
+/// The trainer's running mean/std normaliser (rl_games update rule), for inspection and tests.
+#[pyclass(module = "skillmimic_rs._core")]
+struct RunningMeanStd {
+    inner: skillmimic_learn::normalizer::RunningMeanStd,
+}
+
+#[pymethods]
+impl RunningMeanStd {
+    #[new]
+    #[pyo3(signature = (dim, eps = 1e-5, clip = 5.0))]
+    fn new(dim: usize, eps: f64, clip: f64) -> PyResult<Self> {
+        if dim == 0 {
+            return Err(PyValueError::new_err("dim must be at least 1"));
+        }
+        Ok(Self { inner: skillmimic_learn::normalizer::RunningMeanStd::new(dim, eps, clip) })
+    }
+    /// Merge a batch `(N, dim)` (N >= 2) into the statistics.
+    fn update(&mut self, x: PyReadonlyArray2<'_, f32>) -> PyResult<()> {
+        check_shape("batch", &[x.shape()[1]], &[self.inner.dim()])?;
+        if x.shape()[0] < 2 {
+            return Err(PyValueError::new_err("a batch needs at least 2 rows"));
+        }
+        self.inner.update(x.as_slice().map_err(value_error)?);
+        Ok(())
+    }
+    /// Normalised copy of `x` `(N, dim)`.
+    fn normalize<'py>(&self, py: Python<'py>, x: PyReadonlyArray2<'_, f32>) -> PyResult<Bound<'py, PyArray2<f32>>> {
+        check_shape("x", &[x.shape()[1]], &[self.inner.dim()])?;
+        let mut out = vec![0.0f32; x.len()];
+        self.inner.normalize_into(x.as_slice().map_err(value_error)?, &mut out);
+        PyArray1::from_vec(py, out).reshape([x.shape()[0], self.inner.dim()])
+    }
+    #[getter]
+    fn mean<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_slice(py, &self.inner.mean)
+    }
+    #[getter]
+    fn var<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_slice(py, &self.inner.var)
+    }
+    #[getter]
+    fn count(&self) -> f64 {
+        self.inner.count
+    }
+}
+
+/// PPO losses and parameter gradients of a checkpoint's policy on one minibatch (research and
+/// cross-checks). `obs_n` are already-normalised observations; returns `(losses, grads)` where
+/// `grads` maps the checkpoint tensor names (`actor.0.weight`, …) to arrays.
+#[pyfunction]
+#[pyo3(signature = (checkpoint, obs_n, actions, old_neglogp, advantages, returns_n, clip = 0.2, critic_coef = 5.0, bounds_coef = 10.0, bound = 1.0, backend = "fast"))]
+#[allow(clippy::too_many_arguments)]
+fn ppo_loss_and_grads<'py>(
+    py: Python<'py>,
+    checkpoint: std::path::PathBuf,
+    obs_n: PyReadonlyArray2<'_, f32>,
+    actions: PyReadonlyArray2<'_, f32>,
+    old_neglogp: PyReadonlyArray1<'_, f32>,
+    advantages: PyReadonlyArray1<'_, f32>,
+    returns_n: PyReadonlyArray1<'_, f32>,
+    clip: f64,
+    critic_coef: f64,
+    bounds_coef: f64,
+    bound: f64,
+    backend: &str,
+) -> PyResult<(Bound<'py, PyDict>, Bound<'py, PyDict>)> {
+    use skillmimic_learn::config::{Backend, PpoConfig};
+    let c = skillmimic_learn::checkpoint::load(&checkpoint, None).map_err(PyValueError::new_err)?;
+    let p = &c.policy;
+    let n = obs_n.shape()[0];
+    check_shape("obs_n", obs_n.shape(), &[n, p.obs_dim()])?;
+    check_shape("actions", actions.shape(), &[n, p.act_dim()])?;
+    for (name, a) in [("old_neglogp", &old_neglogp), ("advantages", &advantages), ("returns_n", &returns_n)] {
+        check_shape(name, a.shape(), &[n])?;
+    }
+    let backend = match backend {
+        "fast" => Backend::Fast,
+        "candle" => Backend::Candle,
+        other => return Err(PyValueError::new_err(format!("backend '{other}', expected 'fast' or 'candle'"))),
+    };
+    let cfg = PpoConfig { clip, critic_coef, bounds_coef, bound, backend, ..Default::default() };
+    let mb = skillmimic_learn::ppo::Minibatch {
+        n,
+        obs_n: obs_n.as_slice().map_err(value_error)?,
+        actions: actions.as_slice().map_err(value_error)?,
+        old_neglogp: old_neglogp.as_slice().map_err(value_error)?,
+        advantages: advantages.as_slice().map_err(value_error)?,
+        returns_n: returns_n.as_slice().map_err(value_error)?,
+    };
+    let (stats, grads) = match backend {
+        Backend::Fast => {
+            let mut ws = skillmimic_learn::fast::UpdateWorkspace::default();
+            let s = skillmimic_learn::fast::loss_and_grads_fast(p, &mb, &cfg, &mut ws, 0);
+            (s, ws.grads)
+        }
+        Backend::Candle => skillmimic_learn::ppo::loss_and_grads(p, &mb, &cfg).map_err(PyValueError::new_err)?,
+    };
+    let losses = PyDict::new(py);
+    for (k, v) in [("actor", stats.actor), ("critic", stats.critic), ("bounds", stats.bounds), ("total", stats.total), ("clip_frac", stats.clip_frac)] {
+        losses.set_item(k, v)?;
+    }
+    let g = PyDict::new(py);
+    let names = p.actor.param_names("actor").into_iter().chain(p.critic.param_names("critic"));
+    for ((name, shape), data) in names.zip(grads) {
+        let arr = PyArray1::from_vec(py, data);
+        if shape.len() == 2 {
+            g.set_item(name, arr.reshape([shape[0], shape[1]])?)?;
+        } else {
+            g.set_item(name, arr)?;
+        }
+    }
+    Ok((losses, g))
+}
+
 /// Version of the Rust core.
 #[pyfunction]
 fn core_version() -> &'static str {
@@ -256,7 +408,10 @@ fn core_version() -> &'static str {
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<CoreEnv>()?;
+    m.add_class::<Policy>()?;
+    m.add_class::<RunningMeanStd>()?;
     m.add_function(wrap_pyfunction!(core_version, m)?)?;
+    m.add_function(wrap_pyfunction!(ppo_loss_and_grads, m)?)?;
     m.add("OBS_DIM", skillmimic_env::obs::layout::OBS_DIM)?;
     m.add("BUILTIN_DEMO", skillmimic_env::BUILTIN_DEMO)?;
     Ok(())

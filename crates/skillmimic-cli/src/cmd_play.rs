@@ -1,0 +1,152 @@
+//! `skillmimic play`: roll out a policy, or play a reference clip back kinematically, and write a
+//! headless video (MP4 or GIF) and/or the visited states in one step.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use anyhow::{Context, bail};
+use skillmimic_core::tensorfile::{OwnedTensor, write_atomic};
+use skillmimic_env::episode::reset_state_from_clip;
+use skillmimic_env::{SkillEnv, load_motion_library};
+use skillmimic_learn::config::TrainConfig;
+use skillmimic_learn::policy::{InferenceBuffers, Policy};
+use skillmimic_motion::MotionLibrary;
+use skillmimic_sim::{BatchSim, Scene};
+
+use crate::common::{ConfigFlags, load_checkpoint};
+use crate::video::{Frames, SceneRenderer, write_video};
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// Policy checkpoint to roll out.
+    #[arg(long, conflicts_with = "reference")]
+    pub checkpoint: Option<PathBuf>,
+    /// Play this clip back kinematically instead (`.pt` or `.safetensors`).
+    #[arg(long)]
+    pub reference: Option<PathBuf>,
+    #[command(flatten)]
+    pub flags: ConfigFlags,
+    /// Policy steps (60 Hz) to roll out; for a reference, frames (default: whole clip).
+    #[arg(long, default_value_t = 240)]
+    pub steps: usize,
+    /// Video file (.mp4 or .gif), rendered headless.
+    #[arg(long)]
+    pub video: Option<PathBuf>,
+    /// Save the visited states (qpos per step, safetensors).
+    #[arg(long)]
+    pub states: Option<PathBuf>,
+    /// Frame size.
+    #[arg(long, default_value_t = 480)]
+    pub width: usize,
+    #[arg(long, default_value_t = 360)]
+    pub height: usize,
+    /// Video frame rate (every 60/fps-th step is rendered).
+    #[arg(long, default_value_t = 30)]
+    pub fps: u32,
+    /// Seed of the episode sampling.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Sample actions from the Gaussian instead of using the mean.
+    #[arg(long)]
+    pub stochastic: bool,
+}
+
+/// qpos of every step of a rollout of `policy` in one environment (auto-reset on episode end).
+pub fn rollout_states(policy: &Policy, env: &mut SkillEnv, steps: usize, stochastic: bool, seed: u64) -> anyhow::Result<Vec<Vec<f64>>> {
+    use rand::SeedableRng;
+    let (n, a) = (env.num_envs(), env.act_dim());
+    env.set_autoreset(true);
+    env.reset_all(Some(seed));
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let mut buf = InferenceBuffers::default();
+    let (mut mu, mut v, mut act, mut nl) = (vec![0.0; n * a], vec![0.0; n], vec![0.0; n * a], vec![0.0; n]);
+    let mut states = vec![env.sim().qpos(0).to_vec()];
+    for _ in 0..steps {
+        policy.infer(&env.buffers().obs, n, &mut buf, &mut mu, &mut v, 0);
+        if stochastic {
+            policy.sample(&mu, n, &mut rng, &mut act, &mut nl);
+        } else {
+            act.copy_from_slice(&mu);
+        }
+        env.step(&act)?;
+        states.push(env.sim().qpos(0).to_vec());
+    }
+    Ok(states)
+}
+
+/// Render `states` (every `stride`-th) into frames.
+pub fn render_states(model: &Arc<mujoco_rs::prelude::MjModel>, states: &[Vec<f64>], stride: usize, w: usize, h: usize, fps: u32) -> anyhow::Result<Frames> {
+    let mut r = SceneRenderer::new(model, w, h)?;
+    let mut rgb = Vec::new();
+    for q in states.iter().step_by(stride.max(1)) {
+        rgb.push(r.render(q)?);
+    }
+    Ok(Frames { width: w, height: h, fps, rgb })
+}
+
+/// Roll out `policy` in one environment of `cfg` for `steps` steps and write a video.
+pub fn render_policy_video(policy: &Policy, cfg: &TrainConfig, lib: Arc<MotionLibrary>, steps: usize, path: &Path, w: usize, h: usize) -> anyhow::Result<()> {
+    let mut c = cfg.env.clone();
+    c.num_envs = 1;
+    c.threads = 1;
+    let mut env = SkillEnv::new(c, lib)?;
+    let states = rollout_states(policy, &mut env, steps, false, cfg.run.seed)?;
+    let frames = render_states(env.sim().scene().model(), &states, 2, w, h, 30)?;
+    write_video(path, &frames)
+}
+
+fn save_states(path: &Path, states: &[Vec<f64>], xml: &str, source: &str) -> anyhow::Result<()> {
+    let nq = states[0].len();
+    let flat: Vec<f64> = states.iter().flatten().copied().collect();
+    let mut meta = BTreeMap::new();
+    meta.insert("mjcf".to_string(), xml.to_string());
+    meta.insert("source".to_string(), source.to_string());
+    meta.insert("fps".to_string(), "60".to_string());
+    write_atomic(path, &[OwnedTensor::f64("qpos", &[states.len(), nq], &flat)], &meta).with_context(|| format!("cannot write {}", path.display()))
+}
+
+pub fn run(a: Args) -> anyhow::Result<()> {
+    if a.video.is_none() && a.states.is_none() {
+        bail!("nothing to do: give --video out.mp4|out.gif and/or --states out.safetensors");
+    }
+    let stride = (60 / a.fps.max(1)) as usize;
+    let (states, scene, source) = match (&a.checkpoint, &a.reference) {
+        (Some(ckpt), None) => {
+            let (c, mut cfg) = load_checkpoint(ckpt)?;
+            a.flags.apply(&mut cfg)?;
+            cfg.env.num_envs = 1;
+            cfg.env.threads = 1;
+            let mut env = SkillEnv::from_config(cfg.env.clone())?;
+            if (env.obs_dim(), env.act_dim()) != (c.policy.obs_dim(), c.policy.act_dim()) {
+                bail!("{}: policy sizes do not match the environment", ckpt.display());
+            }
+            let states = rollout_states(&c.policy, &mut env, a.steps, a.stochastic, a.seed)?;
+            (states, Arc::clone(env.sim().scene()), format!("policy {}", ckpt.display()))
+        }
+        (None, Some(clip)) => {
+            let lib = load_motion_library(std::slice::from_ref(clip))?;
+            let m = lib.get(0);
+            let scene = Arc::new(Scene::default_for(skillmimic_sim::HandModel::Full)?);
+            let mut sim = BatchSim::new(scene.clone(), 1, 1)?;
+            let frames = m.clip.num_frames.min(a.steps.max(1));
+            let mut states = Vec::with_capacity(frames);
+            for t in 0..frames {
+                sim.reset(&[true], &[reset_state_from_clip(m, t)])?;
+                states.push(sim.qpos(0).to_vec());
+            }
+            (states, scene, format!("reference {}", clip.display()))
+        }
+        _ => bail!("give exactly one of --checkpoint or --reference"),
+    };
+    if let Some(p) = &a.states {
+        save_states(p, &states, scene.xml(), &source)?;
+        println!("states {} ({} steps)", p.display(), states.len());
+    }
+    if let Some(p) = &a.video {
+        let frames = render_states(scene.model(), &states, stride, a.width, a.height, a.fps)?;
+        write_video(p, &frames)?;
+        println!("video  {} ({} frames at {} fps)", p.display(), frames.rgb.len(), a.fps);
+    }
+    Ok(())
+}

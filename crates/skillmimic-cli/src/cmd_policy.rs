@@ -1,0 +1,158 @@
+//! `skillmimic export`, `skillmimic infer` and `skillmimic eval`: working with trained policies.
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+
+use anyhow::{Context, bail};
+use serde::Serialize;
+use skillmimic_core::tensorfile::{OwnedTensor, TensorFile, write_atomic};
+use skillmimic_env::SkillEnv;
+use skillmimic_learn::checkpoint;
+use skillmimic_learn::eval::{EvalReport, evaluate};
+use skillmimic_learn::policy::InferenceBuffers;
+
+use crate::common::{ConfigFlags, init_learner_threads, load_checkpoint};
+
+#[derive(clap::Args)]
+pub struct ExportArgs {
+    /// Training (or policy) checkpoint.
+    #[arg(long)]
+    pub checkpoint: PathBuf,
+    /// Output safetensors with the policy only (actor, critic, log_std, normalisers).
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+/// Write the policy part of a checkpoint (no optimizer state).
+pub fn export(a: ExportArgs) -> anyhow::Result<()> {
+    let c = checkpoint::load(&a.checkpoint, None).map_err(anyhow::Error::msg)?;
+    checkpoint::save(&a.out, &c.policy, None, &c.progress, &c.config).with_context(|| format!("cannot write {}", a.out.display()))?;
+    println!("exported {} -> {} (obs {}, actions {})", a.checkpoint.display(), a.out.display(), c.policy.obs_dim(), c.policy.act_dim());
+    Ok(())
+}
+
+#[derive(clap::Args)]
+pub struct InferArgs {
+    /// Policy checkpoint.
+    #[arg(long)]
+    pub checkpoint: PathBuf,
+    /// safetensors file with a float32 tensor `obs` of shape (N, obs_dim).
+    #[arg(long)]
+    pub obs: PathBuf,
+    /// Output safetensors with `mu` (N, act_dim) and `value` (N,).
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+/// Batched deterministic inference of a checkpoint on given observations.
+pub fn infer(a: InferArgs) -> anyhow::Result<()> {
+    let c = checkpoint::load(&a.checkpoint, None).map_err(anyhow::Error::msg)?;
+    let f = TensorFile::open(&a.obs)?;
+    let (shape, obs) = f.f32("obs", &[None, Some(c.policy.obs_dim())])?;
+    let n = shape[0];
+    let (mut mu, mut value) = (vec![0.0f32; n * c.policy.act_dim()], vec![0.0f32; n]);
+    c.policy.infer(&obs, n, &mut InferenceBuffers::default(), &mut mu, &mut value, 0);
+    let tensors = [OwnedTensor::f32("mu", &[n, c.policy.act_dim()], &mu), OwnedTensor::f32("value", &[n], &value)];
+    write_atomic(&a.out, &tensors, &BTreeMap::new()).with_context(|| format!("cannot write {}", a.out.display()))?;
+    Ok(())
+}
+
+#[derive(clap::Args)]
+pub struct EvalArgs {
+    /// Policy checkpoint (the environment configuration stored in it is used, then the flags).
+    #[arg(long)]
+    pub checkpoint: PathBuf,
+    #[command(flatten)]
+    pub flags: ConfigFlags,
+    /// Finished episodes to evaluate.
+    #[arg(long, default_value_t = 64)]
+    pub episodes: usize,
+    /// Seed of clip/frame sampling.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Fixed episode length in steps (e.g. 600 = 10 s for SkillMimic-V2 success rates);
+    /// default: episodes end with the reference clip as in training.
+    #[arg(long)]
+    pub horizon: Option<usize>,
+    /// Start every episode at this reference frame (V2 evaluation uses 2); default random.
+    #[arg(long)]
+    pub start_frame: Option<usize>,
+    /// Sample actions instead of using the mean.
+    #[arg(long)]
+    pub stochastic: bool,
+    /// Also evaluate with the ball's radius, density and restitution scaled (robustness sweep).
+    #[arg(long)]
+    pub sweep: bool,
+    /// Output JSON.
+    #[arg(long, default_value = "metrics.json")]
+    pub out: PathBuf,
+}
+
+#[derive(Serialize)]
+struct SweepEntry {
+    radius_scale: f64,
+    density_scale: f64,
+    restitution_scale: f64,
+    report: EvalReport,
+}
+
+#[derive(Serialize)]
+struct EvalOutput {
+    checkpoint: PathBuf,
+    nominal: EvalReport,
+    sweep: Vec<SweepEntry>,
+}
+
+/// Ball factors of the robustness sweep: (radius, density, restitution) scale factors.
+pub const SWEEP: [(f64, f64, f64); 6] = [(0.8, 1.0, 1.0), (1.2, 1.0, 1.0), (1.0, 0.5, 1.0), (1.0, 2.0, 1.0), (1.0, 1.0, 0.8), (1.0, 1.0, 1.2)];
+
+pub fn eval(a: EvalArgs) -> anyhow::Result<()> {
+    init_learner_threads(0);
+    let (c, mut cfg) = load_checkpoint(&a.checkpoint)?;
+    a.flags.apply(&mut cfg)?;
+    if let Some(h) = a.horizon {
+        cfg.env.fixed_horizon = h;
+    }
+    if let Some(f) = a.start_frame {
+        cfg.env.state_init = skillmimic_env::StateInit::Frame(f);
+    }
+    if a.episodes == 0 {
+        bail!("--episodes must be at least 1");
+    }
+    let run_one = |env_cfg: skillmimic_env::EnvConfig| -> anyhow::Result<EvalReport> {
+        let mut env = SkillEnv::from_config(env_cfg)?;
+        if (env.obs_dim(), env.act_dim()) != (c.policy.obs_dim(), c.policy.act_dim()) {
+            bail!("{}: the policy expects observations of {} and actions of {}", a.checkpoint.display(), c.policy.obs_dim(), c.policy.act_dim());
+        }
+        Ok(evaluate(&c.policy, &mut env, a.episodes, a.seed, a.stochastic, 0))
+    };
+    let nominal = run_one(cfg.env.clone())?;
+    let mut sweep = Vec::new();
+    if a.sweep {
+        for (r, d, e) in SWEEP {
+            let mut ec = cfg.env.clone();
+            ec.ball.radius_scale = r;
+            ec.ball.density_scale = d;
+            ec.ball.restitution_scale = e;
+            sweep.push(SweepEntry { radius_scale: r, density_scale: d, restitution_scale: e, report: run_one(ec)? });
+        }
+    }
+    println!(
+        "{} episodes: NR {:.4}, Acc {:.1} %, E_b {:.1} mm, E_o {:.1} mm, E_cg {:.4}, falls {:.1} %",
+        nominal.episodes,
+        nominal.nr,
+        nominal.acc_percent,
+        nominal.e_b_mpjpe_mm,
+        nominal.e_o_mpjpe_mm,
+        nominal.e_cg,
+        100.0 * nominal.fall_rate
+    );
+    for s in &sweep {
+        println!("  ball radius x{} density x{} restitution x{}: NR {:.4}, Acc {:.1} %", s.radius_scale, s.density_scale, s.restitution_scale, s.report.nr, s.report.acc_percent);
+    }
+    let out = EvalOutput { checkpoint: a.checkpoint.clone(), nominal, sweep };
+    skillmimic_core::tensorfile::write_bytes_atomic(&a.out, serde_json::to_string_pretty(&out)?.as_bytes())
+        .with_context(|| format!("cannot write {}", a.out.display()))?;
+    println!("wrote {}", a.out.display());
+    Ok(())
+}

@@ -1,0 +1,86 @@
+//! Helpers shared by the subcommands: configuration assembly, checkpoints, thread pools.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+use skillmimic_learn::checkpoint::{self, Checkpoint};
+use skillmimic_learn::config::TrainConfig;
+
+/// Flags that override configuration fields (shared by train / eval / play).
+#[derive(clap::Args, Clone, Debug, Default)]
+pub struct ConfigFlags {
+    /// Clip files or folders (repeatable); replaces `env.motion`.
+    #[arg(long = "motion")]
+    pub motion: Vec<PathBuf>,
+    /// Number of parallel environments (`env.num_envs`).
+    #[arg(long)]
+    pub num_envs: Option<usize>,
+    /// Simulation threads (`env.threads`, 0 = all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Any config field as `table.field=value` (TOML value syntax), repeatable, applied last.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
+}
+
+impl ConfigFlags {
+    /// Apply the flags to `cfg`.
+    pub fn apply(&self, cfg: &mut TrainConfig) -> anyhow::Result<()> {
+        if !self.motion.is_empty() {
+            cfg.env.motion = self.motion.clone();
+        }
+        if let Some(n) = self.num_envs {
+            cfg.env.num_envs = n;
+        }
+        if let Some(t) = self.threads {
+            cfg.env.threads = t;
+        }
+        for s in &self.set {
+            cfg.set(s).map_err(anyhow::Error::msg)?;
+        }
+        Ok(())
+    }
+}
+
+/// Preset, then the TOML file, then the flags.
+pub fn assemble_config(preset: &str, file: Option<&Path>, flags: &ConfigFlags) -> anyhow::Result<TrainConfig> {
+    let base = TrainConfig::preset(preset).map_err(anyhow::Error::msg)?;
+    let mut cfg = match file {
+        Some(p) => {
+            let text = std::fs::read_to_string(p).with_context(|| format!("cannot read config file {}", p.display()))?;
+            let mut c = TrainConfig::from_toml_over(&base, &text, p).map_err(anyhow::Error::msg)?;
+            // relative clip paths in a config file are relative to the file's folder
+            let dir = p.parent().unwrap_or(Path::new("."));
+            c.env.motion = c
+                .env
+                .motion
+                .iter()
+                .map(|m| if m.is_relative() && m.as_os_str() != skillmimic_env::BUILTIN_DEMO && !m.exists() { dir.join(m) } else { m.clone() })
+                .collect();
+            c
+        }
+        None => base,
+    };
+    flags.apply(&mut cfg)?;
+    Ok(cfg)
+}
+
+/// Load a checkpoint and the training configuration stored in it.
+pub fn load_checkpoint(path: &Path) -> anyhow::Result<(Checkpoint, TrainConfig)> {
+    let ckpt = checkpoint::load(path, None).map_err(anyhow::Error::msg)?;
+    let cfg = if ckpt.config.is_empty() {
+        TrainConfig::default()
+    } else {
+        TrainConfig::from_toml_over(&TrainConfig::default(), &ckpt.config, path).map_err(anyhow::Error::msg)?
+    };
+    Ok((ckpt, cfg))
+}
+
+/// Size the global rayon pool used by the learner's matrix products (once per process).
+pub fn init_learner_threads(n: usize) {
+    let mut b = rayon::ThreadPoolBuilder::new().thread_name(|i| format!("skillmimic-learn-{i}"));
+    if n > 0 {
+        b = b.num_threads(n);
+    }
+    let _ = b.build_global();
+}

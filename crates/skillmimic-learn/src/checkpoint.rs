@@ -1,0 +1,211 @@
+//! Checkpoints in safetensors with the tensor names of the PyTorch module
+//! `skillmimic_rs.policy.SkillMimicPolicy` (its `state_dict` keys):
+//!
+//! | tensor | dtype | shape |
+//! |---|---|---|
+//! | `actor.{0,2,4,…}.weight` / `.bias` | F32 | (out, in) / (out,) |
+//! | `critic.{0,2,4,…}.weight` / `.bias` | F32 | (out, in) / (out,) |
+//! | `log_std` | F32 | (act,) |
+//! | `obs_norm.mean`, `obs_norm.var` | F64 | (obs,) |
+//! | `obs_norm.count` | F64 | () |
+//! | `value_norm.mean`, `value_norm.var` | F64 | (1,) |
+//! | `value_norm.count` | F64 | () |
+//!
+//! Training checkpoints add the Adam state: `optim.step` (I64, ()) and `optim.m.<param>`,
+//! `optim.v.<param>` (F32) for every actor/critic parameter; `export` writes the policy part only.
+//! Metadata: `format = "skillmimic-policy"`, `format_version = "1"`, `kind` (`train`/`policy`),
+//! `obs_dim`, `act_dim`, `hidden` (JSON list), `iteration`, `samples`, `config` (TOML text), and
+//! the normaliser switches and settings.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use skillmimic_core::tensorfile::{OwnedTensor, TensorFile, write_atomic};
+
+use crate::adam::Adam;
+use crate::mlp::Mlp;
+use crate::normalizer::RunningMeanStd;
+use crate::policy::Policy;
+
+/// Value of the `format` metadata field.
+pub const FORMAT: &str = "skillmimic-policy";
+/// Format version.
+pub const VERSION: u32 = 1;
+
+/// Training progress stored with a checkpoint.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Progress {
+    pub iteration: u64,
+    pub samples: u64,
+}
+
+/// What a checkpoint holds.
+#[derive(Clone, Debug)]
+pub struct Checkpoint {
+    pub policy: Policy,
+    pub adam: Option<Adam>,
+    pub progress: Progress,
+    /// Effective training configuration (TOML text).
+    pub config: String,
+}
+
+fn param_names(p: &Policy) -> Vec<(String, Vec<usize>)> {
+    let mut v = p.actor.param_names("actor");
+    v.extend(p.critic.param_names("critic"));
+    v
+}
+
+fn norm_tensors(prefix: &str, n: &RunningMeanStd, out: &mut Vec<OwnedTensor>) {
+    out.push(OwnedTensor::f64(&format!("{prefix}.mean"), &[n.dim()], &n.mean));
+    out.push(OwnedTensor::f64(&format!("{prefix}.var"), &[n.dim()], &n.var));
+    out.push(OwnedTensor::f64(&format!("{prefix}.count"), &[], &[n.count]));
+}
+
+/// Save `policy` (and `adam` for a training checkpoint) atomically.
+pub fn save(path: &Path, policy: &Policy, adam: Option<&Adam>, progress: &Progress, config_toml: &str) -> std::io::Result<()> {
+    let mut tensors = Vec::new();
+    let names = param_names(policy);
+    let params: Vec<&[f32]> = policy.actor.params().into_iter().chain(policy.critic.params()).collect();
+    for ((name, shape), data) in names.iter().zip(&params) {
+        tensors.push(OwnedTensor::f32(name, shape, data));
+    }
+    tensors.push(OwnedTensor::f32("log_std", &[policy.act_dim()], &policy.log_std));
+    norm_tensors("obs_norm", &policy.obs_norm, &mut tensors);
+    norm_tensors("value_norm", &policy.value_norm, &mut tensors);
+    if let Some(a) = adam {
+        tensors.push(OwnedTensor::i64("optim.step", &[], &[a.step as i64]));
+        for (k, (name, shape)) in names.iter().enumerate() {
+            tensors.push(OwnedTensor::f32(&format!("optim.m.{name}"), shape, &a.m[k]));
+            tensors.push(OwnedTensor::f32(&format!("optim.v.{name}"), shape, &a.v[k]));
+        }
+    }
+    let mut meta = BTreeMap::new();
+    meta.insert("format".to_string(), FORMAT.to_string());
+    meta.insert("format_version".to_string(), VERSION.to_string());
+    meta.insert("kind".to_string(), if adam.is_some() { "train" } else { "policy" }.to_string());
+    meta.insert("obs_dim".to_string(), policy.obs_dim().to_string());
+    meta.insert("act_dim".to_string(), policy.act_dim().to_string());
+    let hidden = &policy.actor.dims[1..policy.actor.dims.len() - 1];
+    meta.insert("hidden".to_string(), serde_json::to_string(hidden).unwrap());
+    meta.insert("iteration".to_string(), progress.iteration.to_string());
+    meta.insert("samples".to_string(), progress.samples.to_string());
+    meta.insert("normalize_input".to_string(), policy.normalize_input.to_string());
+    meta.insert("normalize_value".to_string(), policy.normalize_value.to_string());
+    meta.insert("norm_eps".to_string(), policy.obs_norm.eps.to_string());
+    meta.insert("norm_clip".to_string(), policy.obs_norm.clip.to_string());
+    if let Some(a) = adam {
+        meta.insert("adam_lr".to_string(), a.lr.to_string());
+        meta.insert("adam_eps".to_string(), a.eps.to_string());
+    }
+    meta.insert("config".to_string(), config_toml.to_string());
+    write_atomic(path, &tensors, &meta)
+}
+
+fn load_norm(f: &TensorFile, prefix: &str, dim: usize, eps: f64, clip: f64) -> Result<RunningMeanStd, String> {
+    let e = |e: skillmimic_core::tensorfile::TensorFileError| e.to_string();
+    let mean = f.f64(&format!("{prefix}.mean"), &[Some(dim)]).map_err(e)?.1;
+    let var = f.f64(&format!("{prefix}.var"), &[Some(dim)]).map_err(e)?.1;
+    let count = f.f64(&format!("{prefix}.count"), &[]).map_err(e)?.1[0];
+    Ok(RunningMeanStd { mean, var, count, eps, clip })
+}
+
+/// Load a checkpoint; `expect` = (obs_dim, act_dim) must match when given.
+pub fn load(path: &Path, expect: Option<(usize, usize)>) -> Result<Checkpoint, String> {
+    let f = TensorFile::open(path).map_err(|e| e.to_string())?;
+    let e = |e: skillmimic_core::tensorfile::TensorFileError| e.to_string();
+    let fmt = f.meta("format").map_err(e)?;
+    if fmt != FORMAT {
+        return Err(format!("{}: format '{fmt}', expected '{FORMAT}' (a skillmimic checkpoint)", path.display()));
+    }
+    let obs_dim: usize = f.meta_parse("obs_dim", "an integer").map_err(e)?;
+    let act_dim: usize = f.meta_parse("act_dim", "an integer").map_err(e)?;
+    if let Some((o, a)) = expect {
+        if (o, a) != (obs_dim, act_dim) {
+            return Err(format!(
+                "{}: checkpoint is for observations of {obs_dim} and actions of {act_dim}, this environment has {o} and {a}",
+                path.display()
+            ));
+        }
+    }
+    let hidden: Vec<usize> = serde_json::from_str(f.meta("hidden").map_err(e)?)
+        .map_err(|x| format!("{}: metadata 'hidden' is not a JSON list of integers: {x}", path.display()))?;
+    let eps: f64 = f.meta_parse("norm_eps", "a number").map_err(e)?;
+    let clip: f64 = f.meta_parse("norm_clip", "a number").map_err(e)?;
+    let mlp = |prefix: &str, out: usize| -> Result<Mlp, String> {
+        let mut dims = vec![obs_dim];
+        dims.extend(&hidden);
+        dims.push(out);
+        let (mut weights, mut biases) = (Vec::new(), Vec::new());
+        for (k, w) in dims.windows(2).enumerate() {
+            weights.push(f.f32(&format!("{prefix}.{}.weight", 2 * k), &[Some(w[1]), Some(w[0])]).map_err(e)?.1);
+            biases.push(f.f32(&format!("{prefix}.{}.bias", 2 * k), &[Some(w[1])]).map_err(e)?.1);
+        }
+        Ok(Mlp::from_parts(dims, weights, biases))
+    };
+    let actor = mlp("actor", act_dim)?;
+    let critic = mlp("critic", 1)?;
+    let policy = Policy {
+        actor,
+        critic,
+        log_std: f.f32("log_std", &[Some(act_dim)]).map_err(e)?.1,
+        obs_norm: load_norm(&f, "obs_norm", obs_dim, eps, clip)?,
+        value_norm: load_norm(&f, "value_norm", 1, eps, clip)?,
+        normalize_input: f.meta_parse("normalize_input", "true/false").map_err(e)?,
+        normalize_value: f.meta_parse("normalize_value", "true/false").map_err(e)?,
+    };
+    let adam = if f.meta("kind").map_err(e)? == "train" {
+        let names = param_names(&policy);
+        let mut a = Adam::new(&[], f.meta_parse("adam_lr", "a number").map_err(e)?, f.meta_parse("adam_eps", "a number").map_err(e)?);
+        a.step = f.i64("optim.step", &[]).map_err(e)?.1[0] as u64;
+        for (name, shape) in &names {
+            let want: Vec<Option<usize>> = shape.iter().map(|&s| Some(s)).collect();
+            a.m.push(f.f32(&format!("optim.m.{name}"), &want).map_err(e)?.1);
+            a.v.push(f.f32(&format!("optim.v.{name}"), &want).map_err(e)?.1);
+        }
+        Some(a)
+    } else {
+        None
+    };
+    Ok(Checkpoint {
+        policy,
+        adam,
+        progress: Progress {
+            iteration: f.meta_parse("iteration", "an integer").map_err(e)?,
+            samples: f.meta_parse("samples", "an integer").map_err(e)?,
+        },
+        config: f.metadata().get("config").cloned().unwrap_or_default(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::PpoConfig;
+    use rand::SeedableRng;
+
+    #[test]
+    fn round_trip_and_mismatch_errors() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0);
+        let cfg = PpoConfig { hidden: vec![16, 8], ..Default::default() };
+        let mut p = Policy::new(10, 4, &cfg, &mut rng);
+        p.obs_norm.update(&(0..30).map(|i| i as f32).collect::<Vec<_>>());
+        let sizes: Vec<usize> = p.actor.params().iter().chain(p.critic.params().iter()).map(|x| x.len()).collect();
+        let mut adam = Adam::new(&sizes, 1e-3, 1e-8);
+        adam.step = 7;
+        adam.m[0][3] = 0.25;
+        let dir = std::env::temp_dir().join(format!("sm-ckpt-{}", std::process::id()));
+        let path = dir.join("c.safetensors");
+        save(&path, &p, Some(&adam), &Progress { iteration: 3, samples: 99 }, "[ppo]\n").unwrap();
+        let c = load(&path, Some((10, 4))).unwrap();
+        assert_eq!(c.policy, p);
+        assert_eq!(c.adam.unwrap(), adam);
+        assert_eq!(c.progress, Progress { iteration: 3, samples: 99 });
+        assert_eq!(c.config, "[ppo]\n");
+        let e = load(&path, Some((902, 156))).unwrap_err();
+        assert!(e.contains("observations of 10") && e.contains("902"), "{e}");
+        save(&path, &p, None, &Progress::default(), "").unwrap();
+        assert!(load(&path, None).unwrap().adam.is_none());
+        std::fs::write(&path, b"garbage").unwrap();
+        assert!(load(&path, None).unwrap_err().contains("not a safetensors file"));
+    }
+}

@@ -1,0 +1,306 @@
+//! PPO configuration with the SkillMimic defaults (rl_games config of the paper, reference-facts
+//! §7), presets for smaller machines, and the top-level training configuration (env + PPO + run).
+
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+use skillmimic_env::EnvConfig;
+
+/// How the PPO gradients are computed.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Backend {
+    /// Dedicated forward/backward of the two MLPs into reused buffers (`fast` module).
+    #[default]
+    Fast,
+    /// candle's generic autograd (the reference; also the path of the `cuda` feature).
+    Candle,
+}
+
+/// PPO hyper-parameters. Every field defaults to the paper's value.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct PpoConfig {
+    /// Hidden layer widths of the actor and of the critic (separate networks), ReLU.
+    pub hidden: Vec<usize>,
+    /// Fixed log standard deviation of the Gaussian policy (σ = e^−2.9 ≈ 0.055).
+    pub log_std: f64,
+    /// Rollout length per environment per iteration.
+    pub horizon: usize,
+    /// Minibatch size (samples).
+    pub minibatch: usize,
+    /// Passes over the rollout per iteration.
+    pub mini_epochs: usize,
+    /// Adam learning rate (constant).
+    pub lr: f64,
+    /// Adam epsilon.
+    pub adam_eps: f64,
+    /// Discount γ.
+    pub gamma: f64,
+    /// GAE λ.
+    pub lam: f64,
+    /// PPO clip ε.
+    pub clip: f64,
+    /// Critic loss coefficient.
+    pub critic_coef: f64,
+    /// Bounds loss coefficient and soft bound of the action mean.
+    pub bounds_coef: f64,
+    pub bound: f64,
+    /// Global gradient-norm limit, applied only when `truncate_grads` is true (the paper's
+    /// rl_games config sets 1.0 with `truncate_grads: False`, i.e. never applied).
+    pub grad_norm: f64,
+    pub truncate_grads: bool,
+    /// Running mean/std normalisation of observations and of values; batch advantage normalisation.
+    pub normalize_input: bool,
+    pub normalize_value: bool,
+    pub normalize_advantage: bool,
+    /// Normaliser epsilon and clamp.
+    pub norm_eps: f64,
+    pub norm_clip: f64,
+    /// Gradient implementation (results agree to float rounding).
+    pub backend: Backend,
+    /// Device of the candle backend: "cpu", or "cuda" (needs the `cuda` cargo feature).
+    pub device: String,
+}
+
+impl Default for PpoConfig {
+    fn default() -> Self {
+        Self {
+            hidden: vec![1024, 512, 512],
+            log_std: -2.9,
+            horizon: 32,
+            minibatch: 16384,
+            mini_epochs: 6,
+            lr: 2e-5,
+            adam_eps: 1e-8,
+            gamma: 0.99,
+            lam: 0.95,
+            clip: 0.2,
+            critic_coef: 5.0,
+            bounds_coef: 10.0,
+            bound: 1.0,
+            grad_norm: 1.0,
+            truncate_grads: false,
+            normalize_input: true,
+            normalize_value: true,
+            normalize_advantage: true,
+            norm_eps: 1e-5,
+            norm_clip: 5.0,
+            backend: Backend::Fast,
+            device: "cpu".into(),
+        }
+    }
+}
+
+/// Run-level settings.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RunConfig {
+    /// Training iterations (one rollout + update each).
+    pub iterations: usize,
+    /// Seed of network initialisation, action noise and minibatch shuffling.
+    pub seed: u64,
+    /// Output folder (checkpoints, logs, plots, video).
+    pub out_dir: PathBuf,
+    /// Save a checkpoint every this many iterations (and at the end).
+    pub save_every: usize,
+    /// Threads of the learner's matrix products (0 = all cores).
+    pub learner_threads: usize,
+    /// Evaluate and render a short video at the end of training.
+    pub final_video: bool,
+    /// Episodes of the end-of-training evaluation.
+    pub eval_episodes: usize,
+}
+
+impl Default for RunConfig {
+    fn default() -> Self {
+        Self {
+            iterations: 100,
+            seed: 0,
+            out_dir: PathBuf::from("runs/skillmimic"),
+            save_every: 50,
+            learner_threads: 0,
+            final_video: true,
+            eval_episodes: 16,
+        }
+    }
+}
+
+/// The whole training configuration: `[env]`, `[ppo]` and `[run]` tables of one TOML file.
+#[derive(Clone, Debug, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct TrainConfig {
+    pub env: EnvConfig,
+    pub ppo: PpoConfig,
+    pub run: RunConfig,
+}
+
+/// Named presets.
+pub const PRESETS: [&str; 3] = ["paper", "small", "tiny"];
+
+impl TrainConfig {
+    /// A named preset:
+    /// * `paper`: the paper's network and PPO settings with 2048 environments
+    ///   (65 536 samples per iteration, minibatch 16 384) — for large machines;
+    /// * `small`: the paper's network and PPO settings at workstation scale: 256 environments,
+    ///   horizon 32 (8192 samples per iteration), minibatch 4096, 6 mini-epochs;
+    /// * `tiny`: a small network ([256, 128]) for smoke tests and CI: 16 environments, horizon 16,
+    ///   minibatch 128, 2 mini-epochs, learning rate 1e-4.
+    pub fn preset(name: &str) -> Result<Self, String> {
+        let mut c = TrainConfig::default();
+        match name {
+            "paper" => {
+                c.env.num_envs = 2048;
+            }
+            "small" => {
+                c.env.num_envs = 256;
+                c.ppo.minibatch = 4096;
+            }
+            "tiny" => {
+                c.env.num_envs = 16;
+                c.ppo.hidden = vec![256, 128];
+                c.ppo.horizon = 16;
+                c.ppo.minibatch = 128;
+                c.ppo.mini_epochs = 2;
+                c.ppo.lr = 1e-4;
+                c.run.iterations = 5;
+                c.run.save_every = 5;
+                c.run.eval_episodes = 4;
+            }
+            other => return Err(format!("unknown preset '{other}', expected one of {PRESETS:?}")),
+        }
+        Ok(c)
+    }
+
+    /// Samples collected per iteration.
+    pub fn batch_size(&self) -> usize {
+        self.env.num_envs * self.ppo.horizon
+    }
+
+    /// Parse a TOML document over the preset `base` (fields absent from the file keep the
+    /// preset's values).
+    pub fn from_toml_over(base: &TrainConfig, text: &str, source: &Path) -> Result<Self, String> {
+        let mut doc = toml::Table::try_from(base).map_err(|e| e.to_string())?;
+        let user: toml::Table = text.parse().map_err(|e: toml::de::Error| format!("{}: {e}", source.display()))?;
+        merge(&mut doc, user);
+        let cfg: TrainConfig = doc.try_into().map_err(|e: toml::de::Error| format!("{}: {e}", source.display()))?;
+        Ok(cfg)
+    }
+
+    /// Apply one `key.path=value` override (value in TOML syntax; bare words are strings).
+    pub fn set(&mut self, assignment: &str) -> Result<(), String> {
+        let (key, value) = assignment.split_once('=').ok_or_else(|| format!("override '{assignment}' is not key=value"))?;
+        let value_toml: toml::Value = match format!("v = {value}").parse::<toml::Table>() {
+            Ok(t) => t["v"].clone(),
+            Err(_) => toml::Value::String(value.to_string()),
+        };
+        let mut doc = toml::Table::try_from(&*self).map_err(|e| e.to_string())?;
+        let mut table = &mut doc;
+        let parts: Vec<&str> = key.trim().split('.').collect();
+        for p in &parts[..parts.len() - 1] {
+            table = table
+                .get_mut(*p)
+                .and_then(|v| v.as_table_mut())
+                .ok_or_else(|| format!("override '{key}': no table '{p}'"))?;
+        }
+        let last = parts[parts.len() - 1];
+        if !table.contains_key(last) {
+            return Err(format!("override '{key}': unknown field '{last}'"));
+        }
+        table.insert(last.to_string(), value_toml);
+        *self = doc.try_into().map_err(|e: toml::de::Error| format!("override '{assignment}': {e}"))?;
+        Ok(())
+    }
+
+    /// The configuration as TOML text (saved next to every checkpoint).
+    pub fn to_toml(&self) -> String {
+        toml::to_string_pretty(self).expect("serialisable config")
+    }
+
+    /// Check value ranges of the PPO and run settings (the env checks its own).
+    pub fn validate(&self) -> Result<(), String> {
+        self.env.validate().map_err(|e| e.to_string())?;
+        let p = &self.ppo;
+        if p.hidden.is_empty() || p.hidden.contains(&0) {
+            return Err("config field 'ppo.hidden': needs at least one non-zero layer width".into());
+        }
+        if p.horizon == 0 || p.minibatch == 0 || p.mini_epochs == 0 {
+            return Err("config fields 'ppo.horizon', 'ppo.minibatch', 'ppo.mini_epochs' must be >= 1".into());
+        }
+        if p.minibatch > self.batch_size() {
+            return Err(format!(
+                "config field 'ppo.minibatch': {} exceeds the samples per iteration (num_envs {} x horizon {} = {})",
+                p.minibatch,
+                self.env.num_envs,
+                p.horizon,
+                self.batch_size()
+            ));
+        }
+        for (name, v) in [("ppo.lr", p.lr), ("ppo.gamma", p.gamma), ("ppo.lam", p.lam), ("ppo.clip", p.clip)] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(format!("config field '{name}': {v} must be a positive number"));
+            }
+        }
+        match (p.device.as_str(), p.backend) {
+            ("cpu", _) => {}
+            ("cuda", Backend::Candle) if cfg!(feature = "cuda") => {}
+            ("cuda", Backend::Candle) => {
+                return Err("config field 'ppo.device': \"cuda\" needs a build with the `cuda` cargo feature (cargo build --features cuda)".into())
+            }
+            ("cuda", Backend::Fast) => return Err("config field 'ppo.device': \"cuda\" runs on the candle backend; set ppo.backend = \"candle\"".into()),
+            (other, _) => return Err(format!("config field 'ppo.device': '{other}' is not a device, expected \"cpu\" or \"cuda\"")),
+        }
+        if self.run.save_every == 0 {
+            return Err("config field 'run.save_every' must be >= 1".into());
+        }
+        Ok(())
+    }
+}
+
+fn merge(base: &mut toml::Table, user: toml::Table) {
+    for (k, v) in user {
+        match (base.get_mut(&k), v) {
+            (Some(toml::Value::Table(b)), toml::Value::Table(u)) => merge(b, u),
+            (_, v) => {
+                base.insert(k, v);
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_are_the_papers() {
+        let c = TrainConfig::preset("paper").unwrap();
+        assert_eq!(c.ppo.hidden, vec![1024, 512, 512]);
+        assert_eq!((c.ppo.horizon, c.ppo.minibatch, c.ppo.mini_epochs), (32, 16384, 6));
+        assert_eq!(c.batch_size(), 65536);
+        assert_eq!((c.ppo.lr, c.ppo.gamma, c.ppo.lam, c.ppo.clip), (2e-5, 0.99, 0.95, 0.2));
+        assert_eq!((c.ppo.critic_coef, c.ppo.bounds_coef, c.ppo.log_std), (5.0, 10.0, -2.9));
+        assert!(!c.ppo.truncate_grads);
+    }
+
+    #[test]
+    fn toml_overrides_keep_preset_values_and_reject_typos() {
+        let base = TrainConfig::preset("tiny").unwrap();
+        let c = TrainConfig::from_toml_over(&base, "[ppo]\nlr = 3e-4\n[env]\nnum_envs = 8\n", Path::new("x.toml")).unwrap();
+        assert_eq!(c.ppo.lr, 3e-4);
+        assert_eq!(c.ppo.hidden, vec![256, 128]);
+        assert_eq!(c.env.num_envs, 8);
+        let e = TrainConfig::from_toml_over(&base, "[ppo]\nlearning_rate = 1\n", Path::new("x.toml")).unwrap_err();
+        assert!(e.contains("x.toml") && e.contains("learning_rate"), "{e}");
+        let mut c = base.clone();
+        c.set("ppo.mini_epochs=3").unwrap();
+        c.set("env.reward.variant=additive").unwrap();
+        c.set("env.hands=\"box\"").unwrap();
+        assert_eq!(c.ppo.mini_epochs, 3);
+        assert_eq!(c.env.hands, "box");
+        assert!(c.set("ppo.nope=1").unwrap_err().contains("unknown field 'nope'"));
+        assert!(c.set("ppo.lr=fast").is_err());
+        let round = TrainConfig::from_toml_over(&TrainConfig::default(), &c.to_toml(), Path::new("r.toml")).unwrap();
+        assert_eq!(round, c);
+    }
+}

@@ -1,0 +1,240 @@
+//! Dedicated forward/backward of the PPO minibatch loss (the trainer's default path).
+//!
+//! Same losses as [`crate::ppo::loss_and_grads`] (candle autograd, kept as the reference), written
+//! out by hand for the two ReLU MLPs:
+//!
+//! * forward: z_k = h_{k−1} W_kᵀ + b_k, h_k = max(z_k, 0) (no ReLU after the last layer); all
+//!   activations are kept in buffers reused across minibatches and iterations;
+//! * output gradients, per sample i and action dimension j (n = minibatch size):
+//!   - PPO: r = exp(clamp(old − new, ±20)); ℓ = max(−A r, −A clip(r, 1±ε)); dℓ/dr = −A where the
+//!     unclipped term is the maximum (and r is inside the ±20 clamp), else 0; with
+//!     ∂new/∂μ_j = −(a_j − μ_j)/σ_j², the actor output gradient is dℓ/dr · (−r) · ∂new/∂μ_j / n;
+//!   - bounds: c_b · (2 max(μ_j − b, 0) − 2 max(−b − μ_j, 0)) / n;
+//!   - value: c_v · 2 (V − R) / n;
+//! * backward: dW_k = g_kᵀ h_{k−1}, db_k = Σ_rows g_k, g_{k−1} = (g_k W_k) ⊙ [h_{k−1} > 0]; the
+//!   gradient with respect to the (normalised) observations is never formed.
+//!
+//! Matrix products go through [`crate::mlp::gemm_raw`], split over the current rayon pool by
+//! output blocks; reductions use fixed row blocks combined in order, so results do not depend on
+//! scheduling.
+
+use rayon::prelude::*;
+
+use crate::config::PpoConfig;
+use crate::mlp::{Mlp, SendPtr, gemm_raw, linear_into, split_ranges};
+use crate::policy::{HALF_LN_2PI, Policy};
+use crate::ppo::{LossStats, Minibatch};
+
+/// Reusable buffers of the fast update.
+#[derive(Default)]
+pub struct UpdateWorkspace {
+    actor_h: Vec<Vec<f32>>,
+    critic_h: Vec<Vec<f32>>,
+    g_a: Vec<f32>,
+    g_b: Vec<f32>,
+    scratch: Vec<f32>,
+    /// Parameter gradients in `Policy` order (actor layers, then critic layers; weight, bias).
+    pub grads: Vec<Vec<f32>>,
+}
+
+const BLOCKS: usize = 32;
+
+/// Forward through `m` keeping every activation (`h[k]` = output of layer k).
+fn forward_keep(m: &Mlp, x: &[f32], n: usize, h: &mut Vec<Vec<f32>>, threads: usize) {
+    let layers = m.num_layers();
+    h.resize_with(layers, Vec::new);
+    for k in 0..layers {
+        let need = n * m.dims[k + 1];
+        h[k].resize(need, 0.0);
+        let (done, rest) = h.split_at_mut(k);
+        let input: &[f32] = if k == 0 { x } else { &done[k - 1] };
+        linear_into(input, n, &m.weights[k], &m.biases[k], m.dims[k], &mut rest[0], threads);
+        if k + 1 < layers {
+            rest[0].par_chunks_mut(4096).for_each(|c| c.iter_mut().for_each(|v| *v = v.max(0.0)));
+        }
+    }
+}
+
+/// dW = gᵀ · h_in (out × in) over `n` rows, split by output rows over the pool.
+fn weight_grad(g: &[f32], h_in: &[f32], n: usize, fan_in: usize, fan_out: usize, dw: &mut [f32], threads: usize) {
+    let dst = SendPtr(dw.as_mut_ptr());
+    let one = |r: std::ops::Range<usize>| {
+        // SAFETY: rows r of dW (fan_out × fan_in) are written by this task only; lhs = gᵀ
+        // restricted to rows r (columns r of g, n × fan_out); rhs = h_in (n × fan_in).
+        unsafe {
+            gemm_raw(
+                r.len(),
+                fan_in,
+                n,
+                dst.get().add(r.start * fan_in),
+                fan_in as isize,
+                1,
+                false,
+                g.as_ptr().add(r.start),
+                1,
+                fan_out as isize,
+                h_in.as_ptr(),
+                fan_in as isize,
+                1,
+            );
+        }
+    };
+    if threads <= 1 {
+        one(0..fan_out);
+    } else {
+        split_ranges(fan_out, threads).into_par_iter().for_each(one);
+    }
+}
+
+/// db = column sums of g (n × out), fixed row blocks summed in order.
+fn bias_grad(g: &[f32], n: usize, fan_out: usize, db: &mut [f32]) {
+    let rows = n.div_ceil(BLOCKS);
+    let partial: Vec<Vec<f64>> = (0..BLOCKS)
+        .into_par_iter()
+        .map(|b| {
+            let mut s = vec![0.0f64; fan_out];
+            let (lo, hi) = ((b * rows).min(n), ((b + 1) * rows).min(n));
+            for row in g[lo * fan_out..hi * fan_out].chunks_exact(fan_out) {
+                for (a, &v) in s.iter_mut().zip(row) {
+                    *a += v as f64;
+                }
+            }
+            s
+        })
+        .collect();
+    db.fill(0.0);
+    let mut acc = vec![0.0f64; fan_out];
+    for p in &partial {
+        for (a, v) in acc.iter_mut().zip(p) {
+            *a += v;
+        }
+    }
+    for (d, a) in db.iter_mut().zip(acc) {
+        *d = a as f32;
+    }
+}
+
+/// g_in = (g · W) ⊙ [h_in > 0] (n × in), split by input columns over the pool.
+fn input_grad(g: &[f32], w: &[f32], h_in: &[f32], n: usize, fan_in: usize, fan_out: usize, g_in: &mut [f32], threads: usize) {
+    let dst = SendPtr(g_in.as_mut_ptr());
+    let one = |r: std::ops::Range<usize>| {
+        // SAFETY: columns r of g_in (n × fan_in) are written by this task only; lhs = g
+        // (n × fan_out); rhs = W (fan_out × fan_in) restricted to columns r.
+        unsafe {
+            gemm_raw(n, r.len(), fan_out, dst.get().add(r.start), fan_in as isize, 1, false, g.as_ptr(), fan_out as isize, 1, w.as_ptr().add(r.start), fan_in as isize, 1);
+        }
+    };
+    if threads <= 1 {
+        one(0..fan_in);
+    } else {
+        split_ranges(fan_in, threads).into_par_iter().for_each(one);
+    }
+    g_in.par_chunks_mut(4096).zip(h_in.par_chunks(4096)).for_each(|(gi, hi)| {
+        for (a, &h) in gi.iter_mut().zip(hi) {
+            if h <= 0.0 {
+                *a = 0.0;
+            }
+        }
+    });
+}
+
+/// Backward through `m` given the output gradient `g_out` (consumed as scratch); parameter
+/// gradients go to `grads[offset..]` (weight, bias per layer).
+#[allow(clippy::too_many_arguments)]
+fn backward(m: &Mlp, x: &[f32], n: usize, h: &[Vec<f32>], g_out: &mut Vec<f32>, scratch: &mut Vec<f32>, grads: &mut [Vec<f32>], threads: usize) {
+    let layers = m.num_layers();
+    for k in (0..layers).rev() {
+        let (fan_in, fan_out) = (m.dims[k], m.dims[k + 1]);
+        let h_in: &[f32] = if k == 0 { x } else { &h[k - 1] };
+        let (gw, gb) = grads.split_at_mut(2 * k + 1);
+        weight_grad(g_out, h_in, n, fan_in, fan_out, &mut gw[2 * k], threads);
+        bias_grad(g_out, n, fan_out, &mut gb[0]);
+        if k > 0 {
+            scratch.resize(n * fan_in, 0.0);
+            input_grad(g_out, &m.weights[k], h_in, n, fan_in, fan_out, scratch, threads);
+            std::mem::swap(g_out, scratch);
+        }
+    }
+}
+
+/// Losses and gradients of one minibatch (see the module docs); gradients land in `ws.grads`.
+pub fn loss_and_grads_fast(policy: &Policy, mb: &Minibatch<'_>, cfg: &PpoConfig, ws: &mut UpdateWorkspace, threads: usize) -> LossStats {
+    let (n, a_dim) = (mb.n, policy.act_dim());
+    forward_keep(&policy.actor, mb.obs_n, n, &mut ws.actor_h, threads);
+    forward_keep(&policy.critic, mb.obs_n, n, &mut ws.critic_h, threads);
+    let mu = ws.actor_h.last().expect("actor layers");
+    let v = ws.critic_h.last().expect("critic layers");
+    let inv_var: Vec<f64> = policy.log_std.iter().map(|&l| (-2.0 * l as f64).exp()).collect();
+    let inv_sigma: Vec<f64> = policy.log_std.iter().map(|&l| (-(l as f64)).exp()).collect();
+    let konst: f64 = policy.log_std.iter().map(|&l| l as f64 + HALF_LN_2PI).sum();
+    let (eps, b, cb, cv) = (cfg.clip, cfg.bound, cfg.bounds_coef, cfg.critic_coef);
+    let inv_n = 1.0 / n as f64;
+
+    // per-sample loss terms and output gradients (rows are independent)
+    ws.g_a.resize(n * a_dim, 0.0);
+    ws.g_b.resize(n, 0.0);
+    let per_sample: Vec<[f64; 5]> = ws
+        .g_a
+        .par_chunks_mut(a_dim)
+        .zip(ws.g_b.par_iter_mut())
+        .enumerate()
+        .map(|(i, (ga, gb))| {
+            let (act, m) = (&mb.actions[i * a_dim..(i + 1) * a_dim], &mu[i * a_dim..(i + 1) * a_dim]);
+            let mut sq = 0.0f64;
+            let mut bound = 0.0f64;
+            for j in 0..a_dim {
+                let z = (act[j] as f64 - m[j] as f64) * inv_sigma[j];
+                sq += z * z;
+                let (up, lo) = ((m[j] as f64 - b).max(0.0), (-b - m[j] as f64).max(0.0));
+                bound += up * up + lo * lo;
+            }
+            let new = 0.5 * sq + konst;
+            let d = mb.old_neglogp[i] as f64 - new;
+            let clamped = !(-20.0..=20.0).contains(&d);
+            let r = d.clamp(-20.0, 20.0).exp();
+            let adv = mb.advantages[i] as f64;
+            let (s1, s2) = (-adv * r, -adv * r.clamp(1.0 - eps, 1.0 + eps));
+            let loss = s1.max(s2);
+            // gradient flows through the unclipped branch when it is the maximum
+            let dldr = if s1 >= s2 && !clamped { -adv } else { 0.0 };
+            for j in 0..a_dim {
+                let mj = m[j] as f64;
+                let dnew_dmu = -(act[j] as f64 - mj) * inv_var[j];
+                let g_ppo = dldr * (-r) * dnew_dmu;
+                let g_bound = cb * (2.0 * (mj - b).max(0.0) - 2.0 * (-b - mj).max(0.0));
+                ga[j] = ((g_ppo + g_bound) * inv_n) as f32;
+            }
+            let diff = v[i] as f64 - mb.returns_n[i] as f64;
+            *gb = (cv * 2.0 * diff * inv_n) as f32;
+            let clipped = ((r - 1.0).abs() > eps) as u8 as f64;
+            [loss, diff * diff, bound, clipped, new - mb.old_neglogp[i] as f64]
+        })
+        .collect();
+    let mut sums = [0.0f64; 5];
+    for s in &per_sample {
+        for k in 0..5 {
+            sums[k] += s[k];
+        }
+    }
+    let stats = LossStats {
+        actor: sums[0] * inv_n,
+        critic: sums[1] * inv_n,
+        bounds: sums[2] * inv_n,
+        total: sums[0] * inv_n + cv * sums[1] * inv_n + cb * sums[2] * inv_n,
+        clip_frac: sums[3] * inv_n,
+        approx_kl: sums[4] * inv_n,
+    };
+
+    // backward
+    let na = 2 * policy.actor.num_layers();
+    let sizes: Vec<usize> = policy.actor.params().iter().chain(policy.critic.params().iter()).map(|p| p.len()).collect();
+    ws.grads.resize_with(sizes.len(), Vec::new);
+    for (g, &s) in ws.grads.iter_mut().zip(&sizes) {
+        g.resize(s, 0.0);
+    }
+    let UpdateWorkspace { actor_h, critic_h, g_a, g_b, scratch, grads } = ws;
+    let (ga_grads, gc_grads) = grads.split_at_mut(na);
+    backward(&policy.actor, mb.obs_n, n, actor_h, g_a, scratch, ga_grads, threads);
+    backward(&policy.critic, mb.obs_n, n, critic_h, g_b, scratch, gc_grads, threads);
+    stats
+}

@@ -1,0 +1,69 @@
+//! Generalised advantage estimation over a rollout (reference-facts §7.4).
+//!
+//! Per environment, backwards over the horizon:
+//! δ_t = r_t + γ·V_next,t − V_t, with V_next,t the value of the observation returned by step t
+//! (the terminal observation for finished episodes) already multiplied by (1 − terminated_t), so
+//! timeouts bootstrap; A_t = δ_t + γλ(1 − done_t)·A_{t+1}; returns R_t = A_t + V_t.
+
+/// Compute advantages and returns. Arrays are `[t][env]` (time-major), length `horizon × n`.
+#[allow(clippy::too_many_arguments)]
+pub fn gae(
+    rewards: &[f32],
+    values: &[f32],
+    next_values: &[f32],
+    dones: &[u8],
+    n: usize,
+    gamma: f32,
+    lam: f32,
+    advantages: &mut [f32],
+    returns: &mut [f32],
+) {
+    let horizon = rewards.len() / n;
+    for i in 0..n {
+        let mut last = 0.0f32;
+        for t in (0..horizon).rev() {
+            let k = t * n + i;
+            let not_done = if dones[k] != 0 { 0.0 } else { 1.0 };
+            let delta = rewards[k] + gamma * next_values[k] - values[k];
+            last = delta + gamma * lam * not_done * last;
+            advantages[k] = last;
+            returns[k] = last + values[k];
+        }
+    }
+}
+
+/// Normalise advantages in place: (A − mean) / (std + 1e-8) with the unbiased std.
+pub fn normalize_advantages(a: &mut [f32]) {
+    let n = a.len() as f64;
+    let mean = a.iter().map(|&x| x as f64).sum::<f64>() / n;
+    let var = a.iter().map(|&x| (x as f64 - mean).powi(2)).sum::<f64>() / (n - 1.0);
+    let inv = 1.0 / (var.sqrt() + 1e-8);
+    a.iter_mut().for_each(|x| *x = ((*x as f64 - mean) * inv) as f32);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn hand_computed_two_env_example() {
+        // horizon 3, 2 envs (time-major), gamma 0.5, lambda 0.5
+        // env 0: rewards 1,1,1; values 0,0,0; next values 2 (bootstrap), none done
+        // env 1: rewards 0,1,0; values 1,1,1; next values 0 (terminated at t=1 -> next value 0), done at t=1
+        let rewards = [1.0, 0.0, 1.0, 1.0, 1.0, 0.0];
+        let values = [0.0, 1.0, 0.0, 1.0, 0.0, 1.0];
+        let next = [2.0, 1.0, 2.0, 0.0, 2.0, 1.0];
+        let dones = [0, 0, 0, 1, 0, 0];
+        let (mut a, mut r) = ([0.0f32; 6], [0.0f32; 6]);
+        gae(&rewards, &values, &next, &dones, 2, 0.5, 0.5, &mut a, &mut r);
+        // env 0: d = 1 + 0.5*2 = 2 each; A2 = 2, A1 = 2 + 0.25*2 = 2.5, A0 = 2 + 0.25*2.5 = 2.625
+        assert_eq!([a[0], a[2], a[4]], [2.625, 2.5, 2.0]);
+        // env 1: d0 = 0 + 0.5*1 - 1 = -0.5, d1 = 1 + 0 - 1 = 0 (done), d2 = 0 + 0.5*1 - 1 = -0.5
+        // A2 = -0.5, A1 = 0 (chain cut), A0 = -0.5 + 0.25*0 = -0.5
+        assert_eq!([a[1], a[3], a[5]], [-0.5, 0.0, -0.5]);
+        assert_eq!(r[1], 0.5);
+        let mut x = [1.0f32, 2.0, 3.0];
+        normalize_advantages(&mut x);
+        assert!((x[0] + 1.0).abs() < 1e-6 && x[1].abs() < 1e-6 && (x[2] - 1.0).abs() < 1e-6);
+    }
+}

@@ -1,0 +1,414 @@
+//! The PPO training loop on the SkillMimic environment.
+//!
+//! One iteration = a rollout of `horizon` steps in all environments + `mini_epochs` passes of
+//! minibatch updates. The rollout follows the original learner's loop: finished environments are
+//! reset at the top of the next step, so the observation returned with `done` is the true terminal
+//! observation and the critic bootstraps on it (times 1 − terminated; time-outs bootstrap).
+//! Inference writes into preallocated buffers; the value of a step's next observation is reused
+//! as the value of the following step whenever the environment was not reset in between.
+//!
+//! Everything is seeded from `run.seed` (network initialisation, action noise, minibatch
+//! shuffling, and the environment's clip/frame sampling), so two runs with the same seed and
+//! thread counts produce the same checkpoints bit for bit. A resumed run continues from the
+//! checkpoint's policy, normalisers and Adam state with freshly reset environments.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use rand::SeedableRng;
+use rand::seq::SliceRandom;
+use rand_chacha::ChaCha8Rng;
+use serde::Serialize;
+use skillmimic_env::reward::{NUM_TERMS, TERM_NAMES};
+use skillmimic_env::{EnvError, SkillEnv};
+
+use crate::adam::Adam;
+use crate::checkpoint::{self, Progress};
+use crate::config::TrainConfig;
+use crate::gae::{gae, normalize_advantages};
+use crate::policy::{InferenceBuffers, Policy};
+use crate::ppo::{LossStats, RawMinibatch, UpdateBuffers, update_minibatch};
+use crate::tblog::EventWriter;
+
+/// Training error.
+#[derive(Debug, thiserror::Error)]
+pub enum TrainError {
+    #[error(transparent)]
+    Env(#[from] EnvError),
+    #[error("{0}")]
+    Config(String),
+    #[error("{0}")]
+    Checkpoint(String),
+    #[error("{path}: {source}")]
+    Io { path: PathBuf, source: std::io::Error },
+    #[error("learner: {0}")]
+    Learner(String),
+}
+
+fn io(path: &Path) -> impl FnOnce(std::io::Error) -> TrainError + '_ {
+    move |source| TrainError::Io { path: path.to_path_buf(), source }
+}
+
+/// Statistics of one iteration (one JSON line of `log.jsonl`).
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct IterationStats {
+    pub iteration: u64,
+    pub samples: u64,
+    /// Wall-clock seconds of this iteration: rollout, update, total.
+    pub rollout_s: f64,
+    pub update_s: f64,
+    pub samples_per_s: f64,
+    /// Mean reward per environment step over the rollout.
+    pub mean_reward: f64,
+    /// Means of each reward term over the rollout (`reward::TERM_NAMES`).
+    pub reward_terms: Vec<(String, f64)>,
+    /// Episodes finished in this rollout, their mean length (steps) and mean return.
+    pub episodes: usize,
+    pub episode_length: f64,
+    pub episode_return: f64,
+    /// Fraction of finished episodes that ended early (fall or instability).
+    pub early_terminations: f64,
+    pub actor_loss: f64,
+    pub critic_loss: f64,
+    pub bounds_loss: f64,
+    pub clip_frac: f64,
+    pub approx_kl: f64,
+    pub value_mean: f64,
+}
+
+/// Rollout storage, time-major `[t][env]`.
+#[derive(Default)]
+struct Rollout {
+    obs: Vec<f32>,
+    actions: Vec<f32>,
+    neglogp: Vec<f32>,
+    values: Vec<f32>,
+    next_values: Vec<f32>,
+    rewards: Vec<f32>,
+    dones: Vec<u8>,
+    advantages: Vec<f32>,
+    returns: Vec<f32>,
+}
+
+/// Minibatch gather buffers.
+#[derive(Default)]
+struct MinibatchBuffers {
+    obs: Vec<f32>,
+    update: UpdateBuffers,
+    actions: Vec<f32>,
+    neglogp: Vec<f32>,
+    adv: Vec<f32>,
+    ret: Vec<f32>,
+}
+
+/// PPO trainer.
+pub struct Trainer {
+    pub cfg: TrainConfig,
+    pub env: SkillEnv,
+    pub policy: Policy,
+    pub adam: Adam,
+    pub progress: Progress,
+    rng: ChaCha8Rng,
+    roll: Rollout,
+    mb: MinibatchBuffers,
+    infer: InferenceBuffers,
+    mu: Vec<f32>,
+    step_values: Vec<f32>,
+    done_rows: Vec<usize>,
+    gather: Vec<f32>,
+    gather_values: Vec<f32>,
+    ep_return: Vec<f64>,
+    ep_len: Vec<u64>,
+    threads: usize,
+    config_toml: String,
+}
+
+impl Trainer {
+    /// A new trainer (fresh policy), or one resumed from `resume` (a training checkpoint).
+    pub fn new(mut cfg: TrainConfig, resume: Option<&Path>) -> Result<Self, TrainError> {
+        cfg.validate().map_err(TrainError::Config)?;
+        let batch = cfg.batch_size();
+        if batch % cfg.ppo.minibatch != 0 {
+            return Err(TrainError::Config(format!(
+                "config field 'ppo.minibatch': {} must divide the samples per iteration ({batch})",
+                cfg.ppo.minibatch
+            )));
+        }
+        cfg.env.seed = cfg.run.seed;
+        let mut env = SkillEnv::from_config(cfg.env.clone())?;
+        let (obs_dim, act_dim) = (env.obs_dim(), env.act_dim());
+        let mut rng = ChaCha8Rng::seed_from_u64(cfg.run.seed);
+        let (policy, adam, progress) = match resume {
+            None => {
+                let policy = Policy::new(obs_dim, act_dim, &cfg.ppo, &mut rng);
+                let sizes: Vec<usize> = policy.actor.params().iter().chain(policy.critic.params().iter()).map(|p| p.len()).collect();
+                let adam = Adam::new(&sizes, cfg.ppo.lr, cfg.ppo.adam_eps);
+                (policy, adam, Progress::default())
+            }
+            Some(path) => {
+                let c = checkpoint::load(path, Some((obs_dim, act_dim))).map_err(TrainError::Checkpoint)?;
+                let mut adam = c.adam.ok_or_else(|| {
+                    TrainError::Checkpoint(format!("{}: a policy-only (exported) checkpoint cannot resume training; use a training checkpoint", path.display()))
+                })?;
+                let hidden = &c.policy.actor.dims[1..c.policy.actor.dims.len() - 1];
+                if hidden != cfg.ppo.hidden.as_slice() {
+                    return Err(TrainError::Checkpoint(format!(
+                        "{}: network hidden sizes {hidden:?} differ from the config's ppo.hidden {:?}",
+                        path.display(),
+                        cfg.ppo.hidden
+                    )));
+                }
+                adam.lr = cfg.ppo.lr;
+                // continue with a stream of random numbers that differs from the first run's
+                rng = ChaCha8Rng::seed_from_u64(cfg.run.seed ^ (c.progress.iteration.wrapping_mul(0x9e37_79b9_7f4a_7c15)));
+                env.reset_all(Some(cfg.run.seed.wrapping_add(c.progress.iteration)));
+                (c.policy, adam, c.progress)
+            }
+        };
+        let threads = if cfg.run.learner_threads == 0 { rayon::current_num_threads() } else { cfg.run.learner_threads };
+        let n = env.num_envs();
+        let config_toml = cfg.to_toml();
+        Ok(Self {
+            cfg,
+            env,
+            policy,
+            adam,
+            progress,
+            rng,
+            roll: Rollout::default(),
+            mb: MinibatchBuffers::default(),
+            infer: InferenceBuffers::default(),
+            mu: vec![0.0; n * act_dim],
+            step_values: vec![0.0; n],
+            done_rows: Vec::with_capacity(n),
+            gather: vec![0.0; n * obs_dim],
+            gather_values: vec![0.0; n],
+            ep_return: vec![0.0; n],
+            ep_len: vec![0; n],
+            threads,
+            config_toml,
+        })
+    }
+
+    /// The effective configuration as TOML.
+    pub fn config_toml(&self) -> &str {
+        &self.config_toml
+    }
+
+    fn alloc_rollout(&mut self) {
+        let (h, n, d, a) = (self.cfg.ppo.horizon, self.env.num_envs(), self.env.obs_dim(), self.env.act_dim());
+        let r = &mut self.roll;
+        if r.obs.len() != h * n * d {
+            r.obs = vec![0.0; h * n * d];
+            r.actions = vec![0.0; h * n * a];
+            for v in [&mut r.neglogp, &mut r.values, &mut r.next_values, &mut r.rewards, &mut r.advantages, &mut r.returns] {
+                *v = vec![0.0; h * n];
+            }
+            r.dones = vec![0; h * n];
+        }
+    }
+
+    /// Collect one rollout; returns rollout statistics.
+    fn rollout(&mut self, stats: &mut IterationStats) -> Result<(), TrainError> {
+        self.alloc_rollout();
+        let (h, n, d, a) = (self.cfg.ppo.horizon, self.env.num_envs(), self.env.obs_dim(), self.env.act_dim());
+        let mut term_sums = [0.0f64; NUM_TERMS];
+        let (mut ep_count, mut ep_len_sum, mut ep_ret_sum, mut early) = (0usize, 0u64, 0.0f64, 0usize);
+        let mut pending = false; // next_values[t-1] still to fill from values[t]
+        for t in 0..h {
+            self.env.reset_done();
+            let rows = t * n..(t + 1) * n;
+            self.roll.obs[t * n * d..(t + 1) * n * d].copy_from_slice(&self.env.buffers().obs);
+            let obs = &self.roll.obs[t * n * d..(t + 1) * n * d];
+            self.policy.infer(obs, n, &mut self.infer, &mut self.mu, &mut self.step_values, self.threads);
+            self.roll.values[rows.clone()].copy_from_slice(&self.step_values);
+            if pending {
+                // environments not reset since the last step: their next value is this value
+                let prev = (t - 1) * n;
+                for i in 0..n {
+                    if self.roll.dones[prev + i] == 0 {
+                        self.roll.next_values[prev + i] = self.step_values[i];
+                    }
+                }
+            }
+            self.policy.sample(&self.mu, n, &mut self.rng, &mut self.roll.actions[t * n * a..(t + 1) * n * a], &mut self.roll.neglogp[rows.clone()]);
+            self.env.step(&self.roll.actions[t * n * a..(t + 1) * n * a])?;
+            let b = self.env.buffers();
+            self.done_rows.clear();
+            for i in 0..n {
+                let r = b.reward[i];
+                self.roll.rewards[t * n + i] = r;
+                let done = b.terminated[i] != 0 || b.truncated[i] != 0;
+                self.roll.dones[t * n + i] = u8::from(done);
+                self.ep_return[i] += r as f64;
+                self.ep_len[i] += 1;
+                for (s, &v) in term_sums.iter_mut().zip(&b.terms[i * NUM_TERMS..(i + 1) * NUM_TERMS]) {
+                    *s += v as f64;
+                }
+                if done || t + 1 == h {
+                    self.done_rows.push(i);
+                }
+                if done {
+                    ep_count += 1;
+                    ep_len_sum += self.ep_len[i];
+                    ep_ret_sum += self.ep_return[i];
+                    early += usize::from(b.terminated[i] != 0);
+                    self.ep_return[i] = 0.0;
+                    self.ep_len[i] = 0;
+                }
+            }
+            // values of the observations after the step for finished environments (terminal
+            // observations) and, at the last step, for everyone
+            let m = self.done_rows.len();
+            for (k, &i) in self.done_rows.iter().enumerate() {
+                self.gather[k * d..(k + 1) * d].copy_from_slice(&b.obs[i * d..(i + 1) * d]);
+            }
+            if m > 0 {
+                self.policy.infer_values(&self.gather[..m * d], m, &mut self.infer, &mut self.gather_values, self.threads);
+            }
+            for (k, &i) in self.done_rows.iter().enumerate() {
+                let keep = if b.terminated[i] != 0 { 0.0 } else { 1.0 };
+                self.roll.next_values[t * n + i] = keep * self.gather_values[k];
+            }
+            pending = t + 1 < h;
+        }
+        let steps = (h * n) as f64;
+        stats.mean_reward = self.roll.rewards.iter().map(|&r| r as f64).sum::<f64>() / steps;
+        stats.reward_terms = TERM_NAMES.iter().zip(term_sums).map(|(nm, s)| (nm.to_string(), s / steps)).collect();
+        stats.episodes = ep_count;
+        if ep_count > 0 {
+            stats.episode_length = ep_len_sum as f64 / ep_count as f64;
+            stats.episode_return = ep_ret_sum / ep_count as f64;
+            stats.early_terminations = early as f64 / ep_count as f64;
+        }
+        stats.value_mean = self.roll.values.iter().map(|&v| v as f64).sum::<f64>() / steps;
+        Ok(())
+    }
+
+    /// Advantages, value normalisation and the minibatch updates.
+    fn update(&mut self, stats: &mut IterationStats) -> Result<(), TrainError> {
+        let cfg = &self.cfg.ppo;
+        let (n, d, a) = (self.env.num_envs(), self.env.obs_dim(), self.env.act_dim());
+        let r = &mut self.roll;
+        gae(&r.rewards, &r.values, &r.next_values, &r.dones, n, cfg.gamma as f32, cfg.lam as f32, &mut r.advantages, &mut r.returns);
+        if self.policy.normalize_value {
+            // rl_games order: update with the values, then with the returns; the critic learns
+            // the returns normalised with the final statistics
+            self.policy.value_norm.update(&r.values);
+            self.policy.value_norm.update(&r.returns);
+            for x in r.returns.iter_mut() {
+                *x = self.policy.value_norm.normalize_scalar(*x as f64) as f32;
+            }
+        }
+        if cfg.normalize_advantage {
+            normalize_advantages(&mut r.advantages);
+        }
+        let batch = r.rewards.len();
+        let mbs = cfg.minibatch;
+        let mb = &mut self.mb;
+        mb.obs.resize(mbs * d, 0.0);
+        mb.actions.resize(mbs * a, 0.0);
+        mb.neglogp.resize(mbs, 0.0);
+        mb.adv.resize(mbs, 0.0);
+        mb.ret.resize(mbs, 0.0);
+        let mut order: Vec<usize> = (0..batch).collect();
+        let mut acc = LossStats::default();
+        let mut count = 0.0;
+        for _ in 0..cfg.mini_epochs {
+            order.shuffle(&mut self.rng);
+            for chunk in order.chunks_exact(mbs) {
+                for (k, &s) in chunk.iter().enumerate() {
+                    mb.obs[k * d..(k + 1) * d].copy_from_slice(&r.obs[s * d..(s + 1) * d]);
+                    mb.actions[k * a..(k + 1) * a].copy_from_slice(&r.actions[s * a..(s + 1) * a]);
+                    mb.neglogp[k] = r.neglogp[s];
+                    mb.adv[k] = r.advantages[s];
+                    mb.ret[k] = r.returns[s];
+                }
+                let raw = RawMinibatch { n: mbs, obs: &mb.obs, actions: &mb.actions, old_neglogp: &mb.neglogp, advantages: &mb.adv, returns_n: &mb.ret };
+                let l = update_minibatch(&mut self.policy, &mut self.adam, &raw, &mut mb.update, cfg, self.threads).map_err(TrainError::Learner)?;
+                acc.actor += l.actor;
+                acc.critic += l.critic;
+                acc.bounds += l.bounds;
+                acc.clip_frac += l.clip_frac;
+                acc.approx_kl += l.approx_kl;
+                count += 1.0;
+            }
+        }
+        stats.actor_loss = acc.actor / count;
+        stats.critic_loss = acc.critic / count;
+        stats.bounds_loss = acc.bounds / count;
+        stats.clip_frac = acc.clip_frac / count;
+        stats.approx_kl = acc.approx_kl / count;
+        Ok(())
+    }
+
+    /// Run one iteration (rollout + update).
+    pub fn iteration(&mut self) -> Result<IterationStats, TrainError> {
+        let mut stats = IterationStats::default();
+        let t0 = Instant::now();
+        self.rollout(&mut stats)?;
+        let t1 = Instant::now();
+        self.update(&mut stats)?;
+        let t2 = Instant::now();
+        self.progress.iteration += 1;
+        self.progress.samples += self.cfg.batch_size() as u64;
+        stats.iteration = self.progress.iteration;
+        stats.samples = self.progress.samples;
+        stats.rollout_s = (t1 - t0).as_secs_f64();
+        stats.update_s = (t2 - t1).as_secs_f64();
+        stats.samples_per_s = self.cfg.batch_size() as f64 / (t2 - t0).as_secs_f64();
+        Ok(stats)
+    }
+
+    /// Write a training checkpoint (atomic) and the effective config next to it.
+    pub fn save(&self, path: &Path) -> Result<(), TrainError> {
+        checkpoint::save(path, &self.policy, Some(&self.adam), &self.progress, &self.config_toml).map_err(io(path))?;
+        let toml_path = path.with_extension("toml");
+        skillmimic_core::tensorfile::write_bytes_atomic(&toml_path, self.config_toml.as_bytes()).map_err(io(&toml_path))
+    }
+
+    /// Train for the configured iterations, writing logs and checkpoints into `run.out_dir`;
+    /// `on_iteration` sees every iteration's statistics (progress bars). Returns the path of the
+    /// last checkpoint.
+    pub fn train(&mut self, mut on_iteration: impl FnMut(&IterationStats)) -> Result<PathBuf, TrainError> {
+        let out = self.cfg.run.out_dir.clone();
+        let ckpt_dir = out.join("checkpoints");
+        std::fs::create_dir_all(&ckpt_dir).map_err(io(&ckpt_dir))?;
+        let cfg_path = out.join("config.toml");
+        skillmimic_core::tensorfile::write_bytes_atomic(&cfg_path, self.config_toml.as_bytes()).map_err(io(&cfg_path))?;
+        let log_path = out.join("log.jsonl");
+        let mut log = std::fs::OpenOptions::new().create(true).append(true).open(&log_path).map_err(io(&log_path))?;
+        let mut tb = EventWriter::create(&out.join("tb")).map_err(io(&out.join("tb")))?;
+        let target = self.cfg.run.iterations as u64;
+        let mut last = out.join("latest.safetensors");
+        while self.progress.iteration < target {
+            let s = self.iteration()?;
+            use std::io::Write;
+            writeln!(log, "{}", serde_json::to_string(&s).expect("serialisable stats")).map_err(io(&log_path))?;
+            let mut scalars: Vec<(String, f32)> = vec![
+                ("reward/mean_step".into(), s.mean_reward as f32),
+                ("episode/length".into(), s.episode_length as f32),
+                ("episode/return".into(), s.episode_return as f32),
+                ("episode/early_termination".into(), s.early_terminations as f32),
+                ("loss/actor".into(), s.actor_loss as f32),
+                ("loss/critic".into(), s.critic_loss as f32),
+                ("loss/bounds".into(), s.bounds_loss as f32),
+                ("ppo/clip_frac".into(), s.clip_frac as f32),
+                ("ppo/approx_kl".into(), s.approx_kl as f32),
+                ("perf/samples_per_s".into(), s.samples_per_s as f32),
+            ];
+            scalars.extend(s.reward_terms.iter().map(|(k, v)| (format!("reward_terms/{k}"), *v as f32)));
+            let refs: Vec<(&str, f32)> = scalars.iter().map(|(k, v)| (k.as_str(), *v)).collect();
+            tb.scalars(s.samples as i64, &refs).map_err(io(tb.path()))?;
+            on_iteration(&s);
+            let it = self.progress.iteration;
+            if it % self.cfg.run.save_every as u64 == 0 || it == target {
+                let p = ckpt_dir.join(format!("iter_{it:06}.safetensors"));
+                self.save(&p)?;
+                self.save(&out.join("latest.safetensors"))?;
+                last = p;
+            }
+        }
+        Ok(last)
+    }
+}

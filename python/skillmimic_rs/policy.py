@@ -1,0 +1,129 @@
+"""PyTorch version of the skillmimic-rs policy; loads the Rust trainer's safetensors checkpoints.
+
+``SkillMimicPolicy`` has exactly the tensors of a checkpoint as its ``state_dict``:
+
+========================================  =======  ==============================
+key                                       dtype    shape
+========================================  =======  ==============================
+``actor.{0,2,4,6}.weight`` / ``.bias``    float32  (out, in) / (out,)
+``critic.{0,2,4,6}.weight`` / ``.bias``   float32  (out, in) / (out,)
+``log_std``                               float32  (act_dim,)
+``obs_norm.mean`` / ``.var``              float64  (obs_dim,)
+``obs_norm.count``                        float64  ()
+``value_norm.mean`` / ``.var``            float64  (1,)
+``value_norm.count``                      float64  ()
+========================================  =======  ==============================
+
+(for the paper network; ``actor``/``critic`` are ``nn.Sequential(Linear, ReLU, …, Linear)``).
+Training checkpoints also hold ``optim.*`` tensors (Adam state), which :func:`load_checkpoint`
+skips. Observations are normalised in float64, ``clamp((x - mean) / sqrt(var + eps), ±clip)``,
+then cast to float32; the critic's output is de-normalised the same way (clamp, scale, shift).
+"""
+
+from __future__ import annotations
+
+import json
+import pathlib
+from typing import Sequence
+
+import torch
+from torch import nn
+
+
+class RunningMeanStd(nn.Module):
+    """Running mean/variance buffers (float64) of the Rust trainer's normaliser."""
+
+    def __init__(self, dim: int, eps: float = 1e-5, clip: float = 5.0):
+        super().__init__()
+        self.eps, self.clip = eps, clip
+        self.register_buffer("mean", torch.zeros(dim, dtype=torch.float64))
+        self.register_buffer("var", torch.ones(dim, dtype=torch.float64))
+        self.register_buffer("count", torch.ones((), dtype=torch.float64))
+
+    def normalize(self, x: torch.Tensor) -> torch.Tensor:
+        y = (x.double() - self.mean) / torch.sqrt(self.var + self.eps)
+        return y.clamp(-self.clip, self.clip).float()
+
+    def denormalize(self, y: torch.Tensor) -> torch.Tensor:
+        return (y.double().clamp(-self.clip, self.clip) * torch.sqrt(self.var + self.eps) + self.mean).float()
+
+
+def _mlp(sizes: Sequence[int]) -> nn.Sequential:
+    layers: list[nn.Module] = []
+    for k in range(len(sizes) - 1):
+        layers.append(nn.Linear(sizes[k], sizes[k + 1]))
+        if k + 2 < len(sizes):
+            layers.append(nn.ReLU())
+    return nn.Sequential(*layers)
+
+
+class SkillMimicPolicy(nn.Module):
+    """Actor–critic of SkillMimic: separate MLPs over the normalised observation, fixed log-std."""
+
+    def __init__(
+        self,
+        obs_dim: int = 902,
+        act_dim: int = 156,
+        hidden: Sequence[int] = (1024, 512, 512),
+        log_std: float = -2.9,
+        norm_eps: float = 1e-5,
+        norm_clip: float = 5.0,
+        normalize_input: bool = True,
+        normalize_value: bool = True,
+    ):
+        super().__init__()
+        self.actor = _mlp([obs_dim, *hidden, act_dim])
+        self.critic = _mlp([obs_dim, *hidden, 1])
+        self.log_std = nn.Parameter(torch.full((act_dim,), float(log_std)), requires_grad=False)
+        self.obs_norm = RunningMeanStd(obs_dim, norm_eps, norm_clip)
+        self.value_norm = RunningMeanStd(1, norm_eps, norm_clip)
+        self.normalize_input = normalize_input
+        self.normalize_value = normalize_value
+
+    def forward(self, obs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """Action means ``(N, act_dim)`` and values ``(N,)`` for raw observations ``(N, obs_dim)``."""
+        x = self.obs_norm.normalize(obs) if self.normalize_input else obs.float()
+        mu = self.actor(x)
+        v = self.critic(x).squeeze(-1)
+        if self.normalize_value:
+            v = self.value_norm.denormalize(v)
+        return mu, v
+
+    @torch.no_grad()
+    def act(self, obs: torch.Tensor, deterministic: bool = True) -> torch.Tensor:
+        """Actions in [-1, 1] (the mean, or a Gaussian sample when not deterministic)."""
+        mu, _ = self(obs)
+        a = mu if deterministic else mu + torch.exp(self.log_std) * torch.randn_like(mu)
+        return a.clamp(-1.0, 1.0)
+
+
+def checkpoint_metadata(path: str | pathlib.Path) -> dict[str, str]:
+    """The metadata strings of a skillmimic checkpoint."""
+    from safetensors import safe_open
+
+    with safe_open(str(path), framework="pt") as f:
+        meta = f.metadata() or {}
+    if meta.get("format") != "skillmimic-policy":
+        raise ValueError(f"{path}: not a skillmimic checkpoint (format {meta.get('format')!r})")
+    return meta
+
+
+def load_checkpoint(path: str | pathlib.Path, map_location: str | torch.device = "cpu") -> SkillMimicPolicy:
+    """Build a :class:`SkillMimicPolicy` from a checkpoint written by ``skillmimic train``/``export``
+    (strict: every policy tensor must be present with the right shape)."""
+    from safetensors.torch import load_file
+
+    meta = checkpoint_metadata(path)
+    policy = SkillMimicPolicy(
+        obs_dim=int(meta["obs_dim"]),
+        act_dim=int(meta["act_dim"]),
+        hidden=json.loads(meta["hidden"]),
+        norm_eps=float(meta["norm_eps"]),
+        norm_clip=float(meta["norm_clip"]),
+        normalize_input=meta["normalize_input"] == "true",
+        normalize_value=meta["normalize_value"] == "true",
+    )
+    tensors = load_file(str(path), device=str(map_location))
+    state = {k: v for k, v in tensors.items() if not k.startswith("optim.")}
+    policy.load_state_dict(state, strict=True)
+    return policy.to(map_location).eval()
