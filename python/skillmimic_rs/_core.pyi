@@ -71,6 +71,8 @@ class CoreEnv:
     def get_qvel(self, i: int) -> npt.NDArray[np.float64]: ...
     def set_state(self, i: int, qpos: npt.NDArray[np.float64], qvel: npt.NDArray[np.float64], obs_out: npt.NDArray[np.float32]) -> None:
         """Overwrite qpos/qvel of environment ``i`` and refresh all observations."""
+    def history_window(self, i: int) -> npt.NDArray[np.float32] | None:
+        """(k, 316) history window of environment ``i`` (oldest first), None without the encoder."""
     def close(self) -> None:
         """Release the simulation."""
 
@@ -86,6 +88,18 @@ class Policy:
     def act_dim(self) -> int: ...
     def infer(self, obs: npt.NDArray[np.float32]) -> tuple[npt.NDArray[np.float32], npt.NDArray[np.float32]]:
         """Action means (N, act_dim) and values (N,)."""
+
+class HistoryEncoder:
+    """A SkillMimic-V2 history encoder file evaluated by the environment's Rust implementation."""
+
+    @staticmethod
+    def load(path: str) -> "HistoryEncoder": ...
+    @property
+    def length(self) -> int: ...
+    @property
+    def embed_dim(self) -> int: ...
+    def embed(self, windows: npt.NDArray[np.float32]) -> npt.NDArray[np.float32]:
+        """(B, embed_dim) embeddings of (B, length, 316) windows."""
 
 class RunningMeanStd:
     """The trainer's running mean/std normaliser (rl_games update rule)."""

@@ -245,12 +245,20 @@ class VecEnv(gym.vector.VectorEnv):
 
     def set_state(self, i: int, qpos, qvel) -> np.ndarray:
         """Overwrite environment ``i``'s ``qpos``/``qvel`` (forward kinematics runs, time, controls
-        and warm start are cleared); returns the refreshed observations of all environments."""
+        and warm start are cleared); returns the refreshed observations of all environments. The
+        SkillMimic-V2 history window (if on) is left as it was."""
         self._check_open()
         q = np.ascontiguousarray(qpos, dtype=np.float64)
         v = np.ascontiguousarray(qvel, dtype=np.float64)
         self._core.set_state(int(i), q, v, self._obs)
         return self._out(self._obs)
+
+    def history_window(self, i: int) -> np.ndarray | None:
+        """(k, 316) SkillMimic-V2 history window of environment ``i`` (oldest frame first), or None
+        when the history encoder is off; its embedding fills the last observation entries at the
+        next step."""
+        self._check_open()
+        return self._core.history_window(i)
 
     def episode_info(self) -> dict[str, np.ndarray]:
         """Per-environment clip index, start/reference frame, progress, length and skill label."""

@@ -20,6 +20,8 @@ pub enum BenchCommand {
     Infer(crate::bench_learner::NetArgs),
     /// One PPO minibatch update vs. PyTorch, same network and threads.
     Update(crate::bench_learner::NetArgs),
+    /// End-to-end training throughput vs. simulation-only throughput of the same environments.
+    Train(crate::bench_train::TrainArgs),
 }
 
 #[derive(clap::Args)]
@@ -46,6 +48,7 @@ pub fn run(cmd: BenchCommand) -> anyhow::Result<()> {
         BenchCommand::Sim(a) => bench_sim(a),
         BenchCommand::Infer(a) => crate::bench_learner::run("infer", a),
         BenchCommand::Update(a) => crate::bench_learner::run("update", a),
+        BenchCommand::Train(a) => crate::bench_train::run(a),
     }
 }
 

@@ -83,6 +83,10 @@ pub struct EvalArgs {
     /// Also evaluate with the ball's radius, density and restitution scaled (robustness sweep).
     #[arg(long)]
     pub sweep: bool,
+    /// Also run the SkillMimic-V2 metrics per skill: SR, TSR, εNSR, NR (`--episodes` per case,
+    /// `--horizon` default 600, `--start-frame` default 2).
+    #[arg(long)]
+    pub v2: bool,
     /// Output JSON.
     #[arg(long, default_value = "metrics.json")]
     pub out: PathBuf,
@@ -101,6 +105,7 @@ struct EvalOutput {
     checkpoint: PathBuf,
     nominal: EvalReport,
     sweep: Vec<SweepEntry>,
+    v2: Option<skillmimic_learn::eval::V2Report>,
 }
 
 /// Ball factors of the robustness sweep: (radius, density, restitution) scale factors.
@@ -119,6 +124,8 @@ pub fn eval(a: EvalArgs) -> anyhow::Result<()> {
     if a.episodes == 0 {
         bail!("--episodes must be at least 1");
     }
+    // more environments than episodes would only burn time (each env contributes its first ones)
+    cfg.env.num_envs = cfg.env.num_envs.min(a.episodes);
     let run_one = |env_cfg: skillmimic_env::EnvConfig| -> anyhow::Result<EvalReport> {
         let mut env = SkillEnv::from_config(env_cfg)?;
         if (env.obs_dim(), env.act_dim()) != (c.policy.obs_dim(), c.policy.act_dim()) {
@@ -150,7 +157,33 @@ pub fn eval(a: EvalArgs) -> anyhow::Result<()> {
     for s in &sweep {
         println!("  ball radius x{} density x{} restitution x{}: NR {:.4}, Acc {:.1} %", s.radius_scale, s.density_scale, s.restitution_scale, s.report.nr, s.report.acc_percent);
     }
-    let out = EvalOutput { checkpoint: a.checkpoint.clone(), nominal, sweep };
+    let mut v2 = None;
+    if a.v2 {
+        let vcfg = skillmimic_learn::eval::V2EvalConfig {
+            episodes: a.episodes,
+            horizon: a.horizon.unwrap_or(600),
+            start_frame: a.start_frame.unwrap_or(2),
+            seed: a.seed,
+            ..Default::default()
+        };
+        let lib = std::sync::Arc::new(skillmimic_env::load_motion_library(&cfg.env.motion)?);
+        let r = skillmimic_learn::eval::evaluate_v2(&c.policy, &cfg.env, &lib, &vcfg, 0)?;
+        println!(
+            "SkillMimic-V2 ({} episodes per case, {} steps from frame {}): SR {:.3}, TSR {:.3}, eps-NSR {:.3}, NR {:.4}",
+            vcfg.episodes, vcfg.horizon, vcfg.start_frame, r.sr_mean, r.tsr_mean, r.eps_nsr_mean, r.nr_mean
+        );
+        for (k, v) in &r.sr {
+            println!("  skill {k}: SR {v:.3}  eps-NSR {:.3}  NR {:.4}", r.eps_nsr[k], r.nr[k]);
+        }
+        for (k, v) in &r.tsr {
+            println!("  transition {k}: TSR {v:.3}");
+        }
+        for s in &r.skills_without_rule {
+            println!("  skill {s:03}: no success rule (NR {:.4})", r.nr[&format!("{s:03}")]);
+        }
+        v2 = Some(r);
+    }
+    let out = EvalOutput { checkpoint: a.checkpoint.clone(), nominal, sweep, v2 };
     skillmimic_core::tensorfile::write_bytes_atomic(&a.out, serde_json::to_string_pretty(&out)?.as_bytes())
         .with_context(|| format!("cannot write {}", a.out.display()))?;
     println!("wrote {}", a.out.display());

@@ -9,6 +9,8 @@ use clap::{Parser, Subcommand};
 
 mod bench;
 mod bench_learner;
+mod bench_train;
+mod cmd_history;
 mod cmd_mjcf;
 mod cmd_motion;
 mod cmd_play;
@@ -52,11 +54,28 @@ enum Command {
     SynthMotions(cmd_motion::SynthArgs),
     /// Short simulation demo on the batched core.
     Demo(demo::Args),
+    /// SkillMimic-V2 history encoder tools (pre-training).
+    #[command(subcommand)]
+    History(cmd_history::HistoryCommand),
     /// Record a physics trace (initial state, actions, final state) for cross-checks with PyPI mujoco.
     Trace(cmd_trace::Args),
 }
 
+/// Keep freed large blocks in the process instead of returning them to the kernel: candle
+/// allocates fresh multi-megabyte tensors for every operation, and with glibc's defaults each of
+/// them is a new mmap whose pages fault in again (measured on history pre-training: 4.6 s of
+/// 8.8 s were kernel time; with these settings 0.4 s, 1.3–1.4x faster overall).
+fn tune_allocator() {
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    // SAFETY: mallopt only changes allocator thresholds; called before any other thread exists.
+    unsafe {
+        libc::mallopt(libc::M_MMAP_THRESHOLD, 32 << 20);
+        libc::mallopt(libc::M_TRIM_THRESHOLD, 1 << 30);
+    }
+}
+
 fn main() -> ExitCode {
+    tune_allocator();
     tracing_subscriber::fmt()
         .with_env_filter(
             tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info")),
@@ -77,6 +96,7 @@ fn main() -> ExitCode {
         Command::Convert(a) => cmd_motion::convert(a),
         Command::SynthMotions(a) => cmd_motion::synth(a),
         Command::Trace(a) => cmd_trace::run(a),
+        Command::History(c) => cmd_history::run(c),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -17,11 +17,18 @@ use skillmimic_core::skeleton::NUM_DOFS;
 use skillmimic_motion::{ClipError, MotionLibrary};
 use skillmimic_sim::{BatchSim, BatchState, ResetState, Scene, SimError};
 
-use crate::config::{ConfigError, EnvConfig, StateInit};
+use rand::Rng;
+
+use crate::config::{ConfigError, EnvConfig, MaskedReward, StateInit};
 use crate::episode::{Episode, random_ball, reset_state_from_clip};
 use crate::hoi::{ContactGraph, HoiState, MAX_CG, dist};
 use crate::obs::{layout, write_observation};
 use crate::reward::{self, NUM_TERMS};
+use crate::v2::ats::AdaptiveSampler;
+use crate::v2::graph::StitchGraph;
+use crate::v2::history::{HistoryBuffer, HistoryEncoder, HistoryError, reference_features};
+use crate::v2::similarity::masked_steps;
+use crate::v2::transition::{connect, perturb};
 
 /// Motion source name of the built-in demo clips (the clips of `motions/`, synthesised in memory).
 pub const BUILTIN_DEMO: &str = "builtin:demo";
@@ -56,6 +63,35 @@ pub enum EnvError {
     Clip(#[from] ClipError),
     #[error(transparent)]
     Config(#[from] ConfigError),
+    #[error(transparent)]
+    History(#[from] HistoryError),
+}
+
+/// How a pending reset starts (SkillMimic-V2 plans; `Plain` otherwise).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ResetPlan {
+    /// Reference-state initialisation at the sampled (clip, frame).
+    Plain,
+    /// Perturbed start, connected after forward kinematics to the most similar frame of the clip.
+    Connect,
+    /// Start state of the sampled (clip, frame), imitating another skill (graph connection).
+    Switch,
+}
+
+/// SkillMimic-V2 state of the environment (parts that are switched off stay empty).
+#[derive(Default)]
+struct V2State {
+    encoder: Option<Arc<HistoryEncoder>>,
+    /// `[clip][T × 316]` reference history features.
+    ref_features: Vec<Vec<f32>>,
+    /// One per environment (`None` without the history encoder).
+    history: Vec<Option<HistoryBuffer>>,
+    graph: Option<StitchGraph>,
+    ats: Option<AdaptiveSampler>,
+    plans: Vec<ResetPlan>,
+    /// (clip, frame) the physical start state came from (its reference rows fill the history
+    /// at the reset).
+    sources: Vec<(usize, usize)>,
 }
 
 /// Output buffers of the last step (environment-major, float32).
@@ -93,6 +129,31 @@ pub struct SkillEnv {
     reset_mask: Vec<bool>,
     reset_states: Vec<ResetState>,
     ball_radius: f64,
+    obs_dim: usize,
+    v2: V2State,
+    /// Skill condition forced on every new episode (transition success rate evaluation).
+    skill_override: Option<u32>,
+}
+
+/// A fresh episode on frame `start` of `clip` with the configured length rules.
+fn new_episode(cfg: &EnvConfig, lib: &MotionLibrary, clip: usize, start: usize) -> Episode {
+    let m = lib.get(clip);
+    let max_len = if cfg.fixed_horizon > 0 { usize::MAX } else { cfg.episode_length };
+    let mut ep = Episode::new(m, clip, start, max_len);
+    if cfg.fixed_horizon > 0 {
+        ep.length = cfg.fixed_horizon + 1;
+    }
+    ep
+}
+
+/// Set the masked bridging steps of a connection with similarity `beta`.
+fn set_bridge(ep: &mut Episode, cfg: &EnvConfig, beta: f64) {
+    let b = &cfg.v2.bridge;
+    ep.masked_steps = masked_steps(beta, b.max_masked_steps, b.tau);
+    ep.inserted = match b.masked_reward {
+        MaskedReward::Exclude => ep.masked_steps,
+        MaskedReward::ReplaceWithClipMean => 0,
+    };
 }
 
 impl SkillEnv {
@@ -102,8 +163,21 @@ impl SkillEnv {
         let options = cfg.scene_options()?;
         let scene = Arc::new(Scene::new(options)?);
         let n = cfg.num_envs;
-        let sim = BatchSim::new(scene, n, cfg.threads)?;
-        let obs_dim = layout::OBS_DIM;
+        let sim = BatchSim::new(Arc::clone(&scene), n, cfg.threads)?;
+        let mut v2 = V2State { plans: vec![ResetPlan::Plain; n], sources: vec![(0, 2); n], history: vec![None; n], ..Default::default() };
+        if cfg.v2.history.enabled {
+            let enc = Arc::new(HistoryEncoder::load(&cfg.v2.history.encoder)?);
+            v2.ref_features = reference_features(Arc::clone(&scene), &lib)?;
+            v2.history = (0..n).map(|_| Some(HistoryBuffer::new(&enc))).collect();
+            v2.encoder = Some(enc);
+        }
+        if cfg.v2.stg.enabled {
+            v2.graph = Some(sim.install(|| StitchGraph::build(&lib, &cfg.reward, cfg.v2.bridge.tau)));
+        }
+        if cfg.v2.ats.enabled {
+            v2.ats = Some(AdaptiveSampler::new(&lib, &cfg.v2.ats));
+        }
+        let obs_dim = layout::OBS_DIM + v2.encoder.as_ref().map_or(0, |e| e.embed_dim());
         let first = &lib.get(0);
         let mut env = Self {
             rng: ChaCha8Rng::seed_from_u64(cfg.seed),
@@ -123,6 +197,9 @@ impl SkillEnv {
             reset_mask: vec![false; n],
             reset_states: vec![ResetState::default(); n],
             ball_radius: options.ball.radius,
+            obs_dim,
+            v2,
+            skill_override: None,
             cfg,
             lib,
             sim,
@@ -139,14 +216,15 @@ impl SkillEnv {
     }
 
     /// Recompute every observation from the current simulation state (after raw state edits).
+    /// The history embedding entries (last μ) keep the value computed at the last step or reset.
     pub fn refresh_observations(&mut self) {
-        let Self { sim, episodes, buf, .. } = self;
+        let Self { sim, episodes, buf, obs_dim, .. } = self;
         let state = sim.state();
         sim.install(|| {
-            (episodes.par_iter(), buf.obs.par_chunks_mut(layout::OBS_DIM))
+            (episodes.par_iter(), buf.obs.par_chunks_mut(*obs_dim))
                 .into_par_iter()
                 .enumerate()
-                .for_each(|(i, (ep, obs))| write_observation(&state.env(i), ep.skill, obs));
+                .for_each(|(i, (ep, obs))| write_observation(&state.env(i), ep.skill, &mut obs[..layout::OBS_DIM]));
         });
     }
 
@@ -154,9 +232,9 @@ impl SkillEnv {
     pub fn num_envs(&self) -> usize {
         self.episodes.len()
     }
-    /// Observation width.
+    /// Observation width: 902, plus the history embedding width μ when the encoder is on.
     pub fn obs_dim(&self) -> usize {
-        layout::OBS_DIM
+        self.obs_dim
     }
     /// Action width.
     pub fn act_dim(&self) -> usize {
@@ -190,6 +268,37 @@ impl SkillEnv {
     pub fn episodes(&self) -> &[Episode] {
         &self.episodes
     }
+    /// The pending or last reset plan of environment `i` (SkillMimic-V2 diagnostics).
+    pub fn reset_plan(&self, i: usize) -> ResetPlan {
+        self.v2.plans[i]
+    }
+    /// The (clip, frame) whose state started the current episode of environment `i` (before any
+    /// perturbation; with an STG switch the imitated clip differs).
+    pub fn start_source(&self, i: usize) -> (usize, usize) {
+        self.v2.sources[i]
+    }
+    /// The history encoder, when on.
+    pub fn history_encoder(&self) -> Option<&Arc<HistoryEncoder>> {
+        self.v2.encoder.as_ref()
+    }
+    /// The current history window of environment `i` (k × 316, oldest first), when on.
+    pub fn history_window(&self, i: usize) -> Option<Vec<f32>> {
+        self.v2.history[i].as_ref().map(|h| h.window())
+    }
+    /// The Stitched Trajectory Graph, when on.
+    pub fn stitch_graph(&self) -> Option<&StitchGraph> {
+        self.v2.graph.as_ref()
+    }
+    /// The adaptive sampler, when on.
+    pub fn adaptive_sampler(&self) -> Option<&AdaptiveSampler> {
+        self.v2.ats.as_ref()
+    }
+    /// Force the skill condition of every new episode (`None` = the clip's own label); used to
+    /// measure transition success (start from one skill's states, ask for another).
+    pub fn set_skill_override(&mut self, skill: Option<u32>) {
+        self.skill_override = skill;
+    }
+
     /// SAME_STEP autoreset on or off (default off: call [`reset_done`](Self::reset_done)).
     pub fn set_autoreset(&mut self, on: bool) {
         self.autoreset = on;
@@ -212,6 +321,7 @@ impl SkillEnv {
             self.reset_mask[i] = done;
             if done {
                 any = true;
+                self.finish_episode(i);
                 self.plan_reset(i);
             }
         }
@@ -220,28 +330,62 @@ impl SkillEnv {
         }
     }
 
-    /// Choose the start of a new episode for environment `i`: a clip from the class-balanced
-    /// distribution and a start frame (random 2…T−2 or the configured frame).
+    /// Bookkeeping of a finished episode (Adaptive Trajectory Sampling).
+    fn finish_episode(&mut self, i: usize) {
+        let ep = &self.episodes[i];
+        if let Some(ats) = self.v2.ats.as_mut() {
+            if ep.progress > 0 {
+                ats.record(ep.clip, ep.ref_start, ep.reward_sum / ep.rewarded_horizon().max(1) as f64);
+            }
+        }
+    }
+
+    /// Choose the start of a new episode for environment `i`: a clip and start frame (class-
+    /// balanced clip and uniform frame 2…T−2, the configured frame, or the adaptive sampler),
+    /// then the SkillMimic-V2 start variants: with probability p_n a perturbed start (connected
+    /// to the clip after forward kinematics, in `apply_resets`), otherwise with probability p_e
+    /// the imitation of another skill from this state through the Stitched Trajectory Graph.
     fn plan_reset(&mut self, i: usize) {
         let lib = Arc::clone(&self.lib);
-        let clip = lib.sample_clip(&mut self.rng);
-        let m = lib.get(clip);
-        let t = m.clip.num_frames;
-        let start = match self.cfg.state_init {
-            StateInit::Random => lib.sample_start(clip, &mut self.rng),
-            StateInit::Frame(f) => f.min(t - 2),
+        let (clip, start) = match (self.cfg.state_init, self.v2.ats.as_ref()) {
+            (StateInit::Random, Some(ats)) => ats.sample(&mut self.rng),
+            (StateInit::Random, None) => {
+                let c = lib.sample_clip(&mut self.rng);
+                (c, lib.sample_start(c, &mut self.rng))
+            }
+            (StateInit::Frame(f), _) => {
+                let c = lib.sample_clip(&mut self.rng);
+                (c, f.min(lib.get(c).clip.num_frames - 2))
+            }
         };
-        let max_len = if self.cfg.fixed_horizon > 0 { usize::MAX } else { self.cfg.episode_length };
-        let mut ep = Episode::new(m, clip, start, max_len);
-        if self.cfg.fixed_horizon > 0 {
-            ep.length = self.cfg.fixed_horizon + 1;
-        }
+        let m = lib.get(clip);
+        let mut ep = new_episode(&self.cfg, &lib, clip, start);
         let mut state = reset_state_from_clip(m, start);
         if ep.ball_free {
             random_ball(&mut state, self.ball_radius, &mut self.rng);
         }
+        let v2 = &self.cfg.v2;
+        let mut plan = ResetPlan::Plain;
+        if v2.stf.enabled && self.rng.random::<f64>() < v2.stf.prob {
+            perturb(&mut state, &v2.stf.eps, !ep.ball_free, &mut self.rng);
+            plan = ResetPlan::Connect;
+        } else if v2.stg.enabled && self.rng.random::<f64>() < v2.stg.prob {
+            let conns = self.v2.graph.as_ref().map_or(&[][..], |g| g.connections(clip, start));
+            if !conns.is_empty() {
+                let c = conns[self.rng.random_range(0..conns.len())];
+                ep = new_episode(&self.cfg, &lib, c.clip, c.frame);
+                ep.align = c.align;
+                set_bridge(&mut ep, &self.cfg, c.similarity);
+                plan = ResetPlan::Switch;
+            }
+        }
+        if let Some(s) = self.skill_override {
+            ep.skill = s;
+        }
         self.episodes[i] = ep;
         self.reset_states[i] = state;
+        self.v2.plans[i] = plan;
+        self.v2.sources[i] = (clip, start);
     }
 
     /// Reset the environments selected by `mask` to newly sampled reference states.
@@ -257,21 +401,37 @@ impl SkillEnv {
     }
 
     /// Reset the environments in `reset_mask` to the states already placed in `reset_states`
-    /// and `episodes`, then refresh their observations (and clear their done flags if asked).
+    /// and `episodes`, connect perturbed starts to their clip, fill the history buffers, then
+    /// refresh the observations (and clear the done flags if asked).
     fn apply_resets(&mut self, clear_flags: bool) {
         self.sim.reset(&self.reset_mask, &self.reset_states).expect("reset states come from validated clips");
-        let Self { sim, episodes, buf, reset_mask, .. } = self;
+        let Self { sim, episodes, buf, reset_mask, v2, lib, cfg, obs_dim, .. } = self;
         let state = sim.state();
         let mask = &*reset_mask;
+        let (lib, cfg): (&MotionLibrary, &EnvConfig) = (lib, cfg);
+        let (enc, ref_features, plans, sources) = (v2.encoder.as_deref(), &v2.ref_features, &v2.plans, &v2.sources);
         sim.install(|| {
-            (episodes.par_iter_mut(), buf.obs.par_chunks_mut(layout::OBS_DIM)).into_par_iter().enumerate().for_each(
-                |(i, (ep, obs))| {
+            (episodes.par_iter_mut(), buf.obs.par_chunks_mut(*obs_dim), v2.history.par_iter_mut()).into_par_iter().enumerate().for_each(
+                |(i, (ep, obs, hist))| {
                     if !mask[i] {
                         return;
                     }
                     let st = state.env(i);
+                    if plans[i] == ResetPlan::Connect {
+                        let m = lib.get(ep.clip);
+                        let (j, beta) = connect(&HoiState::from_sim(&st), m, &cfg.reward, ep.ball_free);
+                        let skill = ep.skill;
+                        *ep = new_episode(cfg, lib, ep.clip, j);
+                        ep.skill = skill;
+                        set_bridge(ep, cfg, beta);
+                    }
                     ep.prev_dof_vel.copy_from_slice(st.dof_vel);
-                    write_observation(&st, ep.skill, obs);
+                    write_observation(&st, ep.skill, &mut obs[..layout::OBS_DIM]);
+                    if let (Some(enc), Some(h)) = (enc, hist.as_mut()) {
+                        let (clip, frame) = sources[i];
+                        h.fill_from_reference(enc, &ref_features[clip], frame);
+                        h.observe(enc, obs, st.dof_pos, !ep.ball_free);
+                    }
                 },
             );
         });
@@ -288,12 +448,14 @@ impl SkillEnv {
     /// Advance all environments by one policy step with `actions` (`N × 156`, clamped to [−1, 1]).
     pub fn step(&mut self, actions: &[f32]) -> Result<(), EnvError> {
         self.sim.step(actions)?;
-        let Self { sim, episodes, buf, lib, cfg, .. } = self;
+        let Self { sim, episodes, buf, lib, cfg, v2, obs_dim, .. } = self;
         let (state, lib, cfg): (&BatchState, &MotionLibrary, &EnvConfig) = (sim.state(), lib, cfg);
+        let enc = v2.encoder.as_deref();
         sim.install(|| {
             (
                 episodes.par_iter_mut(),
-                buf.obs.par_chunks_mut(layout::OBS_DIM),
+                buf.obs.par_chunks_mut(*obs_dim),
+                v2.history.par_iter_mut(),
                 buf.reward.par_iter_mut(),
                 buf.terms.par_chunks_mut(NUM_TERMS),
                 buf.contact_graph.par_chunks_mut(MAX_CG),
@@ -303,7 +465,7 @@ impl SkillEnv {
             )
                 .into_par_iter()
                 .enumerate()
-                .for_each(|(i, (ep, obs, rew, terms, cg, metrics, term, trunc))| {
+                .for_each(|(i, (ep, obs, hist, rew, terms, cg, metrics, term, trunc))| {
                     let st = state.env(i);
                     ep.progress += 1;
                     let m = lib.get(ep.clip);
@@ -318,8 +480,8 @@ impl SkillEnv {
                     for (o, v) in terms.iter_mut().zip(t.as_array()) {
                         *o = v as f32;
                     }
-                    *rew = if ep.progress <= ep.masked_steps { 0.0 } else { t.total as f32 };
-                    if ep.progress > ep.masked_steps {
+                    *rew = if ep.is_masked() { 0.0 } else { t.total as f32 };
+                    if !ep.is_masked() {
                         ep.reward_sum += t.total;
                         ep.reward_steps += 1;
                     }
@@ -336,16 +498,26 @@ impl SkillEnv {
                     metrics[2] = f32::from(u8::from(cg_sim.matches(&cg_ref)));
                     metrics[3] = cg_sim.sq_error(&cg_ref) as f32;
 
-                    write_observation(&st, ep.skill, obs);
+                    write_observation(&st, ep.skill, &mut obs[..layout::OBS_DIM]);
+                    if let (Some(enc), Some(h)) = (enc, hist.as_mut()) {
+                        // h_t from frames t−k … t−1, then the current frame joins the history
+                        h.observe(enc, obs, st.dof_pos, !ep.ball_free);
+                    }
                     // the get-up skill (label 0) never terminates early (SkillMimic-V2)
                     let fell = st.pos(0)[2] < cfg.termination_height && ep.progress > 1 && ep.skill != 0;
                     *term = u8::from(fell || st.unstable);
-                    *trunc = u8::from(*term == 0 && ep.progress + 1 >= ep.length);
+                    *trunc = u8::from(*term == 0 && ep.progress >= ep.horizon());
                 });
         });
+        if self.cfg.v2.bridge.masked_reward == MaskedReward::ReplaceWithClipMean {
+            self.replace_masked_rewards();
+        }
+        if let Some(ats) = self.v2.ats.as_mut() {
+            ats.tick();
+        }
         if self.autoreset {
             let n = self.num_envs();
-            let d = layout::OBS_DIM;
+            let d = self.obs_dim;
             let mut any = false;
             for i in 0..n {
                 let done = self.buf.terminated[i] != 0 || self.buf.truncated[i] != 0;
@@ -360,6 +532,7 @@ impl SkillEnv {
             if any {
                 for i in 0..n {
                     if self.reset_mask[i] {
+                        self.finish_episode(i);
                         self.plan_reset(i);
                     }
                 }
@@ -368,5 +541,26 @@ impl SkillEnv {
             }
         }
         Ok(())
+    }
+
+    /// Reference-code compatibility of the masked steps: their reward becomes the mean reward of
+    /// all environments currently on the same clip.
+    fn replace_masked_rewards(&mut self) {
+        if !self.episodes.iter().any(|e| e.masked_steps > 0 && e.is_masked()) {
+            return;
+        }
+        let total = reward::TERM_NAMES.len() - 1;
+        let mut sums = vec![(0.0f64, 0usize); self.lib.len()];
+        for (i, ep) in self.episodes.iter().enumerate() {
+            let s = &mut sums[ep.clip];
+            s.0 += self.buf.terms[i * NUM_TERMS + total] as f64;
+            s.1 += 1;
+        }
+        for (i, ep) in self.episodes.iter().enumerate() {
+            if ep.masked_steps > 0 && ep.is_masked() {
+                let (s, c) = sums[ep.clip];
+                self.buf.reward[i] = (s / c as f64) as f32;
+            }
+        }
     }
 }

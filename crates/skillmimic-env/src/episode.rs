@@ -39,6 +39,10 @@ pub struct Episode {
     pub align: RefAlign,
     /// Steps at the start of the episode whose reward is masked (SkillMimic-V2 bridging).
     pub masked_steps: usize,
+    /// Of those, the steps inserted before the reference starts to advance (the reference holds
+    /// frame `ref_start` meanwhile): `masked_steps` in the paper's mode, 0 in the reference
+    /// code's compatibility mode.
+    pub inserted: usize,
     /// Simulated joint velocities of the previous step (regulariser).
     pub prev_dof_vel: [f64; NUM_DOFS],
     /// Sum of rewards and count of rewarded steps in this episode.
@@ -59,6 +63,7 @@ impl Episode {
             ball_free: BALL_FREE_SKILLS.contains(&skill),
             align: RefAlign::IDENTITY,
             masked_steps: 0,
+            inserted: 0,
             prev_dof_vel: [0.0; NUM_DOFS],
             reward_sum: 0.0,
             reward_steps: 0,
@@ -67,7 +72,22 @@ impl Episode {
 
     /// Reference frame index of the current step.
     pub fn ref_frame(&self) -> usize {
-        self.ref_start + self.progress
+        self.ref_start + self.progress.saturating_sub(self.inserted)
+    }
+
+    /// Policy steps after which the episode is truncated: E − 1 plus the inserted steps.
+    pub fn horizon(&self) -> usize {
+        self.length - 1 + self.inserted
+    }
+
+    /// Steps whose reward counts (the horizon without the masked steps).
+    pub fn rewarded_horizon(&self) -> usize {
+        self.horizon().saturating_sub(self.masked_steps)
+    }
+
+    /// True while the current step's reward is masked.
+    pub fn is_masked(&self) -> bool {
+        self.progress <= self.masked_steps
     }
 }
 

@@ -9,7 +9,9 @@
 //! * [`env`]: the batched environment;
 //! * [`replay`]: kinematic replay of clips scored against themselves;
 //! * [`synth`]: procedural demo clips (IK stand-and-dribble) shipped in `motions/`;
-//! * [`metrics`]: evaluation metrics (Acc, MPJPE, E_cg, skill success rules of V1 and V2).
+//! * [`metrics`]: evaluation metrics (Acc, MPJPE, E_cg, skill success rules of V1 and V2);
+//! * [`v2`]: SkillMimic-V2 — history encoder, State Transition Field, Stitched Trajectory Graph,
+//!   Adaptive Trajectory Sampling.
 
 pub mod config;
 pub mod env;
@@ -20,6 +22,7 @@ pub mod obs;
 pub mod replay;
 pub mod reward;
 pub mod synth;
+pub mod v2;
 
 pub use config::{ContactGraphMode, EnvConfig, RewardConfig, RewardVariant, StateInit};
-pub use env::{BUILTIN_DEMO, EnvError, SkillEnv, StepBuffers, load_motion_library};
+pub use env::{BUILTIN_DEMO, EnvError, ResetPlan, SkillEnv, StepBuffers, load_motion_library};

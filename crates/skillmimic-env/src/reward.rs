@@ -106,6 +106,16 @@ pub fn err_ball_rot(s: &HoiState, r: &HoiState) -> f64 {
     s.ball_quat.conj().mul(r.ball_quat).angle().powi(2)
 }
 
+/// Mean squared error of the ball linear velocity.
+pub fn err_ball_linvel(s: &HoiState, r: &HoiState) -> f64 {
+    sq3(s.ball_linvel, r.ball_linvel) / 3.0
+}
+
+/// Mean squared error of the ball angular velocity (world frame).
+pub fn err_ball_angvel(s: &HoiState, r: &HoiState) -> f64 {
+    sq3(s.ball_angvel, r.ball_angvel) / 3.0
+}
+
 /// Mean squared error of the interaction-graph vectors (root and key bodies minus the ball).
 pub fn err_relative(s: &HoiState, r: &HoiState) -> f64 {
     let rel = |a: [f64; 3], ball: [f64; 3]| [a[0] - ball[0], a[1] - ball[1], a[2] - ball[2]];
@@ -159,8 +169,8 @@ pub fn compute(
         (
             ex(cfg.w_op, err_ball_pos(sim, reference)),
             ex(cfg.w_or, err_ball_rot(sim, reference)),
-            ex(cfg.w_opv, sq3(sim.ball_linvel, reference.ball_linvel) / 3.0),
-            ex(cfg.w_orv, sq3(sim.ball_angvel, reference.ball_angvel) / 3.0),
+            ex(cfg.w_opv, err_ball_linvel(sim, reference)),
+            ex(cfg.w_orv, err_ball_angvel(sim, reference)),
             ex(cfg.w_ig, err_relative(sim, reference)),
             contact_graph_reward(cg_sim, cg_ref, cfg),
         )

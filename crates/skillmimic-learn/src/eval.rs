@@ -1,7 +1,9 @@
 //! Policy evaluation on the environment: imitation metrics (Acc, E_b-mpjpe, E_o-mpjpe, E_cg),
 //! the normalised reward NR (mean per-step reward of finished episodes), and per-skill success
 //! of SkillMimic (V1 scores) and SkillMimic-V2 (success rate), over a fixed number of seeded
-//! episodes with the deterministic policy (action = μ) unless `stochastic` is set.
+//! episodes with the deterministic policy (action = μ) unless `stochastic` is set. Each
+//! environment contributes its first ⌈episodes / N⌉ or ⌊episodes / N⌋ episodes, so the sample is
+//! not biased towards episodes that end early.
 
 use std::collections::BTreeMap;
 
@@ -9,8 +11,10 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 use skillmimic_env::metrics::{FrameState, ImitationMetrics, V1Success, V2Success, skill_kind};
-use skillmimic_env::SkillEnv;
+use skillmimic_env::{EnvConfig, EnvError, SkillEnv, StateInit};
+use skillmimic_motion::MotionLibrary;
 use skillmimic_sim::BALL;
+use std::sync::Arc;
 
 use crate::policy::{InferenceBuffers, Policy};
 
@@ -27,7 +31,8 @@ pub struct SkillReport {
     /// SkillMimic success score (dribble fraction or 0/1), mean over episodes; null if the skill
     /// has no rule.
     pub v1_score: Option<f64>,
-    /// SkillMimic-V2 success rate; null if the skill has no rule.
+    /// SkillMimic-V2 success rate (the rule holds at the episode's end and the episode did not
+    /// end in a fall); null if the skill has no rule.
     pub v2_success_rate: Option<f64>,
 }
 
@@ -56,23 +61,53 @@ struct Tracker {
     reward: f64,
 }
 
-fn tracker(env: &SkillEnv, i: usize) -> Tracker {
+/// Highest ball height of a clip (the shot/layup target height).
+fn max_ball_height(clip: &skillmimic_motion::Clip) -> f64 {
+    clip.ball_pos.chunks_exact(3).map(|p| p[2] as f64).fold(f64::NEG_INFINITY, f64::max)
+}
+
+/// Target height per skill: the highest ball position of the skill's first clip ("clip 0" of the
+/// reference metric).
+pub fn target_heights(lib: &MotionLibrary) -> BTreeMap<u32, f64> {
+    let mut m = BTreeMap::new();
+    for c in 0..lib.len() {
+        let clip = &lib.get(c).clip;
+        m.entry(clip.skill).or_insert_with(|| max_ball_height(clip));
+    }
+    m
+}
+
+fn tracker(env: &SkillEnv, i: usize, heights: &BTreeMap<u32, f64>) -> Tracker {
     let ep = env.episode(i);
-    let clip = &env.library().get(ep.clip).clip;
-    let target = clip.ball_pos.chunks_exact(3).map(|p| p[2] as f64).fold(f64::NEG_INFINITY, f64::max);
+    let target = heights.get(&ep.skill).copied().unwrap_or_else(|| max_ball_height(&env.library().get(ep.clip).clip));
     let kind = skill_kind(ep.skill);
     Tracker { v1: kind.map(|k| V1Success::new(k, target)), v2: kind.map(|k| V2Success::new(k, target)), steps: 0, reward: 0.0 }
 }
 
 /// Evaluate `policy` on `env` for `episodes` finished episodes.
 pub fn evaluate(policy: &Policy, env: &mut SkillEnv, episodes: usize, seed: u64, stochastic: bool, threads: usize) -> EvalReport {
+    let heights = target_heights(env.library());
+    evaluate_with(policy, env, episodes, seed, stochastic, threads, &heights)
+}
+
+/// [`evaluate`] with the success-rule target heights given per skill (transition runs, whose
+/// library holds only the source skill's clips).
+pub fn evaluate_with(
+    policy: &Policy,
+    env: &mut SkillEnv,
+    episodes: usize,
+    seed: u64,
+    stochastic: bool,
+    threads: usize,
+    heights: &BTreeMap<u32, f64>,
+) -> EvalReport {
     let (n, a) = (env.num_envs(), env.act_dim());
     env.set_autoreset(false);
     env.reset_all(Some(seed));
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5eed);
     let mut buf = InferenceBuffers::default();
     let (mut mu, mut values, mut actions, mut neglogp) = (vec![0.0; n * a], vec![0.0; n], vec![0.0; n * a], vec![0.0; n]);
-    let mut trackers: Vec<Tracker> = (0..n).map(|i| tracker(env, i)).collect();
+    let mut trackers: Vec<Tracker> = (0..n).map(|i| tracker(env, i, heights)).collect();
     let mut imitation = ImitationMetrics::default();
     let mut rep = EvalReport { seed, deterministic: !stochastic, ..Default::default() };
     struct Acc {
@@ -86,11 +121,15 @@ pub fn evaluate(policy: &Policy, env: &mut SkillEnv, episodes: usize, seed: u64,
     }
     let mut per: BTreeMap<u32, Acc> = BTreeMap::new();
     let (mut total_reward, mut total_steps, mut total_len, mut falls) = (0.0, 0.0, 0.0, 0usize);
+    // every environment contributes a fixed number of episodes (its first ones): counting the
+    // first `episodes` to finish would favour short episodes (late start frames, early falls)
+    let quota: Vec<usize> = (0..n).map(|i| episodes / n + usize::from(i < episodes % n)).collect();
+    let mut finished = vec![0usize; n];
     while rep.episodes < episodes {
         env.reset_done();
         for i in 0..n {
             if env.episode(i).progress == 0 && trackers[i].steps > 0 {
-                trackers[i] = tracker(env, i);
+                trackers[i] = tracker(env, i, heights);
             }
         }
         policy.infer(&env.buffers().obs, n, &mut buf, &mut mu, &mut values, threads);
@@ -114,9 +153,15 @@ pub fn evaluate(policy: &Policy, env: &mut SkillEnv, episodes: usize, seed: u64,
             }
             tr.steps += 1;
             tr.reward += b.reward[i] as f64;
-            imitation.add(&b.metrics[i * 4..(i + 1) * 4]);
+            let counted = finished[i] < quota[i];
+            if counted {
+                imitation.add(&b.metrics[i * 4..(i + 1) * 4]);
+            }
             let done = b.terminated[i] != 0 || b.truncated[i] != 0;
-            if done && rep.episodes < episodes {
+            if done {
+                finished[i] += 1;
+            }
+            if done && counted {
                 rep.episodes += 1;
                 let skill = env.episode(i).skill;
                 let e = per.entry(skill).or_insert(Acc { episodes: 0, len: 0.0, reward: 0.0, steps: 0.0, falls: 0, v1: vec![], v2: vec![] });
@@ -129,7 +174,9 @@ pub fn evaluate(policy: &Policy, env: &mut SkillEnv, episodes: usize, seed: u64,
                     e.v1.push(v.score());
                 }
                 if let Some(v) = &tr.v2 {
-                    e.v2.push(f64::from(u8::from(v.success())));
+                    // a fall ends the attempt: success must be sustained to the end (P2: "the
+                    // skill sustained for 10 s"), not latched before the fall
+                    e.v2.push(f64::from(u8::from(v.success() && b.terminated[i] == 0)));
                 }
                 total_reward += tr.reward;
                 total_steps += tr.steps as f64;
@@ -160,4 +207,105 @@ pub fn evaluate(policy: &Policy, env: &mut SkillEnv, episodes: usize, seed: u64,
         );
     }
     rep
+}
+
+/// Settings of the SkillMimic-V2 evaluation.
+#[derive(Clone, Debug, Serialize)]
+pub struct V2EvalConfig {
+    /// Episodes per skill (SR, εNSR, NR) and per skill pair (TSR).
+    pub episodes: usize,
+    /// Episode length of the success runs (600 = 10 s).
+    pub horizon: usize,
+    /// Reference frame every episode starts from.
+    pub start_frame: usize,
+    pub seed: u64,
+    /// Environments run in parallel per case.
+    pub num_envs: usize,
+}
+
+impl Default for V2EvalConfig {
+    fn default() -> Self {
+        Self { episodes: 16, horizon: 600, start_frame: 2, seed: 0, num_envs: 16 }
+    }
+}
+
+/// SkillMimic-V2 evaluation results (success rates are fractions in [0, 1]).
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct V2Report {
+    pub config: Option<V2EvalConfig>,
+    /// SR per skill: start at the skill's own reference state, hold the skill for the horizon.
+    pub sr: BTreeMap<String, f64>,
+    /// TSR per "source->target": start from the source skill's reference state while the
+    /// condition asks for the target skill; scored with the target skill's rule.
+    pub tsr: BTreeMap<String, f64>,
+    /// εNSR per skill: SR with every start perturbed in the training ε-neighbourhood (and
+    /// connected to the clip, as in training).
+    pub eps_nsr: BTreeMap<String, f64>,
+    /// NR per skill: mean per-step imitation reward, episodes ending with the clip.
+    pub nr: BTreeMap<String, f64>,
+    pub sr_mean: f64,
+    pub tsr_mean: f64,
+    pub eps_nsr_mean: f64,
+    pub nr_mean: f64,
+    /// Skills without a success rule (only NR is reported for them).
+    pub skills_without_rule: Vec<u32>,
+}
+
+fn mean_of(m: &BTreeMap<String, f64>) -> f64 {
+    if m.is_empty() { f64::NAN } else { m.values().sum::<f64>() / m.len() as f64 }
+}
+
+/// Run the V2 metrics for every skill of `lib` with a success rule (reference-facts §9.8):
+/// SR, TSR (every other skill of the library as source), εNSR and NR, deterministic actions,
+/// fixed seeds. `base` supplies the environment settings of training (scene, reward, history
+/// encoder, ε of the State Transition Field); STG and ATS are off during evaluation.
+pub fn evaluate_v2(policy: &Policy, base: &EnvConfig, lib: &Arc<MotionLibrary>, cfg: &V2EvalConfig, threads: usize) -> Result<V2Report, EnvError> {
+    let heights = target_heights(lib);
+    let mut skills: Vec<u32> = (0..lib.len()).map(|c| lib.get(c).clip.skill).collect();
+    skills.sort_unstable();
+    skills.dedup();
+    let subset = |s: u32| -> Result<Arc<MotionLibrary>, EnvError> {
+        let clips = (0..lib.len()).filter(|&c| lib.get(c).clip.skill == s).map(|c| lib.get(c).clip.clone()).collect();
+        Ok(Arc::new(MotionLibrary::from_clips(clips)?))
+    };
+    let env_cfg = |horizon: usize, noise: bool| {
+        let mut c = base.clone();
+        c.num_envs = cfg.num_envs.min(cfg.episodes).max(1);
+        c.state_init = StateInit::Frame(cfg.start_frame);
+        c.fixed_horizon = horizon;
+        if horizon == 0 {
+            c.episode_length = usize::MAX / 4; // the clip end decides
+        }
+        c.v2.stg.enabled = false;
+        c.v2.ats.enabled = false;
+        c.v2.stf.enabled = noise;
+        c.v2.stf.prob = 1.0;
+        c
+    };
+    let run = |c: EnvConfig, l: Arc<MotionLibrary>, over: Option<u32>| -> Result<EvalReport, EnvError> {
+        let mut env = SkillEnv::new(c, l)?;
+        env.set_skill_override(over);
+        Ok(evaluate_with(policy, &mut env, cfg.episodes, cfg.seed, false, threads, &heights))
+    };
+    let rate = |r: &EvalReport, s: u32| r.per_skill.get(&format!("{s:03}")).and_then(|k| k.v2_success_rate).unwrap_or(0.0);
+    let mut rep = V2Report { config: Some(cfg.clone()), ..Default::default() };
+    for &s in &skills {
+        let own = subset(s)?;
+        rep.nr.insert(format!("{s:03}"), run(env_cfg(0, false), own.clone(), None)?.nr);
+        if skill_kind(s).is_none() {
+            rep.skills_without_rule.push(s);
+            continue;
+        }
+        rep.sr.insert(format!("{s:03}"), rate(&run(env_cfg(cfg.horizon, false), own.clone(), None)?, s));
+        rep.eps_nsr.insert(format!("{s:03}"), rate(&run(env_cfg(cfg.horizon, true), own, None)?, s));
+        for &src in skills.iter().filter(|&&x| x != s) {
+            let r = run(env_cfg(cfg.horizon, false), subset(src)?, Some(s))?;
+            rep.tsr.insert(format!("{src:03}->{s:03}"), rate(&r, s));
+        }
+    }
+    rep.sr_mean = mean_of(&rep.sr);
+    rep.tsr_mean = mean_of(&rep.tsr);
+    rep.eps_nsr_mean = mean_of(&rep.eps_nsr);
+    rep.nr_mean = mean_of(&rep.nr);
+    Ok(rep)
 }

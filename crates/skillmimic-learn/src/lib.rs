@@ -16,6 +16,7 @@ pub mod config;
 pub mod eval;
 pub mod fast;
 pub mod gae;
+pub mod history_pretrain;
 pub mod kernel;
 pub mod mlp;
 pub mod normalizer;

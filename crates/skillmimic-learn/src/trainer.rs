@@ -7,6 +7,10 @@
 //! Inference writes into preallocated buffers; the value of a step's next observation is reused
 //! as the value of the following step whenever the environment was not reset in between.
 //!
+//! With the SkillMimic-V2 history encoder on, a fresh run copies the encoder file into
+//! `run.out_dir/history_encoder.safetensors` and its saved configuration points there, so the
+//! run's checkpoints stay usable when the original file moves.
+//!
 //! Everything is seeded from `run.seed` (network initialisation, action noise, minibatch
 //! shuffling, and the environment's clip/frame sampling), so two runs with the same seed and
 //! thread counts produce the same checkpoints bit for bit. A resumed run continues from the
@@ -57,6 +61,10 @@ pub struct IterationStats {
     /// Wall-clock seconds of this iteration: rollout, update, total.
     pub rollout_s: f64,
     pub update_s: f64,
+    /// Parts of `rollout_s`: environment stepping (simulation, observations, rewards, resets)
+    /// and policy inference (network, action sampling, bootstrap values).
+    pub env_s: f64,
+    pub inference_s: f64,
     pub samples_per_s: f64,
     /// Mean reward per environment step over the rollout.
     pub mean_reward: f64,
@@ -135,6 +143,17 @@ impl Trainer {
             )));
         }
         cfg.env.seed = cfg.run.seed;
+        if cfg.env.v2.history.enabled && resume.is_none() {
+            // the frozen encoder defines part of the policy's input: keep a copy with the run
+            let src = cfg.env.v2.history.encoder.clone();
+            let dst = cfg.run.out_dir.join("history_encoder.safetensors");
+            if src != dst {
+                std::fs::create_dir_all(&cfg.run.out_dir).map_err(io(&cfg.run.out_dir))?;
+                let bytes = std::fs::read(&src).map_err(io(&src))?;
+                skillmimic_core::tensorfile::write_bytes_atomic(&dst, &bytes).map_err(io(&dst))?;
+                cfg.env.v2.history.encoder = dst;
+            }
+        }
         let mut env = SkillEnv::from_config(cfg.env.clone())?;
         let (obs_dim, act_dim) = (env.obs_dim(), env.act_dim());
         let mut rng = ChaCha8Rng::seed_from_u64(cfg.run.seed);
@@ -215,8 +234,11 @@ impl Trainer {
         let mut term_sums = [0.0f64; NUM_TERMS];
         let (mut ep_count, mut ep_len_sum, mut ep_ret_sum, mut early) = (0usize, 0u64, 0.0f64, 0usize);
         let mut pending = false; // next_values[t-1] still to fill from values[t]
+        let mut env_time = std::time::Duration::ZERO;
         for t in 0..h {
+            let te = Instant::now();
             self.env.reset_done();
+            env_time += te.elapsed();
             let rows = t * n..(t + 1) * n;
             self.roll.obs[t * n * d..(t + 1) * n * d].copy_from_slice(&self.env.buffers().obs);
             let obs = &self.roll.obs[t * n * d..(t + 1) * n * d];
@@ -232,7 +254,9 @@ impl Trainer {
                 }
             }
             self.policy.sample(&self.mu, n, &mut self.rng, &mut self.roll.actions[t * n * a..(t + 1) * n * a], &mut self.roll.neglogp[rows.clone()]);
+            let te = Instant::now();
             self.env.step(&self.roll.actions[t * n * a..(t + 1) * n * a])?;
+            env_time += te.elapsed();
             let b = self.env.buffers();
             self.done_rows.clear();
             for i in 0..n {
@@ -272,6 +296,7 @@ impl Trainer {
             }
             pending = t + 1 < h;
         }
+        stats.env_s = env_time.as_secs_f64();
         let steps = (h * n) as f64;
         stats.mean_reward = self.roll.rewards.iter().map(|&r| r as f64).sum::<f64>() / steps;
         stats.reward_terms = TERM_NAMES.iter().zip(term_sums).map(|(nm, s)| (nm.to_string(), s / steps)).collect();
@@ -355,9 +380,25 @@ impl Trainer {
         stats.iteration = self.progress.iteration;
         stats.samples = self.progress.samples;
         stats.rollout_s = (t1 - t0).as_secs_f64();
+        stats.inference_s = (stats.rollout_s - stats.env_s).max(0.0);
         stats.update_s = (t2 - t1).as_secs_f64();
         stats.samples_per_s = self.cfg.batch_size() as f64 / (t2 - t0).as_secs_f64();
         Ok(stats)
+    }
+
+    /// Simulation-only throughput probe for `skillmimic bench train`: step the same environments
+    /// for one horizon with the actions of the last rollout (resets included, no inference, no
+    /// update) and return the wall-clock seconds. It advances the environments, so a benchmark
+    /// run's later training differs from an unprobed run's.
+    pub fn sim_only_horizon(&mut self) -> Result<f64, TrainError> {
+        self.alloc_rollout();
+        let (h, n, a) = (self.cfg.ppo.horizon, self.env.num_envs(), self.env.act_dim());
+        let t0 = Instant::now();
+        for t in 0..h {
+            self.env.reset_done();
+            self.env.step(&self.roll.actions[t * n * a..(t + 1) * n * a])?;
+        }
+        Ok(t0.elapsed().as_secs_f64())
     }
 
     /// Write a training checkpoint (atomic) and the effective config next to it.

@@ -237,6 +237,20 @@ impl CoreEnv {
         copy_obs(env, obs_out)
     }
 
+    /// The history window `(k, 316)` of environment `i` (SkillMimic-V2 history encoder), or None
+    /// when the encoder is off. Its embedding becomes the last μ observation entries at the next
+    /// step.
+    fn history_window<'py>(&self, py: Python<'py>, i: usize) -> PyResult<Option<Bound<'py, PyArray2<f32>>>> {
+        let env = self.env()?;
+        if i >= env.num_envs() {
+            return Err(PyValueError::new_err(format!("environment index {i} out of range (num_envs {})", env.num_envs())));
+        }
+        match env.history_window(i) {
+            None => Ok(None),
+            Some(w) => Ok(Some(to_2d(py, &w, skillmimic_env::v2::history::FEATURE_DIM)?)),
+        }
+    }
+
     /// Release the simulation (further calls raise RuntimeError).
     fn close(&mut self) {
         self.env = None;
@@ -282,6 +296,45 @@ impl Policy {
         py.detach(|| policy.infer(&x, n, buf, &mut mu, &mut v, 0));
         let _ = d;
         Ok((PyArray1::from_vec(py, mu).reshape([n, a])?, PyArray1::from_vec(py, v)))
+    }
+}
+
+/// A SkillMimic-V2 history encoder file, evaluated by the environment's Rust implementation.
+#[pyclass(module = "skillmimic_rs._core")]
+struct HistoryEncoder {
+    enc: skillmimic_env::v2::history::HistoryEncoder,
+}
+
+#[pymethods]
+impl HistoryEncoder {
+    /// Load an encoder written by `skillmimic history pretrain`.
+    #[staticmethod]
+    fn load(path: std::path::PathBuf) -> PyResult<Self> {
+        let enc = skillmimic_env::v2::history::HistoryEncoder::load(&path).map_err(value_error)?;
+        Ok(Self { enc })
+    }
+    /// History length k.
+    #[getter]
+    fn length(&self) -> usize {
+        self.enc.length()
+    }
+    /// Embedding width μ.
+    #[getter]
+    fn embed_dim(&self) -> usize {
+        self.enc.embed_dim()
+    }
+    /// Embeddings `(B, μ)` of windows `(B, k, 316)` (oldest frame first).
+    fn embed<'py>(&self, py: Python<'py>, windows: numpy::PyReadonlyArray3<'_, f32>) -> PyResult<Bound<'py, PyArray2<f32>>> {
+        use skillmimic_env::v2::history::FEATURE_DIM;
+        let b = windows.shape()[0];
+        check_shape("windows", windows.shape(), &[b, self.enc.length(), FEATURE_DIM])?;
+        let x = windows.as_slice().map_err(value_error)?;
+        let (k, mu) = (self.enc.length(), self.enc.embed_dim());
+        let mut out = vec![0.0f32; b * mu];
+        for (w, o) in x.chunks_exact(k * FEATURE_DIM).zip(out.chunks_exact_mut(mu)) {
+            self.enc.embed(w, o);
+        }
+        to_2d(py, &out, mu)
     }
 }
 
@@ -410,6 +463,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<CoreEnv>()?;
     m.add_class::<Policy>()?;
     m.add_class::<RunningMeanStd>()?;
+    m.add_class::<HistoryEncoder>()?;
     m.add_function(wrap_pyfunction!(core_version, m)?)?;
     m.add_function(wrap_pyfunction!(ppo_loss_and_grads, m)?)?;
     m.add("OBS_DIM", skillmimic_env::obs::layout::OBS_DIM)?;
