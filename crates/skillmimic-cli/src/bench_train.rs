@@ -6,22 +6,14 @@
 //! numbers see the same machine state. Ratio = end-to-end samples/s ÷ simulation-only
 //! samples/s (1.0 would mean learning is free).
 
-use std::path::PathBuf;
-
 use skillmimic_learn::trainer::Trainer;
 
-use crate::common::{ConfigFlags, assemble_config, init_learner_threads};
+use crate::common::{PresetArgs, init_learner_threads};
 
 #[derive(clap::Args)]
 pub struct TrainArgs {
-    /// Preset: paper (2048 envs), small (256 envs, paper network and PPO settings), tiny.
-    #[arg(long, default_value = "small")]
-    pub preset: String,
-    /// TOML config file over the preset.
-    #[arg(long)]
-    pub config: Option<PathBuf>,
     #[command(flatten)]
-    pub flags: ConfigFlags,
+    pub base: PresetArgs,
     /// Measured rounds (each: one training iteration + one simulation-only horizon).
     #[arg(long, default_value_t = 4)]
     pub rounds: usize,
@@ -40,14 +32,14 @@ fn median(v: &mut [f64]) -> f64 {
 }
 
 pub fn run(a: TrainArgs) -> anyhow::Result<()> {
-    let mut cfg = assemble_config(&a.preset, a.config.as_deref(), &a.flags)?;
+    let mut cfg = a.base.assemble()?;
     cfg.run.learner_threads = a.learner_threads;
     init_learner_threads(cfg.run.learner_threads);
     let mut trainer = Trainer::new(cfg.clone(), None)?;
     let batch = cfg.batch_size() as f64;
     println!(
         "bench train: preset '{}', {} envs x horizon {} = {} samples/iteration, network {:?}, minibatch {}, {} mini-epochs, backend {:?}, {} hands",
-        a.preset,
+        a.base.preset,
         cfg.env.num_envs,
         cfg.ppo.horizon,
         cfg.batch_size(),

@@ -11,18 +11,12 @@ use serde::Serialize;
 use skillmimic_learn::eval::{EvalReport, evaluate};
 use skillmimic_learn::trainer::{IterationStats, Trainer};
 
-use crate::common::{ConfigFlags, assemble_config, init_learner_threads};
+use crate::common::{PresetArgs, init_learner_threads};
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// Preset: paper (2048 envs), small (256 envs, paper network), tiny (smoke tests).
-    #[arg(long, default_value = "small")]
-    pub preset: String,
-    /// TOML config file with [env], [ppo] and [run] tables (over the preset).
-    #[arg(long)]
-    pub config: Option<PathBuf>,
     #[command(flatten)]
-    pub flags: ConfigFlags,
+    pub base: PresetArgs,
     /// Training iterations (`run.iterations`).
     #[arg(long)]
     pub iterations: Option<usize>,
@@ -84,7 +78,7 @@ fn describe(s: &IterationStats) -> String {
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
-    let mut cfg = assemble_config(&a.preset, a.config.as_deref(), &a.flags)?;
+    let mut cfg = a.base.assemble()?;
     if let Some(v) = a.iterations {
         cfg.run.iterations = v;
     }

@@ -42,6 +42,26 @@ impl ConfigFlags {
     }
 }
 
+/// Preset + config file + override flags (shared by train and bench train).
+#[derive(clap::Args, Clone, Debug)]
+pub struct PresetArgs {
+    /// Preset: paper (2048 envs), small (256 envs, paper network and PPO settings), tiny (smoke tests).
+    #[arg(long, default_value = "small")]
+    pub preset: String,
+    /// TOML config file with [env], [ppo] and [run] tables (over the preset).
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    #[command(flatten)]
+    pub flags: ConfigFlags,
+}
+
+impl PresetArgs {
+    /// The configuration these arguments describe.
+    pub fn assemble(&self) -> anyhow::Result<TrainConfig> {
+        assemble_config(&self.preset, self.config.as_deref(), &self.flags)
+    }
+}
+
 /// Preset, then the TOML file, then the flags.
 pub fn assemble_config(preset: &str, file: Option<&Path>, flags: &ConfigFlags) -> anyhow::Result<TrainConfig> {
     let base = TrainConfig::preset(preset).map_err(anyhow::Error::msg)?;

@@ -89,6 +89,8 @@ struct V2State {
     graph: Option<StitchGraph>,
     ats: Option<AdaptiveSampler>,
     plans: Vec<ResetPlan>,
+    /// Per clip (reward sum, count) scratch of the masked-reward compatibility mode.
+    clip_sums: Vec<(f64, usize)>,
     /// (clip, frame) the physical start state came from (its reference rows fill the history
     /// at the reset).
     sources: Vec<(usize, usize)>,
@@ -550,7 +552,9 @@ impl SkillEnv {
             return;
         }
         let total = reward::TERM_NAMES.len() - 1;
-        let mut sums = vec![(0.0f64, 0usize); self.lib.len()];
+        let sums = &mut self.v2.clip_sums;
+        sums.clear();
+        sums.resize(self.lib.len(), (0.0, 0));
         for (i, ep) in self.episodes.iter().enumerate() {
             let s = &mut sums[ep.clip];
             s.0 += self.buf.terms[i * NUM_TERMS + total] as f64;
