@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # The main job on the shipped defaults: a short PPO training run on the demo clips in motions/
-# (tiny network preset, 100 iterations), writing a checkpoint, logs, a metrics JSON, a learning
+# (tiny network preset, 400 iterations, about 1–2 minutes), writing a checkpoint, logs, a metrics JSON, a learning
 # curve, a short video and a summary into runs/demo/. Idempotent set-up included.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 ./scripts/setup.sh
 cargo build --release -p skillmimic-cli --bin skillmimic
-./target/release/skillmimic train --preset tiny --iterations 100 --num-envs 32 --out runs/demo "$@"
+./target/release/skillmimic train --preset tiny --iterations 400 --num-envs 32 --out runs/demo "$@"

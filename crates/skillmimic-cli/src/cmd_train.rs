@@ -43,9 +43,17 @@ struct Summary {
     samples: u64,
     wall_s: f64,
     samples_per_s: f64,
+    /// Mean reward per step of the first iteration of this run (biased: every episode is fresh).
     first_mean_reward: f64,
     last_mean_reward: f64,
     best_mean_reward: f64,
+    /// Iterations averaged in `early_mean_reward` / `late_mean_reward`: a tenth of the run,
+    /// at least 1 and at most 25.
+    reward_window: usize,
+    /// Mean of the per-iteration mean reward over the first `reward_window` iterations.
+    early_mean_reward: f64,
+    /// Mean of the per-iteration mean reward over the last `reward_window` iterations.
+    late_mean_reward: f64,
     checkpoint: PathBuf,
     metrics: PathBuf,
     curve: PathBuf,
@@ -151,6 +159,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         }
     }
     let rewards: Vec<f64> = history.iter().map(|s| s.mean_reward).collect();
+    let window = (rewards.len() / 10).clamp(1, 25);
+    let mean_of = |xs: &[f64]| if xs.is_empty() { f64::NAN } else { xs.iter().sum::<f64>() / xs.len() as f64 };
     let summary = Summary {
         iterations: trainer.progress.iteration,
         samples: trainer.progress.samples,
@@ -159,6 +169,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         first_mean_reward: rewards.first().copied().unwrap_or(f64::NAN),
         last_mean_reward: rewards.last().copied().unwrap_or(f64::NAN),
         best_mean_reward: rewards.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+        reward_window: window,
+        early_mean_reward: mean_of(&rewards[..window.min(rewards.len())]),
+        late_mean_reward: mean_of(&rewards[rewards.len().saturating_sub(window)..]),
         checkpoint: last.clone(),
         metrics: metrics.clone(),
         curve: curve.clone(),
@@ -170,14 +183,15 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     skillmimic_core::tensorfile::write_bytes_atomic(&summary_path, serde_json::to_string_pretty(&summary)?.as_bytes())
         .with_context(|| format!("cannot write {}", summary_path.display()))?;
     println!(
-        "trained {} iterations ({} samples) in {:.1} s; mean reward/step {:.4} -> {:.4}; eval NR {:.4}, Acc {:.1} %",
+        "trained {} iterations ({} samples) in {:.1} s; mean reward/step over the first {w} iterations {:.4} -> last {w} {:.4}; eval NR {:.4}, Acc {:.1} %",
         summary.iterations,
         summary.samples,
         wall,
-        summary.first_mean_reward,
-        summary.last_mean_reward,
+        summary.early_mean_reward,
+        summary.late_mean_reward,
         summary.eval.nr,
-        summary.eval.acc_percent
+        summary.eval.acc_percent,
+        w = summary.reward_window
     );
     println!("checkpoint {}\nmetrics    {}\ncurve      {}", last.display(), metrics.display(), curve.display());
     if let Some(v) = &video {
