@@ -12,6 +12,7 @@ import os
 import pathlib
 import subprocess
 
+import numpy as np
 import pytest
 
 REPO = pathlib.Path(__file__).resolve().parent.parent
@@ -52,3 +53,15 @@ def run_cli(exe: pathlib.Path, *args: str) -> subprocess.CompletedProcess:
     if r.returncode != 0:
         pytest.fail(f"skillmimic {' '.join(args)} failed ({r.returncode}):\n{r.stderr}")
     return r
+
+
+def skeleton_dof_index(model) -> np.ndarray:
+    """For each actuator of a `mujoco.MjModel` of our scene, its index in the 156-wide action
+    vector (3 * (body - 1) + axis), the skeleton bodies being MuJoCo body ids 1..53 (depth-first
+    MJCF order)."""
+    names = [model.body(b).name for b in range(1, 54)]
+    out = []
+    for a in range(model.nu):
+        body, axis = model.actuator(a).name.rsplit("_", 1)
+        out.append(3 * (names.index(body) - 1) + "xyz".index(axis))
+    return np.array(out)

@@ -18,19 +18,10 @@ import pytest
 
 import reference_env as ref
 import skillmimic_rs
-from conftest import find_shared
+from conftest import find_shared, skeleton_dof_index
 
 REPO = pathlib.Path(__file__).resolve().parent.parent
 TOL = dict(rtol=1e-5, atol=1e-5)
-
-
-def actuator_dof_index(model: mujoco.MjModel) -> np.ndarray:
-    names = [model.body(b).name for b in range(1, 54)]
-    idx = []
-    for a in range(model.nu):
-        body, axis = model.actuator(a).name.rsplit("_", 1)
-        idx.append(3 * (names.index(body) - 1) + "xyz".index(axis))
-    return np.array(idx)
 
 
 class Shadow:
@@ -40,7 +31,7 @@ class Shadow:
         self.env = env
         self.model = mujoco.MjModel.from_xml_string(env.mjcf_xml)
         self.datas = [mujoco.MjData(self.model) for _ in range(env.num_envs)]
-        self.idx = actuator_dof_index(self.model)
+        self.idx = skeleton_dof_index(self.model)
         self.substeps = 2
 
     def copy_state(self, i: int) -> None:

@@ -18,20 +18,9 @@ import numpy as np
 import pytest
 from safetensors import safe_open
 
-from conftest import find_shared, run_cli
+from conftest import find_shared, run_cli, skeleton_dof_index
 
 BODY_ORDER_FILE_HINT = "the skeleton order is the depth-first body order of the MJCF"
-
-
-def skeleton_dof_index(model: mujoco.MjModel) -> np.ndarray:
-    """For each actuator, its index in the 156-wide action vector (3 * (body - 1) + axis)."""
-    # skeleton bodies are the humanoid bodies in depth-first order: MuJoCo body ids 1..53
-    names = [model.body(b).name for b in range(1, 54)]
-    out = []
-    for a in range(model.nu):
-        body, axis = model.actuator(a).name.rsplit("_", 1)
-        out.append(3 * (names.index(body) - 1) + "xyz".index(axis))
-    return np.array(out)
 
 
 def replay(model: mujoco.MjModel, qpos0, qvel0, actions, substeps: int):
