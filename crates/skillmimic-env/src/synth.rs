@@ -23,7 +23,7 @@
 use std::sync::Arc;
 
 use mujoco_rs::prelude::*;
-use skillmimic_core::math::{Quat, Vec3, add, sub};
+use skillmimic_core::math::{Quat, Vec3, add, norm, sub};
 use skillmimic_core::skeleton::{BODIES, NUM_BODIES, NUM_DOFS, body_index, dof_range};
 use skillmimic_motion::{Clip, PT_WIDTH};
 use skillmimic_sim::{HandModel, Scene, SimError};
@@ -174,6 +174,11 @@ fn solve_spd(a: &mut [[f64; 6]; 6], b: &mut [f64; 6]) {
     }
 }
 
+/// World position of `point_local` (wrist frame) in the current kinematics of `d`.
+fn wrist_point(d: &Data, wrist_id: usize, point_local: Vec3) -> Vec3 {
+    add(d.xpos()[wrist_id], Quat::from_wxyz(d.xquat()[wrist_id]).rotate(point_local))
+}
+
 /// Largest rotation (rad) of one joint in one IK iteration.
 const MAX_IK_STEP: f64 = 0.1;
 /// Gain of the secondary task that pulls the chain towards its rest pose inside the null space of
@@ -197,7 +202,7 @@ fn solve_arm(scene: &Scene, d: &mut Data, chain: &[usize], rest: &[Quat], wrist:
         d.kinematics();
         d.com_pos();
         let xq = Quat::from_wxyz(d.xquat()[wrist_id]);
-        let p = add(d.xpos()[wrist_id], xq.rotate(point_local));
+        let p = wrist_point(d, wrist_id, point_local);
         let e_pos = sub(target, p);
         let e_rot = target_rot.mul(xq.conj()).to_rotvec();
         const W_ROT: f64 = 0.3;
@@ -232,9 +237,9 @@ fn solve_arm(scene: &Scene, d: &mut Data, chain: &[usize], rest: &[Quat], wrist:
                 let c = dofs[3 * ci + k];
                 REST_GAIN * z[3 * ci + k] + (0..6).map(|r| row(r, c) * y[r]).sum::<f64>()
             });
-            let norm = (dq[0] * dq[0] + dq[1] * dq[1] + dq[2] * dq[2]).sqrt();
-            if norm > MAX_IK_STEP {
-                dq = dq.map(|x| x * MAX_IK_STEP / norm);
+            let step = norm(dq);
+            if step > MAX_IK_STEP {
+                dq = dq.map(|x| x * MAX_IK_STEP / step);
             }
             let q = joint_quat(scene, &qpos, b).mul(Quat::from_rotvec(dq)).normalized();
             let a = scene.joint_qpos[b - 1].unwrap();
@@ -244,9 +249,7 @@ fn solve_arm(scene: &Scene, d: &mut Data, chain: &[usize], rest: &[Quat], wrist:
     }
     d.kinematics();
     // remaining distance (m) of the palm point from its target
-    let xq = Quat::from_wxyz(d.xquat()[wrist_id]);
-    let e = sub(target, add(d.xpos()[wrist_id], xq.rotate(point_local)));
-    (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt()
+    norm(sub(target, wrist_point(d, wrist_id, point_local)))
 }
 
 /// Lowest point (world z) of the foot geoms (boxes) in the current kinematics.
@@ -413,11 +416,9 @@ mod tests {
             for f in 0..clip.num_frames {
                 for j in 0..NUM_BODIES - 1 {
                     let q = rot(f, j);
-                    let v = q.to_rotvec();
-                    max_angle = max_angle.max((v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt());
+                    max_angle = max_angle.max(norm(q.to_rotvec()));
                     if f > 0 {
-                        let s = rot(f - 1, j).conj().mul(q).to_rotvec();
-                        max_step = max_step.max((s[0] * s[0] + s[1] * s[1] + s[2] * s[2]).sqrt());
+                        max_step = max_step.max(norm(rot(f - 1, j).conj().mul(q).to_rotvec()));
                     }
                 }
             }
