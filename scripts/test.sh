@@ -4,7 +4,7 @@
 # reference, PyTorch, SB3/rsl_rl adapters). Idempotent set-up included.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
-./scripts/setup.sh
+./scripts/setup.sh --tests  # runtime + test packages (python/requirements-test.txt)
 cargo build --release --workspace --bins
 cargo test --release --workspace
 .venv/bin/python -m pip install --disable-pip-version-check --no-build-isolation -q .

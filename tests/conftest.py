@@ -11,9 +11,12 @@ from __future__ import annotations
 import os
 import pathlib
 import subprocess
+from typing import TYPE_CHECKING
 
-import numpy as np
 import pytest
+
+if TYPE_CHECKING:  # numpy is imported where used, so numpy-free tests (test_architecture) run on any python
+    import numpy as np
 
 REPO = pathlib.Path(__file__).resolve().parent.parent
 
@@ -59,6 +62,8 @@ def skeleton_dof_index(model) -> np.ndarray:
     """For each actuator of a `mujoco.MjModel` of our scene, its index in the 156-wide action
     vector (3 * (body - 1) + axis), the skeleton bodies being MuJoCo body ids 1..53 (depth-first
     MJCF order)."""
+    import numpy as np
+
     names = [model.body(b).name for b in range(1, 54)]
     out = []
     for a in range(model.nu):

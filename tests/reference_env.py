@@ -16,197 +16,60 @@ Conventions
   ``b`` has body id ``b + 1``), the ball body is named ``"Ball"``.
   In the "state" arrays, indices 0..52 are the skeleton and 53 is the ball.
 
+Layout
+------
+* ``reference_common``: constants, conventions and quaternion / rotation helpers.
+* ``reference_reward``: HOI states, contact graph, reward terms, frame metrics.
+* this module: clip loading and derived reference, state extraction from
+  MuJoCo, the observation and the reference-state initialisation.  It
+  re-exports every public name of the two modules above, so
+  ``import reference_env as R`` reaches the whole reference
+  (imports go one way: common <- reward <- env).
+
 Dependencies: numpy, mujoco, safetensors, zipfile, math.
 """
 
 from __future__ import annotations
 
-import math
 import os
 import zipfile
 
 import mujoco
 import numpy as np
 
-# ---------------------------------------------------------------------------
-# Constants
-# ---------------------------------------------------------------------------
-
-NUM_BODIES = 53                 # skeleton bodies (Pelvis .. R_Thumb3)
-NUM_JOINTS = 52                 # non-root skeleton bodies, one 3-dof joint each
-NUM_DOF = 3 * NUM_JOINTS        # 156
-BALL = 53                       # state index of the ball
-NUM_STATE_BODIES = 54           # skeleton + ball
-COND_SIZE = 64                  # width of the skill one-hot
-OBS_SIZE = 902
-
-KEY_BODIES = [14, 2, 6, 17, 36, 3, 7, 21, 24, 27, 30, 33, 40, 43, 46, 49, 52]
-FINGERTIPS = [21, 24, 27, 30, 33, 40, 43, 46, 49, 52]
-REFERENCE_BODY_NODE = [0, 1, 2, 5, 6, 9, 10, 11, 12, 13, 14, 15, 16, 17, 34, 35, 36]
-
-HAND_BODIES = frozenset(list(range(18, 34)) + list(range(37, 53)))
-FOOT_BODIES = frozenset([3, 4, 7, 8])
-
-# Geom-owner / body-part categories used by the contact-pair flags.
-PART_FLOOR = "floor"
-PART_BALL = "ball"
-PART_HAND = "hand"
-PART_FOOT = "foot"
-PART_TRUNK = "trunk"
-
-PAIR_NAMES = ["hand_ball", "body_ball", "hand_body", "ball_floor",
-              "body_floor", "foot_floor", "hand_floor"]
-
-BALL_FREE_SKILLS = (0, 10)
-
-REWARD_NAMES = ["p", "r", "pv", "rv", "reg", "op", "or", "opv", "orv", "ig", "cg", "total"]
-METRIC_NAMES = ["body_err", "ball_err", "cg_match", "cg_sq_err"]
-
-DEFAULT_WEIGHTS = {
-    "p": 20.0, "r": 20.0, "pv": 0.0, "rv": 0.0,
-    "reg": 0.1, "reg_scale": 1e12,
-    "op": 1.0, "or": 0.0, "opv": 0.0, "orv": 0.0,
-    "ig": 20.0,
-    # exact contact graph: [hand_ball, body_ball, hand_body, body_floor]
-    "cg_hand_ball": 5.0, "cg_body_ball": 5.0, "cg_hand_body": 5.0, "cg_body_floor": 5.0,
-    # force-threshold contact graph: [ball_node, body_node]
-    "cg2_ball": 5.0, "cg1_body": 5.0,
-    # "deepmimic" variant (fixed in the spec; overridable through the same dict)
-    "dm_p": 40.0, "dm_r": 2.0, "dm_rv": 0.1, "dm_op": 40.0,
-}
-
-VARIANTS = ("skillmimic", "no_contact_graph", "additive", "deepmimic")
-GRAPH_MODES = ("exact", "force_threshold")
-
-PT_NUM_COLUMNS = 337
-DEFAULT_FPS = 60.0
-
-
-# ---------------------------------------------------------------------------
-# Quaternion / rotation helpers (wxyz, float64, vectorised over leading axes)
-# ---------------------------------------------------------------------------
-
-def quat_mul(a, b):
-    """Hamilton product ``a ⊗ b`` of (..., 4) wxyz quaternions."""
-    a = np.asarray(a, dtype=np.float64)
-    b = np.asarray(b, dtype=np.float64)
-    aw, ax, ay, az = np.moveaxis(a, -1, 0)
-    bw, bx, by, bz = np.moveaxis(b, -1, 0)
-    return np.stack([
-        aw * bw - ax * bx - ay * by - az * bz,
-        aw * bx + ax * bw + ay * bz - az * by,
-        aw * by - ax * bz + ay * bw + az * bx,
-        aw * bz + ax * by - ay * bx + az * bw,
-    ], axis=-1)
-
-
-def quat_conj(q):
-    """Conjugate of a (..., 4) wxyz quaternion."""
-    q = np.array(q, dtype=np.float64)
-    q[..., 1:] *= -1.0
-    return q
-
-
-def quat_normalize(q):
-    """Unit-norm copy of a (..., 4) quaternion."""
-    q = np.asarray(q, dtype=np.float64)
-    return q / np.linalg.norm(q, axis=-1, keepdims=True)
-
-
-def quat_to_mat(q):
-    """Rotation matrix (..., 3, 3) of a (..., 4) wxyz quaternion (normalised first)."""
-    w, x, y, z = np.moveaxis(quat_normalize(q), -1, 0)
-    return np.stack([
-        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
-        np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
-        np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1),
-    ], axis=-2)
-
-
-def quat_rotate(q, v):
-    """Rotate vector(s) ``v`` (..., 3) by quaternion(s) ``q`` (..., 4)."""
-    return np.einsum("...ij,...j->...i", quat_to_mat(q), np.asarray(v, dtype=np.float64))
-
-
-def quat_to_rotvec(q):
-    """Rotation vector of (..., 4) wxyz quaternion(s), angle wrapped to (-pi, pi].
-
-    v = (x, y, z); s = |v|; s < 1e-15 -> 0; angle = 2 atan2(s, w);
-    angle > pi -> angle - 2 pi; result = v / s * angle.  The result does not
-    depend on a positive scale of ``q``, so normalising first changes nothing.
-    """
-    q = np.asarray(q, dtype=np.float64)
-    v = q[..., 1:]
-    s = np.linalg.norm(v, axis=-1)
-    angle = 2.0 * np.arctan2(s, q[..., 0])
-    angle = np.where(angle > math.pi, angle - 2.0 * math.pi, angle)
-    safe = s >= 1e-15
-    factor = np.where(safe, angle / np.where(safe, s, 1.0), 0.0)
-    return v * factor[..., None]
-
-
-def rotvec_to_quat(v):
-    """Unit wxyz quaternion of (..., 3) rotation vector(s) (exponential map)."""
-    v = np.asarray(v, dtype=np.float64)
-    angle = np.linalg.norm(v, axis=-1)
-    small = angle < 1e-8
-    safe_angle = np.where(small, 1.0, angle)
-    # sin(a/2)/a -> 1/2 as a -> 0 (the Taylor remainder is below float64 eps here)
-    k = np.where(small, 0.5, np.sin(0.5 * safe_angle) / safe_angle)
-    w = np.where(small, 1.0, np.cos(0.5 * safe_angle))
-    return np.concatenate([w[..., None], v * k[..., None]], axis=-1)
-
-
-def quat_sign_continuity(q):
-    """Flip q[t] when dot(q[t-1], q[t]) < 0 (sequential pass over axis 0)."""
-    q = np.array(q, dtype=np.float64)
-    for t in range(1, q.shape[0]):
-        if float(np.dot(q[t - 1], q[t])) < 0.0:
-            q[t] = -q[t]
-    return q
-
-
-def quat_angle(q_a, q_b):
-    """Rotation angle between two quaternions: 2 atan2(|v|, |w|) of conj(a) ⊗ b."""
-    d = quat_mul(quat_conj(q_a), q_b)
-    return 2.0 * math.atan2(float(np.linalg.norm(d[1:])), abs(float(d[0])))
-
-
-def heading_angle(root_quat):
-    """Heading = atan2(y, x) of R(q)·(1, 0, 0) for the root quaternion."""
-    x_axis = quat_to_mat(root_quat)[:, 0]
-    return math.atan2(x_axis[1], x_axis[0])
-
-
-def heading_inverse_matrix(root_quat):
-    """3x3 rotation about world z by -heading(root_quat)."""
-    h = heading_angle(root_quat)
-    c, s = math.cos(-h), math.sin(-h)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-
-
-def tan_norm(rot_mat):
-    """Tan-norm 6D of a rotation: [R·(1,0,0), R·(0,0,1)] (columns 0 and 2)."""
-    rot_mat = np.asarray(rot_mat, dtype=np.float64)
-    return np.concatenate([rot_mat[..., :, 0], rot_mat[..., :, 2]], axis=-1)
-
-
-def backward_diff(x, fps):
-    """Backward difference times fps along axis 0, frame 0 set to 0 (float64)."""
-    x = np.asarray(x, dtype=np.float64)
-    out = np.zeros_like(x)
-    out[1:] = (x[1:] - x[:-1]) * fps
-    return out
-
-
-def local_angular_velocity(quats, fps):
-    """rotvec(conj(q[t-1]) ⊗ q[t]) * fps per frame (body frame), frame 0 = 0."""
-    q = np.asarray(quats, dtype=np.float64)
-    out = np.zeros((q.shape[0], 3))
-    if q.shape[0] > 1:
-        out[1:] = quat_to_rotvec(quat_mul(quat_conj(q[:-1]), q[1:])) * fps
-    return out
-
+# Re-exported: the whole reference is reachable as ``reference_env.<name>``.
+from reference_common import *  # noqa: F401,F403
+from reference_reward import *  # noqa: F401,F403
+from reference_common import (
+    BALL,
+    COND_SIZE,
+    DEFAULT_FPS,
+    FINGERTIPS,
+    FOOT_BODIES,
+    HAND_BODIES,
+    KEY_BODIES,
+    NUM_BODIES,
+    NUM_DOF,
+    NUM_JOINTS,
+    NUM_STATE_BODIES,
+    OBS_SIZE,
+    PAIR_NAMES,
+    PART_BALL,
+    PART_FLOOR,
+    PART_FOOT,
+    PART_HAND,
+    PART_TRUNK,
+    PT_NUM_COLUMNS,
+    backward_diff,
+    heading_inverse_matrix,
+    local_angular_velocity,
+    quat_normalize,
+    quat_sign_continuity,
+    quat_to_mat,
+    quat_to_rotvec,
+    rotvec_to_quat,
+    tan_norm,
+)
 
 # ---------------------------------------------------------------------------
 # Clips
@@ -543,225 +406,6 @@ def observation(state, skill):
     ])
     assert obs.shape == (OBS_SIZE,), obs.shape
     return obs.astype(np.float32)
-
-
-# ---------------------------------------------------------------------------
-# HOI states
-# ---------------------------------------------------------------------------
-
-def hoi_sim(state):
-    """Simulated HOI dict (float64) from an extracted state."""
-    return {
-        "root_pos": state["body_pos"][0].copy(),
-        "root_rotvec": quat_to_rotvec(quat_normalize(state["body_quat"][0])),
-        "dof_pos": state["dof_pos"].copy(),
-        "dof_vel": state["dof_vel"].copy(),
-        "ball_pos": state["body_pos"][BALL].copy(),
-        "ball_quat": state["body_quat"][BALL].copy(),
-        "ball_linvel": state["body_linvel"][BALL].copy(),
-        "ball_angvel": state["body_angvel"][BALL].copy(),
-        "key_pos": state["body_pos"][KEY_BODIES].copy(),
-        "key_vel": state["body_linvel"][KEY_BODIES].copy(),
-    }
-
-
-def hoi_ref(clip, ref, t):
-    """Reference HOI dict (float64) of clip frame t; ``ref`` = derive_reference(clip).
-
-    Also carries ``contact`` = the clip's hand-ball label at frame t.
-    """
-    f64 = lambda a: np.array(a, dtype=np.float64)  # noqa: E731
-    ball_quat = f64(clip["ball_rot"][t])
-    return {
-        "root_pos": f64(clip["root_pos"][t]),
-        "root_rotvec": f64(ref["root_rotvec"][t]),
-        "dof_pos": f64(clip["dof_rot"][t]).reshape(NUM_DOF),
-        "dof_vel": f64(ref["dof_vel"][t]).reshape(NUM_DOF),
-        "ball_pos": f64(clip["ball_pos"][t]),
-        "ball_quat": ball_quat,
-        "ball_linvel": f64(ref["ball_linvel"][t]),
-        "ball_angvel": quat_rotate(ball_quat, f64(ref["ball_angvel_local"][t])),
-        "key_pos": f64(ref["key_pos"][t]),
-        "key_vel": f64(ref["key_vel"][t]),
-        "contact": float(clip["contact"][t]),
-    }
-
-
-# ---------------------------------------------------------------------------
-# Contact graph
-# ---------------------------------------------------------------------------
-
-def contact_graph(state, mode="exact", thr=0.1):
-    """Simulated contact graph.
-
-    exact: [hand_ball, body_ball, hand_body, body_floor] flags.
-    force_threshold: [ball_node, body_node] with ball_node = |F_ball x| > thr or
-    |F_ball y| > thr, body_node = any |component| >= thr over REFERENCE_BODY_NODE.
-    """
-    if mode == "exact":
-        p = state["pairs"]
-        return np.array([p["hand_ball"], p["body_ball"], p["hand_body"], p["body_floor"]],
-                        dtype=np.float64)
-    if mode == "force_threshold":
-        f = state["contact_force"]
-        ball_node = float(abs(f[BALL, 0]) > thr or abs(f[BALL, 1]) > thr)
-        body_node = float(np.any(np.abs(f[REFERENCE_BODY_NODE]) >= thr))
-        return np.array([ball_node, body_node])
-    raise ValueError(f"unknown contact-graph mode {mode!r}")
-
-
-def reference_graph(label, mode="exact"):
-    """Reference contact graph: [label, 0, 0, 0] (exact) or [label, 0] (force_threshold)."""
-    if mode == "exact":
-        return np.array([float(label), 0.0, 0.0, 0.0])
-    if mode == "force_threshold":
-        return np.array([float(label), 0.0])
-    raise ValueError(f"unknown contact-graph mode {mode!r}")
-
-
-# ---------------------------------------------------------------------------
-# Reward
-# ---------------------------------------------------------------------------
-
-def _mse(a, b):
-    """Mean of squared component differences (float64)."""
-    a = np.asarray(a, dtype=np.float64).reshape(-1)
-    b = np.asarray(b, dtype=np.float64).reshape(-1)
-    return float(np.mean((a - b) ** 2))
-
-
-def _interaction_vectors(hoi):
-    """The 18 vectors (root - ball), (key_k - ball), shape (18, 3)."""
-    points = np.concatenate([hoi["root_pos"][None], hoi["key_pos"].reshape(-1, 3)])
-    return points - hoi["ball_pos"][None]
-
-
-def reward_errors(sim, prev_dof_vel, ref, reg_scale=1e12):
-    """The ten error terms e_* (means of squared differences), as a dict."""
-    sim_dv = np.asarray(sim["dof_vel"], dtype=np.float64)
-    prev = np.asarray(prev_dof_vel, dtype=np.float64).reshape(-1)
-    ref_dv = np.asarray(ref["dof_vel"], dtype=np.float64)
-    return {
-        "p": _mse(np.concatenate([sim["root_pos"], sim["key_pos"].reshape(-1)]),
-                  np.concatenate([ref["root_pos"], ref["key_pos"].reshape(-1)])),
-        "r": _mse(np.concatenate([sim["root_rotvec"], sim["dof_pos"]]),
-                  np.concatenate([ref["root_rotvec"], ref["dof_pos"]])),
-        "pv": _mse(sim["key_vel"], ref["key_vel"]),
-        "rv": _mse(sim_dv, ref_dv),
-        "reg": float(np.mean((sim_dv - prev) ** 2 / (1.0 + reg_scale * ref_dv ** 2))),
-        "op": _mse(sim["ball_pos"], ref["ball_pos"]),
-        "or": quat_angle(sim["ball_quat"], ref["ball_quat"]) ** 2,
-        "opv": _mse(sim["ball_linvel"], ref["ball_linvel"]),
-        "orv": _mse(sim["ball_angvel"], ref["ball_angvel"]),
-        "ig": _mse(_interaction_vectors(sim), _interaction_vectors(ref)),
-    }
-
-
-def _graph_weights(w, mode):
-    """Per-entry contact-graph weights for the given mode."""
-    if mode == "exact":
-        return np.array([w["cg_hand_ball"], w["cg_body_ball"], w["cg_hand_body"],
-                         w["cg_body_floor"]])
-    if mode == "force_threshold":
-        return np.array([w["cg2_ball"], w["cg1_body"]])
-    raise ValueError(f"unknown contact-graph mode {mode!r}")
-
-
-def contact_graph_reward(cg_sim, cg_ref, weights, mode="exact"):
-    """prod_k exp(-w_k |sim_k - ref_k|)."""
-    diff = np.abs(np.asarray(cg_sim, np.float64) - np.asarray(cg_ref, np.float64))
-    return float(np.prod(np.exp(-_graph_weights(weights, mode) * diff)))
-
-
-def _deepmimic_terms(e, w, ball_free):
-    """Term dict of the "deepmimic" variant."""
-    terms = {k: 1.0 for k in REWARD_NAMES}
-    terms["p"] = math.exp(-w["dm_p"] * e["p"])
-    terms["r"] = math.exp(-w["dm_r"] * e["r"])
-    terms["rv"] = math.exp(-w["dm_rv"] * e["rv"])
-    terms["op"] = 1.0 if ball_free else math.exp(-w["dm_op"] * e["op"])
-    terms["total"] = (terms["p"] + terms["r"] + terms["rv"] + terms["op"]) / 4.0
-    return terms
-
-
-def _skillmimic_terms(e, w, cg, ball_free, variant):
-    """Term dict of the skillmimic / no_contact_graph / additive variants."""
-    terms = {k: math.exp(-w[k] * e[k]) for k in
-             ("p", "r", "pv", "rv", "reg", "op", "or", "opv", "orv", "ig")}
-    terms["cg"] = cg
-    if ball_free:
-        for k in ("op", "or", "opv", "orv", "ig", "cg"):
-            terms[k] = 1.0
-    body = terms["p"] * terms["r"] * terms["pv"] * terms["rv"] * terms["reg"]
-    ball = terms["op"] * terms["or"] * terms["opv"] * terms["orv"]
-    if variant == "skillmimic":
-        terms["total"] = body * ball * terms["ig"] * terms["cg"]
-    elif variant == "no_contact_graph":
-        terms["total"] = body * ball * terms["ig"]
-    else:  # additive
-        terms["total"] = (body + ball + terms["ig"] + terms["cg"]) / 4.0
-    return terms
-
-
-def reward_terms(sim_hoi, prev_dof_vel, ref_hoi, cg_sim, cg_ref, skill,
-                 variant="skillmimic", mode="exact", weights=None):
-    """The 12 reward values in REWARD_NAMES order (float64 array).
-
-    ``weights`` optionally overrides entries of DEFAULT_WEIGHTS.  Skills 0 and
-    10 are "ball free": op, or, opv, orv, ig and cg are 1.  In the
-    ``no_contact_graph`` variant the cg entry is still reported but is not
-    part of the total.
-    """
-    if variant not in VARIANTS:
-        raise ValueError(f"unknown reward variant {variant!r}")
-    w = dict(DEFAULT_WEIGHTS)
-    if weights:
-        w.update(weights)
-    e = reward_errors(sim_hoi, prev_dof_vel, ref_hoi, reg_scale=w["reg_scale"])
-    ball_free = int(skill) in BALL_FREE_SKILLS
-    if variant == "deepmimic":
-        terms = _deepmimic_terms(e, w, ball_free)
-    else:
-        cg = contact_graph_reward(cg_sim, cg_ref, w, mode)
-        terms = _skillmimic_terms(e, w, cg, ball_free, variant)
-    return np.array([terms[k] for k in REWARD_NAMES], dtype=np.float64)
-
-
-def step_reward(state, prev_dof_vel, clip, ref, t, variant="skillmimic",
-                mode="exact", thr=0.1, weights=None):
-    """Convenience: (12 reward values, cg_sim, cg_ref) for a state vs clip frame t."""
-    sim = hoi_sim(state)
-    target = hoi_ref(clip, ref, t)
-    cg_sim = contact_graph(state, mode, thr)
-    cg_ref = reference_graph(target["contact"], mode)
-    terms = reward_terms(sim, prev_dof_vel, target, cg_sim, cg_ref, clip["skill"],
-                         variant=variant, mode=mode, weights=weights)
-    return terms, cg_sim, cg_ref
-
-
-# ---------------------------------------------------------------------------
-# Frame metrics
-# ---------------------------------------------------------------------------
-
-def frame_metrics(sim_hoi, ref_hoi, cg_sim, cg_ref):
-    """[body_err, ball_err, cg_match, cg_sq_err] for one frame.
-
-    body_err = mean Euclidean distance over root + 17 key bodies (m);
-    ball_err = ball distance; cg_match = 1 if all graph entries equal;
-    cg_sq_err = mean squared graph difference.
-    """
-    def points(h):
-        return np.concatenate([np.asarray(h["root_pos"], np.float64)[None],
-                               np.asarray(h["key_pos"], np.float64).reshape(-1, 3)])
-
-    body_err = float(np.mean(np.linalg.norm(points(sim_hoi) - points(ref_hoi), axis=1)))
-    ball_err = float(np.linalg.norm(np.asarray(sim_hoi["ball_pos"], np.float64)
-                                    - np.asarray(ref_hoi["ball_pos"], np.float64)))
-    diff = np.asarray(cg_sim, np.float64) - np.asarray(cg_ref, np.float64)
-    cg_match = float(np.all(diff == 0.0))
-    cg_sq_err = float(np.mean(diff ** 2))
-    return np.array([body_err, ball_err, cg_match, cg_sq_err])
-
 
 # ---------------------------------------------------------------------------
 # Reference-state initialisation

@@ -22,24 +22,26 @@ if "MUJOCO_GL" not in os.environ and not os.environ.get("DISPLAY"):
 import mujoco as _mujoco  # noqa: E402,F401  (load libmujoco before the extension)
 
 from . import _core  # noqa: E402
-from ._core import BUILTIN_DEMO, OBS_DIM, core_version  # noqa: E402
+from ._core import ACT_DIM, BUILTIN_DEMO, FRAME_METRIC_NAMES, OBS_DIM, POLICY_FAMILIES, TASKS, TERM_NAMES, core_version  # noqa: E402
 from .vec_env import VecEnv, load_config  # noqa: E402
 
 __version__ = core_version()
 
-#: Observation blocks: name -> (start, stop) index range of the 902-wide observation.
-OBS_BLOCKS: dict[str, tuple[int, int]] = {
-    "root_height": (0, 1),
-    "body_pos": (1, 157),
-    "body_rot": (157, 475),
-    "body_linvel": (475, 634),
-    "body_angvel": (634, 793),
-    "fingertip_force": (793, 823),
-    "ball_pos": (823, 826),
-    "ball_rot": (826, 832),
-    "ball_linvel": (832, 835),
-    "ball_angvel": (835, 838),
-    "skill": (838, 902),
-}
+#: Observation blocks: name -> (start, stop) index range of the 902-wide observation (from the
+#: Rust core's ``obs::BLOCKS``, in observation order).
+OBS_BLOCKS: dict[str, tuple[int, int]] = {name: (int(a), int(b)) for name, (a, b) in _core.OBS_BLOCKS.items()}
 
-__all__ = ["VecEnv", "load_config", "OBS_DIM", "OBS_BLOCKS", "BUILTIN_DEMO", "core_version", "__version__"]
+__all__ = [
+    "VecEnv",
+    "load_config",
+    "OBS_DIM",
+    "OBS_BLOCKS",
+    "ACT_DIM",
+    "TERM_NAMES",
+    "FRAME_METRIC_NAMES",
+    "TASKS",
+    "POLICY_FAMILIES",
+    "BUILTIN_DEMO",
+    "core_version",
+    "__version__",
+]

@@ -5,6 +5,27 @@ import numpy.typing as npt
 
 OBS_DIM: int
 BUILTIN_DEMO: str
+#: name -> (start, stop) of each block of the observation (Rust ``obs::BLOCKS``)
+OBS_BLOCKS: dict[str, tuple[int, int]]
+HUMANOID_DIM: int
+STATE_DIM: int
+ACT_DIM: int
+HISTORY_FEATURE_DIM: int
+#: reward-term names (Rust ``reward::TERM_NAMES``), columns of ``CoreEnv.reward_terms()``
+TERM_NAMES: tuple[str, ...]
+#: columns of ``CoreEnv.frame_metrics()``
+FRAME_METRIC_NAMES: tuple[str, ...]
+#: keys of an ``[env]`` table that hold input paths (resolved relative to the config file)
+CONFIG_PATH_KEYS: tuple[str, ...]
+
+def load_env_config(path: str) -> str:
+    """JSON of the ``[env]`` fields a TOML file sets, relative paths resolved by the CLI's rule."""
+
+def load_train_config(path: str, preset: str = "small") -> str:
+    """JSON of the training configuration ``skillmimic train --preset PRESET --config PATH`` starts from."""
+
+def resolve_config_path(written: str, config_dir: str) -> str:
+    """The CLI's rule for one relative path written in a config file in ``config_dir``."""
 
 def core_version() -> str:
     """Version of the Rust core."""

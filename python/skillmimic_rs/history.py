@@ -17,7 +17,7 @@ import pathlib
 import torch
 from torch import nn
 
-FEATURE_DIM = 316
+from ._core import HISTORY_FEATURE_DIM as FEATURE_DIM  # 316, the Rust core's v2::history::FEATURE_DIM
 
 
 class HistoryEncoder(nn.Module):

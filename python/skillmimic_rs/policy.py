@@ -15,6 +15,10 @@ key                                       dtype    shape
 ========================================  =======  ==============================
 
 (for the paper network; ``actor``/``critic`` are ``nn.Sequential(Linear, ReLU, …, Linear)``).
+That is the ``gaussian_mlp`` policy family. ``CategoricalMlpPolicy`` mirrors the
+``categorical_mlp`` family (discrete actions): the same tensors without ``log_std``, the actor
+giving logits; its checkpoints carry ``policy = "categorical_mlp"`` and ``actions =
+"discrete:<n>"`` in the metadata, and :func:`load_checkpoint` builds the right class.
 Training checkpoints also hold ``optim.*`` tensors (Adam state), which :func:`load_checkpoint`
 skips. Observations are normalised in float64, ``clamp((x - mean) / sqrt(var + eps), ±clip)``,
 then cast to float32; the critic's output is de-normalised the same way (clamp, scale, shift).
@@ -28,6 +32,8 @@ from typing import Sequence
 
 import torch
 from torch import nn
+
+from ._core import ACT_DIM, OBS_DIM
 
 
 class RunningMeanStd(nn.Module):
@@ -57,13 +63,37 @@ def _mlp(sizes: Sequence[int]) -> nn.Sequential:
     return nn.Sequential(*layers)
 
 
-class SkillMimicPolicy(nn.Module):
-    """Actor–critic of SkillMimic: separate MLPs over the normalised observation, fixed log-std."""
+class _MlpActorCritic(nn.Module):
+    """Separate actor and critic MLPs over the normalised observation (every MLP family)."""
+
+    def __init__(self, obs_dim, actor_out, hidden, norm_eps, norm_clip, normalize_input, normalize_value, log_std=None):
+        super().__init__()
+        self.actor = _mlp([obs_dim, *hidden, actor_out])
+        self.critic = _mlp([obs_dim, *hidden, 1])
+        if log_std is not None:
+            self.log_std = nn.Parameter(torch.full((actor_out,), float(log_std)), requires_grad=False)
+        self.obs_norm = RunningMeanStd(obs_dim, norm_eps, norm_clip)
+        self.value_norm = RunningMeanStd(1, norm_eps, norm_clip)
+        self.normalize_input = normalize_input
+        self.normalize_value = normalize_value
+
+    def forward(self, obs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """Actor outputs ``(N, outputs)`` and values ``(N,)`` for raw observations ``(N, obs_dim)``."""
+        x = self.obs_norm.normalize(obs) if self.normalize_input else obs.float()
+        out = self.actor(x)
+        v = self.critic(x).squeeze(-1)
+        if self.normalize_value:
+            v = self.value_norm.denormalize(v)
+        return out, v
+
+
+class SkillMimicPolicy(_MlpActorCritic):
+    """``gaussian_mlp``, SkillMimic's actor–critic: action means from the actor, fixed log-std."""
 
     def __init__(
         self,
-        obs_dim: int = 902,
-        act_dim: int = 156,
+        obs_dim: int = OBS_DIM,
+        act_dim: int = ACT_DIM,
         hidden: Sequence[int] = (1024, 512, 512),
         log_std: float = -2.9,
         norm_eps: float = 1e-5,
@@ -71,23 +101,7 @@ class SkillMimicPolicy(nn.Module):
         normalize_input: bool = True,
         normalize_value: bool = True,
     ):
-        super().__init__()
-        self.actor = _mlp([obs_dim, *hidden, act_dim])
-        self.critic = _mlp([obs_dim, *hidden, 1])
-        self.log_std = nn.Parameter(torch.full((act_dim,), float(log_std)), requires_grad=False)
-        self.obs_norm = RunningMeanStd(obs_dim, norm_eps, norm_clip)
-        self.value_norm = RunningMeanStd(1, norm_eps, norm_clip)
-        self.normalize_input = normalize_input
-        self.normalize_value = normalize_value
-
-    def forward(self, obs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        """Action means ``(N, act_dim)`` and values ``(N,)`` for raw observations ``(N, obs_dim)``."""
-        x = self.obs_norm.normalize(obs) if self.normalize_input else obs.float()
-        mu = self.actor(x)
-        v = self.critic(x).squeeze(-1)
-        if self.normalize_value:
-            v = self.value_norm.denormalize(v)
-        return mu, v
+        super().__init__(obs_dim, act_dim, hidden, norm_eps, norm_clip, normalize_input, normalize_value, log_std=log_std)
 
     @torch.no_grad()
     def act(self, obs: torch.Tensor, deterministic: bool = True) -> torch.Tensor:
@@ -95,6 +109,30 @@ class SkillMimicPolicy(nn.Module):
         mu, _ = self(obs)
         a = mu if deterministic else mu + torch.exp(self.log_std) * torch.randn_like(mu)
         return a.clamp(-1.0, 1.0)
+
+
+class CategoricalMlpPolicy(_MlpActorCritic):
+    """``categorical_mlp``: logits over ``num_actions`` choices from the actor (no log-std)."""
+
+    def __init__(
+        self,
+        obs_dim: int,
+        num_actions: int,
+        hidden: Sequence[int] = (1024, 512, 512),
+        norm_eps: float = 1e-5,
+        norm_clip: float = 5.0,
+        normalize_input: bool = True,
+        normalize_value: bool = True,
+    ):
+        super().__init__(obs_dim, num_actions, hidden, norm_eps, norm_clip, normalize_input, normalize_value)
+
+    @torch.no_grad()
+    def act(self, obs: torch.Tensor, deterministic: bool = True) -> torch.Tensor:
+        """Chosen indices ``(N,)`` (the most likely choice, or a sample)."""
+        logits, _ = self(obs)
+        if deterministic:
+            return logits.argmax(-1)
+        return torch.distributions.Categorical(logits=logits).sample()
 
 
 def checkpoint_metadata(path: str | pathlib.Path) -> dict[str, str]:
@@ -108,21 +146,31 @@ def checkpoint_metadata(path: str | pathlib.Path) -> dict[str, str]:
     return meta
 
 
-def load_checkpoint(path: str | pathlib.Path, map_location: str | torch.device = "cpu") -> SkillMimicPolicy:
-    """Build a :class:`SkillMimicPolicy` from a checkpoint written by ``skillmimic train``/``export``
-    (strict: every policy tensor must be present with the right shape)."""
+def load_checkpoint(path: str | pathlib.Path, map_location: str | torch.device = "cpu") -> SkillMimicPolicy | CategoricalMlpPolicy:
+    """Build the PyTorch module of a checkpoint written by ``skillmimic train``/``export``
+    (:class:`SkillMimicPolicy` for ``gaussian_mlp``, :class:`CategoricalMlpPolicy` for
+    ``categorical_mlp``; strict: every policy tensor must be present with the right shape)."""
     from safetensors.torch import load_file
 
     meta = checkpoint_metadata(path)
-    policy = SkillMimicPolicy(
+    family = meta.get("policy", "gaussian_mlp")
+    common = dict(
         obs_dim=int(meta["obs_dim"]),
-        act_dim=int(meta["act_dim"]),
         hidden=json.loads(meta["hidden"]),
         norm_eps=float(meta["norm_eps"]),
         norm_clip=float(meta["norm_clip"]),
         normalize_input=meta["normalize_input"] == "true",
         normalize_value=meta["normalize_value"] == "true",
     )
+    if family == "gaussian_mlp":
+        policy: SkillMimicPolicy | CategoricalMlpPolicy = SkillMimicPolicy(act_dim=int(meta["act_dim"]), **common)
+    elif family == "categorical_mlp":
+        kind, _, n = meta.get("actions", "").partition(":")
+        if kind != "discrete" or not n.isdigit():
+            raise ValueError(f"{path}: metadata 'actions' is {meta.get('actions')!r}, expected 'discrete:<n>'")
+        policy = CategoricalMlpPolicy(num_actions=int(n), **common)
+    else:
+        raise ValueError(f"{path}: unknown policy family {family!r} (gaussian_mlp, categorical_mlp)")
     tensors = load_file(str(path), device=str(map_location))
     state = {k: v for k, v in tensors.items() if not k.startswith("optim.")}
     policy.load_state_dict(state, strict=True)

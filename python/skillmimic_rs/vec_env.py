@@ -35,24 +35,21 @@ BUILTIN_DEMO = _core.BUILTIN_DEMO
 def load_config(config: Mapping[str, Any] | str | os.PathLike | None) -> dict[str, Any]:
     """The ``[env]`` fields from a dict or a TOML file (the same file the CLI reads).
 
-    A TOML file may hold the fields at top level or in an ``[env]`` table; relative ``motion``
-    paths are resolved against the file's folder.
+    A TOML file may hold the fields in an ``[env]`` table (a CLI config file; its ``[ppo]`` and
+    ``[run]`` tables are ignored here) or, with none of those tables, at top level. The file is
+    read by the Rust core with the CLI's rule for relative paths (``motion`` entries and
+    ``v2.history.encoder``): relative to the file's folder, except that a path that exists only
+    relative to the working directory stays as written (configs saved by the trainer). A dict is
+    taken as is.
     """
     if config is None:
         return {}
     if isinstance(config, Mapping):
         return dict(config.get("env", config)) if "env" in config and isinstance(config["env"], Mapping) else dict(config)
     path = pathlib.Path(config)
-    if not path.exists():
+    if not path.is_file():
         raise FileNotFoundError(f"config file {path} not found")
-    import tomllib
-
-    with open(path, "rb") as f:
-        data = tomllib.load(f)
-    env = dict(data.get("env", data))
-    if "motion" in env:
-        env["motion"] = [m if m == BUILTIN_DEMO or os.path.isabs(m) else str(path.parent / m) for m in env["motion"]]
-    return env
+    return json.loads(_core.load_env_config(str(path)))
 
 
 _MODES = {"same_step": AutoresetMode.SAME_STEP, "disabled": AutoresetMode.DISABLED}
@@ -70,10 +67,12 @@ def _parse_mode(mode: str | AutoresetMode) -> AutoresetMode:
 
 
 class VecEnv(gym.vector.VectorEnv):
-    """Batched SkillMimic environment (gymnasium ``VectorEnv``).
+    """Batched environment of any registered task (gymnasium ``VectorEnv``).
 
     Args:
         num_envs: number of parallel environments.
+        task: a task of the registry (``"imitation"``, the default: SkillMimic; ``"stand"``; see
+            ``skillmimic_rs.TASKS``); the same as the config key ``task``.
         config: a dict of ``[env]`` config fields or a path to a TOML config file (CLI format).
             Unknown keys raise ``ValueError``.
         autoreset_mode: ``"same_step"`` (default) or ``"disabled"``.
@@ -93,6 +92,7 @@ class VecEnv(gym.vector.VectorEnv):
         num_envs: int = 16,
         config: Mapping[str, Any] | str | os.PathLike | None = None,
         *,
+        task: str | None = None,
         autoreset_mode: str | AutoresetMode = "same_step",
         copy: bool = True,
         render_mode: str | None = None,
@@ -105,6 +105,8 @@ class VecEnv(gym.vector.VectorEnv):
             raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
         cfg = load_config(config)
         cfg.update(overrides)
+        if task is not None:
+            cfg["task"] = task
         cfg["num_envs"] = num_envs
         cfg.setdefault("motion", [BUILTIN_DEMO])
         cfg["motion"] = [str(m) for m in cfg["motion"]]
@@ -115,7 +117,11 @@ class VecEnv(gym.vector.VectorEnv):
         self.copy = copy
         n, d, a = num_envs, self._core.obs_dim, self._core.act_dim
         self.single_observation_space = gym.spaces.Box(-np.inf, np.inf, (d,), np.float32)
-        self.single_action_space = gym.spaces.Box(-1.0, 1.0, (a,), np.float32)
+        kind, size = self._core.action_space
+        if kind == "discrete":
+            self.single_action_space = gym.spaces.Discrete(size)
+        else:
+            self.single_action_space = gym.spaces.Box(-1.0, 1.0, (a,), np.float32)
         self.observation_space = batch_space(self.single_observation_space, n)
         self.action_space = batch_space(self.single_action_space, n)
         self._obs = np.zeros((n, d), np.float32)
@@ -185,6 +191,11 @@ class VecEnv(gym.vector.VectorEnv):
         self.closed = True
 
     # --- research access ---------------------------------------------------------------------
+    @property
+    def task(self) -> str:
+        """The task's registry name."""
+        return self._core.task
+
     @property
     def reward_term_names(self) -> list[str]:
         """Columns of ``info["reward_terms"]``."""

@@ -1,14 +1,12 @@
-//! `skillmimic train`: PPO training with logs (JSONL + TensorBoard), checkpoints, and at the end
-//! an evaluation (metrics JSON), a learning-curve PNG, a short video and a summary JSON.
+//! `skillmimic train`: parse the arguments, then hand the run to `skillmimic_learn::runner` with
+//! two end-of-run hooks of the CLI (learning-curve PNG, short video).
 
 use std::io::IsTerminal;
-use std::path::PathBuf;
-use std::time::Instant;
+use std::path::{Path, PathBuf};
 
-use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
-use serde::Serialize;
-use skillmimic_learn::eval::{EvalReport, evaluate};
+use skillmimic_env::SkillEnv;
+use skillmimic_learn::runner::{HookOutput, RunHook, Runner};
 use skillmimic_learn::trainer::{IterationStats, Trainer};
 
 use crate::common::{PresetArgs, init_learner_threads};
@@ -37,29 +35,41 @@ pub struct Args {
     pub no_video: bool,
 }
 
-#[derive(Serialize)]
-struct Summary {
-    iterations: u64,
-    samples: u64,
-    wall_s: f64,
-    samples_per_s: f64,
-    /// Mean reward per step of the first iteration of this run (biased: every episode is fresh).
-    first_mean_reward: f64,
-    last_mean_reward: f64,
-    best_mean_reward: f64,
-    /// Iterations averaged in `early_mean_reward` / `late_mean_reward`: a tenth of the run,
-    /// at least 1 and at most 25.
-    reward_window: usize,
-    /// Mean of the per-iteration mean reward over the first `reward_window` iterations.
-    early_mean_reward: f64,
-    /// Mean of the per-iteration mean reward over the last `reward_window` iterations.
-    late_mean_reward: f64,
-    checkpoint: PathBuf,
-    metrics: PathBuf,
-    curve: PathBuf,
-    video: Option<PathBuf>,
-    video_error: Option<String>,
-    eval: EvalReport,
+/// End-of-run hook: the learning-curve PNG.
+struct CurveHook;
+
+impl RunHook for CurveHook {
+    fn name(&self) -> &'static str {
+        "curve"
+    }
+    fn run(&mut self, _t: &Trainer, out: &Path) -> anyhow::Result<HookOutput> {
+        let curve = out.join("curve.png");
+        crate::plot::plot_log(&out.join("log.jsonl"), &curve)?;
+        Ok(HookOutput { path: Some(curve), error: None })
+    }
+}
+
+/// End-of-run hook: a short video of the deterministic policy (imitation task; rendering
+/// failures are reported, not fatal).
+struct VideoHook;
+
+impl RunHook for VideoHook {
+    fn name(&self) -> &'static str {
+        "video"
+    }
+    fn run(&mut self, t: &Trainer, out: &Path) -> anyhow::Result<HookOutput> {
+        let Some(env) = t.env.as_any().downcast_ref::<SkillEnv>() else {
+            return Ok(HookOutput { path: None, error: Some(format!("no video renderer for task '{}'", t.cfg.env.task)) });
+        };
+        let path = out.join("video.gif");
+        Ok(match crate::cmd_play::render_policy_video(&t.policy, &t.cfg, env.library().clone(), 180, &path, 320, 240) {
+            Ok(()) => HookOutput { path: Some(path), error: None },
+            Err(e) => {
+                tracing::warn!("no video: {e:#}");
+                HookOutput { path: None, error: Some(format!("{e:#}")) }
+            }
+        })
+    }
 }
 
 fn progress_bar(total: u64, done: u64) -> Option<ProgressBar> {
@@ -104,9 +114,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     }
     init_learner_threads(cfg.run.learner_threads);
     let out = cfg.run.out_dir.clone();
-    let mut trainer = Trainer::new(cfg.clone(), a.resume.as_deref())?;
+    let trainer = Trainer::new(cfg.clone(), a.resume.as_deref())?;
     tracing::info!(
-        "training: {} envs x horizon {} = {} samples/iteration, network {:?}, {} iterations -> {}",
+        "training task '{}': {} envs x horizon {} = {} samples/iteration, network {:?}, {} iterations -> {}",
+        cfg.env.task,
         cfg.env.num_envs,
         cfg.ppo.horizon,
         cfg.batch_size(),
@@ -114,89 +125,42 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         cfg.run.iterations,
         out.display()
     );
-    let start = Instant::now();
     let pb = progress_bar(cfg.run.iterations as u64, trainer.progress.iteration);
-    let mut history: Vec<IterationStats> = Vec::new();
     let every = (cfg.run.iterations / 20).max(1) as u64;
-    let last = trainer.train(|s| {
-        match &pb {
-            Some(pb) => {
-                pb.set_position(s.iteration);
-                pb.set_message(describe(s));
-            }
-            None if s.iteration % every == 0 || s.iteration == 1 => tracing::info!("iteration {}: {}", s.iteration, describe(s)),
-            None => {}
+    let mut runner = Runner::new(trainer).hook(Box::new(CurveHook));
+    if cfg.run.final_video {
+        runner = runner.hook(Box::new(VideoHook));
+    }
+    let summary = runner.run(|s| match &pb {
+        Some(pb) => {
+            pb.set_position(s.iteration);
+            pb.set_message(describe(s));
         }
-        history.push(s.clone());
+        None if s.iteration % every == 0 || s.iteration == 1 => tracing::info!("iteration {}: {}", s.iteration, describe(s)),
+        None => {}
     })?;
     if let Some(pb) = pb {
         pb.finish();
     }
-    let wall = start.elapsed().as_secs_f64();
-
-    // end of training: evaluation, curve, video
-    let eval_cfg = {
-        let mut c = cfg.env.clone();
-        c.num_envs = c.num_envs.min(16);
-        c
-    };
-    let mut env = skillmimic_env::SkillEnv::new(eval_cfg, trainer.env.library().clone())?;
-    let report = evaluate(&trainer.policy, &mut env, cfg.run.eval_episodes, cfg.run.seed, false, 0);
-    let metrics = out.join("metrics.json");
-    skillmimic_core::tensorfile::write_bytes_atomic(&metrics, serde_json::to_string_pretty(&report)?.as_bytes())
-        .with_context(|| format!("cannot write {}", metrics.display()))?;
-    let curve = out.join("curve.png");
-    crate::plot::plot_log(&out.join("log.jsonl"), &curve)?;
-    let (mut video, mut video_error) = (None, None);
-    if cfg.run.final_video {
-        let path = out.join("video.gif");
-        match crate::cmd_play::render_policy_video(&trainer.policy, &cfg, trainer.env.library().clone(), 180, &path, 320, 240) {
-            Ok(()) => video = Some(path),
-            Err(e) => {
-                tracing::warn!("no video: {e:#}");
-                video_error = Some(format!("{e:#}"));
-            }
-        }
-    }
-    let rewards: Vec<f64> = history.iter().map(|s| s.mean_reward).collect();
-    let window = (rewards.len() / 10).clamp(1, 25);
-    let mean_of = |xs: &[f64]| if xs.is_empty() { f64::NAN } else { xs.iter().sum::<f64>() / xs.len() as f64 };
-    let summary = Summary {
-        iterations: trainer.progress.iteration,
-        samples: trainer.progress.samples,
-        wall_s: wall,
-        samples_per_s: (history.len() * cfg.batch_size()) as f64 / wall,
-        first_mean_reward: rewards.first().copied().unwrap_or(f64::NAN),
-        last_mean_reward: rewards.last().copied().unwrap_or(f64::NAN),
-        best_mean_reward: rewards.iter().copied().fold(f64::NEG_INFINITY, f64::max),
-        reward_window: window,
-        early_mean_reward: mean_of(&rewards[..window.min(rewards.len())]),
-        late_mean_reward: mean_of(&rewards[rewards.len().saturating_sub(window)..]),
-        checkpoint: last.clone(),
-        metrics: metrics.clone(),
-        curve: curve.clone(),
-        video: video.clone(),
-        video_error,
-        eval: report,
-    };
-    let summary_path = out.join("summary.json");
-    skillmimic_core::tensorfile::write_bytes_atomic(&summary_path, serde_json::to_string_pretty(&summary)?.as_bytes())
-        .with_context(|| format!("cannot write {}", summary_path.display()))?;
+    let eval = summary.eval.as_ref().map_or(String::new(), |e| format!("; eval NR {:.4}, Acc {:.1} %", e.nr, e.acc_percent));
     println!(
-        "trained {} iterations ({} samples) in {:.1} s; mean reward/step over the first {w} iterations {:.4} -> last {w} {:.4}; eval NR {:.4}, Acc {:.1} %",
+        "trained {} iterations ({} samples) in {:.1} s; mean reward/step over the first {w} iterations {:.4} -> last {w} {:.4}{eval}",
         summary.iterations,
         summary.samples,
-        wall,
+        summary.wall_s,
         summary.early_mean_reward,
         summary.late_mean_reward,
-        summary.eval.nr,
-        summary.eval.acc_percent,
         w = summary.reward_window
     );
-    println!("checkpoint {}\nmetrics    {}\ncurve      {}", last.display(), metrics.display(), curve.display());
-    if let Some(v) = &video {
-        println!("video      {}", v.display());
+    println!("checkpoint {}", summary.checkpoint.display());
+    if let Some(m) = &summary.metrics {
+        println!("metrics    {}", m.display());
     }
-    println!("summary    {}", summary_path.display());
+    for (name, o) in &summary.outputs {
+        if let Some(p) = &o.path {
+            println!("{name:<10} {}", p.display());
+        }
+    }
+    println!("summary    {}", out.join("summary.json").display());
     Ok(())
 }

@@ -2,13 +2,18 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::Context;
 use skillmimic_learn::checkpoint::{self, Checkpoint};
 use skillmimic_learn::config::TrainConfig;
 
 /// Flags that override configuration fields (shared by train / eval / play).
 #[derive(clap::Args, Clone, Debug, Default)]
 pub struct ConfigFlags {
+    /// Task of the registry (`env.task`): imitation (default), stand.
+    #[arg(long)]
+    pub task: Option<String>,
+    /// Policy family (`ppo.policy`): gaussian_mlp (default), categorical_mlp.
+    #[arg(long)]
+    pub policy: Option<String>,
     /// Clip files or folders (repeatable); replaces `env.motion`.
     #[arg(long = "motion")]
     pub motion: Vec<PathBuf>,
@@ -26,6 +31,12 @@ pub struct ConfigFlags {
 impl ConfigFlags {
     /// Apply the flags to `cfg`.
     pub fn apply(&self, cfg: &mut TrainConfig) -> anyhow::Result<()> {
+        if let Some(t) = &self.task {
+            cfg.env.task = t.clone();
+        }
+        if let Some(p) = &self.policy {
+            cfg.ppo.policy = p.clone();
+        }
         if !self.motion.is_empty() {
             cfg.env.motion = self.motion.clone();
         }
@@ -66,19 +77,8 @@ impl PresetArgs {
 pub fn assemble_config(preset: &str, file: Option<&Path>, flags: &ConfigFlags) -> anyhow::Result<TrainConfig> {
     let base = TrainConfig::preset(preset).map_err(anyhow::Error::msg)?;
     let mut cfg = match file {
-        Some(p) => {
-            let text = std::fs::read_to_string(p).with_context(|| format!("cannot read config file {}", p.display()))?;
-            let mut c = TrainConfig::from_toml_over(&base, &text, p).map_err(anyhow::Error::msg)?;
-            // relative clip paths in a config file are relative to the file's folder
-            let dir = p.parent().unwrap_or(Path::new("."));
-            c.env.motion = c
-                .env
-                .motion
-                .iter()
-                .map(|m| if m.is_relative() && m.as_os_str() != skillmimic_env::BUILTIN_DEMO && !m.exists() { dir.join(m) } else { m.clone() })
-                .collect();
-            c
-        }
+        // relative paths in the file are resolved by the rule of `config_file` (shared with Python)
+        Some(p) => skillmimic_learn::config_file::load_train_config(&base, p).map_err(anyhow::Error::msg)?,
         None => base,
     };
     flags.apply(&mut cfg)?;

@@ -10,6 +10,7 @@ use clap::{Parser, Subcommand};
 mod bench;
 mod bench_learner;
 mod bench_train;
+mod cmd_config;
 mod cmd_history;
 mod cmd_mjcf;
 mod cmd_motion;
@@ -59,6 +60,9 @@ enum Command {
     History(cmd_history::HistoryCommand),
     /// Record a physics trace (initial state, actions, final state) for cross-checks with PyPI mujoco.
     Trace(cmd_trace::Args),
+    /// Configuration tools: the generated reference of every key (docs/config.md).
+    #[command(subcommand)]
+    Config(cmd_config::ConfigCommand),
 }
 
 /// Keep freed large blocks in the process instead of returning them to the kernel: candle
@@ -97,6 +101,7 @@ fn main() -> ExitCode {
         Command::SynthMotions(a) => cmd_motion::synth(a),
         Command::Trace(a) => cmd_trace::run(a),
         Command::History(c) => cmd_history::run(c),
+        Command::Config(c) => cmd_config::run(c),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

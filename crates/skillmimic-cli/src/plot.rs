@@ -1,13 +1,15 @@
 //! `skillmimic plot`: PNG learning curves from a training log (`log.jsonl`).
 //!
 //! Four panels against samples: mean reward per step, episode length, the imitation sub-rewards
-//! and the losses. Lines are drawn with `plotters` into an RGB buffer; labels use the public-domain
-//! 8×8 bitmap glyphs of `font8x8`, so no system font is needed (headless machines).
+//! and the losses, each with a title, axis labels with tick numbers and a legend. Everything is
+//! drawn by `plotters` into an RGB buffer; text goes through its `ab_glyph` rasteriser with the
+//! DejaVu Sans face embedded in the binary (`assets/fonts`, Bitstream Vera licence), so no system
+//! font is needed (headless machines, fresh CI).
 
 use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
 
 use anyhow::{Context, bail};
-use font8x8::UnicodeFonts;
 use plotters::prelude::*;
 
 #[derive(clap::Args)]
@@ -20,11 +22,36 @@ pub struct Args {
     pub out: PathBuf,
 }
 
+/// Size of the PNG written by [`plot_log`].
+pub const SIZE: (u32, u32) = (1200, 800);
+
+/// DejaVu Sans 2.37 (`assets/fonts/LICENSE-DejaVu.txt`).
+static FONT: &[u8] = include_bytes!("../assets/fonts/DejaVuSans.ttf");
+/// The family name the embedded face is registered under.
+const FAMILY: &str = "sans-serif";
+
+/// Register the embedded face with plotters (once per process).
+fn register_font() -> anyhow::Result<()> {
+    static DONE: OnceLock<Result<(), String>> = OnceLock::new();
+    DONE.get_or_init(|| {
+        plotters::style::register_font(FAMILY, FontStyle::Normal, FONT).map_err(|_| "the embedded DejaVu Sans font does not parse".to_string())
+    })
+    .clone()
+    .map_err(anyhow::Error::msg)
+}
+
 /// One curve of a panel.
 struct Series {
     name: String,
     color: RGBColor,
     points: Vec<(f64, f64)>,
+}
+
+/// One panel: title, y-axis description, curves.
+struct Panel {
+    title: &'static str,
+    y_desc: &'static str,
+    series: Vec<Series>,
 }
 
 const COLORS: [RGBColor; 6] = [
@@ -61,102 +88,153 @@ fn term(rows: &[serde_json::Value], name: &str) -> Vec<(f64, f64)> {
         .collect()
 }
 
-/// Draw `text` with 8×8 glyphs scaled by `scale` at pixel (x, y) (top-left).
-fn draw_text(buf: &mut [u8], w: usize, h: usize, x: i32, y: i32, text: &str, scale: i32, color: (u8, u8, u8)) {
-    let mut cx = x;
-    for ch in text.chars() {
-        if let Some(glyph) = font8x8::BASIC_FONTS.get(ch) {
-            for (row, bits) in glyph.iter().enumerate() {
-                for col in 0..8 {
-                    if bits & (1 << col) == 0 {
-                        continue;
-                    }
-                    for dy in 0..scale {
-                        for dx in 0..scale {
-                            let px = cx + col * scale + dx;
-                            let py = y + row as i32 * scale + dy;
-                            if px >= 0 && py >= 0 && (px as usize) < w && (py as usize) < h {
-                                let i = 3 * (py as usize * w + px as usize);
-                                buf[i..i + 3].copy_from_slice(&[color.0, color.1, color.2]);
-                            }
-                        }
-                    }
-                }
-            }
-        }
-        cx += 8 * scale;
-    }
-}
-
+/// Tick label: `0`, `0.0146`, `12.5`, `150k`, `2.5M`, `3.0e-5`.
 fn fmt_num(v: f64) -> String {
-    let a = v.abs();
-    if a != 0.0 && !(1e-3..1e5).contains(&a) { format!("{v:.1e}") } else if a >= 100.0 { format!("{v:.0}") } else { format!("{v:.3}") }
-}
-
-/// Panel geometry: pixel box and data ranges.
-struct Panel {
-    x0: i32,
-    y0: i32,
-    w: i32,
-    h: i32,
-    title: String,
-    series: Vec<Series>,
-}
-
-fn render(panels: &[Panel], width: usize, height: usize) -> anyhow::Result<Vec<u8>> {
-    let mut buf = vec![255u8; width * height * 3];
-    let mut labels: Vec<(i32, i32, String, (u8, u8, u8), i32)> = Vec::new();
-    {
-        let root = BitMapBackend::with_buffer(&mut buf, (width as u32, height as u32)).into_drawing_area();
-        for p in panels {
-            let (l, t, r, b) = (p.x0 + 70, p.y0 + 30, p.x0 + p.w - 10, p.y0 + p.h - 40);
-            let all: Vec<(f64, f64)> = p.series.iter().flat_map(|s| s.points.iter().copied()).filter(|(x, y)| x.is_finite() && y.is_finite()).collect();
-            labels.push((p.x0 + 8, p.y0 + 6, p.title.clone(), (0, 0, 0), 2));
-            root.draw(&Rectangle::new([(l, t), (r, b)], BLACK.stroke_width(1))).map_err(|e| anyhow::anyhow!("plot: {e}"))?;
-            if all.is_empty() {
-                continue;
-            }
-            let (mut xmin, mut xmax) = all.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| (a.min(p.0), b.max(p.0)));
-            let (mut ymin, mut ymax) = all.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| (a.min(p.1), b.max(p.1)));
-            if xmax <= xmin {
-                xmax = xmin + 1.0;
-                xmin -= 1.0;
-            }
-            if ymax <= ymin {
-                ymax = ymin + 1e-6 + ymin.abs() * 0.1;
-                ymin -= 1e-6 + ymin.abs() * 0.1;
-            }
-            let pad = 0.05 * (ymax - ymin);
-            let (ymin, ymax) = (ymin - pad, ymax + pad);
-            let px = |x: f64| l + ((x - xmin) / (xmax - xmin) * (r - l) as f64) as i32;
-            let py = |y: f64| b - ((y - ymin) / (ymax - ymin) * (b - t) as f64) as i32;
-            for k in 0..=4 {
-                let yv = ymin + (ymax - ymin) * k as f64 / 4.0;
-                let yp = py(yv);
-                root.draw(&PathElement::new(vec![(l, yp), (r, yp)], RGBColor(225, 225, 225).stroke_width(1))).map_err(|e| anyhow::anyhow!("plot: {e}"))?;
-                labels.push((p.x0 + 2, yp - 4, fmt_num(yv), (60, 60, 60), 1));
-                let xv = xmin + (xmax - xmin) * k as f64 / 4.0;
-                labels.push((px(xv) - 16, b + 6, fmt_num(xv), (60, 60, 60), 1));
-            }
-            for (k, s) in p.series.iter().enumerate() {
-                let pts: Vec<(i32, i32)> = s.points.iter().filter(|(x, y)| x.is_finite() && y.is_finite()).map(|&(x, y)| (px(x), py(y))).collect();
-                if pts.len() == 1 {
-                    root.draw(&Circle::new(pts[0], 3, s.color.filled())).map_err(|e| anyhow::anyhow!("plot: {e}"))?;
-                }
-                root.draw(&PathElement::new(pts, s.color.stroke_width(2))).map_err(|e| anyhow::anyhow!("plot: {e}"))?;
-                labels.push((l + 8 + 90 * k as i32, t + 6, s.name.clone(), (s.color.0, s.color.1, s.color.2), 1));
-            }
-            labels.push((r - 60, b + 22, "samples".into(), (60, 60, 60), 1));
-        }
-        root.present().map_err(|e| anyhow::anyhow!("plot: {e}"))?;
+    fn trim(s: String) -> String {
+        if s.contains('.') { s.trim_end_matches('0').trim_end_matches('.').to_string() } else { s }
     }
-    for (x, y, text, color, scale) in labels {
-        draw_text(&mut buf, width, height, x, y, &text, scale, color);
+    let a = v.abs();
+    let s = if a < 1e-12 {
+        "0".to_string()
+    } else if a >= 1e3 {
+        let (div, unit) = if a >= 1e9 { (1e9, "G") } else if a >= 1e6 { (1e6, "M") } else { (1e3, "k") };
+        format!("{}{unit}", trim(format!("{:.2}", v / div)))
+    } else if a >= 1.0 {
+        trim(format!("{v:.3}"))
+    } else if a >= 1e-3 {
+        trim(format!("{v:.5}"))
+    } else {
+        format!("{v:.1e}")
+    };
+    if s == "-0" { "0".to_string() } else { s }
+}
+
+fn plot_err(e: impl std::fmt::Display) -> anyhow::Error {
+    anyhow::anyhow!("plot: {e}")
+}
+
+/// Data range of the finite points of `series` (x, y), padded; a unit range when empty.
+fn ranges(series: &[Series]) -> (std::ops::Range<f64>, std::ops::Range<f64>) {
+    let finite = || series.iter().flat_map(|s| s.points.iter().copied()).filter(|(x, y)| x.is_finite() && y.is_finite());
+    let (mut xmin, mut xmax) = finite().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| (a.min(p.0), b.max(p.0)));
+    let (mut ymin, mut ymax) = finite().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| (a.min(p.1), b.max(p.1)));
+    if !(xmin.is_finite() && ymin.is_finite()) {
+        return (0.0..1.0, 0.0..1.0);
+    }
+    if xmax <= xmin {
+        xmax = xmin + 1.0;
+        xmin -= 1.0;
+    }
+    if ymax <= ymin {
+        ymax = ymin + 1e-6 + ymin.abs() * 0.1;
+        ymin -= 1e-6 + ymin.abs() * 0.1;
+    }
+    let pad = 0.06 * (ymax - ymin);
+    (xmin..xmax, ymin - pad..ymax + pad)
+}
+
+/// The corner of the plotting area where the legend (one line per series) covers the fewest points.
+fn legend_corner(series: &[Series], xr: &std::ops::Range<f64>, yr: &std::ops::Range<f64>) -> SeriesLabelPosition {
+    let (bw, bh) = (0.35, (0.06 + 0.065 * series.len() as f64).min(0.6));
+    let corners = [
+        (SeriesLabelPosition::UpperLeft, 0.0, 1.0 - bh),
+        (SeriesLabelPosition::UpperRight, 1.0 - bw, 1.0 - bh),
+        (SeriesLabelPosition::LowerLeft, 0.0, 0.0),
+        (SeriesLabelPosition::LowerRight, 1.0 - bw, 0.0),
+    ];
+    let covered = |x0: f64, y0: f64| {
+        let pts = series.iter().flat_map(|s| s.points.iter());
+        pts.filter(|(x, y)| {
+            let (u, v) = ((x - xr.start) / (xr.end - xr.start), (y - yr.start) / (yr.end - yr.start));
+            (x0..=x0 + bw).contains(&u) && (y0..=y0 + bh).contains(&v)
+        })
+        .count()
+    };
+    corners.into_iter().min_by_key(|(_, x0, y0)| covered(*x0, *y0)).expect("four corners").0
+}
+
+fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, plotters::coord::Shift>, p: &Panel) -> anyhow::Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    let (xr, yr) = ranges(&p.series);
+    let corner = legend_corner(&p.series, &xr, &yr);
+    let mut chart = ChartBuilder::on(area)
+        .caption(p.title, (FAMILY, 22).into_font().color(&BLACK))
+        .margin(12)
+        .x_label_area_size(46)
+        .y_label_area_size(70)
+        .build_cartesian_2d(xr, yr)
+        .map_err(plot_err)?;
+    chart
+        .configure_mesh()
+        .light_line_style(TRANSPARENT)
+        .bold_line_style(RGBColor(222, 222, 222))
+        .x_labels(6)
+        .y_labels(6)
+        .x_label_formatter(&|v| fmt_num(*v))
+        .y_label_formatter(&|v| fmt_num(*v))
+        .label_style((FAMILY, 14).into_font().color(&RGBColor(50, 50, 50)))
+        .x_desc("samples")
+        .y_desc(p.y_desc)
+        .axis_desc_style((FAMILY, 15).into_font().color(&BLACK))
+        .draw()
+        .map_err(plot_err)?;
+    let mut any = false;
+    for s in &p.series {
+        let pts: Vec<(f64, f64)> = s.points.iter().copied().filter(|(x, y)| x.is_finite() && y.is_finite()).collect();
+        if pts.is_empty() {
+            continue;
+        }
+        any = true;
+        let color = s.color;
+        if pts.len() == 1 {
+            chart.draw_series(std::iter::once(Circle::new(pts[0], 4, color.filled()))).map_err(plot_err)?;
+        }
+        chart
+            .draw_series(LineSeries::new(pts, color.stroke_width(2)))
+            .map_err(plot_err)?
+            .label(s.name.as_str())
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 22, y)], color.stroke_width(3)));
+    }
+    if any {
+        chart
+            .configure_series_labels()
+            .position(corner)
+            .margin(8)
+            .legend_area_size(28)
+            .label_font((FAMILY, 14).into_font().color(&BLACK))
+            .background_style(WHITE.mix(0.85))
+            .border_style(RGBColor(170, 170, 170))
+            .draw()
+            .map_err(plot_err)?;
+    } else {
+        let (w, h) = area.dim_in_pixel();
+        let style = (FAMILY, 18).into_font().color(&RGBColor(120, 120, 120)).pos(plotters::style::text_anchor::Pos::new(
+            plotters::style::text_anchor::HPos::Center,
+            plotters::style::text_anchor::VPos::Center,
+        ));
+        area.draw(&Text::new("no data in the log", (w as i32 / 2, h as i32 / 2), style)).map_err(plot_err)?;
+    }
+    Ok(())
+}
+
+/// Render the four panels into an RGB buffer of `width × height`.
+fn render(panels: &[Panel], width: u32, height: u32) -> anyhow::Result<Vec<u8>> {
+    register_font()?;
+    let mut buf = vec![255u8; width as usize * height as usize * 3];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, (width, height)).into_drawing_area();
+        root.fill(&WHITE).map_err(plot_err)?;
+        for (area, p) in root.split_evenly((2, 2)).iter().zip(panels) {
+            draw_panel(area, p)?;
+        }
+        root.present().map_err(plot_err)?;
     }
     Ok(buf)
 }
 
-fn write_png(path: &Path, rgb: &[u8], w: usize, h: usize) -> anyhow::Result<()> {
+fn write_png(path: &Path, rgb: &[u8], w: u32, h: u32) -> anyhow::Result<()> {
     use mujoco_rs::renderer::png;
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir)?;
@@ -164,7 +242,7 @@ fn write_png(path: &Path, rgb: &[u8], w: usize, h: usize) -> anyhow::Result<()> 
     let tmp = path.with_extension("png.tmp");
     {
         let file = std::fs::File::create(&tmp).with_context(|| format!("cannot create {}", tmp.display()))?;
-        let mut enc = png::Encoder::new(std::io::BufWriter::new(file), w as u32, h as u32);
+        let mut enc = png::Encoder::new(std::io::BufWriter::new(file), w, h);
         enc.set_color(png::ColorType::Rgb);
         enc.set_depth(png::BitDepth::Eight);
         enc.write_header()?.write_image_data(rgb)?;
@@ -172,32 +250,25 @@ fn write_png(path: &Path, rgb: &[u8], w: usize, h: usize) -> anyhow::Result<()> 
     std::fs::rename(&tmp, path).with_context(|| format!("cannot write {}", path.display()))
 }
 
-/// Plot the learning curves of `log` into `out`.
+/// Plot the learning curves of `log` into `out` (a [`SIZE`] PNG).
 pub fn plot_log(log: &Path, out: &Path) -> anyhow::Result<()> {
     let rows = read_log(log)?;
-    let (w, h) = (1200usize, 800usize);
-    let (pw, ph) = ((w / 2) as i32, (h / 2) as i32);
     let s = |name: &str, k: usize, points| Series { name: name.into(), color: COLORS[k], points };
-    let panels = vec![
-        Panel { x0: 0, y0: 0, w: pw, h: ph, title: "mean reward per step".into(), series: vec![s("reward", 0, field(&rows, "mean_reward"))] },
-        Panel { x0: pw, y0: 0, w: pw, h: ph, title: "episode length (steps)".into(), series: vec![s("length", 1, field(&rows, "episode_length"))] },
+    let panels = [
+        Panel { title: "Mean reward per step", y_desc: "reward", series: vec![s("mean reward", 0, field(&rows, "mean_reward"))] },
+        Panel { title: "Episode length", y_desc: "steps", series: vec![s("episode length", 1, field(&rows, "episode_length"))] },
         Panel {
-            x0: 0,
-            y0: ph,
-            w: pw,
-            h: ph,
-            title: "sub-rewards".into(),
+            title: "Imitation sub-rewards",
+            y_desc: "mean term value",
             series: ["p", "r", "op", "ig", "cg"].iter().enumerate().map(|(k, n)| s(&format!("r_{n}"), k, term(&rows, n))).collect(),
         },
         Panel {
-            x0: pw,
-            y0: ph,
-            w: pw,
-            h: ph,
-            title: "losses".into(),
+            title: "Losses",
+            y_desc: "loss",
             series: vec![s("actor", 0, field(&rows, "actor_loss")), s("critic", 1, field(&rows, "critic_loss")), s("bounds", 2, field(&rows, "bounds_loss"))],
         },
     ];
+    let (w, h) = SIZE;
     let rgb = render(&panels, w, h)?;
     write_png(out, &rgb, w, h)
 }
@@ -206,4 +277,92 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     plot_log(&a.log, &a.out)?;
     tracing::info!("wrote {}", a.out.display());
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use mujoco_rs::renderer::png;
+
+    fn temp_dir(tag: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!("skillmimic-plot-{tag}-{}", std::process::id()));
+        std::fs::create_dir_all(&d).unwrap();
+        d
+    }
+
+    /// A log shaped like the trainer's `log.jsonl` (the fields the plot reads).
+    fn synthetic_log(dir: &Path, iterations: usize) -> PathBuf {
+        let mut text = String::new();
+        for i in 0..iterations {
+            let t = i as f64 / iterations.max(1) as f64;
+            let terms: Vec<(String, f64)> = skillmimic_env::reward::TERM_NAMES.iter().enumerate().map(|(k, n)| (n.to_string(), 0.2 + 0.5 * t / (1.0 + k as f64))).collect();
+            let row = serde_json::json!({
+                "iteration": i + 1, "samples": (i + 1) * 512, "mean_reward": 0.015 + 0.03 * t,
+                "reward_terms": terms, "episode_length": 20.0 + 40.0 * t,
+                "actor_loss": -0.01 * t, "critic_loss": 1.0 - 0.5 * t, "bounds_loss": 0.001,
+            });
+            text.push_str(&row.to_string());
+            text.push('\n');
+        }
+        let p = dir.join("log.jsonl");
+        std::fs::write(&p, text).unwrap();
+        p
+    }
+
+    fn decode(path: &Path) -> (png::OutputInfo, Vec<u8>) {
+        let dec = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(path).unwrap()));
+        let mut reader = dec.read_info().unwrap();
+        let mut buf = vec![0u8; reader.output_buffer_size().unwrap()];
+        let info = reader.next_frame(&mut buf).unwrap();
+        buf.truncate(info.buffer_size());
+        (info, buf)
+    }
+
+    #[test]
+    fn png_decodes_with_the_expected_size_and_has_text() {
+        let dir = temp_dir("full");
+        let log = synthetic_log(&dir, 40);
+        let out = dir.join("sub").join("curve.png");
+        plot_log(&log, &out).unwrap();
+        let (info, rgb) = decode(&out);
+        assert_eq!((info.width, info.height), SIZE);
+        assert_eq!((info.color_type, info.bit_depth), (png::ColorType::Rgb, png::BitDepth::Eight));
+        // the caption band of the first panel (above the plotting area) holds the title's glyphs:
+        // dark pixels, and anti-aliased grey ones (outline fonts, not a bitmap font)
+        let w = SIZE.0 as usize;
+        let (mut dark, mut grey) = (0, 0);
+        for y in 8..36 {
+            for x in 0..w / 2 {
+                let px = &rgb[3 * (y * w + x)..3 * (y * w + x) + 3];
+                let m = *px.iter().max().unwrap();
+                if m < 80 {
+                    dark += 1;
+                } else if px.iter().all(|&c| (100..220).contains(&c)) {
+                    grey += 1;
+                }
+            }
+        }
+        assert!(dark > 200 && grey > 50, "title not rendered: {dark} dark, {grey} grey pixels");
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn one_iteration_and_missing_fields_still_plot() {
+        let dir = temp_dir("one");
+        let log = dir.join("log.jsonl");
+        std::fs::write(&log, "{\"samples\": 512, \"mean_reward\": 0.02}\n").unwrap();
+        let out = dir.join("curve.png");
+        plot_log(&log, &out).unwrap();
+        assert_eq!((decode(&out).0.width, decode(&out).0.height), SIZE);
+        std::fs::write(&log, "\n").unwrap();
+        assert!(plot_log(&log, &out).is_err());
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn tick_labels_are_short() {
+        for (v, s) in [(0.0, "0"), (0.0146, "0.0146"), (12.5, "12.5"), (150_000.0, "150k"), (2_500_000.0, "2.5M"), (3e-5, "3.0e-5"), (-0.25, "-0.25"), (-1e-15, "0")] {
+            assert_eq!(fmt_num(v), s);
+        }
+    }
 }

@@ -4,11 +4,16 @@
 
 use std::path::PathBuf;
 
+use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 use skillmimic_sim::{BallParams, HandModel, SceneOptions};
 
+pub use crate::config_v2::{AtsConfig, BridgeConfig, HistoryConfig, MaskedReward, NoiseEps, StfConfig, StgConfig, V2Config};
+pub use crate::error::ConfigError;
+use crate::error::bad;
+
 /// How the reward combines its terms.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum RewardVariant {
     /// The unified HOI imitation reward: r = r_b · r_o · r_rel · r_reg · r_cg (P1 eq. 2).
@@ -25,7 +30,7 @@ pub enum RewardVariant {
 }
 
 /// How simulated contact-graph states are measured.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum ContactGraphMode {
     /// Exact MuJoCo contact pairs: edges hand–ball (target: the clip label), body–ball,
@@ -40,12 +45,16 @@ pub enum ContactGraphMode {
 }
 
 /// Weights of the DeepMimic-style baseline (seed 003 Tab. 9).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct DeepMimicWeights {
+    /// Body position.
     pub w_p: f64,
+    /// Body rotation.
     pub w_r: f64,
+    /// Joint velocity.
     pub w_rv: f64,
+    /// Ball position.
     pub w_op: f64,
 }
 
@@ -56,9 +65,10 @@ impl Default for DeepMimicWeights {
 }
 
 /// Reward weights (exponent scales) and variant. Defaults: SkillMimic yaml.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct RewardConfig {
+    /// How the reward combines its terms.
     pub variant: RewardVariant,
     /// Body position: root + 17 key bodies.
     pub w_p: f64,
@@ -84,13 +94,17 @@ pub struct RewardConfig {
     pub w_ig: f64,
     /// How contact-graph states are measured.
     pub contact_graph: ContactGraphMode,
-    /// Exact mode edge weights.
+    /// Exact mode edge weight: hand–ball.
     pub w_cg_hand_ball: f64,
+    /// Exact mode edge weight: body–ball.
     pub w_cg_body_ball: f64,
+    /// Exact mode edge weight: hand–body.
     pub w_cg_hand_body: f64,
+    /// Exact mode edge weight: body–floor.
     pub w_cg_body_floor: f64,
-    /// Force-threshold mode node weights (cg1: body node, cg2: ball node).
+    /// Force-threshold mode node weight: body node (cg1).
     pub w_cg1_body: f64,
+    /// Force-threshold mode node weight: ball node (cg2).
     pub w_cg2_ball: f64,
     /// Force threshold (N) of the force-threshold mode.
     pub force_threshold: f64,
@@ -127,11 +141,14 @@ impl Default for RewardConfig {
 }
 
 /// Scale factors of the ball's physical properties (robustness tests, seed 000 Tab. 2).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct BallOverrides {
+    /// Factor on the ball radius.
     pub radius_scale: f64,
+    /// Factor on the ball density.
     pub density_scale: f64,
+    /// Factor on the ball restitution (the result must stay ≤ 1).
     pub restitution_scale: f64,
 }
 
@@ -142,7 +159,7 @@ impl Default for BallOverrides {
 }
 
 /// Where episodes start.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum StateInit {
     /// Random clip (class-balanced) and random start frame 2 … T−2 (training).
@@ -153,10 +170,15 @@ pub enum StateInit {
 }
 
 /// Environment configuration.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct EnvConfig {
+    /// The task to train (a name of the task registry: "imitation", "stand"). `[env]` holds the
+    /// driver's keys and, for historical reasons, the imitation task's; every other task has its
+    /// own `[env.<task>]` table.
+    pub task: String,
     /// Clip files or folders (searched recursively for `.pt` and `.safetensors`).
+    #[schemars(extend("items" = {"type": "string", "format": "path"}))]
     pub motion: Vec<PathBuf>,
     /// Number of parallel environments.
     pub num_envs: usize,
@@ -174,12 +196,19 @@ pub struct EnvConfig {
     /// reference frames past the clip end hold the last frame (SkillMimic-V2 success rates are
     /// measured over 10 s = 600 steps). 0 = training behaviour (episodes end with the clip).
     pub fixed_horizon: usize,
-    /// Random seed of clip/frame sampling.
-    pub seed: u64,
+    /// Seed of the stream of episode starts (clip/frame sampling, V2 start variants). Unset
+    /// (the default) = derived: training uses `run.seed`, a standalone environment 0 (see
+    /// [`EnvConfig::start_seed`]). Set it to decouple episode starts from the run seed.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub seed: Option<u64>,
+    /// Reward weights (exponent scales) and variant.
     pub reward: RewardConfig,
+    /// Scale factors of the ball's physical properties (robustness tests, seed 000 Tab. 2).
     pub ball: BallOverrides,
     /// SkillMimic-V2 options (all off by default = SkillMimic).
     pub v2: V2Config,
+    /// Options of the `stand` task (the worked example of adding a task).
+    pub stand: StandConfig,
 }
 
 impl Default for EnvConfig {
@@ -193,212 +222,48 @@ impl Default for EnvConfig {
             termination_height: 0.3,
             state_init: StateInit::Random,
             fixed_horizon: 0,
-            seed: 0,
+            seed: None,
             reward: RewardConfig::default(),
             ball: BallOverrides::default(),
             v2: V2Config::default(),
+            task: "imitation".into(),
+            stand: Default::default(),
         }
     }
 }
 
-/// SkillMimic-V2 (seed 003) options. The four parts switch on and off independently — the
-/// ablation table of seed 003 Tab. 3 — and with all of them off the environment is SkillMimic.
-/// Defaults are P2 Tab. 7.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+/// Options of the `stand` task (`[env.stand]`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
-pub struct V2Config {
-    /// History encoder (§4.6): the frozen embedding is appended to the observation (902 → 905).
-    pub history: HistoryConfig,
-    /// State Transition Field (§4.3): ε-neighbourhood initialisation connected to the most
-    /// similar reference state of the same clip.
-    pub stf: StfConfig,
-    /// Stitched Trajectory Graph (§4.4): start from a skill's state while imitating another
-    /// skill's most similar (aligned) state.
-    pub stg: StgConfig,
-    /// Adaptive Trajectory Sampling (§4.5).
-    pub ats: AtsConfig,
-    /// Masked bridging steps after an STF/STG connection of similarity β:
-    /// N = min(−⌈log10 β⌉, N_max), N = N_max when β < τ, N = 0 when β ≥ 1.
-    pub bridge: BridgeConfig,
+pub struct StandConfig {
+    /// Episode length in policy steps (60 = 1 s).
+    pub episode_length: usize,
+    /// Pelvis height at the start (m); the zero pose's feet then touch the floor.
+    pub start_height: f64,
+    /// Target pelvis height z* (m).
+    pub target_height: f64,
+    /// Early termination below this pelvis height (m).
+    pub termination_height: f64,
+    /// Weight w_h of the height term (the heading term gets 1 − w_h).
+    pub height_weight: f64,
+    /// Height error scale k_h (1/m²).
+    pub height_scale: f64,
+    /// Heading error scale k_ψ (1/rad²).
+    pub heading_scale: f64,
 }
 
-/// History-encoder settings.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct HistoryConfig {
-    pub enabled: bool,
-    /// Encoder weights written by `skillmimic history pretrain` (safetensors; the history length
-    /// k and the embedding width μ are read from the file).
-    pub encoder: PathBuf,
-}
-
-/// Per-component half-widths ε of the neighbourhood (units of each component: m, rad, m/s,
-/// rad/s). Every component is drawn uniformly from [−ε, ε] (P2 Tab. 7), except heights, which
-/// are moved upward only, U(0, ε), so that neither the feet nor the ball start inside the floor
-/// (as the reference code does). Rotations are perturbed by a world-frame rotation vector with
-/// components in [−ε, ε].
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct NoiseEps {
-    /// Root x, y (m).
-    pub root_pos: f64,
-    /// Root height, upward only (m).
-    pub root_height: f64,
-    /// Root orientation (rad, rotation-vector components).
-    pub root_rot: f64,
-    /// Root linear velocity (m/s) and angular velocity (rad/s, root frame).
-    pub root_linvel: f64,
-    pub root_angvel: f64,
-    /// Joint exp-map components (rad) and joint velocities (rad/s).
-    pub dof_pos: f64,
-    pub dof_vel: f64,
-    /// Ball x, y (m) and height (upward only, m).
-    pub ball_pos: f64,
-    pub ball_height: f64,
-    /// Ball orientation (rad), linear velocity (m/s), angular velocity (rad/s).
-    pub ball_rot: f64,
-    pub ball_linvel: f64,
-    pub ball_angvel: f64,
-}
-
-impl NoiseEps {
-    /// Every width zero (no perturbation).
-    pub fn zero() -> Self {
-        Self {
-            root_pos: 0.0,
-            root_height: 0.0,
-            root_rot: 0.0,
-            root_linvel: 0.0,
-            root_angvel: 0.0,
-            dof_pos: 0.0,
-            dof_vel: 0.0,
-            ball_pos: 0.0,
-            ball_height: 0.0,
-            ball_rot: 0.0,
-            ball_linvel: 0.0,
-            ball_angvel: 0.0,
-        }
-    }
-}
-
-impl Default for NoiseEps {
+impl Default for StandConfig {
     fn default() -> Self {
-        Self {
-            root_pos: 0.1,
-            root_height: 0.1,
-            root_rot: 0.1,
-            root_linvel: 0.1,
-            root_angvel: 0.1,
-            dof_pos: 0.1,
-            dof_vel: 0.1,
-            ball_pos: 0.1,
-            ball_height: 0.1,
-            ball_rot: 0.1,
-            ball_linvel: 0.1,
-            ball_angvel: 0.1,
-        }
+        Self { episode_length: 300, start_height: 0.95, target_height: 0.9, termination_height: 0.5, height_weight: 0.5, height_scale: 20.0, heading_scale: 2.0 }
     }
-}
-
-/// State Transition Field settings.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct StfConfig {
-    pub enabled: bool,
-    /// p_n: probability that a reset starts from a perturbed state.
-    pub prob: f64,
-    pub eps: NoiseEps,
-}
-
-impl Default for StfConfig {
-    fn default() -> Self {
-        Self { enabled: false, prob: 0.1, eps: NoiseEps::default() }
-    }
-}
-
-/// Stitched Trajectory Graph settings.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct StgConfig {
-    pub enabled: bool,
-    /// p_e: probability that a reset imitates another skill from the sampled state (applied to
-    /// resets that were not perturbed by the STF, as in the reference code).
-    pub prob: f64,
-}
-
-impl Default for StgConfig {
-    fn default() -> Self {
-        Self { enabled: false, prob: 0.1 }
-    }
-}
-
-/// How the masked bridging steps enter the reward.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum MaskedReward {
-    /// Paper (P2 App. B.4): the N steps are inserted before the connected reference frame (the
-    /// reference holds that frame meanwhile) and their reward is excluded (0, not counted in
-    /// metrics or ATS).
-    #[default]
-    Exclude,
-    /// Reference-code compatibility: the reference advances during the N steps and their reward
-    /// is replaced by the mean reward of the environments currently on the same clip.
-    ReplaceWithClipMean,
-}
-
-/// Bridging-step settings shared by STF and STG.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct BridgeConfig {
-    /// N_max.
-    pub max_masked_steps: usize,
-    /// τ: similarity floor. STG connections below it are not made; an STF connection below it
-    /// gets N_max steps.
-    pub tau: f64,
-    pub masked_reward: MaskedReward,
-}
-
-impl Default for BridgeConfig {
-    fn default() -> Self {
-        Self { max_masked_steps: 10, tau: 1e-10, masked_reward: MaskedReward::Exclude }
-    }
-}
-
-/// Adaptive Trajectory Sampling settings (P2 eq. 8).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct AtsConfig {
-    pub enabled: bool,
-    /// λ_s: start-frame weights ∝ exp(−λ_s r̄).
-    pub lambda_s: f64,
-    /// λ_c: class and clip weights ∝ exp(−λ_c R).
-    pub lambda_c: f64,
-    /// Mixing with uniform sampling: p = (1 − α)/n + α·p_ATS (1 = pure ATS).
-    pub alpha: f64,
-    /// Vectorised environment steps between two recomputations of the distributions;
-    /// 0 = 5 × (sum of the clip lengths), the reference code's interval.
-    pub update_interval: usize,
-}
-
-impl Default for AtsConfig {
-    fn default() -> Self {
-        Self { enabled: false, lambda_s: 10.0, lambda_c: 5.0, alpha: 1.0, update_interval: 0 }
-    }
-}
-
-/// Invalid configuration value.
-#[derive(Debug, thiserror::Error)]
-#[error("config field '{field}': {message}")]
-pub struct ConfigError {
-    pub field: String,
-    pub message: String,
-}
-
-fn bad(field: &str, message: impl Into<String>) -> ConfigError {
-    ConfigError { field: field.into(), message: message.into() }
 }
 
 impl EnvConfig {
+    /// The seed of episode starts: `seed` when set, else `derived` (the run seed in training).
+    pub fn start_seed(&self, derived: u64) -> u64 {
+        self.seed.unwrap_or(derived)
+    }
+
     /// The hand model named by `hands`.
     pub fn hand_model(&self) -> Result<HandModel, ConfigError> {
         match self.hands.as_str() {
@@ -421,12 +286,19 @@ impl EnvConfig {
         Ok(SceneOptions { hands: self.hand_model()?, ball, ..Default::default() })
     }
 
-    /// Check value ranges (called by the environment constructor).
-    pub fn validate(&self) -> Result<(), ConfigError> {
+    /// Check the driver's keys (every task): hand model, number of environments (the task name
+    /// is checked by `registry::make`).
+    pub fn validate_driver(&self) -> Result<(), ConfigError> {
         self.hand_model()?;
         if self.num_envs == 0 {
             return Err(bad("env.num_envs", "must be at least 1"));
         }
+        Ok(())
+    }
+
+    /// Check value ranges of the driver and the imitation task (called by its constructor).
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        self.validate_driver()?;
         if self.episode_length < 2 {
             return Err(bad("env.episode_length", "must be at least 2 policy steps"));
         }
@@ -474,52 +346,6 @@ impl EnvConfig {
             }
         }
         self.v2.validate()
-    }
-}
-
-impl V2Config {
-    /// True when any V2 part is on.
-    pub fn any(&self) -> bool {
-        self.history.enabled || self.stf.enabled || self.stg.enabled || self.ats.enabled
-    }
-
-    fn validate(&self) -> Result<(), ConfigError> {
-        if self.history.enabled && self.history.encoder.as_os_str().is_empty() {
-            return Err(bad("env.v2.history.encoder", "history is enabled but no encoder file is given (write one with `skillmimic history pretrain`)"));
-        }
-        for (f, v) in [("env.v2.stf.prob", self.stf.prob), ("env.v2.stg.prob", self.stg.prob), ("env.v2.ats.alpha", self.ats.alpha)] {
-            if !(0.0..=1.0).contains(&v) {
-                return Err(bad(f, format!("{v} must be a probability in [0, 1]")));
-            }
-        }
-        let e = &self.stf.eps;
-        for (f, v) in [
-            ("root_pos", e.root_pos),
-            ("root_height", e.root_height),
-            ("root_rot", e.root_rot),
-            ("root_linvel", e.root_linvel),
-            ("root_angvel", e.root_angvel),
-            ("dof_pos", e.dof_pos),
-            ("dof_vel", e.dof_vel),
-            ("ball_pos", e.ball_pos),
-            ("ball_height", e.ball_height),
-            ("ball_rot", e.ball_rot),
-            ("ball_linvel", e.ball_linvel),
-            ("ball_angvel", e.ball_angvel),
-        ] {
-            if !(v.is_finite() && v >= 0.0) {
-                return Err(bad(&format!("env.v2.stf.eps.{f}"), format!("{v} must be a finite number >= 0")));
-            }
-        }
-        for (f, v) in [("env.v2.ats.lambda_s", self.ats.lambda_s), ("env.v2.ats.lambda_c", self.ats.lambda_c)] {
-            if !(v.is_finite() && v >= 0.0) {
-                return Err(bad(f, format!("{v} must be a finite number >= 0")));
-            }
-        }
-        if !(self.bridge.tau.is_finite() && self.bridge.tau > 0.0 && self.bridge.tau < 1.0) {
-            return Err(bad("env.v2.bridge.tau", format!("{} must be in (0, 1)", self.bridge.tau)));
-        }
-        Ok(())
     }
 }
 

@@ -7,7 +7,7 @@
 //! * Skill success rules of SkillMimic (seed 000 §6.2) and SkillMimic-V2's metric classes
 //!   (reference-facts §9.8), as per-episode trackers fed one frame at a time.
 
-use crate::env::NUM_FRAME_METRICS;
+use crate::tasks::imitation::NUM_FRAME_METRICS;
 use crate::hoi::dist;
 
 /// Accumulates per-frame imitation errors.

@@ -5,7 +5,7 @@
 //! |---|---|---|
 //! | `actor.{0,2,4,…}.weight` / `.bias` | F32 | (out, in) / (out,) |
 //! | `critic.{0,2,4,…}.weight` / `.bias` | F32 | (out, in) / (out,) |
-//! | `log_std` | F32 | (act,) |
+//! | `log_std` | F32 | (act,) — `gaussian_mlp` only |
 //! | `obs_norm.mean`, `obs_norm.var` | F64 | (obs,) |
 //! | `obs_norm.count` | F64 | () |
 //! | `value_norm.mean`, `value_norm.var` | F64 | (1,) |
@@ -15,16 +15,20 @@
 //! `optim.v.<param>` (F32) for every actor/critic parameter; `export` writes the policy part only.
 //! Metadata: `format = "skillmimic-policy"`, `format_version = "1"`, `kind` (`train`/`policy`),
 //! `obs_dim`, `act_dim`, `hidden` (JSON list), `iteration`, `samples`, `config` (TOML text), and
-//! the normaliser switches and settings.
+//! the normaliser switches and settings; `policy` = the family (`gaussian_mlp` when absent, as in
+//! files written before families existed) and `actions` = the action space (`box:<dim>` or
+//! `discrete:<n>`; absent = `box:<act_dim>`).
 
 use std::collections::BTreeMap;
+
+use skillmimic_env::ActionSpace;
 use std::path::Path;
 
 use skillmimic_core::tensorfile::{OwnedTensor, TensorFile, write_atomic};
 
 use crate::adam::Adam;
-use crate::mlp::Mlp;
-use crate::normalizer::RunningMeanStd;
+use skillmimic_nn::mlp::Mlp;
+use skillmimic_nn::normalizer::RunningMeanStd;
 use crate::policy::Policy;
 
 /// Value of the `format` metadata field.
@@ -55,6 +59,17 @@ fn param_names(p: &Policy) -> Vec<(String, Vec<usize>)> {
     v
 }
 
+/// `box:<dim>` / `discrete:<n>` → the action space.
+fn parse_space(text: &str) -> Option<ActionSpace> {
+    let (kind, n) = text.split_once(':')?;
+    let n: usize = n.parse().ok().filter(|&n| n > 0)?;
+    match kind {
+        "box" => Some(ActionSpace::Box { dim: n }),
+        "discrete" => Some(ActionSpace::Discrete { n }),
+        _ => None,
+    }
+}
+
 fn norm_tensors(prefix: &str, n: &RunningMeanStd, out: &mut Vec<OwnedTensor>) {
     out.push(OwnedTensor::f64(&format!("{prefix}.mean"), &[n.dim()], &n.mean));
     out.push(OwnedTensor::f64(&format!("{prefix}.var"), &[n.dim()], &n.var));
@@ -69,7 +84,9 @@ pub fn save(path: &Path, policy: &Policy, adam: Option<&Adam>, progress: &Progre
     for ((name, shape), data) in names.iter().zip(&params) {
         tensors.push(OwnedTensor::f32(name, shape, data));
     }
-    tensors.push(OwnedTensor::f32("log_std", &[policy.act_dim()], &policy.log_std));
+    if !policy.log_std.is_empty() {
+        tensors.push(OwnedTensor::f32("log_std", &[policy.log_std.len()], &policy.log_std));
+    }
     norm_tensors("obs_norm", &policy.obs_norm, &mut tensors);
     norm_tensors("value_norm", &policy.value_norm, &mut tensors);
     if let Some(a) = adam {
@@ -85,6 +102,15 @@ pub fn save(path: &Path, policy: &Policy, adam: Option<&Adam>, progress: &Progre
     meta.insert("kind".to_string(), if adam.is_some() { "train" } else { "policy" }.to_string());
     meta.insert("obs_dim".to_string(), policy.obs_dim().to_string());
     meta.insert("act_dim".to_string(), policy.act_dim().to_string());
+    if policy.family.name() != "gaussian_mlp" {
+        // written only where they differ from the defaults, so Gaussian files keep their bytes
+        meta.insert("policy".to_string(), policy.family.name().to_string());
+        let actions = match policy.space {
+            ActionSpace::Box { dim } => format!("box:{dim}"),
+            ActionSpace::Discrete { n } => format!("discrete:{n}"),
+        };
+        meta.insert("actions".to_string(), actions);
+    }
     let hidden = &policy.actor.dims[1..policy.actor.dims.len() - 1];
     meta.insert("hidden".to_string(), serde_json::to_string(hidden).unwrap());
     meta.insert("iteration".to_string(), progress.iteration.to_string());
@@ -110,7 +136,11 @@ fn load_norm(f: &TensorFile, prefix: &str, dim: usize, eps: f64, clip: f64) -> R
 }
 
 /// Load a checkpoint; `expect` = (obs_dim, act_dim) must match when given.
-pub fn load(path: &Path, expect: Option<(usize, usize)>) -> Result<Checkpoint, String> {
+pub fn load(path: &Path, expect: Option<(usize, usize)>) -> Result<Checkpoint, crate::error::LearnError> {
+    load_raw(path, expect).map_err(crate::error::bad_checkpoint(path))
+}
+
+fn load_raw(path: &Path, expect: Option<(usize, usize)>) -> Result<Checkpoint, String> {
     let f = TensorFile::open(path).map_err(|e| e.to_string())?;
     let e = |e: skillmimic_core::tensorfile::TensorFileError| e.to_string();
     let fmt = f.meta("format").map_err(e)?;
@@ -142,12 +172,22 @@ pub fn load(path: &Path, expect: Option<(usize, usize)>) -> Result<Checkpoint, S
         }
         Ok(Mlp::from_parts(dims, weights, biases))
     };
-    let actor = mlp("actor", act_dim)?;
+    let family = crate::policies::family(f.meta("policy").unwrap_or("gaussian_mlp")).map_err(|x| format!("{}: metadata 'policy': {x}", path.display()))?;
+    let space = match f.meta("actions") {
+        Err(_) => ActionSpace::Box { dim: act_dim },
+        Ok(text) => parse_space(text).ok_or_else(|| format!("{}: metadata 'actions' is '{text}', expected 'box:<dim>' or 'discrete:<n>'", path.display()))?,
+    };
+    if space.width() != act_dim || !family.supports(&space) {
+        return Err(format!("{}: metadata 'actions' {space:?} does not fit act_dim {act_dim} and policy '{}'", path.display(), family.name()));
+    }
+    let actor = mlp("actor", family.actor_outputs(&space))?;
     let critic = mlp("critic", 1)?;
     let policy = Policy {
+        family,
+        space,
         actor,
         critic,
-        log_std: f.f32("log_std", &[Some(act_dim)]).map_err(e)?.1,
+        log_std: if family.name() == "gaussian_mlp" { f.f32("log_std", &[Some(act_dim)]).map_err(e)?.1 } else { Vec::new() },
         obs_norm: load_norm(&f, "obs_norm", obs_dim, eps, clip)?,
         value_norm: load_norm(&f, "value_norm", 1, eps, clip)?,
         normalize_input: f.meta_parse("normalize_input", "true/false").map_err(e)?,
@@ -202,10 +242,10 @@ mod tests {
         assert_eq!(c.progress, Progress { iteration: 3, samples: 99 });
         assert_eq!(c.config, "[ppo]\n");
         let e = load(&path, Some((902, 156))).unwrap_err();
-        assert!(e.contains("observations of 10") && e.contains("902"), "{e}");
+        assert!(e.to_string().contains("observations of 10") && e.to_string().contains("902"), "{e}");
         save(&path, &p, None, &Progress::default(), "").unwrap();
         assert!(load(&path, None).unwrap().adam.is_none());
         std::fs::write(&path, b"garbage").unwrap();
-        assert!(load(&path, None).unwrap_err().contains("not a safetensors file"));
+        assert!(load(&path, None).unwrap_err().to_string().contains("not a safetensors file"));
     }
 }

@@ -3,11 +3,12 @@
 
 use std::path::{Path, PathBuf};
 
+use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 use skillmimic_env::EnvConfig;
 
 /// How the PPO gradients are computed.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum Backend {
     /// Dedicated forward/backward of the two MLPs into reused buffers (`fast` module).
@@ -18,9 +19,12 @@ pub enum Backend {
 }
 
 /// PPO hyper-parameters. Every field defaults to the paper's value.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct PpoConfig {
+    /// Policy family (`gaussian_mlp`: fixed-σ Gaussian, SkillMimic's; `categorical_mlp`: discrete
+    /// actions). It must support the task's action space.
+    pub policy: String,
     /// Hidden layer widths of the actor and of the critic (separate networks), ReLU.
     pub hidden: Vec<usize>,
     /// Fixed log standard deviation of the Gaussian policy (σ = e^−2.9 ≈ 0.055).
@@ -43,19 +47,27 @@ pub struct PpoConfig {
     pub clip: f64,
     /// Critic loss coefficient.
     pub critic_coef: f64,
-    /// Bounds loss coefficient and soft bound of the action mean.
+    /// Bounds loss coefficient.
     pub bounds_coef: f64,
+    /// Soft bound of the action mean: the bounds loss penalises |μ| beyond it.
     pub bound: f64,
+    /// Entropy bonus coefficient c_e (families that compute an entropy: `categorical_mlp`; the
+    /// papers' PPO settings use 0).
+    pub entropy_coef: f64,
     /// Global gradient-norm limit, applied only when `truncate_grads` is true (the paper's
     /// rl_games config sets 1.0 with `truncate_grads: False`, i.e. never applied).
     pub grad_norm: f64,
+    /// Clip the global gradient norm to `grad_norm` (off in the paper's config).
     pub truncate_grads: bool,
-    /// Running mean/std normalisation of observations and of values; batch advantage normalisation.
+    /// Running mean/std normalisation of observations.
     pub normalize_input: bool,
+    /// Running mean/std normalisation of values.
     pub normalize_value: bool,
+    /// Batch advantage normalisation.
     pub normalize_advantage: bool,
-    /// Normaliser epsilon and clamp.
+    /// Normaliser epsilon.
     pub norm_eps: f64,
+    /// Normaliser clamp: normalised values are clamped to ±norm_clip.
     pub norm_clip: f64,
     /// Gradient implementation (results agree to float rounding).
     pub backend: Backend,
@@ -66,6 +78,7 @@ pub struct PpoConfig {
 impl Default for PpoConfig {
     fn default() -> Self {
         Self {
+            policy: "gaussian_mlp".into(),
             hidden: vec![1024, 512, 512],
             log_std: -2.9,
             horizon: 32,
@@ -79,6 +92,7 @@ impl Default for PpoConfig {
             critic_coef: 5.0,
             bounds_coef: 10.0,
             bound: 1.0,
+            entropy_coef: 0.0,
             grad_norm: 1.0,
             truncate_grads: false,
             normalize_input: true,
@@ -93,7 +107,7 @@ impl Default for PpoConfig {
 }
 
 /// Run-level settings.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct RunConfig {
     /// Training iterations (one rollout + update each).
@@ -101,6 +115,7 @@ pub struct RunConfig {
     /// Seed of network initialisation, action noise and minibatch shuffling.
     pub seed: u64,
     /// Output folder (checkpoints, logs, plots, video).
+    #[schemars(extend("format" = "path"))]
     pub out_dir: PathBuf,
     /// Save a checkpoint every this many iterations (and at the end).
     pub save_every: usize,
@@ -127,11 +142,14 @@ impl Default for RunConfig {
 }
 
 /// The whole training configuration: `[env]`, `[ppo]` and `[run]` tables of one TOML file.
-#[derive(Clone, Debug, PartialEq, Default, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Default, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct TrainConfig {
+    /// Environment: clips, parallel environments, reward, ball, SkillMimic-V2 options.
     pub env: EnvConfig,
+    /// PPO hyper-parameters.
     pub ppo: PpoConfig,
+    /// Run-level settings.
     pub run: RunConfig,
 }
 

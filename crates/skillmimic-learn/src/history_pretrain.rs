@@ -30,7 +30,7 @@ use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
-use skillmimic_env::v2::history::{CHANNELS, FEATURE_DIM, HistoryEncoder, KERNEL, TENSOR_NAMES, reference_window};
+use skillmimic_nn::history::{CHANNELS, FEATURE_DIM, HistoryEncoder, KERNEL, TENSOR_NAMES, candle_forward, candle_forward_shared, reference_window};
 use skillmimic_motion::SKILL_WIDTH;
 
 use crate::adam::Adam;
@@ -196,23 +196,8 @@ impl PretrainData {
 
 /// Encoder forward of a [`SharedBatch`] (B samples, window k) → h (B, μ).
 fn encode_shared(p: &[Tensor], sb: &SharedBatch, b: usize, k: usize, dev: &Device) -> candle_core::Result<Tensor> {
-    let c1 = CHANNELS[0];
     let x = Tensor::from_slice(&sb.frames, (sb.rows, FEATURE_DIM), dev)?;
-    // taps[(c, kk·128 + o)] = W1[o, c, kk]
-    let taps = p[0].permute((1, 2, 0))?.contiguous()?.reshape((FEATURE_DIM, KERNEL * c1))?;
-    let pr = x.matmul(&taps)?; // (rows, 3·128)
-    let gather = |j: usize, idx: &[u32]| -> candle_core::Result<Tensor> {
-        let ids = Tensor::from_slice(idx, idx.len(), dev)?;
-        pr.narrow(1, j * c1, c1)?.contiguous()?.index_select(&ids, 0)
-    };
-    let pre = ((gather(0, &sb.prev)? + gather(1, &sb.cur)?)? + gather(2, &sb.next)?)?.broadcast_add(&p[1])?;
-    let mut y = pre.relu()?.reshape((b, k, c1))?;
-    for l in 1..3 {
-        y = conv_relu(&y, &p[2 * l], &p[2 * l + 1])?;
-    }
-    let (bs, k, c) = y.dims3()?;
-    let flat = y.transpose(1, 2)?.contiguous()?.reshape((bs, c * k))?;
-    flat.matmul(&p[6].t()?)?.broadcast_add(&p[7])
+    candle_forward_shared(p, &x, &sb.prev, &sb.cur, &sb.next, b, k)
 }
 
 /// Parameters (PyTorch layouts): the 8 encoder tensors, then predictor weight/bias pairs.
@@ -249,25 +234,9 @@ fn init_params(cfg: &PretrainConfig, rng: &mut ChaCha8Rng) -> Params {
     Params { shapes, values }
 }
 
-/// Zero-pad + unfold + matmul convolution (kernel 3, padding 1), ReLU. `x`: (B, k, C_in).
-fn conv_relu(x: &Tensor, w: &Tensor, b: &Tensor) -> candle_core::Result<Tensor> {
-    let (bs, k, cin) = x.dims3()?;
-    let cout = w.dim(0)?;
-    let p = x.pad_with_zeros(1, 1, 1)?;
-    let u = Tensor::cat(&[p.narrow(1, 0, k)?, p.narrow(1, 1, k)?, p.narrow(1, 2, k)?], 2)?; // (B, k, 3·C_in), index kk·C_in + c
-    let wm = w.permute((2, 1, 0))?.contiguous()?.reshape((KERNEL * cin, cout))?;
-    u.reshape((bs * k, KERNEL * cin))?.matmul(&wm)?.broadcast_add(b)?.relu()?.reshape((bs, k, cout))
-}
-
 /// Encoder forward: windows (B, k, 316) → h (B, μ).
 fn encode(p: &[Tensor], win: &Tensor) -> candle_core::Result<Tensor> {
-    let mut y = win.clone();
-    for l in 0..3 {
-        y = conv_relu(&y, &p[2 * l], &p[2 * l + 1])?;
-    }
-    let (bs, k, c) = y.dims3()?;
-    let flat = y.transpose(1, 2)?.contiguous()?.reshape((bs, c * k))?; // channel-major: c·k + τ
-    flat.matmul(&p[6].t()?)?.broadcast_add(&p[7])
+    candle_forward(p, win)
 }
 
 /// Predictor forward on concat(h, current, one-hot).

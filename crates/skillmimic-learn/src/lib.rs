@@ -2,25 +2,30 @@
 //! settings) in candle.
 //!
 //! * [`config`]: PPO / run configuration with the paper's defaults and presets;
-//! * [`normalizer`]: running mean/std of observations and values;
-//! * [`mlp`], [`policy`]: actor–critic MLPs (PyTorch layout), batched inference;
-//! * [`ppo`]: losses and gradients (candle autograd); [`adam`]: Adam with exposed state;
-//! * [`gae`]: advantages and returns;
+//! * [`config_doc`]: the generated configuration reference `docs/config.md`;
+//! * [`policies`]: policy families by name (`gaussian_mlp`, `categorical_mlp`);
+//! * [`policy`]: the actor–critic over `skillmimic_nn` MLPs (PyTorch layout), batched inference;
+//! * [`ppo`]: the canonical loss (candle autograd), its fast specialisation, the update, GAE;
+//! * [`adam`]: Adam with exposed state; [`storage`]: rollout buffers; [`error`]: typed errors;
 //! * [`checkpoint`]: safetensors checkpoints that load into the PyTorch module;
-//! * [`trainer`]: rollouts on the environment, updates, logs and checkpoints;
+//! * [`trainer`]: rollouts on any registered task's environment and PPO updates;
+//! * [`runner`]: the training loop — logs, checkpoints, end-of-run evaluation, hooks, summary;
 //! * [`tblog`]: TensorBoard scalar event files.
 
 pub mod adam;
 pub mod checkpoint;
 pub mod config;
+pub mod config_doc;
+pub mod config_file;
+pub mod error;
 pub mod eval;
-pub mod fast;
-pub mod gae;
 pub mod history_pretrain;
-pub mod kernel;
-pub mod mlp;
-pub mod normalizer;
+pub mod policies;
 pub mod policy;
 pub mod ppo;
+pub mod runner;
+pub mod storage;
 pub mod tblog;
 pub mod trainer;
+
+pub use error::LearnError;

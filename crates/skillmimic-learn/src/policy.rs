@@ -1,27 +1,30 @@
-//! The SkillMimic actor–critic: separate actor and critic MLPs over the normalised observation,
-//! a fixed (non-trainable) log standard deviation, the observation and value normalisers.
+//! The actor–critic of every MLP policy family: separate actor and critic MLPs over the
+//! normalised observation, the observation and value normalisers, and the family
+//! ([`crate::policies`]) that turns actor outputs into a distribution over actions (SkillMimic's
+//! fixed-σ Gaussian keeps its log σ here).
 //!
-//! Gaussian policy: a ~ N(μ(s), σ²) per dimension; `neglogp(a) = ½ Σ ((a − μ)/σ)² + ½ A ln 2π +
-//! Σ ln σ`. The critic predicts the value in normalised space; [`Policy::value_from_output`] maps
-//! it back (clamp ±5, scale, shift).
+//! The critic predicts the value in normalised space; [`Policy::value_from_output`] maps it back
+//! (clamp ±5, scale, shift).
 
-use rand::Rng;
-use rand_distr::{Distribution, StandardNormal};
-use rayon::prelude::*;
+use rand::RngCore;
+use skillmimic_env::ActionSpace;
 
 use crate::config::PpoConfig;
-use crate::mlp::{Mlp, Workspace};
-use crate::normalizer::RunningMeanStd;
+use crate::error::LearnError;
+use crate::policies::{self, Head, PolicyFamily};
+use skillmimic_nn::mlp::{Mlp, Workspace};
+use skillmimic_nn::normalizer::RunningMeanStd;
 
-/// ½ ln 2π.
-pub const HALF_LN_2PI: f64 = 0.918_938_533_204_672_8;
 
-/// Actor, critic, σ and normalisers.
+/// Family, actor, critic, σ and normalisers.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Policy {
+    pub family: &'static dyn PolicyFamily,
+    /// The action space the policy acts in.
+    pub space: ActionSpace,
     pub actor: Mlp,
     pub critic: Mlp,
-    /// Per-dimension log σ (fixed).
+    /// Per-dimension log σ (fixed; `gaussian_mlp` only, empty otherwise).
     pub log_std: Vec<f32>,
     pub obs_norm: RunningMeanStd,
     pub value_norm: RunningMeanStd,
@@ -38,18 +41,36 @@ pub struct InferenceBuffers {
 }
 
 impl Policy {
-    /// A freshly initialised policy for `obs_dim` → `act_dim`.
-    pub fn new<R: Rng>(obs_dim: usize, act_dim: usize, cfg: &PpoConfig, rng: &mut R) -> Self {
+    /// A freshly initialised `gaussian_mlp` policy for `obs_dim` → `act_dim` continuous actions.
+    pub fn new<R: rand::Rng>(obs_dim: usize, act_dim: usize, cfg: &PpoConfig, rng: &mut R) -> Self {
+        Self::init(&policies::gaussian_mlp::GaussianMlp, obs_dim, ActionSpace::Box { dim: act_dim }, cfg, rng)
+    }
+
+    /// A freshly initialised policy of the family `cfg.policy` for `space`.
+    pub fn build<R: rand::Rng>(obs_dim: usize, space: ActionSpace, cfg: &PpoConfig, rng: &mut R) -> Result<Self, LearnError> {
+        let family = policies::family(&cfg.policy)?;
+        if !family.supports(&space) {
+            return Err(LearnError::Config(format!("config field 'ppo.policy': the family '{}' cannot act in the task's action space {space:?}", family.name())));
+        }
+        Ok(Self::init(family, obs_dim, space, cfg, rng))
+    }
+
+    /// Actor MLP `obs_dim → hidden… → actor outputs`, critic `obs_dim → hidden… → 1` (drawn in
+    /// that order from `rng`), log σ only for the Gaussian family.
+    fn init<R: rand::Rng>(family: &'static dyn PolicyFamily, obs_dim: usize, space: ActionSpace, cfg: &PpoConfig, rng: &mut R) -> Self {
         let mut dims = vec![obs_dim];
         dims.extend(&cfg.hidden);
         let mut adims = dims.clone();
-        adims.push(act_dim);
+        adims.push(family.actor_outputs(&space));
         let mut cdims = dims;
         cdims.push(1);
+        let gaussian = matches!(space, ActionSpace::Box { .. }) && family.name() == "gaussian_mlp";
         Self {
+            family,
+            space,
             actor: Mlp::new(&adims, rng),
             critic: Mlp::new(&cdims, rng),
-            log_std: vec![cfg.log_std as f32; act_dim],
+            log_std: if gaussian { vec![cfg.log_std as f32; space.width()] } else { Vec::new() },
             obs_norm: RunningMeanStd::new(obs_dim, cfg.norm_eps, cfg.norm_clip),
             value_norm: RunningMeanStd::new(1, cfg.norm_eps, cfg.norm_clip),
             normalize_input: cfg.normalize_input,
@@ -60,7 +81,16 @@ impl Policy {
     pub fn obs_dim(&self) -> usize {
         self.actor.input_dim()
     }
+    /// Width of one action row (continuous: the action dimension; discrete: 1).
     pub fn act_dim(&self) -> usize {
+        self.space.width()
+    }
+    /// What the family reads of this policy.
+    pub fn head(&self) -> Head<'_> {
+        Head { outputs: self.actor.output_dim(), log_std: &self.log_std }
+    }
+    /// Width of the actor's output (Gaussian: means; categorical: logits).
+    pub fn actor_outputs(&self) -> usize {
         self.actor.output_dim()
     }
 
@@ -78,7 +108,8 @@ impl Policy {
         if self.normalize_value { self.value_norm.denormalize_scalar(y) } else { y }
     }
 
-    /// Batched deterministic inference: action means `mu` (n × act) and values `values` (n).
+    /// Batched deterministic inference: actor outputs `mu` (n × actor outputs: Gaussian means,
+    /// categorical logits) and values `values` (n).
     /// With two or more threads the actor and the critic run concurrently, each on half of them.
     pub fn infer(&self, obs: &[f32], n: usize, buf: &mut InferenceBuffers, mu: &mut [f32], values: &mut [f32], threads: usize) {
         let d = self.obs_dim();
@@ -89,7 +120,7 @@ impl Policy {
         let obs_n = &mut obs_n[..n * d];
         self.normalize_obs_into(&obs[..n * d], obs_n);
         let obs_n: &[f32] = obs_n;
-        let a = self.act_dim();
+        let a = self.actor_outputs();
         let mut run_actor = |t: usize| mu[..n * a].copy_from_slice(self.actor.forward_into(obs_n, n, actor_ws, t));
         let mut run_critic = |t: usize| {
             let v = self.critic.forward_into(obs_n, n, critic_ws, t);
@@ -120,30 +151,19 @@ impl Policy {
         }
     }
 
-    /// Sample actions a = μ + σ·ε for `n` rows and their negative log-probabilities.
-    pub fn sample<R: Rng>(&self, mu: &[f32], n: usize, rng: &mut R, actions: &mut [f32], neglogp: &mut [f32]) {
-        let a = self.act_dim();
-        for k in 0..n * a {
-            let eps: f64 = StandardNormal.sample(rng);
-            actions[k] = (mu[k] as f64 + (self.log_std[k % a] as f64).exp() * eps) as f32;
-        }
-        let log_std = &self.log_std;
-        neglogp[..n].par_iter_mut().enumerate().for_each(|(i, nl)| {
-            *nl = neglogp_row(&actions[i * a..(i + 1) * a], &mu[i * a..(i + 1) * a], log_std) as f32;
-        });
+    /// Sample actions for `n` rows from actor outputs `out` (the family's distribution) and
+    /// their negative log-probabilities.
+    pub fn sample<R: RngCore>(&self, out: &[f32], n: usize, rng: &mut R, actions: &mut [f32], neglogp: &mut [f32]) {
+        self.family.sample(self.head(), out, n, rng, actions, neglogp);
+    }
+
+    /// Deterministic actions (Gaussian: the mean; categorical: the most likely choice).
+    pub fn mode(&self, out: &[f32], n: usize, actions: &mut [f32]) {
+        self.family.mode(self.head(), out, n, actions);
     }
 }
 
-/// Negative log-probability of `a` under N(μ, diag(exp(log_std))²).
-pub fn neglogp_row(a: &[f32], mu: &[f32], log_std: &[f32]) -> f64 {
-    let mut s = 0.0f64;
-    for k in 0..a.len() {
-        let ls = log_std[k] as f64;
-        let z = (a[k] as f64 - mu[k] as f64) / ls.exp();
-        s += 0.5 * z * z + ls + HALF_LN_2PI;
-    }
-    s
-}
+pub use crate::policies::gaussian_mlp::{HALF_LN_2PI, neglogp_row};
 
 #[cfg(test)]
 mod tests {

@@ -16,42 +16,26 @@
 //! thread counts produce the same checkpoints bit for bit. A resumed run continues from the
 //! checkpoint's policy, normalisers and Adam state with freshly reset environments.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::time::Instant;
 
 use rand::SeedableRng;
 use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
-use skillmimic_env::reward::{NUM_TERMS, TERM_NAMES};
-use skillmimic_env::{EnvError, SkillEnv};
+use skillmimic_env::{Env, registry};
 
 use crate::adam::Adam;
 use crate::checkpoint::{self, Progress};
 use crate::config::TrainConfig;
-use crate::gae::{gae, normalize_advantages};
+use crate::error::{LearnError, bad_checkpoint, io};
+use crate::ppo::gae::{gae, normalize_advantages};
+use crate::storage::{MinibatchBuffers, Rollout};
 use crate::policy::{InferenceBuffers, Policy};
-use crate::ppo::{LossStats, RawMinibatch, UpdateBuffers, update_minibatch};
-use crate::tblog::EventWriter;
+use crate::ppo::{LossStats, RawMinibatch, update_minibatch};
 
-/// Training error.
-#[derive(Debug, thiserror::Error)]
-pub enum TrainError {
-    #[error(transparent)]
-    Env(#[from] EnvError),
-    #[error("{0}")]
-    Config(String),
-    #[error("{0}")]
-    Checkpoint(String),
-    #[error("{path}: {source}")]
-    Io { path: PathBuf, source: std::io::Error },
-    #[error("learner: {0}")]
-    Learner(String),
-}
-
-fn io(path: &Path) -> impl FnOnce(std::io::Error) -> TrainError + '_ {
-    move |source| TrainError::Io { path: path.to_path_buf(), source }
-}
+/// The learner's error (kept under its old name).
+pub type TrainError = LearnError;
 
 /// Statistics of one iteration (one JSON line of `log.jsonl`).
 #[derive(Clone, Debug, Default, Serialize)]
@@ -84,35 +68,10 @@ pub struct IterationStats {
     pub value_mean: f64,
 }
 
-/// Rollout storage, time-major `[t][env]`.
-#[derive(Default)]
-struct Rollout {
-    obs: Vec<f32>,
-    actions: Vec<f32>,
-    neglogp: Vec<f32>,
-    values: Vec<f32>,
-    next_values: Vec<f32>,
-    rewards: Vec<f32>,
-    dones: Vec<u8>,
-    advantages: Vec<f32>,
-    returns: Vec<f32>,
-}
-
-/// Minibatch gather buffers.
-#[derive(Default)]
-struct MinibatchBuffers {
-    obs: Vec<f32>,
-    update: UpdateBuffers,
-    actions: Vec<f32>,
-    neglogp: Vec<f32>,
-    adv: Vec<f32>,
-    ret: Vec<f32>,
-}
-
 /// PPO trainer.
 pub struct Trainer {
     pub cfg: TrainConfig,
-    pub env: SkillEnv,
+    pub env: Box<dyn Env>,
     pub policy: Policy,
     pub adam: Adam,
     pub progress: Progress,
@@ -127,6 +86,7 @@ pub struct Trainer {
     gather_values: Vec<f32>,
     ep_return: Vec<f64>,
     ep_len: Vec<u64>,
+    term_sums: Vec<f64>,
     threads: usize,
     config_toml: String,
 }
@@ -134,15 +94,17 @@ pub struct Trainer {
 impl Trainer {
     /// A new trainer (fresh policy), or one resumed from `resume` (a training checkpoint).
     pub fn new(mut cfg: TrainConfig, resume: Option<&Path>) -> Result<Self, TrainError> {
-        cfg.validate().map_err(TrainError::Config)?;
+        cfg.validate().map_err(LearnError::Config)?;
         let batch = cfg.batch_size();
         if batch % cfg.ppo.minibatch != 0 {
-            return Err(TrainError::Config(format!(
+            return Err(LearnError::Config(format!(
                 "config field 'ppo.minibatch': {} must divide the samples per iteration ({batch})",
                 cfg.ppo.minibatch
             )));
         }
-        cfg.env.seed = cfg.run.seed;
+        // derived value, made explicit in the effective config: episode starts follow the run seed
+        // unless `env.seed` is set
+        cfg.env.seed = Some(cfg.env.start_seed(cfg.run.seed));
         if cfg.env.v2.history.enabled && resume.is_none() {
             // the frozen encoder defines part of the policy's input: keep a copy with the run
             let src = cfg.env.v2.history.encoder.clone();
@@ -154,28 +116,31 @@ impl Trainer {
                 cfg.env.v2.history.encoder = dst;
             }
         }
-        let mut env = SkillEnv::from_config(cfg.env.clone())?;
+        let mut env = registry::make(&cfg.env)?;
         let (obs_dim, act_dim) = (env.obs_dim(), env.act_dim());
         let mut rng = ChaCha8Rng::seed_from_u64(cfg.run.seed);
         let (policy, adam, progress) = match resume {
             None => {
-                let policy = Policy::new(obs_dim, act_dim, &cfg.ppo, &mut rng);
+                let policy = Policy::build(obs_dim, env.spec().action_space, &cfg.ppo, &mut rng)?;
                 let sizes: Vec<usize> = policy.actor.params().iter().chain(policy.critic.params().iter()).map(|p| p.len()).collect();
                 let adam = Adam::new(&sizes, cfg.ppo.lr, cfg.ppo.adam_eps);
                 (policy, adam, Progress::default())
             }
             Some(path) => {
-                let c = checkpoint::load(path, Some((obs_dim, act_dim))).map_err(TrainError::Checkpoint)?;
+                let c = checkpoint::load(path, Some((obs_dim, act_dim)))?;
                 let mut adam = c.adam.ok_or_else(|| {
-                    TrainError::Checkpoint(format!("{}: a policy-only (exported) checkpoint cannot resume training; use a training checkpoint", path.display()))
+                    bad_checkpoint(path)(format!("{}: a policy-only (exported) checkpoint cannot resume training; use a training checkpoint", path.display()))
                 })?;
                 let hidden = &c.policy.actor.dims[1..c.policy.actor.dims.len() - 1];
                 if hidden != cfg.ppo.hidden.as_slice() {
-                    return Err(TrainError::Checkpoint(format!(
+                    return Err(bad_checkpoint(path)(format!(
                         "{}: network hidden sizes {hidden:?} differ from the config's ppo.hidden {:?}",
                         path.display(),
                         cfg.ppo.hidden
                     )));
+                }
+                if c.policy.family.name() != cfg.ppo.policy {
+                    return Err(bad_checkpoint(path)(format!("{}: policy family '{}' differs from the config's ppo.policy '{}'", path.display(), c.policy.family.name(), cfg.ppo.policy)));
                 }
                 adam.lr = cfg.ppo.lr;
                 // continue with a stream of random numbers that differs from the first run's
@@ -186,10 +151,13 @@ impl Trainer {
         };
         let threads = if cfg.run.learner_threads == 0 { rayon::current_num_threads() } else { cfg.run.learner_threads };
         let n = env.num_envs();
+        let outputs = policy.actor_outputs();
         let config_toml = cfg.to_toml();
+        let term_sums = vec![0.0; env.spec().term_names.len()];
         Ok(Self {
             cfg,
             env,
+            term_sums,
             policy,
             adam,
             progress,
@@ -197,7 +165,7 @@ impl Trainer {
             roll: Rollout::default(),
             mb: MinibatchBuffers::default(),
             infer: InferenceBuffers::default(),
-            mu: vec![0.0; n * act_dim],
+            mu: vec![0.0; n * outputs],
             step_values: vec![0.0; n],
             done_rows: Vec::with_capacity(n),
             gather: vec![0.0; n * obs_dim],
@@ -216,22 +184,15 @@ impl Trainer {
 
     fn alloc_rollout(&mut self) {
         let (h, n, d, a) = (self.cfg.ppo.horizon, self.env.num_envs(), self.env.obs_dim(), self.env.act_dim());
-        let r = &mut self.roll;
-        if r.obs.len() != h * n * d {
-            r.obs = vec![0.0; h * n * d];
-            r.actions = vec![0.0; h * n * a];
-            for v in [&mut r.neglogp, &mut r.values, &mut r.next_values, &mut r.rewards, &mut r.advantages, &mut r.returns] {
-                *v = vec![0.0; h * n];
-            }
-            r.dones = vec![0; h * n];
-        }
+        self.roll.ensure(h, n, d, a);
     }
 
     /// Collect one rollout; returns rollout statistics.
     fn rollout(&mut self, stats: &mut IterationStats) -> Result<(), TrainError> {
         self.alloc_rollout();
         let (h, n, d, a) = (self.cfg.ppo.horizon, self.env.num_envs(), self.env.obs_dim(), self.env.act_dim());
-        let mut term_sums = [0.0f64; NUM_TERMS];
+        let nt = self.term_sums.len();
+        self.term_sums.fill(0.0);
         let (mut ep_count, mut ep_len_sum, mut ep_ret_sum, mut early) = (0usize, 0u64, 0.0f64, 0usize);
         let mut pending = false; // next_values[t-1] still to fill from values[t]
         let mut env_time = std::time::Duration::ZERO;
@@ -266,7 +227,7 @@ impl Trainer {
                 self.roll.dones[t * n + i] = u8::from(done);
                 self.ep_return[i] += r as f64;
                 self.ep_len[i] += 1;
-                for (s, &v) in term_sums.iter_mut().zip(&b.terms[i * NUM_TERMS..(i + 1) * NUM_TERMS]) {
+                for (s, &v) in self.term_sums.iter_mut().zip(&b.terms[i * nt..(i + 1) * nt]) {
                     *s += v as f64;
                 }
                 if done || t + 1 == h {
@@ -299,7 +260,7 @@ impl Trainer {
         stats.env_s = env_time.as_secs_f64();
         let steps = (h * n) as f64;
         stats.mean_reward = self.roll.rewards.iter().map(|&r| r as f64).sum::<f64>() / steps;
-        stats.reward_terms = TERM_NAMES.iter().zip(term_sums).map(|(nm, s)| (nm.to_string(), s / steps)).collect();
+        stats.reward_terms = self.env.spec().term_names.iter().zip(&self.term_sums).map(|(nm, s)| (nm.to_string(), s / steps)).collect();
         stats.episodes = ep_count;
         if ep_count > 0 {
             stats.episode_length = ep_len_sum as f64 / ep_count as f64;
@@ -350,7 +311,7 @@ impl Trainer {
                     mb.ret[k] = r.returns[s];
                 }
                 let raw = RawMinibatch { n: mbs, obs: &mb.obs, actions: &mb.actions, old_neglogp: &mb.neglogp, advantages: &mb.adv, returns_n: &mb.ret };
-                let l = update_minibatch(&mut self.policy, &mut self.adam, &raw, &mut mb.update, cfg, self.threads).map_err(TrainError::Learner)?;
+                let l = update_minibatch(&mut self.policy, &mut self.adam, &raw, &mut mb.update, cfg, self.threads)?;
                 acc.actor += l.actor;
                 acc.critic += l.critic;
                 acc.bounds += l.bounds;
@@ -406,50 +367,5 @@ impl Trainer {
         checkpoint::save(path, &self.policy, Some(&self.adam), &self.progress, &self.config_toml).map_err(io(path))?;
         let toml_path = path.with_extension("toml");
         skillmimic_core::tensorfile::write_bytes_atomic(&toml_path, self.config_toml.as_bytes()).map_err(io(&toml_path))
-    }
-
-    /// Train for the configured iterations, writing logs and checkpoints into `run.out_dir`;
-    /// `on_iteration` sees every iteration's statistics (progress bars). Returns the path of the
-    /// last checkpoint.
-    pub fn train(&mut self, mut on_iteration: impl FnMut(&IterationStats)) -> Result<PathBuf, TrainError> {
-        let out = self.cfg.run.out_dir.clone();
-        let ckpt_dir = out.join("checkpoints");
-        std::fs::create_dir_all(&ckpt_dir).map_err(io(&ckpt_dir))?;
-        let cfg_path = out.join("config.toml");
-        skillmimic_core::tensorfile::write_bytes_atomic(&cfg_path, self.config_toml.as_bytes()).map_err(io(&cfg_path))?;
-        let log_path = out.join("log.jsonl");
-        let mut log = std::fs::OpenOptions::new().create(true).append(true).open(&log_path).map_err(io(&log_path))?;
-        let mut tb = EventWriter::create(&out.join("tb")).map_err(io(&out.join("tb")))?;
-        let target = self.cfg.run.iterations as u64;
-        let mut last = out.join("latest.safetensors");
-        while self.progress.iteration < target {
-            let s = self.iteration()?;
-            use std::io::Write;
-            writeln!(log, "{}", serde_json::to_string(&s).expect("serialisable stats")).map_err(io(&log_path))?;
-            let mut scalars: Vec<(String, f32)> = vec![
-                ("reward/mean_step".into(), s.mean_reward as f32),
-                ("episode/length".into(), s.episode_length as f32),
-                ("episode/return".into(), s.episode_return as f32),
-                ("episode/early_termination".into(), s.early_terminations as f32),
-                ("loss/actor".into(), s.actor_loss as f32),
-                ("loss/critic".into(), s.critic_loss as f32),
-                ("loss/bounds".into(), s.bounds_loss as f32),
-                ("ppo/clip_frac".into(), s.clip_frac as f32),
-                ("ppo/approx_kl".into(), s.approx_kl as f32),
-                ("perf/samples_per_s".into(), s.samples_per_s as f32),
-            ];
-            scalars.extend(s.reward_terms.iter().map(|(k, v)| (format!("reward_terms/{k}"), *v as f32)));
-            let refs: Vec<(&str, f32)> = scalars.iter().map(|(k, v)| (k.as_str(), *v)).collect();
-            tb.scalars(s.samples as i64, &refs).map_err(io(tb.path()))?;
-            on_iteration(&s);
-            let it = self.progress.iteration;
-            if it % self.cfg.run.save_every as u64 == 0 || it == target {
-                let p = ckpt_dir.join(format!("iter_{it:06}.safetensors"));
-                self.save(&p)?;
-                self.save(&out.join("latest.safetensors"))?;
-                last = p;
-            }
-        }
-        Ok(last)
     }
 }

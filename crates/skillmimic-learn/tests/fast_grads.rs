@@ -4,7 +4,7 @@
 
 use rand::{Rng, SeedableRng};
 use skillmimic_learn::config::PpoConfig;
-use skillmimic_learn::fast::{UpdateWorkspace, loss_and_grads_fast};
+use skillmimic_learn::ppo::fast::{UpdateWorkspace, loss_and_grads_fast};
 use skillmimic_learn::policy::Policy;
 use skillmimic_learn::ppo::{Minibatch, loss_and_grads};
 

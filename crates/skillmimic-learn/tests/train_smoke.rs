@@ -23,7 +23,7 @@ fn tiny_run_writes_checkpoints_and_resumes() {
     let out = cfg.run.out_dir.clone();
     let mut t = Trainer::new(cfg.clone(), None).unwrap();
     let mut seen = Vec::new();
-    let last = t.train(|s| seen.push(s.clone())).unwrap();
+    let last = skillmimic_learn::runner::train_loop(&mut t, |s| seen.push(s.clone())).unwrap();
     assert_eq!(seen.len(), 3);
     assert!(seen.iter().all(|s| s.mean_reward.is_finite() && s.critic_loss.is_finite()));
     println!("iteration stats: {:?}", seen.iter().map(|s| (s.mean_reward, s.samples_per_s)).collect::<Vec<_>>());
@@ -39,7 +39,7 @@ fn tiny_run_writes_checkpoints_and_resumes() {
     assert_eq!(t2.progress.iteration, 3);
     assert_eq!(t2.adam.step, t.adam.step);
     assert_eq!(t2.policy, t.policy);
-    t2.train(|_| {}).unwrap();
+    skillmimic_learn::runner::train_loop(&mut t2, |_| {}).unwrap();
     assert_eq!(t2.progress.iteration, 5);
     let c = checkpoint::load(&out.join("latest.safetensors"), Some((902, 156))).unwrap();
     assert_eq!(c.progress.iteration, 5);
@@ -51,7 +51,7 @@ fn same_seed_gives_bit_identical_runs() {
     let run = |tag: &str| {
         let mut t = Trainer::new(tiny(tag, 2), None).unwrap();
         let mut rewards = Vec::new();
-        t.train(|s| rewards.push((s.mean_reward, s.actor_loss, s.critic_loss))).unwrap();
+        skillmimic_learn::runner::train_loop(&mut t, |s| rewards.push((s.mean_reward, s.actor_loss, s.critic_loss))).unwrap();
         (rewards, t.policy.clone())
     };
     let (ra, pa) = run("s1");
@@ -73,7 +73,7 @@ fn fast_backend_reproduces_the_candle_backend_curve() {
         c.ppo.backend = backend;
         let mut t = Trainer::new(c, None).unwrap();
         let mut stats = Vec::new();
-        t.train(|s| stats.push(s.clone())).unwrap();
+        skillmimic_learn::runner::train_loop(&mut t, |s| stats.push(s.clone())).unwrap();
         stats
     };
     let a = run(skillmimic_learn::config::Backend::Candle, "candle");

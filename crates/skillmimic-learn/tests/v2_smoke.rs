@@ -74,10 +74,10 @@ fn full_v2_stack_trains_and_evaluates() {
     c.run.out_dir = tmp("stack_run");
     let mut t = Trainer::new(c.clone(), None).unwrap();
     assert_eq!(t.env.obs_dim(), 905);
-    let last = t.train(|s| assert!(s.mean_reward.is_finite() && s.critic_loss.is_finite())).unwrap();
+    let last = skillmimic_learn::runner::train_loop(&mut t, |s| assert!(s.mean_reward.is_finite() && s.critic_loss.is_finite())).unwrap();
     let ck = skillmimic_learn::checkpoint::load(&last, Some((905, 156))).unwrap();
     assert_eq!(ck.policy.obs_dim(), 905);
-    let lib = t.env.library().clone();
+    let lib = t.env.as_any().downcast_ref::<skillmimic_env::SkillEnv>().expect("imitation task").library().clone();
     let vcfg = V2EvalConfig { episodes: 2, horizon: 20, num_envs: 2, ..Default::default() };
     let rep = evaluate_v2(&t.policy, &c.env, &lib, &vcfg, 0).unwrap();
     // the demo skills (50, 51) have no success rule: NR only
@@ -98,8 +98,8 @@ fn v2_metrics_on_two_real_skills() {
     c.run.iterations = 1;
     c.run.out_dir = tmp("real_run");
     let mut t = Trainer::new(c.clone(), None).unwrap();
-    t.train(|_| {}).unwrap();
-    let lib = t.env.library().clone();
+    skillmimic_learn::runner::train_loop(&mut t, |_| {}).unwrap();
+    let lib = t.env.as_any().downcast_ref::<skillmimic_env::SkillEnv>().expect("imitation task").library().clone();
     let vcfg = V2EvalConfig { episodes: 2, horizon: 30, num_envs: 2, ..Default::default() };
     let rep = evaluate_v2(&t.policy, &c.env, &lib, &vcfg, 0).unwrap();
     println!("{}", serde_json::to_string(&rep).unwrap());

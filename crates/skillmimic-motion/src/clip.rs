@@ -1,18 +1,6 @@
 //! A motion clip in the project's representation, and its decoding from BallPlay-M `.pt` files.
 //!
-//! BallPlay-M column layout (one row per frame, 60 fps):
-//!
-//! | columns | content |
-//! |---|---|
-//! | 0:3 | root (Pelvis) position, world, m (Z-up) |
-//! | 3:6 | root rotation, exponential map (rad), includes the Y-up → Z-up tilt |
-//! | 6:9 | duplicate of 3:6 (ignored) |
-//! | 9:165 | 52 × 3 joint rotations, exp map of each body relative to its parent |
-//! | 165:324 | 53 × 3 world positions of all bodies (not exactly FK of the joints, see docs) |
-//! | 324:327 | ball centre, world, m |
-//! | 327:330 | ball rotation exp map, stored negated (all zero in the shipped data) |
-//! | 330:336 | unused |
-//! | 336 | hand–ball contact label (0/1) |
+//! The BallPlay-M column layout (one row per frame, 60 fps) is documented in [`crate::layout`].
 
 use std::path::Path;
 
@@ -22,26 +10,12 @@ use skillmimic_core::skeleton::{NUM_BODIES, NUM_DOFS};
 use crate::error::ClipError;
 use crate::pt::read_pt_matrix;
 
-/// Width of a BallPlay-M row.
-pub const PT_WIDTH: usize = 337;
-/// Frame rate of BallPlay-M clips (Hz).
-pub const BALLPLAY_FPS: f64 = 60.0;
+// The layout items keep their historical paths `clip::PT_WIDTH`, `clip::BALLPLAY_FPS` and
+// `clip::pt_column_field`.
+pub use crate::layout::{BALLPLAY_FPS, PT_WIDTH, pt_column_field};
+
 /// Width of the one-hot skill condition; labels must be below it.
 pub const SKILL_WIDTH: usize = 64;
-
-/// Name of the field a BallPlay-M column belongs to (error messages).
-pub fn pt_column_field(c: usize) -> &'static str {
-    match c {
-        0..=2 => "root position",
-        3..=8 => "root rotation",
-        9..=164 => "joint rotations",
-        165..=323 => "body positions",
-        324..=326 => "ball position",
-        327..=329 => "ball rotation",
-        330..=335 => "unused",
-        _ => "contact label",
-    }
-}
 
 /// A motion clip. Arrays are float32, frame-major; frames and units as in the project format:
 /// positions in metres in the Z-up world frame, quaternions **(w, x, y, z)**, joint rotations as

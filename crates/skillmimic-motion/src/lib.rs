@@ -2,6 +2,7 @@
 //!
 //! * [`pt`]: a restricted reader (and a writer) for `torch.save` archives holding one float32
 //!   matrix (BallPlay-M clips) — no pickle code is executed;
+//! * [`layout`]: the BallPlay-M 337-column row layout (widths, frame rate, column names);
 //! * [`clip`]: the project's clip representation and its decoding from the 337-column layout;
 //! * [`format`]: the project's clip file format (safetensors, documented field by field);
 //! * [`reference`]: reference quantities derived once per clip (velocities, key bodies);
@@ -10,11 +11,13 @@
 pub mod clip;
 pub mod error;
 pub mod format;
+pub mod layout;
 pub mod library;
 pub mod pt;
 pub mod reference;
 
-pub use clip::{BALLPLAY_FPS, Clip, PT_WIDTH, SKILL_WIDTH};
+pub use clip::{Clip, SKILL_WIDTH};
 pub use error::ClipError;
+pub use layout::{BALLPLAY_FPS, PT_WIDTH};
 pub use library::{MotionClip, MotionLibrary};
 pub use reference::{ClipReference, NUM_KEY};

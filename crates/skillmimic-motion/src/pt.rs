@@ -11,6 +11,7 @@ use std::path::Path;
 use candle_core::pickle::{Object, Stack};
 
 use crate::error::ClipError;
+use crate::layout::PT_WIDTH;
 
 /// A dense row-major float32 matrix read from a `.pt` file.
 #[derive(Clone, Debug, PartialEq)]
@@ -63,7 +64,7 @@ pub fn read_pt_matrix(path: &Path) -> Result<PtMatrix, ClipError> {
         return Err(format_err(path, format!("tensor storage is {}, expected FloatStorage (float32)", info.dtype)));
     }
     if info.size.len() != 2 {
-        return Err(ClipError::Shape { path: path.to_path_buf(), shape: info.size, expected_width: crate::clip::PT_WIDTH });
+        return Err(ClipError::Shape { path: path.to_path_buf(), shape: info.size, expected_width: PT_WIDTH });
     }
     let (rows, cols) = (info.size[0], info.size[1]);
     if info.stride != [cols, 1] && rows > 1 {

@@ -9,28 +9,33 @@ use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArra
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use skillmimic_env::env::{FRAME_METRIC_NAMES, NUM_FRAME_METRICS};
-use skillmimic_env::hoi::{MAX_CG, cg_names};
-use skillmimic_env::reward::{NUM_TERMS, TERM_NAMES};
-use skillmimic_env::{EnvConfig, SkillEnv};
+use skillmimic_env::{Env, EnvConfig, SkillEnv};
+
+mod consts;
 
 fn value_error(e: impl std::fmt::Display) -> PyErr {
     PyValueError::new_err(e.to_string())
 }
 
-/// The batched SkillMimic environment (Rust core). Use `skillmimic_rs.VecEnv` instead.
+/// The batched environment of any registered task (Rust core). Use `skillmimic_rs.VecEnv`
+/// instead.
 #[pyclass(module = "skillmimic_rs._core")]
 struct CoreEnv {
-    env: Option<SkillEnv>,
+    env: Option<Box<dyn Env>>,
+    cfg: EnvConfig,
     actions: Vec<f32>,
 }
 
 impl CoreEnv {
-    fn env(&self) -> PyResult<&SkillEnv> {
-        self.env.as_ref().ok_or_else(|| PyRuntimeError::new_err("the environment is closed"))
+    fn env(&self) -> PyResult<&dyn Env> {
+        self.env.as_deref().ok_or_else(|| PyRuntimeError::new_err("the environment is closed"))
     }
-    fn env_mut(&mut self) -> PyResult<&mut SkillEnv> {
+    fn env_mut(&mut self) -> PyResult<&mut Box<dyn Env>> {
         self.env.as_mut().ok_or_else(|| PyRuntimeError::new_err("the environment is closed"))
+    }
+    /// The imitation task's environment (task-specific accessors).
+    fn imitation(&self) -> PyResult<&SkillEnv> {
+        self.env()?.as_any().downcast_ref::<SkillEnv>().ok_or_else(|| PyValueError::new_err(format!("only the imitation task has this (task is '{}')", self.cfg.task)))
     }
 }
 
@@ -41,7 +46,7 @@ fn check_shape(name: &str, got: &[usize], want: &[usize]) -> PyResult<()> {
     Ok(())
 }
 
-fn copy_obs(env: &SkillEnv, mut out: PyReadwriteArray2<'_, f32>) -> PyResult<()> {
+fn copy_obs(env: &dyn Env, mut out: PyReadwriteArray2<'_, f32>) -> PyResult<()> {
     check_shape("obs buffer", out.shape(), &[env.num_envs(), env.obs_dim()])?;
     out.as_slice_mut().map_err(value_error)?.copy_from_slice(&env.buffers().obs);
     Ok(())
@@ -55,8 +60,8 @@ fn write_flags(name: &str, out: &mut PyReadwriteArray1<'_, bool>, src: &[u8]) ->
     Ok(())
 }
 
-fn to_2d<'py>(py: Python<'py>, data: &[f32], cols: usize) -> PyResult<Bound<'py, PyArray2<f32>>> {
-    PyArray1::from_slice(py, data).reshape([data.len() / cols, cols])
+fn to_2d<'py>(py: Python<'py>, data: &[f32], rows: usize, cols: usize) -> PyResult<Bound<'py, PyArray2<f32>>> {
+    PyArray1::from_slice(py, data).reshape([rows, cols])
 }
 
 #[pymethods]
@@ -66,15 +71,16 @@ impl CoreEnv {
     #[pyo3(signature = (config_json, autoreset))]
     fn new(py: Python<'_>, config_json: &str, autoreset: bool) -> PyResult<Self> {
         let cfg: EnvConfig = serde_json::from_str(config_json).map_err(|e| PyValueError::new_err(format!("config: {e}")))?;
-        let mut env = py.detach(|| SkillEnv::from_config(cfg)).map_err(value_error)?;
+        let mut env = py.detach(|| skillmimic_env::registry::make(&cfg)).map_err(value_error)?;
         env.set_autoreset(autoreset);
         let n = env.num_envs() * env.act_dim();
-        Ok(Self { env: Some(env), actions: vec![0.0; n] })
+        Ok(Self { env: Some(env), cfg, actions: vec![0.0; n] })
     }
 
     /// The effective configuration as JSON (defaults filled in).
     fn config_json(&self) -> PyResult<String> {
-        serde_json::to_string(self.env()?.config()).map_err(value_error)
+        self.env()?;
+        serde_json::to_string(&self.cfg).map_err(value_error)
     }
     #[getter]
     fn num_envs(&self) -> PyResult<usize> {
@@ -88,26 +94,39 @@ impl CoreEnv {
     fn act_dim(&self) -> PyResult<usize> {
         Ok(self.env()?.act_dim())
     }
+    /// The task's registry name.
+    #[getter]
+    fn task(&self) -> PyResult<&'static str> {
+        Ok(self.env()?.spec().name)
+    }
+    /// Action space: ("box", dim) or ("discrete", n).
+    #[getter]
+    fn action_space(&self) -> PyResult<(&'static str, usize)> {
+        Ok(match self.env()?.spec().action_space {
+            skillmimic_env::ActionSpace::Box { dim } => ("box", dim),
+            skillmimic_env::ActionSpace::Discrete { n } => ("discrete", n),
+        })
+    }
     /// Episode length limit in policy steps.
     #[getter]
     fn max_episode_length(&self) -> PyResult<usize> {
-        let c = self.env()?.config();
-        Ok(if c.fixed_horizon > 0 { c.fixed_horizon } else { c.episode_length - 1 })
+        Ok(self.env()?.spec().max_episode_steps)
     }
     /// Names of the reward terms (columns of `reward_terms()`).
     #[getter]
-    fn term_names(&self) -> Vec<&'static str> {
-        TERM_NAMES.to_vec()
+    fn term_names(&self) -> PyResult<Vec<&'static str>> {
+        Ok(self.env()?.spec().term_names.clone())
     }
-    /// Names of the contact-graph entries of the configured mode.
+    /// Names of the task information entries (imitation: the contact-graph entries of the
+    /// configured mode; columns of `contact_graph()`).
     #[getter]
-    fn cg_names(&self) -> PyResult<Vec<&'static str>> {
-        Ok(cg_names(self.env()?.config().reward.contact_graph).to_vec())
+    fn cg_names(&self) -> PyResult<Vec<String>> {
+        Ok(self.env()?.spec().info_names.clone())
     }
     /// Names of the columns of `frame_metrics()`.
     #[getter]
-    fn frame_metric_names(&self) -> Vec<&'static str> {
-        FRAME_METRIC_NAMES.to_vec()
+    fn frame_metric_names(&self) -> PyResult<Vec<&'static str>> {
+        Ok(self.env()?.spec().metric_names.clone())
     }
     /// MJCF text of the compiled scene.
     #[getter]
@@ -122,7 +141,7 @@ impl CoreEnv {
     }
     /// Names and skill labels of the clips of the motion library.
     fn clips(&self) -> PyResult<Vec<(String, u32, usize)>> {
-        let lib = self.env()?.library();
+        let lib = self.imitation()?.library();
         Ok(lib.clips().iter().map(|m| (m.clip.name.clone(), m.clip.skill, m.clip.num_frames)).collect())
     }
 
@@ -131,7 +150,7 @@ impl CoreEnv {
     fn reset_all(&mut self, py: Python<'_>, seed: Option<u64>, obs_out: PyReadwriteArray2<'_, f32>) -> PyResult<()> {
         let env = self.env_mut()?;
         py.detach(|| env.reset_all(seed));
-        copy_obs(env, obs_out)
+        copy_obs(env.as_ref(), obs_out)
     }
 
     /// Reset the environments where `mask` is true; writes all observations.
@@ -143,7 +162,7 @@ impl CoreEnv {
             return Err(PyValueError::new_err("reset_mask selects no environment"));
         }
         py.detach(|| env.reset_envs(&m));
-        copy_obs(env, obs_out)
+        copy_obs(env.as_ref(), obs_out)
     }
 
     /// One policy step for all environments. Outputs are written into the given buffers.
@@ -159,8 +178,8 @@ impl CoreEnv {
         mut final_obs_out: PyReadwriteArray2<'_, f32>,
         mut final_mask_out: PyReadwriteArray1<'_, bool>,
     ) -> PyResult<()> {
-        let Self { env, actions: abuf } = self;
-        let env = env.as_mut().ok_or_else(|| PyRuntimeError::new_err("the environment is closed"))?;
+        let Self { env, actions: abuf, .. } = self;
+        let env = env.as_deref_mut().ok_or_else(|| PyRuntimeError::new_err("the environment is closed"))?;
         let (n, a, d) = (env.num_envs(), env.act_dim(), env.obs_dim());
         check_shape("actions", actions.shape(), &[n, a])?;
         abuf.copy_from_slice(actions.as_slice().map_err(value_error)?);
@@ -184,24 +203,28 @@ impl CoreEnv {
         Ok(())
     }
 
-    /// `(N, 12)` sub-rewards of the last step (columns: `term_names`).
+    /// `(N, terms)` sub-rewards of the last step (columns: `term_names`).
     fn reward_terms<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f32>>> {
-        to_2d(py, &self.env()?.buffers().terms, NUM_TERMS)
+        let env = self.env()?;
+        to_2d(py, &env.buffers().terms, env.num_envs(), env.spec().term_names.len())
     }
-    /// `(N, 4)` simulated contact-graph entries of the last step (columns: `cg_names`, padded).
+    /// `(N, info)` task information of the last step (imitation: the simulated contact-graph
+    /// entries; columns: `cg_names`).
     fn contact_graph<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f32>>> {
-        to_2d(py, &self.env()?.buffers().contact_graph, MAX_CG)
+        let env = self.env()?;
+        to_2d(py, &env.buffers().info, env.num_envs(), env.spec().info_names.len())
     }
-    /// `(N, 4)` evaluation errors of the last step (columns: `frame_metric_names`).
+    /// `(N, metrics)` per-step metrics of the last step (columns: `frame_metric_names`).
     fn frame_metrics<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f32>>> {
-        to_2d(py, &self.env()?.buffers().metrics, NUM_FRAME_METRICS)
+        let env = self.env()?;
+        to_2d(py, &env.buffers().metrics, env.num_envs(), env.spec().metric_names.len())
     }
     /// Per-environment episode state: clip index, start frame, reference frame, progress,
     /// length, skill label (int64 arrays).
     fn episode_info<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let env = self.env()?;
+        let env = self.imitation()?;
         let d = PyDict::new(py);
-        let col = |f: &dyn Fn(&skillmimic_env::episode::Episode) -> i64| -> Vec<i64> { env.episodes().iter().map(f).collect() };
+        let col = |f: &dyn Fn(&skillmimic_env::episode::Episode) -> i64| -> Vec<i64> { env.episodes().map(f).collect() };
         d.set_item("clip", PyArray1::from_vec(py, col(&|e| e.clip as i64)))?;
         d.set_item("ref_start", PyArray1::from_vec(py, col(&|e| e.ref_start as i64)))?;
         d.set_item("ref_frame", PyArray1::from_vec(py, col(&|e| e.ref_frame() as i64)))?;
@@ -234,20 +257,23 @@ impl CoreEnv {
         let (q, v) = (qpos.as_slice().map_err(value_error)?, qvel.as_slice().map_err(value_error)?);
         env.sim_mut().set_qpos_qvel(i, q, v).map_err(value_error)?;
         env.refresh_observations();
-        copy_obs(env, obs_out)
+        copy_obs(env.as_ref(), obs_out)
     }
 
     /// The history window `(k, 316)` of environment `i` (SkillMimic-V2 history encoder), or None
     /// when the encoder is off. Its embedding becomes the last μ observation entries at the next
     /// step.
     fn history_window<'py>(&self, py: Python<'py>, i: usize) -> PyResult<Option<Bound<'py, PyArray2<f32>>>> {
-        let env = self.env()?;
+        let env = self.imitation()?;
         if i >= env.num_envs() {
             return Err(PyValueError::new_err(format!("environment index {i} out of range (num_envs {})", env.num_envs())));
         }
         match env.history_window(i) {
             None => Ok(None),
-            Some(w) => Ok(Some(to_2d(py, &w, skillmimic_env::v2::history::FEATURE_DIM)?)),
+            Some(w) => {
+                let f = skillmimic_env::v2::history::FEATURE_DIM;
+                Ok(Some(to_2d(py, &w, w.len() / f, f)?))
+            }
         }
     }
 
@@ -274,7 +300,7 @@ impl Policy {
     /// Load a checkpoint written by `skillmimic train` or `skillmimic export`.
     #[staticmethod]
     fn load(path: std::path::PathBuf) -> PyResult<Self> {
-        let c = skillmimic_learn::checkpoint::load(&path, None).map_err(PyValueError::new_err)?;
+        let c = skillmimic_learn::checkpoint::load(&path, None).map_err(|e| PyValueError::new_err(e.to_string()))?;
         Ok(Self { policy: c.policy, buf: Default::default() })
     }
     #[getter]
@@ -290,7 +316,7 @@ impl Policy {
         let (n, d) = (obs.shape()[0], obs.shape()[1]);
         check_shape("obs", obs.shape(), &[n, self.policy.obs_dim()])?;
         let x = obs.as_slice().map_err(value_error)?.to_vec();
-        let a = self.policy.act_dim();
+        let a = self.policy.actor_outputs();
         let (mut mu, mut v) = (vec![0.0f32; n * a], vec![0.0f32; n]);
         let Self { policy, buf } = self;
         py.detach(|| policy.infer(&x, n, buf, &mut mu, &mut v, 0));
@@ -334,14 +360,14 @@ impl HistoryEncoder {
         for (w, o) in x.chunks_exact(k * FEATURE_DIM).zip(out.chunks_exact_mut(mu)) {
             self.enc.embed(w, o);
         }
-        to_2d(py, &out, mu)
+        to_2d(py, &out, b, mu)
     }
 }
 
 /// The trainer's running mean/std normaliser (rl_games update rule), for inspection and tests.
 #[pyclass(module = "skillmimic_rs._core")]
 struct RunningMeanStd {
-    inner: skillmimic_learn::normalizer::RunningMeanStd,
+    inner: skillmimic_nn::normalizer::RunningMeanStd,
 }
 
 #[pymethods]
@@ -352,7 +378,7 @@ impl RunningMeanStd {
         if dim == 0 {
             return Err(PyValueError::new_err("dim must be at least 1"));
         }
-        Ok(Self { inner: skillmimic_learn::normalizer::RunningMeanStd::new(dim, eps, clip) })
+        Ok(Self { inner: skillmimic_nn::normalizer::RunningMeanStd::new(dim, eps, clip) })
     }
     /// Merge a batch `(N, dim)` (N >= 2) into the statistics.
     fn update(&mut self, x: PyReadonlyArray2<'_, f32>) -> PyResult<()> {
@@ -388,7 +414,7 @@ impl RunningMeanStd {
 /// cross-checks). `obs_n` are already-normalised observations; returns `(losses, grads)` where
 /// `grads` maps the checkpoint tensor names (`actor.0.weight`, …) to arrays.
 #[pyfunction]
-#[pyo3(signature = (checkpoint, obs_n, actions, old_neglogp, advantages, returns_n, clip = 0.2, critic_coef = 5.0, bounds_coef = 10.0, bound = 1.0, backend = "fast"))]
+#[pyo3(signature = (checkpoint, obs_n, actions, old_neglogp, advantages, returns_n, clip = 0.2, critic_coef = 5.0, bounds_coef = 10.0, bound = 1.0, backend = "fast", entropy_coef = 0.0))]
 #[allow(clippy::too_many_arguments)]
 fn ppo_loss_and_grads<'py>(
     py: Python<'py>,
@@ -403,9 +429,10 @@ fn ppo_loss_and_grads<'py>(
     bounds_coef: f64,
     bound: f64,
     backend: &str,
+    entropy_coef: f64,
 ) -> PyResult<(Bound<'py, PyDict>, Bound<'py, PyDict>)> {
     use skillmimic_learn::config::{Backend, PpoConfig};
-    let c = skillmimic_learn::checkpoint::load(&checkpoint, None).map_err(PyValueError::new_err)?;
+    let c = skillmimic_learn::checkpoint::load(&checkpoint, None).map_err(|e| PyValueError::new_err(e.to_string()))?;
     let p = &c.policy;
     let n = obs_n.shape()[0];
     check_shape("obs_n", obs_n.shape(), &[n, p.obs_dim()])?;
@@ -418,7 +445,7 @@ fn ppo_loss_and_grads<'py>(
         "candle" => Backend::Candle,
         other => return Err(PyValueError::new_err(format!("backend '{other}', expected 'fast' or 'candle'"))),
     };
-    let cfg = PpoConfig { clip, critic_coef, bounds_coef, bound, backend, ..Default::default() };
+    let cfg = PpoConfig { clip, critic_coef, bounds_coef, bound, backend, entropy_coef, ..Default::default() };
     let mb = skillmimic_learn::ppo::Minibatch {
         n,
         obs_n: obs_n.as_slice().map_err(value_error)?,
@@ -428,15 +455,15 @@ fn ppo_loss_and_grads<'py>(
         returns_n: returns_n.as_slice().map_err(value_error)?,
     };
     let (stats, grads) = match backend {
-        Backend::Fast => {
-            let mut ws = skillmimic_learn::fast::UpdateWorkspace::default();
-            let s = skillmimic_learn::fast::loss_and_grads_fast(p, &mb, &cfg, &mut ws, 0);
+        Backend::Fast if skillmimic_learn::ppo::fast::applies_to(p) => {
+            let mut ws = skillmimic_learn::ppo::fast::UpdateWorkspace::default();
+            let s = skillmimic_learn::ppo::fast::loss_and_grads_fast(p, &mb, &cfg, &mut ws, 0);
             (s, ws.grads)
         }
-        Backend::Candle => skillmimic_learn::ppo::loss_and_grads(p, &mb, &cfg).map_err(PyValueError::new_err)?,
+        _ => skillmimic_learn::ppo::loss_and_grads(p, &mb, &cfg).map_err(value_error)?,
     };
     let losses = PyDict::new(py);
-    for (k, v) in [("actor", stats.actor), ("critic", stats.critic), ("bounds", stats.bounds), ("total", stats.total), ("clip_frac", stats.clip_frac)] {
+    for (k, v) in [("actor", stats.actor), ("critic", stats.critic), ("bounds", stats.bounds), ("entropy", stats.entropy), ("total", stats.total), ("clip_frac", stats.clip_frac)] {
         losses.set_item(k, v)?;
     }
     let g = PyDict::new(py);
@@ -450,6 +477,28 @@ fn ppo_loss_and_grads<'py>(
         }
     }
     Ok((losses, g))
+}
+
+/// Write a freshly initialised policy checkpoint (policy only, no Adam state): family
+/// `family` (`gaussian_mlp` | `categorical_mlp`), observations of `obs_dim`, action space
+/// `("box", dim)` or `("discrete", n)`, hidden widths `hidden`, weights drawn from `seed` (the
+/// trainer's initialisation). For interop tests and for starting from Python.
+#[pyfunction]
+#[pyo3(signature = (path, family, obs_dim, actions, hidden, seed = 0))]
+fn init_policy(path: std::path::PathBuf, family: &str, obs_dim: usize, actions: (String, usize), hidden: Vec<usize>, seed: u64) -> PyResult<()> {
+    use rand::SeedableRng;
+    let space = match actions.0.as_str() {
+        "box" => skillmimic_env::ActionSpace::Box { dim: actions.1 },
+        "discrete" => skillmimic_env::ActionSpace::Discrete { n: actions.1 },
+        other => return Err(PyValueError::new_err(format!("actions: kind '{other}', expected 'box' or 'discrete'"))),
+    };
+    if obs_dim == 0 || actions.1 == 0 || hidden.contains(&0) {
+        return Err(PyValueError::new_err("obs_dim, the action size and every hidden width must be positive"));
+    }
+    let cfg = skillmimic_learn::config::PpoConfig { policy: family.to_string(), hidden, ..Default::default() };
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let p = skillmimic_learn::policy::Policy::build(obs_dim, space, &cfg, &mut rng).map_err(value_error)?;
+    skillmimic_learn::checkpoint::save(&path, &p, None, &Default::default(), "").map_err(|e| PyValueError::new_err(format!("{}: {e}", path.display())))
 }
 
 /// Version of the Rust core.
@@ -466,7 +515,9 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<HistoryEncoder>()?;
     m.add_function(wrap_pyfunction!(core_version, m)?)?;
     m.add_function(wrap_pyfunction!(ppo_loss_and_grads, m)?)?;
+    m.add_function(wrap_pyfunction!(init_policy, m)?)?;
     m.add("OBS_DIM", skillmimic_env::obs::layout::OBS_DIM)?;
     m.add("BUILTIN_DEMO", skillmimic_env::BUILTIN_DEMO)?;
+    consts::register(m)?;
     Ok(())
 }

@@ -85,8 +85,30 @@ impl Default for BallParams {
     }
 }
 
-/// Everything that selects a scene variant.
+/// A static prop a task adds to the world (fixed in the world frame, world coordinates in metres).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Prop {
+    /// Geom name (unique in the scene).
+    pub name: String,
+    pub kind: PropKind,
+    /// Centre position (m, world frame).
+    pub pos: [f64; 3],
+    /// RGBA colour.
+    pub rgba: [f32; 4],
+}
+
+/// What a prop is.
 #[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PropKind {
+    /// A visual sphere of this radius (m): no collisions, no mass (target markers, a hoop marker).
+    Marker { radius: f64 },
+    /// A static box with these half-sizes (m) that collides with the humanoid and the ball.
+    /// Contacts with it are not classified by the contact graph (they count as no known pair).
+    Box { half: [f64; 3] },
+}
+
+/// Everything that selects a scene variant.
+#[derive(Clone, Debug, PartialEq)]
 pub struct SceneOptions {
     pub hands: HandModel,
     pub root: RootJoint,
@@ -95,6 +117,9 @@ pub struct SceneOptions {
     pub timestep: f64,
     /// Symmetric actuator force limit (N·m).
     pub force_limit: f64,
+    /// Static task props, written after the floor in this order (none: the plain scene, byte for
+    /// byte as before props existed).
+    pub props: Vec<Prop>,
 }
 
 impl Default for SceneOptions {
@@ -105,6 +130,7 @@ impl Default for SceneOptions {
             ball: BallParams::default(),
             timestep: 1.0 / 120.0,
             force_limit: 500.0,
+            props: Vec::new(),
         }
     }
 }
@@ -173,6 +199,15 @@ pub fn scene_xml(opts: &SceneOptions) -> String {
         "    <geom name=\"floor\" type=\"plane\" size=\"0 0 0.05\" condim=\"3\" friction=\"1 0.005 0.0001\" material=\"grid\"/>\n",
         "    <camera name=\"side\" mode=\"trackcom\" pos=\"0 -4.5 1.4\" xyaxes=\"1 0 0 0 0.25 0.97\"/>\n",
     ));
+    for p in &opts.props {
+        let [r, g, b, a] = p.rgba;
+        let [px, py, pz] = p.pos;
+        let shape = match p.kind {
+            PropKind::Marker { radius } => format!("type=\"sphere\" size=\"{radius}\" contype=\"0\" conaffinity=\"0\""),
+            PropKind::Box { half: [hx, hy, hz] } => format!("type=\"box\" size=\"{hx} {hy} {hz}\" condim=\"3\""),
+        };
+        let _ = writeln!(x, "    <geom name=\"{}\" {shape} pos=\"{px} {py} {pz}\" rgba=\"{r} {g} {b} {a}\"/>", p.name);
+    }
 
     // humanoid, depth first
     let (root_pos, root_quat) = match opts.root {

@@ -56,7 +56,7 @@ pub const SMALL_BATCH: usize = 256;
 /// # Safety
 /// The pointers must address every element reached through the given sizes and strides.
 #[allow(clippy::too_many_arguments)]
-pub(crate) unsafe fn gemm_raw(
+pub unsafe fn gemm_raw(
     m: usize,
     n: usize,
     k: usize,
@@ -84,7 +84,7 @@ pub(crate) unsafe fn gemm_raw(
 
 /// A raw pointer that may be sent to the pool threads (each thread writes a disjoint block).
 #[derive(Clone, Copy)]
-pub(crate) struct SendPtr(pub *mut f32);
+pub struct SendPtr(pub *mut f32);
 // SAFETY: only used to hand disjoint output blocks to rayon tasks, see the callers.
 unsafe impl Send for SendPtr {}
 unsafe impl Sync for SendPtr {}
@@ -92,13 +92,13 @@ unsafe impl Sync for SendPtr {}
 impl SendPtr {
     /// The pointer (a method, so closures capture the whole `Send` wrapper).
     #[inline]
-    pub(crate) fn get(self) -> *mut f32 {
+    pub fn get(self) -> *mut f32 {
         self.0
     }
 }
 
 /// Split `0..len` into `parts` contiguous ranges (sizes differ by at most one multiple of 16).
-pub(crate) fn split_ranges(len: usize, parts: usize) -> Vec<std::ops::Range<usize>> {
+pub fn split_ranges(len: usize, parts: usize) -> Vec<std::ops::Range<usize>> {
     let parts = parts.clamp(1, len.div_ceil(16).max(1));
     let chunk = len.div_ceil(parts).div_ceil(16) * 16;
     (0..parts).map(|p| (p * chunk).min(len)..((p + 1) * chunk).min(len)).filter(|r| !r.is_empty()).collect()
@@ -280,6 +280,21 @@ impl Mlp {
             }
         }
         Ok(h)
+    }
+}
+
+impl crate::network::Network for Mlp {
+    /// `nn.Sequential` names: layer k is module `2k` (`0.weight`, `0.bias`, `2.weight`, …).
+    fn state_dict(&self) -> Vec<crate::network::NamedTensor> {
+        let mut v = Vec::with_capacity(2 * self.num_layers());
+        for (k, w) in self.dims.windows(2).enumerate() {
+            v.push(crate::network::NamedTensor { name: format!("{}.weight", 2 * k), shape: vec![w[1], w[0]], data: self.weights[k].clone() });
+            v.push(crate::network::NamedTensor { name: format!("{}.bias", 2 * k), shape: vec![w[1]], data: self.biases[k].clone() });
+        }
+        v
+    }
+    fn forward(&self, x: &Tensor) -> candle_core::Result<Tensor> {
+        Mlp::candle_forward(&self.candle_vars(x.device())?, x)
     }
 }
 

@@ -1,6 +1,6 @@
 //! Dedicated forward/backward of the PPO minibatch loss (the trainer's default path).
 //!
-//! Same losses as [`crate::ppo::loss_and_grads`] (candle autograd, kept as the reference), written
+//! Same losses as [`super::loss::loss_and_grads`] (candle autograd, kept as the reference), written
 //! out by hand for the two ReLU MLPs:
 //!
 //! * forward: z_k = h_{k−1} W_kᵀ + b_k, h_k = max(z_k, 0) (no ReLU after the last layer); all
@@ -14,16 +14,17 @@
 //! * backward: dW_k = g_kᵀ h_{k−1}, db_k = Σ_rows g_k, g_{k−1} = (g_k W_k) ⊙ [h_{k−1} > 0]; the
 //!   gradient with respect to the (normalised) observations is never formed.
 //!
-//! Matrix products go through [`crate::mlp::gemm_raw`], split over the current rayon pool by
+//! Matrix products go through [`skillmimic_nn::mlp::gemm_raw`], split over the current rayon pool by
 //! output blocks; reductions use fixed row blocks combined in order, so results do not depend on
 //! scheduling.
 
 use rayon::prelude::*;
 
 use crate::config::PpoConfig;
-use crate::mlp::{Mlp, SendPtr, gemm_raw, linear_into, split_ranges};
+use skillmimic_nn::mlp::{Mlp, SendPtr, gemm_raw, linear_into, split_ranges};
+
+use super::batch::{LossStats, Minibatch};
 use crate::policy::{HALF_LN_2PI, Policy};
-use crate::ppo::{LossStats, Minibatch};
 
 /// Reusable buffers of the fast update.
 #[derive(Default)]
@@ -157,6 +158,12 @@ fn backward(m: &Mlp, x: &[f32], n: usize, h: &[Vec<f32>], g_out: &mut Vec<f32>, 
     }
 }
 
+/// Whether the fast path computes `policy`'s loss (the `gaussian_mlp` family only; other
+/// families always take the canonical candle loss).
+pub fn applies_to(policy: &Policy) -> bool {
+    policy.family.name() == "gaussian_mlp"
+}
+
 /// Losses and gradients of one minibatch (see the module docs); gradients land in `ws.grads`.
 pub fn loss_and_grads_fast(policy: &Policy, mb: &Minibatch<'_>, cfg: &PpoConfig, ws: &mut UpdateWorkspace, threads: usize) -> LossStats {
     let (n, a_dim) = (mb.n, policy.act_dim());
@@ -220,6 +227,7 @@ pub fn loss_and_grads_fast(policy: &Policy, mb: &Minibatch<'_>, cfg: &PpoConfig,
         actor: sums[0] * inv_n,
         critic: sums[1] * inv_n,
         bounds: sums[2] * inv_n,
+        entropy: 0.0,
         total: sums[0] * inv_n + cv * sums[1] * inv_n + cb * sums[2] * inv_n,
         clip_frac: sums[3] * inv_n,
         approx_kl: sums[4] * inv_n,

@@ -1,80 +1,51 @@
-//! PPO losses and their gradients (reference-facts §7.3), through candle's autograd.
+//! The canonical PPO loss (reference-facts §7.3) over any policy family, with candle autograd.
 //!
 //! For a minibatch of normalised observations s, actions a, old negative log-probabilities,
-//! normalised advantages Â and normalised returns R̂:
+//! normalised advantages Â and normalised returns R̂, with the family's neglogp_new(a | actor(s)):
 //! * ratio r = exp(clamp(neglogp_old − neglogp_new, ±20));
 //! * actor loss = mean(max(−Â r, −Â clip(r, 1−ε, 1+ε)));
 //! * critic loss = mean((R̂ − V(s))²) (unclipped, normalised value space);
-//! * bounds loss = mean over samples of Σ_dims [max(μ − b, 0)² + min(μ + b, 0)²];
-//! * total = actor + c_critic · critic + c_bounds · bounds.
+//! * family extra loss (Gaussian: c_bounds · bounds loss; categorical: −c_e · entropy);
+//! * total = actor + c_critic · critic + extra.
+//!
+//! `ppo::fast` is a specialisation of this loss for `gaussian_mlp`, tested equal to it.
 
 use candle_core::{Device, Tensor};
+use skillmimic_nn::mlp::Mlp;
 
+use super::batch::{LossStats, Minibatch};
 use crate::config::PpoConfig;
-use crate::mlp::Mlp;
-use crate::policy::{HALF_LN_2PI, Policy};
-
-/// One minibatch (row-major arrays, `n` samples).
-#[derive(Clone, Copy, Debug)]
-pub struct Minibatch<'a> {
-    pub n: usize,
-    /// `n × obs_dim`, already normalised.
-    pub obs_n: &'a [f32],
-    /// `n × act_dim` sampled actions.
-    pub actions: &'a [f32],
-    pub old_neglogp: &'a [f32],
-    /// Normalised advantages.
-    pub advantages: &'a [f32],
-    /// Returns in normalised value space.
-    pub returns_n: &'a [f32],
-}
-
-/// Loss values and diagnostics of one minibatch.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct LossStats {
-    pub actor: f64,
-    pub critic: f64,
-    pub bounds: f64,
-    pub total: f64,
-    /// Fraction of samples whose ratio left [1−ε, 1+ε].
-    pub clip_frac: f64,
-    /// mean(neglogp_new − neglogp_old).
-    pub approx_kl: f64,
-}
+use crate::error::LearnError;
+use crate::policy::Policy;
+#[cfg(test)]
+use crate::policy::HALF_LN_2PI;
 
 /// Gradients in `Policy` parameter order: actor layers, then critic layers.
 pub type Grads = Vec<Vec<f32>>;
 
-fn err(e: candle_core::Error) -> String {
-    format!("candle: {e}")
-}
-
 /// The candle device named by `ppo.device` ("cpu", or "cuda" with the `cuda` feature).
-pub fn device(name: &str) -> Result<Device, String> {
+pub fn device(name: &str) -> Result<Device, LearnError> {
     match name {
         "cpu" => Ok(Device::Cpu),
         #[cfg(feature = "cuda")]
-        "cuda" => Device::new_cuda(0).map_err(err),
-        other => Err(format!("device '{other}' is not available in this build")),
+        "cuda" => Ok(Device::new_cuda(0)?),
+        other => Err(LearnError::Device(other.to_string())),
     }
 }
 
 /// Losses and gradients of one minibatch with candle autograd.
-pub fn loss_and_grads(policy: &Policy, mb: &Minibatch<'_>, cfg: &PpoConfig) -> Result<(LossStats, Grads), String> {
+pub fn loss_and_grads(policy: &Policy, mb: &Minibatch<'_>, cfg: &PpoConfig) -> Result<(LossStats, Grads), LearnError> {
     let dev = device(&cfg.device)?;
     let (n, d, a_dim) = (mb.n, policy.obs_dim(), policy.act_dim());
-    let avars = policy.actor.candle_vars(&dev).map_err(err)?;
-    let cvars = policy.critic.candle_vars(&dev).map_err(err)?;
+    let avars = policy.actor.candle_vars(&dev)?;
+    let cvars = policy.critic.candle_vars(&dev)?;
+    let family = policy.family;
     let run = || -> candle_core::Result<(LossStats, Grads)> {
         let x = Tensor::from_slice(mb.obs_n, (n, d), &dev)?;
-        let mu = Mlp::candle_forward(&avars, &x)?;
+        let out = Mlp::candle_forward(&avars, &x)?;
         let v = Mlp::candle_forward(&cvars, &x)?.squeeze(1)?;
         let act = Tensor::from_slice(mb.actions, (n, a_dim), &dev)?;
-        let inv_sigma: Vec<f32> = policy.log_std.iter().map(|l| (-l).exp()).collect();
-        let inv_sigma = Tensor::from_vec(inv_sigma, a_dim, &dev)?;
-        let konst: f64 = policy.log_std.iter().map(|&l| l as f64 + HALF_LN_2PI).sum();
-        let z = (act - &mu)?.broadcast_mul(&inv_sigma)?;
-        let neglogp = (z.sqr()?.sum(1)? * 0.5)?.affine(1.0, konst)?;
+        let neglogp = family.neglogp(policy.head(), &out, &act)?;
         let old = Tensor::from_slice(mb.old_neglogp, n, &dev)?;
         let ratio = (&old - &neglogp)?.clamp(-20f32, 20f32)?.exp()?;
         let adv = Tensor::from_slice(mb.advantages, n, &dev)?;
@@ -84,11 +55,8 @@ pub fn loss_and_grads(policy: &Policy, mb: &Minibatch<'_>, cfg: &PpoConfig) -> R
         let actor = surr1.neg()?.maximum(&surr2.neg()?)?.mean_all()?;
         let ret = Tensor::from_slice(mb.returns_n, n, &dev)?;
         let critic = (&v - &ret)?.sqr()?.mean_all()?;
-        let b = cfg.bound;
-        let upper = mu.affine(1.0, -b)?.relu()?.sqr()?;
-        let lower = mu.affine(-1.0, -b)?.relu()?.sqr()?;
-        let bounds = (upper + lower)?.sum(1)?.mean_all()?;
-        let total = ((&actor + (&critic * cfg.critic_coef)?)? + (&bounds * cfg.bounds_coef)?)?;
+        let extra = family.extra_loss(&out, cfg)?;
+        let total = ((&actor + (&critic * cfg.critic_coef)?)? + &extra.total)?;
         let store = total.backward()?;
         let mut grads = Vec::with_capacity(avars.len() + cvars.len());
         for var in avars.iter().chain(&cvars) {
@@ -102,76 +70,24 @@ pub fn loss_and_grads(policy: &Policy, mb: &Minibatch<'_>, cfg: &PpoConfig) -> R
         let clip_frac = ratio_v.iter().filter(|&&r| (r - 1.0).abs() > eps).count() as f64 / n as f64;
         let approx_kl = (&neglogp - &old)?.mean_all()?.to_scalar::<f32>()? as f64;
         let s = |t: &Tensor| t.to_scalar::<f32>().map(|x| x as f64);
-        Ok((LossStats { actor: s(&actor)?, critic: s(&critic)?, bounds: s(&bounds)?, total: s(&total)?, clip_frac, approx_kl }, grads))
+        let opt = |t: &Option<Tensor>| t.as_ref().map_or(Ok(0.0), s);
+        let stats = LossStats { actor: s(&actor)?, critic: s(&critic)?, bounds: opt(&extra.bounds)?, entropy: opt(&extra.entropy)?, total: s(&total)?, clip_frac, approx_kl };
+        Ok((stats, grads))
     };
-    run().map_err(err)
-}
-
-/// A minibatch of raw (unnormalised) observations.
-#[derive(Clone, Copy, Debug)]
-pub struct RawMinibatch<'a> {
-    pub n: usize,
-    pub obs: &'a [f32],
-    pub actions: &'a [f32],
-    pub old_neglogp: &'a [f32],
-    pub advantages: &'a [f32],
-    pub returns_n: &'a [f32],
-}
-
-/// Buffers reused by [`update_minibatch`] across minibatches and iterations.
-#[derive(Default)]
-pub struct UpdateBuffers {
-    pub obs_n: Vec<f32>,
-    pub fast: crate::fast::UpdateWorkspace,
-}
-
-/// One optimisation step on a minibatch, as rl_games does it: update the observation normaliser
-/// with the batch, normalise with the updated statistics, compute the losses and gradients
-/// (`cfg.backend`), clip them if configured, and take an Adam step.
-pub fn update_minibatch(
-    policy: &mut Policy,
-    adam: &mut crate::adam::Adam,
-    mb: &RawMinibatch<'_>,
-    buf: &mut UpdateBuffers,
-    cfg: &PpoConfig,
-    threads: usize,
-) -> Result<LossStats, String> {
-    if policy.normalize_input {
-        policy.obs_norm.update(mb.obs);
-    }
-    buf.obs_n.resize(mb.obs.len(), 0.0);
-    policy.normalize_obs_into(mb.obs, &mut buf.obs_n);
-    let batch = Minibatch { n: mb.n, obs_n: &buf.obs_n, actions: mb.actions, old_neglogp: mb.old_neglogp, advantages: mb.advantages, returns_n: mb.returns_n };
-    let (l, mut owned);
-    let grads: &mut Vec<Vec<f32>> = match cfg.backend {
-        crate::config::Backend::Fast => {
-            l = crate::fast::loss_and_grads_fast(policy, &batch, cfg, &mut buf.fast, threads);
-            &mut buf.fast.grads
-        }
-        crate::config::Backend::Candle => {
-            (l, owned) = loss_and_grads(policy, &batch, cfg)?;
-            &mut owned
-        }
-    };
-    if cfg.truncate_grads {
-        crate::adam::clip_global_norm(grads, cfg.grad_norm);
-    }
-    let mut params: Vec<&mut Vec<f32>> = policy.actor.params_mut();
-    params.extend(policy.critic.params_mut());
-    adam.update(&mut params, grads);
-    Ok(l)
+    Ok(run()?)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mlp::Mlp;
-    use crate::normalizer::RunningMeanStd;
+    use skillmimic_nn::normalizer::RunningMeanStd;
 
     /// A 1-input, 1-action policy whose actor is the identity map (μ = s) and whose critic
     /// outputs 2·s: losses can be computed by hand.
     fn tiny_policy() -> Policy {
         Policy {
+            family: &crate::policies::gaussian_mlp::GaussianMlp,
+            space: skillmimic_env::ActionSpace::Box { dim: 1 },
             actor: Mlp::from_parts(vec![1, 1], vec![vec![1.0]], vec![vec![0.0]]),
             critic: Mlp::from_parts(vec![1, 1], vec![vec![2.0]], vec![vec![0.0]]),
             log_std: vec![0.0],

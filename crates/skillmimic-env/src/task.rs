@@ -1,0 +1,123 @@
+//! The task seam: what a task (imitation, stand, the high-level tasks to come) supplies to the
+//! batched driver [`VecEnv`](crate::vec_env::VecEnv).
+//!
+//! The driver owns the simulation batch, the random stream of episode starts, the output buffers
+//! and the reset/autoreset logic; a task owns its per-environment state (`Slot`: episode
+//! bookkeeping, buffers of frozen networks) and the formulas: observation, reward and its terms,
+//! termination, per-step metrics and where episodes start. Calls happen in this order:
+//!
+//! * sequential, environment index ascending: [`Task::end_episode`] then [`Task::plan_reset`]
+//!   for every environment being reset (they draw from the driver's seeded stream, so results do
+//!   not depend on the thread count);
+//! * parallel over the environments (one call per environment, on the simulation threads):
+//!   [`Task::after_reset`] after the simulation was reset to the planned states, and
+//!   [`Task::step_env`] after every physics step;
+//! * sequential, once per step: [`Task::after_step`] (batch-level edits such as a reward shared by
+//!   all environments on the same clip).
+
+use rand_chacha::ChaCha8Rng;
+use skillmimic_sim::{EnvState, ResetState, SceneOptions};
+
+/// Sizes and names a task declares; every buffer of the driver is sized from it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TaskSpec {
+    /// Registry name (`imitation`, `stand`, …).
+    pub name: &'static str,
+    /// Observation width (float32 per environment).
+    pub obs_dim: usize,
+    /// What the policy sends each step.
+    pub action_space: ActionSpace,
+    /// Longest episode in policy steps (time limit; gymnasium's `max_episode_steps`).
+    pub max_episode_steps: usize,
+    /// Names of the reward terms written per step (the last one is usually the total).
+    pub term_names: Vec<&'static str>,
+    /// Names of the per-step metrics (units in each task's doc).
+    pub metric_names: Vec<&'static str>,
+    /// Names of the per-step task information entries (imitation: the contact-graph states).
+    pub info_names: Vec<String>,
+}
+
+/// The action space of a task.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ActionSpace {
+    /// `dim` floats in [−1, 1] per environment (the physical tasks: PD targets × π rad of the
+    /// humanoid's 156 dofs; values outside are clamped).
+    Box { dim: usize },
+    /// One choice among `n` per environment, sent as its index in a single float (0, 1, … n−1).
+    Discrete { n: usize },
+}
+
+impl ActionSpace {
+    /// Floats per environment in an action batch.
+    pub fn width(&self) -> usize {
+        match *self {
+            ActionSpace::Box { dim } => dim,
+            ActionSpace::Discrete { .. } => 1,
+        }
+    }
+}
+
+impl TaskSpec {
+    /// Floats per environment in an action batch.
+    pub fn act_dim(&self) -> usize {
+        self.action_space.width()
+    }
+}
+
+/// Per-environment outputs of one step, slices of the driver's buffers.
+pub struct StepOut<'a> {
+    /// `[obs_dim]`
+    pub obs: &'a mut [f32],
+    pub reward: &'a mut f32,
+    /// `[term_names.len()]`
+    pub terms: &'a mut [f32],
+    /// `[info_names.len()]`
+    pub info: &'a mut [f32],
+    /// `[metric_names.len()]`
+    pub metrics: &'a mut [f32],
+    /// 1 = early termination (fall, instability).
+    pub terminated: &'a mut u8,
+    /// 1 = time limit reached.
+    pub truncated: &'a mut u8,
+}
+
+/// A task of the batched environment (see the module doc for the call order).
+pub trait Task: Send + Sync + 'static {
+    /// Per-environment state.
+    type Slot: Send + Sync + Clone;
+
+    /// Sizes and names.
+    fn spec(&self) -> &TaskSpec;
+    /// The initial state of one environment's slot (before its first reset).
+    fn new_slot(&self) -> Self::Slot;
+    /// Choose the start of a new episode of environment `i`: fill `state` (the simulation state
+    /// to reset to) and `slot`. Random draws come from `rng`, the driver's seeded stream.
+    fn plan_reset(&mut self, i: usize, slot: &mut Self::Slot, rng: &mut ChaCha8Rng, state: &mut ResetState);
+    /// Bookkeeping of environment `i`'s finished episode, before its next reset is planned.
+    fn end_episode(&mut self, _i: usize, _slot: &Self::Slot) {}
+    /// After the simulation reset: finish the slot from the actual state and write the first
+    /// observation.
+    fn after_reset(&self, i: usize, slot: &mut Self::Slot, st: &EnvState<'_>, obs: &mut [f32]);
+    /// After a physics step: observation, reward, terms, info, metrics and done flags.
+    fn step_env(&self, i: usize, slot: &mut Self::Slot, st: &EnvState<'_>, out: StepOut<'_>);
+    /// Recompute the observation from the current state (after raw state edits), keeping any
+    /// entries that only a step can compute.
+    fn observe(&self, slot: &Self::Slot, st: &EnvState<'_>, obs: &mut [f32]);
+    /// Whether [`Task::actions_to_targets`] is used (default: no — the actions are the PD targets,
+    /// which needs a `Box` action space of width 156).
+    fn transforms_actions(&self) -> bool {
+        false
+    }
+    /// Turn the policy's actions (`N × act_dim`) into PD targets of the humanoid (`N × 156`,
+    /// [−1, 1]) before the physics step. Tasks that run a frozen skill policy inside the step, or
+    /// take discrete actions, do it here (and return `true` from `transforms_actions`).
+    fn actions_to_targets(&mut self, _slots: &[Self::Slot], _actions: &[f32], _targets: &mut [f32]) {}
+    /// Batch-level work after every environment stepped.
+    fn after_step(&mut self, _slots: &[Self::Slot], _reward: &mut [f32], _terms: &[f32]) {}
+}
+
+/// The scene a task asks for and the task itself, as built by a registry constructor.
+pub struct Built<T> {
+    pub task: T,
+    pub scene: SceneOptions,
+}

@@ -1,0 +1,132 @@
+//! `stand`: keep the pelvis at a target height and the heading the episode started with — no
+//! clip, no ball. The worked example of adding a task (README "Adding a task"): this module plus
+//! one line in [`crate::registry::TASKS`] and one config table, `[env.stand]`
+//! ([`StandConfig`] in `config.rs`, where every task's table lives).
+//!
+//! * Start: the zero pose (every joint rotation 0, upright root) at `start_height`, turned to a
+//!   uniformly random heading ψ₀ ∈ [−π, π); zero velocities. The ball rests out of the way at
+//!   (5, 5) m and plays no part.
+//! * Observation (826): the humanoid part of the skill observation (entries 0..823 of
+//!   `obs::layout`, heading frame) | z − z* (m) | cos Δψ | sin Δψ, with Δψ = ψ₀ − ψ the heading
+//!   still to turn (rad, wrapped to (−π, π]).
+//! * Reward: r = w_h·exp(−k_h (z − z*)²) + (1 − w_h)·exp(−k_ψ Δψ²) ∈ [0, 1]; terms
+//!   `height`, `heading`, `total`.
+//! * Done: terminated when the pelvis falls below `termination_height` or the simulation is
+//!   unstable; truncated after `episode_length` steps.
+//! * Metrics: `height_err` |z − z*| (m), `heading_err` |Δψ| (rad).
+
+use std::sync::Arc;
+
+use rand::Rng;
+use rand_chacha::ChaCha8Rng;
+use skillmimic_core::math::{Quat, heading, wrap_angle};
+use skillmimic_core::skeleton::NUM_DOFS;
+use skillmimic_sim::{EnvState, ResetState, Scene};
+
+use crate::config::{ConfigError, EnvConfig, StandConfig};
+use crate::error::EnvError;
+use crate::obs::{layout, write_state_obs};
+use crate::task::{ActionSpace, StepOut, Task, TaskSpec};
+use crate::vec_env::{Env, VecEnv};
+
+/// Observation width: humanoid state (823) + height error + cos/sin of the heading error.
+pub const OBS_DIM: usize = layout::HUMANOID_DIM + 3;
+
+/// Per-environment state: steps taken and the heading to keep (rad).
+#[derive(Clone, Debug, Default)]
+pub struct StandSlot {
+    pub steps: usize,
+    pub target_heading: f64,
+}
+
+/// The `stand` task.
+pub struct Stand {
+    cfg: StandConfig,
+    spec: TaskSpec,
+}
+
+impl Stand {
+    /// The task with options `cfg`.
+    pub fn new(cfg: StandConfig) -> Self {
+        let spec = TaskSpec {
+            name: "stand",
+            obs_dim: OBS_DIM,
+            action_space: ActionSpace::Box { dim: NUM_DOFS },
+            max_episode_steps: cfg.episode_length,
+            term_names: vec!["height", "heading", "total"],
+            metric_names: vec!["height_err", "heading_err"],
+            info_names: Vec::new(),
+        };
+        Self { cfg, spec }
+    }
+
+    /// (z − z*, Δψ) of a state.
+    fn errors(&self, slot: &StandSlot, st: &EnvState<'_>) -> (f64, f64) {
+        (st.pos(0)[2] - self.cfg.target_height, wrap_angle(slot.target_heading - heading(st.quat(0))))
+    }
+
+    fn write_obs(&self, slot: &StandSlot, st: &EnvState<'_>, obs: &mut [f32]) {
+        let mut state = [0.0f32; layout::STATE_DIM];
+        write_state_obs(st, &mut state);
+        obs[..layout::HUMANOID_DIM].copy_from_slice(&state[..layout::HUMANOID_DIM]);
+        let (dz, dpsi) = self.errors(slot, st);
+        obs[layout::HUMANOID_DIM..].copy_from_slice(&[dz as f32, dpsi.cos() as f32, dpsi.sin() as f32]);
+    }
+}
+
+impl Task for Stand {
+    type Slot = StandSlot;
+
+    fn spec(&self) -> &TaskSpec {
+        &self.spec
+    }
+    fn new_slot(&self) -> StandSlot {
+        StandSlot::default()
+    }
+
+    fn plan_reset(&mut self, _i: usize, slot: &mut StandSlot, rng: &mut ChaCha8Rng, state: &mut ResetState) {
+        let psi = rng.random_range(-std::f64::consts::PI..std::f64::consts::PI);
+        // skeleton Y-up → world Z-up, then the heading about world z
+        let upright = Quat::from_rotvec([std::f64::consts::FRAC_PI_2, 0.0, 0.0]);
+        let root_quat = Quat::about_z(psi).mul(upright);
+        *state = ResetState { root_pos: [0.0, 0.0, self.cfg.start_height], root_quat, dof_pos: [0.0; NUM_DOFS], ball_pos: [5.0, 5.0, 0.12], ..ResetState::default() };
+        *slot = StandSlot { steps: 0, target_heading: heading(root_quat) };
+    }
+
+    fn after_reset(&self, _i: usize, slot: &mut StandSlot, st: &EnvState<'_>, obs: &mut [f32]) {
+        self.write_obs(slot, st, obs);
+    }
+
+    fn step_env(&self, _i: usize, slot: &mut StandSlot, st: &EnvState<'_>, out: StepOut<'_>) {
+        slot.steps += 1;
+        let c = &self.cfg;
+        let (dz, dpsi) = self.errors(slot, st);
+        let (rh, rpsi) = ((-c.height_scale * dz * dz).exp(), (-c.heading_scale * dpsi * dpsi).exp());
+        let total = c.height_weight * rh + (1.0 - c.height_weight) * rpsi;
+        out.terms.copy_from_slice(&[rh as f32, rpsi as f32, total as f32]);
+        *out.reward = total as f32;
+        out.metrics.copy_from_slice(&[dz.abs() as f32, dpsi.abs() as f32]);
+        self.write_obs(slot, st, out.obs);
+        let fell = st.pos(0)[2] < c.termination_height;
+        *out.terminated = u8::from(fell || st.unstable);
+        *out.truncated = u8::from(*out.terminated == 0 && slot.steps >= c.episode_length);
+    }
+
+    fn observe(&self, slot: &StandSlot, st: &EnvState<'_>, obs: &mut [f32]) {
+        self.write_obs(slot, st, obs);
+    }
+}
+
+/// Registry constructor: the `stand` task from `[env]` (driver keys) and `[env.stand]`.
+pub fn build(cfg: &EnvConfig) -> Result<Box<dyn Env>, EnvError> {
+    cfg.validate_driver()?;
+    let s = &cfg.stand;
+    if s.episode_length == 0 {
+        return Err(ConfigError { field: "env.stand.episode_length".into(), message: "must be at least 1".into() }.into());
+    }
+    if !(0.0..=1.0).contains(&s.height_weight) {
+        return Err(ConfigError { field: "env.stand.height_weight".into(), message: format!("{} is outside [0, 1]", s.height_weight) }.into());
+    }
+    let scene = Arc::new(Scene::new(cfg.scene_options()?)?);
+    Ok(Box::new(VecEnv::with_task(Stand::new(cfg.stand.clone()), scene, cfg.num_envs, cfg.threads, cfg.start_seed(0))?))
+}

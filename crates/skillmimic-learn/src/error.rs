@@ -1,0 +1,36 @@
+//! The learner crate's error type.
+
+use std::path::{Path, PathBuf};
+
+use skillmimic_env::EnvError;
+
+/// Learner error: configuration, environment, checkpoint files, candle.
+#[derive(Debug, thiserror::Error)]
+pub enum LearnError {
+    #[error(transparent)]
+    Env(#[from] EnvError),
+    /// An invalid configuration; the message names the field (`config field 'ppo.lr': …`).
+    #[error("{0}")]
+    Config(String),
+    /// A checkpoint file that cannot be used (the message names the file).
+    #[error("{message}")]
+    Checkpoint { path: PathBuf, message: String },
+    #[error("{}: {source}", path.display())]
+    Io { path: PathBuf, source: std::io::Error },
+    /// A tensor operation failed (device, shapes).
+    #[error("candle: {0}")]
+    Candle(#[from] candle_core::Error),
+    /// The requested device is not in this build.
+    #[error("config field 'ppo.device': device '{0}' is not available in this build (cpu, or cuda with the `cuda` feature)")]
+    Device(String),
+}
+
+/// `map_err` helper: an I/O error on `path`.
+pub fn io(path: &Path) -> impl FnOnce(std::io::Error) -> LearnError + '_ {
+    move |source| LearnError::Io { path: path.to_path_buf(), source }
+}
+
+/// `map_err` helper: an unusable checkpoint `path`.
+pub fn bad_checkpoint(path: &Path) -> impl FnOnce(String) -> LearnError + '_ {
+    move |message| LearnError::Checkpoint { path: path.to_path_buf(), message }
+}

@@ -1,0 +1,58 @@
+//! The policy-family trait and what its methods read of a policy.
+
+use candle_core::Tensor;
+use rand::RngCore;
+use skillmimic_env::ActionSpace;
+
+use crate::config::PpoConfig;
+
+/// What a family reads of a policy besides the actor outputs.
+#[derive(Clone, Copy, Debug)]
+pub struct Head<'a> {
+    /// Actor outputs per row (Gaussian: action dimensions; categorical: choices).
+    pub outputs: usize,
+    /// Fixed log σ per action dimension (Gaussian; empty otherwise).
+    pub log_std: &'a [f32],
+}
+
+/// Extra loss of a family with its diagnostic parts.
+pub struct ExtraLoss {
+    /// Added to the PPO loss (already weighted).
+    pub total: Tensor,
+    /// Action-mean bounds loss (Gaussian; unweighted), else zero.
+    pub bounds: Option<Tensor>,
+    /// Mean entropy of the distribution, when the family computes it.
+    pub entropy: Option<Tensor>,
+}
+
+/// A policy family (see the module doc).
+pub trait PolicyFamily: Send + Sync + 'static {
+    /// Registry name (`ppo.policy`).
+    fn name(&self) -> &'static str;
+    /// Whether the family can act in `space`.
+    fn supports(&self, space: &ActionSpace) -> bool;
+    /// Actor output width for `space`.
+    fn actor_outputs(&self, space: &ActionSpace) -> usize;
+    /// Sample actions (`n × space.width()`) from actor outputs `out` (`n × head.outputs`) and
+    /// write their negative log-probabilities.
+    fn sample(&self, head: Head<'_>, out: &[f32], n: usize, rng: &mut dyn RngCore, actions: &mut [f32], neglogp: &mut [f32]);
+    /// Deterministic actions (mean / most likely choice).
+    fn mode(&self, head: Head<'_>, out: &[f32], n: usize, actions: &mut [f32]);
+    /// Negative log-probabilities `(n,)` of `actions` under actor outputs `out` (candle graph).
+    fn neglogp(&self, head: Head<'_>, out: &Tensor, actions: &Tensor) -> candle_core::Result<Tensor>;
+    /// The family's extra loss terms (candle graph over the actor outputs).
+    fn extra_loss(&self, out: &Tensor, cfg: &PpoConfig) -> candle_core::Result<ExtraLoss>;
+}
+
+impl std::fmt::Debug for dyn PolicyFamily {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl PartialEq for dyn PolicyFamily {
+    fn eq(&self, o: &Self) -> bool {
+        self.name() == o.name()
+    }
+}
+

@@ -1,0 +1,181 @@
+//! The training runner: owns the loop around [`Trainer`] — JSONL and TensorBoard logs, periodic
+//! checkpoints (atomic, with the effective config next to them), then the end-of-run work: the
+//! task's evaluation, the caller's hooks (learning-curve plot, video, …) and `summary.json`.
+//! The command line only parses arguments and calls [`Runner::run`].
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use serde::Serialize;
+use skillmimic_core::tensorfile::write_bytes_atomic;
+use skillmimic_env::SkillEnv;
+
+use crate::error::{LearnError, io};
+use crate::eval::{EvalReport, evaluate};
+use crate::tblog::EventWriter;
+use crate::trainer::{IterationStats, Trainer};
+
+/// Train for the configured iterations, writing logs and checkpoints into `run.out_dir`;
+/// `on_iteration` sees every iteration's statistics (progress bars). Returns the path of the
+/// last checkpoint.
+pub fn train_loop(t: &mut Trainer, mut on_iteration: impl FnMut(&IterationStats)) -> Result<PathBuf, LearnError> {
+    let out = t.cfg.run.out_dir.clone();
+    let ckpt_dir = out.join("checkpoints");
+    std::fs::create_dir_all(&ckpt_dir).map_err(io(&ckpt_dir))?;
+    let cfg_path = out.join("config.toml");
+    skillmimic_core::tensorfile::write_bytes_atomic(&cfg_path, t.config_toml().as_bytes()).map_err(io(&cfg_path))?;
+    let log_path = out.join("log.jsonl");
+    let mut log = std::fs::OpenOptions::new().create(true).append(true).open(&log_path).map_err(io(&log_path))?;
+    let mut tb = EventWriter::create(&out.join("tb")).map_err(io(&out.join("tb")))?;
+    let target = t.cfg.run.iterations as u64;
+    let mut last = out.join("latest.safetensors");
+    while t.progress.iteration < target {
+        let s = t.iteration()?;
+        use std::io::Write;
+        writeln!(log, "{}", serde_json::to_string(&s).expect("serialisable stats")).map_err(io(&log_path))?;
+        let mut scalars: Vec<(String, f32)> = vec![
+            ("reward/mean_step".into(), s.mean_reward as f32),
+            ("episode/length".into(), s.episode_length as f32),
+            ("episode/return".into(), s.episode_return as f32),
+            ("episode/early_termination".into(), s.early_terminations as f32),
+            ("loss/actor".into(), s.actor_loss as f32),
+            ("loss/critic".into(), s.critic_loss as f32),
+            ("loss/bounds".into(), s.bounds_loss as f32),
+            ("ppo/clip_frac".into(), s.clip_frac as f32),
+            ("ppo/approx_kl".into(), s.approx_kl as f32),
+            ("perf/samples_per_s".into(), s.samples_per_s as f32),
+        ];
+        scalars.extend(s.reward_terms.iter().map(|(k, v)| (format!("reward_terms/{k}"), *v as f32)));
+        let refs: Vec<(&str, f32)> = scalars.iter().map(|(k, v)| (k.as_str(), *v)).collect();
+        tb.scalars(s.samples as i64, &refs).map_err(io(tb.path()))?;
+        on_iteration(&s);
+        let it = t.progress.iteration;
+        if it % t.cfg.run.save_every as u64 == 0 || it == target {
+            let p = ckpt_dir.join(format!("iter_{it:06}.safetensors"));
+            t.save(&p)?;
+            t.save(&out.join("latest.safetensors"))?;
+            last = p;
+        }
+    }
+    Ok(last)
+}
+
+/// What an end-of-run hook produced: a file, or why it could not.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct HookOutput {
+    pub path: Option<PathBuf>,
+    pub error: Option<String>,
+}
+
+/// Work done once training has finished (after the evaluation), e.g. a plot or a video.
+pub trait RunHook {
+    /// Key of the output in `summary.json`.
+    fn name(&self) -> &'static str;
+    /// Produce the output into `out_dir`. An `Err` stops the run; failures that should not
+    /// (a missing video encoder) are reported in [`HookOutput::error`] instead.
+    fn run(&mut self, trainer: &Trainer, out_dir: &Path) -> anyhow::Result<HookOutput>;
+}
+
+/// `summary.json` of a run.
+#[derive(Serialize)]
+pub struct Summary {
+    pub task: String,
+    pub iterations: u64,
+    pub samples: u64,
+    pub wall_s: f64,
+    pub samples_per_s: f64,
+    /// Mean reward per step of the first iteration of this run (biased: every episode is fresh).
+    pub first_mean_reward: f64,
+    pub last_mean_reward: f64,
+    pub best_mean_reward: f64,
+    /// Iterations averaged in `early_mean_reward` / `late_mean_reward`: a tenth of the run,
+    /// at least 1 and at most 25.
+    pub reward_window: usize,
+    /// Mean of the per-iteration mean reward over the first `reward_window` iterations.
+    pub early_mean_reward: f64,
+    /// Mean of the per-iteration mean reward over the last `reward_window` iterations.
+    pub late_mean_reward: f64,
+    pub checkpoint: PathBuf,
+    /// The evaluation report file (imitation: SkillMimic metrics), if the task has one.
+    pub metrics: Option<PathBuf>,
+    /// Outputs of the hooks by name (`curve`, `video`, …).
+    pub outputs: std::collections::BTreeMap<String, HookOutput>,
+    pub eval: Option<EvalReport>,
+}
+
+/// The training runner.
+pub struct Runner {
+    pub trainer: Trainer,
+    hooks: Vec<Box<dyn RunHook>>,
+}
+
+impl Runner {
+    pub fn new(trainer: Trainer) -> Self {
+        Self { trainer, hooks: Vec::new() }
+    }
+
+    /// Add an end-of-run hook (run in the order added).
+    pub fn hook(mut self, h: Box<dyn RunHook>) -> Self {
+        self.hooks.push(h);
+        self
+    }
+
+    /// Train to `run.iterations`, evaluate, run the hooks and write `summary.json` (returned).
+    /// `on_iteration` sees every iteration's statistics (progress display).
+    pub fn run(&mut self, mut on_iteration: impl FnMut(&IterationStats)) -> Result<Summary, anyhow::Error> {
+        let start = Instant::now();
+        let mut rewards = Vec::new();
+        let last = train_loop(&mut self.trainer, |s| {
+            rewards.push(s.mean_reward);
+            on_iteration(s);
+        })?;
+        let wall = start.elapsed().as_secs_f64();
+        let t = &self.trainer;
+        let out = t.cfg.run.out_dir.clone();
+        let (eval, metrics) = match evaluate_task(t)? {
+            Some(report) => {
+                let path = out.join("metrics.json");
+                write_bytes_atomic(&path, serde_json::to_string_pretty(&report)?.as_bytes()).map_err(io(&path))?;
+                (Some(report), Some(path))
+            }
+            None => (None, None),
+        };
+        let mut outputs = std::collections::BTreeMap::new();
+        for h in &mut self.hooks {
+            outputs.insert(h.name().to_string(), h.run(t, &out)?);
+        }
+        let window = (rewards.len() / 10).clamp(1, 25);
+        let mean_of = |xs: &[f64]| if xs.is_empty() { f64::NAN } else { xs.iter().sum::<f64>() / xs.len() as f64 };
+        let summary = Summary {
+            task: t.cfg.env.task.clone(),
+            iterations: t.progress.iteration,
+            samples: t.progress.samples,
+            wall_s: wall,
+            samples_per_s: (rewards.len() * t.cfg.batch_size()) as f64 / wall,
+            first_mean_reward: rewards.first().copied().unwrap_or(f64::NAN),
+            last_mean_reward: rewards.last().copied().unwrap_or(f64::NAN),
+            best_mean_reward: rewards.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+            reward_window: window,
+            early_mean_reward: mean_of(&rewards[..window.min(rewards.len())]),
+            late_mean_reward: mean_of(&rewards[rewards.len().saturating_sub(window)..]),
+            checkpoint: last,
+            metrics,
+            outputs,
+            eval,
+        };
+        let path = out.join("summary.json");
+        write_bytes_atomic(&path, serde_json::to_string_pretty(&summary)?.as_bytes()).map_err(io(&path))?;
+        Ok(summary)
+    }
+}
+
+/// The task's end-of-run evaluation: the SkillMimic metrics for the imitation task (deterministic
+/// policy, `run.eval_episodes` episodes on at most 16 environments, seed `run.seed`); tasks
+/// without an evaluation report return `None` (their training curve is the measure).
+pub fn evaluate_task(t: &Trainer) -> Result<Option<EvalReport>, LearnError> {
+    let Some(env) = t.env.as_any().downcast_ref::<SkillEnv>() else { return Ok(None) };
+    let mut c = t.cfg.env.clone();
+    c.num_envs = c.num_envs.min(16);
+    let mut eval_env = SkillEnv::new(c, env.library().clone())?;
+    Ok(Some(evaluate(&t.policy, &mut eval_env, t.cfg.run.eval_episodes, t.cfg.run.seed, false, 0)))
+}

@@ -1,0 +1,19 @@
+//! Networks of skillmimic-rs, below the environment so that an environment can run a frozen
+//! network (the SkillMimic-V2 history encoder; a skill policy inside a high-level task) and the
+//! learner can train the same definition.
+//!
+//! * [`network`]: the [`Network`] trait — PyTorch `state_dict` names/shapes and a candle forward;
+//! * [`mlp`]: Linear+ReLU MLPs with fast batched CPU inference ([`kernel`]: small-batch kernels);
+//! * [`normalizer`]: running mean/std normalisers (observations, values);
+//! * [`history`]: the SkillMimic-V2 history encoder (candle forward, plain pass, online buffer);
+//! * [`attention`]: multi-head attention and a transformer encoder layer (candle-nn), with the
+//!   parameter names of PyTorch's `nn.MultiheadAttention` / `nn.TransformerEncoderLayer`.
+
+pub mod attention;
+pub mod history;
+pub mod kernel;
+pub mod mlp;
+pub mod network;
+pub mod normalizer;
+
+pub use network::{NamedTensor, Network};

@@ -1,0 +1,53 @@
+"""Tables the Python package takes from the Rust core instead of copying them by hand: the
+observation layout, reward-term and frame-metric names, dimensions."""
+
+from __future__ import annotations
+
+import pytest
+
+import skillmimic_rs
+from skillmimic_rs import _core
+
+
+@pytest.fixture(scope="module")
+def env():
+    e = skillmimic_rs.VecEnv(num_envs=2, config={"episode_length": 8, "threads": 1})
+    yield e
+    e.close()
+
+
+def test_obs_blocks_cover_the_observation_contiguously():
+    blocks = skillmimic_rs.OBS_BLOCKS
+    assert blocks == _core.OBS_BLOCKS
+    spans = list(blocks.values())
+    assert spans[0][0] == 0 and spans[-1][1] == skillmimic_rs.OBS_DIM == 902
+    for (_, stop), (start, _) in zip(spans, spans[1:]):
+        assert stop == start, f"gap or overlap in OBS_BLOCKS: {blocks}"
+    assert all(stop > start for start, stop in spans)
+    assert list(blocks)[0] == "root_height" and list(blocks)[-1] == "skill"
+    # the humanoid part ends with the fingertip forces, the state part with the ball
+    assert blocks["fingertip_force"][1] == _core.HUMANOID_DIM and blocks["ball_angvel"][1] == _core.STATE_DIM
+    assert blocks["skill"] == (_core.STATE_DIM, skillmimic_rs.OBS_DIM)
+
+
+def test_names_and_dims_match_the_environment(env):
+    assert list(skillmimic_rs.TERM_NAMES) == env.reward_term_names and skillmimic_rs.TERM_NAMES[-1] == "total"
+    assert list(skillmimic_rs.FRAME_METRIC_NAMES) == env.frame_metric_names
+    assert env.single_observation_space.shape == (skillmimic_rs.OBS_DIM,)
+    assert env.single_action_space.shape == (skillmimic_rs.ACT_DIM,) == (156,)
+    assert _core.CONFIG_PATH_KEYS == ("motion", "v2.history.encoder")
+
+
+def test_independent_reference_uses_the_same_term_names():
+    # tests/reference_env.py is a hand-written numpy reference (kept independent of the package on
+    # purpose); its term order must still be the core's, since parity tests compare by column
+    import reference_env
+
+    assert tuple(reference_env.REWARD_NAMES) == skillmimic_rs.TERM_NAMES
+
+
+def test_history_feature_dim_comes_from_the_core():
+    pytest.importorskip("torch")
+    from skillmimic_rs import history
+
+    assert history.FEATURE_DIM == _core.HISTORY_FEATURE_DIM == 316
