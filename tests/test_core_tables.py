@@ -39,11 +39,11 @@ def test_names_and_dims_match_the_environment(env):
 
 
 def test_independent_reference_uses_the_same_term_names():
-    # tests/reference_env.py is a hand-written numpy reference (kept independent of the package on
+    # tests/reference_*.py is a hand-written numpy reference (kept independent of the package on
     # purpose); its term order must still be the core's, since parity tests compare by column
-    import reference_env
+    import reference_common
 
-    assert tuple(reference_env.REWARD_NAMES) == skillmimic_rs.TERM_NAMES
+    assert tuple(reference_common.REWARD_NAMES) == skillmimic_rs.TERM_NAMES
 
 
 def test_history_feature_dim_comes_from_the_core():

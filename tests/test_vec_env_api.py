@@ -164,3 +164,27 @@ def test_env_checker_style_rollout_with_copy_false():
     obs2, *_ = e.step(np.zeros((2, 156), np.float32))
     assert obs2 is obs  # the internal buffer, overwritten in place
     e.close()
+
+
+def test_every_registered_task_runs_through_the_python_vecenv():
+    """``VecEnv(task=...)`` for every task of the registry: declared spaces, 30 steps, no NaN."""
+    for task in skillmimic_rs.TASKS:
+        env = skillmimic_rs.VecEnv(num_envs=3, task=task, threads=1)
+        try:
+            assert env.task == task
+            obs, info = env.reset(seed=2)
+            assert obs.shape == (3,) + env.single_observation_space.shape and obs.dtype == np.float32
+            for _ in range(30):
+                a = env.action_space.sample().astype(np.float32)
+                obs, rew, term, trunc, info = env.step(a)
+                assert np.isfinite(obs).all() and np.isfinite(rew).all()
+                assert info["reward_terms"].shape == (3, len(env.reward_term_names))
+                assert info["frame_metrics"].shape == (3, len(env.frame_metric_names))
+        finally:
+            env.close()
+    stand = skillmimic_rs.VecEnv(num_envs=2, task="stand")
+    assert stand.single_observation_space.shape == (826,) and stand.reward_term_names == ["height", "heading", "total"]
+    with pytest.raises(ValueError, match="only the imitation task"):
+        stand.episode_info()
+    with pytest.raises(ValueError, match="env.task"):
+        skillmimic_rs.VecEnv(num_envs=2, task="juggle")

@@ -11,7 +11,7 @@ HUMANOID_DIM: int
 STATE_DIM: int
 ACT_DIM: int
 HISTORY_FEATURE_DIM: int
-#: reward-term names (Rust ``reward::TERM_NAMES``), columns of ``CoreEnv.reward_terms()``
+#: reward-term names of the imitation task (Rust ``reward::TERM_NAMES``), columns of its ``CoreEnv.reward_terms()``
 TERM_NAMES: tuple[str, ...]
 #: columns of ``CoreEnv.frame_metrics()``
 FRAME_METRIC_NAMES: tuple[str, ...]

@@ -272,12 +272,13 @@ class VecEnv(gym.vector.VectorEnv):
         return self._core.history_window(i)
 
     def episode_info(self) -> dict[str, np.ndarray]:
-        """Per-environment clip index, start/reference frame, progress, length and skill label."""
+        """Per-environment clip index, start/reference frame, progress, length and skill label
+        (imitation task; other tasks raise ``ValueError``)."""
         self._check_open()
         return self._core.episode_info()
 
     def reward_terms(self) -> np.ndarray:
-        """``(num_envs, 12)`` sub-rewards of the last step."""
+        """``(num_envs, terms)`` sub-rewards of the last step (columns: ``reward_term_names``)."""
         self._check_open()
         return self._core.reward_terms()
 
@@ -298,12 +299,15 @@ class VecEnv(gym.vector.VectorEnv):
         n = self.num_envs
         every = np.ones(n, bool)
         info: dict[str, Any] = {}
-        ep = self._core.episode_info()
-        for k in ("clip", "ref_frame", "progress", "skill"):
-            info[k], info["_" + k] = ep[k], every
+        if self._core.task == "imitation":
+            ep = self._core.episode_info()
+            for k in ("clip", "ref_frame", "progress", "skill"):
+                info[k], info["_" + k] = ep[k], every
         if step:
+            # columns: reward_term_names, contact_graph_names (task info), frame_metric_names
             info["reward_terms"], info["_reward_terms"] = self._core.reward_terms(), every
-            info["contact_graph"], info["_contact_graph"] = self.contact_graph(), every
+            if self._core.cg_names:
+                info["contact_graph"], info["_contact_graph"] = self.contact_graph(), every
             info["frame_metrics"], info["_frame_metrics"] = self._core.frame_metrics(), every
             if self.metadata["autoreset_mode"] == AutoresetMode.SAME_STEP and self._final_mask.any():
                 final = np.empty(n, dtype=object)

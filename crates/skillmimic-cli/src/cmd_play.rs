@@ -8,10 +8,8 @@ use std::sync::Arc;
 use anyhow::{Context, bail};
 use skillmimic_core::tensorfile::{OwnedTensor, write_atomic};
 use skillmimic_env::episode::reset_state_from_clip;
-use skillmimic_env::{SkillEnv, load_motion_library};
-use skillmimic_learn::config::TrainConfig;
+use skillmimic_env::{Env, load_motion_library};
 use skillmimic_learn::policy::{InferenceBuffers, Policy};
-use skillmimic_motion::MotionLibrary;
 use skillmimic_sim::{BatchSim, Scene};
 
 use crate::common::{ConfigFlags, load_checkpoint};
@@ -53,21 +51,24 @@ pub struct Args {
 }
 
 /// qpos of every step of a rollout of `policy` in one environment (auto-reset on episode end).
-pub fn rollout_states(policy: &Policy, env: &mut SkillEnv, steps: usize, stochastic: bool, seed: u64) -> anyhow::Result<Vec<Vec<f64>>> {
+pub fn rollout_states(policy: &Policy, env: &mut dyn Env, steps: usize, stochastic: bool, seed: u64) -> anyhow::Result<Vec<Vec<f64>>> {
     use rand::SeedableRng;
-    let (n, a) = (env.num_envs(), env.act_dim());
+    if (env.obs_dim(), env.act_dim()) != (policy.obs_dim(), policy.act_dim()) {
+        bail!("the policy takes observations of {} and gives actions of {}; task '{}' has {} and {}", policy.obs_dim(), policy.act_dim(), env.spec().name, env.obs_dim(), env.act_dim());
+    }
+    let (n, a, o) = (env.num_envs(), env.act_dim(), policy.actor_outputs());
     env.set_autoreset(true);
     env.reset_all(Some(seed));
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     let mut buf = InferenceBuffers::default();
-    let (mut mu, mut v, mut act, mut nl) = (vec![0.0; n * a], vec![0.0; n], vec![0.0; n * a], vec![0.0; n]);
+    let (mut mu, mut v, mut act, mut nl) = (vec![0.0; n * o], vec![0.0; n], vec![0.0; n * a], vec![0.0; n]);
     let mut states = vec![env.sim().qpos(0).to_vec()];
     for _ in 0..steps {
         policy.infer(&env.buffers().obs, n, &mut buf, &mut mu, &mut v, 0);
         if stochastic {
             policy.sample(&mu, n, &mut rng, &mut act, &mut nl);
         } else {
-            act.copy_from_slice(&mu);
+            policy.mode(&mu, n, &mut act);
         }
         env.step(&act)?;
         states.push(env.sim().qpos(0).to_vec());
@@ -85,13 +86,10 @@ pub fn render_states(model: &Arc<mujoco_rs::prelude::MjModel>, states: &[Vec<f64
     Ok(Frames { width: w, height: h, fps, rgb })
 }
 
-/// Roll out `policy` in one environment of `cfg` for `steps` steps and write a video.
-pub fn render_policy_video(policy: &Policy, cfg: &TrainConfig, lib: Arc<MotionLibrary>, steps: usize, path: &Path, w: usize, h: usize) -> anyhow::Result<()> {
-    let mut c = cfg.env.clone();
-    c.num_envs = 1;
-    c.threads = 1;
-    let mut env = SkillEnv::new(c, lib)?;
-    let states = rollout_states(policy, &mut env, steps, false, cfg.run.seed)?;
+/// Roll out `policy` deterministically in `env` (its first environment is filmed) for `steps`
+/// steps from seed `seed` and write a video.
+pub fn render_policy_video(policy: &Policy, mut env: Box<dyn Env>, seed: u64, steps: usize, path: &Path, w: usize, h: usize) -> anyhow::Result<()> {
+    let states = rollout_states(policy, env.as_mut(), steps, false, seed)?;
     let frames = render_states(env.sim().scene().model(), &states, 2, w, h, 30)?;
     write_video(path, &frames)
 }
@@ -117,11 +115,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             a.flags.apply(&mut cfg)?;
             cfg.env.num_envs = 1;
             cfg.env.threads = 1;
-            let mut env = SkillEnv::from_config(cfg.env.clone())?;
-            if (env.obs_dim(), env.act_dim()) != (c.policy.obs_dim(), c.policy.act_dim()) {
-                bail!("{}: policy sizes do not match the environment", ckpt.display());
-            }
-            let states = rollout_states(&c.policy, &mut env, a.steps, a.stochastic, a.seed)?;
+            let mut env = skillmimic_env::registry::make(&cfg.env)?;
+            let states = rollout_states(&c.policy, env.as_mut(), a.steps, a.stochastic, a.seed).with_context(|| format!("{}", ckpt.display()))?;
             (states, Arc::clone(env.sim().scene()), format!("policy {}", ckpt.display()))
         }
         (None, Some(clip)) => {

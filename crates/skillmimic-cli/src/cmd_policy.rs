@@ -126,6 +126,19 @@ pub fn eval(a: EvalArgs) -> anyhow::Result<()> {
     }
     // more environments than episodes would only burn time (each env contributes its first ones)
     cfg.env.num_envs = cfg.env.num_envs.min(a.episodes);
+    if cfg.env.task != "imitation" {
+        // tasks other than imitation: the task-independent episode report
+        if a.sweep || a.v2 {
+            bail!("--sweep and --v2 are SkillMimic evaluations of the imitation task; this checkpoint's task is '{}'", cfg.env.task);
+        }
+        let mut env = skillmimic_env::registry::make(&cfg.env)?;
+        let report = skillmimic_learn::episode_eval::evaluate_episodes(&c.policy, env.as_mut(), a.episodes, a.seed, a.stochastic, 0)
+            .with_context(|| format!("{}", a.checkpoint.display()))?;
+        let text = serde_json::to_string_pretty(&report)?;
+        skillmimic_core::tensorfile::write_bytes_atomic(&a.out, text.as_bytes()).with_context(|| format!("cannot write {}", a.out.display()))?;
+        println!("{text}");
+        return Ok(());
+    }
     let run_one = |env_cfg: skillmimic_env::EnvConfig| -> anyhow::Result<EvalReport> {
         let mut env = SkillEnv::from_config(env_cfg)?;
         if (env.obs_dim(), env.act_dim()) != (c.policy.obs_dim(), c.policy.act_dim()) {

@@ -5,7 +5,7 @@ use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 
 use indicatif::{ProgressBar, ProgressStyle};
-use skillmimic_env::SkillEnv;
+use skillmimic_env::{Env, SkillEnv};
 use skillmimic_learn::runner::{HookOutput, RunHook, Runner};
 use skillmimic_learn::trainer::{IterationStats, Trainer};
 
@@ -49,8 +49,8 @@ impl RunHook for CurveHook {
     }
 }
 
-/// End-of-run hook: a short video of the deterministic policy (imitation task; rendering
-/// failures are reported, not fatal).
+/// End-of-run hook: a short video of the deterministic policy (rendering failures are
+/// reported, not fatal).
 struct VideoHook;
 
 impl RunHook for VideoHook {
@@ -58,11 +58,16 @@ impl RunHook for VideoHook {
         "video"
     }
     fn run(&mut self, t: &Trainer, out: &Path) -> anyhow::Result<HookOutput> {
-        let Some(env) = t.env.as_any().downcast_ref::<SkillEnv>() else {
-            return Ok(HookOutput { path: None, error: Some(format!("no video renderer for task '{}'", t.cfg.env.task)) });
+        let mut c = t.cfg.env.clone();
+        c.num_envs = 1;
+        c.threads = 1;
+        // the imitation task reuses the trainer's motion library
+        let env: Box<dyn Env> = match t.env.as_any().downcast_ref::<SkillEnv>() {
+            Some(e) => Box::new(SkillEnv::new(c, e.library().clone())?),
+            None => skillmimic_env::registry::make(&c)?,
         };
         let path = out.join("video.gif");
-        Ok(match crate::cmd_play::render_policy_video(&t.policy, &t.cfg, env.library().clone(), 180, &path, 320, 240) {
+        Ok(match crate::cmd_play::render_policy_video(&t.policy, env, t.cfg.run.seed, 180, &path, 320, 240) {
             Ok(()) => HookOutput { path: Some(path), error: None },
             Err(e) => {
                 tracing::warn!("no video: {e:#}");
@@ -142,7 +147,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     if let Some(pb) = pb {
         pb.finish();
     }
-    let eval = summary.eval.as_ref().map_or(String::new(), |e| format!("; eval NR {:.4}, Acc {:.1} %", e.nr, e.acc_percent));
+    let eval = match (&summary.eval, &summary.task_eval) {
+        (Some(e), _) => format!("; eval NR {:.4}, Acc {:.1} %", e.nr, e.acc_percent),
+        (None, Some(e)) => format!("; eval return {:.3}, reward/step {:.4}, length {:.1}", e.mean_return, e.mean_reward_per_step, e.mean_episode_length),
+        (None, None) => String::new(),
+    };
     println!(
         "trained {} iterations ({} samples) in {:.1} s; mean reward/step over the first {w} iterations {:.4} -> last {w} {:.4}{eval}",
         summary.iterations,

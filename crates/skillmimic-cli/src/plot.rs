@@ -88,6 +88,22 @@ fn term(rows: &[serde_json::Value], name: &str) -> Vec<(f64, f64)> {
         .collect()
 }
 
+/// The reward terms to draw: the imitation task's informative ones (p, r, op, ig, cg; the others
+/// are 1 with the paper's weights) when the log has them, else the task's terms except `total`
+/// (at most as many as there are colours).
+fn term_names(rows: &[serde_json::Value]) -> Vec<String> {
+    let names: Vec<String> = rows
+        .first()
+        .and_then(|r| r["reward_terms"].as_array())
+        .map(|a| a.iter().filter_map(|p| p[0].as_str().map(str::to_string)).collect())
+        .unwrap_or_default();
+    const IMITATION: [&str; 5] = ["p", "r", "op", "ig", "cg"];
+    if IMITATION.iter().all(|n| names.iter().any(|m| m == n)) {
+        return IMITATION.iter().map(|n| n.to_string()).collect();
+    }
+    names.into_iter().filter(|n| n != "total").take(COLORS.len()).collect()
+}
+
 /// Tick label: `0`, `0.0146`, `12.5`, `150k`, `2.5M`, `3.0e-5`.
 fn fmt_num(v: f64) -> String {
     fn trim(s: String) -> String {
@@ -258,9 +274,9 @@ pub fn plot_log(log: &Path, out: &Path) -> anyhow::Result<()> {
         Panel { title: "Mean reward per step", y_desc: "reward", series: vec![s("mean reward", 0, field(&rows, "mean_reward"))] },
         Panel { title: "Episode length", y_desc: "steps", series: vec![s("episode length", 1, field(&rows, "episode_length"))] },
         Panel {
-            title: "Imitation sub-rewards",
+            title: "Reward terms",
             y_desc: "mean term value",
-            series: ["p", "r", "op", "ig", "cg"].iter().enumerate().map(|(k, n)| s(&format!("r_{n}"), k, term(&rows, n))).collect(),
+            series: term_names(&rows).iter().enumerate().map(|(k, n)| s(&format!("r_{n}"), k, term(&rows, n))).collect(),
         },
         Panel {
             title: "Losses",

@@ -16,6 +16,7 @@ use std::sync::Arc;
 
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
+use rayon::iter::Either;
 use rayon::prelude::*;
 use skillmimic_core::skeleton::NUM_DOFS;
 use skillmimic_sim::{BatchSim, ResetState, Scene};
@@ -45,6 +46,16 @@ pub struct StepBuffers {
     pub final_obs: Vec<f32>,
     /// `[N]` 1 where `final_obs` is valid.
     pub final_mask: Vec<u8>,
+}
+
+/// Per-environment rows of a `[N][width]` buffer, also for width 0 (N empty rows: a zero-width
+/// buffer must not shorten the zipped per-environment iteration).
+fn rows(buf: &mut [f32], n: usize, width: usize) -> impl IndexedParallelIterator<Item = &mut [f32]> {
+    if width == 0 {
+        Either::Left((0..n).into_par_iter().map(|_| <&mut [f32]>::default()))
+    } else {
+        Either::Right(buf.par_chunks_mut(width))
+    }
 }
 
 /// The batched environment of task `T`.
@@ -228,11 +239,11 @@ impl<T: Task> VecEnv<T> {
         sim.install(|| {
             (
                 slots.par_iter_mut(),
-                buf.obs.par_chunks_mut(d),
+                rows(&mut buf.obs, n, d),
                 buf.reward.par_iter_mut(),
-                buf.terms.par_chunks_mut(nt.max(1)),
-                buf.info.par_chunks_mut(ni.max(1)),
-                buf.metrics.par_chunks_mut(nm.max(1)),
+                rows(&mut buf.terms, n, nt),
+                rows(&mut buf.info, n, ni),
+                rows(&mut buf.metrics, n, nm),
                 buf.terminated.par_iter_mut(),
                 buf.truncated.par_iter_mut(),
             )

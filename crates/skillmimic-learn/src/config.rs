@@ -5,6 +5,8 @@ use std::path::{Path, PathBuf};
 
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
+
+use crate::error::LearnError;
 use skillmimic_env::EnvConfig;
 
 /// How the PPO gradients are computed.
@@ -167,7 +169,7 @@ impl TrainConfig {
     ///   iterations, 32 environments): 1e-4 and 3e-5 reach the same reward (≈ 3.4× the first 25
     ///   iterations), but 1e-4 moves the policy by an approx-KL of 0.4–0.9 per update against
     ///   0.06–0.09 for 3e-5, and with a worse clip it made the reward fall.
-    pub fn preset(name: &str) -> Result<Self, String> {
+    pub fn preset(name: &str) -> Result<Self, LearnError> {
         let mut c = TrainConfig::default();
         match name {
             "paper" => {
@@ -188,7 +190,7 @@ impl TrainConfig {
                 c.run.save_every = 5;
                 c.run.eval_episodes = 4;
             }
-            other => return Err(format!("unknown preset '{other}', expected one of {PRESETS:?}")),
+            other => return Err(LearnError::Config(format!("unknown preset '{other}', expected one of {PRESETS:?}"))),
         }
         Ok(c)
     }
@@ -200,36 +202,36 @@ impl TrainConfig {
 
     /// Parse a TOML document over the preset `base` (fields absent from the file keep the
     /// preset's values).
-    pub fn from_toml_over(base: &TrainConfig, text: &str, source: &Path) -> Result<Self, String> {
-        let mut doc = toml::Table::try_from(base).map_err(|e| e.to_string())?;
-        let user: toml::Table = text.parse().map_err(|e: toml::de::Error| format!("{}: {e}", source.display()))?;
+    pub fn from_toml_over(base: &TrainConfig, text: &str, source: &Path) -> Result<Self, LearnError> {
+        let mut doc = toml::Table::try_from(base).map_err(|e| LearnError::Config(e.to_string()))?;
+        let user: toml::Table = text.parse().map_err(|e: toml::de::Error| LearnError::Config(format!("{}: {e}", source.display())))?;
         merge(&mut doc, user);
-        let cfg: TrainConfig = doc.try_into().map_err(|e: toml::de::Error| format!("{}: {e}", source.display()))?;
+        let cfg: TrainConfig = doc.try_into().map_err(|e: toml::de::Error| LearnError::Config(format!("{}: {e}", source.display())))?;
         Ok(cfg)
     }
 
     /// Apply one `key.path=value` override (value in TOML syntax; bare words are strings).
-    pub fn set(&mut self, assignment: &str) -> Result<(), String> {
-        let (key, value) = assignment.split_once('=').ok_or_else(|| format!("override '{assignment}' is not key=value"))?;
+    pub fn set(&mut self, assignment: &str) -> Result<(), LearnError> {
+        let (key, value) = assignment.split_once('=').ok_or_else(|| LearnError::Config(format!("override '{assignment}' is not key=value")))?;
         let value_toml: toml::Value = match format!("v = {value}").parse::<toml::Table>() {
             Ok(t) => t["v"].clone(),
             Err(_) => toml::Value::String(value.to_string()),
         };
-        let mut doc = toml::Table::try_from(&*self).map_err(|e| e.to_string())?;
+        let mut doc = toml::Table::try_from(&*self).map_err(|e| LearnError::Config(e.to_string()))?;
         let mut table = &mut doc;
         let parts: Vec<&str> = key.trim().split('.').collect();
         for p in &parts[..parts.len() - 1] {
             table = table
                 .get_mut(*p)
                 .and_then(|v| v.as_table_mut())
-                .ok_or_else(|| format!("override '{key}': no table '{p}'"))?;
+                .ok_or_else(|| LearnError::Config(format!("override '{key}': no table '{p}'")))?;
         }
         let last = parts[parts.len() - 1];
         if !table.contains_key(last) {
-            return Err(format!("override '{key}': unknown field '{last}'"));
+            return Err(LearnError::Config(format!("override '{key}': unknown field '{last}'")));
         }
         table.insert(last.to_string(), value_toml);
-        *self = doc.try_into().map_err(|e: toml::de::Error| format!("override '{assignment}': {e}"))?;
+        *self = doc.try_into().map_err(|e: toml::de::Error| LearnError::Config(format!("override '{assignment}': {e}")))?;
         Ok(())
     }
 
@@ -239,40 +241,40 @@ impl TrainConfig {
     }
 
     /// Check value ranges of the PPO and run settings (the env checks its own).
-    pub fn validate(&self) -> Result<(), String> {
-        self.env.validate().map_err(|e| e.to_string())?;
+    pub fn validate(&self) -> Result<(), LearnError> {
+        self.env.validate().map_err(|e| LearnError::Config(e.to_string()))?;
         let p = &self.ppo;
         if p.hidden.is_empty() || p.hidden.contains(&0) {
-            return Err("config field 'ppo.hidden': needs at least one non-zero layer width".into());
+            return Err(LearnError::Config("config field 'ppo.hidden': needs at least one non-zero layer width".into()));
         }
         if p.horizon == 0 || p.minibatch == 0 || p.mini_epochs == 0 {
-            return Err("config fields 'ppo.horizon', 'ppo.minibatch', 'ppo.mini_epochs' must be >= 1".into());
+            return Err(LearnError::Config("config fields 'ppo.horizon', 'ppo.minibatch', 'ppo.mini_epochs' must be >= 1".into()));
         }
         if p.minibatch > self.batch_size() {
-            return Err(format!(
+            return Err(LearnError::Config(format!(
                 "config field 'ppo.minibatch': {} exceeds the samples per iteration (num_envs {} x horizon {} = {})",
                 p.minibatch,
                 self.env.num_envs,
                 p.horizon,
                 self.batch_size()
-            ));
+            )));
         }
         for (name, v) in [("ppo.lr", p.lr), ("ppo.gamma", p.gamma), ("ppo.lam", p.lam), ("ppo.clip", p.clip)] {
             if !(v.is_finite() && v > 0.0) {
-                return Err(format!("config field '{name}': {v} must be a positive number"));
+                return Err(LearnError::Config(format!("config field '{name}': {v} must be a positive number")));
             }
         }
         match (p.device.as_str(), p.backend) {
             ("cpu", _) => {}
             ("cuda", Backend::Candle) if cfg!(feature = "cuda") => {}
             ("cuda", Backend::Candle) => {
-                return Err("config field 'ppo.device': \"cuda\" needs a build with the `cuda` cargo feature (cargo build --features cuda)".into())
+                return Err(LearnError::Config("config field 'ppo.device': \"cuda\" needs a build with the `cuda` cargo feature (cargo build --features cuda)".into()))
             }
-            ("cuda", Backend::Fast) => return Err("config field 'ppo.device': \"cuda\" runs on the candle backend; set ppo.backend = \"candle\"".into()),
-            (other, _) => return Err(format!("config field 'ppo.device': '{other}' is not a device, expected \"cpu\" or \"cuda\"")),
+            ("cuda", Backend::Fast) => return Err(LearnError::Config("config field 'ppo.device': \"cuda\" runs on the candle backend; set ppo.backend = \"candle\"".into())),
+            (other, _) => return Err(LearnError::Config(format!("config field 'ppo.device': '{other}' is not a device, expected \"cpu\" or \"cuda\""))),
         }
         if self.run.save_every == 0 {
-            return Err("config field 'run.save_every' must be >= 1".into());
+            return Err(LearnError::Config("config field 'run.save_every' must be >= 1".into()));
         }
         Ok(())
     }
@@ -312,14 +314,14 @@ mod tests {
         assert_eq!(c.ppo.hidden, vec![256, 128]);
         assert_eq!(c.env.num_envs, 8);
         let e = TrainConfig::from_toml_over(&base, "[ppo]\nlearning_rate = 1\n", Path::new("x.toml")).unwrap_err();
-        assert!(e.contains("x.toml") && e.contains("learning_rate"), "{e}");
+        assert!(e.to_string().contains("x.toml") && e.to_string().contains("learning_rate"), "{e}");
         let mut c = base.clone();
         c.set("ppo.mini_epochs=3").unwrap();
         c.set("env.reward.variant=additive").unwrap();
         c.set("env.hands=\"box\"").unwrap();
         assert_eq!(c.ppo.mini_epochs, 3);
         assert_eq!(c.env.hands, "box");
-        assert!(c.set("ppo.nope=1").unwrap_err().contains("unknown field 'nope'"));
+        assert!(c.set("ppo.nope=1").unwrap_err().to_string().contains("unknown field 'nope'"));
         assert!(c.set("ppo.lr=fast").is_err());
         let round = TrainConfig::from_toml_over(&TrainConfig::default(), &c.to_toml(), Path::new("r.toml")).unwrap();
         assert_eq!(round, c);

@@ -93,12 +93,12 @@ impl Walker {
         let (mut rows, mut values, mut subtables) = (String::new(), String::new(), Vec::new());
         for key in keys {
             let prop = &props[&key];
-            let target = &self.resolve(prop).clone();
+            let target = self.resolve(prop).clone();
             let full = if path.is_empty() { key.clone() } else { format!("{path}.{key}") };
-            let doc = description(prop).or_else(|| description(target)).unwrap_or_default();
+            let doc = description(prop).or_else(|| description(&target)).unwrap_or_default();
             let default = defaults.get(&key);
             if target.get("properties").is_some() {
-                subtables.push((full, doc, target.clone(), default.cloned().unwrap_or(Node::Table(Entries(Vec::new())))));
+                subtables.push((full, doc, target, default.cloned().unwrap_or(Node::Table(Entries(Vec::new())))));
                 continue;
             }
             if doc.is_empty() {

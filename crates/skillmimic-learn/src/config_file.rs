@@ -15,6 +15,7 @@
 use std::path::{Path, PathBuf};
 
 use crate::config::TrainConfig;
+use crate::error::LearnError;
 
 /// Key paths, inside an `[env]` table, whose values are input paths (a string or an array of them).
 pub const ENV_PATH_KEYS: [&[&str]; 2] = [&["motion"], &["v2", "history", "encoder"]];
@@ -58,36 +59,36 @@ pub fn config_dir(path: &Path) -> &Path {
 }
 
 /// Parse the config file `path` (`text` is its content) into a TOML table with its paths resolved.
-pub fn parse_resolved(text: &str, path: &Path) -> Result<toml::Table, String> {
-    let mut doc: toml::Table = text.parse().map_err(|e: toml::de::Error| format!("{}: {e}", path.display()))?;
+pub fn parse_resolved(text: &str, path: &Path) -> Result<toml::Table, LearnError> {
+    let mut doc: toml::Table = text.parse().map_err(|e: toml::de::Error| LearnError::Config(format!("{}: {e}", path.display())))?;
     if let Some(toml::Value::Table(env)) = doc.get_mut("env") {
         resolve_env_paths(env, config_dir(path));
     }
     Ok(doc)
 }
 
-fn read(path: &Path) -> Result<String, String> {
-    std::fs::read_to_string(path).map_err(|e| format!("cannot read config file {}: {e}", path.display()))
+fn read(path: &Path) -> Result<String, LearnError> {
+    std::fs::read_to_string(path).map_err(crate::error::io(path))
 }
 
 /// The training configuration of `skillmimic train --preset … --config path` (before the
 /// command-line flags): the file over `base`, its relative paths resolved.
-pub fn load_train_config(base: &TrainConfig, path: &Path) -> Result<TrainConfig, String> {
+pub fn load_train_config(base: &TrainConfig, path: &Path) -> Result<TrainConfig, LearnError> {
     let doc = parse_resolved(&read(path)?, path)?;
-    let text = toml::to_string(&doc).map_err(|e| format!("{}: {e}", path.display()))?;
+    let text = toml::to_string(&doc).map_err(|e| LearnError::Config(format!("{}: {e}", path.display())))?;
     TrainConfig::from_toml_over(base, &text, path)
 }
 
 /// The `[env]` fields that the config file `path` sets, its relative paths resolved, for a
 /// standalone environment (Python `VecEnv`): the `[env]` table of a training config file, or, in
 /// a file with none of the tables `[env]`, `[ppo]`, `[run]`, the top-level keys.
-pub fn load_env_table(path: &Path) -> Result<toml::Table, String> {
+pub fn load_env_table(path: &Path) -> Result<toml::Table, LearnError> {
     let text = read(path)?;
-    let mut doc: toml::Table = text.parse().map_err(|e: toml::de::Error| format!("{}: {e}", path.display()))?;
+    let mut doc: toml::Table = text.parse().map_err(|e: toml::de::Error| LearnError::Config(format!("{}: {e}", path.display())))?;
     let mut env = if TABLES.iter().any(|t| doc.contains_key(*t)) {
         match doc.remove("env") {
             Some(toml::Value::Table(t)) => t,
-            Some(_) => return Err(format!("{}: `env` must be a table", path.display())),
+            Some(_) => return Err(LearnError::Config(format!("{}: `env` must be a table", path.display()))),
             None => toml::Table::new(),
         }
     } else {

@@ -20,6 +20,9 @@ pub enum LearnError {
     /// A tensor operation failed (device, shapes).
     #[error("candle: {0}")]
     Candle(#[from] candle_core::Error),
+    /// Training produced non-finite values.
+    #[error("{0}")]
+    Diverged(String),
     /// The requested device is not in this build.
     #[error("config field 'ppo.device': device '{0}' is not available in this build (cpu, or cuda with the `cuda` feature)")]
     Device(String),

@@ -34,6 +34,7 @@ use skillmimic_nn::history::{CHANNELS, FEATURE_DIM, HistoryEncoder, KERNEL, TENS
 use skillmimic_motion::SKILL_WIDTH;
 
 use crate::adam::Adam;
+use crate::error::LearnError;
 
 /// Pre-training settings (defaults: the paper's / reference code's values).
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -303,14 +304,13 @@ impl Plateau {
 
 /// Train encoder and predictor; `on_epoch(epoch, mean loss, lr)` reports progress. Returns the
 /// encoder (the predictor is only a training device) and the report.
-pub fn pretrain(data: &PretrainData, cfg: &PretrainConfig, mut on_epoch: impl FnMut(usize, f64, f64)) -> Result<(HistoryEncoder, PretrainReport), String> {
+pub fn pretrain(data: &PretrainData, cfg: &PretrainConfig, mut on_epoch: impl FnMut(usize, f64, f64)) -> Result<(HistoryEncoder, PretrainReport), LearnError> {
     if data.samples.is_empty() {
-        return Err("history pre-training: the clips give no samples (each clip needs at least 2 frames)".into());
+        return Err(LearnError::Config("history pre-training: the clips give no samples (each clip needs at least 2 frames)".into()));
     }
     if cfg.history_length == 0 || cfg.embed_dim == 0 || cfg.batch == 0 {
-        return Err("history pre-training: history_length, embed_dim and batch must be >= 1".into());
+        return Err(LearnError::Config("history pre-training: history_length, embed_dim and batch must be >= 1".into()));
     }
-    let err = |e: candle_core::Error| format!("candle: {e}");
     let dev = Device::Cpu;
     let start = std::time::Instant::now();
     let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed);
@@ -319,7 +319,7 @@ pub fn pretrain(data: &PretrainData, cfg: &PretrainConfig, mut on_epoch: impl Fn
     let mut adam = Adam::new(&sizes, cfg.lr, 1e-8);
     let mut plateau = Plateau { best: f64::INFINITY, bad: 0, patience: cfg.plateau_patience, factor: cfg.plateau_factor };
     let mut rep = PretrainReport { clips: data.features.len(), samples: data.samples.len(), ..Default::default() };
-    rep.initial_prediction_mse = dataset_mse(&params, data, cfg, &dev).map_err(err)?.0;
+    rep.initial_prediction_mse = dataset_mse(&params, data, cfg, &dev)?.0;
     let k = cfg.history_length;
     let mut order = data.samples.clone();
     let mut lr = cfg.lr;
@@ -350,9 +350,9 @@ pub fn pretrain(data: &PretrainData, cfg: &PretrainConfig, mut on_epoch: impl Fn
                     .collect::<candle_core::Result<Vec<_>>>()?;
                 Ok((loss.to_scalar::<f32>()? as f64, g))
             };
-            let (loss, grads) = step().map_err(err)?;
+            let (loss, grads) = step()?;
             if !loss.is_finite() {
-                return Err(format!("history pre-training diverged at epoch {} (loss {loss}); lower the learning rate", epoch + 1));
+                return Err(LearnError::Diverged(format!("history pre-training diverged at epoch {} (loss {loss}); lower the learning rate", epoch + 1)));
             }
             adam.lr = lr;
             let mut refs: Vec<&mut Vec<f32>> = params.values.iter_mut().collect();
@@ -369,7 +369,7 @@ pub fn pretrain(data: &PretrainData, cfg: &PretrainConfig, mut on_epoch: impl Fn
             break;
         }
     }
-    let (mse, hn) = dataset_mse(&params, data, cfg, &dev).map_err(err)?;
+    let (mse, hn) = dataset_mse(&params, data, cfg, &dev)?;
     rep.final_prediction_mse = mse;
     rep.final_embedding_sq_norm = hn;
     rep.first_epoch_loss = rep.epoch_loss.first().copied().unwrap_or(f64::NAN);

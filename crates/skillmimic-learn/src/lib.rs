@@ -7,6 +7,7 @@
 //! * [`policy`]: the actor–critic over `skillmimic_nn` MLPs (PyTorch layout), batched inference;
 //! * [`ppo`]: the canonical loss (candle autograd), its fast specialisation, the update, GAE;
 //! * [`adam`]: Adam with exposed state; [`storage`]: rollout buffers; [`error`]: typed errors;
+//! * [`eval`]: SkillMimic / SkillMimic-V2 metrics; [`episode_eval`]: any task's episode report;
 //! * [`checkpoint`]: safetensors checkpoints that load into the PyTorch module;
 //! * [`trainer`]: rollouts on any registered task's environment and PPO updates;
 //! * [`runner`]: the training loop — logs, checkpoints, end-of-run evaluation, hooks, summary;
@@ -17,6 +18,7 @@ pub mod checkpoint;
 pub mod config;
 pub mod config_doc;
 pub mod config_file;
+pub mod episode_eval;
 pub mod error;
 pub mod eval;
 pub mod history_pretrain;

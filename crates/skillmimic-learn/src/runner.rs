@@ -11,6 +11,7 @@ use skillmimic_core::tensorfile::write_bytes_atomic;
 use skillmimic_env::SkillEnv;
 
 use crate::error::{LearnError, io};
+use crate::episode_eval::{EpisodeReport, evaluate_episodes};
 use crate::eval::{EvalReport, evaluate};
 use crate::tblog::EventWriter;
 use crate::trainer::{IterationStats, Trainer};
@@ -96,11 +97,14 @@ pub struct Summary {
     /// Mean of the per-iteration mean reward over the last `reward_window` iterations.
     pub late_mean_reward: f64,
     pub checkpoint: PathBuf,
-    /// The evaluation report file (imitation: SkillMimic metrics), if the task has one.
+    /// The evaluation report file (`metrics.json`: the imitation report or the episode report).
     pub metrics: Option<PathBuf>,
     /// Outputs of the hooks by name (`curve`, `video`, …).
     pub outputs: std::collections::BTreeMap<String, HookOutput>,
+    /// The imitation task's SkillMimic evaluation.
     pub eval: Option<EvalReport>,
+    /// Every other task's episode evaluation (returns, lengths, terms, metrics).
+    pub task_eval: Option<EpisodeReport>,
 }
 
 /// The training runner.
@@ -132,14 +136,15 @@ impl Runner {
         let wall = start.elapsed().as_secs_f64();
         let t = &self.trainer;
         let out = t.cfg.run.out_dir.clone();
-        let (eval, metrics) = match evaluate_task(t)? {
-            Some(report) => {
-                let path = out.join("metrics.json");
-                write_bytes_atomic(&path, serde_json::to_string_pretty(&report)?.as_bytes()).map_err(io(&path))?;
-                (Some(report), Some(path))
-            }
-            None => (None, None),
+        let (eval, task_eval) = evaluate_task(t)?;
+        let path = out.join("metrics.json");
+        let json = match (&eval, &task_eval) {
+            (Some(r), _) => serde_json::to_string_pretty(r)?,
+            (None, Some(r)) => serde_json::to_string_pretty(r)?,
+            (None, None) => unreachable!("every task is evaluated"),
         };
+        write_bytes_atomic(&path, json.as_bytes()).map_err(io(&path))?;
+        let metrics = Some(path);
         let mut outputs = std::collections::BTreeMap::new();
         for h in &mut self.hooks {
             outputs.insert(h.name().to_string(), h.run(t, &out)?);
@@ -162,6 +167,7 @@ impl Runner {
             metrics,
             outputs,
             eval,
+            task_eval,
         };
         let path = out.join("summary.json");
         write_bytes_atomic(&path, serde_json::to_string_pretty(&summary)?.as_bytes()).map_err(io(&path))?;
@@ -169,13 +175,16 @@ impl Runner {
     }
 }
 
-/// The task's end-of-run evaluation: the SkillMimic metrics for the imitation task (deterministic
-/// policy, `run.eval_episodes` episodes on at most 16 environments, seed `run.seed`); tasks
-/// without an evaluation report return `None` (their training curve is the measure).
-pub fn evaluate_task(t: &Trainer) -> Result<Option<EvalReport>, LearnError> {
-    let Some(env) = t.env.as_any().downcast_ref::<SkillEnv>() else { return Ok(None) };
+/// The task's end-of-run evaluation with the deterministic policy, `run.eval_episodes` episodes
+/// on at most 16 environments, seed `run.seed`: the SkillMimic metrics for the imitation task,
+/// the task-independent episode report for every other task.
+pub fn evaluate_task(t: &Trainer) -> Result<(Option<EvalReport>, Option<EpisodeReport>), LearnError> {
     let mut c = t.cfg.env.clone();
     c.num_envs = c.num_envs.min(16);
-    let mut eval_env = SkillEnv::new(c, env.library().clone())?;
-    Ok(Some(evaluate(&t.policy, &mut eval_env, t.cfg.run.eval_episodes, t.cfg.run.seed, false, 0)))
+    if let Some(env) = t.env.as_any().downcast_ref::<SkillEnv>() {
+        let mut eval_env = SkillEnv::new(c, env.library().clone())?;
+        return Ok((Some(evaluate(&t.policy, &mut eval_env, t.cfg.run.eval_episodes, t.cfg.run.seed, false, 0)), None));
+    }
+    let mut eval_env = skillmimic_env::registry::make(&c)?;
+    Ok((None, Some(evaluate_episodes(&t.policy, eval_env.as_mut(), t.cfg.run.eval_episodes, t.cfg.run.seed, false, 0)?)))
 }

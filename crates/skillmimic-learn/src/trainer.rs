@@ -94,7 +94,7 @@ pub struct Trainer {
 impl Trainer {
     /// A new trainer (fresh policy), or one resumed from `resume` (a training checkpoint).
     pub fn new(mut cfg: TrainConfig, resume: Option<&Path>) -> Result<Self, TrainError> {
-        cfg.validate().map_err(LearnError::Config)?;
+        cfg.validate()?;
         let batch = cfg.batch_size();
         if batch % cfg.ppo.minibatch != 0 {
             return Err(LearnError::Config(format!(

@@ -47,10 +47,10 @@ fn rows(md: &str) -> Vec<(String, String)> {
             table = t.to_string();
         } else if line == "## Presets" {
             table.clear();
-        } else if let Some(key) = line.strip_prefix("| `").and_then(|l| l.split_once("` |")).map(|(k, _)| k) {
-            if !table.is_empty() {
-                out.push((table.clone(), key.to_string()));
-            }
+        } else if let Some(key) = line.strip_prefix("| `").and_then(|l| l.split_once("` |")).map(|(k, _)| k)
+            && !table.is_empty()
+        {
+            out.push((table.clone(), key.to_string()));
         }
     }
     out

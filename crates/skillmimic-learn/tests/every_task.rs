@@ -39,7 +39,7 @@ fn every_task_steps_with_every_compatible_policy_family() {
         let mut buf = InferenceBuffers::default();
         let (mut mu, mut values, mut actions, mut neglogp) = (vec![0.0; n * a], vec![0.0; n], vec![0.0; n * a], vec![0.0; n]);
         env.reset_all(Some(3));
-        let mut dones = 0;
+        let (mut dones, mut reward_sum) = (0, 0.0f64);
         for step in 0..30 {
             let b = env.buffers();
             assert_eq!(b.obs.len(), n * d, "{}: observation buffer", entry.name);
@@ -56,10 +56,13 @@ fn every_task_steps_with_every_compatible_policy_family() {
             for (name, xs) in [("reward", &b.reward), ("terms", &b.terms), ("metrics", &b.metrics), ("info", &b.info)] {
                 assert!(xs.iter().all(|v| v.is_finite()), "{} step {step}: non-finite {name}", entry.name);
             }
+            reward_sum += b.reward.iter().map(|&r| r.abs() as f64).sum::<f64>();
             dones += b.terminated.iter().zip(&b.truncated).filter(|(t, u)| **t != 0 || **u != 0).count();
             env.reset_done();
         }
         let _ = dones;
+        // every environment was stepped by its task (a zero-width buffer once stopped them all)
+        assert!(reward_sum > 0.0, "{}: no reward in 30 steps", entry.name);
         // one PPO iteration through the trainer on the same task
         let mut t = Trainer::new(c.clone(), None).unwrap_or_else(|e| panic!("{}: {e}", entry.name));
         assert_eq!((t.env.obs_dim(), t.env.act_dim()), (d, a));

@@ -10,6 +10,7 @@
 //!   activation="relu", batch_first=True, norm_first=False)`: post-norm,
 //!   x ← LN1(x + SA(x)); x ← LN2(x + W2 ReLU(W1 x)); names `self_attn.*`, `linear1.*`,
 //!   `linear2.*`, `norm1.*`, `norm2.*`; LayerNorm ε 1e-5.
+//!
 //! Shapes: inputs (B, S, E) batch-first; dropout is not modelled (inference and PPO updates run
 //! with dropout 0, as the reference policies do).
 
@@ -58,7 +59,7 @@ pub struct MultiHeadAttention {
 impl MultiHeadAttention {
     /// A new layer with PyTorch-like initialisation; `embed_dim` must be a multiple of `num_heads`.
     pub fn new<R: Rng>(embed_dim: usize, num_heads: usize, rng: &mut R) -> Self {
-        assert!(num_heads > 0 && embed_dim % num_heads == 0, "embed_dim {embed_dim} is not a multiple of num_heads {num_heads}");
+        assert!(num_heads > 0 && embed_dim.is_multiple_of(num_heads), "embed_dim {embed_dim} is not a multiple of num_heads {num_heads}");
         let mut in_proj = Dense::new(embed_dim, 3 * embed_dim, rng);
         in_proj.bias.fill(0.0);
         let mut out_proj = Dense::new(embed_dim, embed_dim, rng);

@@ -15,7 +15,7 @@ use skillmimic_learn::config_file;
 /// or `[run]` table gives its `[env]` table; a file with none of them, its top-level keys.
 #[pyfunction]
 fn load_env_config(path: PathBuf) -> PyResult<String> {
-    let env = config_file::load_env_table(&path).map_err(PyValueError::new_err)?;
+    let env = config_file::load_env_table(&path).map_err(|e| PyValueError::new_err(e.to_string()))?;
     serde_json::to_string(&env).map_err(|e| PyValueError::new_err(e.to_string()))
 }
 
@@ -24,8 +24,8 @@ fn load_env_config(path: PathBuf) -> PyResult<String> {
 #[pyfunction]
 #[pyo3(signature = (path, preset = "small"))]
 fn load_train_config(path: PathBuf, preset: &str) -> PyResult<String> {
-    let base = TrainConfig::preset(preset).map_err(PyValueError::new_err)?;
-    let cfg = config_file::load_train_config(&base, &path).map_err(PyValueError::new_err)?;
+    let base = TrainConfig::preset(preset).map_err(|e| PyValueError::new_err(e.to_string()))?;
+    let cfg = config_file::load_train_config(&base, &path).map_err(|e| PyValueError::new_err(e.to_string()))?;
     serde_json::to_string(&cfg).map_err(|e| PyValueError::new_err(e.to_string()))
 }
 

@@ -1,0 +1,105 @@
+//! Task-independent evaluation: run a policy on any registered task and report episode returns,
+//! lengths, early terminations and the per-step means of the task's reward terms and metrics
+//! (names from its `TaskSpec`). The imitation task adds the SkillMimic metrics of [`crate::eval`].
+
+use std::collections::BTreeMap;
+
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use serde::Serialize;
+use skillmimic_env::Env;
+
+use crate::error::LearnError;
+use crate::policy::{InferenceBuffers, Policy};
+
+/// Results of [`evaluate_episodes`].
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct EpisodeReport {
+    pub task: String,
+    pub episodes: usize,
+    pub seed: u64,
+    pub deterministic: bool,
+    /// Mean undiscounted episode return.
+    pub mean_return: f64,
+    /// Mean reward per step over the counted episodes.
+    pub mean_reward_per_step: f64,
+    /// Mean episode length (policy steps).
+    pub mean_episode_length: f64,
+    /// Fraction of episodes that ended early (terminated rather than truncated).
+    pub early_termination_rate: f64,
+    /// Per-step means of the reward terms over the counted episodes.
+    pub reward_terms: BTreeMap<String, f64>,
+    /// Per-step means of the task's metrics over the counted episodes.
+    pub metrics: BTreeMap<String, f64>,
+}
+
+/// Evaluate `policy` on `env` for `episodes` episodes: every environment contributes a fixed
+/// quota of its first episodes (counting the first to finish would favour short ones); actions
+/// are the family's mode, or samples when `stochastic`; starts seeded with `seed`.
+pub fn evaluate_episodes(policy: &Policy, env: &mut dyn Env, episodes: usize, seed: u64, stochastic: bool, threads: usize) -> Result<EpisodeReport, LearnError> {
+    let spec = env.spec().clone();
+    if (policy.obs_dim(), policy.act_dim()) != (spec.obs_dim, spec.act_dim()) {
+        return Err(LearnError::Config(format!(
+            "the policy takes observations of {} and gives actions of {}; task '{}' has {} and {}",
+            policy.obs_dim(),
+            policy.act_dim(),
+            spec.name,
+            spec.obs_dim,
+            spec.act_dim()
+        )));
+    }
+    let (n, a, o) = (env.num_envs(), spec.act_dim(), policy.actor_outputs());
+    let (nt, nm) = (spec.term_names.len(), spec.metric_names.len());
+    env.set_autoreset(false);
+    env.reset_all(Some(seed));
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5eed);
+    let mut buf = InferenceBuffers::default();
+    let (mut out, mut values, mut actions, mut neglogp) = (vec![0.0; n * o], vec![0.0; n], vec![0.0; n * a], vec![0.0; n]);
+    let quota: Vec<usize> = (0..n).map(|i| episodes / n + usize::from(i < episodes % n)).collect();
+    let (mut finished, mut ret, mut len) = (vec![0usize; n], vec![0.0f64; n], vec![0usize; n]);
+    let (mut terms, mut metrics) = (vec![0.0f64; nt], vec![0.0f64; nm]);
+    let mut rep = EpisodeReport { task: spec.name.to_string(), seed, deterministic: !stochastic, ..Default::default() };
+    let (mut steps, mut reward, mut early) = (0.0f64, 0.0f64, 0usize);
+    while rep.episodes < episodes {
+        env.reset_done();
+        policy.infer(&env.buffers().obs, n, &mut buf, &mut out, &mut values, threads);
+        if stochastic {
+            policy.sample(&out, n, &mut rng, &mut actions, &mut neglogp);
+        } else {
+            policy.mode(&out, n, &mut actions);
+        }
+        env.step(&actions)?;
+        let b = env.buffers();
+        for i in 0..n {
+            if finished[i] >= quota[i] {
+                continue;
+            }
+            ret[i] += b.reward[i] as f64;
+            len[i] += 1;
+            for (s, &v) in terms.iter_mut().zip(&b.terms[i * nt..(i + 1) * nt]) {
+                *s += v as f64;
+            }
+            for (s, &v) in metrics.iter_mut().zip(&b.metrics[i * nm..(i + 1) * nm]) {
+                *s += v as f64;
+            }
+            if b.terminated[i] != 0 || b.truncated[i] != 0 {
+                finished[i] += 1;
+                rep.episodes += 1;
+                steps += len[i] as f64;
+                reward += ret[i];
+                early += usize::from(b.terminated[i] != 0);
+                rep.mean_return += ret[i];
+                (ret[i], len[i]) = (0.0, 0);
+            }
+        }
+    }
+    let (e, s) = (rep.episodes.max(1) as f64, steps.max(1.0));
+    rep.mean_return /= e;
+    rep.mean_reward_per_step = reward / s;
+    rep.mean_episode_length = steps / e;
+    rep.early_termination_rate = early as f64 / e;
+    // the sums include the steps of counted episodes only
+    rep.reward_terms = spec.term_names.iter().zip(&terms).map(|(k, v)| (k.to_string(), v / s)).collect();
+    rep.metrics = spec.metric_names.iter().zip(&metrics).map(|(k, v)| (k.to_string(), v / s)).collect();
+    Ok(rep)
+}
