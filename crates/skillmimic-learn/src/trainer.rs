@@ -1,4 +1,6 @@
-//! The PPO training loop on the SkillMimic environment.
+//! The PPO learner on any registered task (`env.task`, built through `skillmimic_env::registry`)
+//! with any compatible policy family (`ppo.policy`): rollouts into [`crate::storage`] and the PPO
+//! update. The loop around it (logs, checkpoints, end-of-run work) is [`crate::runner`].
 //!
 //! One iteration = a rollout of `horizon` steps in all environments + `mini_epochs` passes of
 //! minibatch updates. The rollout follows the original learner's loop: finished environments are
@@ -12,7 +14,8 @@
 //! run's checkpoints stay usable when the original file moves.
 //!
 //! Everything is seeded from `run.seed` (network initialisation, action noise, minibatch
-//! shuffling, and the environment's clip/frame sampling), so two runs with the same seed and
+//! shuffling) and `env.seed` (episode starts; when unset it is derived as `run.seed` and written
+//! into the effective config saved with the run), so two runs with the same seed and
 //! thread counts produce the same checkpoints bit for bit. A resumed run continues from the
 //! checkpoint's policy, normalisers and Adam state with freshly reset environments.
 
