@@ -85,3 +85,24 @@ def test_canonical_ppo_loss_of_the_categorical_family_matches_pytorch(tmp_path):
         want = named[name].grad.numpy()
         err = np.abs(g - want).max() / max(np.abs(want).max(), 1e-8)
         assert err < 1e-4, f"{name}: relative error {err}"
+
+
+@pytest.mark.parametrize("masked", [False, True])
+def test_transformer_encoder_layer_matches_pytorch(masked):
+    """skillmimic_nn's attention blocks against torch.nn.TransformerEncoderLayer (post-norm, ReLU,
+    batch-first, eval mode), with and without a key padding mask."""
+    torch.manual_seed(0)
+    b, s, e, h, f = 3, 6, 16, 4, 32
+    layer = torch.nn.TransformerEncoderLayer(e, h, f, dropout=0.0, batch_first=True).eval()
+    with torch.no_grad():
+        for p in layer.parameters():  # non-trivial biases and norms
+            p.add_(0.1 * torch.randn_like(p))
+    x = torch.randn(b, s, e)
+    mask = torch.zeros(b, s, dtype=torch.bool)
+    mask[0, [1, 4]] = True
+    mask[2, 5] = True
+    with torch.no_grad():
+        want = layer(x, src_key_padding_mask=mask if masked else None)
+    sd = {k: v.detach().numpy().astype(np.float32).ravel() for k, v in layer.state_dict().items()}
+    got = _core.transformer_encoder_layer(sd, x.numpy(), h, mask.numpy() if masked else None).reshape(b, s, e)
+    np.testing.assert_allclose(got, want.numpy(), rtol=0, atol=2e-5)

@@ -12,6 +12,7 @@ use pyo3::types::PyDict;
 use skillmimic_env::{Env, EnvConfig, SkillEnv};
 
 mod consts;
+mod nn;
 
 fn value_error(e: impl std::fmt::Display) -> PyErr {
     PyValueError::new_err(e.to_string())
@@ -516,6 +517,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(core_version, m)?)?;
     m.add_function(wrap_pyfunction!(ppo_loss_and_grads, m)?)?;
     m.add_function(wrap_pyfunction!(init_policy, m)?)?;
+    m.add_function(wrap_pyfunction!(nn::transformer_encoder_layer, m)?)?;
     m.add("OBS_DIM", skillmimic_env::obs::layout::OBS_DIM)?;
     m.add("BUILTIN_DEMO", skillmimic_env::BUILTIN_DEMO)?;
     consts::register(m)?;
