@@ -17,6 +17,9 @@ TERM_NAMES: tuple[str, ...]
 FRAME_METRIC_NAMES: tuple[str, ...]
 #: keys of an ``[env]`` table that hold input paths (resolved relative to the config file)
 CONFIG_PATH_KEYS: tuple[str, ...]
+#: Registered tasks (``env.task``) and policy families (``ppo.policy``).
+TASKS: tuple[str, ...]
+POLICY_FAMILIES: tuple[str, ...]
 
 def load_env_config(path: str) -> str:
     """JSON of the ``[env]`` fields a TOML file sets, relative paths resolved by the CLI's rule."""
@@ -43,6 +46,12 @@ class CoreEnv:
     def obs_dim(self) -> int: ...
     @property
     def act_dim(self) -> int: ...
+    @property
+    def task(self) -> str:
+        """The task's registry name."""
+    @property
+    def action_space(self) -> tuple[str, int]:
+        """("box", dim) or ("discrete", n)."""
     @property
     def max_episode_length(self) -> int:
         """Longest episode in policy steps."""
@@ -148,5 +157,14 @@ def ppo_loss_and_grads(
     bounds_coef: float = 10.0,
     bound: float = 1.0,
     backend: str = "fast",
+    entropy_coef: float = 0.0,
 ) -> tuple[dict[str, float], dict[str, npt.NDArray[np.float32]]]:
     """PPO losses and parameter gradients of a checkpoint's policy on one minibatch."""
+
+def init_policy(path: str, family: str, obs_dim: int, actions: tuple[str, int], hidden: list[int], seed: int = 0) -> None:
+    """Write a freshly initialised policy checkpoint of ``family`` for ``("box", dim)`` or ``("discrete", n)`` actions."""
+
+def transformer_encoder_layer(
+    state_dict: dict[str, npt.NDArray[np.float32]], x: npt.NDArray[np.float32], num_heads: int, key_padding_mask: npt.NDArray[np.bool_] | None = None
+) -> npt.NDArray[np.float32]:
+    """Flat ``(B*S*E,)`` output of skillmimic_nn's transformer encoder layer with PyTorch-named parameters (cross-checks)."""
