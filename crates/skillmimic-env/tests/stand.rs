@@ -33,9 +33,9 @@ fn start_state_observation_and_reward_follow_the_definition() {
     for step in 0..30 {
         env.step(&zeros).unwrap();
         let b = env.buffers();
-        for i in 0..6 {
+        for (i, &psi0) in headings.iter().enumerate() {
             let st = env.sim().state().env(i);
-            let (dz, dpsi) = (st.pos(0)[2] - c.target_height, wrap_angle(headings[i] - heading(st.quat(0))));
+            let (dz, dpsi) = (st.pos(0)[2] - c.target_height, wrap_angle(psi0 - heading(st.quat(0))));
             let rh = (-c.height_scale * dz * dz).exp();
             let rpsi = (-c.heading_scale * dpsi * dpsi).exp();
             let want = c.height_weight * rh + (1.0 - c.height_weight) * rpsi;

@@ -51,7 +51,7 @@ pub fn train_loop(t: &mut Trainer, mut on_iteration: impl FnMut(&IterationStats)
         tb.scalars(s.samples as i64, &refs).map_err(io(tb.path()))?;
         on_iteration(&s);
         let it = t.progress.iteration;
-        if it % t.cfg.run.save_every as u64 == 0 || it == target {
+        if it.is_multiple_of(t.cfg.run.save_every as u64) || it == target {
             let p = ckpt_dir.join(format!("iter_{it:06}.safetensors"));
             t.save(&p)?;
             t.save(&out.join("latest.safetensors"))?;

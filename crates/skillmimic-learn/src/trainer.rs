@@ -99,7 +99,7 @@ impl Trainer {
     pub fn new(mut cfg: TrainConfig, resume: Option<&Path>) -> Result<Self, TrainError> {
         cfg.validate()?;
         let batch = cfg.batch_size();
-        if batch % cfg.ppo.minibatch != 0 {
+        if !batch.is_multiple_of(cfg.ppo.minibatch) {
             return Err(LearnError::Config(format!(
                 "config field 'ppo.minibatch': {} must divide the samples per iteration ({batch})",
                 cfg.ppo.minibatch

@@ -94,9 +94,9 @@ mod tests {
         let (mut a, mut nl) = (vec![0.0f32; n], vec![0.0f32; n]);
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
         CategoricalMlp.sample(head, &rows, n, &mut rng, &mut a, &mut nl);
-        for k in 0..4 {
+        for (k, p) in probs.iter().enumerate() {
             let f = a.iter().filter(|&&x| x == k as f32).count() as f64 / n as f64;
-            assert!((f - probs[k]).abs() < 0.01, "choice {k}: frequency {f} vs {}", probs[k]);
+            assert!((f - p).abs() < 0.01, "choice {k}: frequency {f} vs {p}");
         }
         let dev = candle_core::Device::Cpu;
         let out = Tensor::from_slice(&rows[..16], (4, 4), &dev).unwrap();

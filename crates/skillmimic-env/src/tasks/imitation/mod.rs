@@ -174,10 +174,8 @@ impl Task for Imitation {
     /// Adaptive Trajectory Sampling bookkeeping of a finished episode.
     fn end_episode(&mut self, _i: usize, slot: &ImitationSlot) {
         let ep = &slot.episode;
-        if let Some(ats) = self.ats.as_mut() {
-            if ep.progress > 0 {
-                ats.record(ep.clip, ep.ref_start, ep.reward_sum / ep.rewarded_horizon().max(1) as f64);
-            }
+        if let (Some(ats), true) = (self.ats.as_mut(), ep.progress > 0) {
+            ats.record(ep.clip, ep.ref_start, ep.reward_sum / ep.rewarded_horizon().max(1) as f64);
         }
     }
 
