@@ -227,11 +227,17 @@ impl TrainConfig {
                 .ok_or_else(|| LearnError::Config(format!("override '{key}': no table '{p}'")))?;
         }
         let last = parts[parts.len() - 1];
-        if !table.contains_key(last) {
-            return Err(LearnError::Config(format!("override '{key}': unknown field '{last}'")));
-        }
+        // optional fields that are unset (e.g. `env.seed`) are absent from the serialised table:
+        // the typed deserialisation decides whether an absent key exists
+        let known = table.contains_key(last);
         table.insert(last.to_string(), value_toml);
-        *self = doc.try_into().map_err(|e: toml::de::Error| LearnError::Config(format!("override '{assignment}': {e}")))?;
+        match doc.try_into::<TrainConfig>() {
+            Ok(c) => *self = c,
+            Err(e) if !known && e.to_string().contains("unknown field") => {
+                return Err(LearnError::Config(format!("override '{key}': unknown field '{last}'")));
+            }
+            Err(e) => return Err(LearnError::Config(format!("override '{assignment}': {e}"))),
+        }
         Ok(())
     }
 
@@ -322,6 +328,10 @@ mod tests {
         assert_eq!(c.ppo.mini_epochs, 3);
         assert_eq!(c.env.hands, "box");
         assert!(c.set("ppo.nope=1").unwrap_err().to_string().contains("unknown field 'nope'"));
+        // an optional field that is unset by default can be set
+        c.set("env.seed=3").unwrap();
+        assert_eq!(c.env.seed, Some(3));
+        assert!(c.set("env.seed=-1").is_err());
         assert!(c.set("ppo.lr=fast").is_err());
         let round = TrainConfig::from_toml_over(&TrainConfig::default(), &c.to_toml(), Path::new("r.toml")).unwrap();
         assert_eq!(round, c);
