@@ -162,9 +162,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         w = summary.reward_window
     );
     println!("checkpoint {}", summary.checkpoint.display());
-    if let Some(m) = &summary.metrics {
-        println!("metrics    {}", m.display());
-    }
+    println!("metrics    {}", summary.metrics.display());
     for (name, o) in &summary.outputs {
         if let Some(p) = &o.path {
             println!("{name:<10} {}", p.display());

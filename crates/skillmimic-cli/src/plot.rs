@@ -1,6 +1,6 @@
 //! `skillmimic plot`: PNG learning curves from a training log (`log.jsonl`).
 //!
-//! Four panels against samples: mean reward per step, episode length, the imitation sub-rewards
+//! Four panels against samples: mean reward per step, episode length, the task's reward terms
 //! and the losses, each with a title, axis labels with tick numbers and a legend. Everything is
 //! drawn by `plotters` into an RGB buffer; text goes through its `ab_glyph` rasteriser with the
 //! DejaVu Sans face embedded in the binary (`assets/fonts`, Bitstream Vera licence), so no system

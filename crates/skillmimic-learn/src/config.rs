@@ -80,7 +80,7 @@ pub struct PpoConfig {
 impl Default for PpoConfig {
     fn default() -> Self {
         Self {
-            policy: "gaussian_mlp".into(),
+            policy: crate::policies::DEFAULT_FAMILY.into(),
             hidden: vec![1024, 512, 512],
             log_std: -2.9,
             horizon: 32,

@@ -56,7 +56,7 @@ impl Policy {
     }
 
     /// Actor MLP `obs_dim → hidden… → actor outputs`, critic `obs_dim → hidden… → 1` (drawn in
-    /// that order from `rng`), log σ only for the Gaussian family.
+    /// that order from `rng`), log σ for the families that use one.
     fn init<R: rand::Rng>(family: &'static dyn PolicyFamily, obs_dim: usize, space: ActionSpace, cfg: &PpoConfig, rng: &mut R) -> Self {
         let mut dims = vec![obs_dim];
         dims.extend(&cfg.hidden);
@@ -64,13 +64,12 @@ impl Policy {
         adims.push(family.actor_outputs(&space));
         let mut cdims = dims;
         cdims.push(1);
-        let gaussian = matches!(space, ActionSpace::Box { .. }) && family.name() == "gaussian_mlp";
         Self {
             family,
             space,
             actor: Mlp::new(&adims, rng),
             critic: Mlp::new(&cdims, rng),
-            log_std: if gaussian { vec![cfg.log_std as f32; space.width()] } else { Vec::new() },
+            log_std: if family.uses_log_std() { vec![cfg.log_std as f32; space.width()] } else { Vec::new() },
             obs_norm: RunningMeanStd::new(obs_dim, cfg.norm_eps, cfg.norm_clip),
             value_norm: RunningMeanStd::new(1, cfg.norm_eps, cfg.norm_clip),
             normalize_input: cfg.normalize_input,

@@ -24,7 +24,7 @@ pub fn train_loop(t: &mut Trainer, mut on_iteration: impl FnMut(&IterationStats)
     let ckpt_dir = out.join("checkpoints");
     std::fs::create_dir_all(&ckpt_dir).map_err(io(&ckpt_dir))?;
     let cfg_path = out.join("config.toml");
-    skillmimic_core::tensorfile::write_bytes_atomic(&cfg_path, t.config_toml().as_bytes()).map_err(io(&cfg_path))?;
+    write_bytes_atomic(&cfg_path, t.config_toml().as_bytes()).map_err(io(&cfg_path))?;
     let log_path = out.join("log.jsonl");
     let mut log = std::fs::OpenOptions::new().create(true).append(true).open(&log_path).map_err(io(&log_path))?;
     let mut tb = EventWriter::create(&out.join("tb")).map_err(io(&out.join("tb")))?;
@@ -98,7 +98,7 @@ pub struct Summary {
     pub late_mean_reward: f64,
     pub checkpoint: PathBuf,
     /// The evaluation report file (`metrics.json`: the imitation report or the episode report).
-    pub metrics: Option<PathBuf>,
+    pub metrics: PathBuf,
     /// Outputs of the hooks by name (`curve`, `video`, …).
     pub outputs: std::collections::BTreeMap<String, HookOutput>,
     /// The imitation task's SkillMimic evaluation.
@@ -136,15 +136,13 @@ impl Runner {
         let wall = start.elapsed().as_secs_f64();
         let t = &self.trainer;
         let out = t.cfg.run.out_dir.clone();
-        let (eval, task_eval) = evaluate_task(t)?;
+        let report = evaluate_task(t)?;
         let path = out.join("metrics.json");
-        let json = match (&eval, &task_eval) {
-            (Some(r), _) => serde_json::to_string_pretty(r)?,
-            (None, Some(r)) => serde_json::to_string_pretty(r)?,
-            (None, None) => unreachable!("every task is evaluated"),
+        write_bytes_atomic(&path, serde_json::to_string_pretty(&report)?.as_bytes()).map_err(io(&path))?;
+        let (eval, task_eval) = match report {
+            TaskEval::Imitation(r) => (Some(r), None),
+            TaskEval::Episodes(r) => (None, Some(r)),
         };
-        write_bytes_atomic(&path, json.as_bytes()).map_err(io(&path))?;
-        let metrics = Some(path);
         let mut outputs = std::collections::BTreeMap::new();
         for h in &mut self.hooks {
             outputs.insert(h.name().to_string(), h.run(t, &out)?);
@@ -164,7 +162,7 @@ impl Runner {
             early_mean_reward: mean_of(&rewards[..window.min(rewards.len())]),
             late_mean_reward: mean_of(&rewards[rewards.len().saturating_sub(window)..]),
             checkpoint: last,
-            metrics,
+            metrics: path,
             outputs,
             eval,
             task_eval,
@@ -175,16 +173,25 @@ impl Runner {
     }
 }
 
+/// A task's end-of-run evaluation (serialised as the report itself into `metrics.json`).
+#[derive(Clone, Debug, Serialize)]
+#[serde(untagged)]
+pub enum TaskEval {
+    /// SkillMimic metrics of the imitation task.
+    Imitation(EvalReport),
+    /// The task-independent episode report of every other task.
+    Episodes(EpisodeReport),
+}
+
 /// The task's end-of-run evaluation with the deterministic policy, `run.eval_episodes` episodes
-/// on at most 16 environments, seed `run.seed`: the SkillMimic metrics for the imitation task,
-/// the task-independent episode report for every other task.
-pub fn evaluate_task(t: &Trainer) -> Result<(Option<EvalReport>, Option<EpisodeReport>), LearnError> {
+/// on at most 16 environments, seed `run.seed`.
+pub fn evaluate_task(t: &Trainer) -> Result<TaskEval, LearnError> {
     let mut c = t.cfg.env.clone();
     c.num_envs = c.num_envs.min(16);
     if let Some(env) = t.env.as_any().downcast_ref::<SkillEnv>() {
         let mut eval_env = SkillEnv::new(c, env.library().clone())?;
-        return Ok((Some(evaluate(&t.policy, &mut eval_env, t.cfg.run.eval_episodes, t.cfg.run.seed, false, 0)), None));
+        return Ok(TaskEval::Imitation(evaluate(&t.policy, &mut eval_env, t.cfg.run.eval_episodes, t.cfg.run.seed, false, 0)));
     }
     let mut eval_env = skillmimic_env::registry::make(&c)?;
-    Ok((None, Some(evaluate_episodes(&t.policy, eval_env.as_mut(), t.cfg.run.eval_episodes, t.cfg.run.seed, false, 0)?)))
+    Ok(TaskEval::Episodes(evaluate_episodes(&t.policy, eval_env.as_mut(), t.cfg.run.eval_episodes, t.cfg.run.seed, false, 0)?))
 }

@@ -37,9 +37,6 @@ use crate::storage::{MinibatchBuffers, Rollout};
 use crate::policy::{InferenceBuffers, Policy};
 use crate::ppo::{LossStats, RawMinibatch, update_minibatch};
 
-/// The learner's error (kept under its old name).
-pub type TrainError = LearnError;
-
 /// Statistics of one iteration (one JSON line of `log.jsonl`).
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct IterationStats {
@@ -96,7 +93,7 @@ pub struct Trainer {
 
 impl Trainer {
     /// A new trainer (fresh policy), or one resumed from `resume` (a training checkpoint).
-    pub fn new(mut cfg: TrainConfig, resume: Option<&Path>) -> Result<Self, TrainError> {
+    pub fn new(mut cfg: TrainConfig, resume: Option<&Path>) -> Result<Self, LearnError> {
         cfg.validate()?;
         let batch = cfg.batch_size();
         if !batch.is_multiple_of(cfg.ppo.minibatch) {
@@ -191,7 +188,7 @@ impl Trainer {
     }
 
     /// Collect one rollout; returns rollout statistics.
-    fn rollout(&mut self, stats: &mut IterationStats) -> Result<(), TrainError> {
+    fn rollout(&mut self, stats: &mut IterationStats) -> Result<(), LearnError> {
         self.alloc_rollout();
         let (h, n, d, a) = (self.cfg.ppo.horizon, self.env.num_envs(), self.env.obs_dim(), self.env.act_dim());
         let nt = self.term_sums.len();
@@ -275,7 +272,7 @@ impl Trainer {
     }
 
     /// Advantages, value normalisation and the minibatch updates.
-    fn update(&mut self, stats: &mut IterationStats) -> Result<(), TrainError> {
+    fn update(&mut self, stats: &mut IterationStats) -> Result<(), LearnError> {
         let cfg = &self.cfg.ppo;
         let (n, d, a) = (self.env.num_envs(), self.env.obs_dim(), self.env.act_dim());
         let r = &mut self.roll;
@@ -332,7 +329,7 @@ impl Trainer {
     }
 
     /// Run one iteration (rollout + update).
-    pub fn iteration(&mut self) -> Result<IterationStats, TrainError> {
+    pub fn iteration(&mut self) -> Result<IterationStats, LearnError> {
         let mut stats = IterationStats::default();
         let t0 = Instant::now();
         self.rollout(&mut stats)?;
@@ -354,7 +351,7 @@ impl Trainer {
     /// for one horizon with the actions of the last rollout (resets included, no inference, no
     /// update) and return the wall-clock seconds. It advances the environments, so a benchmark
     /// run's later training differs from an unprobed run's.
-    pub fn sim_only_horizon(&mut self) -> Result<f64, TrainError> {
+    pub fn sim_only_horizon(&mut self) -> Result<f64, LearnError> {
         self.alloc_rollout();
         let (h, n, a) = (self.cfg.ppo.horizon, self.env.num_envs(), self.env.act_dim());
         let t0 = Instant::now();
@@ -366,7 +363,7 @@ impl Trainer {
     }
 
     /// Write a training checkpoint (atomic) and the effective config next to it.
-    pub fn save(&self, path: &Path) -> Result<(), TrainError> {
+    pub fn save(&self, path: &Path) -> Result<(), LearnError> {
         checkpoint::save(path, &self.policy, Some(&self.adam), &self.progress, &self.config_toml).map_err(io(path))?;
         let toml_path = path.with_extension("toml");
         skillmimic_core::tensorfile::write_bytes_atomic(&toml_path, self.config_toml.as_bytes()).map_err(io(&toml_path))

@@ -23,8 +23,8 @@ use skillmimic_core::math::{Quat, heading, wrap_angle};
 use skillmimic_core::skeleton::NUM_DOFS;
 use skillmimic_sim::{EnvState, ResetState, Scene};
 
-use crate::config::{ConfigError, EnvConfig, StandConfig};
-use crate::error::EnvError;
+use crate::config::{EnvConfig, StandConfig};
+use crate::error::{EnvError, bad};
 use crate::obs::{layout, write_state_obs};
 use crate::task::{ActionSpace, StepOut, Task, TaskSpec};
 use crate::vec_env::{Env, VecEnv};
@@ -122,10 +122,10 @@ pub fn build(cfg: &EnvConfig) -> Result<Box<dyn Env>, EnvError> {
     cfg.validate_driver()?;
     let s = &cfg.stand;
     if s.episode_length == 0 {
-        return Err(ConfigError { field: "env.stand.episode_length".into(), message: "must be at least 1".into() }.into());
+        return Err(bad("env.stand.episode_length", "must be at least 1").into());
     }
     if !(0.0..=1.0).contains(&s.height_weight) {
-        return Err(ConfigError { field: "env.stand.height_weight".into(), message: format!("{} is outside [0, 1]", s.height_weight) }.into());
+        return Err(bad("env.stand.height_weight", format!("{} is outside [0, 1]", s.height_weight)).into());
     }
     let scene = Arc::new(Scene::new(cfg.scene_options()?)?);
     Ok(Box::new(VecEnv::with_task(Stand::new(cfg.stand.clone()), scene, cfg.num_envs, cfg.threads, cfg.start_seed(0))?))

@@ -31,6 +31,11 @@ pub trait PolicyFamily: Send + Sync + 'static {
     fn name(&self) -> &'static str;
     /// Whether the family can act in `space`.
     fn supports(&self, space: &ActionSpace) -> bool;
+    /// Whether the policy carries a fixed per-dimension log σ (`Policy::log_std`, checkpoint
+    /// tensor `log_std`).
+    fn uses_log_std(&self) -> bool {
+        false
+    }
     /// Actor output width for `space`.
     fn actor_outputs(&self, space: &ActionSpace) -> usize;
     /// Sample actions (`n × space.width()`) from actor outputs `out` (`n × head.outputs`) and

@@ -38,6 +38,9 @@ impl PolicyFamily for GaussianMlp {
     fn supports(&self, space: &ActionSpace) -> bool {
         matches!(space, ActionSpace::Box { .. })
     }
+    fn uses_log_std(&self) -> bool {
+        true
+    }
     fn actor_outputs(&self, space: &ActionSpace) -> usize {
         space.width()
     }

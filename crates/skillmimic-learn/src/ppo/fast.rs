@@ -161,7 +161,8 @@ fn backward(m: &Mlp, x: &[f32], n: usize, h: &[Vec<f32>], g_out: &mut Vec<f32>, 
 /// Whether the fast path computes `policy`'s loss (the `gaussian_mlp` family only; other
 /// families always take the canonical candle loss).
 pub fn applies_to(policy: &Policy) -> bool {
-    policy.family.name() == "gaussian_mlp"
+    use crate::policies::PolicyFamily;
+    policy.family.name() == crate::policies::gaussian_mlp::GaussianMlp.name()
 }
 
 /// Losses and gradients of one minibatch (see the module docs); gradients land in `ws.grads`.

@@ -34,15 +34,12 @@ pub fn update_minibatch(
     let (l, mut owned);
     // the fast path is the Gaussian-MLP specialisation of the canonical loss
     let fast = cfg.backend == crate::config::Backend::Fast && super::fast::applies_to(policy);
-    let grads: &mut Vec<Vec<f32>> = match fast {
-        true => {
-            l = super::fast::loss_and_grads_fast(policy, &batch, cfg, &mut buf.fast, threads);
-            &mut buf.fast.grads
-        }
-        false => {
-            (l, owned) = loss_and_grads(policy, &batch, cfg)?;
-            &mut owned
-        }
+    let grads: &mut Vec<Vec<f32>> = if fast {
+        l = super::fast::loss_and_grads_fast(policy, &batch, cfg, &mut buf.fast, threads);
+        &mut buf.fast.grads
+    } else {
+        (l, owned) = loss_and_grads(policy, &batch, cfg)?;
+        &mut owned
     };
     if cfg.truncate_grads {
         crate::adam::clip_global_norm(grads, cfg.grad_norm);

@@ -9,9 +9,9 @@ use skillmimic_motion::MotionLibrary;
 use skillmimic_sim::Scene;
 
 use super::{FRAME_METRIC_NAMES, Imitation, ResetPlan, SkillEnv};
-use crate::config::{ConfigError, EnvConfig};
+use crate::config::EnvConfig;
 use crate::episode::Episode;
-use crate::error::EnvError;
+use crate::error::{EnvError, bad};
 use crate::hoi::cg_names;
 use crate::obs::layout;
 use crate::reward::TERM_NAMES;
@@ -52,7 +52,7 @@ impl Imitation {
         }
         let graph = if cfg.v2.stg.enabled {
             // built on a pool of the simulation's size (0 = one thread per core)
-            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().map_err(|e| ConfigError { field: "env.threads".into(), message: format!("cannot start {threads} threads: {e}") })?;
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().map_err(|e| bad("env.threads", format!("cannot start {threads} threads: {e}")))?;
             Some(pool.install(|| StitchGraph::build(&lib, &cfg.reward, cfg.v2.bridge.tau)))
         } else {
             None
@@ -68,7 +68,8 @@ impl Imitation {
             metric_names: FRAME_METRIC_NAMES.to_vec(),
             info_names: cg_names(cfg.reward.contact_graph).iter().map(|s| s.to_string()).collect(),
         };
-        let ball_radius = cfg.scene_options()?.ball.radius;
+        // random balls of ball-free clips are placed with the radius actually simulated
+        let ball_radius = scene.options().ball.radius;
         Ok(Self { cfg, lib, spec, ball_radius, encoder, ref_features, graph, ats, clip_sums: Vec::new(), skill_override: None })
     }
 }
