@@ -102,7 +102,7 @@ pub fn save(path: &Path, policy: &Policy, adam: Option<&Adam>, progress: &Progre
     meta.insert("kind".to_string(), if adam.is_some() { "train" } else { "policy" }.to_string());
     meta.insert("obs_dim".to_string(), policy.obs_dim().to_string());
     meta.insert("act_dim".to_string(), policy.act_dim().to_string());
-    if policy.family.name() != crate::policies::DEFAULT_FAMILY {
+    if policy.family.name() != crate::config::DEFAULT_FAMILY {
         // written only where they differ from the defaults, so Gaussian files keep their bytes
         meta.insert("policy".to_string(), policy.family.name().to_string());
         let actions = match policy.space {
@@ -172,7 +172,7 @@ fn load_raw(path: &Path, expect: Option<(usize, usize)>) -> Result<Checkpoint, S
         }
         Ok(Mlp::from_parts(dims, weights, biases))
     };
-    let family = crate::policies::family(f.meta("policy").unwrap_or(crate::policies::DEFAULT_FAMILY)).map_err(|x| format!("{}: metadata 'policy': {x}", path.display()))?;
+    let family = crate::policies::family(f.meta("policy").unwrap_or(crate::config::DEFAULT_FAMILY)).map_err(|x| format!("{}: metadata 'policy': {x}", path.display()))?;
     let space = match f.meta("actions") {
         Err(_) => ActionSpace::Box { dim: act_dim },
         Ok(text) => parse_space(text).ok_or_else(|| format!("{}: metadata 'actions' is '{text}', expected 'box:<dim>' or 'discrete:<n>'", path.display()))?,

@@ -20,6 +20,9 @@ pub enum Backend {
     Candle,
 }
 
+/// The policy family of configs and checkpoint files that name none (SkillMimic's policy).
+pub const DEFAULT_FAMILY: &str = "gaussian_mlp";
+
 /// PPO hyper-parameters. Every field defaults to the paper's value.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
@@ -80,7 +83,7 @@ pub struct PpoConfig {
 impl Default for PpoConfig {
     fn default() -> Self {
         Self {
-            policy: crate::policies::DEFAULT_FAMILY.into(),
+            policy: DEFAULT_FAMILY.into(),
             hidden: vec![1024, 512, 512],
             log_std: -2.9,
             horizon: 32,

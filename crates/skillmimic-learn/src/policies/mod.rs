@@ -17,9 +17,6 @@ pub use family::{ExtraLoss, Head, PolicyFamily};
 
 use crate::error::LearnError;
 
-/// The family of files and configs that name none (SkillMimic's policy).
-pub const DEFAULT_FAMILY: &str = "gaussian_mlp";
-
 /// Every family, in listing order.
 pub const FAMILIES: &[&dyn PolicyFamily] = &[&gaussian_mlp::GaussianMlp, &categorical_mlp::CategoricalMlp];
 
