@@ -8,9 +8,14 @@ use skillmimic_learn::config::TrainConfig;
 /// Flags that override configuration fields (shared by train / eval / play).
 #[derive(clap::Args, Clone, Debug, Default)]
 pub struct ConfigFlags {
-    /// Task of the registry (`env.task`): imitation (default), stand.
+    /// Task of the registry (`env.task`): imitation (default), stand, heading, circling,
+    /// throwing, scoring. A high-level task (the last four) without `--policy` trains the
+    /// high-level controller's `categorical_mlp` [1024, 512].
     #[arg(long)]
     pub task: Option<String>,
+    /// Skill policy checkpoint driven by a high-level task (`env.hlc.llc`); only read.
+    #[arg(long)]
+    pub llc: Option<PathBuf>,
     /// Policy family (`ppo.policy`): gaussian_mlp (default), categorical_mlp.
     #[arg(long)]
     pub policy: Option<String>,
@@ -34,6 +39,9 @@ impl ConfigFlags {
         if let Some(t) = &self.task {
             cfg.env.task = t.clone();
         }
+        if let Some(p) = &self.llc {
+            cfg.env.hlc.llc = p.clone();
+        }
         if let Some(p) = &self.policy {
             cfg.ppo.policy = p.clone();
         }
@@ -45,6 +53,11 @@ impl ConfigFlags {
         }
         if let Some(t) = self.threads {
             cfg.env.threads = t;
+        }
+        // a high-level task with the default (Gaussian) family: the high-level controller's
+        // settings, unless the family was chosen (file or --policy)
+        if skillmimic_env::registry::is_high_level(&cfg.env.task) && cfg.ppo.policy == skillmimic_learn::config::DEFAULT_FAMILY {
+            cfg.use_high_level_defaults();
         }
         for s in &self.set {
             cfg.set(s).map_err(anyhow::Error::msg)?;

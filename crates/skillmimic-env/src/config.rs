@@ -8,6 +8,7 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 use skillmimic_sim::{BallParams, HandModel, SceneOptions};
 
+pub use crate::config_hlc::{CirclingConfig, Formula, GoalSampling, HeadingConfig, HlcConfig, Prediction, ScoringConfig, ThrowingConfig};
 pub use crate::config_v2::{AtsConfig, BridgeConfig, HistoryConfig, MaskedReward, NoiseEps, StfConfig, StgConfig, V2Config};
 pub use crate::error::ConfigError;
 use crate::error::bad;
@@ -209,6 +210,16 @@ pub struct EnvConfig {
     pub v2: V2Config,
     /// Options of the `stand` task (the worked example of adding a task).
     pub stand: StandConfig,
+    /// Options shared by the high-level tasks (heading, circling, throwing, scoring).
+    pub hlc: HlcConfig,
+    /// Options of the `heading` task.
+    pub heading: HeadingConfig,
+    /// Options of the `circling` task.
+    pub circling: CirclingConfig,
+    /// Options of the `throwing` task.
+    pub throwing: ThrowingConfig,
+    /// Options of the `scoring` task.
+    pub scoring: ScoringConfig,
 }
 
 impl Default for EnvConfig {
@@ -228,6 +239,11 @@ impl Default for EnvConfig {
             v2: V2Config::default(),
             task: "imitation".into(),
             stand: Default::default(),
+            hlc: Default::default(),
+            heading: Default::default(),
+            circling: Default::default(),
+            throwing: Default::default(),
+            scoring: Default::default(),
         }
     }
 }

@@ -19,6 +19,12 @@ pub enum EnvError {
     /// An action batch of the wrong length.
     #[error("actions: expected {expected} values (environments × action width), got {got}")]
     ActionShape { expected: usize, got: usize },
+    /// A discrete action that is not one of the task's choices.
+    #[error("actions: environment {env} sent {value}, expected an integer choice in 0..{n}")]
+    DiscreteAction { env: usize, value: f32, n: usize },
+    /// The frozen skill policy of a high-level task.
+    #[error(transparent)]
+    Frozen(#[from] skillmimic_nn::frozen::FrozenError),
     /// `env.task` names no registered task.
     #[error("config field 'env.task': unknown task '{name}'; registered tasks: {known}")]
     UnknownTask { name: String, known: String },

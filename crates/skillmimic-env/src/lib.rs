@@ -4,8 +4,9 @@
 //! * [`task`]: the task seam (spaces, term names, reset plans, observe, reward, done, metrics);
 //! * [`vec_env`]: the batched driver shared by every task, and its object-safe face [`Env`];
 //! * [`registry`]: task name → constructor ([`registry::make`]);
-//! * [`tasks`]: `imitation` (SkillMimic + V2) and `stand` (the worked example);
-//! * [`config`], [`config_v2`]: typed configuration with the papers' defaults;
+//! * [`tasks`]: `imitation` (SkillMimic + V2), `stand` (the worked example) and the high-level
+//!   tasks of skill reuse over a frozen skill policy (`heading`, `circling`, `throwing`, `scoring`);
+//! * [`config`], [`config_v2`], [`config_hlc`]: typed configuration with the papers' defaults;
 //! * [`obs`]: the 902-wide skill-policy observation and its index table;
 //! * [`hoi`]: HOI states (simulated and reference) and contact-graph states;
 //! * [`reward`]: the unified HOI imitation reward, every sub-term and the ablation variants;
@@ -17,6 +18,7 @@
 //!   Adaptive Trajectory Sampling (the history encoder network is `skillmimic_nn::history`).
 
 pub mod config;
+pub mod config_hlc;
 pub mod config_v2;
 pub mod episode;
 pub mod error;

@@ -33,8 +33,12 @@ pub struct TaskSpec {
     pub term_names: Vec<&'static str>,
     /// Names of the per-step metrics (units in each task's doc).
     pub metric_names: Vec<&'static str>,
-    /// Names of the per-step task information entries (imitation: the contact-graph states).
+    /// Names of the per-step task information entries (imitation: the contact-graph states;
+    /// high-level tasks: the goal of the current episode).
     pub info_names: Vec<String>,
+    /// Simulation (low-level) steps per action: 1 for the physical tasks, `llc_steps` (3) for
+    /// the high-level tasks, whose samples the papers count in low-level steps.
+    pub steps_per_action: usize,
 }
 
 /// The action space of a task.
@@ -109,9 +113,12 @@ pub trait Task: Send + Sync + 'static {
         false
     }
     /// Turn the policy's actions (`N × act_dim`) into PD targets of the humanoid (`N × 156`,
-    /// [−1, 1]) before the physics step. Tasks that run a frozen skill policy inside the step, or
-    /// take discrete actions, do it here (and return `true` from `transforms_actions`).
-    fn actions_to_targets(&mut self, _slots: &[Self::Slot], _actions: &[f32], _targets: &mut [f32]) {}
+    /// [−1, 1]) before the physics step; `obs` (`N × obs_dim`) are the current observations.
+    /// Tasks that run a frozen skill policy inside the step, or take discrete actions, do it here
+    /// (and return `true` from `transforms_actions`); invalid actions are an error.
+    fn actions_to_targets(&mut self, _slots: &[Self::Slot], _obs: &[f32], _actions: &[f32], _targets: &mut [f32]) -> Result<(), crate::error::EnvError> {
+        Ok(())
+    }
     /// Batch-level work after every environment stepped.
     fn after_step(&mut self, _slots: &[Self::Slot], _reward: &mut [f32], _terms: &[f32]) {}
 }

@@ -142,6 +142,11 @@ impl<T: Task> VecEnv<T> {
     pub fn buffers(&self) -> &StepBuffers {
         &self.buf
     }
+    /// PD targets (`N × 156`, [−1, 1]) the task's action transform gave in the last step (empty
+    /// for tasks whose actions are the targets).
+    pub fn last_targets(&self) -> &[f32] {
+        &self.targets
+    }
     /// SAME_STEP autoreset on or off (default off: call [`reset_done`](Self::reset_done)).
     pub fn set_autoreset(&mut self, on: bool) {
         self.autoreset = on;
@@ -229,7 +234,7 @@ impl<T: Task> VecEnv<T> {
                 return Err(EnvError::ActionShape { expected: n * self.act_dim(), got: actions.len() });
             }
             self.targets.resize(n * NUM_DOFS, 0.0);
-            self.task.actions_to_targets(&self.slots, actions, &mut self.targets);
+            self.task.actions_to_targets(&self.slots, &self.buf.obs, actions, &mut self.targets)?;
             self.sim.step(&self.targets)?;
         }
         let Self { sim, slots, buf, task, .. } = self;

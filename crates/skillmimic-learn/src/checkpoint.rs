@@ -27,12 +27,13 @@ use std::path::Path;
 use skillmimic_core::tensorfile::{OwnedTensor, TensorFile, write_atomic};
 
 use crate::adam::Adam;
+use skillmimic_nn::frozen::{read_mlp, read_normalizer};
 use skillmimic_nn::mlp::Mlp;
 use skillmimic_nn::normalizer::RunningMeanStd;
 use crate::policy::Policy;
 
 /// Value of the `format` metadata field.
-pub const FORMAT: &str = "skillmimic-policy";
+pub const FORMAT: &str = skillmimic_nn::frozen::POLICY_FORMAT;
 /// Format version.
 pub const VERSION: u32 = 1;
 
@@ -128,11 +129,7 @@ pub fn save(path: &Path, policy: &Policy, adam: Option<&Adam>, progress: &Progre
 }
 
 fn load_norm(f: &TensorFile, prefix: &str, dim: usize, eps: f64, clip: f64) -> Result<RunningMeanStd, String> {
-    let e = |e: skillmimic_core::tensorfile::TensorFileError| e.to_string();
-    let mean = f.f64(&format!("{prefix}.mean"), &[Some(dim)]).map_err(e)?.1;
-    let var = f.f64(&format!("{prefix}.var"), &[Some(dim)]).map_err(e)?.1;
-    let count = f.f64(&format!("{prefix}.count"), &[]).map_err(e)?.1[0];
-    Ok(RunningMeanStd { mean, var, count, eps, clip })
+    read_normalizer(f, prefix, dim, eps, clip).map_err(|e| e.to_string())
 }
 
 /// Load a checkpoint; `expect` = (obs_dim, act_dim) must match when given.
@@ -165,12 +162,7 @@ fn load_raw(path: &Path, expect: Option<(usize, usize)>) -> Result<Checkpoint, S
         let mut dims = vec![obs_dim];
         dims.extend(&hidden);
         dims.push(out);
-        let (mut weights, mut biases) = (Vec::new(), Vec::new());
-        for (k, w) in dims.windows(2).enumerate() {
-            weights.push(f.f32(&format!("{prefix}.{}.weight", 2 * k), &[Some(w[1]), Some(w[0])]).map_err(e)?.1);
-            biases.push(f.f32(&format!("{prefix}.{}.bias", 2 * k), &[Some(w[1])]).map_err(e)?.1);
-        }
-        Ok(Mlp::from_parts(dims, weights, biases))
+        read_mlp(&f, prefix, dims).map_err(e)
     };
     let family = crate::policies::family(f.meta("policy").unwrap_or(crate::config::DEFAULT_FAMILY)).map_err(|x| format!("{}: metadata 'policy': {x}", path.display()))?;
     let space = match f.meta("actions") {

@@ -198,6 +198,21 @@ impl TrainConfig {
         Ok(c)
     }
 
+    /// The high-level controller's settings (reference-facts §8.3) for a high-level task:
+    /// `categorical_mlp`, hidden [1024, 512] when the widths are still the defaults, and
+    /// two minibatches per iteration (four for `scoring`), as 65 536 samples with
+    /// minibatch 32 768 (16 384) in the original. Horizon 32, 6 mini-epochs, lr 2e-5, γ 0.99,
+    /// λ 0.95, clip 0.2 and critic coefficient 5 are the skill policy's defaults already; the
+    /// categorical loss has no bounds term.
+    pub fn use_high_level_defaults(&mut self) {
+        self.ppo.policy = "categorical_mlp".into();
+        if self.ppo.hidden == PpoConfig::default().hidden {
+            self.ppo.hidden = vec![1024, 512];
+        }
+        let parts = if self.env.task == "scoring" { 4 } else { 2 };
+        self.ppo.minibatch = (self.batch_size() / parts).max(1);
+    }
+
     /// Samples collected per iteration.
     pub fn batch_size(&self) -> usize {
         self.env.num_envs * self.ppo.horizon

@@ -4,7 +4,8 @@
 //! files through this module, so a file means the same thing to both.
 //!
 //! **Rule.** A relative path written in a config file (`env.motion` entries,
-//! `env.v2.history.encoder`) names a file or folder next to the config file: it becomes
+//! `env.v2.history.encoder`,
+//! `env.hlc.llc`) names a file or folder next to the config file: it becomes
 //! `<folder of the file>/<path>`. One exception keeps the files the trainer writes usable: their
 //! paths were given relative to the working directory of the run (`runs/x/config.toml` says
 //! `motion = ["motions"]`), so a path that does not exist next to the file but does exist relative
@@ -18,7 +19,7 @@ use crate::config::TrainConfig;
 use crate::error::LearnError;
 
 /// Key paths, inside an `[env]` table, whose values are input paths (a string or an array of them).
-pub const ENV_PATH_KEYS: [&[&str]; 2] = [&["motion"], &["v2", "history", "encoder"]];
+pub const ENV_PATH_KEYS: [&[&str]; 3] = [&["motion"], &["v2", "history", "encoder"], &["hlc", "llc"]];
 
 /// The top-level tables of a training config file.
 pub const TABLES: [&str; 3] = ["env", "ppo", "run"];

@@ -31,6 +31,11 @@ pub struct EpisodeReport {
     pub reward_terms: BTreeMap<String, f64>,
     /// Per-step means of the task's metrics over the counted episodes.
     pub metrics: BTreeMap<String, f64>,
+    /// Means over the counted episodes of each metric's value at the episode's last step (the
+    /// success latches of the high-level tasks: their success rates).
+    pub final_metrics: BTreeMap<String, f64>,
+    /// Mean episode length in simulation steps (× the task's `steps_per_action`).
+    pub mean_episode_low_level_steps: f64,
 }
 
 /// Evaluate `policy` on `env` for `episodes` episodes: every environment contributes a fixed
@@ -57,7 +62,7 @@ pub fn evaluate_episodes(policy: &Policy, env: &mut dyn Env, episodes: usize, se
     let (mut out, mut values, mut actions, mut neglogp) = (vec![0.0; n * o], vec![0.0; n], vec![0.0; n * a], vec![0.0; n]);
     let quota: Vec<usize> = (0..n).map(|i| episodes / n + usize::from(i < episodes % n)).collect();
     let (mut finished, mut ret, mut len) = (vec![0usize; n], vec![0.0f64; n], vec![0usize; n]);
-    let (mut terms, mut metrics) = (vec![0.0f64; nt], vec![0.0f64; nm]);
+    let (mut terms, mut metrics, mut finals) = (vec![0.0f64; nt], vec![0.0f64; nm], vec![0.0f64; nm]);
     let mut rep = EpisodeReport { task: spec.name.to_string(), seed, deterministic: !stochastic, ..Default::default() };
     let (mut steps, mut reward, mut early) = (0.0f64, 0.0f64, 0usize);
     while rep.episodes < episodes {
@@ -88,6 +93,9 @@ pub fn evaluate_episodes(policy: &Policy, env: &mut dyn Env, episodes: usize, se
                 steps += len[i] as f64;
                 reward += ret[i];
                 early += usize::from(b.terminated[i] != 0);
+                for (s, &v) in finals.iter_mut().zip(&b.metrics[i * nm..(i + 1) * nm]) {
+                    *s += v as f64;
+                }
                 rep.mean_return += ret[i];
                 (ret[i], len[i]) = (0.0, 0);
             }
@@ -101,5 +109,7 @@ pub fn evaluate_episodes(policy: &Policy, env: &mut dyn Env, episodes: usize, se
     // the sums include the steps of counted episodes only
     rep.reward_terms = spec.term_names.iter().zip(&terms).map(|(k, v)| (k.to_string(), v / s)).collect();
     rep.metrics = spec.metric_names.iter().zip(&metrics).map(|(k, v)| (k.to_string(), v / s)).collect();
+    rep.final_metrics = spec.metric_names.iter().zip(&finals).map(|(k, v)| (k.to_string(), v / e)).collect();
+    rep.mean_episode_low_level_steps = rep.mean_episode_length * spec.steps_per_action as f64;
     Ok(rep)
 }

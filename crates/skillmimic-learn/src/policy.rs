@@ -57,18 +57,21 @@ impl Policy {
 
     /// Actor MLP `obs_dim → hidden… → actor outputs`, critic `obs_dim → hidden… → 1` (drawn in
     /// that order from `rng`), log σ for the families that use one.
-    fn init<R: rand::Rng>(family: &'static dyn PolicyFamily, obs_dim: usize, space: ActionSpace, cfg: &PpoConfig, rng: &mut R) -> Self {
+    fn init<R: rand::Rng + rand::RngCore>(family: &'static dyn PolicyFamily, obs_dim: usize, space: ActionSpace, cfg: &PpoConfig, rng: &mut R) -> Self {
         let mut dims = vec![obs_dim];
         dims.extend(&cfg.hidden);
         let mut adims = dims.clone();
         adims.push(family.actor_outputs(&space));
         let mut cdims = dims;
         cdims.push(1);
+        let mut actor = Mlp::new(&adims, rng);
+        let critic = Mlp::new(&cdims, rng);
+        family.init_output_layer(&mut actor, rng);
         Self {
             family,
             space,
-            actor: Mlp::new(&adims, rng),
-            critic: Mlp::new(&cdims, rng),
+            actor,
+            critic,
             log_std: if family.uses_log_std() { vec![cfg.log_std as f32; space.width()] } else { Vec::new() },
             obs_norm: RunningMeanStd::new(obs_dim, cfg.norm_eps, cfg.norm_clip),
             value_norm: RunningMeanStd::new(1, cfg.norm_eps, cfg.norm_clip),

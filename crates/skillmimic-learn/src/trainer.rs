@@ -42,6 +42,9 @@ use crate::ppo::{LossStats, RawMinibatch, update_minibatch};
 pub struct IterationStats {
     pub iteration: u64,
     pub samples: u64,
+    /// `samples` in simulation (low-level) steps: × the task's `steps_per_action` (3 for the
+    /// high-level tasks, whose papers count samples this way; equal to `samples` otherwise).
+    pub low_level_samples: u64,
     /// Wall-clock seconds of this iteration: rollout, update, total.
     pub rollout_s: f64,
     pub update_s: f64,
@@ -340,6 +343,7 @@ impl Trainer {
         self.progress.samples += self.cfg.batch_size() as u64;
         stats.iteration = self.progress.iteration;
         stats.samples = self.progress.samples;
+        stats.low_level_samples = self.progress.samples * self.env.spec().steps_per_action as u64;
         stats.rollout_s = (t1 - t0).as_secs_f64();
         stats.inference_s = (stats.rollout_s - stats.env_s).max(0.0);
         stats.update_s = (t2 - t1).as_secs_f64();

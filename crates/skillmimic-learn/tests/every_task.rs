@@ -1,11 +1,25 @@
 //! Every registered task × every compatible policy family: build, reset, 30 steps with the
 //! policy's sampled actions (checking shapes against the declared spaces and that nothing is
-//! NaN), then one PPO iteration through the trainer (MuJoCo Playground style).
+//! NaN), then one PPO iteration through the trainer (MuJoCo Playground style). High-level tasks
+//! drive a small skill policy written for the test.
 
 use skillmimic_env::registry::TASKS;
-use skillmimic_learn::config::TrainConfig;
+use skillmimic_learn::checkpoint::{self, Progress};
+use skillmimic_learn::config::{PpoConfig, TrainConfig};
+use skillmimic_learn::policies::FAMILIES;
 use skillmimic_learn::policy::{InferenceBuffers, Policy};
 use skillmimic_learn::trainer::Trainer;
+
+/// A skill policy checkpoint (observation 902, 156 actions) for the high-level tasks.
+fn skill_policy() -> std::path::PathBuf {
+    let mut rng = <rand_chacha::ChaCha8Rng as rand::SeedableRng>::seed_from_u64(4);
+    let p = Policy::new(902, 156, &PpoConfig { hidden: vec![32], ..Default::default() }, &mut rng);
+    let dir = std::env::temp_dir().join(format!("skillmimic-every-task-llc-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("llc.safetensors");
+    checkpoint::save(&path, &p, None, &Progress::default(), "").unwrap();
+    path
+}
 
 fn workspace_root() -> std::path::PathBuf {
     std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
@@ -21,23 +35,33 @@ fn config(task: &str, out: &str) -> TrainConfig {
     c.ppo.minibatch = 16;
     c.ppo.mini_epochs = 1;
     c.run.out_dir = std::env::temp_dir().join(format!("skillmimic-every-task-{out}-{}", std::process::id()));
+    if skillmimic_env::registry::is_high_level(task) {
+        c.env.hlc.llc = skill_policy();
+    }
     c
 }
 
 #[test]
 fn every_task_steps_with_every_compatible_policy_family() {
-    assert!(TASKS.len() >= 2, "imitation and the worked example are registered");
-    for entry in TASKS {
-        let c = config(entry.name, entry.name);
+    assert!(TASKS.len() >= 6, "imitation, the worked example and the four high-level tasks are registered");
+    let mut pairs = 0;
+    for (entry, family) in TASKS.iter().flat_map(|e| FAMILIES.iter().map(move |f| (e, *f))) {
+        let mut c = config(entry.name, entry.name);
+        let space = skillmimic_env::registry::make(&c.env).unwrap_or_else(|e| panic!("{}: {e}", entry.name)).spec().action_space;
+        if !family.supports(&space) {
+            continue;
+        }
+        pairs += 1;
+        c.ppo.policy = family.name().to_string();
         let mut env = skillmimic_env::registry::make(&c.env).unwrap_or_else(|e| panic!("{}: {e}", entry.name));
         let spec = env.spec().clone();
         assert_eq!(spec.name, entry.name);
         let (n, d, a) = (env.num_envs(), spec.obs_dim, spec.act_dim());
-        // the policy families compatible with a continuous action space of width a
         let mut rng = <rand_chacha::ChaCha8Rng as rand::SeedableRng>::seed_from_u64(1);
-        let policy = Policy::new(d, a, &c.ppo, &mut rng);
+        let policy = Policy::build(d, space, &c.ppo, &mut rng).unwrap();
         let mut buf = InferenceBuffers::default();
-        let (mut mu, mut values, mut actions, mut neglogp) = (vec![0.0; n * a], vec![0.0; n], vec![0.0; n * a], vec![0.0; n]);
+        let o = policy.actor_outputs();
+        let (mut mu, mut values, mut actions, mut neglogp) = (vec![0.0; n * o], vec![0.0; n], vec![0.0; n * a], vec![0.0; n]);
         env.reset_all(Some(3));
         let (mut dones, mut reward_sum) = (0, 0.0f64);
         for step in 0..30 {
@@ -69,13 +93,15 @@ fn every_task_steps_with_every_compatible_policy_family() {
         let s = t.iteration().unwrap();
         assert!(s.mean_reward.is_finite() && s.actor_loss.is_finite() && s.critic_loss.is_finite(), "{}: {s:?}", entry.name);
         assert_eq!(s.reward_terms.len(), spec.term_names.len());
+        assert_eq!(s.low_level_samples, s.samples * spec.steps_per_action as u64);
         let _ = std::fs::remove_dir_all(&c.run.out_dir);
     }
+    assert!(pairs >= TASKS.len(), "every task has a compatible family");
 }
 
 #[test]
 fn an_unknown_task_is_a_clear_error() {
     let c = config("juggle", "unknown");
     let e = skillmimic_env::registry::make(&c.env).err().expect("unknown task rejected").to_string();
-    assert!(e.contains("env.task") && e.contains("juggle") && e.contains("imitation") && e.contains("stand"), "{e}");
+    assert!(e.contains("env.task") && e.contains("juggle") && e.contains("imitation") && e.contains("stand") && e.contains("heading") && e.contains("scoring"), "{e}");
 }

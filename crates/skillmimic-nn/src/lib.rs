@@ -5,11 +5,13 @@
 //! * [`network`]: the [`Network`] trait — PyTorch `state_dict` names/shapes and a candle forward;
 //! * [`mlp`]: Linear+ReLU MLPs with fast batched CPU inference ([`kernel`]: small-batch kernels);
 //! * [`normalizer`]: running mean/std normalisers (observations, values);
+//! * [`frozen`]: a frozen skill policy's deterministic actor with its normaliser (high-level tasks);
 //! * [`history`]: the SkillMimic-V2 history encoder (candle forward, plain pass, online buffer);
 //! * [`attention`]: multi-head attention and a transformer encoder layer (candle-nn), with the
 //!   parameter names of PyTorch's `nn.MultiheadAttention` / `nn.TransformerEncoderLayer`.
 
 pub mod attention;
+pub mod frozen;
 pub mod history;
 pub mod kernel;
 pub mod mlp;

@@ -1,7 +1,10 @@
 //! The registered tasks (see [`crate::registry`]).
 //!
 //! * [`imitation`]: SkillMimic imitation of human–ball clips, with the SkillMimic-V2 parts;
+//! * [`hlc`]: skill reuse — `heading`, `circling`, `throwing`, `scoring` over a frozen skill
+//!   policy (SkillMimic §5.4);
 //! * [`stand`]: keep the pelvis height and heading — the worked example of adding a task.
 
+pub mod hlc;
 pub mod imitation;
 pub mod stand;

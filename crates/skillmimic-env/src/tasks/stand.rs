@@ -55,6 +55,7 @@ impl Stand {
             max_episode_steps: cfg.episode_length,
             term_names: vec!["height", "heading", "total"],
             metric_names: vec!["height_err", "heading_err"],
+            steps_per_action: 1,
             info_names: Vec::new(),
         };
         Self { cfg, spec }

@@ -1,7 +1,9 @@
 //! `categorical_mlp`: a discrete choice among n, π(k|s) = softmax(ℓ(s))_k with logits ℓ from the
 //! actor MLP (n outputs). For discrete action spaces (a high-level policy choosing skills).
 //!
-//! Actions are sent as the index k in one float. `neglogp(k) = logsumexp(ℓ) − ℓ_k`. Extra loss:
+//! The logits layer starts Glorot-uniform (gain 1: U(±√(6/(fan_in + fan_out)))) with zero bias,
+//! as the SkillMimic high-level controller (reference-facts §8.3). Actions are sent as the index
+//! k in one float. `neglogp(k) = logsumexp(ℓ) − ℓ_k`. Extra loss:
 //! −c_e · mean entropy, entropy = −Σ_k π_k ln π_k (`ppo.entropy_coef`, 0 by default as in the
 //! papers' PPO settings). No family tensor in the checkpoint. PyTorch mirror:
 //! `skillmimic_rs.policy.CategoricalMlpPolicy`.
@@ -34,6 +36,17 @@ impl PolicyFamily for CategoricalMlp {
             ActionSpace::Discrete { n } => n,
             ActionSpace::Box { dim } => dim,
         }
+    }
+
+    fn init_output_layer(&self, actor: &mut skillmimic_nn::mlp::Mlp, rng: &mut dyn RngCore) {
+        let (fan_in, fan_out) = (actor.dims[actor.dims.len() - 2], actor.output_dim());
+        let a = (6.0 / (fan_in + fan_out) as f64).sqrt();
+        let mut params = actor.params_mut();
+        let k = params.len();
+        for w in params[k - 2].iter_mut() {
+            *w = rng.random_range(-a..a) as f32;
+        }
+        params[k - 1].fill(0.0);
     }
 
     /// Inverse-CDF sampling with one uniform draw per environment.

@@ -38,6 +38,9 @@ pub trait PolicyFamily: Send + Sync + 'static {
     }
     /// Actor output width for `space`.
     fn actor_outputs(&self, space: &ActionSpace) -> usize;
+    /// Re-initialise the actor's output layer after the default initialisation (default: keep
+    /// it). `rng` continues the policy's initialisation stream.
+    fn init_output_layer(&self, _actor: &mut skillmimic_nn::mlp::Mlp, _rng: &mut dyn RngCore) {}
     /// Sample actions (`n × space.width()`) from actor outputs `out` (`n × head.outputs`) and
     /// write their negative log-probabilities.
     fn sample(&self, head: Head<'_>, out: &[f32], n: usize, rng: &mut dyn RngCore, actions: &mut [f32], neglogp: &mut [f32]);

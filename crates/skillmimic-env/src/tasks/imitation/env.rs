@@ -66,6 +66,7 @@ impl Imitation {
             max_episode_steps: if cfg.fixed_horizon > 0 { cfg.fixed_horizon } else { cfg.episode_length - 1 },
             term_names: TERM_NAMES.to_vec(),
             metric_names: FRAME_METRIC_NAMES.to_vec(),
+            steps_per_action: 1,
             info_names: cg_names(cfg.reward.contact_graph).iter().map(|s| s.to_string()).collect(),
         };
         // random balls of ball-free clips are placed with the radius actually simulated

@@ -1,0 +1,258 @@
+//! Configuration of the high-level tasks of SkillMimic (seed 000 §5.4; reference-facts §8):
+//! `[env.hlc]` (shared mechanics) and one table per task, `[env.heading]`, `[env.circling]`,
+//! `[env.throwing]`, `[env.scoring]`. Defaults reproduce the released code; where the paper's
+//! formula differs it is the documented switch `reward = "paper"`.
+
+use std::path::PathBuf;
+
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+
+use crate::error::{ConfigError, bad};
+
+/// Which formula a task reward uses where the paper and the released code differ.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum Formula {
+    /// The released code (reference-facts §8.2), the default.
+    #[default]
+    Code,
+    /// The paper's equations (seed 000 eqs. 8–13).
+    Paper,
+}
+
+/// Options shared by the high-level tasks (`[env.hlc]`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct HlcConfig {
+    /// The frozen skill policy (a `gaussian_mlp` checkpoint of `skillmimic train` on the
+    /// imitation task, observation 902; `--llc` on the command line). It is only read.
+    #[schemars(extend("format" = "path"))]
+    pub llc: PathBuf,
+    /// Low-level steps each high-level choice is held for (3 = 20 Hz at the 60 Hz policy rate).
+    pub llc_steps: usize,
+    /// Episode length in low-level steps; an episode is truncated after `episode_length − 1`
+    /// steps (the released code resets when its progress counter reaches 799 with 800).
+    pub episode_length: usize,
+    /// Early termination when the root (pelvis) is below this height (m) after the first step.
+    pub termination_height: f64,
+    /// Every episode starts at this frame of a clip drawn from `env.motion` (class-balanced).
+    /// The original uses BallPlay-M `run` clips for heading, circling and scoring and
+    /// `turnhook` clips for throwing: pass them with `--motion`.
+    pub start_frame: usize,
+}
+
+impl Default for HlcConfig {
+    fn default() -> Self {
+        Self { llc: PathBuf::new(), llc_steps: 3, episode_length: 800, termination_height: 0.25, start_frame: 2 }
+    }
+}
+
+/// Where heading goals are drawn.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum GoalSampling {
+    /// goal = root + (U(min, max), U(min, max)): always in the world +x, +y quadrant (the code).
+    #[default]
+    Quadrant,
+    /// The same offset turned by a uniform angle in [0, 2π): any direction.
+    FullCircle,
+}
+
+/// `heading`: dribble the ball to a target (`[env.heading]`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct HeadingConfig {
+    /// Smallest goal offset per axis (m).
+    pub goal_min: f64,
+    /// Largest goal offset per axis (m).
+    pub goal_max: f64,
+    /// Goal directions.
+    pub goal_sampling: GoalSampling,
+    /// Height of the target point the ball is rewarded towards (m).
+    pub target_height: f64,
+    /// Reward: code exp(−‖ball − target‖), paper exp(−‖ball − target‖²).
+    pub reward: Formula,
+    /// Success: the ball comes within this distance (m) of the target point (paper = code).
+    pub success_radius: f64,
+}
+
+impl Default for HeadingConfig {
+    fn default() -> Self {
+        Self { goal_min: 2.0, goal_max: 8.0, goal_sampling: GoalSampling::Quadrant, target_height: 1.0, reward: Formula::Code, success_radius: 0.5 }
+    }
+}
+
+/// `circling`: dribble around the start point at a given radius (`[env.circling]`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct CirclingConfig {
+    /// Smallest radius (m).
+    pub radius_min: f64,
+    /// Largest radius (m).
+    pub radius_max: f64,
+    /// Ball speed (m/s) below which the reward is scaled by `slow_factor` (paper: ‖v‖² compared
+    /// with this value).
+    pub speed_threshold: f64,
+    /// Reward factor when the ball is slow.
+    pub slow_factor: f64,
+    /// Reward: code exp(−|‖ball_xy − c‖ − r|), paper exp(−|‖ball_xy − c‖² − r|) with the
+    /// squared-speed gate.
+    pub reward: Formula,
+    /// Paper success: a frame is valid when |‖ball_xy − c‖ − r| is below this (m) and the ball
+    /// is faster than `speed_threshold`; the success rate is the share of valid frames.
+    pub success_band: f64,
+    /// The code's latch: the ball came within this distance (m) of the centre.
+    pub code_latch_radius: f64,
+}
+
+impl Default for CirclingConfig {
+    fn default() -> Self {
+        Self { radius_min: 2.0, radius_max: 5.0, speed_threshold: 0.5, slow_factor: 0.1, reward: Formula::Code, success_band: 0.5, code_latch_radius: 0.3 }
+    }
+}
+
+/// `throwing`: throw the ball up to a height, catch the rebound, repeat (`[env.throwing]`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct ThrowingConfig {
+    /// Height the reward exp(−|z_ball − h|) pulls the ball to (m).
+    pub target_height: f64,
+    /// Success (paper): after the first throw the ball stays above `floor_height` for
+    /// `success_seconds`. The first throw is the first step on which the ball is above
+    /// `throw_height` (m) and touches nothing (our definition; the paper does not give one).
+    pub throw_height: f64,
+    /// Height (m) the ball must stay above after the first throw.
+    pub floor_height: f64,
+    /// Seconds after the first throw (60 low-level steps per second).
+    pub success_seconds: f64,
+}
+
+impl Default for ThrowingConfig {
+    fn default() -> Self {
+        Self { target_height: 2.5, throw_height: 1.5, floor_height: 0.3, success_seconds: 10.0 }
+    }
+}
+
+/// How the scoring task predicts where the ball passes the rim height.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum Prediction {
+    /// The released code's formula (reference-facts §8.2): t = (√(v_z² + 2g(z − h)) − v_z)/g,
+    /// with h = 0 when the apex is below the rim height.
+    #[default]
+    Code,
+    /// True ballistic motion: the descending crossing t = (v_z + √(v_z² + 2g(z − h)))/g; no
+    /// prediction (not reached) when the apex stays below h.
+    Ballistic,
+}
+
+/// `scoring`: dribble to a basket and lay the ball up into it (`[env.scoring]`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct ScoringConfig {
+    /// Smallest basket distance from the start root (m).
+    pub dist_min: f64,
+    /// Largest basket distance (m).
+    pub dist_max: f64,
+    /// Height of the basket point (m).
+    pub basket_height: f64,
+    /// "Reached" latch: predicted crossing within this horizontal distance (m) of the basket.
+    pub reach_radius: f64,
+    /// Rim height h of the prediction and the least ball height (m) for "reached".
+    pub reach_height: f64,
+    /// Prediction of the crossing point.
+    pub prediction: Prediction,
+    /// Any |component| of the ball's net contact force above this (N) counts as touching.
+    pub contact_force: f64,
+    /// Speed (m/s) of the gate (code: root speed ≥ it; paper: ball ‖v‖² > it).
+    pub speed_threshold: f64,
+    /// Reward factor when the gate is closed.
+    pub slow_factor: f64,
+    /// Reward: code gate × [exp(−0.5‖ball − basket‖) + 1{reached} + 0.2·exp(−|z − h_b|)];
+    /// paper gate × [exp(−‖ball − basket‖²) + 1{scored} + 0.2·exp(−|z − h_b|)].
+    pub reward: Formula,
+    /// Paper success (and the paper's bonus): the ball is higher than the basket point and
+    /// within this distance (m) of it.
+    pub success_radius: f64,
+}
+
+impl Default for ScoringConfig {
+    fn default() -> Self {
+        Self {
+            dist_min: 2.0,
+            dist_max: 8.0,
+            basket_height: 2.5,
+            reach_radius: 0.3,
+            reach_height: 2.0,
+            prediction: Prediction::Code,
+            contact_force: 0.1,
+            speed_threshold: 0.5,
+            slow_factor: 0.1,
+            reward: Formula::Code,
+            success_radius: 0.3,
+        }
+    }
+}
+
+fn positive(field: &str, v: f64) -> Result<(), ConfigError> {
+    if v.is_finite() && v > 0.0 { Ok(()) } else { Err(bad(field, format!("{v} must be a positive number"))) }
+}
+
+fn range(field: &str, lo: f64, hi: f64) -> Result<(), ConfigError> {
+    if lo.is_finite() && hi.is_finite() && 0.0 <= lo && lo <= hi { Ok(()) } else { Err(bad(field, format!("[{lo}, {hi}] is not a range 0 <= min <= max"))) }
+}
+
+impl HlcConfig {
+    /// Check the shared options.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        if self.llc.as_os_str().is_empty() {
+            return Err(bad("env.hlc.llc", "no skill policy given: pass the checkpoint of a skill policy with --llc (or set env.hlc.llc)"));
+        }
+        if self.llc_steps == 0 {
+            return Err(bad("env.hlc.llc_steps", "must be at least 1"));
+        }
+        if self.episode_length < 2 {
+            return Err(bad("env.hlc.episode_length", "must be at least 2 low-level steps"));
+        }
+        if self.start_frame < 2 {
+            return Err(bad("env.hlc.start_frame", format!("{} is below 2 (frames 0 and 1 have no velocity)", self.start_frame)));
+        }
+        if !self.termination_height.is_finite() {
+            return Err(bad("env.hlc.termination_height", "must be a finite number"));
+        }
+        Ok(())
+    }
+}
+
+impl HeadingConfig {
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        range("env.heading.goal_min", self.goal_min, self.goal_max)?;
+        positive("env.heading.success_radius", self.success_radius)
+    }
+}
+
+impl CirclingConfig {
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        range("env.circling.radius_min", self.radius_min, self.radius_max)?;
+        positive("env.circling.success_band", self.success_band)?;
+        positive("env.circling.code_latch_radius", self.code_latch_radius)
+    }
+}
+
+impl ThrowingConfig {
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        positive("env.throwing.throw_height", self.throw_height)?;
+        positive("env.throwing.success_seconds", self.success_seconds)
+    }
+}
+
+impl ScoringConfig {
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        range("env.scoring.dist_min", self.dist_min, self.dist_max)?;
+        positive("env.scoring.basket_height", self.basket_height)?;
+        positive("env.scoring.reach_radius", self.reach_radius)?;
+        positive("env.scoring.reach_height", self.reach_height)?;
+        positive("env.scoring.success_radius", self.success_radius)
+    }
+}

@@ -1,0 +1,82 @@
+//! `circling`: dribble around the start point at a given radius (seed 000 §5.4.3;
+//! reference-facts §8.2).
+//!
+//! * Choices → skills: 0 → 12, 1 → 13, 2 → 11 (as heading).
+//! * Task observation (5): `loc`, `bearing` of the centre, the radius r (m).
+//! * Goal: centre c = the start root_xy, r ~ U(2, 5) m.
+//! * Reward with d = ‖ball_xy − c‖ and the ball speed v = ‖v_ball‖ (3D, m/s): code
+//!   exp(−|d − r|) × (1 if v ≥ 0.5 else 0.1); paper exp(−|d² − r|) × (1 if v² > 0.5 else 0.1).
+//! * Success: paper — the share of frames with |d − r| < 0.5 m and v > 0.5 m/s (metric
+//!   `success`, the running share); code — latch when d < 0.3 m (metric `success_code`).
+//! * Metrics: `ring_err` |d − r| (m), `valid_frame` (0/1), `success`, `success_code`.
+//!   Info: `goal_x`, `goal_y`, `radius`.
+
+use rand::Rng;
+use rand_chacha::ChaCha8Rng;
+use skillmimic_sim::{BALL, EnvState};
+
+use super::{Goal, Rule, loc_bearing, norm};
+use crate::config::{CirclingConfig, EnvConfig, Formula};
+use crate::error::EnvError;
+use crate::vec_env::Env;
+
+/// The circling task's rule.
+pub struct Circling(pub CirclingConfig);
+
+impl Rule for Circling {
+    const NAME: &'static str = "circling";
+    fn labels(&self) -> &'static [u32] {
+        &[12, 13, 11]
+    }
+    fn task_obs_dim(&self) -> usize {
+        5
+    }
+    fn term_names(&self) -> Vec<&'static str> {
+        vec!["ring", "speed_gate", "circling"]
+    }
+    fn metric_names(&self) -> Vec<&'static str> {
+        vec!["ring_err", "valid_frame", "success", "success_code"]
+    }
+    fn info_names(&self) -> Vec<&'static str> {
+        vec!["goal_x", "goal_y", "radius"]
+    }
+    fn sample_goal(&self, root: [f64; 3], rng: &mut ChaCha8Rng) -> Goal {
+        let c = &self.0;
+        let radius = if c.radius_max > c.radius_min { rng.random_range(c.radius_min..c.radius_max) } else { c.radius_min };
+        Goal { xy: [root[0], root[1]], radius, ..Goal::default() }
+    }
+    fn task_obs(&self, g: &Goal, st: &EnvState<'_>, out: &mut [f32]) {
+        loc_bearing(g.xy, st, out);
+        out[4] = g.radius as f32;
+    }
+    fn reward(&self, g: &mut Goal, _step: u32, st: &EnvState<'_>, terms: &mut [f32], metrics: &mut [f32]) -> f64 {
+        let c = &self.0;
+        let b = st.pos(BALL);
+        let d = ((b[0] - g.xy[0]).powi(2) + (b[1] - g.xy[1]).powi(2)).sqrt();
+        let v = norm(st.linvel(BALL));
+        let (ring, gate) = match c.reward {
+            Formula::Code => ((-(d - g.radius).abs()).exp(), if v >= c.speed_threshold { 1.0 } else { c.slow_factor }),
+            Formula::Paper => ((-(d * d - g.radius).abs()).exp(), if v * v > c.speed_threshold { 1.0 } else { c.slow_factor }),
+        };
+        let err = (d - g.radius).abs();
+        let valid = err < c.success_band && v > c.speed_threshold;
+        g.frames += 1;
+        g.valid_frames += u32::from(valid);
+        if d < c.code_latch_radius {
+            g.code_success = true;
+        }
+        let r = ring * gate;
+        terms.copy_from_slice(&[ring as f32, gate as f32, r as f32]);
+        metrics.copy_from_slice(&[err as f32, f32::from(u8::from(valid)), g.valid_frames as f32 / g.frames as f32, f32::from(u8::from(g.code_success))]);
+        r
+    }
+    fn info(&self, g: &Goal, out: &mut [f32]) {
+        out.copy_from_slice(&[g.xy[0] as f32, g.xy[1] as f32, g.radius as f32]);
+    }
+}
+
+/// Registry constructor.
+pub fn build(cfg: &EnvConfig) -> Result<Box<dyn Env>, EnvError> {
+    cfg.circling.validate()?;
+    super::build(cfg, Circling(cfg.circling.clone()))
+}

@@ -1,0 +1,271 @@
+//! Skill reuse: the high-level tasks of SkillMimic (seed 000 §5.4, reference-facts §8) over a
+//! frozen skill policy.
+//!
+//! Mechanics (shared by every task, [`HighLevel`]): each high-level step the policy picks one of
+//! the task's `n` choices; the task's table maps it to a skill label; the skill policy's
+//! observation is the state part of the observation (entries 0..838, `obs::layout`) followed by
+//! the 64-wide one-hot of that label; the frozen policy (its own normaliser, deterministic mean,
+//! clamped to [−1, 1]) gives the PD targets. [`hold::HoldEnv`] holds the choice for
+//! `llc_steps` (3) low-level steps: the high-level reward is the mean of the low-level task
+//! rewards, done if any low-level step is done. An environment that finishes inside the
+//! 3 steps ends its transition there (reward = mean over the steps up to and including the
+//! finishing one, its terminal observation kept); the remaining low-level steps of that
+//! environment are simulated and discarded, and it is reset at the end of the high-level step
+//! (the released code lets the new episode's first steps leak into the old transition).
+//!
+//! Observation (high level): the 838 state entries (heading frame, see `obs.rs`) | the task part:
+//! * `loc` (2): (goal_xy − root_xy) turned into the heading frame (m);
+//! * `bearing` (2): (cos θ, sin θ), θ = atan2(goal − root) in the **world** frame (what the
+//!   released code's formula reduces to);
+//! * per task: the circling radius (m), the scoring "reached" flag (0/1).
+//!
+//! Episodes: start at frame `start_frame` (2) of a clip drawn class-balanced from `env.motion`
+//! (reference-state initialisation; ball-free clips get a random ball); early termination when the
+//! root is below `termination_height` (0.25 m) after the first step; truncation after
+//! `episode_length − 1` (799) low-level steps. Info entries: the current episode's goal.
+//!
+//! A task = one module with a [`Rule`] (choices, task observation, goal sampling, reward and
+//! success bookkeeping) and a `build` line in the registry.
+
+pub mod circling;
+pub mod heading;
+pub mod hold;
+pub mod scoring;
+pub mod throwing;
+
+use std::sync::Arc;
+
+use rand_chacha::ChaCha8Rng;
+use skillmimic_core::math::{Quat, heading_inverse};
+use skillmimic_core::skeleton::NUM_DOFS;
+use skillmimic_motion::{MotionLibrary, SKILL_WIDTH};
+use skillmimic_nn::frozen::FrozenActor;
+use skillmimic_sim::{BALL, EnvState, ResetState, Scene};
+
+use crate::config::EnvConfig;
+use crate::episode::{Episode, random_ball, reset_state_from_clip};
+use crate::error::{EnvError, bad};
+use crate::obs::{layout, write_skill, write_state_obs};
+use crate::task::{ActionSpace, StepOut, Task, TaskSpec};
+use crate::tasks::imitation::load_motion_library;
+use crate::vec_env::{Env, VecEnv};
+
+pub use hold::HoldEnv;
+
+/// Low-level steps per second (policy rate).
+pub const LL_HZ: f64 = 60.0;
+
+/// Per-episode goal and success bookkeeping (the fields a task does not use stay at default).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Goal {
+    /// Target (heading), centre (circling) or basket (scoring) position, world xy (m).
+    pub xy: [f64; 2],
+    /// Circling radius (m).
+    pub radius: f64,
+    /// Scoring: the code's "reached" latch (also its task observation flag).
+    pub reached: bool,
+    /// The paper's success rule, latched (heading, throwing, scoring).
+    pub success: bool,
+    /// The released code's success latch (heading, circling, scoring).
+    pub code_success: bool,
+    /// Circling: valid frames and frames so far (paper success = their ratio).
+    pub valid_frames: u32,
+    pub frames: u32,
+    /// Throwing: low-level step of the first throw, and whether the ball went below the floor
+    /// height since.
+    pub throw_step: Option<u32>,
+    pub dropped: bool,
+}
+
+/// What a high-level task defines (the mechanics are [`HighLevel`]'s).
+pub trait Rule: Send + Sync + 'static {
+    /// Registry name.
+    const NAME: &'static str;
+    /// Skill label of each choice (`control_mapping`).
+    fn labels(&self) -> &'static [u32];
+    /// Width of the task part of the observation.
+    fn task_obs_dim(&self) -> usize;
+    /// Reward terms (the last is the task reward).
+    fn term_names(&self) -> Vec<&'static str>;
+    /// Per-step metrics (success entries are read at the end of an episode).
+    fn metric_names(&self) -> Vec<&'static str>;
+    /// Goal entries written as task information.
+    fn info_names(&self) -> Vec<&'static str>;
+    /// The goal of an episode starting with the root at `root` (world, m).
+    fn sample_goal(&self, root: [f64; 3], rng: &mut ChaCha8Rng) -> Goal;
+    /// The task part of the observation.
+    fn task_obs(&self, g: &Goal, st: &EnvState<'_>, out: &mut [f32]);
+    /// Reward of the state after low-level step `step` (1-based) with its terms and metrics;
+    /// updates the goal's latches.
+    fn reward(&self, g: &mut Goal, step: u32, st: &EnvState<'_>, terms: &mut [f32], metrics: &mut [f32]) -> f64;
+    /// The goal entries (`info_names` order).
+    fn info(&self, g: &Goal, out: &mut [f32]);
+}
+
+/// `loc` and `bearing` of a goal (4 values; see the module doc).
+pub fn loc_bearing(goal: [f64; 2], st: &EnvState<'_>, out: &mut [f32]) {
+    let root = st.pos(0);
+    let d = [goal[0] - root[0], goal[1] - root[1], 0.0];
+    let hinv: Quat = heading_inverse(st.quat(0));
+    let loc = hinv.rotate(d);
+    let theta = d[1].atan2(d[0]);
+    out[..4].copy_from_slice(&[loc[0] as f32, loc[1] as f32, theta.cos() as f32, theta.sin() as f32]);
+}
+
+/// Euclidean norm.
+pub fn norm(v: [f64; 3]) -> f64 {
+    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
+}
+
+/// Ball position minus `p` (world, m).
+pub fn ball_to(st: &EnvState<'_>, p: [f64; 3]) -> [f64; 3] {
+    let b = st.pos(BALL);
+    [b[0] - p[0], b[1] - p[1], b[2] - p[2]]
+}
+
+/// Per-environment state: low-level steps of the episode and its goal.
+#[derive(Clone, Debug, Default)]
+pub struct HlSlot {
+    pub progress: u32,
+    pub goal: Goal,
+}
+
+/// A high-level task at low-level granularity (one physics step per call; [`HoldEnv`] repeats
+/// it `llc_steps` times per high-level step).
+pub struct HighLevel<R: Rule> {
+    pub rule: R,
+    cfg: crate::config::HlcConfig,
+    lib: Arc<MotionLibrary>,
+    spec: TaskSpec,
+    llc: FrozenActor,
+    threads: usize,
+    ball_radius: f64,
+    /// `N × 902` skill-policy observations of the last low-level step.
+    llc_obs: Vec<f32>,
+    /// Skill label applied in the last low-level step, per environment.
+    pub(crate) skills: Vec<u32>,
+}
+
+impl<R: Rule> HighLevel<R> {
+    /// The task over `lib` with the frozen skill policy loaded from `cfg.hlc.llc`.
+    pub fn new(rule: R, cfg: &EnvConfig, lib: Arc<MotionLibrary>, ball_radius: f64) -> Result<Self, EnvError> {
+        let h = &cfg.hlc;
+        let llc = FrozenActor::load(&h.llc)?;
+        if llc.obs_dim() != layout::OBS_DIM || llc.act_dim() != NUM_DOFS {
+            let msg = format!(
+                "{}: a skill policy for observations of {} and actions of {}; the high-level tasks drive a SkillMimic skill policy with observation {} and {NUM_DOFS} actions (SkillMimic-V2 policies with a history embedding are not supported here)",
+                h.llc.display(),
+                llc.obs_dim(),
+                llc.act_dim(),
+                layout::OBS_DIM
+            );
+            return Err(bad("env.hlc.llc", msg).into());
+        }
+        let n = rule.labels().len();
+        let spec = TaskSpec {
+            name: R::NAME,
+            obs_dim: layout::STATE_DIM + rule.task_obs_dim(),
+            action_space: ActionSpace::Discrete { n },
+            max_episode_steps: h.episode_length - 1,
+            term_names: rule.term_names(),
+            metric_names: rule.metric_names(),
+            info_names: rule.info_names().iter().map(|s| s.to_string()).collect(),
+            steps_per_action: 1,
+        };
+        let threads = if cfg.threads == 0 { rayon::current_num_threads() } else { cfg.threads };
+        Ok(Self { rule, cfg: h.clone(), lib, spec, llc, threads, ball_radius, llc_obs: Vec::new(), skills: vec![0; cfg.num_envs] })
+    }
+
+    /// The frozen skill policy.
+    pub fn llc(&self) -> &FrozenActor {
+        &self.llc
+    }
+    /// `N × 902` skill-policy observations of the last low-level step.
+    pub fn llc_observations(&self) -> &[f32] {
+        &self.llc_obs
+    }
+
+    fn write_obs(&self, slot: &HlSlot, st: &EnvState<'_>, obs: &mut [f32]) {
+        write_state_obs(st, &mut obs[..layout::STATE_DIM]);
+        self.rule.task_obs(&slot.goal, st, &mut obs[layout::STATE_DIM..]);
+    }
+}
+
+impl<R: Rule> Task for HighLevel<R> {
+    type Slot = HlSlot;
+
+    fn spec(&self) -> &TaskSpec {
+        &self.spec
+    }
+    fn new_slot(&self) -> HlSlot {
+        HlSlot::default()
+    }
+
+    fn plan_reset(&mut self, _i: usize, slot: &mut HlSlot, rng: &mut ChaCha8Rng, state: &mut ResetState) {
+        let clip = self.lib.sample_clip(rng);
+        let m = self.lib.get(clip);
+        let frame = self.cfg.start_frame.min(m.clip.num_frames - 2);
+        *state = reset_state_from_clip(m, frame);
+        if Episode::new(m, clip, frame, 2).ball_free {
+            random_ball(state, self.ball_radius, rng);
+        }
+        *slot = HlSlot { progress: 0, goal: self.rule.sample_goal(state.root_pos, rng) };
+    }
+
+    fn after_reset(&self, _i: usize, slot: &mut HlSlot, st: &EnvState<'_>, obs: &mut [f32]) {
+        self.write_obs(slot, st, obs);
+    }
+
+    fn step_env(&self, _i: usize, slot: &mut HlSlot, st: &EnvState<'_>, out: StepOut<'_>) {
+        slot.progress += 1;
+        let r = self.rule.reward(&mut slot.goal, slot.progress, st, out.terms, out.metrics);
+        *out.reward = r as f32;
+        self.rule.info(&slot.goal, out.info);
+        self.write_obs(slot, st, out.obs);
+        let fell = st.pos(0)[2] < self.cfg.termination_height && slot.progress > 1;
+        *out.terminated = u8::from(fell || st.unstable);
+        *out.truncated = u8::from(*out.terminated == 0 && slot.progress as usize >= self.cfg.episode_length - 1);
+    }
+
+    fn observe(&self, slot: &HlSlot, st: &EnvState<'_>, obs: &mut [f32]) {
+        self.write_obs(slot, st, obs);
+    }
+
+    fn transforms_actions(&self) -> bool {
+        true
+    }
+
+    /// Choice → skill label → the frozen skill policy's PD targets.
+    fn actions_to_targets(&mut self, _slots: &[HlSlot], obs: &[f32], actions: &[f32], targets: &mut [f32]) -> Result<(), EnvError> {
+        let (n, d, labels) = (actions.len(), self.spec.obs_dim, self.rule.labels());
+        self.llc_obs.resize(n * layout::OBS_DIM, 0.0);
+        self.skills.resize(n, 0);
+        for (i, &a) in actions.iter().enumerate() {
+            if !(a >= 0.0 && (a as usize) < labels.len() && a.fract() == 0.0) {
+                return Err(EnvError::DiscreteAction { env: i, value: a, n: labels.len() });
+            }
+            let row = &mut self.llc_obs[i * layout::OBS_DIM..(i + 1) * layout::OBS_DIM];
+            row[..layout::STATE_DIM].copy_from_slice(&obs[i * d..i * d + layout::STATE_DIM]);
+            self.skills[i] = labels[a as usize];
+            write_skill(self.skills[i], &mut row[layout::SKILL]);
+        }
+        debug_assert_eq!(layout::SKILL.len(), SKILL_WIDTH);
+        self.llc.act(&self.llc_obs, n, self.threads, targets);
+        Ok(())
+    }
+}
+
+/// Build the high-level environment of `rule` from `[env]` (driver keys, `motion`), `[env.hlc]`.
+pub fn build<R: Rule>(cfg: &EnvConfig, rule: R) -> Result<Box<dyn Env>, EnvError> {
+    cfg.validate_driver()?;
+    cfg.hlc.validate()?;
+    if cfg.motion.is_empty() {
+        return Err(bad("env.motion", "no clip file or folder given (the high-level episodes start from clip frames)").into());
+    }
+    let lib = Arc::new(load_motion_library(&cfg.motion)?);
+    let scene = Arc::new(Scene::new(cfg.scene_options()?)?);
+    let ball_radius = scene.options().ball.radius;
+    let task = HighLevel::new(rule, cfg, lib, ball_radius)?;
+    let inner = VecEnv::with_task(task, scene, cfg.num_envs, cfg.threads, cfg.start_seed(0))?;
+    Ok(Box::new(HoldEnv::new(inner, cfg.hlc.llc_steps)))
+}

@@ -1,0 +1,214 @@
+//! The high-level tasks over a frozen skill policy:
+//! * the skill policy inside the environment gives bit-identical PD targets to the same
+//!   checkpoint's standalone inference (the learner's `Policy`) on the same observations;
+//! * holding a choice for 3 low-level steps = 3 steps of the 1-step environment (mean reward,
+//!   terminal observation), also when an episode ends inside the 3 steps;
+//! * bad skill policies and bad actions are clear errors.
+
+use std::path::PathBuf;
+
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use skillmimic_env::EnvConfig;
+use skillmimic_env::tasks::hlc::HoldEnv;
+use skillmimic_env::tasks::hlc::heading::Heading;
+use skillmimic_learn::checkpoint::{self, Progress};
+use skillmimic_learn::config::PpoConfig;
+use skillmimic_learn::policy::{InferenceBuffers, Policy};
+
+fn workspace_root() -> PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+/// A skill policy checkpoint (902 → 156, small widths) with a non-trivial normaliser.
+pub fn write_llc(tag: &str) -> PathBuf {
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    let cfg = PpoConfig {
+        hidden: vec![64, 32],
+        ..Default::default()
+    };
+    let mut p = Policy::new(902, 156, &cfg, &mut rng);
+    let x: Vec<f32> = (0..902 * 64).map(|_| rng.random_range(-3.0..3.0)).collect();
+    p.obs_norm.update(&x);
+    // larger output weights so that some means leave [−1, 1] and the clamp matters
+    for w in p.actor.params_mut().into_iter().rev().skip(1).take(1) {
+        w.iter_mut().for_each(|v| *v *= 20.0);
+    }
+    let dir = std::env::temp_dir().join(format!("skillmimic-hlc-{tag}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("llc.safetensors");
+    checkpoint::save(&path, &p, None, &Progress::default(), "").unwrap();
+    path
+}
+
+fn config(task: &str, llc: &PathBuf, n: usize) -> EnvConfig {
+    let mut c = EnvConfig {
+        task: task.into(),
+        num_envs: n,
+        threads: 2,
+        ..Default::default()
+    };
+    c.motion = vec![workspace_root().join("motions")];
+    c.hlc.llc = llc.clone();
+    c
+}
+
+fn heading(c: &EnvConfig) -> Box<dyn skillmimic_env::Env> {
+    skillmimic_env::registry::make(c).unwrap()
+}
+
+#[test]
+fn the_skill_policy_inside_the_task_equals_standalone_inference_bit_for_bit() {
+    let llc = write_llc("bits");
+    let mut env = heading(&config("heading", &llc, 6));
+    let standalone = checkpoint::load(&llc, Some((902, 156))).unwrap().policy;
+    let mut rng = ChaCha8Rng::seed_from_u64(5);
+    let mut clamped = 0usize;
+    for _ in 0..20 {
+        let actions: Vec<f32> = (0..6).map(|_| rng.random_range(0..3) as f32).collect();
+        env.step(&actions).unwrap();
+        env.reset_done();
+        let hold = env.as_any().downcast_ref::<HoldEnv<Heading>>().unwrap();
+        let obs = hold.inner().task().llc_observations().to_vec();
+        // the observation: state part of the high-level observation | one-hot of the label
+        for i in 0..6 {
+            let label = [12, 13, 11][actions[i] as usize];
+            assert_eq!(obs[i * 902 + 838 + label], 1.0);
+            assert_eq!(obs[i * 902 + 838..(i + 1) * 902].iter().sum::<f32>(), 1.0);
+        }
+        for threads in [1, 2] {
+            let (mut mu, mut v, mut a) = (vec![0.0; 6 * 156], vec![0.0; 6], vec![0.0; 6 * 156]);
+            standalone.infer(
+                &obs,
+                6,
+                &mut InferenceBuffers::default(),
+                &mut mu,
+                &mut v,
+                threads,
+            );
+            standalone.mode(&mu, 6, &mut a);
+            clamped += a.iter().filter(|x| x.abs() > 1.0).count();
+            let a: Vec<f32> = a.iter().map(|x| x.clamp(-1.0, 1.0)).collect();
+            let got = hold.last_targets();
+            assert!(
+                a.iter().zip(got).all(|(x, y)| x.to_bits() == y.to_bits()),
+                "targets differ from standalone inference (threads {threads})"
+            );
+        }
+    }
+    assert!(clamped > 0, "the test policy should exercise the clamp");
+}
+
+#[test]
+fn holding_a_choice_equals_three_single_steps_also_across_a_reset() {
+    let llc = write_llc("hold");
+    for term_h in [0.25, 5.0] {
+        // 5 m: every episode terminates at its second low-level step (inside the first hold)
+        let mut c3 = config("heading", &llc, 4);
+        c3.hlc.termination_height = term_h;
+        c3.threads = 1;
+        let mut c1 = c3.clone();
+        c1.hlc.llc_steps = 1;
+        let (mut e3, mut e1) = (heading(&c3), heading(&c1));
+        assert_eq!(e3.spec().max_episode_steps, 799usize.div_ceil(3));
+        assert_eq!(e3.spec().steps_per_action, 3);
+        assert_eq!(e3.buffers().obs, e1.buffers().obs);
+        let mut rng = ChaCha8Rng::seed_from_u64(2);
+        let mut resets = 0;
+        for _ in 0..12 {
+            let actions: Vec<f32> = (0..4).map(|_| rng.random_range(0..3) as f32).collect();
+            e3.step(&actions).unwrap();
+            let (mut sum, mut count, mut done) = (vec![0.0f32; 4], vec![0usize; 4], vec![false; 4]);
+            let mut last_obs = e1.buffers().obs.clone();
+            for _ in 0..3 {
+                if done.iter().all(|&d| d) {
+                    break;
+                }
+                e1.step(&actions).unwrap();
+                let b = e1.buffers();
+                for i in 0..4 {
+                    if !done[i] {
+                        sum[i] += b.reward[i];
+                        count[i] += 1;
+                        last_obs[i * 842..(i + 1) * 842]
+                            .copy_from_slice(&b.obs[i * 842..(i + 1) * 842]);
+                        done[i] = b.terminated[i] != 0 || b.truncated[i] != 0;
+                    }
+                }
+            }
+            let b3 = e3.buffers();
+            for i in 0..4 {
+                assert_eq!(
+                    b3.reward[i],
+                    sum[i] / count[i] as f32,
+                    "env {i}: mean of the low-level rewards"
+                );
+                assert_eq!(b3.terminated[i] != 0 || b3.truncated[i] != 0, done[i]);
+            }
+            assert_eq!(
+                b3.obs, last_obs,
+                "the observation of the transition's last counted step"
+            );
+            resets += done.iter().filter(|&&d| d).count();
+            // the 1-step environment went on stepping the finished ones: reset both the same way
+            let mask = done.clone();
+            e3.reset_envs(&mask);
+            e1.reset_envs(&mask);
+            assert_eq!(
+                e3.buffers().obs,
+                e1.buffers().obs,
+                "new episodes start identically"
+            );
+            assert_eq!(
+                e3.buffers().info,
+                e1.buffers().info,
+                "and with the same goals"
+            );
+        }
+        if term_h > 1.0 {
+            assert!(resets >= 12 * 4, "every transition ends inside the hold");
+        }
+    }
+}
+
+#[test]
+fn bad_skill_policies_and_actions_are_clear_errors() {
+    let llc = write_llc("bad");
+    let mut env = heading(&config("heading", &llc, 2));
+    let e = env.step(&[0.0, 3.0]).unwrap_err().to_string();
+    assert!(e.contains("environment 1") && e.contains("0..3"), "{e}");
+    let e = env.step(&[0.5, 1.0]).unwrap_err().to_string();
+    assert!(e.contains("0.5"), "{e}");
+    let e = skillmimic_env::registry::make(&config("heading", &PathBuf::new(), 2))
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(e.contains("env.hlc.llc") && e.contains("--llc"), "{e}");
+    let e = skillmimic_env::registry::make(&config(
+        "heading",
+        &PathBuf::from("/nonexistent/llc.safetensors"),
+        2,
+    ))
+    .err()
+    .unwrap()
+    .to_string();
+    assert!(e.contains("/nonexistent/llc.safetensors"), "{e}");
+    // a policy of another size (a stand policy: observation 826)
+    let mut rng = ChaCha8Rng::seed_from_u64(1);
+    let p = Policy::new(
+        826,
+        156,
+        &PpoConfig {
+            hidden: vec![8],
+            ..Default::default()
+        },
+        &mut rng,
+    );
+    let other = llc.with_file_name("stand.safetensors");
+    checkpoint::save(&other, &p, None, &Progress::default(), "").unwrap();
+    let e = skillmimic_env::registry::make(&config("scoring", &other, 2))
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(e.contains("826") && e.contains("902"), "{e}");
+}
