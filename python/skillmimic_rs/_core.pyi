@@ -59,6 +59,14 @@ class CoreEnv:
     def term_names(self) -> list[str]:
         """Columns of ``reward_terms()``."""
     @property
+    def steps_per_action(self) -> int:
+        """Simulation steps per policy step (3 for the high-level tasks)."""
+    @property
+    def choice_labels(self) -> list[int]:
+        """Skill label of each discrete choice (high-level tasks); empty otherwise."""
+    def set_task_info(self, i: int, values: npt.NDArray[np.float32], obs_out: npt.NDArray[np.float32]) -> None:
+        """Move environment i's goal (values in ``cg_names`` order) and write the observations."""
+    @property
     def cg_names(self) -> list[str]:
         """Contact-graph entries of the configured mode."""
     @property
@@ -95,6 +103,8 @@ class CoreEnv:
         """(N, 4) contact-graph entries of the last step (padded)."""
     def frame_metrics(self) -> npt.NDArray[np.float32]:
         """(N, 4) evaluation errors of the last step."""
+    def pd_targets(self) -> npt.NDArray[np.float32]:
+        """(N, 156) PD targets applied in the last simulation step ((N, 0) when the actions are the targets)."""
     def episode_info(self) -> dict[str, npt.NDArray[np.int64]]:
         """clip, ref_start, ref_frame, progress, length, skill per environment."""
     def get_qpos(self, i: int) -> npt.NDArray[np.float64]: ...

@@ -75,6 +75,10 @@ class VecEnv(gym.vector.VectorEnv):
             ``skillmimic_rs.TASKS``); the same as the config key ``task``.
         config: a dict of ``[env]`` config fields or a path to a TOML config file (CLI format).
             Unknown keys raise ``ValueError``.
+        llc: the skill policy checkpoint a high-level task (``"heading"``, ``"circling"``,
+            ``"throwing"``, ``"scoring"``) drives (the config key ``hlc.llc``). Their actions are
+            integer choices (``Discrete``); a step holds each for ``steps_per_action`` (3)
+            simulation steps.
         autoreset_mode: ``"same_step"`` (default) or ``"disabled"``.
         copy: return copies of the internal buffers (default, safe); ``False`` returns the
             buffers themselves, which the next call overwrites.
@@ -93,6 +97,7 @@ class VecEnv(gym.vector.VectorEnv):
         config: Mapping[str, Any] | str | os.PathLike | None = None,
         *,
         task: str | None = None,
+        llc: str | os.PathLike | None = None,
         autoreset_mode: str | AutoresetMode = "same_step",
         copy: bool = True,
         render_mode: str | None = None,
@@ -107,6 +112,8 @@ class VecEnv(gym.vector.VectorEnv):
         cfg.update(overrides)
         if task is not None:
             cfg["task"] = task
+        if llc is not None:
+            cfg["hlc"] = dict(cfg.get("hlc", {}), llc=str(llc))
         cfg["num_envs"] = num_envs
         cfg.setdefault("motion", [BUILTIN_DEMO])
         cfg["motion"] = [str(m) for m in cfg["motion"]]
@@ -156,9 +163,19 @@ class VecEnv(gym.vector.VectorEnv):
         return self._out(self._obs), self._info(step=False)
 
     def step(self, actions):
-        """One 60 Hz policy step. Returns ``(obs, reward, terminated, truncated, info)``."""
+        """One policy step (60 Hz; high-level tasks: 20 Hz). Returns ``(obs, reward, terminated,
+        truncated, info)``."""
         self._check_open()
         a = np.asarray(actions)
+        if isinstance(self.single_action_space, gym.spaces.Discrete):
+            k = int(self.single_action_space.n)
+            if a.shape not in ((self.num_envs,), (self.num_envs, 1)):
+                raise ValueError(f"actions: expected {self.num_envs} integer choices, shape ({self.num_envs},), got {a.shape}")
+            if not np.issubdtype(a.dtype, np.integer) or a.min() < 0 or a.max() >= k:
+                raise ValueError(f"actions: expected integer choices in 0..{k}, got dtype {a.dtype} with values {a.min()}..{a.max()}")
+            a = np.ascontiguousarray(a.reshape(self.num_envs, 1), dtype=np.float32)
+            self._core.step(a, self._obs, self._rew, self._term, self._trunc, self._final_obs, self._final_mask)
+            return self._out(self._obs), self._out(self._rew), self._out(self._term), self._out(self._trunc), self._info(step=True)
         if a.shape != (self.num_envs, self.single_action_space.shape[0]):
             raise ValueError(f"actions: expected shape {(self.num_envs, self.single_action_space.shape[0])}, got {a.shape}")
         if not np.issubdtype(a.dtype, np.floating):
@@ -205,6 +222,41 @@ class VecEnv(gym.vector.VectorEnv):
     def contact_graph_names(self) -> list[str]:
         """Columns of ``info["contact_graph"]`` (the configured contact-graph mode)."""
         return list(self._core.cg_names)
+
+    @property
+    def task_info_names(self) -> list[str]:
+        """Columns of ``info["task_info"]`` (high-level tasks: the current episode's goal, e.g.
+        ``goal_x``, ``goal_y`` in world metres)."""
+        return list(self._core.cg_names)
+
+    @property
+    def steps_per_action(self) -> int:
+        """Simulation steps per policy step (3 for the high-level tasks)."""
+        return int(self._core.steps_per_action)
+
+    @property
+    def choice_labels(self) -> list[int]:
+        """Skill label of each discrete choice of a high-level task (``control_mapping``)."""
+        return list(self._core.choice_labels)
+
+    def set_task_info(self, i: int, values) -> np.ndarray:
+        """Move environment ``i``'s goal (``task_info_names`` order, world metres) and return the new
+        observations (all environments)."""
+        self._check_open()
+        self._core.set_task_info(int(i), np.ascontiguousarray(values, dtype=np.float32), self._obs)
+        return self._out(self._obs)
+
+    def pd_targets(self) -> np.ndarray:
+        """``(num_envs, 156)`` PD targets in [-1, 1] applied in the last simulation step (the frozen
+        skill policy's actions in a high-level task; empty columns when the actions are the targets)."""
+        self._check_open()
+        return self._core.pd_targets()
+
+    def task_info(self) -> np.ndarray:
+        """``(num_envs, k)`` task information (high-level tasks: the goal of each environment's current
+        episode, also right after a reset)."""
+        self._check_open()
+        return self._core.contact_graph()
 
     @property
     def frame_metric_names(self) -> list[str]:
@@ -306,8 +358,10 @@ class VecEnv(gym.vector.VectorEnv):
         if step:
             # columns: reward_term_names, contact_graph_names (task info), frame_metric_names
             info["reward_terms"], info["_reward_terms"] = self._core.reward_terms(), every
-            if self._core.cg_names:
+            if self._core.cg_names and self._core.task == "imitation":
                 info["contact_graph"], info["_contact_graph"] = self.contact_graph(), every
+            elif self._core.cg_names:
+                info["task_info"], info["_task_info"] = self.task_info(), every
             info["frame_metrics"], info["_frame_metrics"] = self._core.frame_metrics(), every
             if self.metadata["autoreset_mode"] == AutoresetMode.SAME_STEP and self._final_mask.any():
                 final = np.empty(n, dtype=object)

@@ -13,6 +13,7 @@ use skillmimic_learn::policy::{InferenceBuffers, Policy};
 use skillmimic_sim::{BatchSim, Scene};
 
 use crate::common::{ConfigFlags, load_checkpoint};
+use crate::markers::{Marker, task_markers};
 use crate::video::{Frames, SceneRenderer, write_video};
 
 #[derive(clap::Args)]
@@ -50,8 +51,22 @@ pub struct Args {
     pub stochastic: bool,
 }
 
-/// qpos of every step of a rollout of `policy` in one environment (auto-reset on episode end).
-pub fn rollout_states(policy: &Policy, env: &mut dyn Env, steps: usize, stochastic: bool, seed: u64) -> anyhow::Result<Vec<Vec<f64>>> {
+/// A filmed rollout: qpos of environment 0 after every policy step and its task information
+/// row (the goal of a high-level task; empty rows otherwise).
+pub struct Rollout {
+    pub qpos: Vec<Vec<f64>>,
+    pub info: Vec<Vec<f32>>,
+}
+
+/// Environment 0's state and information row.
+fn snapshot(env: &dyn Env, r: &mut Rollout) {
+    let ni = env.spec().info_names.len();
+    r.qpos.push(env.sim().qpos(0).to_vec());
+    r.info.push(env.buffers().info[..ni].to_vec());
+}
+
+/// Rollout of `policy` in one environment (auto-reset on episode end).
+pub fn rollout_states(policy: &Policy, env: &mut dyn Env, steps: usize, stochastic: bool, seed: u64) -> anyhow::Result<Rollout> {
     use rand::SeedableRng;
     if (env.obs_dim(), env.act_dim()) != (policy.obs_dim(), policy.act_dim()) {
         bail!("the policy takes observations of {} and gives actions of {}; task '{}' has {} and {}", policy.obs_dim(), policy.act_dim(), env.spec().name, env.obs_dim(), env.act_dim());
@@ -62,7 +77,8 @@ pub fn rollout_states(policy: &Policy, env: &mut dyn Env, steps: usize, stochast
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     let mut buf = InferenceBuffers::default();
     let (mut mu, mut v, mut act, mut nl) = (vec![0.0; n * o], vec![0.0; n], vec![0.0; n * a], vec![0.0; n]);
-    let mut states = vec![env.sim().qpos(0).to_vec()];
+    let mut states = Rollout { qpos: Vec::new(), info: Vec::new() };
+    snapshot(env, &mut states);
     for _ in 0..steps {
         policy.infer(&env.buffers().obs, n, &mut buf, &mut mu, &mut v, 0);
         if stochastic {
@@ -71,26 +87,44 @@ pub fn rollout_states(policy: &Policy, env: &mut dyn Env, steps: usize, stochast
             policy.mode(&mu, n, &mut act);
         }
         env.step(&act)?;
-        states.push(env.sim().qpos(0).to_vec());
+        snapshot(env, &mut states);
     }
     Ok(states)
 }
 
-/// Render `states` (every `stride`-th) into frames.
-pub fn render_states(model: &Arc<mujoco_rs::prelude::MjModel>, states: &[Vec<f64>], stride: usize, w: usize, h: usize, fps: u32) -> anyhow::Result<Frames> {
+/// Render `states` (every `stride`-th) into frames, with the markers of `markers[k]` on frame k's
+/// state when given.
+#[allow(clippy::too_many_arguments)]
+pub fn render_states(model: &Arc<mujoco_rs::prelude::MjModel>, states: &[Vec<f64>], markers: Option<&[Vec<Marker>]>, stride: usize, w: usize, h: usize, fps: u32) -> anyhow::Result<Frames> {
     let mut r = SceneRenderer::new(model, w, h)?;
     let mut rgb = Vec::new();
-    for q in states.iter().step_by(stride.max(1)) {
-        rgb.push(r.render(q)?);
+    for (k, q) in states.iter().enumerate().step_by(stride.max(1)) {
+        rgb.push(r.render_marked(q, markers.map_or(&[][..], |m| &m[k]))?);
     }
     Ok(Frames { width: w, height: h, fps, rgb })
 }
 
+/// Frame stride and video rate for states recorded every `steps_per_action` simulation steps
+/// (60 Hz) at a requested `fps`.
+pub fn video_rate(steps_per_action: usize, fps: u32) -> (usize, u32) {
+    let rate = (60 / steps_per_action.max(1)).max(1) as u32;
+    let stride = (rate / fps.max(1)).max(1);
+    (stride as usize, rate / stride)
+}
+
+/// Render a rollout of a task's environment: its markers from the information rows.
+fn render_rollout(env: &dyn Env, cfg: &skillmimic_env::EnvConfig, r: &Rollout, fps: u32, w: usize, h: usize) -> anyhow::Result<Frames> {
+    let names = &env.spec().info_names;
+    let markers: Vec<Vec<Marker>> = r.info.iter().map(|row| task_markers(cfg, names, row)).collect();
+    let (stride, fps) = video_rate(env.spec().steps_per_action, fps);
+    render_states(env.sim().scene().model(), &r.qpos, Some(&markers), stride, w, h, fps)
+}
+
 /// Roll out `policy` deterministically in `env` (its first environment is filmed) for `steps`
 /// steps from seed `seed` and write a video.
-pub fn render_policy_video(policy: &Policy, mut env: Box<dyn Env>, seed: u64, steps: usize, path: &Path, w: usize, h: usize) -> anyhow::Result<()> {
+pub fn render_policy_video(policy: &Policy, mut env: Box<dyn Env>, cfg: &skillmimic_env::EnvConfig, seed: u64, steps: usize, path: &Path, (w, h): (usize, usize)) -> anyhow::Result<()> {
     let states = rollout_states(policy, env.as_mut(), steps, false, seed)?;
-    let frames = render_states(env.sim().scene().model(), &states, 2, w, h, 30)?;
+    let frames = render_rollout(env.as_ref(), cfg, &states, 30, w, h)?;
     write_video(path, &frames)
 }
 
@@ -116,8 +150,17 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             cfg.env.num_envs = 1;
             cfg.env.threads = 1;
             let mut env = skillmimic_env::registry::make(&cfg.env)?;
-            let states = rollout_states(&c.policy, env.as_mut(), a.steps, a.stochastic, a.seed).with_context(|| format!("{}", ckpt.display()))?;
-            (states, Arc::clone(env.sim().scene()), format!("policy {}", ckpt.display()))
+            let r = rollout_states(&c.policy, env.as_mut(), a.steps, a.stochastic, a.seed).with_context(|| format!("{}", ckpt.display()))?;
+            if let Some(p) = &a.states {
+                save_states(p, &r.qpos, env.sim().scene().xml(), &format!("policy {}", ckpt.display()))?;
+                println!("states {} ({} steps)", p.display(), r.qpos.len());
+            }
+            if let Some(p) = &a.video {
+                let frames = render_rollout(env.as_ref(), &cfg.env, &r, a.fps, a.width, a.height)?;
+                write_video(p, &frames)?;
+                println!("video  {} ({} frames at {} fps)", p.display(), frames.rgb.len(), frames.fps);
+            }
+            return Ok(());
         }
         (None, Some(clip)) => {
             let lib = load_motion_library(std::slice::from_ref(clip))?;
@@ -139,7 +182,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         println!("states {} ({} steps)", p.display(), states.len());
     }
     if let Some(p) = &a.video {
-        let frames = render_states(scene.model(), &states, stride, a.width, a.height, a.fps)?;
+        let frames = render_states(scene.model(), &states, None, stride, a.width, a.height, a.fps)?;
         write_video(p, &frames)?;
         println!("video  {} ({} frames at {} fps)", p.display(), frames.rgb.len(), a.fps);
     }

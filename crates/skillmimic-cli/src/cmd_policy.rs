@@ -60,10 +60,15 @@ pub fn infer(a: InferArgs) -> anyhow::Result<()> {
 #[derive(clap::Args)]
 pub struct EvalArgs {
     /// Policy checkpoint (the environment configuration stored in it is used, then the flags).
-    #[arg(long)]
-    pub checkpoint: PathBuf,
+    /// Optional with `--baselines` (then the `small` preset and the flags configure the task).
+    #[arg(long, required_unless_present = "baselines")]
+    pub checkpoint: Option<PathBuf>,
     #[command(flatten)]
     pub flags: ConfigFlags,
+    /// Tasks with discrete choices (the high-level tasks): also evaluate a uniformly random
+    /// choice and every fixed choice (one skill all the time) on the same episode starts.
+    #[arg(long)]
+    pub baselines: bool,
     /// Finished episodes to evaluate.
     #[arg(long, default_value_t = 64)]
     pub episodes: usize,
@@ -113,7 +118,13 @@ pub const SWEEP: [(f64, f64, f64); 6] = [(0.8, 1.0, 1.0), (1.2, 1.0, 1.0), (1.0,
 
 pub fn eval(a: EvalArgs) -> anyhow::Result<()> {
     init_learner_threads(0);
-    let (c, mut cfg) = load_checkpoint(&a.checkpoint)?;
+    let (c, mut cfg) = match &a.checkpoint {
+        Some(p) => {
+            let (c, cfg) = load_checkpoint(p)?;
+            (Some(c), cfg)
+        }
+        None => (None, skillmimic_learn::config::TrainConfig::preset("small").map_err(anyhow::Error::msg)?),
+    };
     a.flags.apply(&mut cfg)?;
     if let Some(h) = a.horizon {
         cfg.env.fixed_horizon = h;
@@ -126,23 +137,19 @@ pub fn eval(a: EvalArgs) -> anyhow::Result<()> {
     }
     // more environments than episodes would only burn time (each env contributes its first ones)
     cfg.env.num_envs = cfg.env.num_envs.min(a.episodes);
-    if cfg.env.task != "imitation" {
-        // tasks other than imitation: the task-independent episode report
+    if cfg.env.task != "imitation" || a.baselines {
+        // tasks other than imitation: the task-independent episode report (and baselines)
         if a.sweep || a.v2 {
-            bail!("--sweep and --v2 are SkillMimic evaluations of the imitation task; this checkpoint's task is '{}'", cfg.env.task);
+            bail!("--sweep and --v2 are SkillMimic evaluations of the imitation task; this run's task is '{}'", cfg.env.task);
         }
-        let mut env = skillmimic_env::registry::make(&cfg.env)?;
-        let report = skillmimic_learn::episode_eval::evaluate_episodes(&c.policy, env.as_mut(), a.episodes, a.seed, a.stochastic, 0)
-            .with_context(|| format!("{}", a.checkpoint.display()))?;
-        let text = serde_json::to_string_pretty(&report)?;
-        skillmimic_core::tensorfile::write_bytes_atomic(&a.out, text.as_bytes()).with_context(|| format!("cannot write {}", a.out.display()))?;
-        println!("{text}");
-        return Ok(());
+        let opts = crate::cmd_eval_tasks::Options { episodes: a.episodes, seed: a.seed, stochastic: a.stochastic, baselines: a.baselines, out: a.out.clone() };
+        return crate::cmd_eval_tasks::run(&opts, c.as_ref().map(|c| &c.policy), &cfg);
     }
+    let (c, checkpoint) = (c.expect("imitation evaluation has a checkpoint"), a.checkpoint.clone().unwrap_or_default());
     let run_one = |env_cfg: skillmimic_env::EnvConfig| -> anyhow::Result<EvalReport> {
         let mut env = SkillEnv::from_config(env_cfg)?;
         if (env.obs_dim(), env.act_dim()) != (c.policy.obs_dim(), c.policy.act_dim()) {
-            bail!("{}: the policy expects observations of {} and actions of {}", a.checkpoint.display(), c.policy.obs_dim(), c.policy.act_dim());
+            bail!("{}: the policy expects observations of {} and actions of {}", checkpoint.display(), c.policy.obs_dim(), c.policy.act_dim());
         }
         Ok(evaluate(&c.policy, &mut env, a.episodes, a.seed, a.stochastic, 0))
     };
@@ -196,7 +203,7 @@ pub fn eval(a: EvalArgs) -> anyhow::Result<()> {
         }
         v2 = Some(r);
     }
-    let out = EvalOutput { checkpoint: a.checkpoint.clone(), nominal, sweep, v2 };
+    let out = EvalOutput { checkpoint, nominal, sweep, v2 };
     skillmimic_core::tensorfile::write_bytes_atomic(&a.out, serde_json::to_string_pretty(&out)?.as_bytes())
         .with_context(|| format!("cannot write {}", a.out.display()))?;
     println!("wrote {}", a.out.display());

@@ -67,7 +67,7 @@ impl RunHook for VideoHook {
             None => skillmimic_env::registry::make(&c)?,
         };
         let path = out.join("video.gif");
-        Ok(match crate::cmd_play::render_policy_video(&t.policy, env, t.cfg.run.seed, 180, &path, 320, 240) {
+        Ok(match crate::cmd_play::render_policy_video(&t.policy, env, &t.cfg.env, t.cfg.run.seed, 180, &path, (320, 240)) {
             Ok(()) => HookOutput { path: Some(path), error: None },
             Err(e) => {
                 tracing::warn!("no video: {e:#}");
@@ -149,7 +149,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     }
     let eval = match (&summary.eval, &summary.task_eval) {
         (Some(e), _) => format!("; eval NR {:.4}, Acc {:.1} %", e.nr, e.acc_percent),
-        (None, Some(e)) => format!("; eval return {:.3}, reward/step {:.4}, length {:.1}", e.mean_return, e.mean_reward_per_step, e.mean_episode_length),
+        (None, Some(e)) => {
+            let success = e.final_metrics.get("success").map_or(String::new(), |s| format!(", success {:.1} %", 100.0 * s));
+            format!("; eval return {:.3}, reward/step {:.4}, length {:.1}{success}", e.mean_return, e.mean_reward_per_step, e.mean_episode_length)
+        }
         (None, None) => String::new(),
     };
     println!(

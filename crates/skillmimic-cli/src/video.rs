@@ -15,6 +15,8 @@ use mujoco_rs::prelude::*;
 use mujoco_rs::renderer::MjRenderer;
 use mujoco_rs::wrappers::mj_model::MjtObjBase;
 
+use crate::markers::Marker;
+
 /// RGB frames of one size.
 pub struct Frames {
     pub width: usize,
@@ -37,14 +39,30 @@ impl SceneRenderer {
             .width(width as u32)
             .height(height as u32)
             .rgb(true)
+            .num_visual_user_geom(crate::markers::MAX_MARKERS as u32)
             .camera(camera)
             .build(model)
             .map_err(|e| anyhow::anyhow!("cannot start headless rendering (EGL through Mesa's libEGL is needed): {e}"))?;
         Ok(Self { renderer, data: MjData::new(Arc::clone(model)) })
     }
 
-    /// Render the state `qpos` (kinematics only) and return the RGB image (row 0 at the top).
-    pub fn render(&mut self, qpos: &[f64]) -> anyhow::Result<Vec<u8>> {
+    /// Render the state `qpos` (kinematics only) with visual-only task markers and return the RGB
+    /// image (row 0 at the top).
+    pub fn render_marked(&mut self, qpos: &[f64], markers: &[Marker]) -> anyhow::Result<Vec<u8>> {
+        let scene = self.renderer.user_scene_mut();
+        scene.clear_geom();
+        for m in markers.iter().take(crate::markers::MAX_MARKERS) {
+            // SAFETY: the created geoms keep the "none" material, texture and object ids.
+            match *m {
+                Marker::Sphere { pos, radius, rgba } => unsafe {
+                    scene.create_geom(MjtGeom::mjGEOM_SPHERE, Some([radius; 3]), Some(pos), None, Some(rgba));
+                },
+                Marker::Segment { from, to, radius, rgba } => unsafe { scene.create_geom(MjtGeom::mjGEOM_CAPSULE, None, None, None, Some(rgba)) }.connect(radius, from, to),
+                Marker::Box { pos, half, rgba } => unsafe {
+                    scene.create_geom(MjtGeom::mjGEOM_BOX, Some(half), Some(pos), Some([1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]), Some(rgba));
+                },
+            }
+        }
         self.data.qpos_mut().copy_from_slice(qpos);
         self.data.forward();
         self.renderer.sync_data(&mut self.data).map_err(|e| anyhow::anyhow!("render: {e}"))?;

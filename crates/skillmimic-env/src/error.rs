@@ -25,6 +25,9 @@ pub enum EnvError {
     /// The frozen skill policy of a high-level task.
     #[error(transparent)]
     Frozen(#[from] skillmimic_nn::frozen::FrozenError),
+    /// An operation the task does not offer.
+    #[error("{0}")]
+    Unsupported(String),
     /// `env.task` names no registered task.
     #[error("config field 'env.task': unknown task '{name}'; registered tasks: {known}")]
     UnknownTask { name: String, known: String },

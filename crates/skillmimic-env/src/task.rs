@@ -39,6 +39,8 @@ pub struct TaskSpec {
     /// Simulation (low-level) steps per action: 1 for the physical tasks, `llc_steps` (3) for
     /// the high-level tasks, whose samples the papers count in low-level steps.
     pub steps_per_action: usize,
+    /// Skill label of each discrete choice (high-level tasks: `control_mapping`); empty otherwise.
+    pub choice_labels: Vec<u32>,
 }
 
 /// The action space of a task.

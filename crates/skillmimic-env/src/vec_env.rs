@@ -306,6 +306,15 @@ pub trait Env: Send + Sync {
     fn refresh_observations(&mut self);
     fn sim(&self) -> &BatchSim;
     fn sim_mut(&mut self) -> &mut BatchSim;
+    /// Overwrite environment `i`'s task information entries (`TaskSpec::info_names`; the
+    /// high-level tasks: move the goal, e.g. in interactive play) and recompute its observation.
+    fn set_task_info(&mut self, _i: usize, _values: &[f32]) -> Result<(), EnvError> {
+        Err(EnvError::Unsupported(format!("task '{}' has no settable task information", self.spec().name)))
+    }
+    /// PD targets (`N × 156`, [−1, 1]) a task's action transform gave in the last simulation
+    /// step (high-level tasks: the frozen skill policy's actions); empty when the actions are the
+    /// targets.
+    fn pd_targets(&self) -> &[f32];
     /// Downcast to the concrete `VecEnv<T>` (task-specific accessors).
     fn as_any(&self) -> &dyn Any;
     fn as_any_mut(&mut self) -> &mut dyn Any;
@@ -344,6 +353,9 @@ impl<T: Task> Env for VecEnv<T> {
     }
     fn sim_mut(&mut self) -> &mut BatchSim {
         &mut self.sim
+    }
+    fn pd_targets(&self) -> &[f32] {
+        &self.targets
     }
     fn as_any(&self) -> &dyn Any {
         self

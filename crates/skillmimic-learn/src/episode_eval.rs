@@ -16,6 +16,8 @@ use crate::policy::{InferenceBuffers, Policy};
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct EpisodeReport {
     pub task: String,
+    /// Who acted: `policy`, `random` or `fixed:<k>` (see [`Actor`]).
+    pub actor: String,
     pub episodes: usize,
     pub seed: u64,
     pub deterministic: bool,
@@ -38,10 +40,69 @@ pub struct EpisodeReport {
     pub mean_episode_low_level_steps: f64,
 }
 
+/// Who acts in an evaluation.
+#[derive(Clone, Copy, Debug)]
+pub enum Actor<'a> {
+    /// The policy's mode (deterministic) or samples (`stochastic`).
+    Policy { policy: &'a Policy, stochastic: bool },
+    /// Uniformly random choices of a discrete task (baseline).
+    Random,
+    /// Always the same choice of a discrete task (baseline: one fixed skill).
+    Fixed(usize),
+}
+
+impl Actor<'_> {
+    /// Name in reports: `policy`, `random`, `fixed:<k>`.
+    pub fn label(&self) -> String {
+        match self {
+            Actor::Policy { .. } => "policy".into(),
+            Actor::Random => "random".into(),
+            Actor::Fixed(k) => format!("fixed:{k}"),
+        }
+    }
+}
+
 /// Evaluate `policy` on `env` for `episodes` episodes: every environment contributes a fixed
 /// quota of its first episodes (counting the first to finish would favour short ones); actions
 /// are the family's mode, or samples when `stochastic`; starts seeded with `seed`.
 pub fn evaluate_episodes(policy: &Policy, env: &mut dyn Env, episodes: usize, seed: u64, stochastic: bool, threads: usize) -> Result<EpisodeReport, LearnError> {
+    evaluate_actor(Actor::Policy { policy, stochastic }, env, episodes, seed, threads)
+}
+
+/// [`evaluate_episodes`] for any [`Actor`]: the baselines see the same episode starts (seed) as
+/// the policy. Random choices come from their own stream seeded with `seed`.
+pub fn evaluate_actor(actor: Actor<'_>, env: &mut dyn Env, episodes: usize, seed: u64, threads: usize) -> Result<EpisodeReport, LearnError> {
+    let spec = env.spec().clone();
+    let choices = match spec.action_space {
+        skillmimic_env::ActionSpace::Discrete { n } => n,
+        skillmimic_env::ActionSpace::Box { .. } => 0,
+    };
+    let labelled = |mut r: EpisodeReport| {
+        r.actor = actor.label();
+        r.deterministic = !matches!(actor, Actor::Random | Actor::Policy { stochastic: true, .. });
+        r
+    };
+    match actor {
+        Actor::Policy { policy, stochastic } => return evaluate_policy(policy, stochastic, env, episodes, seed, threads).map(labelled),
+        Actor::Fixed(k) if k >= choices => {
+            return Err(LearnError::Config(format!("baseline fixed:{k}: task '{}' has {choices} discrete choices", spec.name)));
+        }
+        _ if choices == 0 => return Err(LearnError::Config(format!("baselines need a task with discrete choices; '{}' has continuous actions", spec.name))),
+        _ => {}
+    }
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0xba5e);
+    run_episodes(env, episodes, seed, |_obs, actions| {
+        for a in actions.iter_mut() {
+            *a = match actor {
+                Actor::Fixed(k) => k as f32,
+                _ => rand::Rng::random_range(&mut rng, 0..choices) as f32,
+            };
+        }
+    })
+    .map(labelled)
+}
+
+fn evaluate_policy(policy: &Policy, stochastic: bool, env: &mut dyn Env, episodes: usize, seed: u64, threads: usize) -> Result<EpisodeReport, LearnError> {
     let spec = env.spec().clone();
     if (policy.obs_dim(), policy.act_dim()) != (spec.obs_dim, spec.act_dim()) {
         return Err(LearnError::Config(format!(
@@ -53,26 +114,36 @@ pub fn evaluate_episodes(policy: &Policy, env: &mut dyn Env, episodes: usize, se
             spec.act_dim()
         )));
     }
-    let (n, a, o) = (env.num_envs(), spec.act_dim(), policy.actor_outputs());
+    let (n, o) = (env.num_envs(), policy.actor_outputs());
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5eed);
+    let mut buf = InferenceBuffers::default();
+    let (mut out, mut values, mut neglogp) = (vec![0.0; n * o], vec![0.0; n], vec![0.0; n]);
+    run_episodes(env, episodes, seed, |obs, actions| {
+        policy.infer(obs, n, &mut buf, &mut out, &mut values, threads);
+        if stochastic {
+            policy.sample(&out, n, &mut rng, actions, &mut neglogp);
+        } else {
+            policy.mode(&out, n, actions);
+        }
+    })
+}
+
+/// The episode loop shared by every actor: `act(obs, actions)` fills the actions of a step.
+fn run_episodes(env: &mut dyn Env, episodes: usize, seed: u64, mut act: impl FnMut(&[f32], &mut [f32])) -> Result<EpisodeReport, LearnError> {
+    let spec = env.spec().clone();
+    let (n, a) = (env.num_envs(), spec.act_dim());
     let (nt, nm) = (spec.term_names.len(), spec.metric_names.len());
     env.set_autoreset(false);
     env.reset_all(Some(seed));
-    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5eed);
-    let mut buf = InferenceBuffers::default();
-    let (mut out, mut values, mut actions, mut neglogp) = (vec![0.0; n * o], vec![0.0; n], vec![0.0; n * a], vec![0.0; n]);
+    let mut actions = vec![0.0; n * a];
     let quota: Vec<usize> = (0..n).map(|i| episodes / n + usize::from(i < episodes % n)).collect();
     let (mut finished, mut ret, mut len) = (vec![0usize; n], vec![0.0f64; n], vec![0usize; n]);
     let (mut terms, mut metrics, mut finals) = (vec![0.0f64; nt], vec![0.0f64; nm], vec![0.0f64; nm]);
-    let mut rep = EpisodeReport { task: spec.name.to_string(), seed, deterministic: !stochastic, ..Default::default() };
+    let mut rep = EpisodeReport { task: spec.name.to_string(), seed, deterministic: true, ..Default::default() };
     let (mut steps, mut reward, mut early) = (0.0f64, 0.0f64, 0usize);
     while rep.episodes < episodes {
         env.reset_done();
-        policy.infer(&env.buffers().obs, n, &mut buf, &mut out, &mut values, threads);
-        if stochastic {
-            policy.sample(&out, n, &mut rng, &mut actions, &mut neglogp);
-        } else {
-            policy.mode(&out, n, &mut actions);
-        }
+        act(&env.buffers().obs, &mut actions);
         env.step(&actions)?;
         let b = env.buffers();
         for i in 0..n {

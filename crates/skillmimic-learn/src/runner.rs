@@ -83,6 +83,9 @@ pub struct Summary {
     pub task: String,
     pub iterations: u64,
     pub samples: u64,
+    /// `samples` in simulation steps (× the task's `steps_per_action`; the high-level tasks'
+    /// papers count these).
+    pub low_level_samples: u64,
     pub wall_s: f64,
     pub samples_per_s: f64,
     /// Mean reward per step of the first iteration of this run (biased: every episode is fresh).
@@ -153,6 +156,7 @@ impl Runner {
             task: t.cfg.env.task.clone(),
             iterations: t.progress.iteration,
             samples: t.progress.samples,
+            low_level_samples: t.progress.samples * t.env.spec().steps_per_action as u64,
             wall_s: wall,
             samples_per_s: (rewards.len() * t.cfg.batch_size()) as f64 / wall,
             first_mean_reward: rewards.first().copied().unwrap_or(f64::NAN),

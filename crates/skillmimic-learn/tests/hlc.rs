@@ -41,7 +41,7 @@ pub fn write_llc(tag: &str) -> PathBuf {
     path
 }
 
-fn config(task: &str, llc: &PathBuf, n: usize) -> EnvConfig {
+fn config(task: &str, llc: &std::path::Path, n: usize) -> EnvConfig {
     let mut c = EnvConfig {
         task: task.into(),
         num_envs: n,
@@ -49,7 +49,7 @@ fn config(task: &str, llc: &PathBuf, n: usize) -> EnvConfig {
         ..Default::default()
     };
     c.motion = vec![workspace_root().join("motions")];
-    c.hlc.llc = llc.clone();
+    c.hlc.llc = llc.to_path_buf();
     c
 }
 

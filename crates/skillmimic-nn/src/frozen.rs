@@ -68,10 +68,10 @@ impl FrozenActor {
             POLICY_FORMAT => {}
             other => return Err(invalid(format!("metadata 'format' is '{other}', expected '{POLICY_FORMAT}' (a skill policy written by `skillmimic train`)"))),
         }
-        if let Ok(family) = f.meta("policy") {
-            if family != "gaussian_mlp" {
-                return Err(invalid(format!("metadata 'policy' is '{family}': a skill policy inside a high-level task must be a 'gaussian_mlp' checkpoint")));
-            }
+        if let Ok(family) = f.meta("policy")
+            && family != "gaussian_mlp"
+        {
+            return Err(invalid(format!("metadata 'policy' is '{family}': a skill policy inside a high-level task must be a 'gaussian_mlp' checkpoint")));
         }
         let obs_dim: usize = f.meta_parse("obs_dim", "an integer")?;
         let act_dim: usize = f.meta_parse("act_dim", "an integer")?;

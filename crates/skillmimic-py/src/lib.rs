@@ -215,6 +215,30 @@ impl CoreEnv {
         let env = self.env()?;
         to_2d(py, &env.buffers().info, env.num_envs(), env.spec().info_names.len())
     }
+    /// `(N, 156)` PD targets in [−1, 1] the task applied in the last simulation step (high-level
+    /// tasks: the frozen skill policy's clamped actions; `(N, 0)` when the actions are the targets).
+    fn pd_targets<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f32>>> {
+        let env = self.env()?;
+        let t = env.pd_targets();
+        to_2d(py, t, env.num_envs(), t.len() / env.num_envs())
+    }
+    /// Simulation steps per policy step (3 for the high-level tasks).
+    #[getter]
+    fn steps_per_action(&self) -> PyResult<usize> {
+        Ok(self.env()?.spec().steps_per_action)
+    }
+    /// Skill label of each discrete choice (high-level tasks); empty otherwise.
+    #[getter]
+    fn choice_labels(&self) -> PyResult<Vec<u32>> {
+        Ok(self.env()?.spec().choice_labels.clone())
+    }
+    /// Move environment `i`'s goal (values in `cg_names` order: e.g. goal_x, goal_y in world
+    /// metres) and write its new observation into `obs_out`.
+    fn set_task_info(&mut self, i: usize, values: PyReadonlyArray1<'_, f32>, obs_out: PyReadwriteArray2<'_, f32>) -> PyResult<()> {
+        let env = self.env_mut()?;
+        env.set_task_info(i, values.as_slice().map_err(value_error)?).map_err(value_error)?;
+        copy_obs(env.as_ref(), obs_out)
+    }
     /// `(N, metrics)` per-step metrics of the last step (columns: `frame_metric_names`).
     fn frame_metrics<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f32>>> {
         let env = self.env()?;

@@ -56,6 +56,7 @@ impl Stand {
             term_names: vec!["height", "heading", "total"],
             metric_names: vec!["height_err", "heading_err"],
             steps_per_action: 1,
+            choice_labels: Vec::new(),
             info_names: Vec::new(),
         };
         Self { cfg, spec }

@@ -184,6 +184,29 @@ impl<R: Rule> Env for HoldEnv<R> {
     fn sim_mut(&mut self) -> &mut BatchSim {
         self.inner.sim_mut()
     }
+    fn set_task_info(&mut self, i: usize, values: &[f32]) -> Result<(), EnvError> {
+        let ni = self.spec.info_names.len();
+        if i >= self.num_envs() || values.len() != ni || values.iter().any(|v| !v.is_finite()) {
+            return Err(EnvError::Unsupported(format!(
+                "set_task_info: environment {i} of {} needs {ni} finite values ({}), got {}",
+                self.num_envs(),
+                self.spec.info_names.join(", "),
+                values.len()
+            )));
+        }
+        let mut goal = self.inner.slots[i].goal.clone();
+        self.inner.task().rule.set_info(&mut goal, values);
+        self.inner.slots[i].goal = goal;
+        self.inner.refresh_observations();
+        let d = self.spec.obs_dim;
+        let Self { inner, buf, .. } = self;
+        Self::row(&mut buf.obs, &inner.buffers().obs, i, d);
+        inner.task().rule.info(&inner.slots[i].goal, &mut buf.info[i * ni..(i + 1) * ni]);
+        Ok(())
+    }
+    fn pd_targets(&self) -> &[f32] {
+        self.inner.last_targets()
+    }
     fn as_any(&self) -> &dyn Any {
         self
     }

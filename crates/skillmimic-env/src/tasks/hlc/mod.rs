@@ -100,6 +100,19 @@ pub trait Rule: Send + Sync + 'static {
     fn reward(&self, g: &mut Goal, step: u32, st: &EnvState<'_>, terms: &mut [f32], metrics: &mut [f32]) -> f64;
     /// The goal entries (`info_names` order).
     fn info(&self, g: &Goal, out: &mut [f32]);
+    /// Set the goal from entries in `info_names` order (interactive play); latches and success
+    /// bookkeeping are left as they are. Default: `goal_x`, `goal_y`, then the radius if named.
+    fn set_info(&self, g: &mut Goal, values: &[f32]) {
+        let names = self.info_names();
+        for (name, &v) in names.iter().zip(values) {
+            match *name {
+                "goal_x" => g.xy[0] = v as f64,
+                "goal_y" => g.xy[1] = v as f64,
+                "radius" => g.radius = v as f64,
+                _ => {}
+            }
+        }
+    }
 }
 
 /// `loc` and `bearing` of a goal (4 values; see the module doc).
@@ -171,6 +184,7 @@ impl<R: Rule> HighLevel<R> {
             metric_names: rule.metric_names(),
             info_names: rule.info_names().iter().map(|s| s.to_string()).collect(),
             steps_per_action: 1,
+            choice_labels: rule.labels().to_vec(),
         };
         let threads = if cfg.threads == 0 { rayon::current_num_threads() } else { cfg.threads };
         Ok(Self { rule, cfg: h.clone(), lib, spec, llc, threads, ball_radius, llc_obs: Vec::new(), skills: vec![0; cfg.num_envs] })

@@ -86,10 +86,10 @@ impl Rule for Scoring {
         let c = &self.0;
         let (p, v) = (st.pos(BALL), st.linvel(BALL));
         let touching = st.contact_force(BALL).iter().any(|f| f.abs() > c.contact_force);
-        if !g.reached && p[2] > c.reach_height && !touching {
-            if let Some(xy) = predict_crossing(p, v, c.reach_height, c.prediction) {
-                g.reached = ((xy[0] - g.xy[0]).powi(2) + (xy[1] - g.xy[1]).powi(2)).sqrt() < c.reach_radius;
-            }
+        if !g.reached && p[2] > c.reach_height && !touching
+            && let Some(xy) = predict_crossing(p, v, c.reach_height, c.prediction)
+        {
+            g.reached = ((xy[0] - g.xy[0]).powi(2) + (xy[1] - g.xy[1]).powi(2)).sqrt() < c.reach_radius;
         }
         g.code_success = g.reached;
         let dist = norm(ball_to(st, [g.xy[0], g.xy[1], c.basket_height]));

@@ -52,10 +52,11 @@ impl Rule for Throwing {
             Some(_) if z < c.floor_height => g.dropped = true,
             _ => {}
         }
-        if let Some(t0) = g.throw_step {
-            if !g.dropped && (step - t0) as f64 >= c.success_seconds * LL_HZ {
-                g.success = true;
-            }
+        if let Some(t0) = g.throw_step
+            && !g.dropped
+            && (step - t0) as f64 >= c.success_seconds * LL_HZ
+        {
+            g.success = true;
         }
         terms[0] = r as f32;
         metrics.copy_from_slice(&[z as f32, f32::from(u8::from(g.throw_step.is_some())), f32::from(u8::from(g.success))]);
