@@ -23,11 +23,11 @@ pub struct TaskEntry {
 /// Every task, in listing order.
 pub const TASKS: &[TaskEntry] = &[
     TaskEntry { name: "imitation", summary: "SkillMimic imitation of human–ball clips (+ SkillMimic-V2 parts)", high_level: false, build: tasks::imitation::env::build },
+    TaskEntry { name: "stand", summary: "keep the pelvis height and the start heading (no clip, no ball)", high_level: false, build: tasks::stand::build },
     TaskEntry { name: "heading", summary: "skill reuse: dribble the ball to a target (frozen skill policy, --llc)", high_level: true, build: tasks::hlc::heading::build },
     TaskEntry { name: "circling", summary: "skill reuse: dribble around a point at a radius (frozen skill policy, --llc)", high_level: true, build: tasks::hlc::circling::build },
     TaskEntry { name: "throwing", summary: "skill reuse: throw the ball up to 2.5 m and catch it (frozen skill policy, --llc)", high_level: true, build: tasks::hlc::throwing::build },
     TaskEntry { name: "scoring", summary: "skill reuse: dribble to a basket and score with layups (frozen skill policy, --llc)", high_level: true, build: tasks::hlc::scoring::build },
-    TaskEntry { name: "stand", summary: "keep the pelvis height and the start heading (no clip, no ball)", high_level: false, build: tasks::stand::build },
 ];
 
 /// Registered task names.
