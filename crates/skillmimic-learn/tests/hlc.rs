@@ -212,3 +212,17 @@ fn bad_skill_policies_and_actions_are_clear_errors() {
         .to_string();
     assert!(e.contains("826") && e.contains("902"), "{e}");
 }
+
+#[test]
+fn high_level_logits_start_glorot_uniform_with_zero_bias() {
+    let mut rng = ChaCha8Rng::seed_from_u64(2);
+    let cfg = PpoConfig { policy: "categorical_mlp".into(), hidden: vec![1024, 512], ..Default::default() };
+    let p = Policy::build(842, skillmimic_env::ActionSpace::Discrete { n: 3 }, &cfg, &mut rng).unwrap();
+    let params = p.actor.params();
+    let (w, b) = (params[params.len() - 2], params[params.len() - 1]);
+    let bound = (6.0f32 / (512.0 + 3.0)).sqrt();
+    let max = w.iter().fold(0.0f32, |m, x| m.max(x.abs()));
+    // Glorot bound ≈ 0.108; PyTorch's default for fan_in 512 would be 1/√512 ≈ 0.044
+    assert!(max <= bound && max > 0.9 * bound, "max |w| {max}, Glorot bound {bound}");
+    assert!(b.iter().all(|&x| x == 0.0));
+}

@@ -97,20 +97,6 @@ mod tests {
     use rand::SeedableRng;
 
     #[test]
-    fn logits_start_glorot_uniform_with_zero_bias() {
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(2);
-        let cfg = PpoConfig { policy: "categorical_mlp".into(), hidden: vec![1024, 512], ..Default::default() };
-        let p = crate::policy::Policy::build(842, ActionSpace::Discrete { n: 3 }, &cfg, &mut rng).unwrap();
-        let params = p.actor.params();
-        let (w, b) = (params[params.len() - 2], params[params.len() - 1]);
-        let bound = (6.0f32 / (512.0 + 3.0)).sqrt();
-        let max = w.iter().fold(0.0f32, |m, x| m.max(x.abs()));
-        // Glorot bound ≈ 0.108; PyTorch's default for fan_in 512 would be 1/√512 ≈ 0.044
-        assert!(max <= bound && max > 0.9 * bound, "max |w| {max}, Glorot bound {bound}");
-        assert!(b.iter().all(|&x| x == 0.0));
-    }
-
-    #[test]
     fn sampling_follows_the_softmax_and_neglogp_agrees_with_the_candle_graph() {
         let logits = [0.5f32, -1.0, 2.0, 0.0];
         let head = Head { outputs: 4, log_std: &[] };
