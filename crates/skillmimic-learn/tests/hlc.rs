@@ -211,6 +211,15 @@ fn bad_skill_policies_and_actions_are_clear_errors() {
         .unwrap()
         .to_string();
     assert!(e.contains("826") && e.contains("902"), "{e}");
+    // a skill policy trained on the box-hand humanoid drives only that humanoid
+    let p = checkpoint::load(&llc, None).unwrap().policy;
+    let boxed = llc.with_file_name("box.safetensors");
+    checkpoint::save(&boxed, &p, None, &Progress::default(), "[env]\nhands = \"box\"\n").unwrap();
+    let e = skillmimic_env::registry::make(&config("throwing", &boxed, 2)).err().unwrap().to_string();
+    assert!(e.contains("env.hands") && e.contains("box"), "{e}");
+    let mut c = config("throwing", &boxed, 2);
+    c.hands = "box".into();
+    assert!(skillmimic_env::registry::make(&c).is_ok());
 }
 
 #[test]

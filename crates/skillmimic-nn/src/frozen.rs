@@ -55,6 +55,8 @@ pub struct FrozenActor {
     pub obs_norm: Option<RunningMeanStd>,
     /// Where it was loaded from.
     pub source: PathBuf,
+    /// The training configuration stored with it (TOML text; empty when absent).
+    pub config: String,
     ws: Workspace,
     obs_n: Vec<f32>,
 }
@@ -84,7 +86,8 @@ impl FrozenActor {
         dims.push(act_dim);
         let actor = read_mlp(&f, "actor", dims)?;
         let obs_norm = if normalize { Some(read_normalizer(&f, "obs_norm", obs_dim, eps, clip)?) } else { None };
-        Ok(Self { actor, obs_norm, source: path.to_path_buf(), ws: Workspace::default(), obs_n: Vec::new() })
+        let config = f.metadata().get("config").cloned().unwrap_or_default();
+        Ok(Self { actor, obs_norm, source: path.to_path_buf(), config, ws: Workspace::default(), obs_n: Vec::new() })
     }
 
     /// Observation width the policy takes.

@@ -43,7 +43,7 @@ use skillmimic_nn::frozen::FrozenActor;
 use skillmimic_sim::{BALL, EnvState, ResetState, Scene};
 
 use crate::config::EnvConfig;
-use crate::episode::{Episode, random_ball, reset_state_from_clip};
+use crate::episode::{BALL_FREE_SKILLS, random_ball, reset_state_from_clip};
 use crate::error::{EnvError, bad};
 use crate::obs::{layout, write_skill, write_state_obs};
 use crate::task::{ActionSpace, StepOut, Task, TaskSpec};
@@ -174,6 +174,15 @@ impl<R: Rule> HighLevel<R> {
             );
             return Err(bad("env.hlc.llc", msg).into());
         }
+        // the humanoid must be the one the skill policy was trained on
+        let trained: Option<toml::Table> = toml::from_str(&llc.config).ok();
+        let hands = trained.as_ref().and_then(|t| t.get("env")?.get("hands")?.as_str().map(str::to_string));
+        if let Some(hands) = hands
+            && hands != cfg.hands
+        {
+            let msg = format!("the skill policy {} was trained with hands = \"{hands}\"; set env.hands = \"{hands}\" (--set env.hands={hands})", h.llc.display());
+            return Err(bad("env.hands", msg).into());
+        }
         let n = rule.labels().len();
         let spec = TaskSpec {
             name: R::NAME,
@@ -220,7 +229,7 @@ impl<R: Rule> Task for HighLevel<R> {
         let m = self.lib.get(clip);
         let frame = self.cfg.start_frame.min(m.clip.num_frames - 2);
         *state = reset_state_from_clip(m, frame);
-        if Episode::new(m, clip, frame, 2).ball_free {
+        if BALL_FREE_SKILLS.contains(&m.clip.skill) {
             random_ball(state, self.ball_radius, rng);
         }
         *slot = HlSlot { progress: 0, goal: self.rule.sample_goal(state.root_pos, rng) };
