@@ -35,7 +35,7 @@ def test_names_and_dims_match_the_environment(env):
     assert list(skillmimic_rs.FRAME_METRIC_NAMES) == env.frame_metric_names
     assert env.single_observation_space.shape == (skillmimic_rs.OBS_DIM,)
     assert env.single_action_space.shape == (skillmimic_rs.ACT_DIM,) == (156,)
-    assert _core.CONFIG_PATH_KEYS == ("motion", "v2.history.encoder")
+    assert _core.CONFIG_PATH_KEYS == ("motion", "v2.history.encoder", "hlc.llc")
 
 
 def test_independent_reference_uses_the_same_term_names():
