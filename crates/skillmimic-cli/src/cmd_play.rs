@@ -49,6 +49,33 @@ pub struct Args {
     /// Sample actions from the Gaussian instead of using the mean.
     #[arg(long)]
     pub stochastic: bool,
+    /// High-level tasks: open MuJoCo's interactive viewer instead (keys switch skills, a floor
+    /// double-click places the target; runs `python -m skillmimic_rs.interactive`, needs a
+    /// display and the Python package).
+    #[arg(long)]
+    pub interactive: bool,
+}
+
+/// Hand a high-level checkpoint (task, skill policy and clips from its config and the flags) to
+/// the Python viewer.
+fn interactive(ckpt: &Path, flags: &ConfigFlags) -> anyhow::Result<()> {
+    let (_, mut cfg) = load_checkpoint(ckpt)?;
+    flags.apply(&mut cfg)?;
+    if !skillmimic_env::registry::is_high_level(&cfg.env.task) {
+        bail!("--interactive plays the high-level tasks (heading, circling, throwing, scoring); this checkpoint's task is '{}'", cfg.env.task);
+    }
+    let root = skillmimic_core::shared_data::workspace_root();
+    let python = [PathBuf::from(".venv/bin/python"), root.join(".venv/bin/python")].into_iter().find(|p| p.exists()).unwrap_or_else(|| PathBuf::from("python3"));
+    let mut cmd = std::process::Command::new(&python);
+    cmd.args(["-m", "skillmimic_rs.interactive", "--task", &cfg.env.task, "--llc"]).arg(&cfg.env.hlc.llc).arg("--checkpoint").arg(ckpt);
+    for m in &cfg.env.motion {
+        cmd.arg("--motion").arg(m);
+    }
+    let status = cmd.status().with_context(|| format!("cannot start {} (the interactive viewer is part of the Python package: pip install .)", python.display()))?;
+    if !status.success() {
+        bail!("the interactive viewer exited with {status}");
+    }
+    Ok(())
 }
 
 /// A filmed rollout: qpos of environment 0 after every policy step and its task information
@@ -139,6 +166,10 @@ fn save_states(path: &Path, states: &[Vec<f64>], xml: &str, source: &str) -> any
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
+    if a.interactive {
+        let ckpt = a.checkpoint.as_deref().context("--interactive needs --checkpoint (a high-level policy)")?;
+        return interactive(ckpt, &a.flags);
+    }
     if a.video.is_none() && a.states.is_none() {
         bail!("nothing to do: give --video out.mp4|out.gif and/or --states out.safetensors");
     }
