@@ -13,7 +13,7 @@ set -euo pipefail
 cd "$(dirname "$0")/../.."
 SHARED=${SKILLMIMIC_SHARED:-../shared}
 OUT=${1:-runs/hlc_heading}
-LLC_ITERS=${LLC_ITERS:-400}
+LLC_ITERS=${LLC_ITERS:-500}
 HLC_ITERS=${HLC_ITERS:-150}
 EPISODES=${EPISODES:-128}
 BIN=${SKILLMIMIC_BIN:-target/release/skillmimic}
