@@ -64,8 +64,7 @@ fn interactive(ckpt: &Path, flags: &ConfigFlags) -> anyhow::Result<()> {
     if !skillmimic_env::registry::is_high_level(&cfg.env.task) {
         bail!("--interactive plays the high-level tasks (heading, circling, throwing, scoring); this checkpoint's task is '{}'", cfg.env.task);
     }
-    let root = skillmimic_core::shared_data::workspace_root();
-    let python = [PathBuf::from(".venv/bin/python"), root.join(".venv/bin/python")].into_iter().find(|p| p.exists()).unwrap_or_else(|| PathBuf::from("python3"));
+    let python = crate::video::python_candidates().into_iter().find(|p| p.exists()).unwrap_or_else(|| PathBuf::from("python3"));
     let mut cmd = std::process::Command::new(&python);
     cmd.args(["-m", "skillmimic_rs.interactive", "--task", &cfg.env.task, "--llc"]).arg(&cfg.env.hlc.llc).arg("--checkpoint").arg(ckpt);
     for m in &cfg.env.motion {

@@ -103,6 +103,12 @@ fn write_gif(path: &Path, f: &Frames) -> anyhow::Result<()> {
     std::fs::rename(&tmp, path).with_context(|| format!("cannot write {}", path.display()))
 }
 
+/// Python interpreters to try, in order: `.venv` of the working directory, of the checkout,
+/// then `python3` on `PATH`.
+pub fn python_candidates() -> [PathBuf; 3] {
+    [PathBuf::from(".venv/bin/python"), skillmimic_core::shared_data::workspace_root().join(".venv/bin/python"), PathBuf::from("python3")]
+}
+
 /// The ffmpeg executable, if one can be found.
 pub fn find_ffmpeg() -> Option<PathBuf> {
     if let Some(p) = std::env::var_os("SKILLMIMIC_FFMPEG") {
@@ -111,10 +117,7 @@ pub fn find_ffmpeg() -> Option<PathBuf> {
     if Command::new("ffmpeg").arg("-version").stdout(Stdio::null()).stderr(Stdio::null()).status().is_ok_and(|s| s.success()) {
         return Some(PathBuf::from("ffmpeg"));
     }
-    let mut pythons = vec![PathBuf::from(".venv/bin/python")];
-    pythons.push(skillmimic_core::shared_data::workspace_root().join(".venv/bin/python"));
-    pythons.push(PathBuf::from("python3"));
-    for py in pythons {
+    for py in python_candidates() {
         let out = Command::new(&py).args(["-c", "import imageio_ffmpeg; print(imageio_ffmpeg.get_ffmpeg_exe())"]).output();
         if let Ok(o) = out {
             if o.status.success() {

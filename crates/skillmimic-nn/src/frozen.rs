@@ -77,7 +77,7 @@ impl FrozenActor {
         }
         let obs_dim: usize = f.meta_parse("obs_dim", "an integer")?;
         let act_dim: usize = f.meta_parse("act_dim", "an integer")?;
-        let hidden: Vec<usize> = parse_list(f.meta("hidden")?).ok_or_else(|| invalid("metadata 'hidden' is not a list of integers like [1024, 512, 512]".into()))?;
+        let hidden: Vec<usize> = serde_json::from_str(f.meta("hidden")?).map_err(|e| invalid(format!("metadata 'hidden' is not a JSON list of integers like [1024, 512, 512]: {e}")))?;
         let eps: f64 = f.meta_parse("norm_eps", "a number")?;
         let clip: f64 = f.meta_parse("norm_clip", "a number")?;
         let normalize: bool = f.meta_parse("normalize_input", "true/false")?;
@@ -122,25 +122,5 @@ impl FrozenActor {
                 orow.fill(0.0);
             }
         }
-    }
-}
-
-/// `[1024, 512]` → the widths (JSON list of integers, as written by the learner).
-fn parse_list(text: &str) -> Option<Vec<usize>> {
-    let inner = text.trim().strip_prefix('[')?.strip_suffix(']')?;
-    if inner.trim().is_empty() {
-        return Some(Vec::new());
-    }
-    inner.split(',').map(|s| s.trim().parse().ok()).collect()
-}
-
-#[cfg(test)]
-mod tests {
-    #[test]
-    fn hidden_lists_parse() {
-        assert_eq!(super::parse_list("[1024, 512,512]"), Some(vec![1024, 512, 512]));
-        assert_eq!(super::parse_list("[]"), Some(vec![]));
-        assert_eq!(super::parse_list("1024"), None);
-        assert_eq!(super::parse_list("[1, x]"), None);
     }
 }

@@ -107,7 +107,8 @@ impl<R: Rule> Env for HoldEnv<R> {
         self.done.fill(false);
         self.buf.reward.fill(0.0);
         self.buf.terms.fill(0.0);
-        for _ in 0..self.llc_steps {
+        for k in 0..self.llc_steps {
+            let last = k + 1 == self.llc_steps;
             self.inner.step(actions)?;
             let b = self.inner.buffers();
             for i in 0..n {
@@ -119,12 +120,15 @@ impl<R: Rule> Env for HoldEnv<R> {
                 for k in 0..nt {
                     self.buf.terms[i * nt + k] += b.terms[i * nt + k];
                 }
-                Self::row(&mut self.buf.obs, &b.obs, i, d);
-                Self::row(&mut self.buf.metrics, &b.metrics, i, nm);
-                Self::row(&mut self.buf.info, &b.info, i, ni);
                 self.buf.terminated[i] = b.terminated[i];
                 self.buf.truncated[i] = b.truncated[i];
                 self.done[i] = b.terminated[i] != 0 || b.truncated[i] != 0;
+                // the rows of the transition's last counted step only
+                if self.done[i] || last {
+                    Self::row(&mut self.buf.obs, &b.obs, i, d);
+                    Self::row(&mut self.buf.metrics, &b.metrics, i, nm);
+                    Self::row(&mut self.buf.info, &b.info, i, ni);
+                }
             }
             if self.done.iter().all(|&x| x) {
                 break;
