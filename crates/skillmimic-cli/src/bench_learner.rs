@@ -150,7 +150,7 @@ impl Ours {
         for _ in 0..=reps {
             let mb = RawMinibatch { n: batch, obs: &obs, actions: &act, old_neglogp: &old, advantages: &adv, returns_n: &ret };
             let t = Instant::now();
-            update_minibatch(&mut self.policy, &mut self.adam, &mb, &mut buf, &self.cfg, threads).expect("update");
+            update_minibatch(&mut self.policy, &mut self.adam, &mb, mb.n, &mut buf, &self.cfg, threads, &mut skillmimic_learn::collective::Single).expect("update");
             times.push(t.elapsed().as_secs_f64());
         }
         median(times[1..].to_vec())

@@ -2,38 +2,16 @@
 //! two end-of-run hooks of the CLI (learning-curve PNG, short video).
 
 use std::io::IsTerminal;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use indicatif::{ProgressBar, ProgressStyle};
 use skillmimic_env::{Env, SkillEnv};
 use skillmimic_learn::runner::{HookOutput, RunHook, Runner};
 use skillmimic_learn::trainer::{IterationStats, Trainer};
 
-use crate::common::{PresetArgs, init_learner_threads};
+use crate::common::init_learner_threads;
 
-#[derive(clap::Args)]
-pub struct Args {
-    #[command(flatten)]
-    pub base: PresetArgs,
-    /// Training iterations (`run.iterations`).
-    #[arg(long)]
-    pub iterations: Option<usize>,
-    /// Seed of everything (`run.seed`).
-    #[arg(long)]
-    pub seed: Option<u64>,
-    /// Output folder (`run.out_dir`).
-    #[arg(long)]
-    pub out: Option<PathBuf>,
-    /// Learner threads (`run.learner_threads`, 0 = all cores).
-    #[arg(long)]
-    pub learner_threads: Option<usize>,
-    /// Continue from a training checkpoint (optimizer and normaliser state included).
-    #[arg(long)]
-    pub resume: Option<PathBuf>,
-    /// Skip the end-of-training video.
-    #[arg(long)]
-    pub no_video: bool,
-}
+pub use skillmimic_learn::args::TrainArgs as Args;
 
 /// End-of-run hook: the learning-curve PNG.
 struct CurveHook;
@@ -101,25 +79,14 @@ fn describe(s: &IterationStats) -> String {
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
-    let mut cfg = a.base.assemble()?;
-    if let Some(v) = a.iterations {
-        cfg.run.iterations = v;
-    }
-    if let Some(v) = a.seed {
-        cfg.run.seed = v;
-    }
-    if let Some(v) = &a.out {
-        cfg.run.out_dir = v.clone();
-    }
-    if let Some(v) = a.learner_threads {
-        cfg.run.learner_threads = v;
-    }
-    if a.no_video {
-        cfg.run.final_video = false;
-    }
+    let cfg = a.config()?;
     init_learner_threads(cfg.run.learner_threads);
     let out = cfg.run.out_dir.clone();
-    let trainer = Trainer::new(cfg.clone(), a.resume.as_deref())?;
+    let resume = a.resume_path(&cfg.run.out_dir);
+    if a.resume.is_some() && resume.is_none() {
+        tracing::info!("--resume latest: no checkpoint in {} yet, starting fresh", cfg.run.out_dir.display());
+    }
+    let trainer = Trainer::new(cfg.clone(), resume.as_deref())?;
     tracing::info!(
         "training task '{}': {} envs x horizon {} = {} samples/iteration, network {:?}, {} iterations -> {}",
         cfg.env.task,
@@ -143,7 +110,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         }
         None if s.iteration % every == 0 || s.iteration == 1 => tracing::info!("iteration {}: {}", s.iteration, describe(s)),
         None => {}
-    })?;
+    })?
+    .expect("a single-process run is rank 0");
     if let Some(pb) = pb {
         pb.finish();
     }

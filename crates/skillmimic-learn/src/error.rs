@@ -23,6 +23,9 @@ pub enum LearnError {
     /// Training produced non-finite values.
     #[error("{0}")]
     Diverged(String),
+    /// A collective operation of a data-parallel run failed (a rank died, the group timed out).
+    #[error("distributed: {0}")]
+    Distributed(String),
     /// The requested device is not in this build.
     #[error("config field 'ppo.device': device '{0}' is not available in this build (cpu, or cuda with the `cuda` feature)")]
     Device(String),

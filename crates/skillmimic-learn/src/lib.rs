@@ -11,10 +11,15 @@
 //! * [`checkpoint`]: safetensors checkpoints that load into the PyTorch module;
 //! * [`trainer`]: rollouts on any registered task's environment and PPO updates;
 //! * [`runner`]: the training loop — logs, checkpoints, end-of-run evaluation, hooks, summary;
+//! * [`collective`], [`shard`], [`sync`]: data-parallel training (the collective operations, which
+//!   environments and samples a rank holds, the start-of-run agreement);
 //! * [`tblog`]: TensorBoard scalar event files.
 
 pub mod adam;
+#[cfg(feature = "args")]
+pub mod args;
 pub mod checkpoint;
+pub mod collective;
 pub mod config;
 pub mod config_doc;
 pub mod config_file;
@@ -26,7 +31,9 @@ pub mod policies;
 pub mod policy;
 pub mod ppo;
 pub mod runner;
+pub mod shard;
 pub mod storage;
+pub mod sync;
 pub mod tblog;
 pub mod trainer;
 

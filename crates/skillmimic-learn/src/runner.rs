@@ -2,6 +2,10 @@
 //! checkpoints (atomic, with the effective config next to them), then the end-of-run work: the
 //! task's evaluation, the caller's hooks (learning-curve plot, video, …) and `summary.json`.
 //! The command line only parses arguments and calls [`Runner::run`].
+//!
+//! In a data-parallel run every rank trains; only rank 0 writes (logs, checkpoints, evaluation,
+//! hooks, summary), and its logged statistics are those of all ranks (see
+//! [`crate::trainer::IterationStats`]).
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -21,6 +25,14 @@ use crate::trainer::{IterationStats, Trainer};
 /// last checkpoint.
 pub fn train_loop(t: &mut Trainer, mut on_iteration: impl FnMut(&IterationStats)) -> Result<PathBuf, LearnError> {
     let out = t.cfg.run.out_dir.clone();
+    let target = t.cfg.run.iterations as u64;
+    if t.shard.rank != 0 {
+        while t.progress.iteration < target {
+            let s = t.iteration()?;
+            on_iteration(&s);
+        }
+        return Ok(out.join("latest.safetensors"));
+    }
     let ckpt_dir = out.join("checkpoints");
     std::fs::create_dir_all(&ckpt_dir).map_err(io(&ckpt_dir))?;
     let cfg_path = out.join("config.toml");
@@ -28,7 +40,6 @@ pub fn train_loop(t: &mut Trainer, mut on_iteration: impl FnMut(&IterationStats)
     let log_path = out.join("log.jsonl");
     let mut log = std::fs::OpenOptions::new().create(true).append(true).open(&log_path).map_err(io(&log_path))?;
     let mut tb = EventWriter::create(&out.join("tb")).map_err(io(&out.join("tb")))?;
-    let target = t.cfg.run.iterations as u64;
     let mut last = out.join("latest.safetensors");
     while t.progress.iteration < target {
         let s = t.iteration()?;
@@ -45,6 +56,7 @@ pub fn train_loop(t: &mut Trainer, mut on_iteration: impl FnMut(&IterationStats)
             ("ppo/clip_frac".into(), s.clip_frac as f32),
             ("ppo/approx_kl".into(), s.approx_kl as f32),
             ("perf/samples_per_s".into(), s.samples_per_s as f32),
+            ("perf/allreduce_s".into(), s.allreduce_s as f32),
         ];
         scalars.extend(s.reward_terms.iter().map(|(k, v)| (format!("reward_terms/{k}"), *v as f32)));
         let refs: Vec<(&str, f32)> = scalars.iter().map(|(k, v)| (k.as_str(), *v)).collect();
@@ -69,7 +81,7 @@ pub struct HookOutput {
 }
 
 /// Work done once training has finished (after the evaluation), e.g. a plot or a video.
-pub trait RunHook {
+pub trait RunHook: Send {
     /// Key of the output in `summary.json`.
     fn name(&self) -> &'static str;
     /// Produce the output into `out_dir`. An `Err` stops the run; failures that should not
@@ -88,6 +100,10 @@ pub struct Summary {
     pub low_level_samples: u64,
     pub wall_s: f64,
     pub samples_per_s: f64,
+    /// Ranks that trained (1: one process).
+    pub world_size: usize,
+    /// Mean seconds per iteration that rank 0 spent in collective operations.
+    pub mean_allreduce_s: f64,
     /// Mean reward per step of the first iteration of this run (biased: every episode is fresh).
     pub first_mean_reward: f64,
     pub last_mean_reward: f64,
@@ -128,16 +144,22 @@ impl Runner {
     }
 
     /// Train to `run.iterations`, evaluate, run the hooks and write `summary.json` (returned).
-    /// `on_iteration` sees every iteration's statistics (progress display).
-    pub fn run(&mut self, mut on_iteration: impl FnMut(&IterationStats)) -> Result<Summary, anyhow::Error> {
+    /// `on_iteration` sees every iteration's statistics (progress display). Ranks other than 0 of
+    /// a data-parallel run only train and return `None`.
+    pub fn run(&mut self, mut on_iteration: impl FnMut(&IterationStats)) -> Result<Option<Summary>, anyhow::Error> {
         let start = Instant::now();
         let mut rewards = Vec::new();
+        let mut allreduce = 0.0;
         let last = train_loop(&mut self.trainer, |s| {
             rewards.push(s.mean_reward);
+            allreduce += s.allreduce_s;
             on_iteration(s);
         })?;
         let wall = start.elapsed().as_secs_f64();
         let t = &self.trainer;
+        if t.shard.rank != 0 {
+            return Ok(None);
+        }
         let out = t.cfg.run.out_dir.clone();
         let report = evaluate_task(t)?;
         let path = out.join("metrics.json");
@@ -159,6 +181,8 @@ impl Runner {
             low_level_samples: t.progress.samples * t.env.spec().steps_per_action as u64,
             wall_s: wall,
             samples_per_s: (rewards.len() * t.cfg.batch_size()) as f64 / wall,
+            world_size: t.shard.world,
+            mean_allreduce_s: allreduce / rewards.len().max(1) as f64,
             first_mean_reward: rewards.first().copied().unwrap_or(f64::NAN),
             last_mean_reward: rewards.last().copied().unwrap_or(f64::NAN),
             best_mean_reward: rewards.iter().copied().fold(f64::NEG_INFINITY, f64::max),
@@ -173,7 +197,7 @@ impl Runner {
         };
         let path = out.join("summary.json");
         write_bytes_atomic(&path, serde_json::to_string_pretty(&summary)?.as_bytes()).map_err(io(&path))?;
-        Ok(summary)
+        Ok(Some(summary))
     }
 }
 

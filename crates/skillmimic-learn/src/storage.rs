@@ -4,7 +4,7 @@
 use crate::ppo::UpdateBuffers;
 
 /// Rollout storage, time-major `[t][env]`.
-#[derive(Default)]
+#[derive(Clone, Default)]
 pub struct Rollout {
     pub obs: Vec<f32>,
     pub actions: Vec<f32>,
@@ -39,6 +39,28 @@ impl Rollout {
                 *v = vec![0.0; h * n];
             }
             self.dones = vec![0; h * n];
+        }
+    }
+
+    /// Copy environments `offset..offset + n` of `src` (a rollout of `h` steps of `src_n`
+    /// environments) into this rollout (sized for `h` × `n`).
+    #[allow(clippy::too_many_arguments)]
+    pub fn copy_envs_from(&mut self, src: &Rollout, h: usize, src_n: usize, offset: usize, n: usize, d: usize, a: usize) {
+        for t in 0..h {
+            let (s0, t0) = (t * src_n + offset, t * n);
+            self.obs[t0 * d..(t0 + n) * d].copy_from_slice(&src.obs[s0 * d..(s0 + n) * d]);
+            self.actions[t0 * a..(t0 + n) * a].copy_from_slice(&src.actions[s0 * a..(s0 + n) * a]);
+            for (dst, from) in [
+                (&mut self.neglogp, &src.neglogp),
+                (&mut self.values, &src.values),
+                (&mut self.next_values, &src.next_values),
+                (&mut self.rewards, &src.rewards),
+                (&mut self.advantages, &src.advantages),
+                (&mut self.returns, &src.returns),
+            ] {
+                dst[t0..t0 + n].copy_from_slice(&from[s0..s0 + n]);
+            }
+            self.dones[t0..t0 + n].copy_from_slice(&src.dones[s0..s0 + n]);
         }
     }
 }

@@ -18,27 +18,37 @@
 //! into the effective config saved with the run), so two runs with the same seed and
 //! thread counts produce the same checkpoints bit for bit. A resumed run continues from the
 //! checkpoint's policy, normalisers and Adam state with freshly reset environments.
+//!
+//! Data-parallel ([`Trainer::with_collective`], [`crate::collective`]): `env.num_envs` is the
+//! total over all ranks; each rank steps its share ([`crate::shard`]) with its own streams of
+//! action noise and episode starts (rank 0's are those of a single process; rank r > 0 mixes r
+//! into the seeds), every rank computes the same minibatch order from `run.seed` and the
+//! iteration, and gradients and normaliser statistics are reduced so every rank takes the update
+//! one process would take on the same rollout. Only rank 0 reads a checkpoint to resume from; the
+//! state reaches the others by broadcast, so the world size may differ from the saving run's.
 
 use std::path::Path;
 use std::time::Instant;
 
 use rand::SeedableRng;
-use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 use skillmimic_env::{Env, registry};
 
 use crate::adam::Adam;
 use crate::checkpoint::{self, Progress};
+use crate::collective::{self, Collective, Single, Timed, mix_seed};
+use crate::shard::{Shard, epoch_order};
 use crate::config::TrainConfig;
 use crate::error::{LearnError, bad_checkpoint, io};
-use crate::ppo::gae::{gae, normalize_advantages};
+use crate::ppo::gae::gae;
 use crate::storage::{MinibatchBuffers, Rollout};
 use crate::policy::{InferenceBuffers, Policy};
 use crate::ppo::{LossStats, RawMinibatch, update_minibatch};
 
 /// Statistics of one iteration (one JSON line of `log.jsonl`).
-#[derive(Clone, Debug, Default, Serialize)]
+#[derive(Clone, Debug, Default, Serialize, serde::Deserialize)]
+#[serde(default)]
 pub struct IterationStats {
     pub iteration: u64,
     pub samples: u64,
@@ -69,6 +79,10 @@ pub struct IterationStats {
     pub clip_frac: f64,
     pub approx_kl: f64,
     pub value_mean: f64,
+    /// Ranks of a data-parallel run (1: one process).
+    pub world_size: usize,
+    /// Seconds this rank spent in collective operations (waiting for the others included).
+    pub allreduce_s: f64,
 }
 
 /// PPO trainer.
@@ -92,12 +106,28 @@ pub struct Trainer {
     term_sums: Vec<f64>,
     threads: usize,
     config_toml: String,
+    comm: Timed,
+    /// This rank's environments and samples.
+    pub shard: Shard,
+    order: Vec<usize>,
+    members: Vec<usize>,
+    sums: Vec<f64>,
 }
 
 impl Trainer {
     /// A new trainer (fresh policy), or one resumed from `resume` (a training checkpoint).
-    pub fn new(mut cfg: TrainConfig, resume: Option<&Path>) -> Result<Self, LearnError> {
+    pub fn new(cfg: TrainConfig, resume: Option<&Path>) -> Result<Self, LearnError> {
+        Self::with_collective(cfg, resume, Box::new(Single))
+    }
+
+    /// One rank of a data-parallel run over `comm` (see the module documentation); with
+    /// [`Single`] the same as [`Trainer::new`]. Only rank 0 reads `resume`; the other ranks take
+    /// the state from rank 0.
+    pub fn with_collective(mut cfg: TrainConfig, resume: Option<&Path>, comm: Box<dyn Collective>) -> Result<Self, LearnError> {
+        let mut comm = Timed::new(comm);
         cfg.validate()?;
+        let shard = Shard::new(cfg.env.num_envs, comm.rank(), comm.world_size())?;
+        let rank = shard.rank;
         let batch = cfg.batch_size();
         if !batch.is_multiple_of(cfg.ppo.minibatch) {
             return Err(LearnError::Config(format!(
@@ -107,27 +137,42 @@ impl Trainer {
         }
         // derived value, made explicit in the effective config: episode starts follow the run seed
         // unless `env.seed` is set
-        cfg.env.seed = Some(cfg.env.start_seed(cfg.run.seed));
+        let start_seed = cfg.env.start_seed(cfg.run.seed);
+        cfg.env.seed = Some(start_seed);
+        let mut ecfg = cfg.env.clone();
         if cfg.env.v2.history.enabled && resume.is_none() {
             // the frozen encoder defines part of the policy's input: keep a copy with the run
+            // (written by rank 0; the others read the original)
             let src = cfg.env.v2.history.encoder.clone();
             let dst = cfg.run.out_dir.join("history_encoder.safetensors");
             if src != dst {
-                std::fs::create_dir_all(&cfg.run.out_dir).map_err(io(&cfg.run.out_dir))?;
-                let bytes = std::fs::read(&src).map_err(io(&src))?;
-                skillmimic_core::tensorfile::write_bytes_atomic(&dst, &bytes).map_err(io(&dst))?;
+                if rank == 0 {
+                    std::fs::create_dir_all(&cfg.run.out_dir).map_err(io(&cfg.run.out_dir))?;
+                    let bytes = std::fs::read(&src).map_err(io(&src))?;
+                    skillmimic_core::tensorfile::write_bytes_atomic(&dst, &bytes).map_err(io(&dst))?;
+                }
                 cfg.env.v2.history.encoder = dst;
             }
         }
-        let mut env = registry::make(&cfg.env)?;
+        if rank == 0 {
+            ecfg.v2.history.encoder = cfg.env.v2.history.encoder.clone();
+        }
+        ecfg.num_envs = shard.local;
+        if rank > 0 {
+            ecfg.seed = Some(mix_seed(start_seed, rank as u64));
+        }
+        let mut env = registry::make(&ecfg)?;
         let (obs_dim, act_dim) = (env.obs_dim(), env.act_dim());
         let mut rng = ChaCha8Rng::seed_from_u64(cfg.run.seed);
-        let (policy, adam, progress) = match resume {
+        let fresh = |rng: &mut ChaCha8Rng| -> Result<(Policy, Adam), LearnError> {
+            let policy = Policy::build(obs_dim, env.spec().action_space, &cfg.ppo, rng)?;
+            let adam = Adam::new(&crate::ppo::update::param_sizes(&policy), cfg.ppo.lr, cfg.ppo.adam_eps);
+            Ok((policy, adam))
+        };
+        let (mut policy, mut adam, mut progress) = match resume.filter(|_| rank == 0) {
             None => {
-                let policy = Policy::build(obs_dim, env.spec().action_space, &cfg.ppo, &mut rng)?;
-                let sizes: Vec<usize> = policy.actor.params().iter().chain(policy.critic.params().iter()).map(|p| p.len()).collect();
-                let adam = Adam::new(&sizes, cfg.ppo.lr, cfg.ppo.adam_eps);
-                (policy, adam, Progress::default())
+                let (p, a) = fresh(&mut rng)?;
+                (p, a, Progress::default())
             }
             Some(path) => {
                 let c = checkpoint::load(path, Some((obs_dim, act_dim)))?;
@@ -146,12 +191,28 @@ impl Trainer {
                     return Err(bad_checkpoint(path)(format!("{}: policy family '{}' differs from the config's ppo.policy '{}'", path.display(), c.policy.family.name(), cfg.ppo.policy)));
                 }
                 adam.lr = cfg.ppo.lr;
-                // continue with a stream of random numbers that differs from the first run's
-                rng = ChaCha8Rng::seed_from_u64(cfg.run.seed ^ (c.progress.iteration.wrapping_mul(0x9e37_79b9_7f4a_7c15)));
-                env.reset_all(Some(cfg.run.seed.wrapping_add(c.progress.iteration)));
                 (c.policy, adam, c.progress)
             }
         };
+        if comm.world_size() > 1 {
+            crate::sync::check_agreement(&cfg, &policy, &adam, &mut comm)?;
+            crate::sync::broadcast_state(&mut policy, &mut adam, &mut progress, &mut comm)?;
+            adam.lr = cfg.ppo.lr;
+        }
+        if progress.iteration > 0 {
+            // resumed: continue with streams of random numbers that differ from the first run's
+            let it = progress.iteration;
+            let mut noise = cfg.run.seed ^ it.wrapping_mul(0x9e37_79b9_7f4a_7c15);
+            let mut starts = cfg.run.seed.wrapping_add(it);
+            if rank > 0 {
+                (noise, starts) = (mix_seed(noise, rank as u64), mix_seed(starts, rank as u64));
+            }
+            rng = ChaCha8Rng::seed_from_u64(noise);
+            env.reset_all(Some(starts));
+        } else if rank > 0 {
+            rng = ChaCha8Rng::seed_from_u64(mix_seed(cfg.run.seed, rank as u64));
+        }
+        comm.take_seconds();
         let threads = if cfg.run.learner_threads == 0 { rayon::current_num_threads() } else { cfg.run.learner_threads };
         let n = env.num_envs();
         let outputs = policy.actor_outputs();
@@ -177,6 +238,11 @@ impl Trainer {
             ep_len: vec![0; n],
             threads,
             config_toml,
+            comm,
+            shard,
+            order: Vec::new(),
+            members: Vec::new(),
+            sums: Vec::new(),
         })
     }
 
@@ -261,16 +327,29 @@ impl Trainer {
             pending = t + 1 < h;
         }
         stats.env_s = env_time.as_secs_f64();
-        let steps = (h * n) as f64;
-        stats.mean_reward = self.roll.rewards.iter().map(|&r| r as f64).sum::<f64>() / steps;
-        stats.reward_terms = self.env.spec().term_names.iter().zip(&self.term_sums).map(|(nm, s)| (nm.to_string(), s / steps)).collect();
-        stats.episodes = ep_count;
-        if ep_count > 0 {
-            stats.episode_length = ep_len_sum as f64 / ep_count as f64;
-            stats.episode_return = ep_ret_sum / ep_count as f64;
-            stats.early_terminations = early as f64 / ep_count as f64;
+        // sums over all ranks' environments: [steps, rewards, values, episodes, lengths,
+        // returns, early endings, reward terms…]
+        let mut s = vec![
+            (h * n) as f64,
+            self.roll.rewards.iter().map(|&r| r as f64).sum::<f64>(),
+            self.roll.values.iter().map(|&v| v as f64).sum::<f64>(),
+            ep_count as f64,
+            ep_len_sum as f64,
+            ep_ret_sum,
+            early as f64,
+        ];
+        s.extend_from_slice(&self.term_sums);
+        self.comm.all_reduce_f64(&mut s)?;
+        let steps = s[0];
+        stats.mean_reward = s[1] / steps;
+        stats.reward_terms = self.env.spec().term_names.iter().zip(&s[7..]).map(|(nm, v)| (nm.to_string(), v / steps)).collect();
+        stats.episodes = s[3] as usize;
+        if s[3] > 0.0 {
+            stats.episode_length = s[4] / s[3];
+            stats.episode_return = s[5] / s[3];
+            stats.early_terminations = s[6] / s[3];
         }
-        stats.value_mean = self.roll.values.iter().map(|&v| v as f64).sum::<f64>() / steps;
+        stats.value_mean = s[2] / steps;
         Ok(())
     }
 
@@ -278,21 +357,23 @@ impl Trainer {
     fn update(&mut self, stats: &mut IterationStats) -> Result<(), LearnError> {
         let cfg = &self.cfg.ppo;
         let (n, d, a) = (self.env.num_envs(), self.env.obs_dim(), self.env.act_dim());
+        let comm: &mut dyn Collective = &mut self.comm;
         let r = &mut self.roll;
         gae(&r.rewards, &r.values, &r.next_values, &r.dones, n, cfg.gamma as f32, cfg.lam as f32, &mut r.advantages, &mut r.returns);
         if self.policy.normalize_value {
             // rl_games order: update with the values, then with the returns; the critic learns
             // the returns normalised with the final statistics
-            self.policy.value_norm.update(&r.values);
-            self.policy.value_norm.update(&r.returns);
+            collective::update_normalizer(&mut self.policy.value_norm, &r.values, comm, &mut self.sums)?;
+            collective::update_normalizer(&mut self.policy.value_norm, &r.returns, comm, &mut self.sums)?;
             for x in r.returns.iter_mut() {
                 *x = self.policy.value_norm.normalize_scalar(*x as f64) as f32;
             }
         }
         if cfg.normalize_advantage {
-            normalize_advantages(&mut r.advantages);
+            collective::normalize_advantages(&mut r.advantages, comm)?;
         }
-        let batch = r.rewards.len();
+        // the global batch and minibatch; this rank gathers the members it holds
+        let batch = self.cfg.batch_size();
         let mbs = cfg.minibatch;
         let mb = &mut self.mb;
         mb.obs.resize(mbs * d, 0.0);
@@ -300,12 +381,16 @@ impl Trainer {
         mb.neglogp.resize(mbs, 0.0);
         mb.adv.resize(mbs, 0.0);
         mb.ret.resize(mbs, 0.0);
-        let mut order: Vec<usize> = (0..batch).collect();
         let mut acc = LossStats::default();
         let mut count = 0.0;
-        for _ in 0..cfg.mini_epochs {
-            order.shuffle(&mut self.rng);
-            for chunk in order.chunks_exact(mbs) {
+        let shard = self.shard;
+        for epoch in 0..cfg.mini_epochs {
+            epoch_order(self.cfg.run.seed, self.progress.iteration, epoch, batch, &mut self.order);
+            for global in self.order.chunks_exact(mbs) {
+                self.members.clear();
+                self.members.extend(global.iter().filter_map(|&g| shard.local_index(g)));
+                let chunk = &self.members;
+                let m = chunk.len();
                 for (k, &s) in chunk.iter().enumerate() {
                     mb.obs[k * d..(k + 1) * d].copy_from_slice(&r.obs[s * d..(s + 1) * d]);
                     mb.actions[k * a..(k + 1) * a].copy_from_slice(&r.actions[s * a..(s + 1) * a]);
@@ -313,8 +398,8 @@ impl Trainer {
                     mb.adv[k] = r.advantages[s];
                     mb.ret[k] = r.returns[s];
                 }
-                let raw = RawMinibatch { n: mbs, obs: &mb.obs, actions: &mb.actions, old_neglogp: &mb.neglogp, advantages: &mb.adv, returns_n: &mb.ret };
-                let l = update_minibatch(&mut self.policy, &mut self.adam, &raw, &mut mb.update, cfg, self.threads)?;
+                let raw = RawMinibatch { n: m, obs: &mb.obs[..m * d], actions: &mb.actions[..m * a], old_neglogp: &mb.neglogp[..m], advantages: &mb.adv[..m], returns_n: &mb.ret[..m] };
+                let l = update_minibatch(&mut self.policy, &mut self.adam, &raw, mbs, &mut mb.update, cfg, self.threads, comm)?;
                 acc.actor += l.actor;
                 acc.critic += l.critic;
                 acc.bounds += l.bounds;
@@ -333,22 +418,49 @@ impl Trainer {
 
     /// Run one iteration (rollout + update).
     pub fn iteration(&mut self) -> Result<IterationStats, LearnError> {
+        let stats = self.collect_rollout()?;
+        self.update_from_rollout(stats)
+    }
+
+    /// The rollout half of an iteration: fill the rollout storage (statistics reduced over the
+    /// ranks, `rollout_s` set).
+    pub fn collect_rollout(&mut self) -> Result<IterationStats, LearnError> {
         let mut stats = IterationStats::default();
         let t0 = Instant::now();
         self.rollout(&mut stats)?;
+        stats.rollout_s = t0.elapsed().as_secs_f64();
+        stats.inference_s = (stats.rollout_s - stats.env_s).max(0.0);
+        Ok(stats)
+    }
+
+    /// The update half of an iteration on the rollout storage, then count the iteration.
+    pub fn update_from_rollout(&mut self, mut stats: IterationStats) -> Result<IterationStats, LearnError> {
         let t1 = Instant::now();
         self.update(&mut stats)?;
-        let t2 = Instant::now();
+        stats.update_s = t1.elapsed().as_secs_f64();
         self.progress.iteration += 1;
         self.progress.samples += self.cfg.batch_size() as u64;
         stats.iteration = self.progress.iteration;
         stats.samples = self.progress.samples;
         stats.low_level_samples = self.progress.samples * self.env.spec().steps_per_action as u64;
-        stats.rollout_s = (t1 - t0).as_secs_f64();
-        stats.inference_s = (stats.rollout_s - stats.env_s).max(0.0);
-        stats.update_s = (t2 - t1).as_secs_f64();
-        stats.samples_per_s = self.cfg.batch_size() as f64 / (t2 - t0).as_secs_f64();
+        stats.samples_per_s = self.cfg.batch_size() as f64 / (stats.rollout_s + stats.update_s);
+        stats.world_size = self.shard.world;
+        stats.allreduce_s = self.comm.take_seconds();
         Ok(stats)
+    }
+
+    /// The rollout storage (time-major over this rank's environments).
+    pub fn rollout_storage(&self) -> &Rollout {
+        &self.roll
+    }
+
+    /// Replace the rollout storage by this rank's environments of `full`, a rollout of all
+    /// `env.num_envs` environments (equivalence tests: every rank updates on its part of one
+    /// rollout).
+    pub fn load_rollout_part(&mut self, full: &Rollout) {
+        self.alloc_rollout();
+        let (h, d, a) = (self.cfg.ppo.horizon, self.env.obs_dim(), self.env.act_dim());
+        self.roll.copy_envs_from(full, h, self.shard.total_envs, self.shard.offset, self.shard.local, d, a);
     }
 
     /// Simulation-only throughput probe for `skillmimic bench train`: step the same environments

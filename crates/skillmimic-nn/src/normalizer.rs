@@ -33,12 +33,13 @@ impl RunningMeanStd {
         self.mean.len()
     }
 
-    /// Mean and unbiased variance of the `n` rows of `x` (row-major, `dim` columns).
-    pub fn batch_moments(x: &[f32], dim: usize, shift: &[f64]) -> (Vec<f64>, Vec<f64>) {
+    /// Sums of `x − shift` and `(x − shift)²` per feature over the rows of `x` (row-major, `dim`
+    /// columns), in f64. Rows are summed in fixed blocks combined in block order, so the result
+    /// does not depend on the number of threads. The sums of several batches add up to the sums of
+    /// their union (data-parallel training all-reduces them; see [`Self::merge_sums`]).
+    pub fn batch_sums(x: &[f32], dim: usize, shift: &[f64]) -> (Vec<f64>, Vec<f64>) {
         let n = x.len() / dim;
-        assert!(n >= 2, "a batch needs at least 2 rows for an unbiased variance");
-        let rows_per = n.div_ceil(BLOCKS);
-        // per block: sums of (x - shift) and (x - shift)^2, in f64
+        let rows_per = n.div_ceil(BLOCKS).max(1);
         let partial: Vec<(Vec<f64>, Vec<f64>)> = (0..BLOCKS)
             .into_par_iter()
             .map(|b| {
@@ -62,9 +63,21 @@ impl RunningMeanStd {
                 s2[j] += b[j];
             }
         }
-        let nf = n as f64;
-        let mean = (0..dim).map(|j| shift[j] + s1[j] / nf).collect();
-        let var = (0..dim).map(|j| ((s2[j] - s1[j] * s1[j] / nf) / (nf - 1.0)).max(0.0)).collect();
+        (s1, s2)
+    }
+
+    /// Mean and unbiased variance of the `n` rows of `x` (row-major, `dim` columns).
+    pub fn batch_moments(x: &[f32], dim: usize, shift: &[f64]) -> (Vec<f64>, Vec<f64>) {
+        let n = x.len() / dim;
+        assert!(n >= 2, "a batch needs at least 2 rows for an unbiased variance");
+        let (s1, s2) = Self::batch_sums(x, dim, shift);
+        Self::moments_from_sums(n as f64, &s1, &s2, shift)
+    }
+
+    /// Mean and unbiased variance from `n` rows' sums of `x − shift` and `(x − shift)²`.
+    pub fn moments_from_sums(n: f64, s1: &[f64], s2: &[f64], shift: &[f64]) -> (Vec<f64>, Vec<f64>) {
+        let mean = (0..s1.len()).map(|j| shift[j] + s1[j] / n).collect();
+        let var = (0..s1.len()).map(|j| ((s2[j] - s1[j] * s1[j] / n) / (n - 1.0)).max(0.0)).collect();
         (mean, var)
     }
 
@@ -72,9 +85,16 @@ impl RunningMeanStd {
     pub fn update(&mut self, x: &[f32]) {
         let dim = self.dim();
         let nb = (x.len() / dim) as f64;
-        let (bm, bv) = Self::batch_moments(x, dim, &self.mean);
+        let (s1, s2) = Self::batch_sums(x, dim, &self.mean);
+        self.merge_sums(nb, &s1, &s2);
+    }
+
+    /// Merge a batch given by its row count `nb` (≥ 2) and its sums of `x − mean` and
+    /// `(x − mean)²` taken with the current mean as the shift ([`Self::batch_sums`]).
+    pub fn merge_sums(&mut self, nb: f64, s1: &[f64], s2: &[f64]) {
+        let (bm, bv) = Self::moments_from_sums(nb, s1, s2, &self.mean);
         let tot = self.count + nb;
-        for j in 0..dim {
+        for j in 0..self.dim() {
             let delta = bm[j] - self.mean[j];
             let m2 = self.var[j] * self.count + bv[j] * nb + delta * delta * self.count * nb / tot;
             self.mean[j] += delta * nb / tot;

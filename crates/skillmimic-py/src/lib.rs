@@ -13,6 +13,7 @@ use skillmimic_env::{Env, EnvConfig, SkillEnv};
 
 mod consts;
 mod nn;
+mod train;
 
 fn value_error(e: impl std::fmt::Display) -> PyErr {
     PyValueError::new_err(e.to_string())
@@ -538,6 +539,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Policy>()?;
     m.add_class::<RunningMeanStd>()?;
     m.add_class::<HistoryEncoder>()?;
+    m.add_class::<train::PyTrainer>()?;
     m.add_function(wrap_pyfunction!(core_version, m)?)?;
     m.add_function(wrap_pyfunction!(ppo_loss_and_grads, m)?)?;
     m.add_function(wrap_pyfunction!(init_policy, m)?)?;

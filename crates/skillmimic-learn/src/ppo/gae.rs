@@ -32,15 +32,6 @@ pub fn gae(
     }
 }
 
-/// Normalise advantages in place: (A − mean) / (std + 1e-8) with the unbiased std.
-pub fn normalize_advantages(a: &mut [f32]) {
-    let n = a.len() as f64;
-    let mean = a.iter().map(|&x| x as f64).sum::<f64>() / n;
-    let var = a.iter().map(|&x| (x as f64 - mean).powi(2)).sum::<f64>() / (n - 1.0);
-    let inv = 1.0 / (var.sqrt() + 1e-8);
-    a.iter_mut().for_each(|x| *x = ((*x as f64 - mean) * inv) as f32);
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -62,8 +53,5 @@ mod tests {
         // A2 = -0.5, A1 = 0 (chain cut), A0 = -0.5 + 0.25*0 = -0.5
         assert_eq!([a[1], a[3], a[5]], [-0.5, 0.0, -0.5]);
         assert_eq!(r[1], 0.5);
-        let mut x = [1.0f32, 2.0, 3.0];
-        normalize_advantages(&mut x);
-        assert!((x[0] + 1.0).abs() < 1e-6 && x[1].abs() < 1e-6 && (x[2] - 1.0).abs() < 1e-6);
     }
 }

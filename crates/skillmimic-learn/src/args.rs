@@ -1,0 +1,168 @@
+//! Command-line arguments of training, shared by the `skillmimic` command and the Python
+//! package's trainer (`python -m skillmimic_rs.train`, the entry point torchrun launches), so both
+//! accept the same flags with the same meaning. Behind the `args` feature (clap).
+
+use std::path::{Path, PathBuf};
+
+use crate::config::TrainConfig;
+
+/// Flags that override configuration fields (shared by train / eval / play).
+#[derive(clap::Args, Clone, Debug, Default)]
+pub struct ConfigFlags {
+    /// Task of the registry (`env.task`): imitation (default), stand, heading, circling,
+    /// throwing, scoring. A high-level task (the last four) without `--policy` trains the
+    /// high-level controller's `categorical_mlp` [1024, 512].
+    #[arg(long)]
+    pub task: Option<String>,
+    /// Skill policy checkpoint driven by a high-level task (`env.hlc.llc`); only read.
+    #[arg(long)]
+    pub llc: Option<PathBuf>,
+    /// Policy family (`ppo.policy`): gaussian_mlp (default), categorical_mlp.
+    #[arg(long)]
+    pub policy: Option<String>,
+    /// Clip files or folders (repeatable); replaces `env.motion`.
+    #[arg(long = "motion")]
+    pub motion: Vec<PathBuf>,
+    /// Number of parallel environments (`env.num_envs`; in a data-parallel run the total of all
+    /// ranks).
+    #[arg(long)]
+    pub num_envs: Option<usize>,
+    /// Simulation threads (`env.threads`, 0 = all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Any config field as `table.field=value` (TOML value syntax), repeatable, applied last.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
+}
+
+impl ConfigFlags {
+    /// Apply the flags to `cfg`.
+    pub fn apply(&self, cfg: &mut TrainConfig) -> anyhow::Result<()> {
+        if let Some(t) = &self.task {
+            cfg.env.task = t.clone();
+        }
+        if let Some(p) = &self.llc {
+            cfg.env.hlc.llc = p.clone();
+        }
+        if let Some(p) = &self.policy {
+            cfg.ppo.policy = p.clone();
+        }
+        if !self.motion.is_empty() {
+            cfg.env.motion = self.motion.clone();
+        }
+        if let Some(n) = self.num_envs {
+            cfg.env.num_envs = n;
+        }
+        if let Some(t) = self.threads {
+            cfg.env.threads = t;
+        }
+        // a high-level task with the default (Gaussian) family: the high-level controller's
+        // settings, unless the family was chosen (file or --policy)
+        if skillmimic_env::registry::is_high_level(&cfg.env.task) && cfg.ppo.policy == crate::config::DEFAULT_FAMILY {
+            cfg.use_high_level_defaults();
+        }
+        for s in &self.set {
+            cfg.set(s).map_err(anyhow::Error::msg)?;
+        }
+        Ok(())
+    }
+}
+
+/// Preset + config file + override flags (shared by train and bench train).
+#[derive(clap::Args, Clone, Debug)]
+pub struct PresetArgs {
+    /// Preset: paper (2048 envs), small (256 envs, paper network and PPO settings), tiny (smoke tests).
+    #[arg(long, default_value = "small")]
+    pub preset: String,
+    /// TOML config file with [env], [ppo] and [run] tables (over the preset).
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    #[command(flatten)]
+    pub flags: ConfigFlags,
+}
+
+impl PresetArgs {
+    /// The configuration these arguments describe.
+    pub fn assemble(&self) -> anyhow::Result<TrainConfig> {
+        assemble_config(&self.preset, self.config.as_deref(), &self.flags)
+    }
+}
+
+/// Preset, then the TOML file, then the flags.
+pub fn assemble_config(preset: &str, file: Option<&Path>, flags: &ConfigFlags) -> anyhow::Result<TrainConfig> {
+    let base = TrainConfig::preset(preset).map_err(anyhow::Error::msg)?;
+    let mut cfg = match file {
+        // relative paths in the file are resolved by the rule of `config_file` (shared with Python)
+        Some(p) => crate::config_file::load_train_config(&base, p).map_err(anyhow::Error::msg)?,
+        None => base,
+    };
+    flags.apply(&mut cfg)?;
+    Ok(cfg)
+}
+
+/// The arguments of `skillmimic train` (and of `python -m skillmimic_rs.train`).
+#[derive(clap::Args, Clone, Debug)]
+pub struct TrainArgs {
+    #[command(flatten)]
+    pub base: PresetArgs,
+    /// Training iterations (`run.iterations`).
+    #[arg(long)]
+    pub iterations: Option<usize>,
+    /// Seed of everything (`run.seed`).
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Output folder (`run.out_dir`).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Learner threads (`run.learner_threads`, 0 = all cores).
+    #[arg(long)]
+    pub learner_threads: Option<usize>,
+    /// Continue from a training checkpoint (optimizer and normaliser state included), or
+    /// `latest`: the output folder's `latest.safetensors` when it exists, else a fresh start
+    /// (what a restarted job wants, e.g. under `torchrun --max-restarts`).
+    #[arg(long)]
+    pub resume: Option<PathBuf>,
+    /// Skip the end-of-training video.
+    #[arg(long)]
+    pub no_video: bool,
+}
+
+impl TrainArgs {
+    /// The configuration: preset, file, flags, then the run flags.
+    pub fn config(&self) -> anyhow::Result<TrainConfig> {
+        let mut cfg = self.base.assemble()?;
+        if let Some(v) = self.iterations {
+            cfg.run.iterations = v;
+        }
+        if let Some(v) = self.seed {
+            cfg.run.seed = v;
+        }
+        if let Some(v) = &self.out {
+            cfg.run.out_dir = v.clone();
+        }
+        if let Some(v) = self.learner_threads {
+            cfg.run.learner_threads = v;
+        }
+        if self.no_video {
+            cfg.run.final_video = false;
+        }
+        Ok(cfg)
+    }
+
+    /// The checkpoint to resume from (`latest` resolved in `out_dir`).
+    pub fn resume_path(&self, out_dir: &Path) -> Option<PathBuf> {
+        match &self.resume {
+            Some(p) if p.as_os_str() == "latest" => Some(out_dir.join("latest.safetensors")).filter(|p| p.is_file()),
+            other => other.clone(),
+        }
+    }
+}
+
+/// Size the global rayon pool used by the learner's matrix products (once per process).
+pub fn init_learner_threads(n: usize) {
+    let mut b = rayon::ThreadPoolBuilder::new().thread_name(|i| format!("skillmimic-learn-{i}"));
+    if n > 0 {
+        b = b.num_threads(n);
+    }
+    let _ = b.build_global();
+}
