@@ -14,7 +14,8 @@ fn fnv1a(bytes: &[u8]) -> u64 {
     bytes.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &b| (h ^ b as u64).wrapping_mul(0x0100_0000_01b3))
 }
 
-/// What must be equal on every rank, as exact small numbers, with names for the error.
+/// What must be equal on every rank, as exact small numbers, with names for the error (not the
+/// optimiser's step count: only rank 0 reads a checkpoint to resume from).
 fn signature(cfg: &TrainConfig, policy: &Policy, adam: &Adam) -> Vec<(&'static str, f64)> {
     // fields that may differ per machine: the thread counts and where rank 0 writes
     let mut c = cfg.clone();
@@ -29,7 +30,7 @@ fn signature(cfg: &TrainConfig, policy: &Policy, adam: &Adam) -> Vec<(&'static s
         ("action width", policy.act_dim() as f64),
         ("actor parameters", policy.actor.params().iter().map(|p| p.len()).sum::<usize>() as f64),
         ("critic parameters", policy.critic.params().iter().map(|p| p.len()).sum::<usize>() as f64),
-        ("optimizer steps", adam.step as f64),
+        ("optimizer tensors", adam.m.len() as f64),
     ]
 }
 

@@ -1,0 +1,182 @@
+"""Data-parallel training on torch.distributed (gloo), launched as users launch it:
+
+* equivalence: ``torchrun --standalone --nproc-per-node 2`` runs ``tests/dist_equivalence.py``
+  (2 ranks x N/2 environments vs 1 process x N, the paper network, from one rollout);
+* faults: ``kill -9`` of one rank under torchrun ends the job non-zero within 60 s and
+  ``--resume latest`` continues from the last checkpoint with another world size; torchrun's
+  restart (``--max-restarts 1``) plus ``--resume latest`` finishes the run; without torchrun's
+  agent (ranks started by hand, as a scheduler may), the surviving rank ends with a clear error.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import pathlib
+import re
+import signal
+import socket
+import subprocess
+import sys
+import time
+
+import pytest
+
+REPO = pathlib.Path(__file__).resolve().parent.parent
+TORCHRUN = pathlib.Path(sys.executable).parent / "torchrun"
+TINY = ["--preset", "tiny", "--num-envs", "8", "--threads", "1", "--learner-threads", "1", "--no-video"]
+
+
+def _env() -> dict:
+    e = dict(os.environ)
+    e.pop("WORLD_SIZE", None)
+    e["OMP_NUM_THREADS"] = "1"
+    return e
+
+
+def _torchrun(*args: str) -> list[str]:
+    assert TORCHRUN.exists(), f"{TORCHRUN} missing: PyTorch is part of python/requirements-test.txt"
+    return [str(TORCHRUN), "--standalone", *args]
+
+
+def test_two_ranks_take_the_update_of_one_process(tmp_path):
+    flags = ["--preset", "tiny", "--num-envs", "16", "--threads", "1", "--learner-threads", "1",
+             "--set", "ppo.horizon=16", "--set", "ppo.minibatch=64", "--set", "ppo.mini_epochs=2",
+             "--set", "ppo.hidden=[1024, 1024, 512]"]
+    cmd = _torchrun("--nproc-per-node", "2", str(REPO / "tests" / "dist_equivalence.py"), str(tmp_path), *flags)
+    r = subprocess.run(cmd, cwd=REPO, env=_env(), capture_output=True, text=True, timeout=600)
+    report_path = tmp_path / "equivalence.json"
+    assert report_path.exists(), r.stdout[-3000:] + r.stderr[-3000:]
+    rep = json.loads(report_path.read_text())
+    print(json.dumps({k: rep[k]["max_relative"] | {"params (norm-wise)": rep[k]["norm_relative"]["params"]} for k in ("as_given", "linear")}, indent=1))
+    assert rep["ok"] and r.returncode == 0, json.dumps(rep, indent=1)
+    assert rep["as_given"]["local_envs"] == 8
+    for k in ("as_given", "linear"):
+        assert rep[k]["ranks_identical"]
+        assert rep[k]["max_relative"]["obs_var"] <= 1e-5 and rep[k]["max_relative"]["value_var"] <= 1e-5
+    assert rep["linear"]["max_relative"]["params"] <= 1e-5
+
+
+def _wait_for_checkpoints(d: pathlib.Path, n: int, procs: list[subprocess.Popen], timeout: float = 240.0) -> None:
+    t0 = time.time()
+    while len(list((d / "checkpoints").glob("iter_*.safetensors"))) < n:
+        for p in procs:
+            if p.poll() is not None:
+                out, err = p.communicate()
+                pytest.fail(f"a rank ended early (rc {p.returncode}): {out[-2000:]} {err[-2000:]}")
+        assert time.time() - t0 < timeout, "no checkpoints"
+        time.sleep(0.2)
+
+
+def _rank_pid(out: pathlib.Path, rank: int) -> int:
+    """PID of the training worker of `rank` for the run writing into `out` (Linux /proc)."""
+    for p in pathlib.Path("/proc").iterdir():
+        if not p.name.isdigit():
+            continue
+        try:
+            cmd = (p / "cmdline").read_bytes().split(b"\0")
+            env = (p / "environ").read_bytes().split(b"\0")
+        except OSError:
+            continue
+        if b"skillmimic_rs.train" in cmd and str(out).encode() in cmd and f"RANK={rank}".encode() in env and b"torchrun" not in cmd[1 if len(cmd) > 1 else 0]:
+            if any(c.endswith(b"torchrun") for c in cmd[:2]):
+                continue
+            return int(p.name)
+    raise AssertionError(f"no worker of rank {rank} for {out}")
+
+
+def _alive(out: pathlib.Path) -> list[int]:
+    found = []
+    for p in pathlib.Path("/proc").iterdir():
+        if p.name.isdigit():
+            try:
+                cmd = (p / "cmdline").read_bytes()
+            except OSError:
+                continue
+            if b"skillmimic_rs.train" in cmd and str(out).encode() in cmd:
+                found.append(int(p.name))
+    return found
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="finds the ranks through /proc")
+def test_kill_one_rank_then_resume_with_another_world_size(tmp_path):
+    out = tmp_path / "run"
+    cmd = _torchrun("--nproc-per-node", "2", "--max-restarts", "0", "-m", "skillmimic_rs.train", *TINY,
+                    "--iterations", "100000", "--set", "run.save_every=2", "--out", str(out), "--dist-timeout", "30")
+    job = subprocess.Popen(cmd, cwd=REPO, env=_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    try:
+        _wait_for_checkpoints(out, 2, [job])
+        os.kill(_rank_pid(out, 1), signal.SIGKILL)
+        t0 = time.time()
+        job.communicate(timeout=90)
+        took = time.time() - t0
+    finally:
+        if job.poll() is None:
+            os.killpg(job.pid, signal.SIGKILL)
+    print(f"kill -9 of rank 1: torchrun ended with rc {job.returncode} after {took:.1f} s")
+    assert job.returncode != 0 and took <= 60.0
+    time.sleep(1.0)
+    assert not _alive(out), "a rank outlived the job"
+    # resume on one process (another world size) from the newest checkpoint, 2 iterations on
+    newest = max(int(p.stem.split("_")[1]) for p in (out / "checkpoints").glob("iter_*.safetensors"))
+    target = newest + 2
+    r = subprocess.run(_torchrun("--nproc-per-node", "1", "-m", "skillmimic_rs.train", *TINY, "--resume", "latest",
+                                 "--out", str(out), "--iterations", str(target)),
+                       cwd=REPO, env=_env(), capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stdout[-2000:] + r.stderr[-2000:]
+    m = re.search(r"resumed from .*latest\.safetensors at iteration (\d+)", r.stdout)
+    assert m and int(m.group(1)) in (newest, newest - 2), r.stdout[-2000:]
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["iterations"] == target and summary["world_size"] == 1
+    log = [json.loads(line) for line in (out / "log.jsonl").read_text().splitlines()]
+    assert log[-1]["iteration"] == target and log[-1]["world_size"] == 1
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="finds the ranks through /proc")
+def test_torchrun_restart_resumes_and_finishes(tmp_path):
+    out = tmp_path / "run"
+    cmd = _torchrun("--nproc-per-node", "2", "--max-restarts", "1", "-m", "skillmimic_rs.train", *TINY,
+                    "--iterations", "60", "--set", "run.save_every=2", "--resume", "latest", "--out", str(out))
+    job = subprocess.Popen(cmd, cwd=REPO, env=_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    try:
+        _wait_for_checkpoints(out, 3, [job])
+        os.kill(_rank_pid(out, 1), signal.SIGKILL)
+        stdout, stderr = job.communicate(timeout=300)
+    finally:
+        if job.poll() is None:
+            os.killpg(job.pid, signal.SIGKILL)
+    assert job.returncode == 0, stdout[-2000:] + stderr[-3000:]
+    assert re.search(r"resumed from .*latest\.safetensors at iteration [1-9]", stdout), stdout[-2000:]
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["iterations"] == 60 and summary["world_size"] == 2
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def test_without_the_agent_the_surviving_rank_fails_clearly(tmp_path):
+    out = tmp_path / "run"
+    port = str(_free_port())
+    procs = []
+    for rank in range(2):
+        env = _env() | {"RANK": str(rank), "LOCAL_RANK": str(rank), "WORLD_SIZE": "2", "LOCAL_WORLD_SIZE": "2",
+                        "MASTER_ADDR": "127.0.0.1", "MASTER_PORT": port}
+        procs.append(subprocess.Popen([sys.executable, "-m", "skillmimic_rs.train", *TINY, "--iterations", "100000",
+                                       "--set", "run.save_every=2", "--out", str(out), "--dist-timeout", "30"],
+                                      cwd=REPO, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True))
+    try:
+        _wait_for_checkpoints(out, 1, procs)
+        procs[1].kill()
+        t0 = time.time()
+        _, err = procs[0].communicate(timeout=90)
+        took = time.time() - t0
+    finally:
+        for p in procs:
+            if p.poll() is None:
+                p.kill()
+    print(f"rank 0 ended after {took:.1f} s: {err.strip().splitlines()[-1]}")
+    assert procs[0].returncode == 1 and took <= 60.0
+    assert "error (rank 0): distributed:" in err, err[-2000:]
