@@ -1,5 +1,7 @@
 """Type stubs of the Rust extension ``skillmimic_rs._core`` (use ``skillmimic_rs.VecEnv``)."""
 
+from typing import Any, Callable
+
 import numpy as np
 import numpy.typing as npt
 
@@ -128,6 +130,41 @@ class Policy:
     def act_dim(self) -> int: ...
     def infer(self, obs: npt.NDArray[np.float32]) -> tuple[npt.NDArray[np.float32], npt.NDArray[np.float32]]:
         """Action means (N, act_dim) and values (N,)."""
+
+class Trainer:
+    """The PPO trainer of ``skillmimic train`` for one rank (``python -m skillmimic_rs.train``).
+
+    ``argv``: the arguments of ``skillmimic train`` (no program name). ``collective``: None (one
+    process) or an object with ``rank``, ``world_size``, ``all_reduce(array)`` (in-place sum) and
+    ``broadcast(array)`` (in place, from rank 0), e.g. ``skillmimic_rs.distributed.TorchCollective``.
+    """
+
+    def __init__(self, argv: list[str], collective: object | None = None) -> None: ...
+    @staticmethod
+    def usage() -> str: ...
+    def run(self, on_iteration: Callable[[str], None] | None = None) -> str | None:
+        """Train to ``run.iterations``; the summary as JSON on rank 0, None on other ranks."""
+    def iteration(self) -> str:
+        """One iteration; its statistics as JSON."""
+    def collect_rollout(self) -> str: ...
+    def update_from_rollout(self, stats_json: str | None = None) -> str: ...
+    def load_rollout_part(self, other: "Trainer") -> None:
+        """This rank's environments of a one-process trainer's rollout."""
+    def state(self) -> dict[str, Any]:
+        """Parameters, Adam moments, normaliser statistics (float64 arrays), step counts."""
+    def save(self, path: str) -> None: ...
+    @property
+    def rank(self) -> int: ...
+    @property
+    def world_size(self) -> int: ...
+    @property
+    def local_envs(self) -> int: ...
+    @property
+    def iterations_done(self) -> int: ...
+    @property
+    def resumed_from(self) -> str | None: ...
+    @property
+    def config_toml(self) -> str: ...
 
 class HistoryEncoder:
     """A SkillMimic-V2 history encoder file evaluated by the environment's Rust implementation."""

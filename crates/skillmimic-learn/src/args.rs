@@ -166,3 +166,30 @@ pub fn init_learner_threads(n: usize) {
     }
     let _ = b.build_global();
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        args: TrainArgs,
+    }
+
+    #[test]
+    fn resume_latest_takes_the_newest_checkpoint_or_starts_fresh() {
+        let dir = std::env::temp_dir().join(format!("sm-args-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let parse = |v: &[&str]| Cli::try_parse_from(std::iter::once("train").chain(v.iter().copied())).unwrap().args;
+        let a = parse(&["--resume", "latest", "--out", dir.to_str().unwrap(), "--iterations", "7"]);
+        let cfg = a.config().unwrap();
+        assert_eq!((cfg.run.iterations, cfg.run.out_dir.as_path()), (7, dir.as_path()));
+        assert_eq!(a.resume_path(&dir), None, "no checkpoint yet: fresh start");
+        std::fs::write(dir.join("latest.safetensors"), b"x").unwrap();
+        assert_eq!(a.resume_path(&dir), Some(dir.join("latest.safetensors")));
+        assert_eq!(parse(&["--resume", "a/b.safetensors"]).resume_path(&dir), Some(PathBuf::from("a/b.safetensors")));
+        assert!(Cli::try_parse_from(["train", "--bogus"]).is_err());
+    }
+}
