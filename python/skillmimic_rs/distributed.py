@@ -79,7 +79,19 @@ def init_from_environment(backend: str = "gloo", timeout_s: float = 300.0) -> To
         device = f"cuda:{int(os.environ.get('LOCAL_RANK', '0'))}"
         torch.cuda.set_device(device)
     if not dist.is_initialized():
-        dist.init_process_group(backend=backend, timeout=datetime.timedelta(seconds=timeout_s))
+        timeout = datetime.timedelta(seconds=timeout_s)
+        rank, world = int(os.environ["RANK"]), launched_world_size()
+        # torchrun keeps one key-value store across restarts of the workers: without a per-attempt
+        # prefix, a restarted rank can read the address its dead predecessor published and fail
+        # to connect (measured: "Gloo connectFullMesh failed … Connection refused" after a kill -9)
+        agent = os.environ.get("TORCHELASTIC_USE_AGENT_STORE") == "True"
+        store = dist.TCPStore(
+            os.environ["MASTER_ADDR"], int(os.environ["MASTER_PORT"]), world,
+            is_master=(not agent and rank == 0), timeout=timeout, multi_tenant=not agent,
+        )
+        attempt = os.environ.get("TORCHELASTIC_RESTART_COUNT", "0")
+        store = dist.PrefixStore(f"skillmimic_rs/attempt_{attempt}/", store)
+        dist.init_process_group(backend=backend, store=store, rank=rank, world_size=world, timeout=timeout)
     return TorchCollective(device)
 
 

@@ -60,8 +60,8 @@ pub fn check_agreement(cfg: &TrainConfig, policy: &Policy, adam: &Adam, comm: &m
     }
 }
 
-/// Rank 0's parameters, σ, optimiser state, normaliser statistics and progress copied into every
-/// rank (two broadcasts).
+/// Rank 0's parameters, σ, optimiser state and settings, normaliser statistics and switches, and
+/// progress copied into every rank (two broadcasts).
 pub fn broadcast_state(policy: &mut Policy, adam: &mut Adam, progress: &mut Progress, comm: &mut dyn Collective) -> Result<(), LearnError> {
     let mut flat: Vec<f32> = Vec::new();
     {
@@ -93,7 +93,10 @@ pub fn broadcast_state(policy: &mut Policy, adam: &mut Adam, progress: &mut Prog
         f64s.extend_from_slice(&n.var);
         f64s.push(n.count);
     }
-    f64s.extend([adam.step as f64, progress.iteration as f64, progress.samples as f64]);
+    // rank 0 may have resumed from a checkpoint whose optimiser settings and normaliser switches
+    // differ from the configuration the other ranks built from: rank 0's win
+    f64s.extend([adam.step as f64, progress.iteration as f64, progress.samples as f64, adam.lr, adam.beta1, adam.beta2, adam.eps]);
+    f64s.extend([f64::from(u8::from(policy.normalize_input)), f64::from(u8::from(policy.normalize_value))]);
     comm.broadcast_f64(&mut f64s)?;
     let mut at = 0;
     for n in [&mut policy.obs_norm, &mut policy.value_norm] {
@@ -106,5 +109,7 @@ pub fn broadcast_state(policy: &mut Policy, adam: &mut Adam, progress: &mut Prog
     adam.step = f64s[at] as u64;
     progress.iteration = f64s[at + 1] as u64;
     progress.samples = f64s[at + 2] as u64;
+    (adam.lr, adam.beta1, adam.beta2, adam.eps) = (f64s[at + 3], f64s[at + 4], f64s[at + 5], f64s[at + 6]);
+    (policy.normalize_input, policy.normalize_value) = (f64s[at + 7] != 0.0, f64s[at + 8] != 0.0);
     Ok(())
 }
