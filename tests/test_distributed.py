@@ -158,16 +158,22 @@ def _free_port() -> int:
         return s.getsockname()[1]
 
 
-def test_without_the_agent_the_surviving_rank_fails_clearly(tmp_path):
-    out = tmp_path / "run"
+def _start_by_hand(out: pathlib.Path, timeout_s: int) -> list[subprocess.Popen]:
+    """Two ranks started without torchrun (the variables a scheduler would set)."""
     port = str(_free_port())
     procs = []
     for rank in range(2):
         env = _env() | {"RANK": str(rank), "LOCAL_RANK": str(rank), "WORLD_SIZE": "2", "LOCAL_WORLD_SIZE": "2",
                         "MASTER_ADDR": "127.0.0.1", "MASTER_PORT": port}
         procs.append(subprocess.Popen([sys.executable, "-m", "skillmimic_rs.train", *TINY, "--iterations", "100000",
-                                       "--set", "run.save_every=2", "--out", str(out), "--dist-timeout", "30"],
+                                       "--set", "run.save_every=2", "--out", str(out), "--dist-timeout", str(timeout_s)],
                                       cwd=REPO, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True))
+    return procs
+
+
+def test_without_the_agent_the_surviving_rank_fails_clearly(tmp_path):
+    out = tmp_path / "run"
+    procs = _start_by_hand(out, 30)
     try:
         _wait_for_checkpoints(out, 1, procs)
         procs[1].kill()
@@ -187,14 +193,7 @@ def test_a_stopped_rank_makes_the_other_time_out(tmp_path):
     """A rank that stops answering without closing its connections (SIGSTOP: a hung process
     or a frozen machine): the other fails after --dist-timeout, not never."""
     out = tmp_path / "run"
-    port = str(_free_port())
-    procs = []
-    for rank in range(2):
-        env = _env() | {"RANK": str(rank), "LOCAL_RANK": str(rank), "WORLD_SIZE": "2", "LOCAL_WORLD_SIZE": "2",
-                        "MASTER_ADDR": "127.0.0.1", "MASTER_PORT": port}
-        procs.append(subprocess.Popen([sys.executable, "-m", "skillmimic_rs.train", *TINY, "--iterations", "100000",
-                                       "--set", "run.save_every=2", "--out", str(out), "--dist-timeout", "10"],
-                                      cwd=REPO, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True))
+    procs = _start_by_hand(out, 10)
     try:
         _wait_for_checkpoints(out, 1, procs)
         procs[1].send_signal(signal.SIGSTOP)

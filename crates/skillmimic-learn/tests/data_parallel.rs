@@ -3,18 +3,14 @@
 //! normalisers), ranks agree bit for bit, a configuration mismatch is an error, and every
 //! registered task × compatible policy family trains on 2 ranks.
 
+mod common;
+use common::{skill_policy, workspace_root};
 use skillmimic_env::registry::TASKS;
-use skillmimic_learn::checkpoint::{self, Progress};
 use skillmimic_learn::collective::threads::ThreadGroup;
-use skillmimic_learn::config::{PpoConfig, TrainConfig};
+use skillmimic_learn::config::TrainConfig;
 use skillmimic_learn::policies::FAMILIES;
-use skillmimic_learn::policy::Policy;
 use skillmimic_learn::storage::Rollout;
 use skillmimic_learn::trainer::Trainer;
-
-fn workspace_root() -> std::path::PathBuf {
-    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
 
 fn config(task: &str, tag: &str) -> TrainConfig {
     let mut c = TrainConfig::preset("tiny").unwrap();
@@ -144,20 +140,9 @@ fn full_iterations_agree_across_ranks_and_a_mismatch_is_an_error() {
     assert!(errs.iter().all(|e| e.contains("rank 1 disagrees with rank 0 on the configuration")), "{errs:?}");
 }
 
-/// A skill policy checkpoint (observation 902, 156 actions) for the high-level tasks.
-fn skill_policy() -> std::path::PathBuf {
-    let mut rng = <rand_chacha::ChaCha8Rng as rand::SeedableRng>::seed_from_u64(4);
-    let p = Policy::new(902, 156, &PpoConfig { hidden: vec![32], ..Default::default() }, &mut rng);
-    let dir = std::env::temp_dir().join(format!("sm-dp-llc-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join("llc.safetensors");
-    checkpoint::save(&path, &p, None, &Progress::default(), "").unwrap();
-    path
-}
-
 #[test]
 fn every_task_and_family_trains_on_two_ranks() {
-    let llc = skill_policy();
+    let llc = skill_policy("dp");
     let mut pairs = 0;
     for (entry, family) in TASKS.iter().flat_map(|e| FAMILIES.iter().map(move |f| (e, *f))) {
         let mut c = config(entry.name, &format!("{}-{}", entry.name, family.name()));

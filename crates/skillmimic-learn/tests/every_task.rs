@@ -3,27 +3,13 @@
 //! NaN), then one PPO iteration through the trainer (MuJoCo Playground style). High-level tasks
 //! drive a small skill policy written for the test.
 
+mod common;
+use common::{skill_policy, workspace_root};
 use skillmimic_env::registry::TASKS;
-use skillmimic_learn::checkpoint::{self, Progress};
-use skillmimic_learn::config::{PpoConfig, TrainConfig};
+use skillmimic_learn::config::TrainConfig;
 use skillmimic_learn::policies::FAMILIES;
 use skillmimic_learn::policy::{InferenceBuffers, Policy};
 use skillmimic_learn::trainer::Trainer;
-
-/// A skill policy checkpoint (observation 902, 156 actions) for the high-level tasks.
-fn skill_policy() -> std::path::PathBuf {
-    let mut rng = <rand_chacha::ChaCha8Rng as rand::SeedableRng>::seed_from_u64(4);
-    let p = Policy::new(902, 156, &PpoConfig { hidden: vec![32], ..Default::default() }, &mut rng);
-    let dir = std::env::temp_dir().join(format!("skillmimic-every-task-llc-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join("llc.safetensors");
-    checkpoint::save(&path, &p, None, &Progress::default(), "").unwrap();
-    path
-}
-
-fn workspace_root() -> std::path::PathBuf {
-    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
 
 fn config(task: &str, out: &str) -> TrainConfig {
     let mut c = TrainConfig::preset("tiny").unwrap();
@@ -36,7 +22,7 @@ fn config(task: &str, out: &str) -> TrainConfig {
     c.ppo.mini_epochs = 1;
     c.run.out_dir = std::env::temp_dir().join(format!("skillmimic-every-task-{out}-{}", std::process::id()));
     if skillmimic_env::registry::is_high_level(task) {
-        c.env.hlc.llc = skill_policy();
+        c.env.hlc.llc = skill_policy("every-task");
     }
     c
 }
