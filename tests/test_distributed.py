@@ -207,3 +207,23 @@ def test_a_stopped_rank_makes_the_other_time_out(tmp_path):
     print(f"rank 0 ended after {took:.1f} s: {err.strip().splitlines()[-1]}")
     assert procs[0].returncode == 1 and took <= 40.0
     assert "error (rank 0): distributed:" in err and "Timed out" in err, err[-2000:]
+
+
+def test_ctrl_c_stops_the_python_trainer_with_a_checkpoint(tmp_path):
+    out = tmp_path / "run"
+    p = subprocess.Popen([sys.executable, "-m", "skillmimic_rs.train", *TINY, "--iterations", "100000", "--set", "run.save_every=1000",
+                          "--out", str(out)], cwd=REPO, env=_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        t0 = time.time()
+        while not (out / "log.jsonl").exists() or len((out / "log.jsonl").read_text().splitlines()) < 3:
+            assert p.poll() is None and time.time() - t0 < 120, "the trainer did not start"
+            time.sleep(0.2)
+        p.send_signal(signal.SIGINT)
+        _, err = p.communicate(timeout=60)
+    finally:
+        if p.poll() is None:
+            p.kill()
+    m = re.search(r"interrupted at iteration (\d+); checkpoint saved", err)
+    assert p.returncode == 130 and m, err[-2000:]
+    assert (out / "checkpoints" / f"iter_{int(m.group(1)):06d}.safetensors").exists()
+    assert (out / "latest.safetensors").exists() and not (out / "summary.json").exists()

@@ -107,6 +107,9 @@ def main(argv: list[str] | None = None) -> int:
         except RuntimeError as e:
             print(f"error (rank {rank}): {e}" if world > 1 else f"error: {e}", file=sys.stderr)
             return 1
+        except KeyboardInterrupt:
+            print(f"interrupted at iteration {trainer.iterations_done}; checkpoint saved, continue with --resume latest", file=sys.stderr)
+            return 130
         if summary is not None:
             s = json.loads(summary)
             out = os.path.dirname(s["metrics"])

@@ -24,14 +24,27 @@ use crate::trainer::{IterationStats, Trainer};
 /// `on_iteration` sees every iteration's statistics (progress bars). Returns the path of the
 /// last checkpoint.
 pub fn train_loop(t: &mut Trainer, mut on_iteration: impl FnMut(&IterationStats)) -> Result<PathBuf, LearnError> {
+    train_loop_until(t, |s| {
+        on_iteration(s);
+        true
+    })
+    .map(|(p, _)| p)
+}
+
+/// [`train_loop`] that stops early when `on_iteration` returns false (an interrupt seen by the
+/// caller), after saving a checkpoint of the last finished iteration. Returns the last checkpoint
+/// and whether it stopped early.
+pub fn train_loop_until(t: &mut Trainer, mut on_iteration: impl FnMut(&IterationStats) -> bool) -> Result<(PathBuf, bool), LearnError> {
     let out = t.cfg.run.out_dir.clone();
     let target = t.cfg.run.iterations as u64;
     if t.shard.rank != 0 {
         while t.progress.iteration < target {
             let s = t.iteration()?;
-            on_iteration(&s);
+            if !on_iteration(&s) {
+                return Ok((out.join("latest.safetensors"), true));
+            }
         }
-        return Ok(out.join("latest.safetensors"));
+        return Ok((out.join("latest.safetensors"), false));
     }
     let ckpt_dir = out.join("checkpoints");
     std::fs::create_dir_all(&ckpt_dir).map_err(io(&ckpt_dir))?;
@@ -61,16 +74,19 @@ pub fn train_loop(t: &mut Trainer, mut on_iteration: impl FnMut(&IterationStats)
         scalars.extend(s.reward_terms.iter().map(|(k, v)| (format!("reward_terms/{k}"), *v as f32)));
         let refs: Vec<(&str, f32)> = scalars.iter().map(|(k, v)| (k.as_str(), *v)).collect();
         tb.scalars(s.samples as i64, &refs).map_err(io(tb.path()))?;
-        on_iteration(&s);
+        let go_on = on_iteration(&s);
         let it = t.progress.iteration;
-        if it.is_multiple_of(t.cfg.run.save_every as u64) || it == target {
+        if it.is_multiple_of(t.cfg.run.save_every as u64) || it == target || !go_on {
             let p = ckpt_dir.join(format!("iter_{it:06}.safetensors"));
             t.save(&p)?;
             t.save(&out.join("latest.safetensors"))?;
             last = p;
         }
+        if !go_on {
+            return Ok((last, true));
+        }
     }
-    Ok(last)
+    Ok((last, false))
 }
 
 /// What an end-of-run hook produced: a file, or why it could not.
@@ -147,14 +163,26 @@ impl Runner {
     /// `on_iteration` sees every iteration's statistics (progress display). Ranks other than 0 of
     /// a data-parallel run only train and return `None`.
     pub fn run(&mut self, mut on_iteration: impl FnMut(&IterationStats)) -> Result<Option<Summary>, anyhow::Error> {
+        self.run_until(|s| {
+            on_iteration(s);
+            true
+        })
+    }
+
+    /// [`Runner::run`] that stops when `on_iteration` returns false: the last finished iteration
+    /// is saved and an error saying so is returned (no evaluation, no summary).
+    pub fn run_until(&mut self, mut on_iteration: impl FnMut(&IterationStats) -> bool) -> Result<Option<Summary>, anyhow::Error> {
         let start = Instant::now();
         let mut rewards = Vec::new();
         let mut allreduce = 0.0;
-        let last = train_loop(&mut self.trainer, |s| {
+        let (last, stopped) = train_loop_until(&mut self.trainer, |s| {
             rewards.push(s.mean_reward);
             allreduce += s.allreduce_s;
-            on_iteration(s);
+            on_iteration(s)
         })?;
+        if stopped {
+            anyhow::bail!("training stopped at iteration {}; checkpoint {} (continue with --resume)", self.trainer.progress.iteration, last.display());
+        }
         let wall = start.elapsed().as_secs_f64();
         let t = &self.trainer;
         if t.shard.rank != 0 {

@@ -132,25 +132,29 @@ impl PyTrainer {
 
     /// Train to `run.iterations` with the runner (rank 0 writes logs, checkpoints, the
     /// evaluation and `summary.json`); `on_iteration(stats_json)` is called after every
-    /// iteration. Returns the summary as JSON on rank 0, None on the other ranks.
+    /// iteration. Returns the summary as JSON on rank 0, None on the other ranks. An exception
+    /// of the callback or a pending signal (Ctrl-C) stops training after the current iteration,
+    /// saves a checkpoint of it and is raised.
     #[pyo3(signature = (on_iteration = None))]
     fn run(&mut self, py: Python<'_>, on_iteration: Option<Py<PyAny>>) -> PyResult<Option<String>> {
         let trainer = self.trainer.take().ok_or_else(|| PyRuntimeError::new_err("the trainer is in use"))?;
         let mut runner = Runner::new(trainer);
-        let mut cb_err: Option<PyErr> = None;
+        let mut stop: Option<PyErr> = None;
         let result = py.detach(|| {
-            runner.run(|s| {
-                if let (Some(cb), None) = (&on_iteration, &cb_err) {
-                    let r = Python::attach(|py| -> PyResult<()> {
+            runner.run_until(|s| {
+                let r = Python::attach(|py| -> PyResult<()> {
+                    py.check_signals()?;
+                    if let Some(cb) = &on_iteration {
                         cb.call1(py, (serde_json::to_string(s).unwrap_or_default(),))?;
-                        Ok(())
-                    });
-                    cb_err = r.err();
-                }
+                    }
+                    Ok(())
+                });
+                stop = r.err();
+                stop.is_none()
             })
         });
         self.trainer = Some(runner.trainer);
-        if let Some(e) = cb_err {
+        if let Some(e) = stop {
             return Err(e);
         }
         let summary = result.map_err(|e| PyRuntimeError::new_err(format!("{e:#}")))?;
