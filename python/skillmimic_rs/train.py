@@ -82,24 +82,26 @@ def main(argv: list[str] | None = None) -> int:
         try:
             trainer = _core.Trainer(rest, comm)
         except ValueError as e:
-            print(f"error (rank {rank}): {e}" if world > 1 else f"error: {e}", file=sys.stderr)
-            return 2 if "Usage" in str(e) else 1
+            msg = str(e).strip()
+            msg = msg if msg.startswith("error:") else f"error: {msg}"
+            print(msg.replace("error:", f"error (rank {rank}):", 1) if world > 1 else msg, file=sys.stderr)
+            return 2 if "Usage" in msg else 1
         if rank == 0:
             what = f"{world} ranks x {trainer.local_envs} environments" if world > 1 else f"{trainer.local_envs} environments"
             resumed = f", resumed from {trainer.resumed_from} at iteration {trainer.iterations_done}" if trainer.resumed_from else ""
             print(f"training on {what}{resumed}", flush=True)
-        total = None
+        every = ours.log_every or max(1, trainer.iterations // 20)
+        last = trainer.iterations
+        first = None
         start = time.time()
 
         def on_iteration(js: str) -> None:
-            nonlocal total
+            nonlocal first
             if rank != 0:
                 return
             s = json.loads(js)
-            if total is None:
-                total = s["iteration"]
-            every = ours.log_every or 1
-            if s["iteration"] == total or s["iteration"] % every == 0:
+            first = s["iteration"] if first is None else first
+            if s["iteration"] in (first, last) or s["iteration"] % every == 0:
                 print(_describe(s), flush=True)
 
         try:

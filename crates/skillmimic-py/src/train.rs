@@ -106,7 +106,7 @@ impl PyTrainer {
     #[new]
     #[pyo3(signature = (argv, collective = None))]
     fn new(py: Python<'_>, argv: Vec<String>, collective: Option<Py<PyAny>>) -> PyResult<Self> {
-        let cli = Cli::try_parse_from(std::iter::once("train".to_string()).chain(argv)).map_err(|e| PyValueError::new_err(e.render().to_string()))?;
+        let cli = Cli::try_parse_from(std::iter::once("python -m skillmimic_rs.train".to_string()).chain(argv)).map_err(|e| PyValueError::new_err(e.render().to_string()))?;
         let cfg = cli.args.config().map_err(|e| PyValueError::new_err(format!("{e:#}")))?;
         let resume = cli.args.resume_path(&cfg.run.out_dir);
         let comm: Box<dyn Collective> = match collective {
@@ -240,6 +240,11 @@ impl PyTrainer {
     #[getter]
     fn local_envs(&mut self) -> PyResult<usize> {
         Ok(self.t()?.shard.local)
+    }
+    /// Iterations the run trains to (`run.iterations`).
+    #[getter]
+    fn iterations(&mut self) -> PyResult<u64> {
+        Ok(self.t()?.cfg.run.iterations as u64)
     }
     /// Iterations done (after resuming: the checkpoint's count).
     #[getter]
