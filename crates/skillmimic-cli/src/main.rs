@@ -13,6 +13,7 @@ mod bench_train;
 mod cmd_config;
 mod cmd_eval_tasks;
 mod cmd_history;
+mod cmd_import;
 mod cmd_mjcf;
 mod cmd_motion;
 mod cmd_play;
@@ -42,6 +43,9 @@ enum Command {
     Play(cmd_play::Args),
     /// Export the policy part of a checkpoint (no optimizer state).
     Export(cmd_policy::ExportArgs),
+    /// Import an rl_games `.pth` checkpoint (skill or high-level policy) without running pickle code.
+    #[command(name = "import-rlgames")]
+    ImportRlgames(cmd_import::Args),
     /// Batched inference of a checkpoint on observations from a safetensors file.
     Infer(cmd_policy::InferArgs),
     /// PNG learning curves from a training log.
@@ -94,6 +98,7 @@ fn main() -> ExitCode {
         Command::Eval(a) => cmd_policy::eval(a),
         Command::Play(a) => cmd_play::run(a),
         Command::Export(a) => cmd_policy::export(a),
+        Command::ImportRlgames(a) => cmd_import::run(a),
         Command::Infer(a) => cmd_policy::infer(a),
         Command::Plot(a) => plot::run(a),
         Command::Mjcf(a) => cmd_mjcf::run(a),

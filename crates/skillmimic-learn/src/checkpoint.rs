@@ -77,6 +77,13 @@ fn norm_tensors(prefix: &str, n: &RunningMeanStd, out: &mut Vec<OwnedTensor>) {
     out.push(OwnedTensor::f64(&format!("{prefix}.count"), &[], &[n.count]));
 }
 
+/// Metadata `network`: layer order and activation.
+pub const NETWORK_DOC: &str = "actor and critic are separate MLPs over the normalised observation: actor.{0,2,..,2L}.weight (out, in) / .bias, critic likewise; y = x W^T + b; ReLU after every layer but the last; actor output = Gaussian means (gaussian_mlp, sigma = exp(log_std), fixed) or categorical logits (categorical_mlp); critic output = 1 value in normalised space";
+/// Metadata `obs_normalizer`: the formula and its precision.
+pub const OBS_NORM_DOC: &str = "if normalize_input: x_n = clamp((x - obs_norm.mean) / sqrt(obs_norm.var + norm_eps), -norm_clip, norm_clip), computed in float64 from the float64 statistics, then cast to float32 (rl_games computes the same in float32)";
+/// Metadata `value_output`: how the critic output becomes a value.
+pub const VALUE_DOC: &str = "if normalize_value: value = clamp(critic_out, -norm_clip, norm_clip) * sqrt(value_norm.var + norm_eps) + value_norm.mean; else value = critic_out";
+
 /// Save `policy` (and `adam` for a training checkpoint) atomically.
 pub fn save(path: &Path, policy: &Policy, adam: Option<&Adam>, progress: &Progress, config_toml: &str) -> std::io::Result<()> {
     let mut tensors = Vec::new();
@@ -120,6 +127,10 @@ pub fn save(path: &Path, policy: &Policy, adam: Option<&Adam>, progress: &Progre
     meta.insert("normalize_value".to_string(), policy.normalize_value.to_string());
     meta.insert("norm_eps".to_string(), policy.obs_norm.eps.to_string());
     meta.insert("norm_clip".to_string(), policy.obs_norm.clip.to_string());
+    // the network and the normalisers in words, so a reader needs no other source
+    meta.insert("network".to_string(), NETWORK_DOC.to_string());
+    meta.insert("obs_normalizer".to_string(), OBS_NORM_DOC.to_string());
+    meta.insert("value_output".to_string(), VALUE_DOC.to_string());
     if let Some(a) = adam {
         meta.insert("adam_lr".to_string(), a.lr.to_string());
         meta.insert("adam_eps".to_string(), a.eps.to_string());

@@ -30,6 +30,7 @@ pub mod history_pretrain;
 pub mod policies;
 pub mod policy;
 pub mod ppo;
+pub mod rlgames;
 pub mod runner;
 pub mod shard;
 pub mod storage;
