@@ -18,7 +18,7 @@
 use std::io::Read;
 use std::path::Path;
 
-use candle_core::pickle::{Object, Stack};
+use candle_core::pickle::Object;
 use skillmimic_nn::mlp::Mlp;
 use skillmimic_nn::normalizer::RunningMeanStd;
 
@@ -103,16 +103,7 @@ fn checked_keys(path: &Path) -> Result<(Vec<String>, Object), String> {
     let mut pkl = Vec::new();
     let entry = zip.by_name(&name).map_err(|e| e.to_string())?;
     entry.take(64 << 20).read_to_end(&mut pkl).map_err(|e| e.to_string())?;
-    let parsed = std::panic::catch_unwind(|| {
-        let mut stack = Stack::empty();
-        stack.read_loop(&mut std::io::Cursor::new(&pkl[..]))?;
-        stack.finalize()
-    });
-    let root = match parsed {
-        Ok(Ok(o)) => o,
-        Ok(Err(e)) => return Err(format!("{name}: not a readable pickle: {e}")),
-        Err(_) => return Err(format!("{name}: malformed pickle")),
-    };
+    let root = skillmimic_motion::pt::parse_pickle(&pkl).map_err(|e| format!("{name}: {e}"))?;
     let mut all = Vec::new();
     walk(&root, &mut all);
     for o in all {

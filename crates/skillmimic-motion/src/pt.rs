@@ -46,18 +46,7 @@ pub fn read_pt_matrix(path: &Path) -> Result<PtMatrix, ClipError> {
         }
         entry.take(1 << 20).read_to_end(&mut pkl).map_err(|source| ClipError::Io { path: path.to_path_buf(), source })?;
     }
-    // candle's machine returns errors for malformed programs; the unwind guard turns any remaining
-    // internal panic on hostile bytes into an error as well.
-    let parsed = std::panic::catch_unwind(|| {
-        let mut stack = Stack::empty();
-        stack.read_loop(&mut std::io::Cursor::new(&pkl[..]))?;
-        stack.finalize()
-    });
-    let root = match parsed {
-        Ok(Ok(obj)) => obj,
-        Ok(Err(e)) => return Err(format_err(path, format!("{pkl_name}: not a readable pickle: {e}"))),
-        Err(_) => return Err(format_err(path, format!("{pkl_name}: malformed pickle"))),
-    };
+    let root = parse_pickle(&pkl).map_err(|e| format_err(path, format!("{pkl_name}: {e}")))?;
     let info = tensor_info(root).map_err(|d| format_err(path, format!("{pkl_name}: {d}")))?;
 
     if info.dtype != "FloatStorage" {
@@ -94,6 +83,22 @@ pub fn read_pt_matrix(path: &Path) -> Result<PtMatrix, ClipError> {
         .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
         .collect();
     Ok(PtMatrix { rows, cols, data })
+}
+
+/// Interpret a pickle program with candle's restricted machine (plain values only, no code runs).
+/// The machine returns errors for malformed programs; the unwind guard turns any remaining
+/// internal panic on hostile bytes into an error as well.
+pub fn parse_pickle(pkl: &[u8]) -> Result<Object, String> {
+    let parsed = std::panic::catch_unwind(|| {
+        let mut stack = Stack::empty();
+        stack.read_loop(&mut std::io::Cursor::new(pkl))?;
+        stack.finalize()
+    });
+    match parsed {
+        Ok(Ok(obj)) => Ok(obj),
+        Ok(Err(e)) => Err(format!("not a readable pickle: {e}")),
+        Err(_) => Err("malformed pickle".into()),
+    }
 }
 
 struct TensorInfo {
