@@ -1,0 +1,294 @@
+//! The batched environment of any registered task (`CoreEnv`), wrapped by the Python package's
+//! gymnasium `VectorEnv`: numpy arrays in, the Rust core steps with the GIL released, results
+//! written into preallocated numpy buffers owned by the Python side.
+
+use numpy::{PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2, PyReadwriteArray1, PyReadwriteArray2, PyUntypedArrayMethods};
+use pyo3::exceptions::{PyRuntimeError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use skillmimic_env::{Env, EnvConfig, SkillEnv};
+
+use crate::convert::{check_shape, to_2d, value_error};
+
+/// The batched environment of any registered task (Rust core). Use `skillmimic_rs.VecEnv`
+/// instead.
+#[pyclass(module = "skillmimic_rs._core")]
+pub(crate) struct CoreEnv {
+    env: Option<Box<dyn Env>>,
+    cfg: EnvConfig,
+    actions: Vec<f32>,
+}
+
+impl CoreEnv {
+    fn env(&self) -> PyResult<&dyn Env> {
+        self.env.as_deref().ok_or_else(|| PyRuntimeError::new_err("the environment is closed"))
+    }
+    fn env_mut(&mut self) -> PyResult<&mut Box<dyn Env>> {
+        self.env.as_mut().ok_or_else(|| PyRuntimeError::new_err("the environment is closed"))
+    }
+    /// The imitation task's environment (task-specific accessors).
+    fn imitation(&self) -> PyResult<&SkillEnv> {
+        self.env()?.as_any().downcast_ref::<SkillEnv>().ok_or_else(|| PyValueError::new_err(format!("only the imitation task has this (task is '{}')", self.cfg.task)))
+    }
+}
+
+fn copy_obs(env: &dyn Env, mut out: PyReadwriteArray2<'_, f32>) -> PyResult<()> {
+    check_shape("obs buffer", out.shape(), &[env.num_envs(), env.obs_dim()])?;
+    out.as_slice_mut().map_err(value_error)?.copy_from_slice(&env.buffers().obs);
+    Ok(())
+}
+
+fn write_flags(name: &str, out: &mut PyReadwriteArray1<'_, bool>, src: &[u8]) -> PyResult<()> {
+    check_shape(name, out.shape(), &[src.len()])?;
+    for (o, &s) in out.as_slice_mut().map_err(value_error)?.iter_mut().zip(src) {
+        *o = s != 0;
+    }
+    Ok(())
+}
+
+#[pymethods]
+impl CoreEnv {
+    /// Build from a JSON object with the fields of the `[env]` config table.
+    #[new]
+    #[pyo3(signature = (config_json, autoreset))]
+    fn new(py: Python<'_>, config_json: &str, autoreset: bool) -> PyResult<Self> {
+        let cfg: EnvConfig = serde_json::from_str(config_json).map_err(|e| PyValueError::new_err(format!("config: {e}")))?;
+        let mut env = py.detach(|| skillmimic_env::registry::make(&cfg)).map_err(value_error)?;
+        env.set_autoreset(autoreset);
+        let n = env.num_envs() * env.act_dim();
+        Ok(Self { env: Some(env), cfg, actions: vec![0.0; n] })
+    }
+
+    /// The effective configuration as JSON (defaults filled in).
+    fn config_json(&self) -> PyResult<String> {
+        self.env()?;
+        serde_json::to_string(&self.cfg).map_err(value_error)
+    }
+    #[getter]
+    fn num_envs(&self) -> PyResult<usize> {
+        Ok(self.env()?.num_envs())
+    }
+    #[getter]
+    fn obs_dim(&self) -> PyResult<usize> {
+        Ok(self.env()?.obs_dim())
+    }
+    #[getter]
+    fn act_dim(&self) -> PyResult<usize> {
+        Ok(self.env()?.act_dim())
+    }
+    /// The task's registry name.
+    #[getter]
+    fn task(&self) -> PyResult<&'static str> {
+        Ok(self.env()?.spec().name)
+    }
+    /// Action space: ("box", dim) or ("discrete", n).
+    #[getter]
+    fn action_space(&self) -> PyResult<(&'static str, usize)> {
+        Ok(match self.env()?.spec().action_space {
+            skillmimic_env::ActionSpace::Box { dim } => ("box", dim),
+            skillmimic_env::ActionSpace::Discrete { n } => ("discrete", n),
+        })
+    }
+    /// Episode length limit in policy steps.
+    #[getter]
+    fn max_episode_length(&self) -> PyResult<usize> {
+        Ok(self.env()?.spec().max_episode_steps)
+    }
+    /// Names of the reward terms (columns of `reward_terms()`).
+    #[getter]
+    fn term_names(&self) -> PyResult<Vec<&'static str>> {
+        Ok(self.env()?.spec().term_names.clone())
+    }
+    /// Names of the task information entries (imitation: the contact-graph entries of the
+    /// configured mode; columns of `contact_graph()`).
+    #[getter]
+    fn cg_names(&self) -> PyResult<Vec<String>> {
+        Ok(self.env()?.spec().info_names.clone())
+    }
+    /// Names of the columns of `frame_metrics()`.
+    #[getter]
+    fn frame_metric_names(&self) -> PyResult<Vec<&'static str>> {
+        Ok(self.env()?.spec().metric_names.clone())
+    }
+    /// MJCF text of the compiled scene.
+    #[getter]
+    fn mjcf_xml(&self) -> PyResult<String> {
+        Ok(self.env()?.sim().scene().xml().to_string())
+    }
+    /// (nq, nv) of the MuJoCo model.
+    #[getter]
+    fn qpos_qvel_sizes(&self) -> PyResult<(usize, usize)> {
+        let (nq, nv, _) = self.env()?.sim().scene().sizes();
+        Ok((nq, nv))
+    }
+    /// Names and skill labels of the clips of the motion library.
+    fn clips(&self) -> PyResult<Vec<(String, u32, usize)>> {
+        let lib = self.imitation()?.library();
+        Ok(lib.clips().iter().map(|m| (m.clip.name.clone(), m.clip.skill, m.clip.num_frames)).collect())
+    }
+
+    /// Reset every environment (reseeding when `seed` is given); writes the observations.
+    #[pyo3(signature = (seed, obs_out))]
+    fn reset_all(&mut self, py: Python<'_>, seed: Option<u64>, obs_out: PyReadwriteArray2<'_, f32>) -> PyResult<()> {
+        let env = self.env_mut()?;
+        py.detach(|| env.reset_all(seed));
+        copy_obs(env.as_ref(), obs_out)
+    }
+
+    /// Reset the environments where `mask` is true; writes all observations.
+    fn reset_mask(&mut self, py: Python<'_>, mask: PyReadonlyArray1<'_, bool>, obs_out: PyReadwriteArray2<'_, f32>) -> PyResult<()> {
+        let env = self.env_mut()?;
+        check_shape("reset_mask", mask.shape(), &[env.num_envs()])?;
+        let m: Vec<bool> = mask.as_slice().map_err(value_error)?.to_vec();
+        if !m.iter().any(|&x| x) {
+            return Err(PyValueError::new_err("reset_mask selects no environment"));
+        }
+        py.detach(|| env.reset_envs(&m));
+        copy_obs(env.as_ref(), obs_out)
+    }
+
+    /// One policy step for all environments. Outputs are written into the given buffers.
+    #[allow(clippy::too_many_arguments)]
+    fn step(
+        &mut self,
+        py: Python<'_>,
+        actions: PyReadonlyArray2<'_, f32>,
+        obs_out: PyReadwriteArray2<'_, f32>,
+        mut reward_out: PyReadwriteArray1<'_, f32>,
+        mut terminated_out: PyReadwriteArray1<'_, bool>,
+        mut truncated_out: PyReadwriteArray1<'_, bool>,
+        mut final_obs_out: PyReadwriteArray2<'_, f32>,
+        mut final_mask_out: PyReadwriteArray1<'_, bool>,
+    ) -> PyResult<()> {
+        let Self { env, actions: abuf, .. } = self;
+        let env = env.as_deref_mut().ok_or_else(|| PyRuntimeError::new_err("the environment is closed"))?;
+        let (n, a, d) = (env.num_envs(), env.act_dim(), env.obs_dim());
+        check_shape("actions", actions.shape(), &[n, a])?;
+        abuf.copy_from_slice(actions.as_slice().map_err(value_error)?);
+        py.detach(|| env.step(abuf)).map_err(value_error)?;
+        let b = env.buffers();
+        copy_obs(env, obs_out)?;
+        check_shape("reward buffer", reward_out.shape(), &[n])?;
+        reward_out.as_slice_mut().map_err(value_error)?.copy_from_slice(&b.reward);
+        write_flags("terminated buffer", &mut terminated_out, &b.terminated)?;
+        write_flags("truncated buffer", &mut truncated_out, &b.truncated)?;
+        check_shape("final_obs buffer", final_obs_out.shape(), &[n, d])?;
+        check_shape("final_mask buffer", final_mask_out.shape(), &[n])?;
+        let fm = final_mask_out.as_slice_mut().map_err(value_error)?;
+        let fo = final_obs_out.as_slice_mut().map_err(value_error)?;
+        for i in 0..n {
+            fm[i] = b.final_mask[i] != 0;
+            if fm[i] {
+                fo[i * d..(i + 1) * d].copy_from_slice(&b.final_obs[i * d..(i + 1) * d]);
+            }
+        }
+        Ok(())
+    }
+
+    /// `(N, terms)` sub-rewards of the last step (columns: `term_names`).
+    fn reward_terms<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f32>>> {
+        let env = self.env()?;
+        to_2d(py, &env.buffers().terms, env.num_envs(), env.spec().term_names.len())
+    }
+    /// `(N, info)` task information of the last step (imitation: the simulated contact-graph
+    /// entries; columns: `cg_names`).
+    fn contact_graph<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f32>>> {
+        let env = self.env()?;
+        to_2d(py, &env.buffers().info, env.num_envs(), env.spec().info_names.len())
+    }
+    /// `(N, 156)` PD targets in [−1, 1] the task applied in the last simulation step (high-level
+    /// tasks: the frozen skill policy's clamped actions; `(N, 0)` when the actions are the targets).
+    fn pd_targets<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f32>>> {
+        let env = self.env()?;
+        let t = env.pd_targets();
+        to_2d(py, t, env.num_envs(), t.len() / env.num_envs())
+    }
+    /// Simulation steps per policy step (3 for the high-level tasks).
+    #[getter]
+    fn steps_per_action(&self) -> PyResult<usize> {
+        Ok(self.env()?.spec().steps_per_action)
+    }
+    /// Skill label of each discrete choice (high-level tasks); empty otherwise.
+    #[getter]
+    fn choice_labels(&self) -> PyResult<Vec<u32>> {
+        Ok(self.env()?.spec().choice_labels.clone())
+    }
+    /// Move environment `i`'s goal (values in `cg_names` order: e.g. goal_x, goal_y in world
+    /// metres) and write its new observation into `obs_out`.
+    fn set_task_info(&mut self, i: usize, values: PyReadonlyArray1<'_, f32>, obs_out: PyReadwriteArray2<'_, f32>) -> PyResult<()> {
+        let env = self.env_mut()?;
+        env.set_task_info(i, values.as_slice().map_err(value_error)?).map_err(value_error)?;
+        copy_obs(env.as_ref(), obs_out)
+    }
+    /// `(N, metrics)` per-step metrics of the last step (columns: `frame_metric_names`).
+    fn frame_metrics<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f32>>> {
+        let env = self.env()?;
+        to_2d(py, &env.buffers().metrics, env.num_envs(), env.spec().metric_names.len())
+    }
+    /// Per-environment episode state: clip index, start frame, reference frame, progress,
+    /// length, skill label (int64 arrays).
+    fn episode_info<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let env = self.imitation()?;
+        let d = PyDict::new(py);
+        let col = |f: &dyn Fn(&skillmimic_env::episode::Episode) -> i64| -> Vec<i64> { env.episodes().map(f).collect() };
+        d.set_item("clip", PyArray1::from_vec(py, col(&|e| e.clip as i64)))?;
+        d.set_item("ref_start", PyArray1::from_vec(py, col(&|e| e.ref_start as i64)))?;
+        d.set_item("ref_frame", PyArray1::from_vec(py, col(&|e| e.ref_frame() as i64)))?;
+        d.set_item("progress", PyArray1::from_vec(py, col(&|e| e.progress as i64)))?;
+        d.set_item("length", PyArray1::from_vec(py, col(&|e| e.length as i64)))?;
+        d.set_item("skill", PyArray1::from_vec(py, col(&|e| e.skill as i64)))?;
+        Ok(d)
+    }
+
+    /// MuJoCo `qpos` of environment `i`.
+    fn get_qpos<'py>(&self, py: Python<'py>, i: usize) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let env = self.env()?;
+        if i >= env.num_envs() {
+            return Err(PyValueError::new_err(format!("environment index {i} out of range (num_envs = {})", env.num_envs())));
+        }
+        Ok(PyArray1::from_slice(py, env.sim().qpos(i)))
+    }
+    /// MuJoCo `qvel` of environment `i`.
+    fn get_qvel<'py>(&self, py: Python<'py>, i: usize) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let env = self.env()?;
+        if i >= env.num_envs() {
+            return Err(PyValueError::new_err(format!("environment index {i} out of range (num_envs = {})", env.num_envs())));
+        }
+        Ok(PyArray1::from_slice(py, env.sim().qvel(i)))
+    }
+    /// Overwrite `qpos`/`qvel` of environment `i` (forward kinematics runs; observations of all
+    /// environments are refreshed and written to `obs_out`).
+    fn set_state(&mut self, i: usize, qpos: PyReadonlyArray1<'_, f64>, qvel: PyReadonlyArray1<'_, f64>, obs_out: PyReadwriteArray2<'_, f32>) -> PyResult<()> {
+        let env = self.env_mut()?;
+        let (q, v) = (qpos.as_slice().map_err(value_error)?, qvel.as_slice().map_err(value_error)?);
+        env.sim_mut().set_qpos_qvel(i, q, v).map_err(value_error)?;
+        env.refresh_observations();
+        copy_obs(env.as_ref(), obs_out)
+    }
+
+    /// The history window `(k, 316)` of environment `i` (SkillMimic-V2 history encoder), or None
+    /// when the encoder is off. Its embedding becomes the last μ observation entries at the next
+    /// step.
+    fn history_window<'py>(&self, py: Python<'py>, i: usize) -> PyResult<Option<Bound<'py, PyArray2<f32>>>> {
+        let env = self.imitation()?;
+        if i >= env.num_envs() {
+            return Err(PyValueError::new_err(format!("environment index {i} out of range (num_envs {})", env.num_envs())));
+        }
+        match env.history_window(i) {
+            None => Ok(None),
+            Some(w) => {
+                let f = skillmimic_env::v2::history::FEATURE_DIM;
+                Ok(Some(to_2d(py, &w, w.len() / f, f)?))
+            }
+        }
+    }
+
+    /// Release the simulation (further calls raise RuntimeError).
+    fn close(&mut self) {
+        self.env = None;
+    }
+    #[getter]
+    fn closed(&self) -> bool {
+        self.env.is_none()
+    }
+}
