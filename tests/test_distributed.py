@@ -171,32 +171,14 @@ def _start_by_hand(out: pathlib.Path, timeout_s: int) -> list[subprocess.Popen]:
     return procs
 
 
-def test_without_the_agent_the_surviving_rank_fails_clearly(tmp_path):
+def _rank0_after(tmp_path, timeout_s: int, hurt_rank1) -> tuple[int, float, str]:
+    """Start 2 ranks by hand, wait for a checkpoint, do `hurt_rank1(process)`, and return rank 0's
+    exit code, the seconds it took to end, and its stderr."""
     out = tmp_path / "run"
-    procs = _start_by_hand(out, 30)
+    procs = _start_by_hand(out, timeout_s)
     try:
         _wait_for_checkpoints(out, 1, procs)
-        procs[1].kill()
-        t0 = time.time()
-        _, err = procs[0].communicate(timeout=90)
-        took = time.time() - t0
-    finally:
-        for p in procs:
-            if p.poll() is None:
-                p.kill()
-    print(f"rank 0 ended after {took:.1f} s: {err.strip().splitlines()[-1]}")
-    assert procs[0].returncode == 1 and took <= 60.0
-    assert "error (rank 0): distributed:" in err, err[-2000:]
-
-
-def test_a_stopped_rank_makes_the_other_time_out(tmp_path):
-    """A rank that stops answering without closing its connections (SIGSTOP: a hung process
-    or a frozen machine): the other fails after --dist-timeout, not never."""
-    out = tmp_path / "run"
-    procs = _start_by_hand(out, 10)
-    try:
-        _wait_for_checkpoints(out, 1, procs)
-        procs[1].send_signal(signal.SIGSTOP)
+        hurt_rank1(procs[1])
         t0 = time.time()
         _, err = procs[0].communicate(timeout=120)
         took = time.time() - t0
@@ -205,7 +187,20 @@ def test_a_stopped_rank_makes_the_other_time_out(tmp_path):
             if p.poll() is None:
                 p.kill()
     print(f"rank 0 ended after {took:.1f} s: {err.strip().splitlines()[-1]}")
-    assert procs[0].returncode == 1 and took <= 40.0
+    return procs[0].returncode, took, err
+
+
+def test_without_the_agent_the_surviving_rank_fails_clearly(tmp_path):
+    rc, took, err = _rank0_after(tmp_path, 30, lambda p: p.kill())
+    assert rc == 1 and took <= 60.0
+    assert "error (rank 0): distributed:" in err, err[-2000:]
+
+
+def test_a_stopped_rank_makes_the_other_time_out(tmp_path):
+    """A rank that stops answering without closing its connections (SIGSTOP: a hung process
+    or a frozen machine): the other fails after --dist-timeout, not never."""
+    rc, took, err = _rank0_after(tmp_path, 10, lambda p: p.send_signal(signal.SIGSTOP))
+    assert rc == 1 and took <= 40.0
     assert "error (rank 0): distributed:" in err and "Timed out" in err, err[-2000:]
 
 

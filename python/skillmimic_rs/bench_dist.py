@@ -82,8 +82,7 @@ def main(argv: list[str] | None = None) -> int:
         _run([torchrun, "--standalone", "--nproc-per-node", k, "-m", "skillmimic_rs.train", *flags,
               "--threads", "1", "--learner-threads", "1", "--out", str(dp)], env)
         a, b = _stats(one), _stats(dp)
-        from . import _core  # noqa: F401  (the extension, for the network size)
-        import safetensors.numpy as stn
+        import safetensors.numpy as stn  # the network size, from the run's checkpoint
 
         ckpt = stn.load_file(str(dp / "latest.safetensors"))
         grads = sum(v.size for n, v in ckpt.items() if n.startswith(("actor.", "critic.")) and "running" not in n)

@@ -83,7 +83,11 @@ impl Timed {
     pub fn take_seconds(&mut self) -> f64 {
         std::mem::take(&mut self.seconds)
     }
-    fn timed<T>(&mut self, f: impl FnOnce(&mut dyn Collective) -> T) -> T {
+    /// Run `f` on the inner collective and count its seconds; nothing to do for one process.
+    fn timed(&mut self, f: impl FnOnce(&mut dyn Collective) -> Result<(), LearnError>) -> Result<(), LearnError> {
+        if self.inner.world_size() == 1 {
+            return Ok(());
+        }
         let t0 = std::time::Instant::now();
         let r = f(self.inner.as_mut());
         self.seconds += t0.elapsed().as_secs_f64();
@@ -99,27 +103,15 @@ impl Collective for Timed {
         self.inner.world_size()
     }
     fn all_reduce_f32(&mut self, buf: &mut [f32]) -> Result<(), LearnError> {
-        if self.world_size() == 1 {
-            return Ok(());
-        }
         self.timed(|c| c.all_reduce_f32(buf))
     }
     fn all_reduce_f64(&mut self, buf: &mut [f64]) -> Result<(), LearnError> {
-        if self.world_size() == 1 {
-            return Ok(());
-        }
         self.timed(|c| c.all_reduce_f64(buf))
     }
     fn broadcast_f32(&mut self, buf: &mut [f32]) -> Result<(), LearnError> {
-        if self.world_size() == 1 {
-            return Ok(());
-        }
         self.timed(|c| c.broadcast_f32(buf))
     }
     fn broadcast_f64(&mut self, buf: &mut [f64]) -> Result<(), LearnError> {
-        if self.world_size() == 1 {
-            return Ok(());
-        }
         self.timed(|c| c.broadcast_f64(buf))
     }
 }
@@ -131,10 +123,6 @@ pub fn update_normalizer(norm: &mut RunningMeanStd, x: &[f32], comm: &mut dyn Co
     let dim = norm.dim();
     let local = (x.len() / dim) as f64;
     let (s1, s2) = RunningMeanStd::batch_sums(x, dim, &norm.mean);
-    if comm.world_size() == 1 {
-        norm.merge_sums(local, &s1, &s2);
-        return Ok(());
-    }
     scratch.clear();
     scratch.push(local);
     scratch.extend_from_slice(&s1);
