@@ -13,18 +13,50 @@ use skillmimic_learn::policy::InferenceBuffers;
 
 use crate::common::{ConfigFlags, init_learner_threads, load_checkpoint};
 
+/// File format of `skillmimic export`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum ExportFormat {
+    /// The policy part of the checkpoint (actor, critic, log_std, normalisers).
+    Safetensors,
+    /// An ONNX graph (normaliser folded in) plus a `<out>.json` sidecar with the deployment
+    /// metadata.
+    Onnx,
+}
+
 #[derive(clap::Args)]
 pub struct ExportArgs {
     /// Training (or policy) checkpoint.
     #[arg(long)]
     pub checkpoint: PathBuf,
-    /// Output safetensors with the policy only (actor, critic, log_std, normalisers).
+    /// Output file.
     #[arg(long)]
     pub out: PathBuf,
+    /// Output format; default: `onnx` when `--out` ends in `.onnx`, else `safetensors`.
+    #[arg(long, value_enum)]
+    pub format: Option<ExportFormat>,
+    /// ONNX of a high-level policy: one graph with its frozen skill policy (high-level argmax →
+    /// skill label → one-hot → skill policy → actions).
+    #[arg(long)]
+    pub fused: bool,
+    /// The skill policy of `--fused` (default: `env.hlc.llc` of the high-level checkpoint's
+    /// configuration).
+    #[arg(long)]
+    pub llc: Option<PathBuf>,
 }
 
-/// Write the policy part of a checkpoint (no optimizer state).
+/// Write the policy part of a checkpoint (no optimizer state), or its ONNX graph.
 pub fn export(a: ExportArgs) -> anyhow::Result<()> {
+    let onnx_ext = a.out.extension().is_some_and(|e| e.eq_ignore_ascii_case("onnx"));
+    let format = a.format.unwrap_or(if onnx_ext { ExportFormat::Onnx } else { ExportFormat::Safetensors });
+    if format == ExportFormat::Safetensors && (a.fused || a.llc.is_some()) {
+        bail!("--fused and --llc build an ONNX graph: add --format onnx");
+    }
+    if a.llc.is_some() && !a.fused {
+        bail!("--llc names the skill policy of a fused graph: add --fused");
+    }
+    if format == ExportFormat::Onnx {
+        return crate::cmd_onnx::export(&a.checkpoint, &a.out, a.fused, a.llc.as_deref());
+    }
     let c = checkpoint::load(&a.checkpoint, None).map_err(anyhow::Error::msg)?;
     checkpoint::save(&a.out, &c.policy, None, &c.progress, &c.config).with_context(|| format!("cannot write {}", a.out.display()))?;
     println!("exported {} -> {} (obs {}, actions {})", a.checkpoint.display(), a.out.display(), c.policy.obs_dim(), c.policy.act_dim());

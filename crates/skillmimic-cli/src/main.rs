@@ -15,6 +15,7 @@ mod cmd_eval_tasks;
 mod cmd_history;
 mod cmd_import;
 mod cmd_mjcf;
+mod cmd_onnx;
 mod cmd_motion;
 mod cmd_play;
 mod cmd_policy;
@@ -41,7 +42,7 @@ enum Command {
     Eval(cmd_policy::EvalArgs),
     /// Roll out a policy or play back a reference clip; write a headless video and/or the states.
     Play(cmd_play::Args),
-    /// Export the policy part of a checkpoint (no optimizer state).
+    /// Export the policy part of a checkpoint (safetensors, no optimizer state) or an ONNX graph.
     Export(cmd_policy::ExportArgs),
     /// Import an rl_games `.pth` checkpoint (skill or high-level policy) without running pickle code.
     #[command(name = "import-rlgames")]

@@ -47,6 +47,11 @@ pub mod layout {
     pub const OBS_DIM: usize = 902;
 }
 
+/// Version of the observation layout above (the table in this module's doc and [`BLOCKS`]),
+/// written into exported policies so a deployment can refuse observations of another layout.
+/// Any change of an entry's meaning, frame, unit or position gets a new version.
+pub const OBS_LAYOUT_VERSION: &str = "skillmimic-obs-1";
+
 /// Names of the observation blocks with their ranges (documentation, Python info).
 pub const BLOCKS: [(&str, Range<usize>); 11] = [
     ("root_height", layout::ROOT_HEIGHT),

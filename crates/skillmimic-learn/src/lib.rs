@@ -9,6 +9,7 @@
 //! * [`adam`]: Adam with exposed state; [`storage`]: rollout buffers; [`error`]: typed errors;
 //! * [`eval`]: SkillMimic / SkillMimic-V2 metrics; [`episode_eval`]: any task's episode report;
 //! * [`checkpoint`]: safetensors checkpoints that load into the PyTorch module;
+//! * [`onnx`]: ONNX export (normaliser folded in, deployment metadata), [`rlgames`]: rl_games import;
 //! * [`trainer`]: rollouts on any registered task's environment and PPO updates;
 //! * [`runner`]: the training loop — logs, checkpoints, end-of-run evaluation, hooks, summary;
 //! * [`collective`], [`shard`], [`sync`]: data-parallel training (the collective operations, which
@@ -27,6 +28,7 @@ pub mod episode_eval;
 pub mod error;
 pub mod eval;
 pub mod history_pretrain;
+pub mod onnx;
 pub mod policies;
 pub mod policy;
 pub mod ppo;

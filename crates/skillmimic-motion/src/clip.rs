@@ -48,6 +48,38 @@ pub struct Clip {
     pub contact: Vec<f32>,
 }
 
+/// Names of the BallPlay-M skill labels (the folder each label's clips come from in the released
+/// data; reference-facts §1.7), in label order. Labels not listed have no known name.
+pub const SKILL_NAMES: &[(u32, &str)] = &[
+    (0, "getup"),
+    (1, "pickup"),
+    (2, "rebound"),
+    (3, "catch"),
+    (4, "pass"),
+    (5, "shot_style1"),
+    (6, "shot_style2"),
+    (7, "shot_style3"),
+    (9, "shot"),
+    (10, "run_no_object"),
+    (11, "lrun"),
+    (12, "rrun"),
+    (13, "run"),
+    (23, "turnhook"),
+    (31, "layup"),
+    (34, "turnlayup"),
+    (40, "rturn2lhand"),
+    (41, "back"),
+    (42, "turn"),
+    (43, "legturn"),
+    (44, "lleg_style1"),
+    (45, "lleg_style2"),
+];
+
+/// The name of skill label `label`, if it has one ([`SKILL_NAMES`]).
+pub fn skill_name(label: u32) -> Option<&'static str> {
+    SKILL_NAMES.iter().find(|(l, _)| *l == label).map(|(_, n)| *n)
+}
+
 /// Skill label from a clip file name: the integer of its first three characters
 /// (`013_018pickle_run_3.pt` → 13).
 pub fn skill_label_from_name(path: &Path) -> Result<u32, ClipError> {

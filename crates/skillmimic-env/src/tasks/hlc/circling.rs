@@ -23,10 +23,13 @@ use crate::vec_env::Env;
 /// The circling task's rule.
 pub struct Circling(pub CirclingConfig);
 
+/// Skill label of each choice (the released code's `control_mapping`).
+pub const LABELS: &[u32] = &[12, 13, 11];
+
 impl Rule for Circling {
     const NAME: &'static str = "circling";
     fn labels(&self) -> &'static [u32] {
-        &[12, 13, 11]
+        LABELS
     }
     fn task_obs_dim(&self) -> usize {
         5

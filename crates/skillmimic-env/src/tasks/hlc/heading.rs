@@ -31,10 +31,13 @@ pub fn goal_offset(min: f64, max: f64, full: bool, rng: &mut ChaCha8Rng) -> [f64
     [dx * a.cos() - dy * a.sin(), dx * a.sin() + dy * a.cos()]
 }
 
+/// Skill label of each choice (the released code's `control_mapping`).
+pub const LABELS: &[u32] = &[12, 13, 11];
+
 impl Rule for Heading {
     const NAME: &'static str = "heading";
     fn labels(&self) -> &'static [u32] {
-        &[12, 13, 11]
+        LABELS
     }
     fn task_obs_dim(&self) -> usize {
         4

@@ -55,10 +55,13 @@ pub fn predict_crossing(p: [f64; 3], v: [f64; 3], h: f64, how: Prediction) -> Op
     Some([p[0] + v[0] * t, p[1] + v[1] * t])
 }
 
+/// Skill label of each choice (the released code's `control_mapping`).
+pub const LABELS: &[u32] = &[31, 1, 2, 12, 13, 11, 31];
+
 impl Rule for Scoring {
     const NAME: &'static str = "scoring";
     fn labels(&self) -> &'static [u32] {
-        &[31, 1, 2, 12, 13, 11, 31]
+        LABELS
     }
     fn task_obs_dim(&self) -> usize {
         5

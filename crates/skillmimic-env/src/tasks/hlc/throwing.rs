@@ -21,10 +21,13 @@ use crate::vec_env::Env;
 /// The throwing task's rule.
 pub struct Throwing(pub ThrowingConfig);
 
+/// Skill label of each choice (the released code's `control_mapping`).
+pub const LABELS: &[u32] = &[34, 1, 13];
+
 impl Rule for Throwing {
     const NAME: &'static str = "throwing";
     fn labels(&self) -> &'static [u32] {
-        &[34, 1, 13]
+        LABELS
     }
     fn task_obs_dim(&self) -> usize {
         0
