@@ -21,8 +21,9 @@ def _mlp(g, dims):
     return [(torch.randn(o, i, generator=g) / math.sqrt(i), torch.randn(o, generator=g) * 0.1) for i, o in zip(dims[:-1], dims[1:])]
 
 
-def write_rlgames(path, obs: int, hidden, head: str, outputs: int, seed: int = 0) -> dict:
-    """A checkpoint as rl_games' A2C agent saves it (reference-facts §7.5, §8.3)."""
+def write_rlgames(path, obs: int, hidden, head: str, outputs: int, seed: int = 0, fit: np.ndarray | None = None) -> dict:
+    """A checkpoint as rl_games' A2C agent saves it (reference-facts §7.5, §8.3). `fit`: rows of
+    observations whose mean and variance become the normaliser statistics (else random ones)."""
     g = torch.Generator().manual_seed(seed)
     sd = collections.OrderedDict()
     for trunk, out_name, out_width in (("actor_mlp", head, outputs), ("critic_mlp", "value", 1)):
@@ -37,6 +38,9 @@ def write_rlgames(path, obs: int, hidden, head: str, outputs: int, seed: int = 0
         running_var=torch.rand(obs, generator=g, dtype=torch.float64) * 3 + 0.05,
         count=torch.tensor(123456.0, dtype=torch.float64),
     )
+    if fit is not None:
+        running["running_mean"] = torch.from_numpy(fit.astype(np.float64).mean(0))
+        running["running_var"] = torch.from_numpy(fit.astype(np.float64).var(0))
     reward = collections.OrderedDict(
         running_mean=torch.tensor([0.3], dtype=torch.float64), running_var=torch.tensor([2.5], dtype=torch.float64), count=torch.tensor(99.0, dtype=torch.float64)
     )
