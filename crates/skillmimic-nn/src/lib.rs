@@ -7,6 +7,7 @@
 //! * [`normalizer`]: running mean/std normalisers (observations, values);
 //! * [`frozen`]: a frozen skill policy's deterministic actor with its normaliser (high-level tasks);
 //! * [`history`]: the SkillMimic-V2 history encoder (candle forward, plain pass, online buffer);
+//! * [`modular`]: ModSkill's modular attention actor (per-part tokens, attention, controllers);
 //! * [`attention`]: multi-head attention and a transformer encoder layer (candle-nn), with the
 //!   parameter names of PyTorch's `nn.MultiheadAttention` / `nn.TransformerEncoderLayer`.
 
@@ -15,6 +16,7 @@ pub mod frozen;
 pub mod history;
 pub mod kernel;
 pub mod mlp;
+pub mod modular;
 pub mod network;
 pub mod normalizer;
 
