@@ -19,6 +19,9 @@ That is the ``gaussian_mlp`` policy family. ``CategoricalMlpPolicy`` mirrors the
 ``categorical_mlp`` family (discrete actions): the same tensors without ``log_std``, the actor
 giving logits; its checkpoints carry ``policy = "categorical_mlp"`` and ``actions =
 "discrete:<n>"`` in the metadata, and :func:`load_checkpoint` builds the right class.
+``ModularAttentionPolicy`` mirrors ``modular_attention`` (ModSkill): actor tensors
+``actor.parts.{k}.{q,k,v}.{0,1}.*`` and ``actor.parts.{k}.controller.*``, described by the
+metadata ``actor_net``.
 Training checkpoints also hold ``optim.*`` tensors (Adam state), which :func:`load_checkpoint`
 skips. Observations are normalised in float64, ``clamp((x - mean) / sqrt(var + eps), ±clip)``,
 then cast to float32; the critic's output is de-normalised the same way (clamp, scale, shift).
@@ -135,6 +138,59 @@ class CategoricalMlpPolicy(_MlpActorCritic):
         return torch.distributions.Categorical(logits=logits).sample()
 
 
+class _Part(nn.Module):
+    """One body part of :class:`ModularAttentionActor`: Q/K/V projections and its controller."""
+
+    def __init__(self, inputs: Sequence[int], outputs: Sequence[int], embed: int, proj_hidden: int, controller: Sequence[int]):
+        super().__init__()
+        for name in ("q", "k", "v"):
+            setattr(self, name, nn.Sequential(nn.Linear(len(inputs), proj_hidden), nn.Linear(proj_hidden, embed)))
+        self.controller = _mlp([embed, *controller, len(outputs)])
+        self.register_buffer("inputs", torch.tensor(list(inputs), dtype=torch.long), persistent=False)
+        self.register_buffer("outputs", torch.tensor(list(outputs), dtype=torch.long), persistent=False)
+
+
+class ModularAttentionActor(nn.Module):
+    """ModSkill's modular attention actor (``modular_attention``; the Rust definition is
+    ``skillmimic_nn::modular``): per part k, token ``x[:, inputs_k]``, q/k/v = Linear→Linear
+    (no activation), softmax attention over the part tokens (``heads`` heads, scores divided by
+    sqrt(embed/heads) only when ``scaled``), each embedding L2-normalised, one controller MLP per
+    part writing ``outputs_k`` of the action row. ``spec`` = the checkpoint metadata
+    ``actor_net`` (embed, proj_hidden, heads, scaled, controller, parts = [name, inputs, outputs])."""
+
+    def __init__(self, spec: dict, act_dim: int):
+        super().__init__()
+        self.embed, self.heads, self.scaled, self.act_dim = spec["embed"], spec["heads"], spec["scaled"], act_dim
+        self.part_names = [p[0] for p in spec["parts"]]
+        self.parts = nn.ModuleList(_Part(i, o, spec["embed"], spec["proj_hidden"], spec["controller"]) for _, i, o in spec["parts"])
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        b, np_, h = x.shape[0], len(self.parts), self.heads
+        dh = self.embed // h
+        tokens = [x[:, p.inputs] for p in self.parts]
+        q, k, v = (torch.stack([getattr(p, n)(t) for p, t in zip(self.parts, tokens)], 1).view(b, np_, h, dh).transpose(1, 2) for n in "qkv")
+        scores = q @ k.transpose(-1, -2)
+        if self.scaled:
+            scores = scores / dh**0.5
+        z = (torch.softmax(scores, -1) @ v).transpose(1, 2).reshape(b, np_, self.embed)
+        z = torch.nn.functional.normalize(z, dim=-1)
+        out = x.new_zeros(b, self.act_dim)
+        for i, p in enumerate(self.parts):
+            out[:, p.outputs] = p.controller(z[:, i])
+        return out
+
+
+class ModularAttentionPolicy(_MlpActorCritic):
+    """``modular_attention``: :class:`ModularAttentionActor` for the action means, a critic MLP
+    over the whole observation (``hidden``), fixed log-std — ModSkill's policy."""
+
+    def __init__(self, spec: dict, obs_dim: int = OBS_DIM, act_dim: int = ACT_DIM, hidden: Sequence[int] = (1024, 512, 512), log_std: float = -2.9, norm_eps: float = 1e-5, norm_clip: float = 5.0, normalize_input: bool = True, normalize_value: bool = True):
+        super().__init__(obs_dim, act_dim, hidden, norm_eps, norm_clip, normalize_input, normalize_value, log_std=log_std)
+        self.actor = ModularAttentionActor(spec, act_dim)
+
+    act = SkillMimicPolicy.act
+
+
 def checkpoint_metadata(path: str | pathlib.Path) -> dict[str, str]:
     """The metadata strings of a skillmimic checkpoint."""
     from safetensors import safe_open
@@ -146,10 +202,11 @@ def checkpoint_metadata(path: str | pathlib.Path) -> dict[str, str]:
     return meta
 
 
-def load_checkpoint(path: str | pathlib.Path, map_location: str | torch.device = "cpu") -> SkillMimicPolicy | CategoricalMlpPolicy:
+def load_checkpoint(path: str | pathlib.Path, map_location: str | torch.device = "cpu") -> SkillMimicPolicy | CategoricalMlpPolicy | ModularAttentionPolicy:
     """Build the PyTorch module of a checkpoint written by ``skillmimic train``/``export``
     (:class:`SkillMimicPolicy` for ``gaussian_mlp``, :class:`CategoricalMlpPolicy` for
-    ``categorical_mlp``; strict: every policy tensor must be present with the right shape)."""
+    ``categorical_mlp``, :class:`ModularAttentionPolicy` for ``modular_attention``; strict: every
+    policy tensor must be present with the right shape)."""
     from safetensors.torch import load_file
 
     meta = checkpoint_metadata(path)
@@ -163,14 +220,16 @@ def load_checkpoint(path: str | pathlib.Path, map_location: str | torch.device =
         normalize_value=meta["normalize_value"] == "true",
     )
     if family == "gaussian_mlp":
-        policy: SkillMimicPolicy | CategoricalMlpPolicy = SkillMimicPolicy(act_dim=int(meta["act_dim"]), **common)
+        policy: SkillMimicPolicy | CategoricalMlpPolicy | ModularAttentionPolicy = SkillMimicPolicy(act_dim=int(meta["act_dim"]), **common)
     elif family == "categorical_mlp":
         kind, _, n = meta.get("actions", "").partition(":")
         if kind != "discrete" or not n.isdigit():
             raise ValueError(f"{path}: metadata 'actions' is {meta.get('actions')!r}, expected 'discrete:<n>'")
         policy = CategoricalMlpPolicy(num_actions=int(n), **common)
+    elif family == "modular_attention":
+        policy = ModularAttentionPolicy(json.loads(meta["actor_net"]), act_dim=int(meta["act_dim"]), **common)
     else:
-        raise ValueError(f"{path}: unknown policy family {family!r} (gaussian_mlp, categorical_mlp)")
+        raise ValueError(f"{path}: unknown policy family {family!r} (gaussian_mlp, categorical_mlp, modular_attention)")
     tensors = load_file(str(path), device=str(map_location))
     state = {k: v for k, v in tensors.items() if not k.startswith("optim.")}
     policy.load_state_dict(state, strict=True)

@@ -17,7 +17,8 @@
 //! `obs_dim`, `act_dim`, `hidden` (JSON list), `iteration`, `samples`, `config` (TOML text), and
 //! the normaliser switches and settings; `policy` = the family (`gaussian_mlp` when absent, as in
 //! files written before families existed) and `actions` = the action space (`box:<dim>` or
-//! `discrete:<n>`; absent = `box:<act_dim>`).
+//! `discrete:<n>`; absent = `box:<act_dim>`); `actor_net` = the modular attention network's
+//! description (`modular_attention` only; its actor tensors are `actor.parts.*`).
 
 use std::collections::BTreeMap;
 
@@ -26,6 +27,7 @@ use std::path::Path;
 
 use skillmimic_core::tensorfile::{OwnedTensor, TensorFile, write_atomic};
 
+use crate::actor::ActorNet;
 use crate::adam::Adam;
 use skillmimic_nn::frozen::{read_mlp, read_normalizer};
 use skillmimic_nn::mlp::Mlp;
@@ -119,8 +121,12 @@ pub fn save(path: &Path, policy: &Policy, adam: Option<&Adam>, progress: &Progre
         };
         meta.insert("actions".to_string(), actions);
     }
-    let hidden = &policy.actor.dims[1..policy.actor.dims.len() - 1];
+    // the critic's widths (an MLP actor has the same ones)
+    let hidden = &policy.critic.dims[1..policy.critic.dims.len() - 1];
     meta.insert("hidden".to_string(), serde_json::to_string(hidden).unwrap());
+    if let ActorNet::Modular(m) = &policy.actor {
+        meta.insert("actor_net".to_string(), serde_json::to_string(&crate::policies::modular_attention::spec_of(m)).unwrap());
+    }
     meta.insert("iteration".to_string(), progress.iteration.to_string());
     meta.insert("samples".to_string(), progress.samples.to_string());
     meta.insert("normalize_input".to_string(), policy.normalize_input.to_string());
@@ -183,7 +189,10 @@ fn load_raw(path: &Path, expect: Option<(usize, usize)>) -> Result<Checkpoint, S
     if space.width() != act_dim || !family.supports(&space) {
         return Err(format!("{}: metadata 'actions' {space:?} does not fit act_dim {act_dim} and policy '{}'", path.display(), family.name()));
     }
-    let actor = mlp("actor", family.actor_outputs(&space))?;
+    let actor = match f.meta("actor_net") {
+        Ok(text) => ActorNet::Modular(crate::policies::modular_attention::read(&f, text, obs_dim, act_dim).map_err(|x| format!("{}: {x}", path.display()))?),
+        Err(_) => ActorNet::Mlp(mlp("actor", family.actor_outputs(&space))?),
+    };
     let critic = mlp("critic", 1)?;
     let policy = Policy {
         family,

@@ -78,6 +78,8 @@ pub struct PpoConfig {
     pub backend: Backend,
     /// Device of the candle backend: "cpu", or "cuda" (needs the `cuda` cargo feature).
     pub device: String,
+    /// The modular attention network (`policy = "modular_attention"`; ModSkill).
+    pub modular: ModularConfig,
 }
 
 impl Default for PpoConfig {
@@ -107,7 +109,34 @@ impl Default for PpoConfig {
             norm_clip: 5.0,
             backend: Backend::Fast,
             device: "cpu".into(),
+            modular: Default::default(),
         }
+    }
+}
+
+/// `[ppo.modular]`: the modular attention network (used when `ppo.policy = "modular_attention"`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct ModularConfig {
+    /// Body split: "five" (ModSkill's: legs, torso, arms with hands) or "seven" (hands separate).
+    pub parts: String,
+    /// Width of each part embedding z_k (ModSkill: 64).
+    pub embed: usize,
+    /// Hidden width of the Q/K/V projections (ModSkill: 256).
+    pub proj_hidden: usize,
+    /// Attention heads (ModSkill: 1); `embed` must be a multiple.
+    pub heads: usize,
+    /// Scale the attention scores by 1/sqrt(embed/heads): the paper's Eq. 5 does, the released
+    /// code does not (default).
+    pub scaled: bool,
+    /// Hidden widths of every part controller. Default [512, 256] for CPUs; the released code
+    /// uses [2048, 1536, 1024, 512] (preset `modskill`).
+    pub controller: Vec<usize>,
+}
+
+impl Default for ModularConfig {
+    fn default() -> Self {
+        Self { parts: "five".into(), embed: 64, proj_hidden: 256, heads: 1, scaled: false, controller: vec![512, 256] }
     }
 }
 
@@ -159,7 +188,7 @@ pub struct TrainConfig {
 }
 
 /// Named presets.
-pub const PRESETS: [&str; 3] = ["paper", "small", "tiny"];
+pub const PRESETS: [&str; 4] = ["paper", "small", "tiny", "modskill"];
 
 impl TrainConfig {
     /// A named preset:
@@ -167,6 +196,8 @@ impl TrainConfig {
     ///   (65 536 samples per iteration, minibatch 16 384) — for large machines;
     /// * `small`: the paper's network and PPO settings at workstation scale: 256 environments,
     ///   horizon 32 (8192 samples per iteration), minibatch 4096, 6 mini-epochs;
+    /// * `modskill`: ModSkill's released sizes on the `paper` scale: `modular_attention` with
+    ///   controllers and critic [2048, 1536, 1024, 512] (modskill-tokenhsi-facts §1.4);
     /// * `tiny`: a small network ([256, 128]) for smoke tests and CI: 16 environments, horizon 16,
     ///   minibatch 128, 2 mini-epochs, learning rate 3e-5. Measured on the demo clips (400
     ///   iterations, 32 environments): 1e-4 and 3e-5 reach the same reward (≈ 3.4× the first 25
@@ -192,6 +223,12 @@ impl TrainConfig {
                 c.run.iterations = 5;
                 c.run.save_every = 5;
                 c.run.eval_episodes = 4;
+            }
+            "modskill" => {
+                c.env.num_envs = 2048;
+                c.ppo.policy = "modular_attention".into();
+                c.ppo.hidden = vec![2048, 1536, 1024, 512];
+                c.ppo.modular.controller = vec![2048, 1536, 1024, 512];
             }
             other => return Err(LearnError::Config(format!("unknown preset '{other}', expected one of {PRESETS:?}"))),
         }

@@ -16,6 +16,7 @@
 //!   environments and samples a rank holds, the start-of-run agreement);
 //! * [`tblog`]: TensorBoard scalar event files.
 
+pub mod actor;
 pub mod adam;
 #[cfg(feature = "args")]
 pub mod args;

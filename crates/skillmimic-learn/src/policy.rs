@@ -1,5 +1,5 @@
-//! The actor–critic of every MLP policy family: separate actor and critic MLPs over the
-//! normalised observation, the observation and value normalisers, and the family
+//! The actor–critic of every policy family: an actor network ([`ActorNet`]: an MLP, or the
+//! modular attention network) and a critic MLP over the normalised observation, the observation and value normalisers, and the family
 //! ([`crate::policies`]) that turns actor outputs into a distribution over actions (SkillMimic's
 //! fixed-σ Gaussian keeps its log σ here).
 //!
@@ -12,6 +12,7 @@ use skillmimic_env::ActionSpace;
 use crate::config::PpoConfig;
 use crate::error::LearnError;
 use crate::policies::{self, Head, PolicyFamily};
+use crate::actor::{ActorNet, ActorWorkspace};
 use skillmimic_nn::mlp::{Mlp, Workspace};
 use skillmimic_nn::normalizer::RunningMeanStd;
 
@@ -22,7 +23,7 @@ pub struct Policy {
     pub family: &'static dyn PolicyFamily,
     /// The action space the policy acts in.
     pub space: ActionSpace,
-    pub actor: Mlp,
+    pub actor: ActorNet,
     pub critic: Mlp,
     /// Per-dimension log σ (fixed; `gaussian_mlp` only, empty otherwise).
     pub log_std: Vec<f32>,
@@ -36,14 +37,14 @@ pub struct Policy {
 #[derive(Clone, Debug, Default)]
 pub struct InferenceBuffers {
     pub obs_n: Vec<f32>,
-    actor_ws: Workspace,
+    actor_ws: ActorWorkspace,
     critic_ws: Workspace,
 }
 
 impl Policy {
     /// A freshly initialised `gaussian_mlp` policy for `obs_dim` → `act_dim` continuous actions.
     pub fn new<R: rand::Rng>(obs_dim: usize, act_dim: usize, cfg: &PpoConfig, rng: &mut R) -> Self {
-        Self::init(&policies::gaussian_mlp::GaussianMlp, obs_dim, ActionSpace::Box { dim: act_dim }, cfg, rng)
+        Self::init(&policies::gaussian_mlp::GaussianMlp, obs_dim, ActionSpace::Box { dim: act_dim }, cfg, rng).expect("an MLP actor always builds")
     }
 
     /// A freshly initialised policy of the family `cfg.policy` for `space`.
@@ -52,22 +53,32 @@ impl Policy {
         if !family.supports(&space) {
             return Err(LearnError::Config(format!("config field 'ppo.policy': the family '{}' cannot act in the task's action space {space:?}", family.name())));
         }
-        Ok(Self::init(family, obs_dim, space, cfg, rng))
+        Self::init(family, obs_dim, space, cfg, rng)
     }
 
-    /// Actor MLP `obs_dim → hidden… → actor outputs`, critic `obs_dim → hidden… → 1` (drawn in
-    /// that order from `rng`), log σ for the families that use one.
-    fn init<R: rand::Rng + rand::RngCore>(family: &'static dyn PolicyFamily, obs_dim: usize, space: ActionSpace, cfg: &PpoConfig, rng: &mut R) -> Self {
+    /// Actor MLP `obs_dim → hidden… → actor outputs` (or the family's own actor network), critic
+    /// `obs_dim → hidden… → 1` (drawn in that order from `rng`), log σ for the families that use one.
+    fn init<R: rand::Rng + rand::RngCore>(family: &'static dyn PolicyFamily, obs_dim: usize, space: ActionSpace, cfg: &PpoConfig, rng: &mut R) -> Result<Self, LearnError> {
         let mut dims = vec![obs_dim];
         dims.extend(&cfg.hidden);
         let mut adims = dims.clone();
         adims.push(family.actor_outputs(&space));
         let mut cdims = dims;
         cdims.push(1);
-        let mut actor = Mlp::new(&adims, rng);
+        // MLP families draw the actor, the critic, then the output-layer re-initialisation (the
+        // order every existing seed reproduces); a family's own network is drawn first
+        let own = family.build_actor(obs_dim, &space, cfg, rng)?;
+        let mlp = if own.is_none() { Some(Mlp::new(&adims, rng)) } else { None };
         let critic = Mlp::new(&cdims, rng);
-        family.init_output_layer(&mut actor, rng);
-        Self {
+        let actor = match (own, mlp) {
+            (Some(net), _) => net,
+            (None, Some(mut m)) => {
+                family.init_output_layer(&mut m, rng);
+                ActorNet::Mlp(m)
+            }
+            (None, None) => unreachable!("an MLP is built when the family has no network of its own"),
+        };
+        Ok(Self {
             family,
             space,
             actor,
@@ -77,7 +88,7 @@ impl Policy {
             value_norm: RunningMeanStd::new(1, cfg.norm_eps, cfg.norm_clip),
             normalize_input: cfg.normalize_input,
             normalize_value: cfg.normalize_value,
-        }
+        })
     }
 
     pub fn obs_dim(&self) -> usize {

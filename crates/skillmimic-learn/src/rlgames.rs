@@ -257,7 +257,7 @@ pub fn import(path: &Path, kind: Kind) -> Result<Imported, LearnError> {
     let policy = Policy {
         family,
         space,
-        actor,
+        actor: crate::actor::ActorNet::Mlp(actor),
         critic,
         log_std,
         obs_norm,

@@ -179,7 +179,7 @@ impl Trainer {
                 let mut adam = c.adam.ok_or_else(|| {
                     bad_checkpoint(path)(format!("{}: a policy-only (exported) checkpoint cannot resume training; use a training checkpoint", path.display()))
                 })?;
-                let hidden = &c.policy.actor.dims[1..c.policy.actor.dims.len() - 1];
+                let hidden = &c.policy.critic.dims[1..c.policy.critic.dims.len() - 1];
                 if hidden != cfg.ppo.hidden.as_slice() {
                     return Err(bad_checkpoint(path)(format!(
                         "{}: network hidden sizes {hidden:?} differ from the config's ppo.hidden {:?}",

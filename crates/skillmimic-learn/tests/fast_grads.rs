@@ -21,11 +21,12 @@ fn setup(n: usize, scale_out: f32) -> (Policy, Case) {
     let cfg = PpoConfig { hidden: vec![64, 32], log_std: -1.0, ..Default::default() };
     let mut p = Policy::new(37, 11, &cfg, &mut rng);
     // non-zero biases and a wider actor output range so that the bounds loss is active
-    for b in p.actor.biases.iter_mut().chain(p.critic.biases.iter_mut()) {
+    let actor = p.actor.as_mlp_mut().unwrap();
+    for b in actor.biases.iter_mut().chain(p.critic.biases.iter_mut()) {
         b.iter_mut().for_each(|x| *x = rng.random_range(-0.2..0.2));
     }
-    let last = p.actor.num_layers() - 1;
-    p.actor.weights[last].iter_mut().for_each(|w| *w *= scale_out);
+    let last = actor.num_layers() - 1;
+    actor.weights[last].iter_mut().for_each(|w| *w *= scale_out);
     let obs: Vec<f32> = (0..n * 37).map(|_| rng.random_range(-2.0..2.0)).collect();
     // actions near the mean; old log-probabilities shifted so ratios spread over ~[0.5, 2]
     let mut buf = Default::default();
@@ -70,7 +71,7 @@ fn check(name: &str, cfg: &PpoConfig, p: &Policy, c: &Case, zero_adv: bool) {
         let mut ws = UpdateWorkspace::default();
         let lf = loss_and_grads_fast(p, &mb, cfg, &mut ws, threads);
         let rel = max_rel(&ws.grads, &slow);
-        let na = 2 * p.actor.num_layers();
+        let na = 2 * p.actor.as_mlp().unwrap().num_layers();
         let (ra, rc) = (max_rel(&ws.grads[..na], &slow[..na]), max_rel(&ws.grads[na..], &slow[na..]));
         println!("{name} ({threads} threads): max relative gradient difference actor {ra:.2e}, critic {rc:.2e}; clip frac {:.2}", lf.clip_frac);
         assert!(rel <= 1e-5, "{name}: relative difference {rel:.3e}");

@@ -74,7 +74,7 @@ pub struct ModularWorkspace {
 }
 
 /// A single `Linear(inp → out)` with PyTorch's default initialisation (weight and bias U(±1/√inp)).
-fn linear<R: Rng>(inp: usize, out: usize, rng: &mut R) -> Mlp {
+fn linear<R: Rng + ?Sized>(inp: usize, out: usize, rng: &mut R) -> Mlp {
     let b = 1.0 / (inp as f32).sqrt();
     let w = (0..out * inp).map(|_| rng.random_range(-b..b)).collect();
     let bias = (0..out).map(|_| rng.random_range(-b..b)).collect();
@@ -85,7 +85,7 @@ impl ModularAttention {
     /// A new network: part k reads `parts[k].1` and writes `parts[k].2`. Projections get PyTorch's
     /// `nn.Linear` initialisation, controllers the policy MLPs' (U(±1/√fan_in) weights, zero
     /// biases). Errors name what is wrong with the parts.
-    pub fn new<R: Rng>(shape: ModularShape, parts: &[(String, Vec<usize>, Vec<usize>)], obs_dim: usize, act_dim: usize, rng: &mut R) -> Result<Self, String> {
+    pub fn new<R: Rng + ?Sized>(shape: ModularShape, parts: &[(String, Vec<usize>, Vec<usize>)], obs_dim: usize, act_dim: usize, rng: &mut R) -> Result<Self, String> {
         if shape.heads == 0 || shape.embed % shape.heads != 0 {
             return Err(format!("embedding width {} is not a multiple of the {} heads", shape.embed, shape.heads));
         }
@@ -113,7 +113,7 @@ impl ModularAttention {
             let mut dims = vec![e];
             dims.extend(&shape.controller);
             dims.push(outputs.len());
-            let controller = Mlp::new(&dims, rng);
+            let controller = Mlp::new(&dims, &mut &mut *rng);
             built.push(Part { name: name.clone(), inputs: inputs.clone(), outputs: outputs.clone(), q, k, v, controller });
         }
         Ok(Self { shape, parts: built, obs_dim, act_dim })

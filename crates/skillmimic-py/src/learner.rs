@@ -202,12 +202,14 @@ pub(crate) fn ppo_loss_and_grads<'py>(
 }
 
 /// Write a freshly initialised policy checkpoint (policy only, no Adam state): family
-/// `family` (`gaussian_mlp` | `categorical_mlp`), observations of `obs_dim`, action space
-/// `("box", dim)` or `("discrete", n)`, hidden widths `hidden`, weights drawn from `seed` (the
-/// trainer's initialisation). For interop tests and for starting from Python.
+/// `family` (`gaussian_mlp` | `categorical_mlp` | `modular_attention`), observations of
+/// `obs_dim`, action space `("box", dim)` or `("discrete", n)`, hidden widths `hidden`, weights
+/// drawn from `seed` (the trainer's initialisation); `overrides` = `--set`-style assignments
+/// applied first (e.g. `"ppo.modular.controller=[32]"`). For interop tests and for starting from
+/// Python.
 #[pyfunction]
-#[pyo3(signature = (path, family, obs_dim, actions, hidden, seed = 0))]
-pub(crate) fn init_policy(path: std::path::PathBuf, family: &str, obs_dim: usize, actions: (String, usize), hidden: Vec<usize>, seed: u64) -> PyResult<()> {
+#[pyo3(signature = (path, family, obs_dim, actions, hidden, seed = 0, overrides = Vec::new()))]
+pub(crate) fn init_policy(path: std::path::PathBuf, family: &str, obs_dim: usize, actions: (String, usize), hidden: Vec<usize>, seed: u64, overrides: Vec<String>) -> PyResult<()> {
     use rand::SeedableRng;
     let space = match actions.0.as_str() {
         "box" => skillmimic_env::ActionSpace::Box { dim: actions.1 },
@@ -217,7 +219,11 @@ pub(crate) fn init_policy(path: std::path::PathBuf, family: &str, obs_dim: usize
     if obs_dim == 0 || actions.1 == 0 || hidden.contains(&0) {
         return Err(PyValueError::new_err("obs_dim, the action size and every hidden width must be positive"));
     }
-    let cfg = skillmimic_learn::config::PpoConfig { policy: family.to_string(), hidden, ..Default::default() };
+    let mut train = skillmimic_learn::config::TrainConfig::default();
+    for o in &overrides {
+        train.set(o).map_err(value_error)?;
+    }
+    let cfg = skillmimic_learn::config::PpoConfig { policy: family.to_string(), hidden, ..train.ppo };
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     let p = skillmimic_learn::policy::Policy::build(obs_dim, space, &cfg, &mut rng).map_err(value_error)?;
     skillmimic_learn::checkpoint::save(&path, &p, None, &Default::default(), "").map_err(|e| PyValueError::new_err(format!("{}: {e}", path.display())))

@@ -66,8 +66,12 @@ impl Ports<'_> {
     }
 }
 
-/// Every weight and normaliser statistic of `p` is finite (a file with NaN weights is refused).
-fn check_finite(p: &Policy, what: &str) -> Result<(), LearnError> {
+/// `p` has an MLP actor and every weight and normaliser statistic is finite (a file with NaN
+/// weights is refused).
+fn check_exportable(p: &Policy, what: &str) -> Result<(), LearnError> {
+    if p.actor.as_mlp().is_none() {
+        return Err(LearnError::Config(format!("{what}: ONNX export covers MLP actors; a '{}' actor is not supported yet", p.family.name())));
+    }
     let params = p.actor.params();
     let stats = [&p.obs_norm.mean, &p.obs_norm.var];
     let bad_param = params.iter().position(|w| w.iter().any(|v| !v.is_finite()));
@@ -84,7 +88,7 @@ fn check_finite(p: &Policy, what: &str) -> Result<(), LearnError> {
 /// The normaliser (when the policy uses one) and the actor of `p` over the value `x`.
 fn actor(g: &mut Graph, prefix: &str, x: &str, p: &Policy, out: Option<&str>) -> String {
     let xn = if p.normalize_input { g.normalizer(&format!("{prefix}.obs_norm"), x, &p.obs_norm) } else { x.to_string() };
-    g.mlp(&format!("{prefix}.actor"), &xn, &p.actor, out)
+    g.mlp(&format!("{prefix}.actor"), &xn, p.actor.as_mlp().expect("checked by check_exportable"), out)
 }
 
 fn normalizer_meta(p: &Policy) -> Normalizer {
@@ -119,7 +123,7 @@ fn high_level_head(g: &mut Graph, meta: &mut DeployMeta, hl: &Policy, x: &str) -
 
 /// Export a policy alone: a `gaussian_mlp` skill policy or a `categorical_mlp` high-level one.
 pub fn policy_model(p: &Policy, mut meta: DeployMeta) -> Result<Exported, LearnError> {
-    check_finite(p, &meta.source.file)?;
+    check_exportable(p, &meta.source.file)?;
     let (d, a) = (p.obs_dim(), p.actor.output_dim());
     let mut g = Graph::new("skillmimic_policy");
     meta.normalizer = normalizer_meta(p);
@@ -147,8 +151,8 @@ pub fn policy_model(p: &Policy, mut meta: DeployMeta) -> Result<Exported, LearnE
 /// label → one-hot → skill policy), so one graph maps an observation to PD-target actions.
 /// `meta` is the high-level policy's; `skill_source` identifies the skill checkpoint.
 pub fn fused_model(hl: &Policy, skill: &Policy, mut meta: DeployMeta, skill_source: meta::Source) -> Result<Exported, LearnError> {
-    check_finite(hl, &meta.source.file)?;
-    check_finite(skill, &skill_source.file)?;
+    check_exportable(hl, &meta.source.file)?;
+    check_exportable(skill, &skill_source.file)?;
     if hl.family.name() != "categorical_mlp" {
         return Err(LearnError::Config(format!("--fused needs a high-level (categorical_mlp) checkpoint; {} is a '{}' policy", meta.source.file, hl.family.name())));
     }

@@ -38,6 +38,11 @@ pub trait PolicyFamily: Send + Sync + 'static {
     }
     /// Actor output width for `space`.
     fn actor_outputs(&self, space: &ActionSpace) -> usize;
+    /// Build the actor network when it is not an MLP (default: `None`, an MLP
+    /// `obs → ppo.hidden → actor_outputs`). `rng` continues the policy's initialisation stream.
+    fn build_actor(&self, _obs_dim: usize, _space: &ActionSpace, _cfg: &PpoConfig, _rng: &mut dyn RngCore) -> Result<Option<crate::actor::ActorNet>, crate::error::LearnError> {
+        Ok(None)
+    }
     /// Re-initialise the actor's output layer after the default initialisation (default: keep
     /// it). `rng` continues the policy's initialisation stream.
     fn init_output_layer(&self, _actor: &mut skillmimic_nn::mlp::Mlp, _rng: &mut dyn RngCore) {}

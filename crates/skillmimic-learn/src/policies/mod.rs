@@ -7,18 +7,20 @@
 //!
 //! * [`gaussian_mlp`]: fixed-σ diagonal Gaussian over MLP action means (SkillMimic's policy);
 //! * [`categorical_mlp`]: categorical distribution over MLP logits (discrete actions, e.g. a
-//!   high-level policy choosing skills).
+//!   high-level policy choosing skills);
+//! * [`modular_attention`]: ModSkill's per-part attention actor with the fixed-σ Gaussian.
 
 pub mod categorical_mlp;
 pub mod family;
 pub mod gaussian_mlp;
+pub mod modular_attention;
 
 pub use family::{ExtraLoss, Head, PolicyFamily};
 
 use crate::error::LearnError;
 
 /// Every family, in listing order.
-pub const FAMILIES: &[&dyn PolicyFamily] = &[&gaussian_mlp::GaussianMlp, &categorical_mlp::CategoricalMlp];
+pub const FAMILIES: &[&dyn PolicyFamily] = &[&gaussian_mlp::GaussianMlp, &categorical_mlp::CategoricalMlp, &modular_attention::ModularAttentionFamily];
 
 /// The family named `name`.
 pub fn family(name: &str) -> Result<&'static dyn PolicyFamily, LearnError> {

@@ -162,13 +162,14 @@ fn backward(m: &Mlp, x: &[f32], n: usize, h: &[Vec<f32>], g_out: &mut Vec<f32>, 
 /// families always take the canonical candle loss).
 pub fn applies_to(policy: &Policy) -> bool {
     use crate::policies::PolicyFamily;
-    policy.family.name() == crate::policies::gaussian_mlp::GaussianMlp.name()
+    policy.family.name() == crate::policies::gaussian_mlp::GaussianMlp.name() && policy.actor.as_mlp().is_some()
 }
 
 /// Losses and gradients of one minibatch (see the module docs); gradients land in `ws.grads`.
 pub fn loss_and_grads_fast(policy: &Policy, mb: &Minibatch<'_>, cfg: &PpoConfig, ws: &mut UpdateWorkspace, threads: usize) -> LossStats {
     let (n, a_dim) = (mb.n, policy.act_dim());
-    forward_keep(&policy.actor, mb.obs_n, n, &mut ws.actor_h, threads);
+    let actor = policy.actor.as_mlp().expect("the fast path applies to MLP actors only (applies_to)");
+    forward_keep(actor, mb.obs_n, n, &mut ws.actor_h, threads);
     forward_keep(&policy.critic, mb.obs_n, n, &mut ws.critic_h, threads);
     let mu = ws.actor_h.last().expect("actor layers");
     let v = ws.critic_h.last().expect("critic layers");
@@ -235,7 +236,7 @@ pub fn loss_and_grads_fast(policy: &Policy, mb: &Minibatch<'_>, cfg: &PpoConfig,
     };
 
     // backward
-    let na = 2 * policy.actor.num_layers();
+    let na = 2 * actor.num_layers();
     let sizes: Vec<usize> = policy.actor.params().iter().chain(policy.critic.params().iter()).map(|p| p.len()).collect();
     ws.grads.resize_with(sizes.len(), Vec::new);
     for (g, &s) in ws.grads.iter_mut().zip(&sizes) {
@@ -243,7 +244,7 @@ pub fn loss_and_grads_fast(policy: &Policy, mb: &Minibatch<'_>, cfg: &PpoConfig,
     }
     let UpdateWorkspace { actor_h, critic_h, g_a, g_b, scratch, grads } = ws;
     let (ga_grads, gc_grads) = grads.split_at_mut(na);
-    backward(&policy.actor, mb.obs_n, n, actor_h, g_a, scratch, ga_grads, threads);
+    backward(actor, mb.obs_n, n, actor_h, g_a, scratch, ga_grads, threads);
     backward(&policy.critic, mb.obs_n, n, critic_h, g_b, scratch, gc_grads, threads);
     stats
 }

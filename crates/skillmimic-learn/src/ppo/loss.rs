@@ -42,7 +42,7 @@ pub fn loss_and_grads(policy: &Policy, mb: &Minibatch<'_>, cfg: &PpoConfig) -> R
     let family = policy.family;
     let run = || -> candle_core::Result<(LossStats, Grads)> {
         let x = Tensor::from_slice(mb.obs_n, (n, d), &dev)?;
-        let out = Mlp::candle_forward(&avars, &x)?;
+        let out = policy.actor.candle_forward(&avars, &x)?;
         let v = Mlp::candle_forward(&cvars, &x)?.squeeze(1)?;
         let act = Tensor::from_slice(mb.actions, (n, a_dim), &dev)?;
         let neglogp = family.neglogp(policy.head(), &out, &act)?;
@@ -88,7 +88,7 @@ mod tests {
         Policy {
             family: &crate::policies::gaussian_mlp::GaussianMlp,
             space: skillmimic_env::ActionSpace::Box { dim: 1 },
-            actor: Mlp::from_parts(vec![1, 1], vec![vec![1.0]], vec![vec![0.0]]),
+            actor: crate::actor::ActorNet::Mlp(Mlp::from_parts(vec![1, 1], vec![vec![1.0]], vec![vec![0.0]])),
             critic: Mlp::from_parts(vec![1, 1], vec![vec![2.0]], vec![vec![0.0]]),
             log_std: vec![0.0],
             obs_norm: RunningMeanStd::new(1, 1e-5, 5.0),
