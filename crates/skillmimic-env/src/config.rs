@@ -9,6 +9,7 @@ use serde::{Deserialize, Serialize};
 use skillmimic_sim::{BallParams, HandModel, SceneOptions};
 
 pub use crate::config_hlc::{CirclingConfig, Formula, GoalSampling, HeadingConfig, HlcConfig, Prediction, ScoringConfig, ThrowingConfig};
+pub use crate::config_tracking::TrackingConfig;
 pub use crate::config_v2::{AtsConfig, BridgeConfig, HistoryConfig, MaskedReward, NoiseEps, StfConfig, StgConfig, V2Config};
 pub use crate::error::ConfigError;
 use crate::error::bad;
@@ -220,6 +221,8 @@ pub struct EnvConfig {
     pub throwing: ThrowingConfig,
     /// Options of the `scoring` task.
     pub scoring: ScoringConfig,
+    /// Options of the `tracking` task (motion tracking without the ball; ModSkill).
+    pub tracking: TrackingConfig,
 }
 
 impl Default for EnvConfig {
@@ -239,6 +242,7 @@ impl Default for EnvConfig {
             v2: V2Config::default(),
             task: "imitation".into(),
             stand: Default::default(),
+            tracking: Default::default(),
             hlc: Default::default(),
             heading: Default::default(),
             circling: Default::default(),

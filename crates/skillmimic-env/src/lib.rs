@@ -19,6 +19,7 @@
 
 pub mod config;
 pub mod config_hlc;
+pub mod config_tracking;
 pub mod config_v2;
 pub mod episode;
 pub mod error;

@@ -26,6 +26,7 @@ pub struct TaskEntry {
 pub const TASKS: &[TaskEntry] = &[
     TaskEntry { name: "imitation", summary: "SkillMimic imitation of human–ball clips (+ SkillMimic-V2 parts)", high_level: false, choices: &[], build: tasks::imitation::env::build },
     TaskEntry { name: "stand", summary: "keep the pelvis height and the start heading (no clip, no ball)", high_level: false, choices: &[], build: tasks::stand::build },
+    TaskEntry { name: "tracking", summary: "motion tracking of clips without the ball (ModSkill, PHC): next-frame reference observation", high_level: false, choices: &[], build: tasks::tracking::build },
     TaskEntry { name: "heading", summary: "skill reuse: dribble the ball to a target (frozen skill policy, --llc)", high_level: true, choices: tasks::hlc::heading::LABELS, build: tasks::hlc::heading::build },
     TaskEntry { name: "circling", summary: "skill reuse: dribble around a point at a radius (frozen skill policy, --llc)", high_level: true, choices: tasks::hlc::circling::LABELS, build: tasks::hlc::circling::build },
     TaskEntry { name: "throwing", summary: "skill reuse: throw the ball up to 2.5 m and catch it (frozen skill policy, --llc)", high_level: true, choices: tasks::hlc::throwing::LABELS, build: tasks::hlc::throwing::build },

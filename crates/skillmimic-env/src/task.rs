@@ -104,6 +104,9 @@ pub trait Task: Send + Sync + 'static {
     /// After the simulation reset: finish the slot from the actual state and write the first
     /// observation.
     fn after_reset(&self, i: usize, slot: &mut Self::Slot, st: &EnvState<'_>, obs: &mut [f32]);
+    /// Task information of a freshly reset environment (default: left as it is until the next
+    /// step writes it).
+    fn reset_info(&self, _slot: &Self::Slot, _info: &mut [f32]) {}
     /// After a physics step: observation, reward, terms, info, metrics and done flags.
     fn step_env(&self, i: usize, slot: &mut Self::Slot, st: &EnvState<'_>, out: StepOut<'_>);
     /// Recompute the observation from the current state (after raw state edits), keeping any

@@ -212,6 +212,12 @@ impl<T: Task> VecEnv<T> {
                 }
             });
         });
+        let ni = task.spec().info_names.len();
+        for (i, &m) in mask.iter().enumerate() {
+            if m && ni > 0 {
+                task.reset_info(&slots[i], &mut buf.info[i * ni..(i + 1) * ni]);
+            }
+        }
         if clear_flags {
             for (i, &m) in mask.iter().enumerate() {
                 if m {

@@ -3,8 +3,10 @@
 //! * [`imitation`]: SkillMimic imitation of human–ball clips, with the SkillMimic-V2 parts;
 //! * [`hlc`]: skill reuse — `heading`, `circling`, `throwing`, `scoring` over a frozen skill
 //!   policy (SkillMimic §5.4);
-//! * [`stand`]: keep the pelvis height and heading — the worked example of adding a task.
+//! * [`stand`]: keep the pelvis height and heading — the worked example of adding a task;
+//! * [`tracking`]: motion tracking without the ball (ModSkill, PHC).
 
 pub mod hlc;
 pub mod imitation;
 pub mod stand;
+pub mod tracking;
