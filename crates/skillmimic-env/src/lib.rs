@@ -17,6 +17,7 @@
 //! * [`v2`]: SkillMimic-V2 — history features, State Transition Field, Stitched Trajectory Graph,
 //!   Adaptive Trajectory Sampling (the history encoder network is `skillmimic_nn::history`).
 
+pub mod amp;
 pub mod config;
 pub mod config_hlc;
 pub mod config_tracking;

@@ -88,7 +88,12 @@ pub const VALUE_DOC: &str = "if normalize_value: value = clamp(critic_out, -norm
 
 /// Save `policy` (and `adam` for a training checkpoint) atomically.
 pub fn save(path: &Path, policy: &Policy, adam: Option<&Adam>, progress: &Progress, config_toml: &str) -> std::io::Result<()> {
-    let mut tensors = Vec::new();
+    save_with(path, policy, adam, progress, config_toml, Vec::new())
+}
+
+/// [`save`] with further tensors of the run (the motion prior's `amp.*`).
+pub fn save_with(path: &Path, policy: &Policy, adam: Option<&Adam>, progress: &Progress, config_toml: &str, extra: Vec<OwnedTensor>) -> std::io::Result<()> {
+    let mut tensors = extra;
     let names = param_names(policy);
     let params: Vec<&[f32]> = policy.actor.params().into_iter().chain(policy.critic.params()).collect();
     for ((name, shape), data) in names.iter().zip(&params) {

@@ -80,6 +80,8 @@ pub struct PpoConfig {
     pub device: String,
     /// The modular attention network (`policy = "modular_attention"`; ModSkill).
     pub modular: ModularConfig,
+    /// The adversarial motion prior (style reward; ModSkill, TokenHSI).
+    pub amp: AmpConfig,
 }
 
 impl Default for PpoConfig {
@@ -110,6 +112,7 @@ impl Default for PpoConfig {
             backend: Backend::Fast,
             device: "cpu".into(),
             modular: Default::default(),
+            amp: Default::default(),
         }
     }
 }
@@ -137,6 +140,69 @@ pub struct ModularConfig {
 impl Default for ModularConfig {
     fn default() -> Self {
         Self { parts: "five".into(), embed: 64, proj_hidden: 256, heads: 1, scaled: false, controller: vec![512, 256] }
+    }
+}
+
+/// Which adversarial loss of the motion prior.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum AmpLoss {
+    /// Binary cross-entropy on the logits (the released AMP/ASE code).
+    Logistic,
+    /// Least squares with targets ±1 (the AMP paper).
+    LeastSquares,
+}
+
+/// `[ppo.amp]`: the adversarial motion prior (a style reward from a discriminator over windows of
+/// frames; ModSkill and TokenHSI), off by default.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct AmpConfig {
+    /// Add the style reward: r = task_weight · r_task + style_weight · r_style.
+    pub enabled: bool,
+    /// Frames per window (10 in ModSkill and TokenHSI).
+    pub window: usize,
+    /// Hidden widths of the discriminator MLP ([1024, 512]).
+    pub hidden: Vec<usize>,
+    /// Adversarial loss.
+    pub loss: AmpLoss,
+    /// Gradient-penalty weight on reference windows (5, the AMP code).
+    pub grad_penalty: f64,
+    /// Weight of the squared output-layer weights (0.05, the AMP code).
+    pub logit_reg: f64,
+    /// Discriminator Adam learning rate.
+    pub lr: f64,
+    /// Style-reward scale (2, the AMP code).
+    pub reward_scale: f64,
+    /// Weight of the task reward (0.5 in ModSkill and TokenHSI).
+    pub task_weight: f64,
+    /// Weight of the style reward (0.5).
+    pub style_weight: f64,
+    /// Simulated windows kept for the discriminator (a ring buffer filled during rollouts).
+    pub buffer: usize,
+    /// Windows per discriminator minibatch (as many reference windows are drawn).
+    pub batch: usize,
+    /// Discriminator steps per iteration.
+    pub updates: usize,
+}
+
+impl Default for AmpConfig {
+    fn default() -> Self {
+        Self {
+            enabled: false,
+            window: 10,
+            hidden: vec![1024, 512],
+            loss: AmpLoss::Logistic,
+            grad_penalty: 5.0,
+            logit_reg: 0.05,
+            lr: 2e-5,
+            reward_scale: 2.0,
+            task_weight: 0.5,
+            style_weight: 0.5,
+            buffer: 8192,
+            batch: 512,
+            updates: 4,
+        }
     }
 }
 
@@ -307,6 +373,16 @@ impl TrainConfig {
         let p = &self.ppo;
         if p.hidden.is_empty() || p.hidden.contains(&0) {
             return Err(LearnError::Config("config field 'ppo.hidden': needs at least one non-zero layer width".into()));
+        }
+        let a = &p.amp;
+        if a.enabled {
+            if a.window == 0 || a.batch == 0 || a.buffer < a.batch || a.hidden.is_empty() || a.hidden.contains(&0) {
+                return Err(LearnError::Config("config fields 'ppo.amp.*': window and batch must be >= 1, buffer >= batch, hidden non-empty without zeros".into()));
+            }
+            let weights = [a.grad_penalty, a.logit_reg, a.lr, a.reward_scale, a.task_weight, a.style_weight];
+            if weights.iter().any(|w| !(w.is_finite() && *w >= 0.0)) {
+                return Err(LearnError::Config("config fields 'ppo.amp.*': grad_penalty, logit_reg, lr, reward_scale, task_weight and style_weight must be finite and >= 0".into()));
+            }
         }
         if p.horizon == 0 || p.minibatch == 0 || p.mini_epochs == 0 {
             return Err(LearnError::Config("config fields 'ppo.horizon', 'ppo.minibatch', 'ppo.mini_epochs' must be >= 1".into()));

@@ -6,6 +6,7 @@
 //! * [`policies`]: policy families by name (`gaussian_mlp`, `categorical_mlp`);
 //! * [`policy`]: the actor–critic over `skillmimic_nn` MLPs (PyTorch layout), batched inference;
 //! * [`ppo`]: the canonical loss (candle autograd), its fast specialisation, the update, GAE;
+//! * [`amp`]: the adversarial motion prior's discriminator (style reward);
 //! * [`adam`]: Adam with exposed state; [`storage`]: rollout buffers; [`error`]: typed errors;
 //! * [`eval`]: SkillMimic / SkillMimic-V2 metrics; [`episode_eval`]: any task's episode report;
 //! * [`checkpoint`]: safetensors checkpoints that load into the PyTorch module;
@@ -18,6 +19,8 @@
 
 pub mod actor;
 pub mod adam;
+pub mod amp;
+pub mod amp_reward;
 #[cfg(feature = "args")]
 pub mod args;
 pub mod checkpoint;
@@ -29,6 +32,7 @@ pub mod episode_eval;
 pub mod error;
 pub mod eval;
 pub mod history_pretrain;
+pub mod iteration_stats;
 pub mod onnx;
 pub mod policies;
 pub mod policy;

@@ -19,6 +19,10 @@
 //! thread counts produce the same checkpoints bit for bit. A resumed run continues from the
 //! checkpoint's policy, normalisers and Adam state with freshly reset environments.
 //!
+//! With `ppo.amp.enabled` the adversarial motion prior ([`crate::amp_reward`]) mixes a style
+//! reward into every step's reward, trains its discriminator after each PPO update and saves it
+//! in the checkpoint (one process only for now).
+//!
 //! Data-parallel ([`Trainer::with_collective`], [`crate::collective`]): `env.num_envs` is the
 //! total over all ranks; each rank steps its share ([`crate::shard`]) with its own streams of
 //! action noise and episode starts (rank 0's are those of a single process; rank r > 0 mixes r
@@ -32,7 +36,6 @@ use std::time::Instant;
 
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use serde::Serialize;
 use skillmimic_env::{Env, registry};
 
 use crate::adam::Adam;
@@ -46,44 +49,7 @@ use crate::storage::{MinibatchBuffers, Rollout};
 use crate::policy::{InferenceBuffers, Policy};
 use crate::ppo::{LossStats, RawMinibatch, update_minibatch};
 
-/// Statistics of one iteration (one JSON line of `log.jsonl`).
-#[derive(Clone, Debug, Default, Serialize, serde::Deserialize)]
-#[serde(default)]
-pub struct IterationStats {
-    pub iteration: u64,
-    pub samples: u64,
-    /// `samples` in simulation (low-level) steps: × the task's `steps_per_action` (3 for the
-    /// high-level tasks, whose papers count samples this way; equal to `samples` otherwise).
-    pub low_level_samples: u64,
-    /// Wall-clock seconds of this iteration: rollout, update, total.
-    pub rollout_s: f64,
-    pub update_s: f64,
-    /// Parts of `rollout_s`: environment stepping (simulation, observations, rewards, resets)
-    /// and policy inference (network, action sampling, bootstrap values).
-    pub env_s: f64,
-    pub inference_s: f64,
-    pub samples_per_s: f64,
-    /// Mean reward per environment step over the rollout.
-    pub mean_reward: f64,
-    /// Means of each reward term over the rollout (`reward::TERM_NAMES`).
-    pub reward_terms: Vec<(String, f64)>,
-    /// Episodes finished in this rollout, their mean length (steps) and mean return.
-    pub episodes: usize,
-    pub episode_length: f64,
-    pub episode_return: f64,
-    /// Fraction of finished episodes that ended early (fall or instability).
-    pub early_terminations: f64,
-    pub actor_loss: f64,
-    pub critic_loss: f64,
-    pub bounds_loss: f64,
-    pub clip_frac: f64,
-    pub approx_kl: f64,
-    pub value_mean: f64,
-    /// Ranks of a data-parallel run (1: one process).
-    pub world_size: usize,
-    /// Seconds this rank spent in collective operations (waiting for the others included).
-    pub allreduce_s: f64,
-}
+pub use crate::iteration_stats::IterationStats;
 
 /// PPO trainer.
 pub struct Trainer {
@@ -112,6 +78,10 @@ pub struct Trainer {
     order: Vec<usize>,
     members: Vec<usize>,
     sums: Vec<f64>,
+    /// The motion prior (`ppo.amp.enabled`).
+    pub amp: Option<crate::amp_reward::AmpReward>,
+    step_rewards: Vec<f32>,
+    step_done: Vec<u8>,
 }
 
 impl Trainer {
@@ -213,6 +183,7 @@ impl Trainer {
             rng = ChaCha8Rng::seed_from_u64(mix_seed(cfg.run.seed, rank as u64));
         }
         comm.take_seconds();
+        let amp = crate::amp_reward::AmpReward::for_run(&cfg, obs_dim, env.num_envs(), comm.world_size(), resume)?;
         let threads = if cfg.run.learner_threads == 0 { rayon::current_num_threads() } else { cfg.run.learner_threads };
         let n = env.num_envs();
         let outputs = policy.actor_outputs();
@@ -243,6 +214,9 @@ impl Trainer {
             order: Vec::new(),
             members: Vec::new(),
             sums: Vec::new(),
+            amp,
+            step_rewards: vec![0.0; n],
+            step_done: vec![0; n],
         })
     }
 
@@ -264,6 +238,7 @@ impl Trainer {
         self.term_sums.fill(0.0);
         let (mut ep_count, mut ep_len_sum, mut ep_ret_sum, mut early) = (0usize, 0u64, 0.0f64, 0usize);
         let mut pending = false; // next_values[t-1] still to fill from values[t]
+        let mut amp_sums = [0.0f64; 2];
         let mut env_time = std::time::Duration::ZERO;
         for t in 0..h {
             let te = Instant::now();
@@ -272,6 +247,9 @@ impl Trainer {
             let rows = t * n..(t + 1) * n;
             self.roll.obs[t * n * d..(t + 1) * n * d].copy_from_slice(&self.env.buffers().obs);
             let obs = &self.roll.obs[t * n * d..(t + 1) * n * d];
+            if let Some(amp) = &mut self.amp {
+                amp.begin_step(obs, d);
+            }
             self.policy.infer(obs, n, &mut self.infer, &mut self.mu, &mut self.step_values, self.threads);
             self.roll.values[rows.clone()].copy_from_slice(&self.step_values);
             if pending {
@@ -288,9 +266,18 @@ impl Trainer {
             self.env.step(&self.roll.actions[t * n * a..(t + 1) * n * a])?;
             env_time += te.elapsed();
             let b = self.env.buffers();
+            self.step_rewards.copy_from_slice(&b.reward);
+            if let Some(amp) = &mut self.amp {
+                for (o, (&te, &tr)) in self.step_done.iter_mut().zip(b.terminated.iter().zip(&b.truncated)) {
+                    *o = u8::from(te != 0 || tr != 0);
+                }
+                let (st, ss) = amp.after_step(&b.obs, d, &self.step_done, &mut self.step_rewards);
+                amp_sums[0] += st;
+                amp_sums[1] += ss;
+            }
             self.done_rows.clear();
             for i in 0..n {
-                let r = b.reward[i];
+                let r = self.step_rewards[i];
                 self.roll.rewards[t * n + i] = r;
                 let done = b.terminated[i] != 0 || b.truncated[i] != 0;
                 self.roll.dones[t * n + i] = u8::from(done);
@@ -339,10 +326,16 @@ impl Trainer {
             early as f64,
         ];
         s.extend_from_slice(&self.term_sums);
+        s.extend_from_slice(&amp_sums);
         self.comm.all_reduce_f64(&mut s)?;
         let steps = s[0];
         stats.mean_reward = s[1] / steps;
         stats.reward_terms = self.env.spec().term_names.iter().zip(&s[7..]).map(|(nm, v)| (nm.to_string(), v / steps)).collect();
+        if self.amp.is_some() {
+            // the task reward before mixing and the style reward (the mixed one is `mean_reward`)
+            let at = s.len() - 2;
+            stats.reward_terms.extend([("task".to_string(), s[at] / steps), ("style".to_string(), s[at + 1] / steps)]);
+        }
         stats.episodes = s[3] as usize;
         if s[3] > 0.0 {
             stats.episode_length = s[4] / s[3];
@@ -437,6 +430,10 @@ impl Trainer {
     pub fn update_from_rollout(&mut self, mut stats: IterationStats) -> Result<IterationStats, LearnError> {
         let t1 = Instant::now();
         self.update(&mut stats)?;
+        if let Some(amp) = &mut self.amp {
+            let l = amp.update()?;
+            (stats.disc_loss, stats.disc_ref, stats.disc_sim) = (l.total, l.mean_ref, l.mean_sim);
+        }
         stats.update_s = t1.elapsed().as_secs_f64();
         self.progress.iteration += 1;
         self.progress.samples += self.cfg.batch_size() as u64;
@@ -480,7 +477,8 @@ impl Trainer {
 
     /// Write a training checkpoint (atomic) and the effective config next to it.
     pub fn save(&self, path: &Path) -> Result<(), LearnError> {
-        checkpoint::save(path, &self.policy, Some(&self.adam), &self.progress, &self.config_toml).map_err(io(path))?;
+        let extra = self.amp.as_ref().map(|a| a.tensors()).unwrap_or_default();
+        checkpoint::save_with(path, &self.policy, Some(&self.adam), &self.progress, &self.config_toml, extra).map_err(io(path))?;
         let toml_path = path.with_extension("toml");
         skillmimic_core::tensorfile::write_bytes_atomic(&toml_path, self.config_toml.as_bytes()).map_err(io(&toml_path))
     }

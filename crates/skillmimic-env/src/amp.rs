@@ -1,0 +1,76 @@
+//! Per-frame features of the adversarial motion prior (AMP; Peng et al. 2021, used by ModSkill
+//! and TokenHSI with 10-frame windows), read from the humanoid part of an observation (the first
+//! 823 entries, `obs::layout`, heading frame), so they exist for every task whose observation
+//! starts with it (imitation, stand, tracking, the high-level tasks) and for terminal
+//! observations; reference frames are the clips posed in the scene and observed the same way.
+//!
+//! [`FEATURE_DIM`] = 535 float32 per frame: root height (1, m) | the 53 body rotations, tan-norm
+//! 6D (318) | root linear and angular velocity (3 + 3; m/s, rad/s) | the 17 key bodies' positions
+//! relative to the root (51, m) | the 53 body angular velocities (159, rad/s). A window is `k`
+//! consecutive frames, oldest first, flattened (`k × 535`); frames before an episode's (or a
+//! clip's) first frame repeat the first frame.
+
+use std::sync::Arc;
+
+use skillmimic_core::skeleton::KEY_BODIES;
+use skillmimic_motion::MotionLibrary;
+use skillmimic_sim::{BatchSim, ResetState, Scene, SimError};
+
+use crate::episode::reset_state_from_clip;
+use crate::obs::{layout, write_state_obs};
+
+/// Features per frame.
+pub const FEATURE_DIM: usize = 1 + 318 + 6 + 3 * KEY_BODIES.len() + 159;
+
+/// Write the features of the observation `obs` (at least its first 823 entries) into `out`.
+pub fn frame_features(obs: &[f32], out: &mut [f32]) {
+    out[0] = obs[layout::ROOT_HEIGHT.start];
+    out[1..319].copy_from_slice(&obs[layout::BODY_ROT]);
+    out[319..322].copy_from_slice(&obs[layout::BODY_LINVEL.start..layout::BODY_LINVEL.start + 3]);
+    out[322..325].copy_from_slice(&obs[layout::BODY_ANGVEL.start..layout::BODY_ANGVEL.start + 3]);
+    for (k, &b) in KEY_BODIES.iter().enumerate() {
+        // body_pos holds bodies 1…52 relative to the root
+        let at = layout::BODY_POS.start + 3 * (b - 1);
+        out[325 + 3 * k..328 + 3 * k].copy_from_slice(&obs[at..at + 3]);
+    }
+    out[376..535].copy_from_slice(&obs[layout::BODY_ANGVEL]);
+}
+
+/// The features of every frame of every clip of `lib` (`[clip][T × FEATURE_DIM]`), by posing the
+/// clip in `scene` (no physics step).
+pub fn clip_features(scene: Arc<Scene>, lib: &MotionLibrary) -> Result<Vec<Vec<f32>>, SimError> {
+    const N: usize = 32;
+    let mut sim = BatchSim::new(scene, N, 1)?;
+    let mut obs = vec![0.0f32; layout::STATE_DIM];
+    let mut out = Vec::with_capacity(lib.len());
+    for c in 0..lib.len() {
+        let m = lib.get(c);
+        let frames = m.clip.num_frames;
+        let mut rows = vec![0.0f32; frames * FEATURE_DIM];
+        for start in (0..frames).step_by(N) {
+            let ts: Vec<usize> = (start..(start + N).min(frames)).collect();
+            let mut states = vec![ResetState::default(); N];
+            let mut mask = vec![false; N];
+            for (k, &t) in ts.iter().enumerate() {
+                states[k] = reset_state_from_clip(m, t);
+                mask[k] = true;
+            }
+            sim.reset(&mask, &states)?;
+            for (k, &t) in ts.iter().enumerate() {
+                write_state_obs(&sim.state().env(k), &mut obs);
+                frame_features(&obs, &mut rows[t * FEATURE_DIM..(t + 1) * FEATURE_DIM]);
+            }
+        }
+        out.push(rows);
+    }
+    Ok(out)
+}
+
+/// A reference window of `k` frames of clip features `rows` ending at frame `end` (frames before
+/// the clip start repeat frame 0), flattened into `out` (`k × FEATURE_DIM`).
+pub fn window(rows: &[f32], end: usize, k: usize, out: &mut [f32]) {
+    for i in 0..k {
+        let t = (end + i + 1).saturating_sub(k);
+        out[i * FEATURE_DIM..(i + 1) * FEATURE_DIM].copy_from_slice(&rows[t * FEATURE_DIM..(t + 1) * FEATURE_DIM]);
+    }
+}

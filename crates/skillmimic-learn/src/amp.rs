@@ -1,0 +1,176 @@
+//! The adversarial motion prior's discriminator (AMP, Peng et al. 2021; ModSkill and TokenHSI
+//! use it with an MLP [1024, 512] over 10-frame windows and task/style weights 0.5 / 0.5 —
+//! modskill-tokenhsi-facts §1.5, §2.4) as a reusable reward component.
+//!
+//! * Input: a window of frame features (`skillmimic_env::amp`), normalised by a running
+//!   mean/std updated with reference and simulated windows alike, clamped to ±5.
+//! * Network: an MLP `in → hidden… → 1` (ReLU), the logit D(x).
+//! * Loss ([`DiscLoss`]), `loss = "logistic"` (default, the released AMP/ASE code):
+//!   ½[BCE(D(x_ref), 1) + BCE(D(x_sim), 0)] + w_gp · mean‖∇ₓD(x_ref)‖² + w_logit · ‖w_out‖²;
+//!   `"least_squares"` (the AMP paper): mean (D(x_ref) − 1)² + mean (D(x_sim) + 1)² +
+//!   (w_gp / 2) · mean‖∇ₓD(x_ref)‖² + w_logit · ‖w_out‖². The gradient is taken with respect to
+//!   the normalised input.
+//! * Style reward ([`Discriminator::style_reward`]): logistic −ln(max(1 − σ(D), 1e-4)) · scale;
+//!   least squares max(0, 1 − ¼(D − 1)²) · scale.
+//!
+//! The gradient penalty needs ∇ₓD inside the loss. For a ReLU MLP it is the product
+//! W₁ᵀ diag(m₁) W₂ᵀ diag(m₂) … w_outᵀ with the activation masks m_k, which are constant almost
+//! everywhere; [`Discriminator::loss_and_grads`] builds that product as a candle graph (masks
+//! detached), so first-order autograd gives the penalty's exact parameter gradients.
+
+use candle_core::{DType, Device, Tensor};
+use rand::Rng;
+use skillmimic_nn::mlp::{Mlp, Workspace};
+use skillmimic_nn::normalizer::RunningMeanStd;
+
+use crate::adam::Adam;
+pub use crate::config::{AmpConfig as DiscConfig, AmpLoss};
+use crate::error::LearnError;
+
+/// Loss parts of one discriminator step.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct DiscLoss {
+    /// The adversarial part (BCE or least squares).
+    pub adversarial: f64,
+    /// mean‖∇ₓD(x_ref)‖² (unweighted).
+    pub grad_penalty: f64,
+    /// ‖w_out‖² (unweighted).
+    pub logit_reg: f64,
+    pub total: f64,
+    /// Mean logits on reference and simulated windows.
+    pub mean_ref: f64,
+    pub mean_sim: f64,
+}
+
+/// The discriminator with its input normaliser and optimiser.
+#[derive(Clone, Debug)]
+pub struct Discriminator {
+    pub cfg: DiscConfig,
+    pub mlp: Mlp,
+    pub norm: RunningMeanStd,
+    pub adam: Adam,
+    ws: Workspace,
+}
+
+impl Discriminator {
+    /// A new discriminator over inputs of `dim` values.
+    pub fn new<R: Rng>(dim: usize, cfg: DiscConfig, rng: &mut R) -> Self {
+        let mut dims = vec![dim];
+        dims.extend(&cfg.hidden);
+        dims.push(1);
+        let mlp = Mlp::new(&dims, rng);
+        let sizes: Vec<usize> = mlp.params().iter().map(|p| p.len()).collect();
+        let adam = Adam::new(&sizes, cfg.lr, 1e-8);
+        Self { norm: RunningMeanStd::new(dim, 1e-5, 5.0), adam, mlp, cfg, ws: Workspace::default() }
+    }
+
+    /// Input width.
+    pub fn input_dim(&self) -> usize {
+        self.mlp.input_dim()
+    }
+
+    /// Logits of `n` raw windows.
+    pub fn logits(&mut self, x: &[f32], n: usize) -> Vec<f32> {
+        let mut xn = vec![0.0f32; x.len()];
+        self.norm.normalize_into(x, &mut xn);
+        self.mlp.forward_into(&xn, n, &mut self.ws, 1).to_vec()
+    }
+
+    /// Style rewards of `n` raw windows (see the module doc).
+    pub fn style_reward(&mut self, x: &[f32], n: usize) -> Vec<f32> {
+        let scale = self.cfg.reward_scale;
+        let loss = self.cfg.loss;
+        self.logits(x, n)
+            .into_iter()
+            .map(|d| {
+                let d = d as f64;
+                let r = match loss {
+                    AmpLoss::Logistic => -(1.0 - 1.0 / (1.0 + (-d).exp())).max(1e-4).ln(),
+                    AmpLoss::LeastSquares => (1.0 - 0.25 * (d - 1.0) * (d - 1.0)).max(0.0),
+                };
+                (r * scale) as f32
+            })
+            .collect()
+    }
+
+    /// Loss and parameter gradients (in `mlp.params()` order) on *normalised* reference and
+    /// simulated windows (`n_ref` and `n_sim` rows).
+    pub fn loss_and_grads(&self, x_ref: &[f32], n_ref: usize, x_sim: &[f32], n_sim: usize) -> Result<(DiscLoss, Vec<Vec<f32>>), LearnError> {
+        let dev = Device::Cpu;
+        let d = self.input_dim();
+        let vars = self.mlp.candle_vars(&dev)?;
+        let run = || -> candle_core::Result<(DiscLoss, Vec<Vec<f32>>)> {
+            let layers = vars.len() / 2;
+            let xr = Tensor::from_slice(x_ref, (n_ref, d), &dev)?;
+            let xs = Tensor::from_slice(x_sim, (n_sim, d), &dev)?;
+            // reference forward, keeping the activation masks for ∇ₓD
+            let mut h = xr.clone();
+            let mut masks = Vec::new();
+            for k in 0..layers {
+                let z = h.matmul(&vars[2 * k].as_tensor().t()?)?.broadcast_add(vars[2 * k + 1].as_tensor())?;
+                if k + 1 < layers {
+                    masks.push(z.gt(0.0)?.to_dtype(DType::F32)?.detach());
+                    h = z.relu()?;
+                } else {
+                    h = z;
+                }
+            }
+            let d_ref = h.squeeze(1)?;
+            let d_sim = Mlp::candle_forward(&vars, &xs)?.squeeze(1)?;
+            // ∇ₓD(x_ref): back through the layers with the masks held fixed
+            let mut g = Tensor::ones((n_ref, 1), DType::F32, &dev)?;
+            for k in (0..layers).rev() {
+                g = g.matmul(vars[2 * k].as_tensor())?;
+                if k > 0 {
+                    g = (g * &masks[k - 1])?;
+                }
+            }
+            let gp = g.sqr()?.sum(1)?.mean_all()?;
+            let w_out = vars[2 * (layers - 1)].as_tensor();
+            let reg = w_out.sqr()?.sum_all()?;
+            let (adv, gp_w) = match self.cfg.loss {
+                AmpLoss::Logistic => {
+                    // BCE with logits: softplus(−D) for label 1, softplus(D) for label 0
+                    let softplus = |t: &Tensor| -> candle_core::Result<Tensor> {
+                        // log(1 + e^t) = max(t, 0) + log(1 + e^(−|t|))
+                        t.relu()? + (t.abs()?.neg()?.exp()? + 1.0)?.log()?
+                    };
+                    (((softplus(&d_ref.neg()?)?.mean_all()? + softplus(&d_sim)?.mean_all()?)? * 0.5)?, self.cfg.grad_penalty)
+                }
+                AmpLoss::LeastSquares => (((d_ref.clone() - 1.0)?.sqr()?.mean_all()? + (d_sim.clone() + 1.0)?.sqr()?.mean_all()?)?, 0.5 * self.cfg.grad_penalty),
+            };
+            let total = ((&adv + (&gp * gp_w)?)? + (&reg * self.cfg.logit_reg)?)?;
+            let gs = total.backward()?;
+            let mut grads = Vec::with_capacity(vars.len());
+            for v in &vars {
+                let gr = gs.get(v).map(|t| t.flatten_all()?.to_vec1::<f32>()).transpose()?.unwrap_or_else(|| vec![0.0; v.elem_count()]);
+                grads.push(gr);
+            }
+            let s = |t: &Tensor| -> candle_core::Result<f64> { Ok(t.to_dtype(DType::F64)?.to_scalar::<f64>()?) };
+            let loss = DiscLoss {
+                adversarial: s(&adv)?,
+                grad_penalty: s(&gp)?,
+                logit_reg: s(&reg)?,
+                total: s(&total)?,
+                mean_ref: s(&d_ref.mean_all()?)?,
+                mean_sim: s(&d_sim.mean_all()?)?,
+            };
+            Ok((loss, grads))
+        };
+        Ok(run()?)
+    }
+
+    /// One optimisation step on raw reference and simulated windows: update the normaliser with
+    /// both, normalise, take the loss and gradients, Adam step. Returns the loss before the step.
+    pub fn update(&mut self, x_ref: &[f32], n_ref: usize, x_sim: &[f32], n_sim: usize) -> Result<DiscLoss, LearnError> {
+        self.norm.update(x_ref);
+        self.norm.update(x_sim);
+        let (mut nr, mut ns) = (vec![0.0f32; x_ref.len()], vec![0.0f32; x_sim.len()]);
+        self.norm.normalize_into(x_ref, &mut nr);
+        self.norm.normalize_into(x_sim, &mut ns);
+        let (loss, grads) = self.loss_and_grads(&nr, n_ref, &ns, n_sim)?;
+        let mut params = self.mlp.params_mut();
+        self.adam.update(&mut params, &grads);
+        Ok(loss)
+    }
+}

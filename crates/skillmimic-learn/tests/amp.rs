@@ -1,0 +1,149 @@
+//! The AMP discriminator on the shipped demo clips: trained on reference windows (clips posed in
+//! the scene) against windows of a random policy in the imitation task, its loss falls, it scores
+//! reference windows above simulated ones and their style reward is higher; its gradient-penalty
+//! gradients equal central finite differences of the loss.
+
+use std::sync::Arc;
+
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use skillmimic_env::amp::{FEATURE_DIM, clip_features, frame_features, window};
+use skillmimic_env::tasks::imitation::load_motion_library;
+use skillmimic_env::EnvConfig;
+use skillmimic_learn::amp::{AmpLoss, DiscConfig, Discriminator};
+use skillmimic_sim::Scene;
+
+const K: usize = 10;
+
+fn motion() -> Vec<std::path::PathBuf> {
+    vec![std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../motions")]
+}
+
+/// `n` reference windows at random clips and end frames.
+fn reference_windows(rows: &[Vec<f32>], n: usize, rng: &mut ChaCha8Rng) -> Vec<f32> {
+    let mut out = vec![0.0f32; n * K * FEATURE_DIM];
+    for w in out.chunks_exact_mut(K * FEATURE_DIM) {
+        let c = rng.random_range(0..rows.len());
+        let end = rng.random_range(0..rows[c].len() / FEATURE_DIM);
+        window(&rows[c], end, K, w);
+    }
+    out
+}
+
+/// Windows of a random policy (uniform actions in ±0.5) in the imitation task.
+fn policy_windows(steps: usize) -> Vec<f32> {
+    let mut c = EnvConfig { num_envs: 8, threads: 1, ..Default::default() };
+    c.motion = motion();
+    let mut env = skillmimic_env::registry::make(&c).unwrap();
+    env.reset_all(Some(2));
+    let mut rng = ChaCha8Rng::seed_from_u64(3);
+    let mut frames: Vec<Vec<f32>> = vec![Vec::new(); 8];
+    let mut out = Vec::new();
+    for _ in 0..steps {
+        let a: Vec<f32> = (0..8 * 156).map(|_| rng.random_range(-0.5..0.5)).collect();
+        env.step(&a).unwrap();
+        for (i, f) in frames.iter_mut().enumerate() {
+            let mut row = vec![0.0f32; FEATURE_DIM];
+            frame_features(&env.buffers().obs[i * 902..(i + 1) * 902], &mut row);
+            f.extend(row);
+            if f.len() >= K * FEATURE_DIM {
+                out.extend_from_slice(&f[f.len() - K * FEATURE_DIM..]);
+            }
+        }
+        env.reset_done();
+    }
+    out
+}
+
+#[test]
+fn discriminator_separates_reference_from_random_policy_windows() {
+    let c = EnvConfig { motion: motion(), ..Default::default() };
+    let lib = load_motion_library(&c.motion).unwrap();
+    let rows = clip_features(Arc::new(Scene::new(c.scene_options().unwrap()).unwrap()), &lib).unwrap();
+    let sim = policy_windows(40);
+    let n_sim = sim.len() / (K * FEATURE_DIM);
+    let mut rng = ChaCha8Rng::seed_from_u64(1);
+    let cfg = DiscConfig { hidden: vec![128, 64], lr: 1e-3, ..Default::default() };
+    let mut disc = Discriminator::new(K * FEATURE_DIM, cfg, &mut rng);
+    let mut losses = Vec::new();
+    for _ in 0..60 {
+        let r = reference_windows(&rows, 64, &mut rng);
+        let pick: Vec<usize> = (0..64).map(|_| rng.random_range(0..n_sim)).collect();
+        let s: Vec<f32> = pick.iter().flat_map(|&k| sim[k * K * FEATURE_DIM..(k + 1) * K * FEATURE_DIM].iter().copied()).collect();
+        losses.push(disc.update(&r, 64, &s, 64).unwrap());
+    }
+    let (first, last) = (losses[0], losses[losses.len() - 1]);
+    println!("discriminator loss {:.4} -> {:.4} (adversarial {:.4} -> {:.4}); mean logits ref {:.2} sim {:.2}", first.total, last.total, first.adversarial, last.adversarial, last.mean_ref, last.mean_sim);
+    assert!(last.adversarial < 0.5 * first.adversarial, "the adversarial loss falls");
+    assert!(last.mean_ref > last.mean_sim);
+    let r = reference_windows(&rows, 64, &mut rng);
+    let rr: f32 = disc.style_reward(&r, 64).iter().sum::<f32>() / 64.0;
+    let rs: f32 = disc.style_reward(&sim[..64 * K * FEATURE_DIM], 64).iter().sum::<f32>() / 64.0;
+    println!("style reward: reference windows {rr:.3}, random-policy windows {rs:.3}");
+    assert!(rr > rs);
+}
+
+#[test]
+fn loss_gradients_equal_finite_differences() {
+    for (loss, gp) in [(AmpLoss::Logistic, 0.0), (AmpLoss::Logistic, 5.0), (AmpLoss::LeastSquares, 5.0)] {
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let cfg = DiscConfig { hidden: vec![16, 8], loss, grad_penalty: gp, logit_reg: 0.05, ..Default::default() };
+        let mut disc = Discriminator::new(6, cfg, &mut rng);
+        for b in disc.mlp.biases.iter_mut() {
+            b.iter_mut().for_each(|v| *v = rng.random_range(-0.3..0.3));
+        }
+        let xr: Vec<f32> = (0..12 * 6).map(|_| rng.random_range(-1.5..1.5)).collect();
+        let xs: Vec<f32> = (0..10 * 6).map(|_| rng.random_range(-1.5..1.5)).collect();
+        let (_, grads) = disc.loss_and_grads(&xr, 12, &xs, 10).unwrap();
+        let mut worst = 0.0f64;
+        for (k, g) in grads.iter().enumerate() {
+            for idx in (0..g.len()).step_by(7) {
+                let h = 1e-3f32;
+                let eval = |delta: f32| {
+                    let mut d2 = disc.clone();
+                    d2.mlp.params_mut()[k][idx] += delta;
+                    d2.loss_and_grads(&xr, 12, &xs, 10).unwrap().0.total
+                };
+                let fd = (eval(h) - eval(-h)) / (2.0 * h as f64);
+                worst = worst.max((fd - g[idx] as f64).abs() / (1.0 + fd.abs()));
+            }
+        }
+        println!("{loss:?} gp {gp}: max |finite difference - gradient| / (1 + |fd|) = {worst:.2e}");
+        assert!(worst < 1e-3, "{loss:?}: {worst}");
+    }
+}
+
+#[test]
+fn motion_prior_trains_inside_ppo_and_resumes_from_the_checkpoint() {
+    use skillmimic_learn::config::TrainConfig;
+    use skillmimic_learn::trainer::Trainer;
+    let mut c = TrainConfig::preset("tiny").unwrap();
+    c.env.motion = motion();
+    c.env.num_envs = 8;
+    c.env.threads = 2;
+    c.ppo.hidden = vec![32];
+    c.ppo.amp.enabled = true;
+    c.ppo.amp.hidden = vec![32];
+    c.ppo.amp.batch = 32;
+    c.ppo.amp.buffer = 256;
+    c.run.iterations = 2;
+    c.run.save_every = 2;
+    c.run.eval_episodes = 2;
+    c.run.out_dir = std::env::temp_dir().join(format!("sm-amp-{}", std::process::id()));
+    let mut t = Trainer::new(c.clone(), None).unwrap();
+    let before = t.amp.as_ref().unwrap().disc.mlp.clone();
+    let mut seen = Vec::new();
+    let last = skillmimic_learn::runner::train_loop(&mut t, |s| seen.push(s.clone())).unwrap();
+    let s = &seen[1];
+    let term = |name: &str| s.reward_terms.iter().find(|(n, _)| n == name).map(|(_, v)| *v).unwrap();
+    let (task, style) = (term("task"), term("style"));
+    println!("terms {:?}", s.reward_terms);
+    println!("mixed reward {:.4} = 0.5 x task {task:.4} + 0.5 x style {style:.4}; discriminator loss {:.4}", s.mean_reward, s.disc_loss);
+    assert!((s.mean_reward - 0.5 * (task + style)).abs() < 1e-5);
+    assert!(s.disc_loss > 0.0 && style.is_finite() && style >= 0.0);
+    assert_ne!(t.amp.as_ref().unwrap().disc.mlp, before, "the discriminator trains");
+    let t2 = Trainer::new(c, Some(&last)).unwrap();
+    let (a, b) = (&t.amp.as_ref().unwrap().disc, &t2.amp.as_ref().unwrap().disc);
+    assert_eq!(a.mlp, b.mlp);
+    assert_eq!((a.norm.mean.clone(), a.adam.step, a.adam.m.clone()), (b.norm.mean.clone(), b.adam.step, b.adam.m.clone()));
+}
