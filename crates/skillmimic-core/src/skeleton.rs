@@ -205,6 +205,57 @@ pub fn body_index(name: &str) -> Option<usize> {
     BODIES.iter().position(|b| b.name == name)
 }
 
+/// World positions (m) of the 53 body frames for a root pose and the 156 joint exp maps
+/// (`dof`, skeleton order): body b's frame = its parent's frame moved by `offset` and turned by
+/// exp(dof of b) (bodies have no rest rotation). The same kinematics MuJoCo computes for the
+/// generated scene.
+pub fn forward_kinematics(root_pos: [f64; 3], root_quat: crate::math::Quat, dof: &[f32]) -> [[f64; 3]; NUM_BODIES] {
+    let mut pos = [[0.0; 3]; NUM_BODIES];
+    let mut rot = [root_quat; NUM_BODIES];
+    pos[0] = root_pos;
+    for b in 1..NUM_BODIES {
+        let p = BODIES[b].parent.expect("non-root bodies have a parent");
+        let d = dof_range(b);
+        let local = crate::math::Quat::from_rotvec([dof[d.start] as f64, dof[d.start + 1] as f64, dof[d.start + 2] as f64]);
+        pos[b] = crate::math::add(pos[p], rot[p].rotate(BODIES[b].offset));
+        rot[b] = rot[p].mul(local);
+    }
+    pos
+}
+
+/// The body parts of ModSkill's splits on this skeleton: `five` = left leg, right leg, torso
+/// (with the pelvis), left arm with its hand, right arm with its hand; `seven` = the same with
+/// each hand (wrist and fingers) separate. `None` for another name.
+pub fn body_parts(split: &str) -> Option<Vec<(&'static str, Vec<usize>)>> {
+    let torso: Vec<usize> = std::iter::once(0).chain(9..=14).collect();
+    match split {
+        "five" => Some(vec![("l_leg", (1..=4).collect()), ("r_leg", (5..=8).collect()), ("torso", torso), ("l_arm", (15..=33).collect()), ("r_arm", (34..=52).collect())]),
+        "seven" => Some(vec![
+            ("l_leg", (1..=4).collect()),
+            ("r_leg", (5..=8).collect()),
+            ("torso", torso),
+            ("l_arm", (15..=17).collect()),
+            ("l_hand", (18..=33).collect()),
+            ("r_arm", (34..=36).collect()),
+            ("r_hand", (37..=52).collect()),
+        ]),
+        _ => None,
+    }
+}
+
+/// The left/right partner of body `b` (`L_*` ↔ `R_*`; bodies on the midline are their own).
+pub fn mirror_body(b: usize) -> usize {
+    let name = BODIES[b].name;
+    let other = if let Some(rest) = name.strip_prefix("L_") {
+        format!("R_{rest}")
+    } else if let Some(rest) = name.strip_prefix("R_") {
+        format!("L_{rest}")
+    } else {
+        return b;
+    };
+    body_index(&other).expect("every L_/R_ body has a partner")
+}
+
 /// Index range of body `b`'s three joint coordinates in the 156-wide dof vector (`b ≥ 1`).
 pub const fn dof_range(b: usize) -> std::ops::Range<usize> {
     3 * (b - 1)..3 * b

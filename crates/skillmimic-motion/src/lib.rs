@@ -11,6 +11,7 @@
 pub mod clip;
 pub mod error;
 pub mod format;
+pub mod generate;
 pub mod layout;
 pub mod library;
 pub mod pt;

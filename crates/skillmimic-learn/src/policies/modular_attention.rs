@@ -47,22 +47,9 @@ pub struct ModularSpec {
     pub parts: Vec<(String, Vec<usize>, Vec<usize>)>,
 }
 
-/// Bodies of each part of a split (`five` / `seven`).
+/// Bodies of each part of a split (`five` / `seven`; `skillmimic_core::skeleton::body_parts`).
 pub fn part_bodies(split: &str) -> Result<Vec<(&'static str, Vec<usize>)>, LearnError> {
-    let torso = std::iter::once(0).chain(9..=14).collect();
-    match split {
-        "five" => Ok(vec![("l_leg", (1..=4).collect()), ("r_leg", (5..=8).collect()), ("torso", torso), ("l_arm", (15..=33).collect()), ("r_arm", (34..=52).collect())]),
-        "seven" => Ok(vec![
-            ("l_leg", (1..=4).collect()),
-            ("r_leg", (5..=8).collect()),
-            ("torso", torso),
-            ("l_arm", (15..=17).collect()),
-            ("l_hand", (18..=33).collect()),
-            ("r_arm", (34..=36).collect()),
-            ("r_hand", (37..=52).collect()),
-        ]),
-        other => Err(LearnError::Config(format!("config field 'ppo.modular.parts': '{other}' is not a body split, expected \"five\" or \"seven\""))),
-    }
+    skillmimic_core::skeleton::body_parts(split).ok_or_else(|| LearnError::Config(format!("config field 'ppo.modular.parts': '{split}' is not a body split, expected \"five\" or \"seven\"")))
 }
 
 /// Observation columns of body `b`'s own blocks (see the module doc).
