@@ -146,7 +146,7 @@ impl Discriminator {
                 let gr = gs.get(v).map(|t| t.flatten_all()?.to_vec1::<f32>()).transpose()?.unwrap_or_else(|| vec![0.0; v.elem_count()]);
                 grads.push(gr);
             }
-            let s = |t: &Tensor| -> candle_core::Result<f64> { Ok(t.to_dtype(DType::F64)?.to_scalar::<f64>()?) };
+            let s = |t: &Tensor| -> candle_core::Result<f64> { t.to_dtype(DType::F64)?.to_scalar::<f64>() };
             let loss = DiscLoss {
                 adversarial: s(&adv)?,
                 grad_penalty: s(&gp)?,

@@ -61,8 +61,9 @@ pub fn refresh_body_pos(c: &mut Clip) {
     for t in 0..c.num_frames {
         let p = forward_kinematics(c.root_pos_at(t), c.root_quat_at(t), c.dof_at(t));
         for (b, pb) in p.iter().enumerate() {
-            for k in 0..3 {
-                c.body_pos[(t * NUM_BODIES + b) * 3 + k] = pb[k] as f32;
+            let at = (t * NUM_BODIES + b) * 3;
+            for (o, &v) in c.body_pos[at..at + 3].iter_mut().zip(pb) {
+                *o = v as f32;
             }
         }
     }
@@ -132,8 +133,9 @@ pub fn time_warp(c: &Clip, factor: f64) -> Clip {
         for jt in 0..NUM_JOINTS {
             let rv = |t: usize| Quat::from_rotvec(std::array::from_fn(|d| c.dof_rot[t * NUM_DOFS + 3 * jt + d] as f64));
             let v = slerp(rv(i), rv(j), s).to_rotvec();
-            for d in 0..3 {
-                w.dof_rot[k * NUM_DOFS + 3 * jt + d] = v[d] as f32;
+            let at = k * NUM_DOFS + 3 * jt;
+            for (o, &x) in w.dof_rot[at..at + 3].iter_mut().zip(&v) {
+                *o = x as f32;
             }
         }
         w.contact[k] = c.contact[if s < 0.5 { i } else { j }];

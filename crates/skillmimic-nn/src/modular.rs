@@ -86,7 +86,7 @@ impl ModularAttention {
     /// `nn.Linear` initialisation, controllers the policy MLPs' (U(±1/√fan_in) weights, zero
     /// biases). Errors name what is wrong with the parts.
     pub fn new<R: Rng + ?Sized>(shape: ModularShape, parts: &[(String, Vec<usize>, Vec<usize>)], obs_dim: usize, act_dim: usize, rng: &mut R) -> Result<Self, String> {
-        if shape.heads == 0 || shape.embed % shape.heads != 0 {
+        if shape.heads == 0 || !shape.embed.is_multiple_of(shape.heads) {
             return Err(format!("embedding width {} is not a multiple of the {} heads", shape.embed, shape.heads));
         }
         let mut covered = vec![0u32; act_dim];
