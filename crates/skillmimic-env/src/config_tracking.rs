@@ -2,6 +2,8 @@
 //! ModSkill's / PHC's task (modskill-tokenhsi-facts §1.5; seed 001 §4). Defaults are the
 //! released ModSkill training config.
 
+use std::collections::BTreeMap;
+
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
@@ -29,6 +31,9 @@ pub struct TrackingConfig {
     pub power_coef: f64,
     /// Start episodes at a uniformly random frame (else at frame 0).
     pub random_start: bool,
+    /// Sampling-weight multipliers by clip name (active skill learning raises the weights of
+    /// clips the policy fails on); a clip not named keeps its library weight.
+    pub clip_weights: BTreeMap<String, f64>,
 }
 
 impl Default for TrackingConfig {
@@ -41,6 +46,7 @@ impl Default for TrackingConfig {
             scales: [100.0, 10.0, 0.1, 0.1],
             power_coef: 0.0005,
             random_start: true,
+            clip_weights: BTreeMap::new(),
         }
     }
 }
@@ -55,6 +61,9 @@ impl TrackingConfig {
         }
         if self.weights.iter().chain(&self.scales).any(|v| !(*v >= 0.0 && v.is_finite())) || !(self.power_coef >= 0.0 && self.power_coef.is_finite()) {
             return Err(bad("env.tracking", "weights, scales and power_coef must be finite and non-negative"));
+        }
+        if let Some((name, w)) = self.clip_weights.iter().find(|(_, w)| !(w.is_finite() && **w > 0.0)) {
+            return Err(bad("env.tracking.clip_weights", format!("clip '{name}': {w} must be a positive finite multiplier")));
         }
         Ok(())
     }

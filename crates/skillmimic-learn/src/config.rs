@@ -225,6 +225,8 @@ pub struct RunConfig {
     pub final_video: bool,
     /// Episodes of the end-of-training evaluation.
     pub eval_episodes: usize,
+    /// Active skill learning with generative adaptive sampling (tracking; ModSkill).
+    pub active: crate::config_active::ActiveConfig,
 }
 
 impl Default for RunConfig {
@@ -237,6 +239,7 @@ impl Default for RunConfig {
             learner_threads: 0,
             final_video: true,
             eval_episodes: 16,
+            active: Default::default(),
         }
     }
 }
@@ -370,6 +373,7 @@ impl TrainConfig {
     /// Check value ranges of the PPO and run settings (the env checks its own).
     pub fn validate(&self) -> Result<(), LearnError> {
         self.env.validate().map_err(|e| LearnError::Config(e.to_string()))?;
+        self.run.active.validate(&self.env.task).map_err(LearnError::Config)?;
         let p = &self.ppo;
         if p.hidden.is_empty() || p.hidden.contains(&0) {
             return Err(LearnError::Config("config field 'ppo.hidden': needs at least one non-zero layer width".into()));

@@ -6,6 +6,7 @@
 //! * [`policies`]: policy families by name (`gaussian_mlp`, `categorical_mlp`);
 //! * [`policy`]: the actor–critic over `skillmimic_nn` MLPs (PyTorch layout), batched inference;
 //! * [`ppo`]: the canonical loss (candle autograd), its fast specialisation, the update, GAE;
+//! * [`active`]: active skill learning (clip evaluation, generation, failure-weighted sampling);
 //! * [`amp`]: the adversarial motion prior's discriminator (style reward);
 //! * [`adam`]: Adam with exposed state; [`storage`]: rollout buffers; [`error`]: typed errors;
 //! * [`eval`]: SkillMimic / SkillMimic-V2 metrics; [`episode_eval`]: any task's episode report;
@@ -17,6 +18,7 @@
 //!   environments and samples a rank holds, the start-of-run agreement);
 //! * [`tblog`]: TensorBoard scalar event files.
 
+pub mod active;
 pub mod actor;
 pub mod adam;
 pub mod amp;
@@ -26,6 +28,7 @@ pub mod args;
 pub mod checkpoint;
 pub mod collective;
 pub mod config;
+pub mod config_active;
 pub mod config_doc;
 pub mod config_file;
 pub mod episode_eval;

@@ -76,6 +76,9 @@ pub fn train_loop_until(t: &mut Trainer, mut on_iteration: impl FnMut(&Iteration
         tb.scalars(s.samples as i64, &refs).map_err(io(tb.path()))?;
         let go_on = on_iteration(&s);
         let it = t.progress.iteration;
+        if t.cfg.run.active.enabled && it.is_multiple_of(t.cfg.run.active.every as u64) && it < target && go_on {
+            crate::active::train_round(t)?;
+        }
         if it.is_multiple_of(t.cfg.run.save_every as u64) || it == target || !go_on {
             let p = ckpt_dir.join(format!("iter_{it:06}.safetensors"));
             t.save(&p)?;

@@ -220,6 +220,11 @@ impl Trainer {
         })
     }
 
+    /// Re-derive the effective configuration saved with checkpoints after `cfg` changed.
+    pub fn refresh_config(&mut self) {
+        self.config_toml = self.cfg.to_toml();
+    }
+
     /// The effective configuration as TOML.
     pub fn config_toml(&self) -> &str {
         &self.config_toml

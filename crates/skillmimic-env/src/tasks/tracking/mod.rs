@@ -126,6 +126,8 @@ pub struct Tracking {
     active: Vec<bool>,
     /// The action rows of the current step (`N × 156`), for the power penalty.
     targets: Vec<f32>,
+    /// Cumulative clip probabilities: library weights × `clip_weights` multipliers, normalised.
+    cumulative: Vec<f64>,
 }
 
 impl Tracking {
@@ -149,7 +151,22 @@ impl Tracking {
             steps_per_action: 1,
             choice_labels: Vec::new(),
         };
-        Ok(Self { cfg: t, lib, refs, bodies, spec, force_limit: opts.force_limit, active, targets: vec![0.0; cfg.num_envs * NUM_DOFS] })
+        let raw: Vec<f64> = lib.clips().iter().zip(lib.weights()).map(|(m, w)| w * t.clip_weights.get(&m.clip.name).copied().unwrap_or(1.0)).collect();
+        let total: f64 = raw.iter().sum();
+        let cumulative = raw
+            .iter()
+            .scan(0.0, |acc, w| {
+                *acc += w / total;
+                Some(*acc)
+            })
+            .collect();
+        Ok(Self { cfg: t, lib, refs, bodies, spec, force_limit: opts.force_limit, active, targets: vec![0.0; cfg.num_envs * NUM_DOFS], cumulative })
+    }
+
+    /// The probability of each clip (library order) to start an episode.
+    pub fn clip_probabilities(&self) -> Vec<f64> {
+        let mut prev = 0.0;
+        self.cumulative.iter().map(|&c| std::mem::replace(&mut prev, c)).zip(&self.cumulative).map(|(p, c)| c - p).collect()
     }
 
     /// The reference frames of clip `c`.
@@ -177,7 +194,8 @@ impl Task for Tracking {
     }
 
     fn plan_reset(&mut self, _i: usize, slot: &mut TrackSlot, rng: &mut ChaCha8Rng, state: &mut ResetState) {
-        let clip = self.lib.sample_clip(rng);
+        let u: f64 = rng.random::<f64>();
+        let clip = self.cumulative.partition_point(|&c| c <= u).min(self.refs.len() - 1);
         let frames = self.refs[clip].frames;
         let start = if self.cfg.random_start { rng.random_range(0..=frames - 2) } else { 0 };
         *state = reset_state_from_clip(self.lib.get(clip), start);

@@ -1,0 +1,125 @@
+//! Active skill learning on the tracking task: a clip the policy fails on (a copy of a demo clip
+//! lifted 1 m into the air) is handed to the generator, the valid generated clip joins the
+//! library, the invalid one is rejected with the filter's reason, and the rebuilt environment
+//! samples the failed clip more often.
+
+use std::sync::{Arc, Mutex};
+
+use rand::{RngCore, SeedableRng};
+use skillmimic_env::tasks::tracking::Tracking;
+use skillmimic_env::vec_env::VecEnv;
+use skillmimic_learn::active::{ActiveConfig, apply, round};
+use skillmimic_learn::config::TrainConfig;
+use skillmimic_learn::trainer::Trainer;
+use skillmimic_motion::Clip;
+use skillmimic_motion::generate::{GenError, Generator, mirror};
+
+/// Returns the mirror image (valid) and a copy sunk 1.5 m into the floor (invalid).
+struct Probe(Arc<Mutex<Vec<String>>>);
+
+impl Generator for Probe {
+    fn name(&self) -> String {
+        "probe".into()
+    }
+    fn generate(&mut self, failed: &Clip, _library: &[Clip], _rng: &mut dyn RngCore) -> Result<Vec<Clip>, GenError> {
+        self.0.lock().unwrap().push(failed.name.clone());
+        let mut sunk = failed.clone();
+        sunk.name = format!("{}~sunk", failed.name);
+        sunk.body_pos.iter_mut().skip(2).step_by(3).for_each(|z| *z -= 1.5);
+        Ok(vec![mirror(failed), sunk])
+    }
+}
+
+fn probabilities(t: &Trainer) -> Vec<f64> {
+    t.env.as_any().downcast_ref::<VecEnv<Tracking>>().unwrap().task().clip_probabilities()
+}
+
+#[test]
+fn a_failed_clip_gets_generated_clips_and_more_weight() {
+    let root = std::env::temp_dir().join(format!("sm-active-{}", std::process::id()));
+    let clips = root.join("clips");
+    std::fs::create_dir_all(&clips).unwrap();
+    let demo = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../motions");
+    let mut names = Vec::new();
+    for e in std::fs::read_dir(&demo).unwrap() {
+        let p = e.unwrap().path();
+        let c = Clip::load(&p).unwrap();
+        c.save(&clips.join(p.file_name().unwrap())).unwrap();
+        names.push(c.name);
+    }
+    names.sort();
+    let mut lifted = Clip::load(&clips.join(format!("{}.safetensors", names[0]))).unwrap();
+    lifted.name = "052_lifted".into();
+    lifted.root_pos.iter_mut().skip(2).step_by(3).for_each(|z| *z += 1.0);
+    skillmimic_motion::generate::refresh_body_pos(&mut lifted);
+    lifted.save(&clips.join("052_lifted.safetensors")).unwrap();
+
+    let mut cfg = TrainConfig::preset("tiny").unwrap();
+    cfg.env.task = "tracking".into();
+    cfg.env.motion = vec![clips.clone()];
+    cfg.env.num_envs = 8;
+    cfg.env.threads = 1;
+    cfg.ppo.hidden = vec![32];
+    cfg.run.out_dir = root.join("run");
+    let mut t = Trainer::new(cfg.clone(), None).unwrap();
+    // zero action means: the PD targets hold the zero pose, which follows the standing demo
+    // clips within 0.5 m but cannot follow a clip floating 1 m up
+    let actor = t.policy.actor.as_mlp_mut().unwrap();
+    let last = actor.num_layers() - 1;
+    actor.weights[last].fill(0.0);
+    actor.biases[last].fill(0.0);
+    let before = probabilities(&t);
+    let seen = Arc::new(Mutex::new(Vec::new()));
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0);
+    let report = round(&t.policy, &t.cfg, &mut Probe(seen.clone()), &ActiveConfig::default(), &mut rng).unwrap();
+    println!("{report:?}");
+    assert_eq!(report.evaluated, 3);
+    assert_eq!(report.failed, vec!["052_lifted".to_string()]);
+    assert_eq!(*seen.lock().unwrap(), vec!["052_lifted".to_string()]);
+    assert_eq!(report.accepted.len(), 1);
+    assert!(report.accepted[0].1.exists());
+    assert_eq!(report.rejected.len(), 1);
+    assert!(report.rejected[0].1.contains("below the floor"), "{:?}", report.rejected);
+    assert_eq!(report.clip_weights.get("052_lifted"), Some(&2.0));
+    apply(&mut t, &report).unwrap();
+    let after = probabilities(&t);
+    assert_eq!(after.len(), 4, "the generated clip joined the library");
+    // library order: sorted paths, the lifted clip is the last file of the first folder
+    let lifted_at = 2;
+    println!("probability of the failed clip: {:.3} -> {:.3}", before[lifted_at], after[lifted_at]);
+    assert!(after[lifted_at] > before[lifted_at]);
+    assert!(t.config_toml().contains("052_lifted"));
+    t.iteration().unwrap();
+    std::fs::remove_dir_all(&root).ok();
+}
+
+#[test]
+fn training_runs_rounds_with_the_model_free_generator() {
+    let root = std::env::temp_dir().join(format!("sm-active-run-{}", std::process::id()));
+    let mut cfg = TrainConfig::preset("tiny").unwrap();
+    cfg.env.task = "tracking".into();
+    cfg.env.motion = vec![std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../motions")];
+    cfg.env.num_envs = 8;
+    cfg.env.threads = 1;
+    cfg.env.tracking.success_distance = 0.02; // every clip fails: the generator is called for each
+    cfg.ppo.hidden = vec![32];
+    cfg.run.iterations = 2;
+    cfg.run.active.enabled = true;
+    cfg.run.active.every = 1;
+    cfg.run.out_dir = root.clone();
+    let mut t = Trainer::new(cfg.clone(), None).unwrap();
+    skillmimic_learn::runner::train_loop(&mut t, |_| {}).unwrap();
+    let log = std::fs::read_to_string(root.join("active.jsonl")).unwrap();
+    let first: serde_json::Value = serde_json::from_str(log.lines().next().unwrap()).unwrap();
+    println!("{first}");
+    assert_eq!(log.lines().count(), 1, "one round after iteration 1 (none after the last)");
+    assert_eq!(first["report"]["evaluated"], 2);
+    assert!(first["report"]["accepted"].as_array().unwrap().len() >= 2, "mirror and time warp of each failed clip");
+    assert!(t.cfg.env.motion.contains(&root.join("generated")));
+    // the task must be tracking
+    let mut bad = cfg.clone();
+    bad.env.task = "imitation".into();
+    let err = Trainer::new(bad, None).err().unwrap().to_string();
+    assert!(err.contains("run.active.enabled") && err.contains("tracking"), "{err}");
+    std::fs::remove_dir_all(&root).ok();
+}
