@@ -14,9 +14,8 @@ use std::sync::Arc;
 
 use skillmimic_core::skeleton::KEY_BODIES;
 use skillmimic_motion::MotionLibrary;
-use skillmimic_sim::{BatchSim, ResetState, Scene, SimError};
+use skillmimic_sim::{Scene, SimError};
 
-use crate::episode::reset_state_from_clip;
 use crate::obs::{layout, write_state_obs};
 
 /// Features per frame.
@@ -39,30 +38,12 @@ pub fn frame_features(obs: &[f32], out: &mut [f32]) {
 /// The features of every frame of every clip of `lib` (`[clip][T × FEATURE_DIM]`), by posing the
 /// clip in `scene` (no physics step).
 pub fn clip_features(scene: Arc<Scene>, lib: &MotionLibrary) -> Result<Vec<Vec<f32>>, SimError> {
-    const N: usize = 32;
-    let mut sim = BatchSim::new(scene, N, 1)?;
     let mut obs = vec![0.0f32; layout::STATE_DIM];
-    let mut out = Vec::with_capacity(lib.len());
-    for c in 0..lib.len() {
-        let m = lib.get(c);
-        let frames = m.clip.num_frames;
-        let mut rows = vec![0.0f32; frames * FEATURE_DIM];
-        for start in (0..frames).step_by(N) {
-            let ts: Vec<usize> = (start..(start + N).min(frames)).collect();
-            let mut states = vec![ResetState::default(); N];
-            let mut mask = vec![false; N];
-            for (k, &t) in ts.iter().enumerate() {
-                states[k] = reset_state_from_clip(m, t);
-                mask[k] = true;
-            }
-            sim.reset(&mask, &states)?;
-            for (k, &t) in ts.iter().enumerate() {
-                write_state_obs(&sim.state().env(k), &mut obs);
-                frame_features(&obs, &mut rows[t * FEATURE_DIM..(t + 1) * FEATURE_DIM]);
-            }
-        }
-        out.push(rows);
-    }
+    let mut out: Vec<Vec<f32>> = lib.clips().iter().map(|m| vec![0.0f32; m.clip.num_frames * FEATURE_DIM]).collect();
+    crate::episode::pose_clips(scene, lib, |c, t, st| {
+        write_state_obs(st, &mut obs);
+        frame_features(&obs, &mut out[c][t * FEATURE_DIM..(t + 1) * FEATURE_DIM]);
+    })?;
     Ok(out)
 }
 

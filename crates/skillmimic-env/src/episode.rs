@@ -127,3 +127,30 @@ pub fn random_ball<R: Rng>(s: &mut ResetState, radius: f64, rng: &mut R) {
     };
     s.ball_angvel_local = [rng.random_range(0.0..0.1), rng.random_range(0.0..0.1), rng.random_range(0.0..0.1)];
 }
+
+/// Pose every frame of every clip of `lib` in `scene` (batched resets to
+/// [`reset_state_from_clip`], no physics step) and call `f(clip, frame, state)` for each, clips in
+/// library order and frames ascending. The one path by which reference quantities are computed
+/// in the environment's own scene (history features, tracking references, motion-prior frames).
+pub fn pose_clips(scene: std::sync::Arc<skillmimic_sim::Scene>, lib: &skillmimic_motion::MotionLibrary, mut f: impl FnMut(usize, usize, &skillmimic_sim::EnvState<'_>)) -> Result<(), skillmimic_sim::SimError> {
+    const N: usize = 32;
+    let mut sim = skillmimic_sim::BatchSim::new(scene, N, 1)?;
+    let mut states = vec![ResetState::default(); N];
+    let mut mask = vec![false; N];
+    for c in 0..lib.len() {
+        let m = lib.get(c);
+        for start in (0..m.clip.num_frames).step_by(N) {
+            let frames = start..(start + N).min(m.clip.num_frames);
+            mask.fill(false);
+            for (k, t) in frames.clone().enumerate() {
+                states[k] = reset_state_from_clip(m, t);
+                mask[k] = true;
+            }
+            sim.reset(&mask, &states)?;
+            for (k, t) in frames.enumerate() {
+                f(c, t, &sim.state().env(k));
+            }
+        }
+    }
+    Ok(())
+}

@@ -29,9 +29,9 @@ pub use skillmimic_nn::history::{
     reference_window,
 };
 use skillmimic_motion::MotionLibrary;
-use skillmimic_sim::{BatchSim, Scene, SimError};
+use skillmimic_sim::{Scene, SimError};
 
-use crate::episode::{BALL_FREE_SKILLS, reset_state_from_clip};
+use crate::episode::BALL_FREE_SKILLS;
 use crate::obs::{layout, write_state_obs};
 
 /// Write the 316 features of a frame from its observation (the first 838 entries are used) and
@@ -51,31 +51,13 @@ pub fn features_from_obs(state_obs: &[f32], dof_pos: &[f64], ball: bool, out: &m
 /// Reference features of every frame of every clip (`[clip][T × 316]`), by forward kinematics of
 /// the clip poses in `scene`.
 pub fn reference_features(scene: Arc<Scene>, lib: &MotionLibrary) -> Result<Vec<Vec<f32>>, SimError> {
-    const N: usize = 32;
-    let mut sim = BatchSim::new(scene, N, 1)?;
     let mut obs = vec![0.0f32; layout::STATE_DIM];
-    let mut out = Vec::with_capacity(lib.len());
-    for c in 0..lib.len() {
-        let m = lib.get(c);
-        let t_len = m.clip.num_frames;
-        let ball = !BALL_FREE_SKILLS.contains(&m.clip.skill);
-        let mut rows = vec![0.0f32; t_len * FEATURE_DIM];
-        for chunk in (0..t_len).collect::<Vec<_>>().chunks(N) {
-            let mut states = vec![Default::default(); N];
-            let mut mask = vec![false; N];
-            for (k, &t) in chunk.iter().enumerate() {
-                states[k] = reset_state_from_clip(m, t);
-                mask[k] = true;
-            }
-            sim.reset(&mask, &states)?;
-            for (k, &t) in chunk.iter().enumerate() {
-                let st = sim.state().env(k);
-                write_state_obs(&st, &mut obs);
-                features_from_obs(&obs, st.dof_pos, ball, &mut rows[t * FEATURE_DIM..(t + 1) * FEATURE_DIM]);
-            }
-        }
-        out.push(rows);
-    }
+    let mut out: Vec<Vec<f32>> = lib.clips().iter().map(|m| vec![0.0f32; m.clip.num_frames * FEATURE_DIM]).collect();
+    crate::episode::pose_clips(scene, lib, |c, t, st| {
+        let ball = !BALL_FREE_SKILLS.contains(&lib.get(c).clip.skill);
+        write_state_obs(st, &mut obs);
+        features_from_obs(&obs, st.dof_pos, ball, &mut out[c][t * FEATURE_DIM..(t + 1) * FEATURE_DIM]);
+    })?;
     Ok(out)
 }
 

@@ -27,7 +27,7 @@ use rand_chacha::ChaCha8Rng;
 use skillmimic_core::math::Quat;
 use skillmimic_core::skeleton::{NUM_BODIES, NUM_DOFS};
 use skillmimic_motion::MotionLibrary;
-use skillmimic_sim::{BatchSim, EnvState, ResetState, Scene, SimError};
+use skillmimic_sim::{EnvState, ResetState, Scene, SimError};
 
 use crate::config::{EnvConfig, TrackingConfig};
 use crate::episode::reset_state_from_clip;
@@ -65,34 +65,15 @@ impl ClipFrames {
 
 /// Every frame of every clip of `lib` posed in `scene` (batched resets, no physics step).
 pub fn reference_frames(scene: Arc<Scene>, lib: &MotionLibrary) -> Result<Vec<ClipFrames>, SimError> {
-    const N: usize = 32;
-    let mut sim = BatchSim::new(scene, N, 1)?;
-    let mut out = Vec::with_capacity(lib.len());
-    for c in 0..lib.len() {
-        let m = lib.get(c);
-        let frames = m.clip.num_frames;
-        let mut data = vec![0.0f32; frames * NUM_BODIES * PACKED];
-        for start in (0..frames).step_by(N) {
-            let ts: Vec<usize> = (start..(start + N).min(frames)).collect();
-            let mut states = vec![ResetState::default(); N];
-            let mut mask = vec![false; N];
-            for (k, &t) in ts.iter().enumerate() {
-                states[k] = reset_state_from_clip(m, t);
-                mask[k] = true;
-            }
-            sim.reset(&mask, &states)?;
-            for (k, &t) in ts.iter().enumerate() {
-                let st = sim.state().env(k);
-                for b in 0..NUM_BODIES {
-                    let (p, q, lv, av) = (st.pos(b), st.quat(b).to_wxyz(), st.linvel(b), st.angvel(b));
-                    let flat = [p[0], p[1], p[2], q[0], q[1], q[2], q[3], lv[0], lv[1], lv[2], av[0], av[1], av[2]];
-                    let dst = &mut data[(t * NUM_BODIES + b) * PACKED..(t * NUM_BODIES + b + 1) * PACKED];
-                    dst.iter_mut().zip(&flat).for_each(|(d, &s)| *d = s as f32);
-                }
-            }
+    let mut out: Vec<ClipFrames> = lib.clips().iter().map(|m| ClipFrames { frames: m.clip.num_frames, data: vec![0.0; m.clip.num_frames * NUM_BODIES * PACKED] }).collect();
+    crate::episode::pose_clips(scene, lib, |c, t, st| {
+        for b in 0..NUM_BODIES {
+            let (p, q, lv, av) = (st.pos(b), st.quat(b).to_wxyz(), st.linvel(b), st.angvel(b));
+            let flat = [p[0], p[1], p[2], q[0], q[1], q[2], q[3], lv[0], lv[1], lv[2], av[0], av[1], av[2]];
+            let dst = &mut out[c].data[(t * NUM_BODIES + b) * PACKED..(t * NUM_BODIES + b + 1) * PACKED];
+            dst.iter_mut().zip(&flat).for_each(|(d, &s)| *d = s as f32);
         }
-        out.push(ClipFrames { frames, data });
-    }
+    })?;
     Ok(out)
 }
 
