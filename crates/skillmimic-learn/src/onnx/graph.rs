@@ -82,32 +82,23 @@ impl Graph {
         format!("{stem}_{}", self.counter)
     }
 
+    /// A constant initialiser of element type `elem` from little-endian `raw` bytes.
+    fn constant(&mut self, name: &str, dims: &[usize], elem: Elem, raw: Vec<u8>) -> String {
+        let t = TensorProto { name: name.to_string(), dims: dims.iter().map(|&d| d as i64).collect(), data_type: elem.code(), raw_data: raw, ..Default::default() };
+        self.g.initializer.push(t);
+        name.to_string()
+    }
+
     /// A float32 constant of shape `dims` (row-major `data`).
     pub fn const_f32(&mut self, name: &str, dims: &[usize], data: &[f32]) -> String {
         debug_assert_eq!(dims.iter().product::<usize>(), data.len());
-        let t = TensorProto {
-            name: name.to_string(),
-            dims: dims.iter().map(|&d| d as i64).collect(),
-            data_type: Elem::F32.code(),
-            raw_data: data.iter().flat_map(|v| v.to_le_bytes()).collect(),
-            ..Default::default()
-        };
-        self.g.initializer.push(t);
-        name.to_string()
+        self.constant(name, dims, Elem::F32, data.iter().flat_map(|v| v.to_le_bytes()).collect())
     }
 
     /// An int64 constant of shape `dims`.
     pub fn const_i64(&mut self, name: &str, dims: &[usize], data: &[i64]) -> String {
         debug_assert_eq!(dims.iter().product::<usize>(), data.len());
-        let t = TensorProto {
-            name: name.to_string(),
-            dims: dims.iter().map(|&d| d as i64).collect(),
-            data_type: Elem::I64.code(),
-            raw_data: data.iter().flat_map(|v| v.to_le_bytes()).collect(),
-            ..Default::default()
-        };
-        self.g.initializer.push(t);
-        name.to_string()
+        self.constant(name, dims, Elem::I64, data.iter().flat_map(|v| v.to_le_bytes()).collect())
     }
 
     /// Append a node `op(inputs) -> outputs` with attributes.
