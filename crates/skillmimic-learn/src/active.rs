@@ -142,6 +142,6 @@ pub fn apply(t: &mut Trainer, report: &RoundReport) -> Result<(), LearnError> {
     let mut e = t.cfg.env.clone();
     e.num_envs = t.shard.local;
     t.env = skillmimic_env::registry::make(&e)?;
-    t.refresh_config();
+    t.env_replaced();
     Ok(())
 }

@@ -98,6 +98,11 @@ impl AmpReward {
         Ok(Some(a))
     }
 
+    /// Every environment starts a new window at the next step (new episodes everywhere).
+    pub fn restart(&mut self) {
+        self.fresh.fill(true);
+    }
+
     fn width(&self) -> usize {
         self.cfg.window * FEATURE_DIM
     }

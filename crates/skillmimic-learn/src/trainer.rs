@@ -220,9 +220,15 @@ impl Trainer {
         })
     }
 
-    /// Re-derive the effective configuration saved with checkpoints after `cfg` changed.
-    pub fn refresh_config(&mut self) {
+    /// After `cfg` changed and `env` was rebuilt (fresh episodes): re-derive the effective
+    /// configuration saved with checkpoints and restart the per-episode bookkeeping.
+    pub fn env_replaced(&mut self) {
         self.config_toml = self.cfg.to_toml();
+        self.ep_return.fill(0.0);
+        self.ep_len.fill(0);
+        if let Some(a) = &mut self.amp {
+            a.restart();
+        }
     }
 
     /// The effective configuration as TOML.
