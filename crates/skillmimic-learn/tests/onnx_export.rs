@@ -177,6 +177,10 @@ fn metadata_sidecar_and_refusals() {
     assert_eq!(src.sha256.len(), 64);
     let meta = DeployMeta::new("", "gaussian_mlp", &train_config("imitation"), 902, 156, src).unwrap();
     assert_eq!(meta.joint_order.len(), 52);
+    let names = |cfg: &TrainConfig, d: usize| skillmimic_learn::onnx::meta::obs_blocks(cfg, d).iter().map(|b| format!("{}:{}-{}", b.name, b.start, b.end)).collect::<Vec<_>>();
+    assert_eq!(names(&train_config("imitation"), 905)[10..], ["skill:838-902", "history_embedding:902-905"]);
+    assert_eq!(names(&train_config("heading"), 842)[9..], ["ball_angvel:835-838", "task (heading):838-842"]);
+    assert_eq!(names(&train_config("tracking"), 1375)[5..], ["fingertip_force:793-823", "task (tracking):823-1375"]);
     assert_eq!((meta.control_dt, meta.sim_dt, meta.substeps), (1.0 / 60.0, 1.0 / 120.0, 2));
     let e = policy_model(&p, meta).unwrap();
     let out = dir.join("p.onnx");

@@ -140,15 +140,23 @@ pub fn source_of(path: &Path, iteration: u64, samples: u64) -> Result<Source, Le
     Ok(Source { file, sha256, iteration, samples })
 }
 
-/// The observation blocks of a policy with `obs_dim` inputs trained with `cfg`.
+/// The observation blocks of a policy with `obs_dim` inputs trained with `cfg`: the humanoid
+/// blocks (0..823) always; then the imitation task's ball, skill and (SkillMimic-V2) history
+/// embedding, a high-level task's ball and task part, or any other task's own part.
 pub fn obs_blocks(cfg: &TrainConfig, obs_dim: usize) -> Vec<Block> {
-    let block = |name: &str, r: &std::ops::Range<usize>| Block { name: name.to_string(), start: r.start, end: r.end };
-    let high_level = skillmimic_env::registry::is_high_level(&cfg.env.task);
-    let mut v: Vec<Block> = BLOCKS.iter().filter(|(name, _)| !(high_level && *name == "skill")).map(|(n, r)| block(n, r)).collect();
-    let used = if high_level { layout::STATE_DIM } else { layout::OBS_DIM };
+    let block = |name: &str, r: std::ops::Range<usize>| Block { name: name.to_string(), start: r.start, end: r.end };
+    let task = cfg.env.task.as_str();
+    let high_level = skillmimic_env::registry::is_high_level(task);
+    let with_ball = task == "imitation" || high_level;
+    let used = match (task, high_level) {
+        ("imitation", _) => layout::OBS_DIM,
+        (_, true) => layout::STATE_DIM,
+        _ => layout::HUMANOID_DIM,
+    };
+    let mut v: Vec<Block> = BLOCKS.iter().filter(|(_, r)| r.end <= used && (with_ball || r.end <= layout::HUMANOID_DIM)).map(|(n, r)| block(n, r.clone())).collect();
     if obs_dim > used {
-        let name = if high_level { format!("task ({})", cfg.env.task) } else { "history_embedding".to_string() };
-        v.push(block(&name, &(used..obs_dim)));
+        let name = if task == "imitation" { "history_embedding".to_string() } else { format!("task ({task})") };
+        v.push(block(&name, used..obs_dim));
     }
     v
 }
