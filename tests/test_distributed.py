@@ -206,15 +206,25 @@ def test_a_stopped_rank_makes_the_other_time_out(tmp_path):
 
 def test_ctrl_c_stops_the_python_trainer_with_a_checkpoint(tmp_path):
     out = tmp_path / "run"
+    # a child of a non-interactive shell may start with SIGINT ignored (then Python installs no
+    # KeyboardInterrupt handler): give it the default disposition, as a terminal's Ctrl-C finds it;
+    # on a hang, faulthandler prints every thread's stack when the test aborts the child
+    env = dict(_env(), PYTHONFAULTHANDLER="1")
     p = subprocess.Popen([sys.executable, "-m", "skillmimic_rs.train", *TINY, "--iterations", "100000", "--set", "run.save_every=1000",
-                          "--out", str(out)], cwd=REPO, env=_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                          "--out", str(out)], cwd=REPO, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     try:
         t0 = time.time()
         while not (out / "log.jsonl").exists() or len((out / "log.jsonl").read_text().splitlines()) < 3:
             assert p.poll() is None and time.time() - t0 < 120, "the trainer did not start"
             time.sleep(0.2)
         p.send_signal(signal.SIGINT)
-        _, err = p.communicate(timeout=60)
+        try:
+            _, err = p.communicate(timeout=120)
+        except subprocess.TimeoutExpired:
+            p.send_signal(signal.SIGABRT)
+            _, err = p.communicate(timeout=30)
+            raise AssertionError(f"no exit within 120 s of SIGINT; the trainer's stacks:\n{err[-6000:]}") from None
     finally:
         if p.poll() is None:
             p.kill()
