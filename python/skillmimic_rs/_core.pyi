@@ -210,8 +210,9 @@ def ppo_loss_and_grads(
 ) -> tuple[dict[str, float], dict[str, npt.NDArray[np.float32]]]:
     """PPO losses and parameter gradients of a checkpoint's policy on one minibatch."""
 
-def init_policy(path: str, family: str, obs_dim: int, actions: tuple[str, int], hidden: list[int], seed: int = 0) -> None:
-    """Write a freshly initialised policy checkpoint of ``family`` for ``("box", dim)`` or ``("discrete", n)`` actions."""
+def init_policy(path: str, family: str, obs_dim: int, actions: tuple[str, int], hidden: list[int], seed: int = 0, overrides: list[str] = ...) -> None:
+    """Write a freshly initialised policy checkpoint of ``family`` for ``("box", dim)`` or ``("discrete", n)`` actions;
+    ``overrides`` are ``--set``-style assignments applied first (e.g. ``"ppo.modular.controller=[32]"``)."""
 
 def transformer_encoder_layer(
     state_dict: dict[str, npt.NDArray[np.float32]], x: npt.NDArray[np.float32], num_heads: int, key_padding_mask: npt.NDArray[np.bool_] | None = None

@@ -139,9 +139,5 @@ pub fn apply(t: &mut Trainer, report: &RoundReport) -> Result<(), LearnError> {
         t.cfg.env.motion.push(dir);
     }
     t.cfg.env.tracking.clip_weights = report.clip_weights.clone();
-    let mut e = t.cfg.env.clone();
-    e.num_envs = t.shard.local;
-    t.env = skillmimic_env::registry::make(&e)?;
-    t.env_replaced();
-    Ok(())
+    t.rebuild_env()
 }

@@ -50,6 +50,8 @@ pub struct Discriminator {
     pub norm: RunningMeanStd,
     pub adam: Adam,
     ws: Workspace,
+    /// Normalised inputs of the last [`Discriminator::logits`] call (reused).
+    xn: Vec<f32>,
 }
 
 impl Discriminator {
@@ -61,7 +63,7 @@ impl Discriminator {
         let mlp = Mlp::new(&dims, rng);
         let sizes: Vec<usize> = mlp.params().iter().map(|p| p.len()).collect();
         let adam = Adam::new(&sizes, cfg.lr, 1e-8);
-        Self { norm: RunningMeanStd::new(dim, 1e-5, 5.0), adam, mlp, cfg, ws: Workspace::default() }
+        Self { norm: RunningMeanStd::new(dim, 1e-5, 5.0), adam, mlp, cfg, ws: Workspace::default(), xn: Vec::new() }
     }
 
     /// Input width.
@@ -70,27 +72,30 @@ impl Discriminator {
     }
 
     /// Logits of `n` raw windows.
-    pub fn logits(&mut self, x: &[f32], n: usize) -> Vec<f32> {
-        let mut xn = vec![0.0f32; x.len()];
-        self.norm.normalize_into(x, &mut xn);
-        self.mlp.forward_into(&xn, n, &mut self.ws, 1).to_vec()
+    pub fn logits(&mut self, x: &[f32], n: usize) -> &[f32] {
+        self.xn.resize(x.len(), 0.0);
+        self.norm.normalize_into(x, &mut self.xn);
+        self.mlp.forward_into(&self.xn, n, &mut self.ws, 1)
     }
 
     /// Style rewards of `n` raw windows (see the module doc).
     pub fn style_reward(&mut self, x: &[f32], n: usize) -> Vec<f32> {
-        let scale = self.cfg.reward_scale;
-        let loss = self.cfg.loss;
-        self.logits(x, n)
-            .into_iter()
-            .map(|d| {
-                let d = d as f64;
-                let r = match loss {
-                    AmpLoss::Logistic => -(1.0 - 1.0 / (1.0 + (-d).exp())).max(1e-4).ln(),
-                    AmpLoss::LeastSquares => (1.0 - 0.25 * (d - 1.0) * (d - 1.0)).max(0.0),
-                };
-                (r * scale) as f32
-            })
-            .collect()
+        let mut out = vec![0.0; n];
+        self.style_reward_into(x, n, &mut out);
+        out
+    }
+
+    /// [`Discriminator::style_reward`] into `out` (`n`), without allocating after the first call.
+    pub fn style_reward_into(&mut self, x: &[f32], n: usize, out: &mut [f32]) {
+        let (scale, loss) = (self.cfg.reward_scale, self.cfg.loss);
+        for (o, &d) in out.iter_mut().zip(self.logits(x, n)) {
+            let d = d as f64;
+            let r = match loss {
+                AmpLoss::Logistic => -(1.0 - 1.0 / (1.0 + (-d).exp())).max(1e-4).ln(),
+                AmpLoss::LeastSquares => (1.0 - 0.25 * (d - 1.0) * (d - 1.0)).max(0.0),
+            };
+            *o = (r * scale) as f32;
+        }
     }
 
     /// Loss and parameter gradients (in `mlp.params()` order) on *normalised* reference and

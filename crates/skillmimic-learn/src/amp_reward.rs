@@ -46,6 +46,7 @@ pub struct AmpReward {
     rng: ChaCha8Rng,
     frame: Vec<f32>,
     picks: Vec<usize>,
+    style: Vec<f32>,
 }
 
 impl AmpReward {
@@ -75,6 +76,7 @@ impl AmpReward {
             rng,
             frame: vec![0.0; FEATURE_DIM],
             picks: Vec::new(),
+            style: vec![0.0; n],
             cfg: a,
         })
     }
@@ -133,9 +135,9 @@ impl AmpReward {
             frame_features(&obs_after[i * d..(i + 1) * d], &mut ring[w - FEATURE_DIM..]);
             self.fresh[i] = done[i] != 0;
         }
-        let style = self.disc.style_reward(&self.rings, n);
+        self.disc.style_reward_into(&self.rings, n, &mut self.style);
         let (mut st, mut ss) = (0.0, 0.0);
-        for (r, &s) in rewards.iter_mut().zip(&style) {
+        for (r, &s) in rewards.iter_mut().zip(&self.style) {
             st += *r as f64;
             ss += s as f64;
             *r = (self.cfg.task_weight * *r as f64 + self.cfg.style_weight * s as f64) as f32;

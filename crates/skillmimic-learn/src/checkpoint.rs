@@ -154,6 +154,14 @@ fn load_norm(f: &TensorFile, prefix: &str, dim: usize, eps: f64, clip: f64) -> R
     read_normalizer(f, prefix, dim, eps, clip).map_err(|e| e.to_string())
 }
 
+/// A checkpoint and the training configuration stored in it (the defaults when it has none).
+pub fn load_with_config(path: &Path) -> Result<(Checkpoint, crate::config::TrainConfig), crate::error::LearnError> {
+    use crate::config::TrainConfig;
+    let c = load(path, None)?;
+    let cfg = if c.config.is_empty() { TrainConfig::default() } else { TrainConfig::from_toml_over(&TrainConfig::default(), &c.config, path)? };
+    Ok((c, cfg))
+}
+
 /// Load a checkpoint; `expect` = (obs_dim, act_dim) must match when given.
 pub fn load(path: &Path, expect: Option<(usize, usize)>) -> Result<Checkpoint, crate::error::LearnError> {
     load_raw(path, expect).map_err(crate::error::bad_checkpoint(path))

@@ -19,9 +19,7 @@
 //! thread counts produce the same checkpoints bit for bit. A resumed run continues from the
 //! checkpoint's policy, normalisers and Adam state with freshly reset environments.
 //!
-//! With `ppo.amp.enabled` the adversarial motion prior ([`crate::amp_reward`]) mixes a style
-//! reward into every step's reward, trains its discriminator after each PPO update and saves it
-//! in the checkpoint (one process only for now).
+//! `ppo.amp.enabled` adds the motion prior's style reward and discriminator ([`crate::amp_reward`]).
 //!
 //! Data-parallel ([`Trainer::with_collective`], [`crate::collective`]): `env.num_envs` is the
 //! total over all ranks; each rank steps its share ([`crate::shard`]) with its own streams of
@@ -220,15 +218,20 @@ impl Trainer {
         })
     }
 
-    /// After `cfg` changed and `env` was rebuilt (fresh episodes): re-derive the effective
-    /// configuration saved with checkpoints and restart the per-episode bookkeeping.
-    pub fn env_replaced(&mut self) {
+    /// Rebuild the environment from `cfg.env` after it changed (one process; fresh episodes),
+    /// re-derive the effective configuration saved with checkpoints and restart the per-episode
+    /// bookkeeping.
+    pub fn rebuild_env(&mut self) -> Result<(), LearnError> {
+        let mut e = self.cfg.env.clone();
+        e.num_envs = self.shard.local;
+        self.env = registry::make(&e)?;
         self.config_toml = self.cfg.to_toml();
         self.ep_return.fill(0.0);
         self.ep_len.fill(0);
         if let Some(a) = &mut self.amp {
             a.restart();
         }
+        Ok(())
     }
 
     /// The effective configuration as TOML.

@@ -57,6 +57,12 @@ pub fn find_clip_files(path: &Path) -> Result<Vec<PathBuf>, ClipError> {
     Ok(out)
 }
 
+/// Draw an index from cumulative (not necessarily normalised) weights.
+pub fn sample_cumulative<R: Rng + ?Sized>(cumulative: &[f64], rng: &mut R) -> usize {
+    let u: f64 = rng.random::<f64>() * cumulative[cumulative.len() - 1];
+    cumulative.partition_point(|&c| c <= u).min(cumulative.len() - 1)
+}
+
 impl MotionLibrary {
     /// Load every clip found in `paths` (files or folders, searched recursively for `.pt` and
     /// `.safetensors`), in sorted path order.
@@ -151,8 +157,17 @@ impl MotionLibrary {
 
     /// Draw a clip index with the class-balanced weights.
     pub fn sample_clip<R: Rng>(&self, rng: &mut R) -> usize {
-        let u: f64 = rng.random::<f64>() * self.cumulative[self.cumulative.len() - 1];
-        self.cumulative.partition_point(|&c| c <= u).min(self.clips.len() - 1)
+        sample_cumulative(&self.cumulative, rng)
+    }
+
+    /// Cumulative sums of the class-balanced weights each multiplied by `factor(clip)` (draw
+    /// from them with [`sample_cumulative`]).
+    pub fn cumulative_weighted(&self, factor: impl Fn(&Clip) -> f64) -> Vec<f64> {
+        let mut acc = 0.0;
+        self.clips.iter().zip(&self.weights).map(|(m, w)| {
+            acc += w * factor(&m.clip);
+            acc
+        }).collect()
     }
 
     /// Draw a start frame uniformly from 2 … T−2 of clip `i`.

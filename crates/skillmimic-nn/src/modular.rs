@@ -70,6 +70,7 @@ pub struct ModularWorkspace {
     qkv: Vec<Vec<f32>>,
     z: Vec<Vec<f32>>,
     ws: Vec<Workspace>,
+    scores: Vec<f32>,
     out: Vec<f32>,
 }
 
@@ -179,7 +180,8 @@ impl ModularAttention {
             z.clear();
             z.resize(n * e, 0.0);
         }
-        let mut scores = vec![0.0f32; np];
+        ws.scores.resize(np, 0.0);
+        let scores = &mut ws.scores;
         for r in 0..n {
             for i in 0..np {
                 let q = &ws.qkv[3 * i][r * e..(r + 1) * e];

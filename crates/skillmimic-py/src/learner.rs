@@ -35,14 +35,13 @@ impl Policy {
     }
     /// Action means `(N, act_dim)` and values `(N,)` for observations `(N, obs_dim)`.
     fn infer<'py>(&mut self, py: Python<'py>, obs: PyReadonlyArray2<'_, f32>) -> PyResult<(Bound<'py, PyArray2<f32>>, Bound<'py, PyArray1<f32>>)> {
-        let (n, d) = (obs.shape()[0], obs.shape()[1]);
+        let n = obs.shape()[0];
         check_shape("obs", obs.shape(), &[n, self.policy.obs_dim()])?;
         let x = obs.as_slice().map_err(value_error)?.to_vec();
         let a = self.policy.actor_outputs();
         let (mut mu, mut v) = (vec![0.0f32; n * a], vec![0.0f32; n]);
         let Self { policy, buf } = self;
         py.detach(|| policy.infer(&x, n, buf, &mut mu, &mut v, 0));
-        let _ = d;
         Ok((PyArray1::from_vec(py, mu).reshape([n, a])?, PyArray1::from_vec(py, v)))
     }
 }

@@ -2,8 +2,7 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::checkpoint::{self, Checkpoint};
-use crate::config::TrainConfig;
+use crate::checkpoint;
 use crate::config_file::{config_dir, resolve_path};
 use crate::error::LearnError;
 
@@ -17,19 +16,12 @@ pub struct Written {
     pub exported: Exported,
 }
 
-/// A checkpoint and the training configuration stored in it (defaults when it has none).
-fn load_with_config(path: &Path) -> Result<(Checkpoint, TrainConfig), LearnError> {
-    let c = checkpoint::load(path, None)?;
-    let cfg = if c.config.is_empty() { TrainConfig::default() } else { TrainConfig::from_toml_over(&TrainConfig::default(), &c.config, path)? };
-    Ok((c, cfg))
-}
-
 /// Export the policy of `ckpt` to `out` (+ `out.json`). `fused`: a high-level checkpoint is
 /// exported together with its skill policy — `llc`, or the `env.hlc.llc` of its configuration
 /// (a relative path there follows the config-file rule of [`crate::config_file`]: next to the
 /// checkpoint, else relative to the working directory).
 pub fn export_checkpoint(ckpt: &Path, out: &Path, fused: bool, llc: Option<&Path>) -> Result<Written, LearnError> {
-    let (c, cfg) = load_with_config(ckpt)?;
+    let (c, cfg) = checkpoint::load_with_config(ckpt)?;
     let source = source_of(ckpt, c.progress.iteration, c.progress.samples)?;
     let act = c.policy.actor.output_dim();
     let meta = DeployMeta::new("", c.policy.family.name(), &cfg, c.policy.obs_dim(), act, source)?;

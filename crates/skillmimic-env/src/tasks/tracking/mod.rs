@@ -49,13 +49,23 @@ pub struct ClipFrames {
 }
 
 impl ClipFrames {
+    fn row(&self, t: usize) -> &[f32] {
+        let t = t.min(self.frames - 1);
+        &self.data[t * NUM_BODIES * PACKED..(t + 1) * NUM_BODIES * PACKED]
+    }
+
+    /// The body positions of frame `t` (clamped to the clip).
+    pub fn positions(&self, t: usize) -> [[f64; 3]; NUM_BODIES] {
+        let row = self.row(t);
+        std::array::from_fn(|b| std::array::from_fn(|k| row[b * PACKED + k] as f64))
+    }
+
     /// The body states of frame `t` (clamped to the clip).
     pub fn frame(&self, t: usize) -> BodyFrame {
-        let t = t.min(self.frames - 1);
-        let row = &self.data[t * NUM_BODIES * PACKED..(t + 1) * NUM_BODIES * PACKED];
+        let row = self.row(t);
         let at = |b: usize, k: usize| row[b * PACKED + k] as f64;
         BodyFrame {
-            pos: std::array::from_fn(|b| [at(b, 0), at(b, 1), at(b, 2)]),
+            pos: self.positions(t),
             quat: std::array::from_fn(|b| Quat::from_wxyz([at(b, 3), at(b, 4), at(b, 5), at(b, 6)])),
             linvel: std::array::from_fn(|b| [at(b, 7), at(b, 8), at(b, 9)]),
             angvel: std::array::from_fn(|b| [at(b, 10), at(b, 11), at(b, 12)]),
@@ -107,7 +117,7 @@ pub struct Tracking {
     active: Vec<bool>,
     /// The action rows of the current step (`N × 156`), for the power penalty.
     targets: Vec<f32>,
-    /// Cumulative clip probabilities: library weights × `clip_weights` multipliers, normalised.
+    /// Cumulative clip weights: library weights × `clip_weights` multipliers.
     cumulative: Vec<f64>,
 }
 
@@ -132,22 +142,15 @@ impl Tracking {
             steps_per_action: 1,
             choice_labels: Vec::new(),
         };
-        let raw: Vec<f64> = lib.clips().iter().zip(lib.weights()).map(|(m, w)| w * t.clip_weights.get(&m.clip.name).copied().unwrap_or(1.0)).collect();
-        let total: f64 = raw.iter().sum();
-        let cumulative = raw
-            .iter()
-            .scan(0.0, |acc, w| {
-                *acc += w / total;
-                Some(*acc)
-            })
-            .collect();
+        let cumulative = lib.cumulative_weighted(|c| t.clip_weights.get(&c.name).copied().unwrap_or(1.0));
         Ok(Self { cfg: t, lib, refs, bodies, spec, force_limit: opts.force_limit, active, targets: vec![0.0; cfg.num_envs * NUM_DOFS], cumulative })
     }
 
     /// The probability of each clip (library order) to start an episode.
     pub fn clip_probabilities(&self) -> Vec<f64> {
+        let total = self.cumulative[self.cumulative.len() - 1];
         let mut prev = 0.0;
-        self.cumulative.iter().map(|&c| std::mem::replace(&mut prev, c)).zip(&self.cumulative).map(|(p, c)| c - p).collect()
+        self.cumulative.iter().map(|&c| (c - std::mem::replace(&mut prev, c)) / total).collect()
     }
 
     /// The reference frames of clip `c`.
@@ -175,8 +178,7 @@ impl Task for Tracking {
     }
 
     fn plan_reset(&mut self, _i: usize, slot: &mut TrackSlot, rng: &mut ChaCha8Rng, state: &mut ResetState) {
-        let u: f64 = rng.random::<f64>();
-        let clip = self.cumulative.partition_point(|&c| c <= u).min(self.refs.len() - 1);
+        let clip = skillmimic_motion::library::sample_cumulative(&self.cumulative, rng);
         let frames = self.refs[clip].frames;
         let start = if self.cfg.random_start { rng.random_range(0..=frames - 2) } else { 0 };
         *state = reset_state_from_clip(self.lib.get(clip), start);
@@ -184,7 +186,7 @@ impl Task for Tracking {
         state.ball_pos = [50.0, 50.0, 0.5];
         state.ball_linvel = [0.0; 3];
         state.ball_angvel_local = [0.0; 3];
-        *slot = TrackSlot { clip, frame: start, failed: false, hist: [self.refs[clip].frame(start.saturating_sub(1)).pos, [[0.0; 3]; NUM_BODIES]] };
+        *slot = TrackSlot { clip, frame: start, failed: false, hist: [self.refs[clip].positions(start.saturating_sub(1)), [[0.0; 3]; NUM_BODIES]] };
     }
 
     fn after_reset(&self, _i: usize, slot: &mut TrackSlot, st: &EnvState<'_>, obs: &mut [f32]) {
@@ -202,8 +204,8 @@ impl Task for Tracking {
         let terms = formulas::reward(&e, power, &self.cfg);
         out.terms.iter_mut().zip(&terms).for_each(|(o, &v)| *o = v as f32);
         *out.reward = terms[5] as f32;
-        let (r0, r1) = (refs.frame(slot.frame.saturating_sub(2)), refs.frame(slot.frame - 1));
-        let (ve, ae) = formulas::vel_acc_errors([&slot.hist[0], &slot.hist[1], &sim.pos], [&r0.pos, &r1.pos, &r.pos], &self.bodies);
+        let (p0, p1) = (refs.positions(slot.frame.saturating_sub(2)), refs.positions(slot.frame - 1));
+        let (ve, ae) = formulas::vel_acc_errors([&slot.hist[0], &slot.hist[1], &sim.pos], [&p0, &p1, &r.pos], &self.bodies);
         slot.hist = [slot.hist[1], sim.pos];
         slot.failed |= e.dist > self.cfg.success_distance;
         let end = slot.frame + 1 >= refs.frames;
