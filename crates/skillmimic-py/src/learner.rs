@@ -17,6 +17,9 @@ pub(crate) struct Policy {
     buf: skillmimic_learn::policy::InferenceBuffers,
 }
 
+/// Actor outputs `(N, outputs)` and values `(N,)`.
+type MeansValues<'py> = (Bound<'py, PyArray2<f32>>, Bound<'py, PyArray1<f32>>);
+
 #[pymethods]
 impl Policy {
     /// Load a checkpoint written by `skillmimic train` or `skillmimic export`.
@@ -34,7 +37,7 @@ impl Policy {
         self.policy.act_dim()
     }
     /// Action means `(N, act_dim)` and values `(N,)` for observations `(N, obs_dim)`.
-    fn infer<'py>(&mut self, py: Python<'py>, obs: PyReadonlyArray2<'_, f32>) -> PyResult<(Bound<'py, PyArray2<f32>>, Bound<'py, PyArray1<f32>>)> {
+    fn infer<'py>(&mut self, py: Python<'py>, obs: PyReadonlyArray2<'_, f32>) -> PyResult<MeansValues<'py>> {
         let n = obs.shape()[0];
         check_shape("obs", obs.shape(), &[n, self.policy.obs_dim()])?;
         let x = obs.as_slice().map_err(value_error)?.to_vec();
