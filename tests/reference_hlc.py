@@ -1,4 +1,6 @@
-"""Pure-numpy reference of the four high-level (HLC) tasks: heading, circling, throwing, scoring.
+"""Pure-numpy reference of the high-level (HLC) tasks: heading, circling, throwing, scoring, and
+ModSkill's steering (written from seed 001's supplementary "Steering" and the task's documented
+choices: a bounded velocity-error reward, the command turned into the heading frame).
 
 Written independently from the task description of the reference facts (section 8) and the
 skill observation of ``reference_env`` (section 4.1). Like ``reference_env`` it only reads a
@@ -26,13 +28,15 @@ from reference_common import BALL, heading_inverse_matrix
 
 STATE_OBS = 838                       # skill observation without the 64-wide one-hot
 TASKS = ("heading", "circling", "throwing", "scoring")
-TASK_OBS = {"heading": 4, "circling": 5, "throwing": 0, "scoring": 5}
+TASK_OBS = {"heading": 4, "circling": 5, "throwing": 0, "scoring": 5, "steering": 3}
 TERM_NAMES = {
     "heading": ["heading"],
     "circling": ["ring", "speed_gate", "circling"],
     "throwing": ["throwing"],
     "scoring": ["speed_gate", "basket", "bonus", "height", "scoring"],
+    "steering": ["steering"],
 }
+STEERING_ERROR_SCALE = 0.25
 GRAVITY = 9.8
 
 # defaults of the facts (section 8)
@@ -69,9 +73,14 @@ def loc_bearing(state, goal_xy):
 
 
 def task_observation(task, state, goal, reached=False):
-    """Task part of the HL observation. ``goal``: heading/scoring (gx, gy), circling (cx, cy, r)."""
+    """Task part of the HL observation. ``goal``: heading/scoring (gx, gy), circling (cx, cy, r),
+    steering (world direction x, y, speed m/s)."""
     if task == "throwing":
         return np.zeros(0)
+    if task == "steering":
+        hinv = heading_inverse_matrix(state["body_quat"][0])
+        d = hinv @ np.array([float(goal[0]), float(goal[1]), 0.0])
+        return np.array([d[0], d[1], float(goal[2])])
     loc, bearing = loc_bearing(state, goal[:2])
     if task == "heading":
         return np.concatenate([loc, bearing])
@@ -95,6 +104,14 @@ def observation(task, state, goal, reached=False):
 
 def _ball(state):
     return state["body_pos"][BALL], state["body_linvel"][BALL]
+
+
+def steering_terms(state, goal, k=STEERING_ERROR_SCALE):
+    """[exp(-k |speed * dir - v_root,xy|^2)]: the commanded planar velocity against the pelvis's
+    centre-of-mass velocity (world)."""
+    want = float(goal[2]) * np.array([float(goal[0]), float(goal[1])])
+    err = want - state["body_linvel"][0][:2]
+    return [math.exp(-k * float(err @ err))]
 
 
 def heading_terms(state, goal, mode="code"):

@@ -23,6 +23,7 @@ import mujoco as _mujoco  # noqa: E402,F401  (load libmujoco before the extensio
 
 from . import _core  # noqa: E402
 from ._core import ACT_DIM, BUILTIN_DEMO, FRAME_METRIC_NAMES, OBS_DIM, POLICY_FAMILIES, TASKS, TERM_NAMES, core_version  # noqa: E402
+from .motion import register_generator  # noqa: E402
 from .vec_env import VecEnv, load_config  # noqa: E402
 
 __version__ = core_version()
@@ -34,6 +35,7 @@ OBS_BLOCKS: dict[str, tuple[int, int]] = {name: (int(a), int(b)) for name, (a, b
 __all__ = [
     "VecEnv",
     "load_config",
+    "register_generator",
     "OBS_DIM",
     "OBS_BLOCKS",
     "ACT_DIM",

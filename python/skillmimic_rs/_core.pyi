@@ -7,6 +7,8 @@ import numpy.typing as npt
 
 OBS_DIM: int
 BUILTIN_DEMO: str
+CLIP_FORMAT: str
+CLIP_FORMAT_VERSION: int
 #: name -> (start, stop) of each block of the observation (Rust ``obs::BLOCKS``)
 OBS_BLOCKS: dict[str, tuple[int, int]]
 HUMANOID_DIM: int
@@ -213,6 +215,9 @@ def ppo_loss_and_grads(
 def init_policy(path: str, family: str, obs_dim: int, actions: tuple[str, int], hidden: list[int], seed: int = 0, overrides: list[str] = ...) -> None:
     """Write a freshly initialised policy checkpoint of ``family`` for ``("box", dim)`` or ``("discrete", n)`` actions;
     ``overrides`` are ``--set``-style assignments applied first (e.g. ``"ppo.modular.controller=[32]"``)."""
+
+def register_generator(name: str, callable: Callable[[str, str], object]) -> None:
+    """Register ``callable(failed_clip_path, out_dir)`` as the active-learning clip generator ``name`` of this process."""
 
 def transformer_encoder_layer(
     state_dict: dict[str, npt.NDArray[np.float32]], x: npt.NDArray[np.float32], num_heads: int, key_padding_mask: npt.NDArray[np.bool_] | None = None

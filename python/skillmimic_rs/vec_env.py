@@ -75,10 +75,13 @@ class VecEnv(gym.vector.VectorEnv):
             ``skillmimic_rs.TASKS``); the same as the config key ``task``.
         config: a dict of ``[env]`` config fields or a path to a TOML config file (CLI format).
             Unknown keys raise ``ValueError``.
-        llc: the skill policy checkpoint a high-level task (``"heading"``, ``"circling"``,
-            ``"throwing"``, ``"scoring"``) drives (the config key ``hlc.llc``). Their actions are
-            integer choices (``Discrete``); a step holds each for ``steps_per_action`` (3)
-            simulation steps.
+        llc: the frozen policy a high-level task (``"heading"``, ``"circling"``, ``"throwing"``,
+            ``"scoring"``, ``"steering"``) drives (the config key ``hlc.llc``). Over a
+            ``gaussian_mlp`` skill policy the actions are integer choices (``Discrete``), each
+            held for ``steps_per_action`` (3) simulation steps; over a ``modular_attention``
+            checkpoint (ModSkill skill reuse) they are one embedding per body part (``Box`` of
+            parts × embedding width), each projected onto the unit sphere and fed to that
+            part's frozen controller, held for ``hlc.latent_steps`` (1) steps.
         autoreset_mode: ``"same_step"`` (default) or ``"disabled"``.
         copy: return copies of the internal buffers (default, safe); ``False`` returns the
             buffers themselves, which the next call overwrites.

@@ -8,7 +8,7 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 use skillmimic_sim::{BallParams, HandModel, SceneOptions};
 
-pub use crate::config_hlc::{CirclingConfig, Formula, GoalSampling, HeadingConfig, HlcConfig, Prediction, ScoringConfig, ThrowingConfig};
+pub use crate::config_hlc::{CirclingConfig, Formula, GoalSampling, HeadingConfig, HlcConfig, Prediction, ScoringConfig, SteeringConfig, ThrowingConfig};
 pub use crate::config_tracking::TrackingConfig;
 pub use crate::config_v2::{AtsConfig, BridgeConfig, HistoryConfig, MaskedReward, NoiseEps, StfConfig, StgConfig, V2Config};
 pub use crate::error::ConfigError;
@@ -211,7 +211,7 @@ pub struct EnvConfig {
     pub v2: V2Config,
     /// Options of the `stand` task (the worked example of adding a task).
     pub stand: StandConfig,
-    /// Options shared by the high-level tasks (heading, circling, throwing, scoring).
+    /// Options shared by the high-level tasks (heading, circling, throwing, scoring, steering).
     pub hlc: HlcConfig,
     /// Options of the `heading` task.
     pub heading: HeadingConfig,
@@ -221,6 +221,8 @@ pub struct EnvConfig {
     pub throwing: ThrowingConfig,
     /// Options of the `scoring` task.
     pub scoring: ScoringConfig,
+    /// Options of the `steering` task (ModSkill's downstream task).
+    pub steering: SteeringConfig,
     /// Options of the `tracking` task (motion tracking without the ball; ModSkill).
     pub tracking: TrackingConfig,
 }
@@ -245,6 +247,7 @@ impl Default for EnvConfig {
             tracking: Default::default(),
             hlc: Default::default(),
             heading: Default::default(),
+            steering: Default::default(),
             circling: Default::default(),
             throwing: Default::default(),
             scoring: Default::default(),

@@ -25,12 +25,19 @@ pub enum Formula {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct HlcConfig {
-    /// The frozen skill policy (a `gaussian_mlp` checkpoint of `skillmimic train` on the
-    /// imitation task, observation 902; `--llc` on the command line). It is only read.
+    /// The frozen skill policy (`--llc` on the command line; only read): a `gaussian_mlp`
+    /// checkpoint of `skillmimic train` on the imitation task (observation 902) — the high-level
+    /// policy then picks one of the task's skills (discrete choices) — or a `modular_attention`
+    /// checkpoint (ModSkill skill reuse, seed 001 §3.5): the high-level policy's continuous action
+    /// is one embedding per body part that drives the checkpoint's frozen part controllers.
     #[schemars(extend("format" = "path"))]
     pub llc: PathBuf,
     /// Low-level steps each high-level choice is held for (3 = 20 Hz at the 60 Hz policy rate).
     pub llc_steps: usize,
+    /// Low-level steps each high-level action is held for when `llc` is a `modular_attention`
+    /// checkpoint (1: ModSkill's high-level policy gives the part embeddings at the controllers'
+    /// rate).
+    pub latent_steps: usize,
     /// Episode length in low-level steps; an episode is truncated after `episode_length − 1`
     /// steps (the released code resets when its progress counter reaches 799 with 800).
     pub episode_length: usize,
@@ -44,7 +51,7 @@ pub struct HlcConfig {
 
 impl Default for HlcConfig {
     fn default() -> Self {
-        Self { llc: PathBuf::new(), llc_steps: 3, episode_length: 800, termination_height: 0.25, start_frame: 2 }
+        Self { llc: PathBuf::new(), llc_steps: 3, latent_steps: 1, episode_length: 800, termination_height: 0.25, start_frame: 2 }
     }
 }
 
@@ -80,6 +87,39 @@ pub struct HeadingConfig {
 impl Default for HeadingConfig {
     fn default() -> Self {
         Self { goal_min: 2.0, goal_max: 8.0, goal_sampling: GoalSampling::Quadrant, target_height: 1.0, reward: Formula::Code, success_radius: 0.5 }
+    }
+}
+
+/// `steering`: move in a commanded direction at a commanded speed (`[env.steering]`; ModSkill
+/// supplementary "Steering", after ASE and PULSE).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct SteeringConfig {
+    /// Slowest commanded speed (m/s).
+    pub speed_min: f64,
+    /// Fastest commanded speed (m/s).
+    pub speed_max: f64,
+    /// Fewest low-level steps before a new direction and speed are drawn (200 = 3.3 s at 60 Hz).
+    pub change_steps_min: u32,
+    /// Most low-level steps before a new direction and speed are drawn (600 = 10 s).
+    pub change_steps_max: u32,
+    /// k in the reward exp(−k·‖v*·d − v_root,xy‖²) (1/(m/s)², ASE's velocity-error scale 0.25).
+    pub error_scale: f64,
+}
+
+impl Default for SteeringConfig {
+    fn default() -> Self {
+        Self { speed_min: 0.5, speed_max: 3.0, change_steps_min: 200, change_steps_max: 600, error_scale: 0.25 }
+    }
+}
+
+impl SteeringConfig {
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        range("env.steering.speed_min", self.speed_min, self.speed_max)?;
+        if self.change_steps_min == 0 || self.change_steps_min > self.change_steps_max {
+            return Err(bad("env.steering.change_steps_min", format!("[{}, {}] is not a range 1 <= min <= max", self.change_steps_min, self.change_steps_max)));
+        }
+        positive("env.steering.error_scale", self.error_scale)
     }
 }
 
@@ -211,6 +251,9 @@ impl HlcConfig {
         }
         if self.llc_steps == 0 {
             return Err(bad("env.hlc.llc_steps", "must be at least 1"));
+        }
+        if self.latent_steps == 0 {
+            return Err(bad("env.hlc.latent_steps", "must be at least 1"));
         }
         if self.episode_length < 2 {
             return Err(bad("env.hlc.episode_length", "must be at least 2 low-level steps"));

@@ -12,8 +12,9 @@ pub struct TaskEntry {
     pub name: &'static str,
     /// One line for listings.
     pub summary: &'static str,
-    /// A high-level task (discrete skill choices over a frozen skill policy): the learner then
-    /// defaults to the high-level controller's network and PPO settings.
+    /// A high-level task (over a frozen policy, `env.hlc.llc`: discrete skill choices, or part
+    /// embeddings for a modular checkpoint): the learner then defaults to the high-level
+    /// controller's network and PPO settings.
     pub high_level: bool,
     /// Skill label of each discrete choice of a high-level task (empty for the others).
     pub choices: &'static [u32],
@@ -31,6 +32,7 @@ pub const TASKS: &[TaskEntry] = &[
     TaskEntry { name: "circling", summary: "skill reuse: dribble around a point at a radius (frozen skill policy, --llc)", high_level: true, choices: tasks::hlc::circling::LABELS, build: tasks::hlc::circling::build },
     TaskEntry { name: "throwing", summary: "skill reuse: throw the ball up to 2.5 m and catch it (frozen skill policy, --llc)", high_level: true, choices: tasks::hlc::throwing::LABELS, build: tasks::hlc::throwing::build },
     TaskEntry { name: "scoring", summary: "skill reuse: dribble to a basket and score with layups (frozen skill policy, --llc)", high_level: true, choices: tasks::hlc::scoring::LABELS, build: tasks::hlc::scoring::build },
+    TaskEntry { name: "steering", summary: "skill reuse: move in a commanded direction at a commanded speed (ModSkill; skill or modular policy, --llc)", high_level: true, choices: tasks::hlc::steering::LABELS, build: tasks::hlc::steering::build },
 ];
 
 /// Registered task names.

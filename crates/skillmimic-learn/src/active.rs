@@ -10,16 +10,23 @@
 //! * Weights (`env.tracking.clip_weights`): a failed clip's multiplier is multiplied by
 //!   `failure_weight` each round it fails; generated clips start at 1.
 //! * Rejected clips are logged with the filter's reason and listed in the report.
+//! * Optional motion-prior filter (`disc_score_min` > 0, the released code's rule): the generated
+//!   clip is posed in the scene, its AMP features (`skillmimic_env::amp`) cut into every full
+//!   window (`ppo.amp.window` frames; a shorter clip gives one padded window), and the clip is
+//!   kept when the mean of sigmoid(D(window)) reaches the bound ([`disc_score`]).
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
-
-use rand::RngCore;
-use skillmimic_motion::Clip;
-use skillmimic_motion::library::find_clip_files;
-use rand::SeedableRng;
+use rand::{RngCore, SeedableRng};
+use skillmimic_env::amp::{FEATURE_DIM, clip_features, window};
 use skillmimic_motion::generate::{ExternalCommand, Generator, ModelFree, check_validity};
+use skillmimic_motion::library::find_clip_files;
+use skillmimic_motion::{Clip, MotionLibrary};
+use skillmimic_sim::Scene;
+
+use crate::amp::Discriminator;
 
 use crate::config::TrainConfig;
 pub use crate::config_active::ActiveConfig;
@@ -66,8 +73,28 @@ pub fn evaluate_clip(policy: &Policy, cfg: &TrainConfig, path: &Path) -> Result<
     Ok(false)
 }
 
-/// One round over the clips of `cfg.env.motion` (see the module doc).
-pub fn round(policy: &Policy, cfg: &TrainConfig, generator: &mut dyn Generator, a: &ActiveConfig, rng: &mut dyn RngCore) -> Result<RoundReport, LearnError> {
+/// The motion prior's score of a clip: mean of sigmoid(D) over its windows (module doc).
+pub fn disc_score(disc: &mut Discriminator, clip: &Clip, cfg: &TrainConfig) -> Result<f64, LearnError> {
+    let cfg_err = |e: String| LearnError::Config(format!("scoring clip '{}': {e}", clip.name));
+    let lib = MotionLibrary::from_clips(vec![clip.clone()]).map_err(|e| cfg_err(e.to_string()))?;
+    let scene = Arc::new(Scene::new(cfg.env.scene_options().map_err(|e| cfg_err(e.to_string()))?).map_err(|e| cfg_err(e.to_string()))?);
+    let feats = clip_features(scene, &lib).map_err(|e| cfg_err(e.to_string()))?.remove(0);
+    let (k, t) = (cfg.ppo.amp.window, clip.num_frames);
+    let ends: Vec<usize> = if t >= k { (k - 1..t).collect() } else { vec![t - 1] };
+    let mut x = vec![0.0f32; ends.len() * k * FEATURE_DIM];
+    for (row, &end) in x.chunks_exact_mut(k * FEATURE_DIM).zip(&ends) {
+        window(&feats, end, k, row);
+    }
+    let logits = disc.logits(&x, ends.len());
+    Ok(logits.iter().map(|&l| 1.0 / (1.0 + (-(l as f64)).exp())).sum::<f64>() / ends.len() as f64)
+}
+
+/// One round over the clips of `cfg.env.motion` (see the module doc); `disc` = the run's motion
+/// prior (needed when `a.disc_score_min` > 0).
+pub fn round(policy: &Policy, cfg: &TrainConfig, generator: &mut dyn Generator, a: &ActiveConfig, mut disc: Option<&mut Discriminator>, rng: &mut dyn RngCore) -> Result<RoundReport, LearnError> {
+    if a.disc_score_min > 0.0 && disc.is_none() {
+        return Err(LearnError::Config("config field 'run.active.disc_score_min': the discriminator filter needs the motion prior (--set ppo.amp.enabled=true)".into()));
+    }
     let mut files = Vec::new();
     for p in cfg.env.motion.iter().filter(|p| p.as_os_str() != skillmimic_env::BUILTIN_DEMO) {
         files.extend(find_clip_files(p).map_err(|e| LearnError::Config(e.to_string()))?);
@@ -86,10 +113,19 @@ pub fn round(policy: &Policy, cfg: &TrainConfig, generator: &mut dyn Generator, 
         let made = generator.generate(c, &clips, rng).map_err(|e| LearnError::Config(e.to_string()))?;
         tracing::info!("active learning: '{}' failed; {} made {} clip(s)", c.name, generator.name(), made.len());
         for g in made {
-            match check_validity(&g, a.floor_tol, a.max_joint_speed) {
+            let mut verdict = check_validity(&g, a.floor_tol, a.max_joint_speed).map_err(|why| why.to_string());
+            if let (Ok(()), Some(d)) = (&verdict, disc.as_deref_mut())
+                && a.disc_score_min > 0.0
+            {
+                let score = disc_score(d, &g, cfg)?;
+                if score < a.disc_score_min {
+                    verdict = Err(format!("clip '{}': motion-prior score {score:.3} is below run.active.disc_score_min = {}", g.name, a.disc_score_min));
+                }
+            }
+            match verdict {
                 Err(why) => {
                     tracing::info!("active learning: rejected {why}");
-                    r.rejected.push((g.name.clone(), why.to_string()));
+                    r.rejected.push((g.name.clone(), why));
                 }
                 Ok(()) => {
                     let file = dir.join(format!("{}.safetensors", g.name));
@@ -106,7 +142,10 @@ pub fn round(policy: &Policy, cfg: &TrainConfig, generator: &mut dyn Generator, 
 pub fn generator(a: &ActiveConfig, work_dir: &Path) -> Box<dyn Generator> {
     match a.generator.as_str() {
         "command" => Box::new(ExternalCommand::new(PathBuf::from(&a.command[0]), a.command[1..].to_vec(), work_dir.to_path_buf())),
-        _ => Box::new(ModelFree::default()),
+        name => match skillmimic_motion::generate::registered(name) {
+            Some(factory) => factory(work_dir),
+            None => Box::new(ModelFree::default()),
+        },
     }
 }
 
@@ -117,7 +156,7 @@ pub fn train_round(t: &mut Trainer) -> Result<RoundReport, LearnError> {
     let out = t.cfg.run.out_dir.clone();
     let mut g = generator(&a, &out.join("generator_work"));
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(t.cfg.run.seed ^ t.progress.iteration.wrapping_mul(0x9e37_79b9_7f4a_7c15));
-    let report = round(&t.policy, &t.cfg, g.as_mut(), &a, &mut rng)?;
+    let report = round(&t.policy, &t.cfg, g.as_mut(), &a, t.amp.as_mut().map(|x| &mut x.disc), &mut rng)?;
     apply(t, &report)?;
     let path = out.join("active.jsonl");
     let line = serde_json::json!({"iteration": t.progress.iteration, "report": &report});

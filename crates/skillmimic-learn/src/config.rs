@@ -310,8 +310,15 @@ impl TrainConfig {
     /// minibatch 32 768 (16 384) in the original. Horizon 32, 6 mini-epochs, lr 2e-5, γ 0.99,
     /// λ 0.95, clip 0.2 and critic coefficient 5 are the skill policy's defaults already; the
     /// categorical loss has no bounds term.
+    ///
+    /// Over a `modular_attention` checkpoint (ModSkill skill reuse, continuous part embeddings)
+    /// the family stays `gaussian_mlp` — the paper's high-level policy is a Gaussian with fixed
+    /// σ — with the same hidden widths and minibatches on CPU (the paper's MLP is
+    /// [2048, 1024, 512]: `--set 'ppo.hidden=[2048, 1024, 512]'`). An unreadable `env.hlc.llc`
+    /// is reported when the environment is built.
     pub fn use_high_level_defaults(&mut self) {
-        self.ppo.policy = "categorical_mlp".into();
+        let latent = skillmimic_nn::frozen_parts::policy_family(&self.env.hlc.llc).ok().flatten().as_deref() == Some("modular_attention");
+        self.ppo.policy = if latent { "gaussian_mlp" } else { "categorical_mlp" }.into();
         if self.ppo.hidden == PpoConfig::default().hidden {
             self.ppo.hidden = vec![1024, 512];
         }
@@ -374,6 +381,9 @@ impl TrainConfig {
     pub fn validate(&self) -> Result<(), LearnError> {
         self.env.validate().map_err(|e| LearnError::Config(e.to_string()))?;
         self.run.active.validate(&self.env.task).map_err(LearnError::Config)?;
+        if self.run.active.enabled && self.run.active.disc_score_min > 0.0 && !self.ppo.amp.enabled {
+            return Err(LearnError::Config("config field 'run.active.disc_score_min': the discriminator filter needs the motion prior (--set ppo.amp.enabled=true)".into()));
+        }
         let p = &self.ppo;
         if p.hidden.is_empty() || p.hidden.contains(&0) {
             return Err(LearnError::Config("config field 'ppo.hidden': needs at least one non-zero layer width".into()));

@@ -71,7 +71,7 @@ fn a_failed_clip_gets_generated_clips_and_more_weight() {
     let before = probabilities(&t);
     let seen = Arc::new(Mutex::new(Vec::new()));
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0);
-    let report = round(&t.policy, &t.cfg, &mut Probe(seen.clone()), &ActiveConfig::default(), &mut rng).unwrap();
+    let report = round(&t.policy, &t.cfg, &mut Probe(seen.clone()), &ActiveConfig::default(), None, &mut rng).unwrap();
     println!("{report:?}");
     assert_eq!(report.evaluated, 3);
     assert_eq!(report.failed, vec!["052_lifted".to_string()]);
@@ -121,5 +121,76 @@ fn training_runs_rounds_with_the_model_free_generator() {
     bad.env.task = "imitation".into();
     let err = Trainer::new(bad, None).err().unwrap().to_string();
     assert!(err.contains("run.active.enabled") && err.contains("tracking"), "{err}");
+    std::fs::remove_dir_all(&root).ok();
+}
+
+/// The optional motion-prior filter (`run.active.disc_score_min`, the released code's rule): the
+/// score is the mean sigmoid(D) over the clip's windows; a discriminator biased towards "fake"
+/// rejects the valid generated clips with the score in the reason, one biased towards "real" keeps
+/// them; an end-to-end run with the prior enabled applies it.
+#[test]
+fn the_discriminator_filter_scores_generated_clips() {
+    use skillmimic_env::amp::{FEATURE_DIM, clip_features};
+    let root = std::env::temp_dir().join(format!("sm-active-disc-{}", std::process::id()));
+    let mut cfg = TrainConfig::preset("tiny").unwrap();
+    cfg.env.task = "tracking".into();
+    cfg.env.motion = vec![std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../motions")];
+    cfg.env.num_envs = 8;
+    cfg.env.threads = 1;
+    cfg.env.tracking.success_distance = 0.02; // every clip fails
+    cfg.ppo.hidden = vec![32];
+    cfg.ppo.amp.enabled = true;
+    cfg.ppo.amp.hidden = vec![16];
+    cfg.run.out_dir = root.clone();
+    let t = Trainer::new(cfg.clone(), None).unwrap();
+    let mut disc = t.amp.as_ref().unwrap().disc.clone();
+    // the score against windows cut by hand from the posed clip's features
+    let clip = Clip::load(&skillmimic_motion::library::find_clip_files(&cfg.env.motion[0]).unwrap()[0]).unwrap();
+    let lib = skillmimic_motion::MotionLibrary::from_clips(vec![clip.clone()]).unwrap();
+    let scene = std::sync::Arc::new(skillmimic_sim::Scene::new(cfg.env.scene_options().unwrap()).unwrap());
+    let f = clip_features(scene, &lib).unwrap().remove(0);
+    let k = cfg.ppo.amp.window;
+    let mut want = 0.0;
+    for end in k - 1..clip.num_frames {
+        let x: Vec<f32> = f[(end + 1 - k) * FEATURE_DIM..(end + 1) * FEATURE_DIM].to_vec();
+        let l = disc.logits(&x, 1)[0] as f64;
+        want += 1.0 / (1.0 + (-l).exp());
+    }
+    want /= (clip.num_frames + 1 - k) as f64;
+    let got = skillmimic_learn::active::disc_score(&mut disc, &clip, &cfg).unwrap();
+    assert!((got - want).abs() < 1e-9, "{got} vs {want}");
+
+    let a = ActiveConfig { disc_score_min: 0.5, ..ActiveConfig::default() };
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0);
+    let last = disc.mlp.biases.len() - 1;
+    disc.mlp.biases[last][0] = -50.0;
+    let mut model_free = skillmimic_motion::generate::ModelFree::default();
+    let fake = round(&t.policy, &t.cfg, &mut model_free, &a, Some(&mut disc), &mut rng).unwrap();
+    assert!(fake.accepted.is_empty() && !fake.rejected.is_empty());
+    assert!(fake.rejected.iter().all(|(_, why)| why.contains("motion-prior score")), "{:?}", fake.rejected);
+    disc.mlp.biases[last][0] = 50.0;
+    let real = round(&t.policy, &t.cfg, &mut model_free, &a, Some(&mut disc), &mut rng).unwrap();
+    assert_eq!(real.accepted.len(), fake.rejected.len(), "the same clips pass a discriminator that calls everything real");
+    let err = round(&t.policy, &t.cfg, &mut model_free, &a, None, &mut rng).err().unwrap().to_string();
+    assert!(err.contains("disc_score_min") && err.contains("ppo.amp.enabled"), "{err}");
+    // configuration: the filter needs the prior
+    let mut bad = cfg.clone();
+    bad.run.active.enabled = true;
+    bad.run.active.disc_score_min = 0.5;
+    bad.ppo.amp.enabled = false;
+    let err = Trainer::new(bad, None).err().unwrap().to_string();
+    assert!(err.contains("run.active.disc_score_min"), "{err}");
+    // end to end: a run with the prior and the filter
+    let mut run = cfg.clone();
+    run.run.iterations = 2;
+    run.run.active.enabled = true;
+    run.run.active.every = 1;
+    run.run.active.disc_score_min = 0.5;
+    let mut t = Trainer::new(run, None).unwrap();
+    skillmimic_learn::runner::train_loop(&mut t, |_| {}).unwrap();
+    let log = std::fs::read_to_string(root.join("active.jsonl")).unwrap();
+    let first: serde_json::Value = serde_json::from_str(log.lines().next().unwrap()).unwrap();
+    let n = first["report"]["accepted"].as_array().unwrap().len() + first["report"]["rejected"].as_array().unwrap().len();
+    assert!(n >= 2, "{first}");
     std::fs::remove_dir_all(&root).ok();
 }

@@ -10,6 +10,8 @@
 //!   (left ↔ right) and time warping.
 //! * [`ExternalCommand`]: any program (e.g. a wrapper around MDM): it receives the failed clip as
 //!   a project-format file and an empty output folder, and writes new clips there.
+//! * [`Callback`]: a function with the same folder protocol; with [`register`] a named generator
+//!   of this process (`run.active.generator = "<name>"`) — how a Python callable plugs in.
 //! * [`check_validity`]: no body frame below the floor, joint angular speeds within a bound, all
 //!   values finite.
 //!
@@ -228,19 +230,84 @@ impl Generator for ExternalCommand {
     }
     fn generate(&mut self, failed: &Clip, _library: &[Clip], _rng: &mut dyn RngCore) -> Result<Vec<Clip>, GenError> {
         self.calls += 1;
-        let name = self.name();
-        let fail = |detail: String| GenError::Failed { name: name.clone(), detail };
-        let dir = self.work_dir.join(format!("call_{:05}", self.calls));
-        let out = dir.join("out");
-        std::fs::create_dir_all(&out).map_err(|e| fail(format!("cannot create {}: {e}", out.display())))?;
-        let input = dir.join("failed.safetensors");
-        failed.save(&input).map_err(|e| fail(format!("cannot write {}: {e}", input.display())))?;
-        let status = std::process::Command::new(&self.program).args(&self.args).arg(&input).arg(&out).status().map_err(|e| fail(format!("cannot start: {e}")))?;
-        if !status.success() {
-            return Err(fail(format!("exited with {status}")));
-        }
-        read_clips(&out).map_err(fail)
+        let (program, args) = (&self.program, &self.args);
+        through_folder(&self.name(), &self.work_dir, self.calls, failed, |input, out| {
+            let status = std::process::Command::new(program).args(args).arg(input).arg(out).status().map_err(|e| format!("cannot start: {e}"))?;
+            if status.success() { Ok(()) } else { Err(format!("exited with {status}")) }
+        })
     }
+}
+
+/// The folder protocol shared by [`ExternalCommand`] and [`Callback`]: `failed` is written to
+/// `<work_dir>/call_<call>/failed.safetensors`, `run(input, out)` writes clips into the empty
+/// folder `<work_dir>/call_<call>/out`, and every `*.safetensors` clip there is read back
+/// (project format, validated by [`Clip::load`]).
+fn through_folder(name: &str, work_dir: &Path, call: usize, failed: &Clip, run: impl FnOnce(&Path, &Path) -> Result<(), String>) -> Result<Vec<Clip>, GenError> {
+    let fail = |detail: String| GenError::Failed { name: name.to_string(), detail };
+    let dir = work_dir.join(format!("call_{call:05}"));
+    let out = dir.join("out");
+    std::fs::create_dir_all(&out).map_err(|e| fail(format!("cannot create {}: {e}", out.display())))?;
+    let input = dir.join("failed.safetensors");
+    failed.save(&input).map_err(|e| fail(format!("cannot write {}: {e}", input.display())))?;
+    run(&input, &out).map_err(&fail)?;
+    read_clips(&out).map_err(fail)
+}
+
+/// The folder function of a [`Callback`]: (failed clip file, output folder) → Ok, or an error text.
+pub type FolderFn = Box<dyn FnMut(&Path, &Path) -> Result<(), String> + Send>;
+
+/// A generator that is a function following the folder protocol of [`ExternalCommand`] — how a
+/// Python callable plugs in (`skillmimic_rs.register_generator`).
+pub struct Callback {
+    pub label: String,
+    pub work_dir: PathBuf,
+    calls: usize,
+    f: FolderFn,
+}
+
+impl Callback {
+    pub fn new(label: String, work_dir: PathBuf, f: FolderFn) -> Self {
+        Self { label, work_dir, calls: 0, f }
+    }
+}
+
+impl Generator for Callback {
+    fn name(&self) -> String {
+        self.label.clone()
+    }
+    fn generate(&mut self, failed: &Clip, _library: &[Clip], _rng: &mut dyn RngCore) -> Result<Vec<Clip>, GenError> {
+        self.calls += 1;
+        let f = &mut self.f;
+        through_folder(&self.label, &self.work_dir, self.calls, failed, |input, out| f(input, out))
+    }
+}
+
+/// Makes a registered generator for a run (argument: the run's scratch folder for generators).
+pub type Factory = std::sync::Arc<dyn Fn(&Path) -> Box<dyn Generator> + Send + Sync>;
+
+static REGISTRY: std::sync::Mutex<std::collections::BTreeMap<String, Factory>> = std::sync::Mutex::new(std::collections::BTreeMap::new());
+
+/// Names `run.active.generator` takes without registration.
+pub const BUILT_IN: [&str; 2] = ["model_free", "command"];
+
+/// Register a generator under `name` for this process (`run.active.generator = "<name>"`); a
+/// second registration of a name replaces the first. The built-in names cannot be taken.
+pub fn register(name: &str, factory: Factory) -> Result<(), String> {
+    if BUILT_IN.contains(&name) || name.is_empty() {
+        return Err(format!("generator name '{name}' is built in or empty; choose another"));
+    }
+    REGISTRY.lock().unwrap_or_else(|e| e.into_inner()).insert(name.to_string(), factory);
+    Ok(())
+}
+
+/// The factory registered under `name`.
+pub fn registered(name: &str) -> Option<Factory> {
+    REGISTRY.lock().unwrap_or_else(|e| e.into_inner()).get(name).cloned()
+}
+
+/// Registered names, sorted.
+pub fn registered_names() -> Vec<String> {
+    REGISTRY.lock().unwrap_or_else(|e| e.into_inner()).keys().cloned().collect()
 }
 
 /// Every project-format clip in `dir` (sorted by name).

@@ -6,6 +6,7 @@
 //! * [`mlp`]: Linear+ReLU MLPs with fast batched CPU inference ([`kernel`]: small-batch kernels);
 //! * [`normalizer`]: running mean/std normalisers (observations, values);
 //! * [`frozen`]: a frozen skill policy's deterministic actor with its normaliser (high-level tasks);
+//! * [`frozen_parts`]: the frozen part controllers of a modular checkpoint (ModSkill skill reuse);
 //! * [`history`]: the SkillMimic-V2 history encoder (candle forward, plain pass, online buffer);
 //! * [`modular`]: ModSkill's modular attention actor (per-part tokens, attention, controllers);
 //! * [`attention`]: multi-head attention and a transformer encoder layer (candle-nn), with the
@@ -13,6 +14,7 @@
 
 pub mod attention;
 pub mod frozen;
+pub mod frozen_parts;
 pub mod history;
 pub mod kernel;
 pub mod mlp;

@@ -82,6 +82,35 @@ fn linear<R: Rng + ?Sized>(inp: usize, out: usize, rng: &mut R) -> Mlp {
     Mlp::from_parts(vec![inp, out], vec![w], vec![bias])
 }
 
+/// Project an embedding onto the unit sphere in place: z / max(‖z‖, 1e-12) (`F.normalize`).
+pub fn unit_sphere(z: &mut [f32]) {
+    let norm = z.iter().map(|v| v * v).sum::<f32>().sqrt().max(1e-12);
+    z.iter_mut().for_each(|v| *v /= norm);
+}
+
+/// Write the rows of `y` (`n × cols.len()`) into the columns `cols` of the rows of `out`
+/// (`n × width`).
+pub fn scatter_columns(y: &[f32], cols: &[usize], out: &mut [f32], width: usize) {
+    for (orow, yrow) in out.chunks_exact_mut(width).zip(y.chunks_exact(cols.len())) {
+        for (&c, &v) in cols.iter().zip(yrow) {
+            orow[c] = v;
+        }
+    }
+}
+
+/// The network description stored in a checkpoint's metadata `actor_net` (JSON): the shape and,
+/// per part, (name, observation columns, action columns).
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct ModularSpec {
+    pub embed: usize,
+    pub proj_hidden: usize,
+    pub heads: usize,
+    pub scaled: bool,
+    pub controller: Vec<usize>,
+    /// (name, observation columns, action columns) per part.
+    pub parts: Vec<(String, Vec<usize>, Vec<usize>)>,
+}
+
 impl ModularAttention {
     /// A new network: part k reads `parts[k].1` and writes `parts[k].2`. Projections get PyTorch's
     /// `nn.Linear` initialisation, controllers the policy MLPs' (U(±1/√fan_in) weights, zero
@@ -202,20 +231,13 @@ impl ModularAttention {
                         }
                     }
                 }
-                let zi = &mut ws.z[i][r * e..(r + 1) * e];
-                let norm = zi.iter().map(|v| v * v).sum::<f32>().sqrt().max(1e-12);
-                zi.iter_mut().for_each(|v| *v /= norm);
+                unit_sphere(&mut ws.z[i][r * e..(r + 1) * e]);
             }
         }
         ws.out.resize(n * self.act_dim, 0.0);
         for (k, p) in self.parts.iter().enumerate() {
             let y = p.controller.forward_into(&ws.z[k], n, &mut ws.ws[7 * k + 6], threads);
-            let a = p.outputs.len();
-            for (orow, yrow) in ws.out.chunks_exact_mut(self.act_dim).zip(y.chunks_exact(a)) {
-                for (&c, &v) in p.outputs.iter().zip(yrow) {
-                    orow[c] = v;
-                }
-            }
+            scatter_columns(y, &p.outputs, &mut ws.out, self.act_dim);
         }
         &ws.out[..n * self.act_dim]
     }

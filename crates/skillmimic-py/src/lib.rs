@@ -10,13 +10,15 @@ use pyo3::prelude::*;
 mod consts;
 mod convert;
 mod env;
+mod generator;
 mod learner;
 mod nn;
 mod train;
 
 // env.rs: the batched environment; learner.rs: policy inference, normaliser, PPO loss; train.rs: the
 // trainer (one process or one rank of a data-parallel run); nn.rs: network blocks; consts.rs: tables;
-// convert.rs: argument checks and array helpers shared by them
+// convert.rs: argument checks and array helpers shared by them; generator.rs: Python clip
+// generators of active skill learning
 
 /// Version of the Rust core.
 #[pyfunction]
@@ -35,6 +37,9 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(learner::ppo_loss_and_grads, m)?)?;
     m.add_function(wrap_pyfunction!(learner::init_policy, m)?)?;
     m.add_function(wrap_pyfunction!(nn::transformer_encoder_layer, m)?)?;
+    m.add_function(wrap_pyfunction!(generator::register_generator, m)?)?;
+    m.add("CLIP_FORMAT", skillmimic_motion::format::FORMAT_NAME)?;
+    m.add("CLIP_FORMAT_VERSION", skillmimic_motion::format::FORMAT_VERSION)?;
     m.add("OBS_DIM", skillmimic_env::obs::layout::OBS_DIM)?;
     m.add("BUILTIN_DEMO", skillmimic_env::BUILTIN_DEMO)?;
     consts::register(m)?;

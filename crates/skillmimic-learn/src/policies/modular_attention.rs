@@ -23,7 +23,6 @@
 
 use candle_core::Tensor;
 use rand::RngCore;
-use serde::{Deserialize, Serialize};
 use skillmimic_core::skeleton::{BODIES, FINGERTIPS, dof_range};
 use skillmimic_env::ActionSpace;
 use skillmimic_env::obs::layout;
@@ -35,17 +34,9 @@ use crate::actor::ActorNet;
 use crate::config::{ModularConfig, PpoConfig};
 use crate::error::LearnError;
 
-/// The network description stored in a checkpoint's metadata `actor_net`.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct ModularSpec {
-    pub embed: usize,
-    pub proj_hidden: usize,
-    pub heads: usize,
-    pub scaled: bool,
-    pub controller: Vec<usize>,
-    /// (name, observation columns, action columns) per part.
-    pub parts: Vec<(String, Vec<usize>, Vec<usize>)>,
-}
+/// The network description stored in a checkpoint's metadata `actor_net` (defined below the
+/// environment, where the frozen part controllers of skill reuse read it).
+pub use skillmimic_nn::modular::ModularSpec;
 
 /// Bodies of each part of a split (`five` / `seven`; `skillmimic_core::skeleton::body_parts`).
 pub fn part_bodies(split: &str) -> Result<Vec<(&'static str, Vec<usize>)>, LearnError> {

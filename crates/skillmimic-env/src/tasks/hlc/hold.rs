@@ -99,8 +99,8 @@ impl<R: Rule> Env for HoldEnv<R> {
 
     fn step(&mut self, actions: &[f32]) -> Result<(), EnvError> {
         let n = self.num_envs();
-        if actions.len() != n {
-            return Err(EnvError::ActionShape { expected: n, got: actions.len() });
+        if actions.len() != n * self.spec.act_dim() {
+            return Err(EnvError::ActionShape { expected: n * self.spec.act_dim(), got: actions.len() });
         }
         let (d, nt, ni, nm) = (self.spec.obs_dim, self.spec.term_names.len(), self.spec.info_names.len(), self.spec.metric_names.len());
         self.counted.fill(0);

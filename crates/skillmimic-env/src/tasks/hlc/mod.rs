@@ -1,12 +1,18 @@
 //! Skill reuse: the high-level tasks of SkillMimic (seed 000 §5.4, reference-facts §8) over a
 //! frozen skill policy.
 //!
-//! Mechanics (shared by every task, [`HighLevel`]): each high-level step the policy picks one of
-//! the task's `n` choices; the task's table maps it to a skill label; the skill policy's
-//! observation is the state part of the observation (entries 0..838, `obs::layout`) followed by
-//! the 64-wide one-hot of that label; the frozen policy (its own normaliser, deterministic mean,
-//! clamped to [−1, 1]) gives the PD targets. [`hold::HoldEnv`] holds the choice for
-//! `llc_steps` (3) low-level steps: the high-level reward is the mean of the low-level task
+//! Mechanics (shared by every task, [`HighLevel`]), by the kind of frozen policy `env.hlc.llc`:
+//! * a `gaussian_mlp` skill policy (SkillMimic): each high-level step the policy picks one of the
+//!   task's `n` choices (discrete action); the task's table maps it to a skill label; the skill
+//!   policy's observation is the state part of the observation (entries 0..838, `obs::layout`)
+//!   followed by the 64-wide one-hot of that label; the frozen policy (its own normaliser,
+//!   deterministic mean, clamped to [−1, 1]) gives the PD targets; held for `llc_steps` (3);
+//! * a `modular_attention` checkpoint (ModSkill skill reuse, seed 001 §3.5): the action is
+//!   continuous, one E-wide embedding per body part (P·E = 5·64 = 320 by default), each projected
+//!   onto the unit sphere and fed to that part's frozen controller
+//!   ([`skillmimic_nn::frozen_parts`]); held for `latent_steps` (1).
+//!
+//! [`hold::HoldEnv`] holds the action for those low-level steps: the high-level reward is the mean of the low-level task
 //! rewards, done if any low-level step is done. An environment that finishes inside the
 //! 3 steps ends its transition there (reward = mean over the steps up to and including the
 //! finishing one, its terminal observation kept); the remaining low-level steps of that
@@ -31,6 +37,7 @@ pub mod circling;
 pub mod heading;
 pub mod hold;
 pub mod scoring;
+pub mod steering;
 pub mod throwing;
 
 use std::sync::Arc;
@@ -40,6 +47,7 @@ use skillmimic_core::math::{Quat, heading_inverse};
 use skillmimic_core::skeleton::NUM_DOFS;
 use skillmimic_motion::{MotionLibrary, SKILL_WIDTH};
 use skillmimic_nn::frozen::FrozenActor;
+use skillmimic_nn::frozen_parts::{FrozenParts, policy_family};
 use skillmimic_sim::{BALL, EnvState, ResetState, Scene};
 
 use crate::config::EnvConfig;
@@ -75,6 +83,19 @@ pub struct Goal {
     /// height since.
     pub throw_step: Option<u32>,
     pub dropped: bool,
+    /// Steering: commanded speed (m/s; the direction is `xy`), the low-level step of the next
+    /// command and the episode's seed for the redraws.
+    pub speed: f64,
+    pub next_change: u32,
+    pub seed: u64,
+}
+
+/// The frozen policy a high-level task drives (see the module doc).
+pub enum Driver {
+    /// Discrete skill choices over a `gaussian_mlp` skill policy.
+    Skills(FrozenActor),
+    /// Part embeddings over the part controllers of a `modular_attention` checkpoint.
+    Parts(FrozenParts),
 }
 
 /// What a high-level task defines (the mechanics are [`HighLevel`]'s).
@@ -150,7 +171,7 @@ pub struct HighLevel<R: Rule> {
     cfg: crate::config::HlcConfig,
     lib: Arc<MotionLibrary>,
     spec: TaskSpec,
-    llc: FrozenActor,
+    driver: Driver,
     threads: usize,
     ball_radius: f64,
     /// `N × 902` skill-policy observations of the last low-level step.
@@ -160,22 +181,27 @@ pub struct HighLevel<R: Rule> {
 }
 
 impl<R: Rule> HighLevel<R> {
-    /// The task over `lib` with the frozen skill policy loaded from `cfg.hlc.llc`.
+    /// The task over `lib` with the frozen policy loaded from `cfg.hlc.llc` (a skill policy or
+    /// the part controllers of a modular checkpoint, by its `policy` metadata).
     pub fn new(rule: R, cfg: &EnvConfig, lib: Arc<MotionLibrary>, ball_radius: f64) -> Result<Self, EnvError> {
         let h = &cfg.hlc;
-        let llc = FrozenActor::load(&h.llc)?;
-        if llc.obs_dim() != layout::OBS_DIM || llc.act_dim() != NUM_DOFS {
+        let driver = if policy_family(&h.llc)?.as_deref() == Some("modular_attention") { Driver::Parts(FrozenParts::load(&h.llc)?) } else { Driver::Skills(FrozenActor::load(&h.llc)?) };
+        let (trained_config, (obs_dim, act_dim)) = match &driver {
+            Driver::Skills(a) => (&a.config, (a.obs_dim(), a.act_dim())),
+            Driver::Parts(p) => (&p.config, (layout::OBS_DIM, p.act_dim)),
+        };
+        if obs_dim != layout::OBS_DIM || act_dim != NUM_DOFS {
             let msg = format!(
                 "{}: a skill policy for observations of {} and actions of {}; the high-level tasks drive a SkillMimic skill policy with observation {} and {NUM_DOFS} actions (SkillMimic-V2 policies with a history embedding are not supported here)",
                 h.llc.display(),
-                llc.obs_dim(),
-                llc.act_dim(),
+                obs_dim,
+                act_dim,
                 layout::OBS_DIM
             );
             return Err(bad("env.hlc.llc", msg).into());
         }
         // the humanoid must be the one the skill policy was trained on
-        let trained: Option<toml::Table> = toml::from_str(&llc.config).ok();
+        let trained: Option<toml::Table> = toml::from_str(trained_config).ok();
         let hands = trained.as_ref().and_then(|t| t.get("env")?.get("hands")?.as_str().map(str::to_string));
         if let Some(hands) = hands
             && hands != cfg.hands
@@ -183,27 +209,38 @@ impl<R: Rule> HighLevel<R> {
             let msg = format!("the skill policy {} was trained with hands = \"{hands}\"; set env.hands = \"{hands}\" (--set env.hands={hands})", h.llc.display());
             return Err(bad("env.hands", msg).into());
         }
-        let n = rule.labels().len();
+        let (action_space, choice_labels) = match &driver {
+            Driver::Skills(_) => (ActionSpace::Discrete { n: rule.labels().len() }, rule.labels().to_vec()),
+            Driver::Parts(p) => (ActionSpace::Box { dim: p.latent_dim() }, Vec::new()),
+        };
         let spec = TaskSpec {
             name: R::NAME,
             obs_dim: layout::STATE_DIM + rule.task_obs_dim(),
-            action_space: ActionSpace::Discrete { n },
+            action_space,
             max_episode_steps: h.episode_length - 1,
             term_names: rule.term_names(),
             metric_names: rule.metric_names(),
             info_names: rule.info_names().iter().map(|s| s.to_string()).collect(),
             steps_per_action: 1,
-            choice_labels: rule.labels().to_vec(),
+            choice_labels,
         };
         let threads = if cfg.threads == 0 { rayon::current_num_threads() } else { cfg.threads };
-        Ok(Self { rule, cfg: h.clone(), lib, spec, llc, threads, ball_radius, llc_obs: Vec::new(), skills: vec![0; cfg.num_envs] })
+        Ok(Self { rule, cfg: h.clone(), lib, spec, driver, threads, ball_radius, llc_obs: Vec::new(), skills: vec![0; cfg.num_envs] })
     }
 
-    /// The frozen skill policy.
-    pub fn llc(&self) -> &FrozenActor {
-        &self.llc
+    /// The frozen policy.
+    pub fn driver(&self) -> &Driver {
+        &self.driver
     }
-    /// `N × 902` skill-policy observations of the last low-level step.
+    /// Whether the action is part embeddings (a modular checkpoint) rather than skill choices.
+    pub fn is_latent(&self) -> bool {
+        matches!(self.driver, Driver::Parts(_))
+    }
+    /// Low-level steps each high-level action is held for (`llc_steps` or `latent_steps`).
+    pub fn hold_steps(&self) -> usize {
+        if self.is_latent() { self.cfg.latent_steps } else { self.cfg.llc_steps }
+    }
+    /// `N × 902` skill-policy observations of the last low-level step (skill choices only).
     pub fn llc_observations(&self) -> &[f32] {
         &self.llc_obs
     }
@@ -258,8 +295,17 @@ impl<R: Rule> Task for HighLevel<R> {
         true
     }
 
-    /// Choice → skill label → the frozen skill policy's PD targets.
+    /// Choice → skill label → the frozen skill policy's PD targets; or part embeddings → the
+    /// frozen part controllers' PD targets.
     fn actions_to_targets(&mut self, _slots: &[HlSlot], obs: &[f32], actions: &[f32], targets: &mut [f32]) -> Result<(), EnvError> {
+        let llc = match &mut self.driver {
+            Driver::Parts(p) => {
+                let n = actions.len() / p.latent_dim();
+                p.act(actions, n, self.threads, targets);
+                return Ok(());
+            }
+            Driver::Skills(a) => a,
+        };
         let (n, d, labels) = (actions.len(), self.spec.obs_dim, self.rule.labels());
         self.llc_obs.resize(n * layout::OBS_DIM, 0.0);
         self.skills.resize(n, 0);
@@ -273,7 +319,7 @@ impl<R: Rule> Task for HighLevel<R> {
             write_skill(self.skills[i], &mut row[layout::SKILL]);
         }
         debug_assert_eq!(layout::SKILL.len(), SKILL_WIDTH);
-        self.llc.act(&self.llc_obs, n, self.threads, targets);
+        llc.act(&self.llc_obs, n, self.threads, targets);
         Ok(())
     }
 }
@@ -289,6 +335,7 @@ pub fn build<R: Rule>(cfg: &EnvConfig, rule: R) -> Result<Box<dyn Env>, EnvError
     let scene = Arc::new(Scene::new(cfg.scene_options()?)?);
     let ball_radius = scene.options().ball.radius;
     let task = HighLevel::new(rule, cfg, lib, ball_radius)?;
+    let hold = task.hold_steps();
     let inner = VecEnv::with_task(task, scene, cfg.num_envs, cfg.threads, cfg.start_seed(0))?;
-    Ok(Box::new(HoldEnv::new(inner, cfg.hlc.llc_steps)))
+    Ok(Box::new(HoldEnv::new(inner, hold)))
 }
