@@ -123,6 +123,9 @@ def play(task: str, llc: str | os.PathLike, checkpoint: str | os.PathLike | None
     from .vec_env import VecEnv
 
     env = VecEnv(1, task=task, llc=llc, **config)
+    if not env.choice_labels:
+        env.close()
+        raise ValueError(f"{llc}: interactive play switches discrete skills; over a modular skill policy the actions are part embeddings (write a video instead: skillmimic play --checkpoint CKPT --video out.mp4)")
     policy = _core.Policy.load(str(checkpoint)) if checkpoint is not None else None
     ctrl = Controller(env.choice_labels, policy is not None)
     model = mujoco.MjModel.from_xml_string(env.mjcf_xml)

@@ -31,7 +31,7 @@ pub fn run(a: &Options, policy: Option<&Policy>, cfg: &TrainConfig) -> anyhow::R
     if a.baselines {
         let n = match env.spec().action_space {
             ActionSpace::Discrete { n } => n,
-            ActionSpace::Box { .. } => bail!("--baselines needs a task with discrete choices (a high-level task); '{}' has continuous actions", cfg.env.task),
+            ActionSpace::Box { .. } => bail!("--baselines needs a task with discrete choices (a high-level task over a skill policy); '{}' has continuous actions here", cfg.env.task),
         };
         actors.push(Actor::Random);
         actors.extend((0..n).map(Actor::Fixed));

@@ -22,6 +22,13 @@ pub struct Written {
 /// checkpoint, else relative to the working directory).
 pub fn export_checkpoint(ckpt: &Path, out: &Path, fused: bool, llc: Option<&Path>) -> Result<Written, LearnError> {
     let (c, cfg) = checkpoint::load_with_config(ckpt)?;
+    if skillmimic_env::registry::is_high_level(&cfg.env.task) && c.policy.family.name() != "categorical_mlp" {
+        let msg = format!(
+            "{}: a high-level policy with continuous actions (part embeddings for the frozen controllers of a modular skill policy) outputs embeddings, not PD targets; ONNX export of ModSkill skill reuse is not supported yet",
+            ckpt.display()
+        );
+        return Err(LearnError::Config(msg));
+    }
     let source = source_of(ckpt, c.progress.iteration, c.progress.samples)?;
     let act = c.policy.actor.output_dim();
     let meta = DeployMeta::new("", c.policy.family.name(), &cfg, c.policy.obs_dim(), act, source)?;
