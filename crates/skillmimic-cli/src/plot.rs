@@ -1,7 +1,10 @@
-//! `skillmimic plot`: PNG learning curves from a training log (`log.jsonl`).
+//! `skillmimic plot`: PNG learning curves from a training log (`log.jsonl`), or several runs
+//! overlaid for a comparison (`--log A --log B --label a --label b`).
 //!
-//! Four panels against samples: mean reward per step, episode length, the task's reward terms
-//! and the losses, each with a title, axis labels with tick numbers and a legend. Everything is
+//! One log: four panels against samples: mean reward per step, episode length, the task's reward
+//! terms and the losses, each with a title, axis labels with tick numbers and a legend. Several
+//! logs (at most six): mean reward per step, episode length, actor loss and critic loss, one
+//! curve per run. Everything is
 //! drawn by `plotters` into an RGB buffer; text goes through its `ab_glyph` rasteriser with the
 //! DejaVu Sans face embedded in the binary (`assets/fonts`, Bitstream Vera licence), so no system
 //! font is needed (headless machines, fresh CI).
@@ -14,9 +17,12 @@ use plotters::prelude::*;
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// Training log (one JSON object per iteration).
+    /// Training log (one JSON object per iteration); repeat to overlay runs.
+    #[arg(long, required = true)]
+    pub log: Vec<PathBuf>,
+    /// Legend label of each `--log` (default: the log's folder name).
     #[arg(long)]
-    pub log: PathBuf,
+    pub label: Vec<String>,
     /// Output PNG.
     #[arg(long)]
     pub out: PathBuf,
@@ -289,8 +295,39 @@ pub fn plot_log(log: &Path, out: &Path) -> anyhow::Result<()> {
     write_png(out, &rgb, w, h)
 }
 
+/// Overlay the runs `logs` (label, log) into `out`: one curve per run in each panel.
+pub fn plot_compare(logs: &[(String, PathBuf)], out: &Path) -> anyhow::Result<()> {
+    if logs.len() > COLORS.len() {
+        bail!("--log: {} runs given, a comparison plot holds at most {}", logs.len(), COLORS.len());
+    }
+    let runs: Vec<(String, Vec<serde_json::Value>)> = logs.iter().map(|(l, p)| Ok((l.clone(), read_log(p)?))).collect::<anyhow::Result<_>>()?;
+    let panel = |title: &'static str, y_desc: &'static str, key: &str| Panel {
+        title,
+        y_desc,
+        series: runs.iter().enumerate().map(|(k, (label, rows))| Series { name: label.clone(), color: COLORS[k], points: field(rows, key) }).collect(),
+    };
+    let panels = [
+        panel("Mean reward per step", "reward", "mean_reward"),
+        panel("Episode length", "steps", "episode_length"),
+        panel("Actor loss", "loss", "actor_loss"),
+        panel("Critic loss", "loss", "critic_loss"),
+    ];
+    let (w, h) = SIZE;
+    let rgb = render(&panels, w, h)?;
+    write_png(out, &rgb, w, h)
+}
+
 pub fn run(a: Args) -> anyhow::Result<()> {
-    plot_log(&a.log, &a.out)?;
+    if !a.label.is_empty() && a.label.len() != a.log.len() {
+        bail!("--label: {} labels for {} logs; give one per --log or none", a.label.len(), a.log.len());
+    }
+    if a.log.len() == 1 {
+        plot_log(&a.log[0], &a.out)?;
+    } else {
+        let name = |p: &Path| p.parent().and_then(|d| d.file_name()).map_or_else(|| p.display().to_string(), |n| n.to_string_lossy().into_owned());
+        let logs: Vec<(String, PathBuf)> = a.log.iter().enumerate().map(|(k, p)| (a.label.get(k).cloned().unwrap_or_else(|| name(p)), p.clone())).collect();
+        plot_compare(&logs, &a.out)?;
+    }
     tracing::info!("wrote {}", a.out.display());
     Ok(())
 }
@@ -373,6 +410,22 @@ mod tests {
         std::fs::write(&log, "\n").unwrap();
         assert!(plot_log(&log, &out).is_err());
         std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn runs_overlay_with_one_colour_each() {
+        let (a, b) = (temp_dir("cmp-a"), temp_dir("cmp-b"));
+        let logs = [("mlp".to_string(), synthetic_log(&a, 30)), ("modular".to_string(), synthetic_log(&b, 20))];
+        let out = a.join("compare.png");
+        plot_compare(&logs, &out).unwrap();
+        let (info, rgb) = decode(&out);
+        assert_eq!((info.width, info.height), SIZE);
+        let has = |c: RGBColor| rgb.chunks_exact(3).any(|p| p == [c.0, c.1, c.2]);
+        assert!(has(COLORS[0]) && has(COLORS[1]), "both runs drawn in their colours");
+        let seven: Vec<(String, PathBuf)> = (0..7).map(|k| (k.to_string(), logs[0].1.clone())).collect();
+        assert!(plot_compare(&seven, &out).unwrap_err().to_string().contains("at most 6"));
+        std::fs::remove_dir_all(&a).ok();
+        std::fs::remove_dir_all(&b).ok();
     }
 
     #[test]
