@@ -1,6 +1,7 @@
 """`skillmimic export --format onnx`: the graphs pass `onnx.checker`; onnxruntime gives our Rust
 inference's actions (and the rl_games forward pass in PyTorch) to 1e-5 on real observations of
-the environment, for the skill policy, the high-level policy and the fused high-level graph; the
+the environment, for the skill policy (MLP and modular attention actors), the high-level policy and
+the fused high-level graph; the
 deployment metadata (model properties = JSON sidecar) agrees with the simulated MuJoCo model."""
 
 from __future__ import annotations
@@ -127,3 +128,27 @@ def test_metadata_matches_the_simulated_model(tmp_path, repo_root, skillmimic_bi
     # a safetensors-only option is refused with the reason
     r = subprocess.run([str(skillmimic_bin), "export", "--checkpoint", str(tmp_path / "p.safetensors"), "--out", str(tmp_path / "q.safetensors"), "--fused"], capture_output=True, text=True)
     assert r.returncode != 0 and "--format onnx" in r.stderr, r.stderr
+
+
+@pytest.mark.parametrize("variant", [[], ["ppo.modular.heads=2", "ppo.modular.scaled=true", "ppo.modular.parts=seven"]])
+def test_modular_attention_onnx_matches_rust_and_pytorch(tmp_path, skillmimic_bin, variant):
+    import skillmimic_rs
+    from skillmimic_rs import _core
+    from skillmimic_rs.policy import load_checkpoint
+
+    env = skillmimic_rs.VecEnv(num_envs=8)
+    env.action_space.seed(0)
+    x = _observations(env)
+    ckpt = tmp_path / "modular.safetensors"
+    small = ["ppo.modular.embed=32", "ppo.modular.proj_hidden=64", "ppo.modular.controller=[64, 32]", *variant]
+    _core.init_policy(str(ckpt), "modular_attention", 902, ("box", 156), [64], seed=5, overrides=small)
+    sess, side = export(skillmimic_bin, ckpt, tmp_path / "modular.onnx")
+    assert side["graph"] == "skill_policy" and side["policy"] == "modular_attention" and side["act_dim"] == 156
+    out = run(sess, x)
+    mu, _ = _core.Policy.load(str(ckpt)).infer(x)
+    with torch.no_grad():
+        ref = load_checkpoint(ckpt).actor(torch.as_tensor(np.clip(x, -5.0, 5.0))).numpy()  # fresh normaliser: mean 0, var 1
+    d_rust, d_torch = np.abs(out["mu"] - mu).max(), np.abs(out["mu"] - ref).max()
+    print(f"modular onnx {variant}: max |d mu| vs Rust {d_rust:.2e}, vs PyTorch {d_torch:.2e} (max |mu| {np.abs(mu).max():.2f})")
+    assert d_rust < 1e-5 and d_torch < 1e-5
+    np.testing.assert_array_equal(out["actions"], np.clip(out["mu"], -1, 1))

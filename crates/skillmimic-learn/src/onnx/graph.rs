@@ -16,7 +16,9 @@ use skillmimic_nn::mlp::Mlp;
 use skillmimic_nn::normalizer::RunningMeanStd;
 
 /// The ONNX operator set the graphs are written for (Gemm, Relu, Sub, Mul, Clip with input
-/// bounds, ArgMax, Gather, Slice, Concat: all unchanged since opset 13).
+/// bounds, ArgMax, Gather, Slice, Concat, Unsqueeze and Reshape with input shapes, Transpose,
+/// MatMul, Softmax over one axis: unchanged since opset 13; ReduceL2 with the `axes` attribute:
+/// opset ≤ 17).
 pub const OPSET: i64 = 17;
 /// ONNX IR version that goes with [`OPSET`] (IR 8 = ONNX 1.12–1.13, opset 17).
 pub const IR_VERSION: i64 = 8;
@@ -51,6 +53,14 @@ fn attr_int(name: &str, v: i64) -> AttributeProto {
     a.name = name.to_string();
     a.type_ = AttributeType::INT.into();
     a.i = v;
+    a
+}
+
+fn attr_ints(name: &str, v: &[i64]) -> AttributeProto {
+    let mut a = AttributeProto::new();
+    a.name = name.to_string();
+    a.type_ = AttributeType::INTS.into();
+    a.ints = v.to_vec();
     a
 }
 
@@ -115,7 +125,7 @@ impl Graph {
     }
 
     /// `op(inputs)` into a fresh value (or into `out` when given); returns its name.
-    fn op(&mut self, op: &str, inputs: &[&str], out: Option<&str>, attrs: Vec<AttributeProto>) -> String {
+    pub fn op(&mut self, op: &str, inputs: &[&str], out: Option<&str>, attrs: Vec<AttributeProto>) -> String {
         let name = match out {
             Some(o) => o.to_string(),
             None => self.fresh(&op.to_lowercase()),
@@ -199,6 +209,61 @@ impl Graph {
     /// `[a | b]` along axis 1.
     pub fn concat(&mut self, a: &str, b: &str) -> String {
         self.op("Concat", &[a, b], None, vec![attr_int("axis", 1)])
+    }
+
+    /// `x` with the int64 `shape` (Reshape; 0 keeps that dimension of `x`).
+    pub fn reshape(&mut self, x: &str, shape: &[i64]) -> String {
+        let s = self.fresh("shape");
+        self.const_i64(&s, &[shape.len()], shape);
+        self.op("Reshape", &[x, &s], None, Vec::new())
+    }
+
+    /// `x` with its axes permuted (Transpose `perm`).
+    pub fn transpose(&mut self, x: &str, perm: &[i64]) -> String {
+        self.op("Transpose", &[x], None, vec![attr_ints("perm", perm)])
+    }
+
+    /// `x` with a new axis of size 1 at `axis` (Unsqueeze).
+    pub fn unsqueeze(&mut self, x: &str, axis: i64) -> String {
+        let a = self.fresh("unsqueeze_axis");
+        self.const_i64(&a, &[1], &[axis]);
+        self.op("Unsqueeze", &[x, &a], None, Vec::new())
+    }
+
+    /// Elements of `x` at the int64 `indices` along `axis` (Gather with a constant index list, or a
+    /// scalar index when `indices` has one entry and `scalar`).
+    pub fn take(&mut self, x: &str, axis: i64, indices: &[i64], scalar: bool) -> String {
+        let i = self.fresh("indices");
+        let len = [indices.len()];
+        self.const_i64(&i, if scalar { &[] } else { &len }, indices);
+        self.op("Gather", &[x, &i], None, vec![attr_int("axis", axis)])
+    }
+
+    /// Concatenation of `xs` along `axis`.
+    pub fn concat_all(&mut self, xs: &[String], axis: i64) -> String {
+        let refs: Vec<&str> = xs.iter().map(String::as_str).collect();
+        self.op("Concat", &refs, None, vec![attr_int("axis", axis)])
+    }
+
+    /// Softmax over the last axis.
+    pub fn softmax_last(&mut self, x: &str) -> String {
+        self.op("Softmax", &[x], None, vec![attr_int("axis", -1)])
+    }
+
+    /// `x / max(‖x‖₂, eps)` over the last axis (`F.normalize`).
+    pub fn l2_normalize_last(&mut self, x: &str, eps: f32) -> String {
+        let norm = self.op("ReduceL2", &[x], None, vec![attr_ints("axes", &[-1]), attr_int("keepdims", 1)]);
+        let e = self.fresh("eps");
+        self.const_f32(&e, &[], &[eps]);
+        let safe = self.op("Max", &[&norm, &e], None, Vec::new());
+        self.op("Div", &[x, &safe], None, Vec::new())
+    }
+
+    /// `x · c` for a scalar constant `c`.
+    pub fn scale(&mut self, x: &str, c: f32) -> String {
+        let k = self.fresh("scale");
+        self.const_f32(&k, &[], &[c]);
+        self.op("Mul", &[x, &k], None, Vec::new())
     }
 
     /// Identity copy of `x` under the name `out` (a graph output that is also an intermediate).

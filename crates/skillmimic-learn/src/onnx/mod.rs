@@ -3,7 +3,8 @@
 //!
 //! Graphs (every input and output has the symbolic first dimension `batch`):
 //!
-//! * **skill policy** (`gaussian_mlp`): `obs (batch, D)` → normaliser → actor MLP →
+//! * **skill policy** (`gaussian_mlp`, or `modular_attention` with its attention actor, see
+//!   [`modular`]): `obs (batch, D)` → normaliser → actor →
 //!   `mu (batch, A)` (the Gaussian means, what `skillmimic infer` gives) and
 //!   `actions (batch, A) = clamp(mu, −1, 1)` (what the simulator applies: PD target = π·a).
 //! * **high-level policy** (`categorical_mlp`): `obs (batch, 838 + task)` → normaliser → actor →
@@ -24,6 +25,7 @@
 pub mod export;
 pub mod graph;
 pub mod meta;
+pub mod modular;
 
 use std::path::{Path, PathBuf};
 
@@ -32,6 +34,7 @@ use skillmimic_core::tensorfile::write_bytes_atomic;
 use skillmimic_env::obs::layout;
 use skillmimic_motion::SKILL_WIDTH;
 
+use crate::actor::ActorNet;
 use crate::error::{LearnError, io};
 use crate::policy::Policy;
 use graph::{Elem, Graph};
@@ -69,8 +72,8 @@ impl Ports<'_> {
 /// `p` has an MLP actor and every weight and normaliser statistic is finite (a file with NaN
 /// weights is refused).
 fn check_exportable(p: &Policy, what: &str) -> Result<(), LearnError> {
-    if p.actor.as_mlp().is_none() {
-        return Err(LearnError::Config(format!("{what}: ONNX export covers MLP actors; a '{}' actor is not supported yet", p.family.name())));
+    if !matches!(p.actor, ActorNet::Mlp(_) | ActorNet::Modular(_)) {
+        return Err(LearnError::Config(format!("{what}: ONNX export covers MLP and modular attention actors; a '{}' actor is not supported yet", p.family.name())));
     }
     let params = p.actor.params();
     let stats = [&p.obs_norm.mean, &p.obs_norm.var];
@@ -88,7 +91,10 @@ fn check_exportable(p: &Policy, what: &str) -> Result<(), LearnError> {
 /// The normaliser (when the policy uses one) and the actor of `p` over the value `x`.
 fn actor(g: &mut Graph, prefix: &str, x: &str, p: &Policy, out: Option<&str>) -> String {
     let xn = if p.normalize_input { g.normalizer(&format!("{prefix}.obs_norm"), x, &p.obs_norm) } else { x.to_string() };
-    g.mlp(&format!("{prefix}.actor"), &xn, p.actor.as_mlp().expect("checked by check_exportable"), out)
+    match &p.actor {
+        ActorNet::Modular(m) => modular::modular_actor(g, &format!("{prefix}.actor"), &xn, m, out),
+        other => g.mlp(&format!("{prefix}.actor"), &xn, other.as_mlp().expect("checked by check_exportable"), out),
+    }
 }
 
 fn normalizer_meta(p: &Policy) -> Normalizer {
@@ -129,7 +135,7 @@ pub fn policy_model(p: &Policy, mut meta: DeployMeta) -> Result<Exported, LearnE
     meta.normalizer = normalizer_meta(p);
     Ports { g: &mut g, meta: &mut meta }.input("obs", Elem::F32, &[d], "observation (see obs_blocks)");
     match p.family.name() {
-        "gaussian_mlp" => {
+        "gaussian_mlp" | "modular_attention" => {
             meta.graph = "skill_policy".to_string();
             actor(&mut g, "skill", "obs", p, Some("mu"));
             g.clip("mu", -1.0, 1.0, Some("actions"));
@@ -141,7 +147,7 @@ pub fn policy_model(p: &Policy, mut meta: DeployMeta) -> Result<Exported, LearnE
             meta.graph = "high_level_policy".to_string();
             high_level_head(&mut g, &mut meta, p, "obs");
         }
-        other => return Err(LearnError::Config(format!("ONNX export supports the gaussian_mlp and categorical_mlp families, not '{other}'"))),
+        other => return Err(LearnError::Config(format!("ONNX export supports the gaussian_mlp, modular_attention and categorical_mlp families, not '{other}'"))),
     }
     let doc = format!("skillmimic-rs {} exported from {}", meta.graph, meta.source.file);
     Ok(Exported { model: g.into_model(&doc, &meta.props()), meta })
@@ -156,9 +162,9 @@ pub fn fused_model(hl: &Policy, skill: &Policy, mut meta: DeployMeta, skill_sour
     if hl.family.name() != "categorical_mlp" {
         return Err(LearnError::Config(format!("--fused needs a high-level (categorical_mlp) checkpoint; {} is a '{}' policy", meta.source.file, hl.family.name())));
     }
-    if skill.family.name() != "gaussian_mlp" || skill.obs_dim() != layout::OBS_DIM {
+    if !matches!(skill.family.name(), "gaussian_mlp" | "modular_attention") || skill.obs_dim() != layout::OBS_DIM {
         return Err(LearnError::Config(format!(
-            "{}: the skill policy of a fused graph must be a gaussian_mlp policy with {} observations, not a '{}' one with {}",
+            "{}: the skill policy of a fused graph must be a gaussian_mlp or modular_attention policy with {} observations, not a '{}' one with {}",
             skill_source.file,
             layout::OBS_DIM,
             skill.family.name(),
