@@ -101,3 +101,46 @@ def test_a_skill_policy_keeps_discrete_steering_choices(tmp_path):
     env = skillmimic_rs.VecEnv(2, task="steering", llc=str(llc), motion=MOTIONS, threads=1)
     assert env.single_action_space.n == 3 and env.choice_labels == [12, 13, 11] and env.steps_per_action == 3
     env.close()
+
+
+def test_fused_onnx_gives_the_environments_pd_targets(modular_llc, tmp_path, skillmimic_bin):
+    """`skillmimic export --fused` of a steering policy over part embeddings: onnxruntime on the
+    environment's observations gives the PD targets the environment applies for the policy's mean
+    embeddings."""
+    import json
+
+    import onnx
+    import onnxruntime as ort
+
+    from conftest import run_cli
+
+    out = tmp_path / "steer"
+    run_cli(skillmimic_bin, "train", "--preset", "tiny", "--task", "steering", "--llc", modular_llc, "--motion", MOTIONS[0],
+            "--set", "run.iterations=1", "--set", "env.num_envs=8", "--set", "ppo.minibatch=64", "--set", "ppo.hidden=[32]", "--out", str(out))
+    ckpt = out / "latest.safetensors"
+    alone = subprocess_run([str(skillmimic_bin), "export", "--checkpoint", str(ckpt), "--out", str(tmp_path / "alone.onnx")])
+    assert alone.returncode != 0 and "--fused" in alone.stderr
+    run_cli(skillmimic_bin, "export", "--checkpoint", str(ckpt), "--out", str(tmp_path / "fused.onnx"), "--fused")
+    onnx.checker.check_model(onnx.load(str(tmp_path / "fused.onnx")), full_check=True)
+    side = json.loads((tmp_path / "fused.onnx.json").read_text())
+    assert side["graph"] == "fused_part_embeddings" and side["act_dim"] == 156 and side["choices"] == []
+    sess = ort.InferenceSession(str(tmp_path / "fused.onnx"), providers=["CPUExecutionProvider"])
+    policy = _core.Policy.load(str(ckpt))
+    env = skillmimic_rs.VecEnv(8, task="steering", llc=modular_llc, motion=MOTIONS, threads=1)
+    obs, _ = env.reset(seed=2)
+    worst = 0.0
+    for _ in range(10):
+        mu, _ = policy.infer(obs)
+        actions, latent = sess.run(["actions", "latent"], {"obs": obs})
+        np.testing.assert_allclose(latent, mu, rtol=1e-5, atol=1e-5)
+        obs, *_ = env.step(mu)
+        worst = max(worst, float(np.abs(actions - env.pd_targets()).max()))
+    print(f"fused part-embedding graph vs the environment's PD targets: max |d| {worst:.2e}")
+    assert worst < 1e-5
+    env.close()
+
+
+def subprocess_run(args):
+    import subprocess
+
+    return subprocess.run(args, capture_output=True, text=True)

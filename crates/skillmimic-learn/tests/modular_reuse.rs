@@ -107,9 +107,9 @@ fn the_learner_trains_a_gaussian_high_level_policy_over_modular_skills() {
     assert_ne!(t.policy.actor, before.actor);
     let back = checkpoint::load(&last, Some((838 + 3, 80))).unwrap();
     assert_eq!(back.policy, t.policy);
-    // its ONNX export would output embeddings, not PD targets: refused with the reason
+    // alone its ONNX export would output embeddings, not PD targets: refused, --fused named
     let err = skillmimic_learn::onnx::export::export_checkpoint(&last, &c.run.out_dir.join("p.onnx"), false, None).err().unwrap().to_string();
-    assert!(err.contains("part embeddings") && err.contains("not supported yet"), "{err}");
+    assert!(err.contains("part embeddings") && err.contains("--fused"), "{err}");
     // a discrete skill policy keeps the categorical high-level policy
     let gaussian = common::skill_policy("modreuse-discrete");
     let mut d = config("steering", &gaussian, "discrete");

@@ -17,14 +17,16 @@ pub struct Written {
 }
 
 /// Export the policy of `ckpt` to `out` (+ `out.json`). `fused`: a high-level checkpoint is
-/// exported together with its skill policy — `llc`, or the `env.hlc.llc` of its configuration
+/// exported together with its skill policy (over a modular skill policy: its part controllers,
+/// [`super::modular::fused_latent_model`]) — `llc`, or the `env.hlc.llc` of its configuration
 /// (a relative path there follows the config-file rule of [`crate::config_file`]: next to the
 /// checkpoint, else relative to the working directory).
 pub fn export_checkpoint(ckpt: &Path, out: &Path, fused: bool, llc: Option<&Path>) -> Result<Written, LearnError> {
     let (c, cfg) = checkpoint::load_with_config(ckpt)?;
-    if skillmimic_env::registry::is_high_level(&cfg.env.task) && c.policy.family.name() != "categorical_mlp" {
+    let latent = skillmimic_env::registry::is_high_level(&cfg.env.task) && c.policy.family.name() != "categorical_mlp";
+    if latent && !fused {
         let msg = format!(
-            "{}: a high-level policy with continuous actions (part embeddings for the frozen controllers of a modular skill policy) outputs embeddings, not PD targets; ONNX export of ModSkill skill reuse is not supported yet",
+            "{}: a high-level policy with continuous actions (part embeddings for the frozen controllers of a modular skill policy) outputs embeddings, not PD targets; export it with --fused (and --llc, or the env.hlc.llc of its configuration)",
             ckpt.display()
         );
         return Err(LearnError::Config(msg));
@@ -42,7 +44,7 @@ pub fn export_checkpoint(ckpt: &Path, out: &Path, fused: bool, llc: Option<&Path
         };
         let skill = checkpoint::load(&llc_path, None)?;
         let skill_source = source_of(&llc_path, skill.progress.iteration, skill.progress.samples)?;
-        fused_model(&c.policy, &skill.policy, meta, skill_source)?
+        if latent { super::modular::fused_latent_model(&c.policy, &skill.policy, meta, skill_source)? } else { fused_model(&c.policy, &skill.policy, meta, skill_source)? }
     } else {
         policy_model(&c.policy, meta)?
     };
