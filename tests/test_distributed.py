@@ -134,6 +134,26 @@ def test_kill_one_rank_then_resume_with_another_world_size(tmp_path):
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="finds the ranks through /proc")
+def test_motion_prior_trains_under_torchrun_and_resumes(tmp_path):
+    """The adversarial motion prior on 2 torchrun ranks: the style reward is in the log, the
+    discriminator is in rank 0's checkpoint, and one process resumes it."""
+    out = tmp_path / "run"
+    amp = ["--set", "ppo.amp.enabled=true", "--set", "ppo.amp.hidden=[32]", "--set", "ppo.amp.batch=32", "--set", "ppo.amp.buffer=256"]
+    r = subprocess.run(_torchrun("--nproc-per-node", "2", "-m", "skillmimic_rs.train", *TINY, *amp, "--iterations", "2", "--out", str(out)),
+                       cwd=REPO, env=_env(), capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stdout[-2000:] + r.stderr[-3000:]
+    rows = [json.loads(line) for line in (out / "log.jsonl").read_text().splitlines()]
+    terms = dict(rows[-1]["reward_terms"])
+    assert rows[-1]["world_size"] == 2 and terms["style"] > 0.0 and rows[-1]["disc_loss"] > 0.0, rows[-1]
+    from safetensors import safe_open
+
+    with safe_open(str(out / "latest.safetensors"), framework="numpy") as f:
+        assert "amp.disc.0.weight" in f.keys() and int(f.get_tensor("amp.optim.step")) > 0
+    r = subprocess.run([sys.executable, "-m", "skillmimic_rs.train", *TINY, *amp, "--iterations", "3", "--resume", "latest", "--out", str(out)],
+                       cwd=REPO, env=_env(), capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0 and "resumed from" in r.stdout, r.stdout[-2000:] + r.stderr[-3000:]
+
+
 def test_torchrun_restart_resumes_and_finishes(tmp_path):
     out = tmp_path / "run"
     cmd = _torchrun("--nproc-per-node", "2", "--max-restarts", "1", "-m", "skillmimic_rs.train", *TINY,

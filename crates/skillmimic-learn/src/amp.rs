@@ -168,14 +168,57 @@ impl Discriminator {
     /// One optimisation step on raw reference and simulated windows: update the normaliser with
     /// both, normalise, take the loss and gradients, Adam step. Returns the loss before the step.
     pub fn update(&mut self, x_ref: &[f32], n_ref: usize, x_sim: &[f32], n_sim: usize) -> Result<DiscLoss, LearnError> {
-        self.norm.update(x_ref);
-        self.norm.update(x_sim);
+        self.update_with(x_ref, n_ref, x_sim, n_sim, &mut crate::collective::Single)
+    }
+
+    /// [`Discriminator::update`] of a data-parallel run: every rank brings its share of the
+    /// windows (the same count on every rank); the normaliser merges the windows of all ranks
+    /// (reference windows, then simulated ones, as one process does), the gradients and the
+    /// reported losses are averaged over the ranks — with equal shares, the step one process
+    /// takes on the union of the windows. Replicas equal before the call stay equal.
+    pub fn update_with(&mut self, x_ref: &[f32], n_ref: usize, x_sim: &[f32], n_sim: usize, comm: &mut dyn crate::collective::Collective) -> Result<DiscLoss, LearnError> {
+        let mut scratch = Vec::new();
+        crate::collective::update_normalizer(&mut self.norm, x_ref, comm, &mut scratch)?;
+        crate::collective::update_normalizer(&mut self.norm, x_sim, comm, &mut scratch)?;
         let (mut nr, mut ns) = (vec![0.0f32; x_ref.len()], vec![0.0f32; x_sim.len()]);
         self.norm.normalize_into(x_ref, &mut nr);
         self.norm.normalize_into(x_sim, &mut ns);
-        let (loss, grads) = self.loss_and_grads(&nr, n_ref, &ns, n_sim)?;
+        let (mut loss, mut grads) = self.loss_and_grads(&nr, n_ref, &ns, n_sim)?;
+        let world = comm.world_size();
+        if world > 1 {
+            let inv = 1.0 / world as f32;
+            let mut flat: Vec<f32> = grads.iter().flatten().copied().collect();
+            comm.all_reduce_f32(&mut flat)?;
+            let mut at = 0;
+            for g in grads.iter_mut() {
+                for (d, s) in g.iter_mut().zip(&flat[at..]) {
+                    *d = s * inv;
+                }
+                at += g.len();
+            }
+            let mut l = [loss.adversarial, loss.grad_penalty, loss.logit_reg, loss.total, loss.mean_ref, loss.mean_sim];
+            comm.all_reduce_f64(&mut l)?;
+            let w = world as f64;
+            loss = DiscLoss { adversarial: l[0] / w, grad_penalty: l[1] / w, logit_reg: l[2] / w, total: l[3] / w, mean_ref: l[4] / w, mean_sim: l[5] / w };
+        }
         let mut params = self.mlp.params_mut();
         self.adam.update(&mut params, &grads);
         Ok(loss)
+    }
+
+    /// Copy rank 0's parameters, normaliser and Adam state into every rank.
+    pub fn broadcast(&mut self, comm: &mut dyn crate::collective::Collective) -> Result<(), LearnError> {
+        for p in self.mlp.params_mut() {
+            comm.broadcast_f32(p)?;
+        }
+        for (m, v) in self.adam.m.iter_mut().zip(self.adam.v.iter_mut()) {
+            comm.broadcast_f32(m)?;
+            comm.broadcast_f32(v)?;
+        }
+        let mut step = [self.adam.step as f64, self.norm.count];
+        comm.broadcast_f64(&mut step)?;
+        (self.adam.step, self.norm.count) = (step[0] as u64, step[1]);
+        comm.broadcast_f64(&mut self.norm.mean)?;
+        comm.broadcast_f64(&mut self.norm.var)
     }
 }

@@ -15,6 +15,11 @@
 //!   discriminator steps on `batch` buffer windows against `batch` reference windows.
 //! * Checkpoint tensors: `amp.disc.{0,2,…}.weight/.bias`, `amp.norm.{mean,var,count}`,
 //!   `amp.optim.step`, `amp.optim.{m,v}.<param>`.
+//! * Data-parallel runs: every rank keeps the windows of its own environments in a buffer of
+//!   `buffer / world` windows and brings `batch / world` reference and buffer windows to each
+//!   discriminator step ([`Discriminator::update_with`]: merged normaliser, averaged gradients),
+//!   so a step sees `batch` windows of each kind as in one process; the replicas start from rank
+//!   0's discriminator (fresh or resumed) and stay equal. Window draws use per-rank streams.
 
 use std::sync::Arc;
 
@@ -27,6 +32,7 @@ use skillmimic_env::tasks::imitation::load_motion_library;
 use skillmimic_sim::Scene;
 
 use crate::amp::{DiscLoss, Discriminator};
+use crate::collective::Collective;
 use crate::config::{AmpConfig, TrainConfig};
 use crate::error::LearnError;
 
@@ -82,20 +88,36 @@ impl AmpReward {
     }
 
     /// The prior of a training run when `ppo.amp.enabled` (restored from `resume` when that
-    /// checkpoint holds one); an error for a data-parallel run (not supported yet).
-    pub fn for_run(cfg: &TrainConfig, obs_dim: usize, n: usize, world_size: usize, resume: Option<&std::path::Path>) -> Result<Option<Self>, LearnError> {
+    /// checkpoint holds one; in a data-parallel run rank 0 reads it and broadcasts).
+    pub fn for_run(cfg: &TrainConfig, obs_dim: usize, n: usize, comm: &mut dyn Collective, resume: Option<&std::path::Path>) -> Result<Option<Self>, LearnError> {
         if !cfg.ppo.amp.enabled {
             return Ok(None);
         }
-        if world_size > 1 {
-            return Err(LearnError::Config("config field 'ppo.amp.enabled': the motion prior does not run data-parallel yet; train it in one process".into()));
+        let (rank, world) = (comm.rank(), comm.world_size());
+        let mut local = cfg.clone();
+        if world > 1 {
+            let a = &cfg.ppo.amp;
+            if !a.batch.is_multiple_of(world) || !a.buffer.is_multiple_of(world) || a.batch / world < 2 {
+                return Err(LearnError::Config(format!(
+                    "config fields 'ppo.amp.batch' ({}) and 'ppo.amp.buffer' ({}): in a data-parallel run of {world} ranks both must be multiples of {world}, with at least 2 windows per rank",
+                    a.batch, a.buffer
+                )));
+            }
+            local.ppo.amp.batch /= world;
+            local.ppo.amp.buffer /= world;
         }
-        let mut a = Self::new(cfg, obs_dim, n, cfg.run.seed)?;
-        if let Some(path) = resume {
+        let mut a = Self::new(&local, obs_dim, n, cfg.run.seed)?;
+        if rank > 0 {
+            a.rng = ChaCha8Rng::seed_from_u64(crate::collective::mix_seed(cfg.run.seed ^ 0x616d_705f_7265_6621, rank as u64));
+        }
+        if let Some(path) = resume.filter(|_| rank == 0) {
             let f = TensorFile::open(path).map_err(|e| crate::error::bad_checkpoint(path)(e.to_string()))?;
             if !a.load_from(&f).map_err(crate::error::bad_checkpoint(path))? {
                 tracing::warn!("{}: no motion-prior discriminator in the checkpoint; starting a fresh one", path.display());
             }
+        }
+        if world > 1 {
+            a.disc.broadcast(comm)?;
         }
         Ok(Some(a))
     }
@@ -158,10 +180,12 @@ impl AmpReward {
         (st, ss)
     }
 
-    /// The discriminator steps of one iteration; returns the mean loss over them.
-    pub fn update(&mut self) -> Result<DiscLoss, LearnError> {
+    /// The discriminator steps of one iteration over the ranks of `comm` (one process:
+    /// [`crate::collective::Single`]); returns the mean loss over them.
+    pub fn update(&mut self, comm: &mut dyn Collective) -> Result<DiscLoss, LearnError> {
         let (w, b) = (self.width(), self.cfg.batch);
         let mut mean = DiscLoss::default();
+        // every rank fills its buffer at the same steps, so all skip or all step together
         if self.filled == 0 || self.cfg.updates == 0 {
             return Ok(mean);
         }
@@ -174,7 +198,7 @@ impl AmpReward {
                 let j = self.rng.random_range(0..self.filled);
                 xs[k * w..(k + 1) * w].copy_from_slice(&self.buffer[j * w..(j + 1) * w]);
             }
-            let l = self.disc.update(&xr, b, &xs, b)?;
+            let l = self.disc.update_with(&xr, b, &xs, b, comm)?;
             let u = self.cfg.updates as f64;
             mean.adversarial += l.adversarial / u;
             mean.grad_penalty += l.grad_penalty / u;

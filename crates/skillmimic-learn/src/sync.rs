@@ -38,6 +38,12 @@ fn signature(cfg: &TrainConfig, policy: &Policy, adam: &Adam) -> Vec<(&'static s
 /// error naming the first rank that differs and the first field it differs in (a broadcast and
 /// one all-reduce, so no rank is left waiting).
 pub fn check_agreement(cfg: &TrainConfig, policy: &Policy, adam: &Adam, comm: &mut dyn Collective) -> Result<(), LearnError> {
+    if cfg.run.active.enabled {
+        // every rank sees the same configuration, so every rank stops here (no rank waits)
+        return Err(LearnError::Config(
+            "config field 'run.active.enabled': active skill learning runs in one process for now (a round rebuilds the environments from clips that rank 0 writes); train it without torchrun".into(),
+        ));
+    }
     let mine = signature(cfg, policy, adam);
     let mut theirs: Vec<f64> = mine.iter().map(|(_, v)| *v).collect();
     comm.broadcast_f64(&mut theirs)?;

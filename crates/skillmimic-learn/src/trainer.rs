@@ -181,7 +181,7 @@ impl Trainer {
             rng = ChaCha8Rng::seed_from_u64(mix_seed(cfg.run.seed, rank as u64));
         }
         comm.take_seconds();
-        let amp = crate::amp_reward::AmpReward::for_run(&cfg, obs_dim, env.num_envs(), comm.world_size(), resume)?;
+        let amp = crate::amp_reward::AmpReward::for_run(&cfg, obs_dim, env.num_envs(), &mut comm, resume)?;
         let threads = if cfg.run.learner_threads == 0 { rayon::current_num_threads() } else { cfg.run.learner_threads };
         let n = env.num_envs();
         let outputs = policy.actor_outputs();
@@ -445,7 +445,7 @@ impl Trainer {
         let t1 = Instant::now();
         self.update(&mut stats)?;
         if let Some(amp) = &mut self.amp {
-            let l = amp.update()?;
+            let l = amp.update(&mut self.comm)?;
             (stats.disc_loss, stats.disc_ref, stats.disc_sim) = (l.total, l.mean_ref, l.mean_sim);
         }
         stats.update_s = t1.elapsed().as_secs_f64();

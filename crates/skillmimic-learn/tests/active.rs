@@ -194,3 +194,26 @@ fn the_discriminator_filter_scores_generated_clips() {
     assert!(n >= 2, "{first}");
     std::fs::remove_dir_all(&root).ok();
 }
+
+/// Active learning stays in one process: a data-parallel run with it is refused at the start on
+/// every rank (none left waiting).
+#[test]
+fn active_learning_is_refused_data_parallel_at_the_start() {
+    use skillmimic_learn::collective::threads::ThreadGroup;
+    let mut cfg = TrainConfig::preset("tiny").unwrap();
+    cfg.env.task = "tracking".into();
+    cfg.env.motion = vec![std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../motions")];
+    cfg.env.num_envs = 8;
+    cfg.env.threads = 1;
+    cfg.ppo.hidden = vec![32];
+    cfg.run.active.enabled = true;
+    cfg.run.out_dir = std::env::temp_dir().join(format!("sm-active-dp-{}", std::process::id()));
+    let errs: Vec<String> = std::thread::scope(|s| {
+        let hs: Vec<_> = ThreadGroup::new_group(2).into_iter().map(|g| {
+            let c = cfg.clone();
+            s.spawn(move || Trainer::with_collective(c, None, Box::new(g)).err().map(|e| e.to_string()).unwrap_or_default())
+        }).collect();
+        hs.into_iter().map(|h| h.join().unwrap()).collect()
+    });
+    assert!(errs.iter().all(|e| e.contains("run.active.enabled") && e.contains("one process")), "{errs:?}");
+}

@@ -147,3 +147,101 @@ fn motion_prior_trains_inside_ppo_and_resumes_from_the_checkpoint() {
     assert_eq!(a.mlp, b.mlp);
     assert_eq!((a.norm.mean.clone(), a.adam.step, a.adam.m.clone()), (b.norm.mean.clone(), b.adam.step, b.adam.m.clone()));
 }
+
+/// Data-parallel discriminator steps: 2 ranks, each with half of the windows, take the step one
+/// process takes on all of them (parameters, Adam moments, normaliser to float rounding), and the
+/// replicas stay bit-identical.
+#[test]
+fn two_ranks_take_the_single_process_discriminator_step() {
+    use skillmimic_learn::collective::threads::ThreadGroup;
+    let c = EnvConfig { motion: motion(), ..Default::default() };
+    let lib = load_motion_library(&c.motion).unwrap();
+    let rows = clip_features(Arc::new(Scene::new(c.scene_options().unwrap()).unwrap()), &lib).unwrap();
+    let sim = policy_windows(40);
+    let w = K * FEATURE_DIM;
+    let mut rng = ChaCha8Rng::seed_from_u64(4);
+    let batches: Vec<(Vec<f32>, Vec<f32>)> = (0..3).map(|_| (reference_windows(&rows, 32, &mut rng), sim[..32 * w].to_vec())).collect();
+    let cfg = DiscConfig { hidden: vec![64, 32], lr: 1e-3, ..Default::default() };
+    let fresh = Discriminator::new(w, cfg, &mut ChaCha8Rng::seed_from_u64(7));
+    let mut single = fresh.clone();
+    for (r, s) in &batches {
+        single.update(r, 32, s, 32).unwrap();
+    }
+    let group = ThreadGroup::new_group(2);
+    let ranks: Vec<Discriminator> = std::thread::scope(|sc| {
+        let hs: Vec<_> = group
+            .into_iter()
+            .enumerate()
+            .map(|(k, mut g)| {
+                let (mut d, batches) = (fresh.clone(), &batches);
+                sc.spawn(move || {
+                    for (r, s) in batches {
+                        let half = |x: &[f32]| x[k * 16 * w..(k + 1) * 16 * w].to_vec();
+                        d.update_with(&half(r), 16, &half(s), 16, &mut g).unwrap();
+                    }
+                    d
+                })
+            })
+            .collect();
+        hs.into_iter().map(|h| h.join().unwrap()).collect()
+    });
+    assert_eq!(ranks[0].mlp, ranks[1].mlp, "replicas stay equal");
+    assert_eq!(ranks[0].norm.mean, ranks[1].norm.mean);
+    let worst = |a: &[&[f32]], b: &[&[f32]]| a.iter().zip(b).map(|(x, y)| x.iter().zip(*y).map(|(p, q)| (p - q).abs()).fold(0.0f32, f32::max)).fold(0.0f32, f32::max);
+    let dp = worst(&single.mlp.params(), &ranks[0].mlp.params());
+    let dm = single.norm.mean.iter().zip(&ranks[0].norm.mean).map(|(a, b)| (a - b).abs()).fold(0.0f64, f64::max);
+    println!("2 ranks vs 1 process after 3 steps: max |d param| {dp:.2e}, max |d norm mean| {dm:.2e}");
+    assert!(dp < 1e-5 && dm < 1e-9, "{dp} {dm}");
+}
+
+/// The motion prior in a 2-rank training run: the ranks' discriminators stay equal, the style
+/// reward is reported, and a batch that does not split over the ranks is a clear error.
+#[test]
+fn motion_prior_trains_data_parallel() {
+    use skillmimic_learn::collective::threads::ThreadGroup;
+    use skillmimic_learn::config::TrainConfig;
+    use skillmimic_learn::trainer::Trainer;
+    let mut c = TrainConfig::preset("tiny").unwrap();
+    c.env.motion = motion();
+    c.env.num_envs = 8;
+    c.env.threads = 1;
+    c.run.learner_threads = 1;
+    c.ppo.hidden = vec![32];
+    c.ppo.horizon = 16;
+    c.ppo.minibatch = 32;
+    c.ppo.amp.enabled = true;
+    c.ppo.amp.hidden = vec![32];
+    c.ppo.amp.batch = 32;
+    c.ppo.amp.buffer = 256;
+    c.run.out_dir = std::env::temp_dir().join(format!("sm-amp-dp-{}", std::process::id()));
+    let run = |c: &TrainConfig| -> Vec<Result<(Discriminator, f64), String>> {
+        let group = ThreadGroup::new_group(2);
+        std::thread::scope(|sc| {
+            let hs: Vec<_> = group
+                .into_iter()
+                .map(|g| {
+                    let c = c.clone();
+                    sc.spawn(move || {
+                        let mut t = Trainer::with_collective(c, None, Box::new(g)).map_err(|e| e.to_string())?;
+                        let mut style = 0.0;
+                        for _ in 0..2 {
+                            let s = t.iteration().map_err(|e| e.to_string())?;
+                            style = s.reward_terms.iter().find(|(n, _)| n == "style").map(|(_, v)| *v).unwrap();
+                        }
+                        Ok((t.amp.as_ref().unwrap().disc.clone(), style))
+                    })
+                })
+                .collect();
+            hs.into_iter().map(|h| h.join().unwrap()).collect()
+        })
+    };
+    let out = run(&c);
+    let (a, b) = (out[0].as_ref().unwrap(), out[1].as_ref().unwrap());
+    assert_eq!(a.0.mlp, b.0.mlp, "the ranks' discriminators are equal");
+    assert_eq!(a.0.adam.step, 2 * c.ppo.amp.updates as u64);
+    assert!(a.1 > 0.0 && a.1 == b.1, "the style reward is reduced over the ranks: {} {}", a.1, b.1);
+    let mut bad = c.clone();
+    bad.ppo.amp.batch = 33;
+    let err = run(&bad).into_iter().find_map(Result::err).expect("33 windows do not split over 2 ranks");
+    assert!(err.contains("ppo.amp.batch"), "{err}");
+}
