@@ -1,8 +1,9 @@
 """The ``modular_attention`` policy family (ModSkill) against PyTorch: every part token gathers
 exactly its bodies' observation columns (derived here from the observation table and the MJCF
 body names); the Rust forward pass equals the PyTorch mirror module and an independent functional
-reference written from the paper/code facts; the canonical PPO loss and every parameter gradient
-(candle autograd) equal torch autograd of the Gaussian PPO loss on that reference."""
+reference written from the paper/code facts; the PPO loss and every parameter gradient — of the
+canonical loss (candle autograd) and of the hand-written fast path (``ppo.backend = "fast"``, the
+default) — equal torch autograd of the Gaussian PPO loss on that reference."""
 
 from __future__ import annotations
 
@@ -122,14 +123,13 @@ def test_forward_and_ppo_gradients_match_pytorch(tmp_path, variant):
     np.testing.assert_allclose(mu, t_mu.numpy(), rtol=0, atol=1e-5)
     np.testing.assert_allclose(mu, ref, rtol=0, atol=1e-5)
 
-    # the canonical PPO loss (candle autograd) vs torch autograd on the float64 reference
+    # the PPO loss (candle autograd, and the fast path) vs torch autograd on the float64 reference
     obs_n = x.numpy()
     actions = (ref + rng.normal(0, 0.3, ref.shape)).astype(np.float32)
     nl = (0.5 * (actions.astype(np.float64) - ref) ** 2 + 0.5 * math.log(2 * math.pi)).sum(1)
     old = (nl + rng.uniform(-0.4, 0.4, n)).astype(np.float32)
     adv = rng.normal(size=n).astype(np.float32)
     ret = rng.normal(size=n).astype(np.float32)
-    losses, grads = _core.ppo_loss_and_grads(str(path), obs_n, actions, old, adv, ret, critic_coef=5.0, bounds_coef=10.0, backend="fast")
     params = {k: v.clone().requires_grad_(True) for k, v in sd.items() if k.startswith(("actor.", "critic."))}
     xt = torch.from_numpy(obs_n).double()
     mu_t = _reference_actor(params, spec, xt)
@@ -145,11 +145,13 @@ def test_forward_and_ppo_gradients_match_pytorch(tmp_path, variant):
     loss = loss + 5.0 * ((v_t - torch.from_numpy(ret).double()) ** 2).mean()
     loss = loss + 10.0 * ((mu_t - 1).clamp(min=0) ** 2 + (-1 - mu_t).clamp(min=0) ** 2).sum(1).mean()
     loss.backward()
-    assert abs(losses["total"] - loss.item()) <= 1e-5 * (1 + abs(loss.item())), (losses, loss.item())
-    assert set(grads) == set(params)
-    worst = max(np.abs(grads[k] - p.grad.numpy()).max() / max(np.abs(p.grad.numpy()).max(), 1e-12) for k, p in params.items())
-    absolute = max(np.abs(grads[k] - p.grad.numpy()).max() for k, p in params.items())
-    print(f"{variant}: gradients vs torch autograd: max relative difference {worst:.2e}, max absolute {absolute:.2e}")
-    # absolute to 1e-5; relative to 2e-5 (candle sums the 156-term log-density in float32, as
-    # for gaussian_mlp in test_learner.py)
-    assert absolute <= 1e-5 and worst <= 2e-5
+    for backend in ("candle", "fast"):
+        losses, grads = _core.ppo_loss_and_grads(str(path), obs_n, actions, old, adv, ret, critic_coef=5.0, bounds_coef=10.0, backend=backend)
+        assert abs(losses["total"] - loss.item()) <= 1e-5 * (1 + abs(loss.item())), (backend, losses, loss.item())
+        assert set(grads) == set(params)
+        worst = max(np.abs(grads[k] - p.grad.numpy()).max() / max(np.abs(p.grad.numpy()).max(), 1e-12) for k, p in params.items())
+        absolute = max(np.abs(grads[k] - p.grad.numpy()).max() for k, p in params.items())
+        print(f"{variant} {backend}: gradients vs torch autograd: max relative difference {worst:.2e}, max absolute {absolute:.2e}")
+        # absolute to 1e-5; relative to 2e-5 (the 156-term log-density is summed in float32, as
+        # for gaussian_mlp in test_learner.py)
+        assert absolute <= 1e-5 and worst <= 2e-5, backend

@@ -1,5 +1,5 @@
 //! The `modular_attention` family (ModSkill) end to end on the shipped demo clips: it trains
-//! (candle gradients; `ppo.backend = "fast"` falls back to them), writes checkpoints that load
+//! (the fast path's hand-written gradients by default, candle's with `ppo.backend = "candle"`), writes checkpoints that load
 //! back bit-identically and resume, and a bad network configuration is a clear error.
 
 use skillmimic_core::shared_data::workspace_root;

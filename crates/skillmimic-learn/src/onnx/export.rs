@@ -18,7 +18,7 @@ pub struct Written {
 
 /// Export the policy of `ckpt` to `out` (+ `out.json`). `fused`: a high-level checkpoint is
 /// exported together with its skill policy (over a modular skill policy: its part controllers,
-/// [`super::modular::fused_latent_model`]) — `llc`, or the `env.hlc.llc` of its configuration
+/// [`super::latent::fused_latent_model`]) — `llc`, or the `env.hlc.llc` of its configuration
 /// (a relative path there follows the config-file rule of [`crate::config_file`]: next to the
 /// checkpoint, else relative to the working directory).
 pub fn export_checkpoint(ckpt: &Path, out: &Path, fused: bool, llc: Option<&Path>) -> Result<Written, LearnError> {
@@ -44,7 +44,7 @@ pub fn export_checkpoint(ckpt: &Path, out: &Path, fused: bool, llc: Option<&Path
         };
         let skill = checkpoint::load(&llc_path, None)?;
         let skill_source = source_of(&llc_path, skill.progress.iteration, skill.progress.samples)?;
-        if latent { super::modular::fused_latent_model(&c.policy, &skill.policy, meta, skill_source)? } else { fused_model(&c.policy, &skill.policy, meta, skill_source)? }
+        if latent { super::latent::fused_latent_model(&c.policy, &skill.policy, meta, skill_source)? } else { fused_model(&c.policy, &skill.policy, meta, skill_source)? }
     } else {
         policy_model(&c.policy, meta)?
     };

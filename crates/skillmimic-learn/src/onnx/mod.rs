@@ -24,6 +24,7 @@
 
 pub mod export;
 pub mod graph;
+pub mod latent;
 pub mod meta;
 pub mod modular;
 

@@ -1,7 +1,7 @@
 //! Dedicated forward/backward of the PPO minibatch loss (the trainer's default path).
 //!
 //! Same losses as [`super::loss::loss_and_grads`] (candle autograd, kept as the reference), written
-//! out by hand for the two ReLU MLPs:
+//! out by hand for the two ReLU MLPs (a modular attention actor: [`super::fast_modular`]):
 //!
 //! * forward: z_k = h_{k−1} W_kᵀ + b_k, h_k = max(z_k, 0) (no ReLU after the last layer); all
 //!   activations are kept in buffers reused across minibatches and iterations;
@@ -21,9 +21,10 @@
 use rayon::prelude::*;
 
 use crate::config::PpoConfig;
-use skillmimic_nn::mlp::{Mlp, SendPtr, gemm_raw, linear_into, split_ranges};
+use super::mlp_grad::{backward, forward_keep};
 
 use super::batch::{LossStats, Minibatch};
+use crate::actor::ActorNet;
 use crate::policy::{HALF_LN_2PI, Policy};
 
 /// Reusable buffers of the fast update.
@@ -34,144 +35,35 @@ pub struct UpdateWorkspace {
     g_a: Vec<f32>,
     g_b: Vec<f32>,
     scratch: Vec<f32>,
+    /// Activations of a modular attention actor.
+    modular: super::fast_modular::ModularCache,
     /// Parameter gradients in `Policy` order (actor layers, then critic layers; weight, bias).
     pub grads: Vec<Vec<f32>>,
 }
 
-const BLOCKS: usize = 32;
-
-/// Forward through `m` keeping every activation (`h[k]` = output of layer k).
-fn forward_keep(m: &Mlp, x: &[f32], n: usize, h: &mut Vec<Vec<f32>>, threads: usize) {
-    let layers = m.num_layers();
-    h.resize_with(layers, Vec::new);
-    for k in 0..layers {
-        let need = n * m.dims[k + 1];
-        h[k].resize(need, 0.0);
-        let (done, rest) = h.split_at_mut(k);
-        let input: &[f32] = if k == 0 { x } else { &done[k - 1] };
-        linear_into(input, n, &m.weights[k], &m.biases[k], m.dims[k], &mut rest[0], threads);
-        if k + 1 < layers {
-            rest[0].par_chunks_mut(4096).for_each(|c| c.iter_mut().for_each(|v| *v = v.max(0.0)));
-        }
-    }
-}
-
-/// dW = gᵀ · h_in (out × in) over `n` rows, split by output rows over the pool.
-fn weight_grad(g: &[f32], h_in: &[f32], n: usize, fan_in: usize, fan_out: usize, dw: &mut [f32], threads: usize) {
-    let dst = SendPtr(dw.as_mut_ptr());
-    let one = |r: std::ops::Range<usize>| {
-        // SAFETY: rows r of dW (fan_out × fan_in) are written by this task only; lhs = gᵀ
-        // restricted to rows r (columns r of g, n × fan_out); rhs = h_in (n × fan_in).
-        unsafe {
-            gemm_raw(
-                r.len(),
-                fan_in,
-                n,
-                dst.get().add(r.start * fan_in),
-                fan_in as isize,
-                1,
-                false,
-                g.as_ptr().add(r.start),
-                1,
-                fan_out as isize,
-                h_in.as_ptr(),
-                fan_in as isize,
-                1,
-            );
-        }
-    };
-    if threads <= 1 {
-        one(0..fan_out);
-    } else {
-        split_ranges(fan_out, threads).into_par_iter().for_each(one);
-    }
-}
-
-/// db = column sums of g (n × out), fixed row blocks summed in order.
-fn bias_grad(g: &[f32], n: usize, fan_out: usize, db: &mut [f32]) {
-    let rows = n.div_ceil(BLOCKS);
-    let partial: Vec<Vec<f64>> = (0..BLOCKS)
-        .into_par_iter()
-        .map(|b| {
-            let mut s = vec![0.0f64; fan_out];
-            let (lo, hi) = ((b * rows).min(n), ((b + 1) * rows).min(n));
-            for row in g[lo * fan_out..hi * fan_out].chunks_exact(fan_out) {
-                for (a, &v) in s.iter_mut().zip(row) {
-                    *a += v as f64;
-                }
-            }
-            s
-        })
-        .collect();
-    db.fill(0.0);
-    let mut acc = vec![0.0f64; fan_out];
-    for p in &partial {
-        for (a, v) in acc.iter_mut().zip(p) {
-            *a += v;
-        }
-    }
-    for (d, a) in db.iter_mut().zip(acc) {
-        *d = a as f32;
-    }
-}
-
-/// g_in = (g · W) ⊙ [h_in > 0] (n × in), split by input columns over the pool.
-fn input_grad(g: &[f32], w: &[f32], h_in: &[f32], n: usize, fan_in: usize, fan_out: usize, g_in: &mut [f32], threads: usize) {
-    let dst = SendPtr(g_in.as_mut_ptr());
-    let one = |r: std::ops::Range<usize>| {
-        // SAFETY: columns r of g_in (n × fan_in) are written by this task only; lhs = g
-        // (n × fan_out); rhs = W (fan_out × fan_in) restricted to columns r.
-        unsafe {
-            gemm_raw(n, r.len(), fan_out, dst.get().add(r.start), fan_in as isize, 1, false, g.as_ptr(), fan_out as isize, 1, w.as_ptr().add(r.start), fan_in as isize, 1);
-        }
-    };
-    if threads <= 1 {
-        one(0..fan_in);
-    } else {
-        split_ranges(fan_in, threads).into_par_iter().for_each(one);
-    }
-    g_in.par_chunks_mut(4096).zip(h_in.par_chunks(4096)).for_each(|(gi, hi)| {
-        for (a, &h) in gi.iter_mut().zip(hi) {
-            if h <= 0.0 {
-                *a = 0.0;
-            }
-        }
-    });
-}
-
-/// Backward through `m` given the output gradient `g_out` (consumed as scratch); parameter
-/// gradients go to `grads[offset..]` (weight, bias per layer).
-#[allow(clippy::too_many_arguments)]
-fn backward(m: &Mlp, x: &[f32], n: usize, h: &[Vec<f32>], g_out: &mut Vec<f32>, scratch: &mut Vec<f32>, grads: &mut [Vec<f32>], threads: usize) {
-    let layers = m.num_layers();
-    for k in (0..layers).rev() {
-        let (fan_in, fan_out) = (m.dims[k], m.dims[k + 1]);
-        let h_in: &[f32] = if k == 0 { x } else { &h[k - 1] };
-        let (gw, gb) = grads.split_at_mut(2 * k + 1);
-        weight_grad(g_out, h_in, n, fan_in, fan_out, &mut gw[2 * k], threads);
-        bias_grad(g_out, n, fan_out, &mut gb[0]);
-        if k > 0 {
-            scratch.resize(n * fan_in, 0.0);
-            input_grad(g_out, &m.weights[k], h_in, n, fan_in, fan_out, scratch, threads);
-            std::mem::swap(g_out, scratch);
-        }
-    }
-}
-
-/// Whether the fast path computes `policy`'s loss (the `gaussian_mlp` family only; other
-/// families always take the canonical candle loss).
+/// Whether the fast path computes `policy`'s loss: the Gaussian families over an MLP actor
+/// (`gaussian_mlp`) or a modular attention actor (`modular_attention`, [`super::fast_modular`]);
+/// other families always take the canonical candle loss.
 pub fn applies_to(policy: &Policy) -> bool {
     use crate::policies::PolicyFamily;
-    policy.family.name() == crate::policies::gaussian_mlp::GaussianMlp.name() && policy.actor.as_mlp().is_some()
+    match &policy.actor {
+        ActorNet::Mlp(_) => policy.family.name() == crate::policies::gaussian_mlp::GaussianMlp.name(),
+        ActorNet::Modular(m) => policy.family.name() == "modular_attention" && m.parts.len() <= super::fast_modular::MAX_PARTS,
+    }
 }
 
 /// Losses and gradients of one minibatch (see the module docs); gradients land in `ws.grads`.
 pub fn loss_and_grads_fast(policy: &Policy, mb: &Minibatch<'_>, cfg: &PpoConfig, ws: &mut UpdateWorkspace, threads: usize) -> LossStats {
     let (n, a_dim) = (mb.n, policy.act_dim());
-    let actor = policy.actor.as_mlp().expect("the fast path applies to MLP actors only (applies_to)");
-    forward_keep(actor, mb.obs_n, n, &mut ws.actor_h, threads);
+    match &policy.actor {
+        ActorNet::Mlp(actor) => forward_keep(actor, mb.obs_n, n, &mut ws.actor_h, threads),
+        ActorNet::Modular(m) => ws.modular.forward(m, mb.obs_n, n, threads),
+    }
     forward_keep(&policy.critic, mb.obs_n, n, &mut ws.critic_h, threads);
-    let mu = ws.actor_h.last().expect("actor layers");
+    let mu: &[f32] = match &policy.actor {
+        ActorNet::Mlp(_) => ws.actor_h.last().expect("actor layers"),
+        ActorNet::Modular(_) => &ws.modular.out,
+    };
     let v = ws.critic_h.last().expect("critic layers");
     let inv_var: Vec<f64> = policy.log_std.iter().map(|&l| (-2.0 * l as f64).exp()).collect();
     let inv_sigma: Vec<f64> = policy.log_std.iter().map(|&l| (-(l as f64)).exp()).collect();
@@ -236,15 +128,18 @@ pub fn loss_and_grads_fast(policy: &Policy, mb: &Minibatch<'_>, cfg: &PpoConfig,
     };
 
     // backward
-    let na = 2 * actor.num_layers();
+    let na = policy.actor.params().len();
     let sizes: Vec<usize> = policy.actor.params().iter().chain(policy.critic.params().iter()).map(|p| p.len()).collect();
     ws.grads.resize_with(sizes.len(), Vec::new);
     for (g, &s) in ws.grads.iter_mut().zip(&sizes) {
         g.resize(s, 0.0);
     }
-    let UpdateWorkspace { actor_h, critic_h, g_a, g_b, scratch, grads } = ws;
+    let UpdateWorkspace { actor_h, critic_h, g_a, g_b, scratch, grads, modular } = ws;
     let (ga_grads, gc_grads) = grads.split_at_mut(na);
-    backward(actor, mb.obs_n, n, actor_h, g_a, scratch, ga_grads, threads);
+    match &policy.actor {
+        ActorNet::Mlp(actor) => backward(actor, mb.obs_n, n, actor_h, g_a, scratch, ga_grads, threads),
+        ActorNet::Modular(m) => modular.backward(m, g_a, n, ga_grads, threads),
+    }
     backward(&policy.critic, mb.obs_n, n, critic_h, g_b, scratch, gc_grads, threads);
     stats
 }

@@ -1,0 +1,136 @@
+//! The hand-written gradient kernels of the fast PPO path for ReLU MLPs (used by [`super::fast`]
+//! and [`super::fast_modular`]): forward keeping activations, weight/bias/input gradients and the
+//! backward through a whole MLP. Matrix products go through [`skillmimic_nn::mlp::gemm_raw`], split
+//! over the current rayon pool by output blocks; reductions use fixed row blocks combined in order,
+//! so results do not depend on scheduling.
+
+use rayon::prelude::*;
+use skillmimic_nn::mlp::{Mlp, SendPtr, gemm_raw, linear_into, split_ranges};
+
+const BLOCKS: usize = 32;
+
+/// Forward through `m` keeping every activation (`h[k]` = output of layer k).
+pub fn forward_keep(m: &Mlp, x: &[f32], n: usize, h: &mut Vec<Vec<f32>>, threads: usize) {
+    let layers = m.num_layers();
+    h.resize_with(layers, Vec::new);
+    for k in 0..layers {
+        let need = n * m.dims[k + 1];
+        h[k].resize(need, 0.0);
+        let (done, rest) = h.split_at_mut(k);
+        let input: &[f32] = if k == 0 { x } else { &done[k - 1] };
+        linear_into(input, n, &m.weights[k], &m.biases[k], m.dims[k], &mut rest[0], threads);
+        if k + 1 < layers {
+            rest[0].par_chunks_mut(4096).for_each(|c| c.iter_mut().for_each(|v| *v = v.max(0.0)));
+        }
+    }
+}
+
+/// dW = gᵀ · h_in (out × in) over `n` rows, split by output rows over the pool.
+pub fn weight_grad(g: &[f32], h_in: &[f32], n: usize, fan_in: usize, fan_out: usize, dw: &mut [f32], threads: usize) {
+    let dst = SendPtr(dw.as_mut_ptr());
+    let one = |r: std::ops::Range<usize>| {
+        // SAFETY: rows r of dW (fan_out × fan_in) are written by this task only; lhs = gᵀ
+        // restricted to rows r (columns r of g, n × fan_out); rhs = h_in (n × fan_in).
+        unsafe {
+            gemm_raw(
+                r.len(),
+                fan_in,
+                n,
+                dst.get().add(r.start * fan_in),
+                fan_in as isize,
+                1,
+                false,
+                g.as_ptr().add(r.start),
+                1,
+                fan_out as isize,
+                h_in.as_ptr(),
+                fan_in as isize,
+                1,
+            );
+        }
+    };
+    if threads <= 1 {
+        one(0..fan_out);
+    } else {
+        split_ranges(fan_out, threads).into_par_iter().for_each(one);
+    }
+}
+
+/// db = column sums of g (n × out), fixed row blocks summed in order.
+pub fn bias_grad(g: &[f32], n: usize, fan_out: usize, db: &mut [f32]) {
+    let rows = n.div_ceil(BLOCKS);
+    let partial: Vec<Vec<f64>> = (0..BLOCKS)
+        .into_par_iter()
+        .map(|b| {
+            let mut s = vec![0.0f64; fan_out];
+            let (lo, hi) = ((b * rows).min(n), ((b + 1) * rows).min(n));
+            for row in g[lo * fan_out..hi * fan_out].chunks_exact(fan_out) {
+                for (a, &v) in s.iter_mut().zip(row) {
+                    *a += v as f64;
+                }
+            }
+            s
+        })
+        .collect();
+    db.fill(0.0);
+    let mut acc = vec![0.0f64; fan_out];
+    for p in &partial {
+        for (a, v) in acc.iter_mut().zip(p) {
+            *a += v;
+        }
+    }
+    for (d, a) in db.iter_mut().zip(acc) {
+        *d = a as f32;
+    }
+}
+
+/// g_in = g · W (n × in), split by input columns over the pool.
+pub fn input_grad_plain(g: &[f32], w: &[f32], n: usize, fan_in: usize, fan_out: usize, g_in: &mut [f32], threads: usize) {
+    let dst = SendPtr(g_in.as_mut_ptr());
+    let one = |r: std::ops::Range<usize>| {
+        // SAFETY: columns r of g_in (n × fan_in) are written by this task only; lhs = g
+        // (n × fan_out); rhs = W (fan_out × fan_in) restricted to columns r.
+        unsafe {
+            gemm_raw(n, r.len(), fan_out, dst.get().add(r.start), fan_in as isize, 1, false, g.as_ptr(), fan_out as isize, 1, w.as_ptr().add(r.start), fan_in as isize, 1);
+        }
+    };
+    if threads <= 1 {
+        one(0..fan_in);
+    } else {
+        split_ranges(fan_in, threads).into_par_iter().for_each(one);
+    }
+}
+
+/// g_in = (g · W) ⊙ [h_in > 0] (n × in).
+#[allow(clippy::too_many_arguments)]
+pub fn input_grad(g: &[f32], w: &[f32], h_in: &[f32], n: usize, fan_in: usize, fan_out: usize, g_in: &mut [f32], threads: usize) {
+    input_grad_plain(g, w, n, fan_in, fan_out, g_in, threads);
+    g_in.par_chunks_mut(4096).zip(h_in.par_chunks(4096)).for_each(|(gi, hi)| {
+        for (a, &h) in gi.iter_mut().zip(hi) {
+            if h <= 0.0 {
+                *a = 0.0;
+            }
+        }
+    });
+}
+
+/// Backward through `m` given the output gradient `g_out` (consumed as scratch; on return it
+/// holds the gradient at the first layer's output); parameter gradients go to `grads`
+/// (weight, bias per layer).
+#[allow(clippy::too_many_arguments)]
+pub fn backward(m: &Mlp, x: &[f32], n: usize, h: &[Vec<f32>], g_out: &mut Vec<f32>, scratch: &mut Vec<f32>, grads: &mut [Vec<f32>], threads: usize) {
+    let layers = m.num_layers();
+    for k in (0..layers).rev() {
+        let (fan_in, fan_out) = (m.dims[k], m.dims[k + 1]);
+        let h_in: &[f32] = if k == 0 { x } else { &h[k - 1] };
+        let (gw, gb) = grads.split_at_mut(2 * k + 1);
+        weight_grad(g_out, h_in, n, fan_in, fan_out, &mut gw[2 * k], threads);
+        bias_grad(g_out, n, fan_out, &mut gb[0]);
+        if k > 0 {
+            scratch.resize(n * fan_in, 0.0);
+            input_grad(g_out, &m.weights[k], h_in, n, fan_in, fan_out, scratch, threads);
+            std::mem::swap(g_out, scratch);
+        }
+    }
+}
+
