@@ -1,6 +1,7 @@
 """Pure-numpy reference of the high-level (HLC) tasks: heading, circling, throwing, scoring, and
-ModSkill's steering (written from seed 001's supplementary "Steering" and the task's documented
-choices: a bounded velocity-error reward, the command turned into the heading frame).
+ModSkill's steering and reach (written from seed 001's supplementary "Steering" and "Reach" and
+the tasks' documented choices: a bounded velocity-error reward, the command turned into the heading
+frame; the hand = the base of the right middle finger).
 
 Written independently from the task description of the reference facts (section 8) and the
 skill observation of ``reference_env`` (section 4.1). Like ``reference_env`` it only reads a
@@ -28,15 +29,18 @@ from reference_common import BALL, heading_inverse_matrix
 
 STATE_OBS = 838                       # skill observation without the 64-wide one-hot
 TASKS = ("heading", "circling", "throwing", "scoring")
-TASK_OBS = {"heading": 4, "circling": 5, "throwing": 0, "scoring": 5, "steering": 3}
+TASK_OBS = {"heading": 4, "circling": 5, "throwing": 0, "scoring": 5, "steering": 3, "reach": 3}
 TERM_NAMES = {
     "heading": ["heading"],
     "circling": ["ring", "speed_gate", "circling"],
     "throwing": ["throwing"],
     "scoring": ["speed_gate", "basket", "bonus", "height", "scoring"],
     "steering": ["steering"],
+    "reach": ["reach"],
 }
 STEERING_ERROR_SCALE = 0.25
+REACH_SCALE = 5.0
+REACH_HAND = 41                       # R_Middle1 in skeleton order (R_Wrist 37, R_Index1-3 38-40)
 GRAVITY = 9.8
 
 # defaults of the facts (section 8)
@@ -77,6 +81,9 @@ def task_observation(task, state, goal, reached=False):
     steering (world direction x, y, speed m/s)."""
     if task == "throwing":
         return np.zeros(0)
+    if task == "reach":
+        hinv = heading_inverse_matrix(state["body_quat"][0])
+        return hinv @ (np.asarray(goal[:3], np.float64) - state["body_pos"][0])
     if task == "steering":
         hinv = heading_inverse_matrix(state["body_quat"][0])
         d = hinv @ np.array([float(goal[0]), float(goal[1]), 0.0])
@@ -112,6 +119,12 @@ def steering_terms(state, goal, k=STEERING_ERROR_SCALE):
     want = float(goal[2]) * np.array([float(goal[0]), float(goal[1])])
     err = want - state["body_linvel"][0][:2]
     return [math.exp(-k * float(err @ err))]
+
+
+def reach_terms(state, goal, k=REACH_SCALE):
+    """[exp(-k |p_hand - c|^2)] with c = (target_x, target_y, target_z) (world, m)."""
+    d = state["body_pos"][REACH_HAND] - np.asarray(goal[:3], np.float64)
+    return [math.exp(-k * float(d @ d))]
 
 
 def heading_terms(state, goal, mode="code"):

@@ -5,9 +5,9 @@ numpy reference:
   embedding per part; the PD targets it applies equal the checkpoint's part controllers run in
   PyTorch (``skillmimic_rs.policy.load_checkpoint``) on each embedding projected onto the unit
   sphere (``F.normalize``), clamped to [-1, 1];
-* ``steering``: a PyPI-mujoco shadow replays those PD targets; the observation's task part and the
-  reward equal ``reference_hlc`` to 1e-5 with the command of ``task_info`` in force during the
-  step, over commands that are redrawn during the episode.
+* ``steering`` and ``reach``: a PyPI-mujoco shadow replays those PD targets; the observation's task
+  part and the reward equal ``reference_hlc`` to 1e-5 with the goal of ``task_info`` in force
+  during the step, over goals that are redrawn during the episode.
 """
 
 from __future__ import annotations
@@ -62,23 +62,29 @@ def test_part_embeddings_drive_the_torch_part_controllers(modular_llc, task):
     env.close()
 
 
-def test_steering_matches_the_numpy_reference(modular_llc):
+@pytest.mark.parametrize("task", ["steering", "reach"])
+def test_goal_tasks_match_the_numpy_reference(modular_llc, task):
     env = skillmimic_rs.VecEnv(
-        3, task="steering", llc=modular_llc, motion=MOTIONS, autoreset_mode="disabled", threads=1,
-        steering={"change_steps_min": 7, "change_steps_max": 13},
+        3, task=task, llc=modular_llc, motion=MOTIONS, autoreset_mode="disabled", threads=1,
+        **{task: {"change_steps_min": 7, "change_steps_max": 13}},
     )
     sh = Shadow(env)
+    assert sh.model.body(hl.REACH_HAND + 1).name == "R_Middle1"
     obs, _ = env.reset(seed=5)
     for i in range(3):
         sh.copy_state(i)
     rng = np.random.default_rng(1)
+    terms_of = hl.steering_terms if task == "steering" else hl.reach_terms
     redraws = 0
     for k in range(40):
         goals = env.task_info().copy()
-        assert np.allclose(np.hypot(goals[:, 0], goals[:, 1]), 1.0, atol=1e-6)
-        assert np.all((0.5 <= goals[:, 2]) & (goals[:, 2] <= 3.0)), goals
+        if task == "steering":
+            assert np.allclose(np.hypot(goals[:, 0], goals[:, 1]), 1.0, atol=1e-6)
+            assert np.all((0.5 <= goals[:, 2]) & (goals[:, 2] <= 3.0)), goals
+        else:
+            assert np.all((0.0 <= goals[:, 2]) & (goals[:, 2] <= 2.0)), goals
         for i in range(3):
-            np.testing.assert_allclose(obs[i, hl.STATE_OBS:], hl.task_observation("steering", sh.state(i), goals[i]), err_msg=f"step {k} env {i} task observation", **TOL)
+            np.testing.assert_allclose(obs[i, hl.STATE_OBS:], hl.task_observation(task, sh.state(i), goals[i]), err_msg=f"step {k} env {i} task observation", **TOL)
         latent = rng.normal(size=(3, 80)).astype(np.float32)
         obs, rew, term, trunc, info = env.step(latent)
         targets = env.pd_targets()
@@ -87,11 +93,11 @@ def test_steering_matches_the_numpy_reference(modular_llc):
                 continue
             sh.step(i, targets[i])
             st = sh.state(i)
-            np.testing.assert_allclose(obs[i], hl.observation("steering", st, env.task_info()[i]), err_msg=f"step {k} env {i} observation", **TOL)
-            np.testing.assert_allclose(info["reward_terms"][i], hl.steering_terms(st, goals[i]), err_msg=f"step {k} env {i} reward", **TOL)
-            np.testing.assert_allclose(rew[i], hl.steering_terms(st, goals[i])[-1], **TOL)
+            np.testing.assert_allclose(obs[i], hl.observation(task, st, env.task_info()[i]), err_msg=f"step {k} env {i} observation", **TOL)
+            np.testing.assert_allclose(info["reward_terms"][i], terms_of(st, goals[i]), err_msg=f"step {k} env {i} reward", **TOL)
+            np.testing.assert_allclose(rew[i], terms_of(st, goals[i])[-1], **TOL)
         redraws += int(np.any(env.task_info() != goals))
-    assert redraws >= 3, "commands are redrawn every 7-13 steps"
+    assert redraws >= 3, "goals are redrawn every 7-13 steps"
     env.close()
 
 

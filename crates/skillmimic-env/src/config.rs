@@ -8,7 +8,7 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 use skillmimic_sim::{BallParams, HandModel, SceneOptions};
 
-pub use crate::config_hlc::{CirclingConfig, Formula, GoalSampling, HeadingConfig, HlcConfig, Prediction, ScoringConfig, SteeringConfig, ThrowingConfig};
+pub use crate::config_hlc::{CirclingConfig, Formula, GoalSampling, HeadingConfig, HlcConfig, Prediction, ReachConfig, ScoringConfig, SteeringConfig, ThrowingConfig};
 pub use crate::config_tracking::TrackingConfig;
 pub use crate::config_v2::{AtsConfig, BridgeConfig, HistoryConfig, MaskedReward, NoiseEps, StfConfig, StgConfig, V2Config};
 pub use crate::error::ConfigError;
@@ -211,7 +211,7 @@ pub struct EnvConfig {
     pub v2: V2Config,
     /// Options of the `stand` task (the worked example of adding a task).
     pub stand: StandConfig,
-    /// Options shared by the high-level tasks (heading, circling, throwing, scoring, steering).
+    /// Options shared by the high-level tasks (heading, circling, throwing, scoring, steering, reach).
     pub hlc: HlcConfig,
     /// Options of the `heading` task.
     pub heading: HeadingConfig,
@@ -223,6 +223,8 @@ pub struct EnvConfig {
     pub scoring: ScoringConfig,
     /// Options of the `steering` task (ModSkill's downstream task).
     pub steering: SteeringConfig,
+    /// Options of the `reach` task (ModSkill's downstream task).
+    pub reach: ReachConfig,
     /// Options of the `tracking` task (motion tracking without the ball; ModSkill).
     pub tracking: TrackingConfig,
 }
@@ -248,6 +250,7 @@ impl Default for EnvConfig {
             hlc: Default::default(),
             heading: Default::default(),
             steering: Default::default(),
+            reach: Default::default(),
             circling: Default::default(),
             throwing: Default::default(),
             scoring: Default::default(),

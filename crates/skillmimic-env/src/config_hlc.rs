@@ -123,6 +123,46 @@ impl SteeringConfig {
     }
 }
 
+/// `reach`: bring the right hand to a 3-D target (`[env.reach]`; ModSkill supplementary
+/// "Reach").
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct ReachConfig {
+    /// Side of the target box (m).
+    pub box_size: f64,
+    /// Height of the box centre above the floor (m); its xy is the root's start position.
+    pub center_height: f64,
+    /// The body brought to the target (a body name of the humanoid).
+    pub hand_body: String,
+    /// k in the reward exp(−k·‖p_hand − c‖²) (1/m²).
+    pub scale: f64,
+    /// Fewest low-level steps before a new target is drawn.
+    pub change_steps_min: u32,
+    /// Most low-level steps before a new target is drawn.
+    pub change_steps_max: u32,
+}
+
+impl Default for ReachConfig {
+    fn default() -> Self {
+        Self { box_size: 2.0, center_height: 1.0, hand_body: "R_Middle1".into(), scale: 5.0, change_steps_min: 200, change_steps_max: 600 }
+    }
+}
+
+impl ReachConfig {
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        if !(self.box_size.is_finite() && self.box_size >= 0.0) {
+            return Err(bad("env.reach.box_size", format!("{} must be a number >= 0", self.box_size)));
+        }
+        if !self.center_height.is_finite() {
+            return Err(bad("env.reach.center_height", "must be a finite number"));
+        }
+        if self.change_steps_min == 0 || self.change_steps_min > self.change_steps_max {
+            return Err(bad("env.reach.change_steps_min", format!("[{}, {}] is not a range 1 <= min <= max", self.change_steps_min, self.change_steps_max)));
+        }
+        positive("env.reach.scale", self.scale)
+    }
+}
+
 /// `circling`: dribble around the start point at a given radius (`[env.circling]`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]

@@ -33,6 +33,7 @@ pub const TASKS: &[TaskEntry] = &[
     TaskEntry { name: "throwing", summary: "skill reuse: throw the ball up to 2.5 m and catch it (frozen skill policy, --llc)", high_level: true, choices: tasks::hlc::throwing::LABELS, build: tasks::hlc::throwing::build },
     TaskEntry { name: "scoring", summary: "skill reuse: dribble to a basket and score with layups (frozen skill policy, --llc)", high_level: true, choices: tasks::hlc::scoring::LABELS, build: tasks::hlc::scoring::build },
     TaskEntry { name: "steering", summary: "skill reuse: move in a commanded direction at a commanded speed (ModSkill; skill or modular policy, --llc)", high_level: true, choices: tasks::hlc::steering::LABELS, build: tasks::hlc::steering::build },
+    TaskEntry { name: "reach", summary: "skill reuse: bring the right hand to a 3-D target (ModSkill; skill or modular policy, --llc)", high_level: true, choices: tasks::hlc::reach::LABELS, build: tasks::hlc::reach::build },
 ];
 
 /// Registered task names.

@@ -163,4 +163,9 @@ fn steering_commands_rewards_and_redraws() {
     assert_ne!(commands[9], commands[8]);
     let bad = { let mut c = c.clone(); c.env.steering.change_steps_min = 0; skillmimic_env::registry::make(&c.env).err().unwrap().to_string() };
     assert!(bad.contains("env.steering.change_steps_min"), "{bad}");
+    let mut r = c.clone();
+    r.env.task = "reach".into();
+    r.env.reach.hand_body = "R_Hand".into();
+    let bad = skillmimic_env::registry::make(&r.env).err().unwrap().to_string();
+    assert!(bad.contains("env.reach.hand_body") && bad.contains("R_Middle1"), "{bad}");
 }

@@ -1,7 +1,7 @@
 //! The registered tasks (see [`crate::registry`]).
 //!
 //! * [`imitation`]: SkillMimic imitation of human–ball clips, with the SkillMimic-V2 parts;
-//! * [`hlc`]: skill reuse — `heading`, `circling`, `throwing`, `scoring`, `steering` over a frozen skill
+//! * [`hlc`]: skill reuse — `heading`, `circling`, `throwing`, `scoring`, `steering`, `reach` over a frozen skill
 //!   policy (SkillMimic §5.4);
 //! * [`stand`]: keep the pelvis height and heading — the worked example of adding a task;
 //! * [`tracking`]: motion tracking without the ball (ModSkill, PHC).

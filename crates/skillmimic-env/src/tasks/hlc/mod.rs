@@ -36,6 +36,7 @@
 pub mod circling;
 pub mod heading;
 pub mod hold;
+pub mod reach;
 pub mod scoring;
 pub mod steering;
 pub mod throwing;
@@ -83,11 +84,23 @@ pub struct Goal {
     /// height since.
     pub throw_step: Option<u32>,
     pub dropped: bool,
-    /// Steering: commanded speed (m/s; the direction is `xy`), the low-level step of the next
-    /// command and the episode's seed for the redraws.
+    /// Steering: commanded speed (m/s; the direction is `xy`). Reach: target height (m; the
+    /// target's world xy is `xy`).
     pub speed: f64,
+    pub target_z: f64,
+    /// Reach: the world xy its targets are drawn around (the root's start position, m).
+    pub anchor: [f64; 2],
+    /// Steering and reach: the low-level step of the next redraw and the episode's seed for the
+    /// redraws ([`redraw_rng`]).
     pub next_change: u32,
     pub seed: u64,
+}
+
+/// The random stream of a goal redraw due at low-level step `step` (`None` before
+/// `g.next_change`): seeded from the episode's seed and the step, so episodes are reproducible.
+pub fn redraw_rng(g: &Goal, step: u32) -> Option<ChaCha8Rng> {
+    use rand::SeedableRng;
+    (step >= g.next_change).then(|| ChaCha8Rng::seed_from_u64(g.seed ^ u64::from(step).wrapping_mul(0x9e37_79b9_7f4a_7c15)))
 }
 
 /// The frozen policy a high-level task drives (see the module doc).

@@ -16,12 +16,12 @@
 //! * Metrics: `speed_error` ‖v*·d − v_xy‖ (m/s), `dir_speed` d·v_xy (m/s). Info: `dir_x`,
 //!   `dir_y` (world), `speed` (m/s) of the current command.
 
-use rand::{Rng, SeedableRng};
+use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use skillmimic_core::math::heading_inverse;
 use skillmimic_sim::EnvState;
 
-use super::{Goal, Rule};
+use super::{Goal, Rule, redraw_rng};
 use crate::config::{EnvConfig, SteeringConfig};
 use crate::error::EnvError;
 use crate::vec_env::Env;
@@ -83,8 +83,7 @@ impl Rule for Steering {
         terms[0] = r as f32;
         metrics[0] = e2.sqrt() as f32;
         metrics[1] = (g.xy[0] * v[0] + g.xy[1] * v[1]) as f32;
-        if step >= g.next_change {
-            let mut rng = ChaCha8Rng::seed_from_u64(g.seed ^ u64::from(step).wrapping_mul(0x9e37_79b9_7f4a_7c15));
+        if let Some(mut rng) = redraw_rng(g, step) {
             self.draw(g, step, &mut rng);
         }
         r
