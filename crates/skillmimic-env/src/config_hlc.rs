@@ -116,9 +116,7 @@ impl Default for SteeringConfig {
 impl SteeringConfig {
     pub fn validate(&self) -> Result<(), ConfigError> {
         range("env.steering.speed_min", self.speed_min, self.speed_max)?;
-        if self.change_steps_min == 0 || self.change_steps_min > self.change_steps_max {
-            return Err(bad("env.steering.change_steps_min", format!("[{}, {}] is not a range 1 <= min <= max", self.change_steps_min, self.change_steps_max)));
-        }
+        step_range("env.steering.change_steps_min", self.change_steps_min, self.change_steps_max)?;
         positive("env.steering.error_scale", self.error_scale)
     }
 }
@@ -156,9 +154,7 @@ impl ReachConfig {
         if !self.center_height.is_finite() {
             return Err(bad("env.reach.center_height", "must be a finite number"));
         }
-        if self.change_steps_min == 0 || self.change_steps_min > self.change_steps_max {
-            return Err(bad("env.reach.change_steps_min", format!("[{}, {}] is not a range 1 <= min <= max", self.change_steps_min, self.change_steps_max)));
-        }
+        step_range("env.reach.change_steps_min", self.change_steps_min, self.change_steps_max)?;
         positive("env.reach.scale", self.scale)
     }
 }
@@ -277,6 +273,10 @@ impl Default for ScoringConfig {
 
 fn positive(field: &str, v: f64) -> Result<(), ConfigError> {
     if v.is_finite() && v > 0.0 { Ok(()) } else { Err(bad(field, format!("{v} must be a positive number"))) }
+}
+
+fn step_range(field: &str, lo: u32, hi: u32) -> Result<(), ConfigError> {
+    if 1 <= lo && lo <= hi { Ok(()) } else { Err(bad(field, format!("[{lo}, {hi}] is not a range 1 <= min <= max"))) }
 }
 
 fn range(field: &str, lo: f64, hi: f64) -> Result<(), ConfigError> {

@@ -46,6 +46,18 @@ pub fn read_normalizer(f: &TensorFile, prefix: &str, dim: usize, eps: f64, clip:
     Ok(RunningMeanStd { mean, var, count, eps, clip })
 }
 
+/// Open the policy checkpoint at `path`, checking its `format` metadata.
+pub fn open_policy(path: &Path) -> Result<TensorFile, FrozenError> {
+    let f = TensorFile::open(path)?;
+    match f.meta("format")? {
+        POLICY_FORMAT => Ok(f),
+        other => Err(FrozenError::Invalid {
+            path: path.to_path_buf(),
+            detail: format!("metadata 'format' is '{other}', expected '{POLICY_FORMAT}' (a skill policy written by `skillmimic train`)"),
+        }),
+    }
+}
+
 /// The deterministic actor of a skill-policy checkpoint, never modified.
 #[derive(Clone, Debug)]
 pub struct FrozenActor {
@@ -64,12 +76,8 @@ pub struct FrozenActor {
 impl FrozenActor {
     /// Load the actor part of a `gaussian_mlp` checkpoint (training or exported policy file).
     pub fn load(path: &Path) -> Result<Self, FrozenError> {
-        let f = TensorFile::open(path)?;
+        let f = open_policy(path)?;
         let invalid = |detail: String| FrozenError::Invalid { path: path.to_path_buf(), detail };
-        match f.meta("format")? {
-            POLICY_FORMAT => {}
-            other => return Err(invalid(format!("metadata 'format' is '{other}', expected '{POLICY_FORMAT}' (a skill policy written by `skillmimic train`)"))),
-        }
         if let Ok(family) = f.meta("policy")
             && family != "gaussian_mlp"
         {

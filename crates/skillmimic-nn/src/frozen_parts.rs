@@ -15,7 +15,7 @@ use std::path::{Path, PathBuf};
 
 use skillmimic_core::tensorfile::TensorFile;
 
-use crate::frozen::{FrozenError, POLICY_FORMAT, read_mlp};
+use crate::frozen::{FrozenError, open_policy, read_mlp};
 use crate::mlp::{Mlp, Workspace};
 use crate::modular::{ModularSpec, scatter_columns, unit_sphere};
 
@@ -57,12 +57,8 @@ impl FrozenParts {
     /// Load the controllers of the `modular_attention` checkpoint at `path` (training or exported
     /// policy file); the file, field and expected value are named on error.
     pub fn load(path: &Path) -> Result<Self, FrozenError> {
-        let f = TensorFile::open(path)?;
+        let f = open_policy(path)?;
         let invalid = |detail: String| FrozenError::Invalid { path: path.to_path_buf(), detail };
-        match f.meta("format")? {
-            POLICY_FORMAT => {}
-            other => return Err(invalid(format!("metadata 'format' is '{other}', expected '{POLICY_FORMAT}' (a skill policy written by `skillmimic train`)"))),
-        }
         match f.meta("policy") {
             Ok("modular_attention") => {}
             Ok(other) => return Err(invalid(format!("metadata 'policy' is '{other}', expected 'modular_attention' (part controllers)"))),

@@ -17,19 +17,7 @@ fn part_controllers(g: &mut Graph, latent: &str, m: &ModularAttention) {
     let (np, e) = (m.parts.len() as i64, m.shape.embed as i64);
     let grouped = g.reshape(latent, &[0, np, e]);
     let z = g.l2_normalize_last(&grouped, 1e-12);
-    let mut ys = Vec::with_capacity(m.parts.len());
-    let mut order: Vec<usize> = Vec::new();
-    for (k, p) in m.parts.iter().enumerate() {
-        let zk = g.take(&z, 1, &[k as i64], true);
-        ys.push(g.mlp(&format!("skill.actor.parts.{k}.controller"), &zk, &p.controller, None));
-        order.extend(&p.outputs);
-    }
-    let cat = g.concat_all(&ys, 1);
-    let mut inverse = vec![0i64; m.act_dim];
-    for (pos, &c) in order.iter().enumerate() {
-        inverse[c] = pos as i64;
-    }
-    let mu = g.take(&cat, 1, &inverse, false);
+    let mu = super::modular::controllers(g, "skill.actor", &z, m);
     g.clip(&mu, -1.0, 1.0, Some("actions"));
 }
 

@@ -48,10 +48,21 @@ pub fn modular_actor(g: &mut Graph, prefix: &str, x: &str, m: &ModularAttention,
     let back = g.transpose(&mixed, &[0, 2, 1, 3]);
     let z = g.reshape(&back, &[0, np, e]);
     let z = g.l2_normalize_last(&z, 1e-12);
+    let mu = controllers(g, prefix, &z, m);
+    match out {
+        Some(o) => g.identity(&mu, o),
+        None => mu,
+    }
+}
+
+/// The part controllers over unit embeddings `z` (batch, P, E): part k's controller on `z[:, k]`,
+/// the outputs concatenated and put into action-column order by one `Gather` with the inverse
+/// permutation. Returns the means (batch, act_dim).
+pub fn controllers(g: &mut Graph, prefix: &str, z: &str, m: &ModularAttention) -> String {
     let mut ys = Vec::with_capacity(m.parts.len());
     let mut order: Vec<usize> = Vec::new();
     for (k, p) in m.parts.iter().enumerate() {
-        let zk = g.take(&z, 1, &[k as i64], true);
+        let zk = g.take(z, 1, &[k as i64], true);
         ys.push(g.mlp(&format!("{prefix}.parts.{k}.controller"), &zk, &p.controller, None));
         order.extend(&p.outputs);
     }
@@ -60,10 +71,5 @@ pub fn modular_actor(g: &mut Graph, prefix: &str, x: &str, m: &ModularAttention,
     for (pos, &c) in order.iter().enumerate() {
         inverse[c] = pos as i64;
     }
-    let name = out.map(str::to_string);
-    let picked = g.take(&cat, 1, &inverse, false);
-    match name {
-        Some(o) => g.identity(&picked, &o),
-        None => picked,
-    }
+    g.take(&cat, 1, &inverse, false)
 }
