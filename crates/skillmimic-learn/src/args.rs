@@ -9,16 +9,15 @@ use crate::config::TrainConfig;
 /// Flags that override configuration fields (shared by train / eval / play).
 #[derive(clap::Args, Clone, Debug, Default)]
 pub struct ConfigFlags {
-    /// Task of the registry (`env.task`): imitation (default), stand, heading, circling,
-    /// throwing, scoring. A high-level task (the last four) without `--policy` trains the
-    /// high-level controller's `categorical_mlp` [1024, 512].
-    #[arg(long)]
+    /// Task of the registry (`env.task`; the list is generated from the registry).
+    #[arg(long, help = task_help())]
     pub task: Option<String>,
-    /// Skill policy checkpoint driven by a high-level task (`env.hlc.llc`); only read.
+    /// Frozen policy driven by a high-level task (`env.hlc.llc`): a skill policy (discrete skill
+    /// choices) or a `modular_attention` checkpoint (part embeddings); only read.
     #[arg(long)]
     pub llc: Option<PathBuf>,
-    /// Policy family (`ppo.policy`): gaussian_mlp (default), categorical_mlp.
-    #[arg(long)]
+    /// Policy family (`ppo.policy`; the list is generated from the families).
+    #[arg(long, help = policy_help())]
     pub policy: Option<String>,
     /// Clip files or folders (repeatable); replaces `env.motion`.
     #[arg(long = "motion")]
@@ -33,6 +32,24 @@ pub struct ConfigFlags {
     /// Any config field as `table.field=value` (TOML value syntax), repeatable, applied last.
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub set: Vec<String>,
+}
+
+/// `--task` help: every registered task, the high-level ones marked.
+fn task_help() -> String {
+    let tasks = skillmimic_env::registry::TASKS;
+    let all: Vec<&str> = tasks.iter().map(|t| t.name).collect();
+    let high: Vec<&str> = tasks.iter().filter(|t| t.high_level).map(|t| t.name).collect();
+    format!(
+        "Task of the registry (`env.task`): {} (default imitation). A high-level task ({}) without `--policy` trains the high-level controller's `categorical_mlp` [1024, 512] over a skill policy, a `gaussian_mlp` over a modular one",
+        all.join(", "),
+        high.join(", ")
+    )
+}
+
+/// `--policy` help: every policy family.
+fn policy_help() -> String {
+    let names: Vec<&str> = crate::policies::FAMILIES.iter().map(|f| f.name()).collect();
+    format!("Policy family (`ppo.policy`): {} (default {})", names.join(", "), crate::config::DEFAULT_FAMILY)
 }
 
 impl ConfigFlags {
