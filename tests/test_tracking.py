@@ -128,3 +128,25 @@ def test_tracking_reward_obs_and_metrics_match_numpy_on_real_clips(shared_dir):
     print(f"{checked} environment steps checked; {int(done.sum())} episodes ended")
     assert checked >= 40
     env.close()
+
+
+def test_eval_runs_whole_clips_from_frame_0_and_refuses_imitation_flags(tmp_path, skillmimic_bin):
+    """`skillmimic eval` of a tracking checkpoint: `--start-frame 0` evaluates whole clips (the
+    paper's protocol); other start frames and `--horizon` are refused with the reason instead of
+    being ignored."""
+    import json
+    import subprocess
+
+    from conftest import run_cli
+
+    out = tmp_path / "track"
+    run_cli(skillmimic_bin, "train", "--preset", "tiny", "--task", "tracking", "--set", "run.iterations=1", "--set", "env.num_envs=8",
+            "--set", "ppo.minibatch=64", "--set", "ppo.hidden=[32]", "--set", "run.eval_episodes=1", "--no-video", "--out", str(out))
+    ckpt = str(out / "latest.safetensors")
+    metrics = tmp_path / "m.json"
+    run_cli(skillmimic_bin, "eval", "--checkpoint", ckpt, "--episodes", "4", "--start-frame", "0", "--set", "env.tracking.termination_distance=0.5", "--out", str(metrics))
+    m = json.loads(metrics.read_text())
+    assert m["task"] == "tracking" and m["episodes"] == 4 and {"g_mpjpe_mm", "success"} <= set(m["final_metrics"])
+    for flags in (["--start-frame", "3"], ["--horizon", "100"]):
+        r = subprocess.run([str(skillmimic_bin), "eval", "--checkpoint", ckpt, "--episodes", "2", *flags, "--out", str(metrics)], capture_output=True, text=True)
+        assert r.returncode != 0 and ("--start-frame" in r.stderr or "--horizon" in r.stderr), r.stderr

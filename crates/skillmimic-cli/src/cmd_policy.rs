@@ -111,7 +111,8 @@ pub struct EvalArgs {
     /// default: episodes end with the reference clip as in training.
     #[arg(long)]
     pub horizon: Option<usize>,
-    /// Start every episode at this reference frame (V2 evaluation uses 2); default random.
+    /// Start every episode at this reference frame (imitation; V2 evaluation uses 2; for the
+    /// tracking task only 0 = whole clips); default random.
     #[arg(long)]
     pub start_frame: Option<usize>,
     /// Sample actions instead of using the mean.
@@ -158,11 +159,20 @@ pub fn eval(a: EvalArgs) -> anyhow::Result<()> {
         None => (None, skillmimic_learn::config::TrainConfig::preset("small").map_err(anyhow::Error::msg)?),
     };
     a.flags.apply(&mut cfg)?;
-    if let Some(h) = a.horizon {
-        cfg.env.fixed_horizon = h;
-    }
-    if let Some(f) = a.start_frame {
-        cfg.env.state_init = skillmimic_env::StateInit::Frame(f);
+    match (cfg.env.task.as_str(), a.horizon, a.start_frame) {
+        ("imitation", h, f) => {
+            if let Some(h) = h {
+                cfg.env.fixed_horizon = h;
+            }
+            if let Some(f) = f {
+                cfg.env.state_init = skillmimic_env::StateInit::Frame(f);
+            }
+        }
+        // tracking episodes run to the clip's end from frame 0 or from random frames
+        ("tracking", None, Some(0)) => cfg.env.tracking.random_start = false,
+        ("tracking", None, Some(f)) => bail!("--start-frame {f}: the tracking task evaluates from frame 0 (--start-frame 0, whole clips) or from random frames (no flag)"),
+        (task, Some(_), _) | (task, _, Some(_)) => bail!("--horizon and --start-frame set up imitation episodes (and --start-frame 0 tracking ones); task '{task}' starts and ends its episodes by its own rules"),
+        _ => {}
     }
     if a.episodes == 0 {
         bail!("--episodes must be at least 1");
