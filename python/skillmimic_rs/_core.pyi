@@ -23,6 +23,7 @@ FRAME_METRIC_NAMES: tuple[str, ...]
 CONFIG_PATH_KEYS: tuple[str, ...]
 #: Registered tasks (``env.task``) and policy families (``ppo.policy``).
 TASKS: tuple[str, ...]
+HIGH_LEVEL_TASKS: tuple[str, ...]
 POLICY_FAMILIES: tuple[str, ...]
 
 def load_env_config(path: str) -> str:

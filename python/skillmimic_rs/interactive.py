@@ -169,7 +169,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     import argparse
 
     p = argparse.ArgumentParser(prog="python -m skillmimic_rs.interactive", description=__doc__.split("\n\n")[0])
-    p.add_argument("--task", required=True, choices=["heading", "circling", "throwing", "scoring"])
+    from . import _core
+
+    p.add_argument("--task", required=True, choices=list(_core.HIGH_LEVEL_TASKS))
     p.add_argument("--llc", required=True, help="skill policy checkpoint")
     p.add_argument("--checkpoint", help="high-level policy checkpoint (optional: keys only without it)")
     p.add_argument("--motion", action="append", help="clip files or folders of the episode starts (repeatable)")

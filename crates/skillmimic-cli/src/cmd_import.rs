@@ -43,7 +43,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     if kind == Kind::Hlc {
         cfg.use_high_level_defaults();
         if let Some(t) = &a.task {
-            anyhow::ensure!(skillmimic_env::registry::is_high_level(t), "--task: '{t}' is not a high-level task (heading, circling, throwing, scoring)");
+            anyhow::ensure!(skillmimic_env::registry::is_high_level(t), "--task: '{t}' is not a high-level task ({})", skillmimic_env::registry::TASKS.iter().filter(|e| e.high_level).map(|e| e.name).collect::<Vec<_>>().join(", "));
             cfg.env.task = t.clone();
         }
     }

@@ -62,7 +62,8 @@ fn interactive(ckpt: &Path, flags: &ConfigFlags) -> anyhow::Result<()> {
     let (_, mut cfg) = load_checkpoint(ckpt)?;
     flags.apply(&mut cfg)?;
     if !skillmimic_env::registry::is_high_level(&cfg.env.task) {
-        bail!("--interactive plays the high-level tasks (heading, circling, throwing, scoring); this checkpoint's task is '{}'", cfg.env.task);
+        let high: Vec<&str> = skillmimic_env::registry::TASKS.iter().filter(|t| t.high_level).map(|t| t.name).collect();
+        bail!("--interactive plays the high-level tasks ({}); this checkpoint's task is '{}'", high.join(", "), cfg.env.task);
     }
     let python = crate::video::python_candidates().into_iter().find(|p| p.exists()).unwrap_or_else(|| PathBuf::from("python3"));
     let mut cmd = std::process::Command::new(&python);

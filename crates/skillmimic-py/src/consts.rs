@@ -50,6 +50,8 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("TERM_NAMES", PyTuple::new(py, skillmimic_env::reward::TERM_NAMES)?)?;
     m.add("FRAME_METRIC_NAMES", PyTuple::new(py, skillmimic_env::FRAME_METRIC_NAMES)?)?;
     m.add("TASKS", PyTuple::new(py, skillmimic_env::registry::names())?)?;
+    let high: Vec<&str> = skillmimic_env::registry::TASKS.iter().filter(|t| t.high_level).map(|t| t.name).collect();
+    m.add("HIGH_LEVEL_TASKS", PyTuple::new(py, high)?)?;
     m.add("POLICY_FAMILIES", PyTuple::new(py, skillmimic_learn::policies::FAMILIES.iter().map(|f| f.name()))?)?;
     m.add("CONFIG_PATH_KEYS", PyTuple::new(py, config_file::ENV_PATH_KEYS.iter().map(|k| k.join(".")))?)?;
     m.add_function(wrap_pyfunction!(load_env_config, m)?)?;
