@@ -25,7 +25,7 @@ for task in tracking imitation; do
       --set ppo.policy=$fam --set 'ppo.modular.controller=[128, 64]' --out "$out" "${resume[@]}"
   done
   "$BIN" plot --log "$OUT/$task-gaussian_mlp/log.jsonl" --log "$OUT/$task-modular_attention/log.jsonl" \
-    --label gaussian_mlp --label modular_attention --out "$OUT/$task-compare.png"
+    --label gaussian_mlp --label modular_attention --smooth 50 --out "$OUT/$task-compare.png"
 done
 for fam in gaussian_mlp modular_attention; do
   "$BIN" eval --checkpoint "$OUT/tracking-$fam/latest.safetensors" --episodes 64 --seed 1 --start-frame 0 \

@@ -4,7 +4,7 @@
 //! One log: four panels against samples: mean reward per step, episode length, the task's reward
 //! terms and the losses, each with a title, axis labels with tick numbers and a legend. Several
 //! logs (at most six): mean reward per step, episode length, actor loss and critic loss, one
-//! curve per run. Everything is
+//! curve per run, optionally smoothed (`--smooth N`, trailing moving average). Everything is
 //! drawn by `plotters` into an RGB buffer; text goes through its `ab_glyph` rasteriser with the
 //! DejaVu Sans face embedded in the binary (`assets/fonts`, Bitstream Vera licence), so no system
 //! font is needed (headless machines, fresh CI).
@@ -23,6 +23,10 @@ pub struct Args {
     /// Legend label of each `--log` (default: the log's folder name).
     #[arg(long)]
     pub label: Vec<String>,
+    /// Comparison plots: mean of each point and the `smooth − 1` before it (trailing moving
+    /// average over iterations; 1 = raw).
+    #[arg(long, default_value_t = 1)]
+    pub smooth: usize,
     /// Output PNG.
     #[arg(long)]
     pub out: PathBuf,
@@ -295,8 +299,26 @@ pub fn plot_log(log: &Path, out: &Path) -> anyhow::Result<()> {
     write_png(out, &rgb, w, h)
 }
 
-/// Overlay the runs `logs` (label, log) into `out`: one curve per run in each panel.
-pub fn plot_compare(logs: &[(String, PathBuf)], out: &Path) -> anyhow::Result<()> {
+/// Trailing moving average of the y values over `k` points (the first points average what exists).
+pub fn smooth(points: &[(f64, f64)], k: usize) -> Vec<(f64, f64)> {
+    let k = k.max(1);
+    let mut sum = 0.0;
+    points
+        .iter()
+        .enumerate()
+        .map(|(i, &(x, y))| {
+            sum += y;
+            if i >= k {
+                sum -= points[i - k].1;
+            }
+            (x, sum / (i + 1).min(k) as f64)
+        })
+        .collect()
+}
+
+/// Overlay the runs `logs` (label, log) into `out`: one curve per run in each panel, each
+/// smoothed over `k` iterations ([`smooth`]).
+pub fn plot_compare(logs: &[(String, PathBuf)], out: &Path, k: usize) -> anyhow::Result<()> {
     if logs.len() > COLORS.len() {
         bail!("--log: {} runs given, a comparison plot holds at most {}", logs.len(), COLORS.len());
     }
@@ -304,7 +326,7 @@ pub fn plot_compare(logs: &[(String, PathBuf)], out: &Path) -> anyhow::Result<()
     let panel = |title: &'static str, y_desc: &'static str, key: &str| Panel {
         title,
         y_desc,
-        series: runs.iter().enumerate().map(|(k, (label, rows))| Series { name: label.clone(), color: COLORS[k], points: field(rows, key) }).collect(),
+        series: runs.iter().enumerate().map(|(c, (label, rows))| Series { name: label.clone(), color: COLORS[c], points: smooth(&field(rows, key), k) }).collect(),
     };
     let panels = [
         panel("Mean reward per step", "reward", "mean_reward"),
@@ -326,7 +348,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     } else {
         let name = |p: &Path| p.parent().and_then(|d| d.file_name()).map_or_else(|| p.display().to_string(), |n| n.to_string_lossy().into_owned());
         let logs: Vec<(String, PathBuf)> = a.log.iter().enumerate().map(|(k, p)| (a.label.get(k).cloned().unwrap_or_else(|| name(p)), p.clone())).collect();
-        plot_compare(&logs, &a.out)?;
+        plot_compare(&logs, &a.out, a.smooth)?;
     }
     tracing::info!("wrote {}", a.out.display());
     Ok(())
@@ -417,13 +439,14 @@ mod tests {
         let (a, b) = (temp_dir("cmp-a"), temp_dir("cmp-b"));
         let logs = [("mlp".to_string(), synthetic_log(&a, 30)), ("modular".to_string(), synthetic_log(&b, 20))];
         let out = a.join("compare.png");
-        plot_compare(&logs, &out).unwrap();
+        plot_compare(&logs, &out, 5).unwrap();
+        assert_eq!(smooth(&[(0.0, 1.0), (1.0, 3.0), (2.0, 5.0), (3.0, 7.0)], 2), vec![(0.0, 1.0), (1.0, 2.0), (2.0, 4.0), (3.0, 6.0)]);
         let (info, rgb) = decode(&out);
         assert_eq!((info.width, info.height), SIZE);
         let has = |c: RGBColor| rgb.chunks_exact(3).any(|p| p == [c.0, c.1, c.2]);
         assert!(has(COLORS[0]) && has(COLORS[1]), "both runs drawn in their colours");
         let seven: Vec<(String, PathBuf)> = (0..7).map(|k| (k.to_string(), logs[0].1.clone())).collect();
-        assert!(plot_compare(&seven, &out).unwrap_err().to_string().contains("at most 6"));
+        assert!(plot_compare(&seven, &out, 1).unwrap_err().to_string().contains("at most 6"));
         std::fs::remove_dir_all(&a).ok();
         std::fs::remove_dir_all(&b).ok();
     }
