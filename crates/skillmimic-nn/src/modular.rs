@@ -70,7 +70,9 @@ pub struct ModularWorkspace {
     qkv: Vec<Vec<f32>>,
     z: Vec<Vec<f32>>,
     ws: Vec<Workspace>,
+    /// Attention weights (H·P·P) and mixed embeddings (P·E) of the current row.
     scores: Vec<f32>,
+    u: Vec<f32>,
     out: Vec<f32>,
 }
 
@@ -80,6 +82,36 @@ fn linear<R: Rng + ?Sized>(inp: usize, out: usize, rng: &mut R) -> Mlp {
     let w = (0..out * inp).map(|_| rng.random_range(-b..b)).collect();
     let bias = (0..out).map(|_| rng.random_range(-b..b)).collect();
     Mlp::from_parts(vec![inp, out], vec![w], vec![bias])
+}
+
+/// Softmax attention of one row over the P part tokens: `qkv(which, part)` is that part's q (0),
+/// k (1) or v (2) row (E wide); with H heads of width d = E/H, writes the weights
+/// a[h][i][j] = softmax_j(q_i · k_j · scale) into `attn` (H·P·P) and the mixed embeddings
+/// u_i = Σ_j a_ij v_j (heads side by side) into `u` (P·E). Shared by inference and the training
+/// forward, which keeps `attn` for its backward.
+pub fn attend_row<'a>(qkv: impl Fn(usize, usize) -> &'a [f32], np: usize, e: usize, heads: usize, scale: f32, attn: &mut [f32], u: &mut [f32]) {
+    let dh = e / heads;
+    u.fill(0.0);
+    for h in 0..heads {
+        let cols = h * dh..(h + 1) * dh;
+        for i in 0..np {
+            let q = &qkv(0, i)[cols.clone()];
+            let a = &mut attn[(h * np + i) * np..(h * np + i + 1) * np];
+            for (j, aj) in a.iter_mut().enumerate() {
+                *aj = q.iter().zip(&qkv(1, j)[cols.clone()]).map(|(x, y)| x * y).sum::<f32>() * scale;
+            }
+            let mx = a.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+            a.iter_mut().for_each(|v| *v = (*v - mx).exp());
+            let sum: f32 = a.iter().sum();
+            a.iter_mut().for_each(|v| *v /= sum);
+            let ui = &mut u[i * e..(i + 1) * e][cols.clone()];
+            for (j, &w) in a.iter().enumerate() {
+                for (o, &v) in ui.iter_mut().zip(&qkv(2, j)[cols.clone()]) {
+                    *o += w * v;
+                }
+            }
+        }
+    }
 }
 
 /// Project an embedding onto the unit sphere in place: z / max(‖z‖, 1e-12) (`F.normalize`).
@@ -149,6 +181,11 @@ impl ModularAttention {
         Ok(Self { shape, parts: built, obs_dim, act_dim })
     }
 
+    /// The factor of the attention scores: 1/√(E/H) when `scaled`, else 1.
+    pub fn score_scale(&self) -> f32 {
+        if self.shape.scaled { 1.0 / ((self.shape.embed / self.shape.heads) as f32).sqrt() } else { 1.0 }
+    }
+
     /// `(name, shape)` of every parameter in [`ModularAttention::params`] order.
     pub fn param_names(&self, prefix: &str) -> Vec<(String, Vec<usize>)> {
         let mut v = Vec::new();
@@ -203,35 +240,19 @@ impl ModularAttention {
                 dst.extend_from_slice(y);
             }
         }
-        let (heads, dh) = (self.shape.heads, e / self.shape.heads);
-        let scale = if self.shape.scaled { 1.0 / (dh as f32).sqrt() } else { 1.0 };
+        let (heads, scale) = (self.shape.heads, self.score_scale());
         for z in ws.z.iter_mut() {
-            z.clear();
             z.resize(n * e, 0.0);
         }
-        ws.scores.resize(np, 0.0);
-        let scores = &mut ws.scores;
+        ws.scores.resize(heads * np * np, 0.0);
+        ws.u.resize(np * e, 0.0);
         for r in 0..n {
-            for i in 0..np {
-                let q = &ws.qkv[3 * i][r * e..(r + 1) * e];
-                for hh in 0..heads {
-                    let cols = hh * dh..(hh + 1) * dh;
-                    for (j, s) in scores.iter_mut().enumerate() {
-                        let kv = &ws.qkv[3 * j + 1][r * e..(r + 1) * e];
-                        *s = q[cols.clone()].iter().zip(&kv[cols.clone()]).map(|(a, b)| a * b).sum::<f32>() * scale;
-                    }
-                    let m = scores.iter().copied().fold(f32::NEG_INFINITY, f32::max);
-                    scores.iter_mut().for_each(|s| *s = (*s - m).exp());
-                    let sum: f32 = scores.iter().sum();
-                    let zi = &mut ws.z[i][r * e..(r + 1) * e];
-                    for (j, s) in scores.iter().enumerate() {
-                        let v = &ws.qkv[3 * j + 2][r * e..(r + 1) * e];
-                        for c in cols.clone() {
-                            zi[c] += s / sum * v[c];
-                        }
-                    }
-                }
-                unit_sphere(&mut ws.z[i][r * e..(r + 1) * e]);
+            let qkv = &ws.qkv;
+            attend_row(|which, part| &qkv[3 * part + which][r * e..(r + 1) * e], np, e, heads, scale, &mut ws.scores, &mut ws.u);
+            for (i, zi) in ws.z.iter_mut().enumerate() {
+                let zi = &mut zi[r * e..(r + 1) * e];
+                zi.copy_from_slice(&ws.u[i * e..(i + 1) * e]);
+                unit_sphere(zi);
             }
         }
         ws.out.resize(n * self.act_dim, 0.0);

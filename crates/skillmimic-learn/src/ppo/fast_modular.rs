@@ -19,7 +19,7 @@
 
 use rayon::prelude::*;
 use skillmimic_nn::mlp::Mlp;
-use skillmimic_nn::modular::{ModularAttention, scatter_columns, unit_sphere};
+use skillmimic_nn::modular::{ModularAttention, attend_row, scatter_columns, unit_sphere};
 
 use super::mlp_grad::{backward, bias_grad, forward_keep, input_grad_plain, weight_grad};
 
@@ -61,9 +61,7 @@ impl ModularCache {
     /// Forward of `m` on `x` (n × obs_dim, normalised), keeping what the backward needs; the
     /// means are in [`ModularCache::out`].
     pub fn forward(&mut self, m: &ModularAttention, x: &[f32], n: usize, threads: usize) {
-        let (np, e, heads) = (m.parts.len(), m.shape.embed, m.shape.heads);
-        let dh = e / heads;
-        let scale = if m.shape.scaled { 1.0 / (dh as f32).sqrt() } else { 1.0 };
+        let (np, e, heads, scale) = (m.parts.len(), m.shape.embed, m.shape.heads, m.score_scale());
         self.tokens.resize_with(np, Vec::new);
         self.hidden.resize_with(3 * np, Vec::new);
         self.qkv.resize_with(3 * np, Vec::new);
@@ -85,34 +83,13 @@ impl ModularCache {
         self.z.resize(n * np * e, 0.0);
         self.norms.resize(n * np, 0.0);
         let qkv = &self.qkv;
-        let row_of = |which: usize, part: usize, r: usize| &qkv[3 * part + which][r * e..(r + 1) * e];
         self.attn
             .par_chunks_mut(heads * np * np)
             .zip(self.u.par_chunks_mut(np * e))
             .zip(self.z.par_chunks_mut(np * e).zip(self.norms.par_chunks_mut(np)))
             .enumerate()
             .for_each(|(r, ((a, u), (z, norms)))| {
-                u.fill(0.0);
-                for h in 0..heads {
-                    let cols = h * dh..(h + 1) * dh;
-                    for i in 0..np {
-                        let q = &row_of(0, i, r)[cols.clone()];
-                        let s = &mut a[(h * np + i) * np..(h * np + i + 1) * np];
-                        for (j, sj) in s.iter_mut().enumerate() {
-                            *sj = q.iter().zip(&row_of(1, j, r)[cols.clone()]).map(|(x, y)| x * y).sum::<f32>() * scale;
-                        }
-                        let mx = s.iter().copied().fold(f32::NEG_INFINITY, f32::max);
-                        s.iter_mut().for_each(|v| *v = (*v - mx).exp());
-                        let sum: f32 = s.iter().sum();
-                        s.iter_mut().for_each(|v| *v /= sum);
-                        let ui = &mut u[i * e..(i + 1) * e];
-                        for (j, &w) in s.iter().enumerate() {
-                            for (o, &v) in ui[cols.clone()].iter_mut().zip(&row_of(2, j, r)[cols.clone()]) {
-                                *o += w * v;
-                            }
-                        }
-                    }
-                }
+                attend_row(|which, part| &qkv[3 * part + which][r * e..(r + 1) * e], np, e, heads, scale, a, u);
                 z.copy_from_slice(u);
                 for i in 0..np {
                     norms[i] = u[i * e..(i + 1) * e].iter().map(|v| v * v).sum::<f32>().sqrt();
@@ -136,9 +113,8 @@ impl ModularCache {
     /// Parameter gradients for the mean gradient `g` (n × act_dim) into `grads`
     /// ([`ModularAttention::params`] order), after [`ModularCache::forward`] on the same rows.
     pub fn backward(&mut self, m: &ModularAttention, g: &[f32], n: usize, grads: &mut [Vec<f32>], threads: usize) {
-        let (np, e, heads) = (m.parts.len(), m.shape.embed, m.shape.heads);
+        let (np, e, heads, scale) = (m.parts.len(), m.shape.embed, m.shape.heads, m.score_scale());
         let dh = e / heads;
-        let scale = if m.shape.scaled { 1.0 / (dh as f32).sqrt() } else { 1.0 };
         // per part: 12 projection tensors, then the controller's
         let mut offsets = Vec::with_capacity(np);
         let mut at = 0;
