@@ -88,7 +88,7 @@ pub struct Rollout {
 /// Environment 0's state and information row.
 fn snapshot(env: &dyn Env, r: &mut Rollout) {
     let ni = env.spec().info_names.len();
-    r.qpos.push(env.sim().qpos(0).to_vec());
+    r.qpos.push(env.mujoco().env_qpos(0).to_vec());
     r.info.push(env.buffers().info[..ni].to_vec());
 }
 
@@ -144,7 +144,7 @@ fn render_rollout(env: &dyn Env, cfg: &skillmimic_env::EnvConfig, r: &Rollout, f
     let names = &env.spec().info_names;
     let markers: Vec<Vec<Marker>> = r.info.iter().map(|row| task_markers(cfg, names, row)).collect();
     let (stride, fps) = video_rate(env.spec().steps_per_action, fps);
-    render_states(env.sim().scene().model(), &r.qpos, Some(&markers), stride, w, h, fps)
+    render_states(env.mujoco().env_model(0), &r.qpos, Some(&markers), stride, w, h, fps)
 }
 
 /// Roll out `policy` deterministically in `env` (its first environment is filmed) for `steps`
@@ -183,7 +183,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             let mut env = skillmimic_env::registry::make(&cfg.env)?;
             let r = rollout_states(&c.policy, env.as_mut(), a.steps, a.stochastic, a.seed).with_context(|| format!("{}", ckpt.display()))?;
             if let Some(p) = &a.states {
-                save_states(p, &r.qpos, env.sim().scene().xml(), &format!("policy {}", ckpt.display()))?;
+                save_states(p, &r.qpos, env.mujoco().env_xml(0), &format!("policy {}", ckpt.display()))?;
                 println!("states {} ({} steps)", p.display(), r.qpos.len());
             }
             if let Some(p) = &a.video {

@@ -42,6 +42,10 @@ pub struct Args {
     /// Worker threads.
     #[arg(long, default_value_t = 2)]
     pub threads: usize,
+    /// Character: `skillmimic` (the humanoid + ball scene) or `tokenhsi` (the 32-DoF TokenHSI
+    /// character with a carry box on two supports; `--hands` and `--clip` do not apply).
+    #[arg(long, default_value = "skillmimic")]
+    pub character: String,
 }
 
 pub fn parse_hands(s: &str) -> anyhow::Result<HandModel> {
@@ -53,6 +57,11 @@ pub fn parse_hands(s: &str) -> anyhow::Result<HandModel> {
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
+    match a.character.as_str() {
+        "skillmimic" => {}
+        "tokenhsi" => return crate::cmd_trace_hsi::run(&a),
+        other => anyhow::bail!("unknown --character '{other}', expected 'skillmimic' or 'tokenhsi'"),
+    }
     let hands = parse_hands(&a.hands)?;
     let scene = Arc::new(Scene::default_for(hands)?);
     let (nq, nv, _) = scene.sizes();

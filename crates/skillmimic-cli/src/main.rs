@@ -20,6 +20,7 @@ mod cmd_motion;
 mod cmd_play;
 mod cmd_policy;
 mod cmd_trace;
+mod cmd_trace_hsi;
 mod markers;
 mod cmd_train;
 mod common;

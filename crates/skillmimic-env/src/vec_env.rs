@@ -19,7 +19,7 @@ use rand_chacha::ChaCha8Rng;
 use rayon::iter::Either;
 use rayon::prelude::*;
 use skillmimic_core::skeleton::NUM_DOFS;
-use skillmimic_sim::{BatchSim, ResetState, Scene};
+use skillmimic_sim::{BatchSim, MjBatch, ResetState, Scene};
 
 use crate::error::EnvError;
 use crate::task::{StepOut, Task, TaskSpec};
@@ -310,8 +310,11 @@ pub trait Env: Send + Sync {
     fn reset_done(&mut self);
     fn set_autoreset(&mut self, on: bool);
     fn refresh_observations(&mut self);
-    fn sim(&self) -> &BatchSim;
-    fn sim_mut(&mut self) -> &mut BatchSim;
+    /// The SkillMimic humanoid batch (`None` for tasks of another character, e.g. TokenHSI's).
+    fn humanoid_sim(&self) -> Option<&BatchSim>;
+    /// Raw MuJoCo access, whatever the character (rendering, recording, state edits).
+    fn mujoco(&self) -> &dyn MjBatch;
+    fn mujoco_mut(&mut self) -> &mut dyn MjBatch;
     /// Overwrite environment `i`'s task information entries (`TaskSpec::info_names`; the
     /// high-level tasks: move the goal, e.g. in interactive play) and recompute its observation.
     fn set_task_info(&mut self, _i: usize, _values: &[f32]) -> Result<(), EnvError> {
@@ -354,10 +357,13 @@ impl<T: Task> Env for VecEnv<T> {
     fn refresh_observations(&mut self) {
         VecEnv::refresh_observations(self)
     }
-    fn sim(&self) -> &BatchSim {
+    fn humanoid_sim(&self) -> Option<&BatchSim> {
+        Some(&self.sim)
+    }
+    fn mujoco(&self) -> &dyn MjBatch {
         &self.sim
     }
-    fn sim_mut(&mut self) -> &mut BatchSim {
+    fn mujoco_mut(&mut self) -> &mut dyn MjBatch {
         &mut self.sim
     }
     fn pd_targets(&self) -> &[f32] {

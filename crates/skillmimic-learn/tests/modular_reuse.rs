@@ -140,7 +140,7 @@ fn steering_commands_rewards_and_redraws() {
         let before = env.buffers().info.to_vec();
         env.step(&zeros).unwrap();
         let b = env.buffers();
-        let st = env.sim().state();
+        let st = env.humanoid_sim().expect("a humanoid task").state();
         for i in 0..n {
             if b.terminated[i] != 0 || b.truncated[i] != 0 {
                 continue;

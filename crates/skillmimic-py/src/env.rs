@@ -113,12 +113,13 @@ impl CoreEnv {
     /// MJCF text of the compiled scene.
     #[getter]
     fn mjcf_xml(&self) -> PyResult<String> {
-        Ok(self.env()?.sim().scene().xml().to_string())
+        Ok(self.env()?.mujoco().env_xml(0).to_string())
     }
     /// (nq, nv) of the MuJoCo model.
     #[getter]
     fn qpos_qvel_sizes(&self) -> PyResult<(usize, usize)> {
-        let (nq, nv, _) = self.env()?.sim().scene().sizes();
+        let m = self.env()?.mujoco().env_model(0).ffi();
+        let (nq, nv) = (m.nq as usize, m.nv as usize);
         Ok((nq, nv))
     }
     /// Names and skill labels of the clips of the motion library.
@@ -246,7 +247,7 @@ impl CoreEnv {
         if i >= env.num_envs() {
             return Err(PyValueError::new_err(format!("environment index {i} out of range (num_envs = {})", env.num_envs())));
         }
-        Ok(PyArray1::from_slice(py, env.sim().qpos(i)))
+        Ok(PyArray1::from_slice(py, env.mujoco().env_qpos(i)))
     }
     /// MuJoCo `qvel` of environment `i`.
     fn get_qvel<'py>(&self, py: Python<'py>, i: usize) -> PyResult<Bound<'py, PyArray1<f64>>> {
@@ -254,14 +255,14 @@ impl CoreEnv {
         if i >= env.num_envs() {
             return Err(PyValueError::new_err(format!("environment index {i} out of range (num_envs = {})", env.num_envs())));
         }
-        Ok(PyArray1::from_slice(py, env.sim().qvel(i)))
+        Ok(PyArray1::from_slice(py, env.mujoco().env_qvel(i)))
     }
     /// Overwrite `qpos`/`qvel` of environment `i` (forward kinematics runs; observations of all
     /// environments are refreshed and written to `obs_out`).
     fn set_state(&mut self, i: usize, qpos: PyReadonlyArray1<'_, f64>, qvel: PyReadonlyArray1<'_, f64>, obs_out: PyReadwriteArray2<'_, f32>) -> PyResult<()> {
         let env = self.env_mut()?;
         let (q, v) = (qpos.as_slice().map_err(value_error)?, qvel.as_slice().map_err(value_error)?);
-        env.sim_mut().set_qpos_qvel(i, q, v).map_err(value_error)?;
+        env.mujoco_mut().set_env_qpos_qvel(i, q, v).map_err(value_error)?;
         env.refresh_observations();
         copy_obs(env.as_ref(), obs_out)
     }

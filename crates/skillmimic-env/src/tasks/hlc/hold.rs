@@ -182,10 +182,13 @@ impl<R: Rule> Env for HoldEnv<R> {
         self.inner.refresh_observations();
         self.buf.obs.copy_from_slice(&self.inner.buffers().obs);
     }
-    fn sim(&self) -> &BatchSim {
+    fn humanoid_sim(&self) -> Option<&BatchSim> {
+        Some(self.inner.sim())
+    }
+    fn mujoco(&self) -> &dyn skillmimic_sim::MjBatch {
         self.inner.sim()
     }
-    fn sim_mut(&mut self) -> &mut BatchSim {
+    fn mujoco_mut(&mut self) -> &mut dyn skillmimic_sim::MjBatch {
         self.inner.sim_mut()
     }
     fn set_task_info(&mut self, i: usize, values: &[f32]) -> Result<(), EnvError> {
