@@ -9,6 +9,7 @@ use serde::{Deserialize, Serialize};
 use skillmimic_sim::{BallParams, HandModel, SceneOptions};
 
 pub use crate::config_hlc::{CirclingConfig, Formula, GoalSampling, HeadingConfig, HlcConfig, Prediction, ReachConfig, ScoringConfig, SteeringConfig, ThrowingConfig};
+pub use crate::config_hsi::{CarryConfig, ClimbConfig, FollowConfig, HsiConfig, SitConfig};
 pub use crate::config_tracking::TrackingConfig;
 pub use crate::config_v2::{AtsConfig, BridgeConfig, HistoryConfig, MaskedReward, NoiseEps, StfConfig, StgConfig, V2Config};
 pub use crate::error::ConfigError;
@@ -227,6 +228,8 @@ pub struct EnvConfig {
     pub reach: ReachConfig,
     /// Options of the `tracking` task (motion tracking without the ball; ModSkill).
     pub tracking: TrackingConfig,
+    /// Options of the TokenHSI tasks (`hsi_follow`, `hsi_sit`, `hsi_climb`, `hsi_carry`).
+    pub hsi: HsiConfig,
 }
 
 impl Default for EnvConfig {
@@ -247,6 +250,7 @@ impl Default for EnvConfig {
             task: "imitation".into(),
             stand: Default::default(),
             tracking: Default::default(),
+            hsi: Default::default(),
             hlc: Default::default(),
             heading: Default::default(),
             steering: Default::default(),

@@ -50,7 +50,7 @@ pub struct StepBuffers {
 
 /// Per-environment rows of a `[N][width]` buffer, also for width 0 (N empty rows: a zero-width
 /// buffer must not shorten the zipped per-environment iteration).
-fn rows(buf: &mut [f32], n: usize, width: usize) -> impl IndexedParallelIterator<Item = &mut [f32]> {
+pub(crate) fn rows(buf: &mut [f32], n: usize, width: usize) -> impl IndexedParallelIterator<Item = &mut [f32]> {
     if width == 0 {
         Either::Left((0..n).into_par_iter().map(|_| <&mut [f32]>::default()))
     } else {

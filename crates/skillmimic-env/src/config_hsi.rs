@@ -1,0 +1,219 @@
+//! Configuration of the TokenHSI tasks (`[env.hsi]` and its `follow`, `sit`, `climb`, `carry`
+//! sub-tables): TokenHSI supplementary §B.2 and Tab. A, modskill-tokenhsi-facts §2.2. Episode
+//! lengths are in 30 Hz policy steps.
+
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+
+use crate::error::{ConfigError, bad};
+
+/// Options shared by the TokenHSI tasks, and each task's table.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct HsiConfig {
+    /// Compiled object variants per run: environment i uses variant i mod this (each variant
+    /// samples the task's object sizes once, like the original's per-environment assets).
+    pub object_variants: usize,
+    /// Seed of the object sizes of the variants.
+    pub object_seed: u64,
+    /// Character-fall termination: a body other than the feet that touches the floor or an
+    /// object below this height (m) ends the episode (ASE's rule).
+    pub termination_height: f64,
+    /// Start heading of the character: uniformly random (else facing +x).
+    pub random_heading: bool,
+    pub follow: FollowConfig,
+    pub sit: SitConfig,
+    pub climb: ClimbConfig,
+    pub carry: CarryConfig,
+}
+
+impl Default for HsiConfig {
+    fn default() -> Self {
+        Self {
+            object_variants: 16,
+            object_seed: 0,
+            termination_height: 0.15,
+            random_heading: true,
+            follow: Default::default(),
+            sit: Default::default(),
+            climb: Default::default(),
+            carry: Default::default(),
+        }
+    }
+}
+
+/// Path following (supplementary §B.2.1).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct FollowConfig {
+    /// Episode length (policy steps; 300 = 10 s).
+    pub episode_length: usize,
+    /// Time between trajectory vertices (s): 0.1 in the supplementary, 0.5 in the released code.
+    pub vertex_dt: f64,
+    /// Speed range of the trajectory (m/s).
+    pub speed: [f64; 2],
+    /// Largest speed change per vertex (m/s per s).
+    pub accel_max: f64,
+    /// Largest heading change per vertex (rad per s).
+    pub turn_rate_max: f64,
+    /// Probability per vertex of a sharp turn (a heading jump of up to ±π).
+    pub sharp_turn_prob: f64,
+    /// Path-distance termination: the 2-D root distance to the current waypoint above this (m).
+    pub fail_distance: f64,
+    /// Success: within this distance (m) of the current waypoint for at least `success_fraction`
+    /// of the episode.
+    pub success_distance: f64,
+    pub success_fraction: f64,
+}
+
+impl Default for FollowConfig {
+    fn default() -> Self {
+        Self {
+            episode_length: 300,
+            vertex_dt: 0.1,
+            speed: [0.0, 3.0],
+            accel_max: 2.0,
+            turn_rate_max: 2.0,
+            sharp_turn_prob: 0.02,
+            fail_distance: 4.0,
+            success_distance: 0.4,
+            success_fraction: 0.98,
+        }
+    }
+}
+
+/// Sitting (supplementary §B.2.2) on procedural box chairs and stools.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct SitConfig {
+    pub episode_length: usize,
+    /// Seat height range (m, floor to seat top).
+    pub seat_height: [f64; 2],
+    /// Seat width and depth range (m).
+    pub seat_size: [f64; 2],
+    /// Probability that a variant has a backrest (a chair rather than a stool).
+    pub backrest_prob: f64,
+    /// Distance range (m) of the object from the character at the start.
+    pub distance: [f64; 2],
+    /// Target height above the seat top (m; 0.1 in the paper).
+    pub target_above_seat: f64,
+    /// Success / interaction early termination: root within this distance (m) of the target.
+    pub success_distance: f64,
+    /// Interaction early termination after this many consecutive steps within
+    /// `success_distance` (0 = off).
+    pub iet_steps: usize,
+}
+
+impl Default for SitConfig {
+    fn default() -> Self {
+        Self {
+            episode_length: 300,
+            seat_height: [0.35, 0.55],
+            seat_size: [0.4, 0.6],
+            backrest_prob: 0.5,
+            distance: [1.0, 5.0],
+            target_above_seat: 0.1,
+            success_distance: 0.2,
+            iet_steps: 60,
+        }
+    }
+}
+
+/// Climbing onto a platform (supplementary §B.2.3).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct ClimbConfig {
+    pub episode_length: usize,
+    /// Platform height range (m).
+    pub height: [f64; 2],
+    /// Platform width and depth range (m).
+    pub size: [f64; 2],
+    pub distance: [f64; 2],
+    /// Target root height above the platform top (m; 0.94 in the paper).
+    pub target_above_top: f64,
+    pub success_distance: f64,
+    pub iet_steps: usize,
+}
+
+impl Default for ClimbConfig {
+    fn default() -> Self {
+        Self { episode_length: 300, height: [0.2, 0.6], size: [0.6, 1.2], distance: [1.0, 5.0], target_above_top: 0.94, success_distance: 0.2, iet_steps: 60 }
+    }
+}
+
+/// Carrying a box between two supports (supplementary §B.2.4).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct CarryConfig {
+    /// Episode length (600 = 20 s).
+    pub episode_length: usize,
+    /// Box side length range (m), each side drawn independently.
+    pub box_size: [f64; 2],
+    /// Box mass range (kg).
+    pub box_mass: [f64; 2],
+    /// Height range of the start and target support tops (m).
+    pub support_height: [f64; 2],
+    /// Distance range (m) of the start support from the character, and of the target support
+    /// from the start support.
+    pub distance: [f64; 2],
+    /// Object-fall termination: the box centre below this height (m) (off when 0).
+    pub fall_height: f64,
+    /// Success: box centre within this distance (m) of its target.
+    pub success_distance: f64,
+}
+
+impl Default for CarryConfig {
+    fn default() -> Self {
+        Self {
+            episode_length: 600,
+            box_size: [0.25, 0.45],
+            box_mass: [1.0, 8.0],
+            support_height: [0.0, 0.8],
+            distance: [1.0, 5.0],
+            fall_height: 0.0,
+            success_distance: 0.2,
+        }
+    }
+}
+
+fn range(key: &str, r: [f64; 2], min: f64) -> Result<(), ConfigError> {
+    if !(r[0].is_finite() && r[1].is_finite() && r[0] >= min && r[0] <= r[1]) {
+        return Err(bad(key, format!("{r:?} must be a finite [low, high] range with low >= {min}")));
+    }
+    Ok(())
+}
+
+impl HsiConfig {
+    /// Check the values (errors name the key).
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        if self.object_variants == 0 {
+            return Err(bad("env.hsi.object_variants", "must be at least 1"));
+        }
+        if !(self.termination_height.is_finite() && self.termination_height >= 0.0) {
+            return Err(bad("env.hsi.termination_height", "must be a non-negative height in metres"));
+        }
+        let f = &self.follow;
+        range("env.hsi.follow.speed", f.speed, 0.0)?;
+        for (k, v) in [("env.hsi.follow.vertex_dt", f.vertex_dt), ("env.hsi.follow.fail_distance", f.fail_distance), ("env.hsi.follow.success_distance", f.success_distance)] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(bad(k, format!("{v} must be positive")));
+            }
+        }
+        range("env.hsi.sit.seat_height", self.sit.seat_height, 0.05)?;
+        range("env.hsi.sit.seat_size", self.sit.seat_size, 0.1)?;
+        range("env.hsi.sit.distance", self.sit.distance, 0.0)?;
+        range("env.hsi.climb.height", self.climb.height, 0.02)?;
+        range("env.hsi.climb.size", self.climb.size, 0.1)?;
+        range("env.hsi.climb.distance", self.climb.distance, 0.0)?;
+        range("env.hsi.carry.box_size", self.carry.box_size, 0.05)?;
+        range("env.hsi.carry.box_mass", self.carry.box_mass, 0.01)?;
+        range("env.hsi.carry.support_height", self.carry.support_height, 0.0)?;
+        range("env.hsi.carry.distance", self.carry.distance, 0.0)?;
+        for (k, n) in [("follow", f.episode_length), ("sit", self.sit.episode_length), ("climb", self.climb.episode_length), ("carry", self.carry.episode_length)] {
+            if n == 0 {
+                return Err(bad(&format!("env.hsi.{k}.episode_length"), "must be at least 1 step"));
+            }
+        }
+        Ok(())
+    }
+}

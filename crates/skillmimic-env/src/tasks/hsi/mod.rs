@@ -1,0 +1,77 @@
+//! The TokenHSI tasks (TokenHSI supplementary §B.2): `hsi_follow`, `hsi_sit`, `hsi_climb`,
+//! `hsi_carry` on the 32-DoF TokenHSI character ([`skillmimic_core::hsi_character`]).
+//!
+//! [`HsiVecEnv<T>`] is the batched driver of these tasks, the TokenHSI character's counterpart of
+//! [`VecEnv`](crate::VecEnv) with the same [`Env`] face and the same semantics (buffers, explicit
+//! or SAME_STEP autoreset, terminal observations). It owns what every TokenHSI task shares:
+//! * the observation `[proprioception 222 | task observation]` ([`proprio`]);
+//! * the character-fall termination (a body other than the feet touching the floor or an object
+//!   below `env.hsi.termination_height`, from the second step on — ASE's rule);
+//! * the time limit (`episode_length` of the task's table, truncation) and the random stream of
+//!   episode starts (seeded, sequential over environments: independent of the thread count);
+//! * the previous root and object positions, from which the rewards' velocities are the finite
+//!   differences over one 1/30 s policy step (as the released InterPhys/TokenHSI code computes
+//!   them).
+//!
+//! A task ([`HsiTask`]) supplies its objects (one set of sizes per compiled variant), the start of
+//! an episode, its observation, reward terms, metrics and task-specific ends.
+
+pub mod carry;
+pub mod climb;
+pub mod driver;
+pub mod follow;
+pub mod geometry;
+pub mod proprio;
+pub mod sit;
+
+use rand_chacha::ChaCha8Rng;
+use skillmimic_sim::{HsiEnvState, HsiObject, HsiReset, HsiScene};
+
+pub use driver::HsiVecEnv;
+
+use crate::task::TaskSpec;
+
+/// Policy step (s): 4 physics steps of 1/120 s.
+pub const DT: f64 = 1.0 / 30.0;
+
+/// What a task sees of one environment after a step.
+pub struct Ctx<'a> {
+    pub st: &'a HsiEnvState<'a>,
+    /// Root position before the step (world, m).
+    pub prev_root: [f64; 3],
+    /// Position of object 0 before the step (world, m).
+    pub prev_obj: [f64; 3],
+    /// Policy steps taken in this episode (1 after the first step).
+    pub steps: usize,
+}
+
+/// What a task writes for one environment after a step.
+pub struct TaskOut<'a> {
+    /// `[terms]` reward terms (`TaskSpec::term_names`, the last one the total).
+    pub terms: &'a mut [f32],
+    /// `[metrics]` (`TaskSpec::metric_names`).
+    pub metrics: &'a mut [f32],
+    /// Task failure (path distance, object fall): terminate.
+    pub fail: bool,
+    /// Task end without failure (interaction early termination): truncate.
+    pub finish: bool,
+}
+
+/// One TokenHSI task.
+pub trait HsiTask: Send + Sync + 'static {
+    /// Per-environment goal of the current episode.
+    type Goal: Send + Sync + Clone + Default;
+    /// Sizes and names (`obs_dim` = 222 + the task observation).
+    fn spec(&self) -> &TaskSpec;
+    /// The objects of one compiled variant (sizes drawn from `rng`).
+    fn objects(&self, rng: &mut ChaCha8Rng) -> Vec<HsiObject>;
+    /// The start of an episode in `scene`: character and object states, and the goal.
+    fn plan(&self, scene: &HsiScene, rng: &mut ChaCha8Rng, reset: &mut HsiReset, goal: &mut Self::Goal);
+    /// The task observation (`obs_dim − 222` entries) at `steps` policy steps into the episode.
+    fn observe(&self, goal: &Self::Goal, st: &HsiEnvState<'_>, steps: usize, out: &mut [f32]);
+    /// Reward terms, metrics and task ends after a step.
+    fn step(&self, goal: &mut Self::Goal, ctx: &Ctx<'_>, out: &mut TaskOut<'_>);
+    /// Task information at `steps` policy steps into the episode (`TaskSpec::info_names`:
+    /// targets, object poses and sizes, in world coordinates).
+    fn info(&self, goal: &Self::Goal, steps: usize, out: &mut [f32]);
+}
