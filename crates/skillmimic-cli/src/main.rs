@@ -19,6 +19,7 @@ mod cmd_onnx;
 mod cmd_motion;
 mod cmd_play;
 mod cmd_policy;
+mod cmd_retarget;
 mod cmd_trace;
 mod cmd_trace_hsi;
 mod markers;
@@ -66,6 +67,8 @@ enum Command {
     /// SkillMimic-V2 history encoder tools (pre-training).
     #[command(subcommand)]
     History(cmd_history::HistoryCommand),
+    /// Retarget SkillMimic-skeleton clips onto the TokenHSI character (clips + a JSON report).
+    Retarget(cmd_retarget::Args),
     /// Record a physics trace (initial state, actions, final state) for cross-checks with PyPI mujoco.
     Trace(cmd_trace::Args),
     /// Configuration tools: the generated reference of every key (docs/config.md).
@@ -109,6 +112,7 @@ fn main() -> ExitCode {
         Command::Convert(a) => cmd_motion::convert(a),
         Command::SynthMotions(a) => cmd_motion::synth(a),
         Command::Trace(a) => cmd_trace::run(a),
+        Command::Retarget(a) => cmd_retarget::run(a),
         Command::History(c) => cmd_history::run(c),
         Command::Config(c) => cmd_config::run(c),
     };

@@ -50,8 +50,13 @@ pub fn clip_features(scene: Arc<Scene>, lib: &MotionLibrary) -> Result<Vec<Vec<f
 /// A reference window of `k` frames of clip features `rows` ending at frame `end` (frames before
 /// the clip start repeat frame 0), flattened into `out` (`k × FEATURE_DIM`).
 pub fn window(rows: &[f32], end: usize, k: usize, out: &mut [f32]) {
+    window_of(rows, FEATURE_DIM, end, k, out)
+}
+
+/// [`window`] for frames of `dim` features (any character's prior).
+pub fn window_of(rows: &[f32], dim: usize, end: usize, k: usize, out: &mut [f32]) {
     for i in 0..k {
         let t = (end + i + 1).saturating_sub(k);
-        out[i * FEATURE_DIM..(i + 1) * FEATURE_DIM].copy_from_slice(&rows[t * FEATURE_DIM..(t + 1) * FEATURE_DIM]);
+        out[i * dim..(i + 1) * dim].copy_from_slice(&rows[t * dim..(t + 1) * dim]);
     }
 }

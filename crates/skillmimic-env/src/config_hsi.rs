@@ -21,6 +21,11 @@ pub struct HsiConfig {
     pub termination_height: f64,
     /// Start heading of the character: uniformly random (else facing +x).
     pub random_heading: bool,
+    /// Reference clips of the character (`tokenhsi-clip` files or folders, e.g. written by
+    /// `skillmimic retarget`) for the adversarial motion prior of the run's task (`ppo.amp`;
+    /// one discriminator per task as in TokenHSI).
+    #[schemars(extend("items" = {"type": "string", "format": "path"}))]
+    pub style_motion: Vec<std::path::PathBuf>,
     pub follow: FollowConfig,
     pub sit: SitConfig,
     pub climb: ClimbConfig,
@@ -34,6 +39,7 @@ impl Default for HsiConfig {
             object_seed: 0,
             termination_height: 0.15,
             random_heading: true,
+            style_motion: Vec::new(),
             follow: Default::default(),
             sit: Default::default(),
             climb: Default::default(),
@@ -63,6 +69,8 @@ pub struct FollowConfig {
     /// Success: within this distance (m) of the current waypoint for at least `success_fraction`
     /// of the episode.
     pub success_distance: f64,
+    /// Fraction of the episode's steps within `success_distance` for success (0.98, the
+    /// released code's rule).
     pub success_fraction: f64,
 }
 
@@ -86,6 +94,7 @@ impl Default for FollowConfig {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct SitConfig {
+    /// Episode length (policy steps; 300 = 10 s, Tab. A).
     pub episode_length: usize,
     /// Seat height range (m, floor to seat top).
     pub seat_height: [f64; 2],
@@ -123,15 +132,20 @@ impl Default for SitConfig {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct ClimbConfig {
+    /// Episode length (policy steps; 300 = 10 s, Tab. A).
     pub episode_length: usize,
     /// Platform height range (m).
     pub height: [f64; 2],
     /// Platform width and depth range (m).
     pub size: [f64; 2],
+    /// Distance range (m) of the platform from the character at the start.
     pub distance: [f64; 2],
     /// Target root height above the platform top (m; 0.94 in the paper).
     pub target_above_top: f64,
+    /// Success / interaction early termination: root within this distance (m) of the target.
     pub success_distance: f64,
+    /// Interaction early termination after this many consecutive steps within
+    /// `success_distance` (0 = off).
     pub iet_steps: usize,
 }
 

@@ -26,7 +26,8 @@ use std::sync::Arc;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use skillmimic_core::tensorfile::{OwnedTensor, TensorFile};
-use skillmimic_env::amp::{FEATURE_DIM, clip_features, frame_features, window};
+use skillmimic_env::amp::{FEATURE_DIM, clip_features, frame_features, window_of};
+use skillmimic_env::tasks::hsi::style;
 use skillmimic_env::obs::layout;
 use skillmimic_env::tasks::imitation::load_motion_library;
 use skillmimic_sim::Scene;
@@ -42,7 +43,11 @@ pub struct AmpReward {
     cfg: AmpConfig,
     horizon: usize,
     reference: Vec<Vec<f32>>,
-    /// `n × window × FEATURE_DIM`: every environment's current window, oldest frame first.
+    /// Features per frame (the humanoid's `FEATURE_DIM`, or the TokenHSI character's 222).
+    fdim: usize,
+    /// The per-frame feature map of the task's observation.
+    features: fn(&[f32], &mut [f32]),
+    /// `n × window × fdim`: every environment's current window, oldest frame first.
     rings: Vec<f32>,
     /// Environments whose window restarts at the next step (new episode).
     fresh: Vec<bool>,
@@ -61,14 +66,20 @@ impl AmpReward {
     /// and the discriminator's initialisation.
     pub fn new(cfg: &TrainConfig, obs_dim: usize, n: usize, seed: u64) -> Result<Self, LearnError> {
         let a = cfg.ppo.amp.clone();
-        if obs_dim < layout::HUMANOID_DIM {
-            return Err(LearnError::Config(format!("ppo.amp needs an observation that starts with the {} humanoid entries; task '{}' has {obs_dim}", layout::HUMANOID_DIM, cfg.env.task)));
-        }
-        let lib = load_motion_library(&cfg.env.motion)?;
-        let scene = Arc::new(Scene::new(cfg.env.scene_options().map_err(|e| LearnError::Config(e.to_string()))?).map_err(|e| LearnError::Config(e.to_string()))?);
-        let reference = clip_features(scene, &lib).map_err(|e| LearnError::Config(format!("ppo.amp reference clips: {e}")))?;
+        let (fdim, features, reference): (usize, fn(&[f32], &mut [f32]), _) = if skillmimic_env::registry::character(&cfg.env.task) == Some(skillmimic_env::registry::Character::TokenHsi) {
+            // TokenHSI character: the proprioception, references from env.hsi.style_motion
+            let clips = style::load_style_clips(&cfg.env.hsi.style_motion)?;
+            (style::STYLE_DIM, style::frame_features, style::clip_features(&clips)?)
+        } else {
+            if obs_dim < layout::HUMANOID_DIM {
+                return Err(LearnError::Config(format!("ppo.amp needs an observation that starts with the {} humanoid entries; task '{}' has {obs_dim}", layout::HUMANOID_DIM, cfg.env.task)));
+            }
+            let lib = load_motion_library(&cfg.env.motion)?;
+            let scene = Arc::new(Scene::new(cfg.env.scene_options().map_err(|e| LearnError::Config(e.to_string()))?).map_err(|e| LearnError::Config(e.to_string()))?);
+            (FEATURE_DIM, frame_features, clip_features(scene, &lib).map_err(|e| LearnError::Config(format!("ppo.amp reference clips: {e}")))?)
+        };
         let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x616d_705f_7265_6621);
-        let width = a.window * FEATURE_DIM;
+        let width = a.window * fdim;
         let disc = Discriminator::new(width, a.clone(), &mut rng);
         Ok(Self {
             disc,
@@ -80,7 +91,9 @@ impl AmpReward {
             filled: 0,
             next: 0,
             rng,
-            frame: vec![0.0; FEATURE_DIM],
+            frame: vec![0.0; fdim],
+            fdim,
+            features,
             picks: Vec::new(),
             style: vec![0.0; n],
             cfg: a,
@@ -128,7 +141,7 @@ impl AmpReward {
     }
 
     fn width(&self) -> usize {
-        self.cfg.window * FEATURE_DIM
+        self.cfg.window * self.fdim
     }
 
     /// Before a step: environments that start a new episode fill their window with their first
@@ -137,9 +150,10 @@ impl AmpReward {
         let w = self.width();
         for (i, fresh) in self.fresh.iter_mut().enumerate() {
             if *fresh {
-                frame_features(&obs[i * d..(i + 1) * d], &mut self.frame);
+                (self.features)(&obs[i * d..(i + 1) * d], &mut self.frame);
+                let f = self.fdim;
                 for k in 0..self.cfg.window {
-                    self.rings[i * w + k * FEATURE_DIM..i * w + (k + 1) * FEATURE_DIM].copy_from_slice(&self.frame);
+                    self.rings[i * w + k * f..i * w + (k + 1) * f].copy_from_slice(&self.frame);
                 }
                 *fresh = false;
             }
@@ -153,8 +167,8 @@ impl AmpReward {
         let (w, n) = (self.width(), rewards.len());
         for i in 0..n {
             let ring = &mut self.rings[i * w..(i + 1) * w];
-            ring.copy_within(FEATURE_DIM.., 0);
-            frame_features(&obs_after[i * d..(i + 1) * d], &mut ring[w - FEATURE_DIM..]);
+            ring.copy_within(self.fdim.., 0);
+            (self.features)(&obs_after[i * d..(i + 1) * d], &mut ring[w - self.fdim..]);
             self.fresh[i] = done[i] != 0;
         }
         self.disc.style_reward_into(&self.rings, n, &mut self.style);
@@ -193,8 +207,8 @@ impl AmpReward {
         for _ in 0..self.cfg.updates {
             for k in 0..b {
                 let c = self.rng.random_range(0..self.reference.len());
-                let end = self.rng.random_range(0..self.reference[c].len() / FEATURE_DIM);
-                window(&self.reference[c], end, self.cfg.window, &mut xr[k * w..(k + 1) * w]);
+                let end = self.rng.random_range(0..self.reference[c].len() / self.fdim);
+                window_of(&self.reference[c], self.fdim, end, self.cfg.window, &mut xr[k * w..(k + 1) * w]);
                 let j = self.rng.random_range(0..self.filled);
                 xs[k * w..(k + 1) * w].copy_from_slice(&self.buffer[j * w..(j + 1) * w]);
             }

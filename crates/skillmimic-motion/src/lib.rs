@@ -6,16 +6,20 @@
 //! * [`clip`]: the project's clip representation and its decoding from the 337-column layout;
 //! * [`format`]: the project's clip file format (safetensors, documented field by field);
 //! * [`reference`]: reference quantities derived once per clip (velocities, key bodies);
+//! * [`hsi_clip`], [`retarget_hsi`]: clips of the TokenHSI character (file format, forward
+//!   kinematics) and retargeting SkillMimic-skeleton clips onto it;
 //! * [`library`]: many clips, class-balanced clip sampling and random start frames.
 
 pub mod clip;
 pub mod error;
 pub mod format;
 pub mod generate;
+pub mod hsi_clip;
 pub mod layout;
 pub mod library;
 pub mod pt;
 pub mod reference;
+pub mod retarget_hsi;
 
 pub use clip::{Clip, SKILL_WIDTH};
 pub use error::ClipError;

@@ -23,6 +23,7 @@ pub mod follow;
 pub mod geometry;
 pub mod proprio;
 pub mod sit;
+pub mod style;
 
 use rand_chacha::ChaCha8Rng;
 use skillmimic_sim::{HsiEnvState, HsiObject, HsiReset, HsiScene};

@@ -1,0 +1,148 @@
+//! The adversarial motion prior of the TokenHSI tasks: real BallPlay-M locomotion clips (run,
+//! turn, pick) retargeted onto the TokenHSI character are the reference windows; a discriminator
+//! trained on them against windows of a random policy in `hsi_follow` lowers its loss, scores the
+//! reference above the policy and gives it the higher style reward. Inside PPO on `hsi_sit` the
+//! per-term breakdown shows the task and style parts mixed 0.5 / 0.5, and the discriminator trains.
+
+use std::path::PathBuf;
+
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use skillmimic_core::shared_data::shared_dir_or_skip;
+use skillmimic_env::amp::window_of;
+use skillmimic_env::tasks::hsi::style::{STYLE_DIM, clip_features, frame_features, load_style_clips};
+use skillmimic_env::EnvConfig;
+use skillmimic_learn::amp::{DiscConfig, Discriminator};
+use skillmimic_motion::Clip;
+use skillmimic_motion::retarget_hsi::retarget_to_hsi;
+
+const K: usize = 10;
+const CLIPS: [&str; 3] = ["run/013_018pickle_run_3.pt", "turn/042_018pickle_rturnover_30.pt", "pick_40/001_007pickle_pick_000.pt"];
+
+/// Retarget the BallPlay-M clips into a temporary folder (`tag` names it).
+fn retargeted(shared: &std::path::Path, tag: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("sm-hsi-style-{tag}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    for c in CLIPS {
+        let clip = Clip::load_any(&shared.join("data/ballplay_m").join(c)).unwrap();
+        let (out, rep) = retarget_to_hsi(&clip);
+        assert!(rep.frames > 30, "{rep:?}");
+        out.save(&dir.join(format!("{}.safetensors", clip.name))).unwrap();
+    }
+    dir
+}
+
+/// Windows of a random policy (uniform actions in ±0.5) in `hsi_follow`.
+fn policy_windows(steps: usize) -> Vec<f32> {
+    let c = EnvConfig { task: "hsi_follow".into(), num_envs: 8, threads: 1, ..Default::default() };
+    let mut env = skillmimic_env::registry::make(&c).unwrap();
+    let (d, a) = (env.obs_dim(), env.act_dim());
+    env.reset_all(Some(2));
+    let mut rng = ChaCha8Rng::seed_from_u64(3);
+    let mut frames: Vec<Vec<f32>> = vec![Vec::new(); 8];
+    let mut out = Vec::new();
+    for _ in 0..steps {
+        let act: Vec<f32> = (0..8 * a).map(|_| rng.random_range(-0.5..0.5)).collect();
+        env.step(&act).unwrap();
+        let b = env.buffers();
+        for (i, f) in frames.iter_mut().enumerate() {
+            let mut row = vec![0.0f32; STYLE_DIM];
+            frame_features(&b.obs[i * d..(i + 1) * d], &mut row);
+            f.extend(row);
+            if f.len() >= K * STYLE_DIM {
+                out.extend_from_slice(&f[f.len() - K * STYLE_DIM..]);
+            }
+            if b.terminated[i] != 0 || b.truncated[i] != 0 {
+                f.clear();
+            }
+        }
+        env.reset_done();
+    }
+    out
+}
+
+fn reference_windows(rows: &[Vec<f32>], n: usize, rng: &mut ChaCha8Rng) -> Vec<f32> {
+    let mut out = vec![0.0f32; n * K * STYLE_DIM];
+    for w in out.chunks_exact_mut(K * STYLE_DIM) {
+        let c = rng.random_range(0..rows.len());
+        let end = rng.random_range(0..rows[c].len() / STYLE_DIM);
+        window_of(&rows[c], STYLE_DIM, end, K, w);
+    }
+    out
+}
+
+#[test]
+fn discriminator_separates_retargeted_clips_from_random_policy_windows() {
+    let Some(shared) = shared_dir_or_skip("discriminator_separates_retargeted_clips_from_random_policy_windows") else { return };
+    let dir = retargeted(&shared, "disc");
+    let clips = load_style_clips(std::slice::from_ref(&dir)).unwrap();
+    assert_eq!(clips.len(), CLIPS.len());
+    let rows = clip_features(&clips).unwrap();
+    assert!(rows.iter().flatten().all(|v| v.is_finite()));
+    let sim = policy_windows(40);
+    let w = K * STYLE_DIM;
+    let n_sim = sim.len() / w;
+    assert!(n_sim >= 64, "{n_sim} policy windows");
+    let mut rng = ChaCha8Rng::seed_from_u64(1);
+    let cfg = DiscConfig { hidden: vec![128, 64], lr: 1e-3, ..Default::default() };
+    let mut disc = Discriminator::new(w, cfg, &mut rng);
+    let mut losses = Vec::new();
+    for _ in 0..60 {
+        let r = reference_windows(&rows, 64, &mut rng);
+        let s: Vec<f32> = (0..64).flat_map(|_| {
+            let k = rng.random_range(0..n_sim);
+            sim[k * w..(k + 1) * w].to_vec()
+        }).collect();
+        losses.push(disc.update(&r, 64, &s, 64).unwrap());
+    }
+    let (first, last) = (losses[0], losses[losses.len() - 1]);
+    println!("discriminator loss {:.4} -> {:.4} (adversarial {:.4} -> {:.4}); mean logits reference {:.2}, policy {:.2}", first.total, last.total, first.adversarial, last.adversarial, last.mean_ref, last.mean_sim);
+    assert!(last.adversarial < 0.5 * first.adversarial, "the adversarial loss falls");
+    assert!(last.mean_ref > last.mean_sim + 1.0, "reference windows score above the policy's");
+    let r = reference_windows(&rows, 64, &mut rng);
+    let rr = disc.style_reward(&r, 64).iter().sum::<f32>() / 64.0;
+    let rs = disc.style_reward(&sim[sim.len() - 64 * w..], 64).iter().sum::<f32>() / 64.0;
+    println!("style reward: reference windows {rr:.3}, random-policy windows {rs:.3}");
+    assert!(rr > rs);
+    std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn the_style_reward_mixes_into_ppo_on_a_tokenhsi_task() {
+    use skillmimic_learn::config::TrainConfig;
+    use skillmimic_learn::trainer::Trainer;
+    let Some(shared) = shared_dir_or_skip("the_style_reward_mixes_into_ppo_on_a_tokenhsi_task") else { return };
+    let dir = retargeted(&shared, "ppo");
+    let mut c = TrainConfig::preset("tiny").unwrap();
+    c.env.task = "hsi_sit".into();
+    c.env.num_envs = 8;
+    c.env.threads = 2;
+    c.env.hsi.object_variants = 2;
+    c.env.hsi.style_motion = vec![dir.clone()];
+    c.ppo.hidden = vec![32];
+    c.ppo.amp.enabled = true;
+    c.ppo.amp.hidden = vec![32];
+    c.ppo.amp.batch = 32;
+    c.ppo.amp.buffer = 256;
+    c.run.iterations = 2;
+    c.run.save_every = 2;
+    c.run.eval_episodes = 2;
+    c.run.out_dir = std::env::temp_dir().join(format!("sm-hsi-amp-{}", std::process::id()));
+    let mut t = Trainer::new(c.clone(), None).unwrap();
+    let before = t.amp.as_ref().unwrap().disc.mlp.clone();
+    assert_eq!(t.amp.as_ref().unwrap().disc.input_dim(), K * STYLE_DIM);
+    let mut seen = Vec::new();
+    skillmimic_learn::runner::train_loop(&mut t, |s| seen.push(s.clone())).unwrap();
+    let s = &seen[1];
+    let term = |name: &str| s.reward_terms.iter().find(|(n, _)| n == name).map(|(_, v)| *v).unwrap_or_else(|| panic!("no term {name} in {:?}", s.reward_terms));
+    let (task, style) = (term("task"), term("style"));
+    println!("terms {:?}; mixed reward {:.4} = 0.5 x task {task:.4} + 0.5 x style {style:.4}", s.reward_terms, s.mean_reward);
+    assert!((s.mean_reward - 0.5 * (task + style)).abs() < 1e-5);
+    assert!(style.is_finite() && style >= 0.0 && s.disc_loss > 0.0);
+    assert_ne!(t.amp.as_ref().unwrap().disc.mlp, before, "the discriminator trains");
+    // a TokenHSI task without reference clips is refused with the key named
+    c.env.hsi.style_motion.clear();
+    let err = Trainer::new(c, None).err().expect("no style clips").to_string();
+    assert!(err.contains("env.hsi.style_motion"), "{err}");
+    std::fs::remove_dir_all(dir).ok();
+}
