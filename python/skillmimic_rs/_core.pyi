@@ -80,6 +80,8 @@ class CoreEnv:
     @property
     def mjcf_xml(self) -> str:
         """MJCF text of the compiled scene."""
+    def env_mjcf_xml(self, i: int) -> str:
+        """MJCF text of environment i's scene (one per object variant)."""
     @property
     def qpos_qvel_sizes(self) -> tuple[int, int]:
         """(nq, nv) of the MuJoCo model."""

@@ -287,6 +287,13 @@ class VecEnv(gym.vector.VectorEnv):
         self._check_open()
         return self._core.mjcf_xml
 
+    def mjcf_xml_of(self, i: int) -> str:
+        """MJCF text of environment ``i``'s scene: tasks with several object variants (the TokenHSI
+        tasks, ``hsi.object_variants``) compile one scene per variant, environment ``i`` using
+        variant ``i mod object_variants``; ``mjcf_xml`` is environment 0's."""
+        self._check_open()
+        return self._core.env_mjcf_xml(int(i))
+
     @property
     def mjcf_path(self) -> pathlib.Path:
         """A file holding exactly ``mjcf_xml`` (written once to a temporary folder)."""

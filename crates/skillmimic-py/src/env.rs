@@ -115,6 +115,15 @@ impl CoreEnv {
     fn mjcf_xml(&self) -> PyResult<String> {
         Ok(self.env()?.mujoco().env_xml(0).to_string())
     }
+    /// MJCF text of environment `i`'s compiled scene (tasks with several object variants compile
+    /// one scene per variant; `mjcf_xml` is environment 0's).
+    fn env_mjcf_xml(&self, i: usize) -> PyResult<String> {
+        let env = self.env()?;
+        if i >= env.num_envs() {
+            return Err(PyValueError::new_err(format!("environment index {i} out of range (num_envs = {})", env.num_envs())));
+        }
+        Ok(env.mujoco().env_xml(i).to_string())
+    }
     /// (nq, nv) of the MuJoCo model.
     #[getter]
     fn qpos_qvel_sizes(&self) -> PyResult<(usize, usize)> {

@@ -225,13 +225,21 @@ impl<T: HsiTask> Env for HsiVecEnv<T> {
     fn set_autoreset(&mut self, on: bool) {
         self.autoreset = on;
     }
+    /// Recompute the observations from the current states (after raw state edits). The previous
+    /// root and object positions — between steps always the current ones — are taken anew, so
+    /// the next step's finite-difference velocities start from an edited state, not from where
+    /// the character was before the edit.
     fn refresh_observations(&mut self) {
         let d = self.task.spec().obs_dim;
         let Self { sim, slots, buf, task, .. } = self;
         let (state, task) = (sim.state(), &*task);
         sim.install(|| {
-            (slots.par_iter(), buf.obs.par_chunks_mut(d)).into_par_iter().enumerate().for_each(|(i, (slot, obs))| {
+            (slots.par_iter_mut(), buf.obs.par_chunks_mut(d)).into_par_iter().enumerate().for_each(|(i, (slot, obs))| {
                 let st = state.env(i);
+                slot.prev_root = st.pos(0);
+                if state.bodies > NUM_BODIES {
+                    slot.prev_obj = st.pos(NUM_BODIES);
+                }
                 write_proprio(&st, &mut obs[..PROPRIO_DIM]);
                 task.observe(&slot.goal, &st, slot.steps, &mut obs[PROPRIO_DIM..]);
             });
