@@ -34,12 +34,11 @@ use skillmimic_core::hsi_character::{HANDS, NUM_BODIES};
 use skillmimic_core::math::{Quat, Vec3};
 use skillmimic_sim::{HsiEnvState, HsiObject, HsiReset, HsiScene, ObjectBox, ObjectState};
 
-use super::geometry::{Local, corners, dir2d, dist2d, dist_sq, put, ring_point, speed_reward, stand_at_origin};
-use super::proprio::PROPRIO_DIM;
-use super::{Ctx, DT, HsiTask, TaskOut};
+use super::geometry::{draw, Local, corners, dir2d, dist2d, dist_sq, put, ring_point, speed_reward, stand_at_origin};
+use super::{Ctx, DT, HsiTask, TaskOut, hsi_spec};
 use crate::config::{CarryConfig, EnvConfig};
 use crate::error::EnvError;
-use crate::task::{ActionSpace, TaskSpec};
+use crate::task::TaskSpec;
 use crate::vec_env::Env;
 
 /// Half thickness of a support slab (m).
@@ -66,17 +65,7 @@ pub struct Carry {
 impl Carry {
     pub fn new(cfg: &CarryConfig, random_heading: bool) -> Self {
         let info_names = ["target_x", "target_y", "target_z", "start_x", "start_y", "start_z", "half_x", "half_y", "half_z"].iter().map(|s| s.to_string()).collect();
-        let spec = TaskSpec {
-            name: "hsi_carry",
-            obs_dim: PROPRIO_DIM + 42,
-            action_space: ActionSpace::Box { dim: skillmimic_core::hsi_character::NUM_DOFS },
-            max_episode_steps: cfg.episode_length,
-            term_names: vec!["walk", "carry", "pick", "put", "total"],
-            metric_names: vec!["error_m", "success"],
-            info_names,
-            steps_per_action: 1,
-            choice_labels: Vec::new(),
-        };
+        let spec = hsi_spec("hsi_carry", 42, cfg.episode_length, vec!["walk", "carry", "pick", "put", "total"], info_names);
         Self { spec, cfg: cfg.clone(), random_heading }
     }
 }
@@ -92,7 +81,6 @@ impl HsiTask for Carry {
     }
     fn objects(&self, rng: &mut ChaCha8Rng) -> Vec<HsiObject> {
         let c = &self.cfg;
-        let draw = |rng: &mut ChaCha8Rng, r: [f64; 2]| if r[1] > r[0] { rng.random_range(r[0]..r[1]) } else { r[0] };
         let half = [0.5 * draw(rng, c.box_size), 0.5 * draw(rng, c.box_size), 0.5 * draw(rng, c.box_size)];
         let mass = draw(rng, c.box_mass);
         let slab = |name: &str| HsiObject { name: name.into(), mass: None, boxes: vec![ObjectBox { center: [0.0, 0.0, -SLAB_HALF], half: [half[0] + 0.1, half[1] + 0.1, SLAB_HALF] }], rgba: [0.4, 0.45, 0.5, 1.0] };
@@ -106,7 +94,6 @@ impl HsiTask for Carry {
         stand_at_origin(rng, self.random_heading, reset);
         let c = &self.cfg;
         let half = scene.objects()[0].boxes[0].half;
-        let draw = |rng: &mut ChaCha8Rng, r: [f64; 2]| if r[1] > r[0] { rng.random_range(r[0]..r[1]) } else { r[0] };
         let p = ring_point(rng, c.distance);
         let hs = draw(rng, c.support_height);
         let yaw_s = rng.random_range(-std::f64::consts::PI..std::f64::consts::PI);
@@ -169,5 +156,5 @@ pub fn build(cfg: &EnvConfig) -> Result<Box<dyn Env>, EnvError> {
     cfg.hsi.validate()?;
     let h = &cfg.hsi;
     let task = Carry::new(&h.carry, h.random_heading);
-    Ok(Box::new(super::HsiVecEnv::new(task, h.object_variants, h.object_seed, cfg.num_envs, cfg.threads, cfg.start_seed(0), h.carry.episode_length, h.termination_height)?))
+    super::build_env(task, cfg, h.object_variants, h.carry.episode_length)
 }

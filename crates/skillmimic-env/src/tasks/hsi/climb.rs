@@ -11,18 +11,16 @@
 //!   z̄_feet the mean height of the two foot bodies' frames and 0.94 the configured offset.
 //! * Ends, metrics and info: as the sit task's.
 
-use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use skillmimic_core::hsi_character::FEET;
 use skillmimic_sim::{HsiEnvState, HsiObject, HsiReset, HsiScene, ObjectBox};
 
-use super::geometry::{Local, dir2d, dist2d, dist_sq, put, speed_reward, stand_at_origin};
-use super::proprio::PROPRIO_DIM;
+use super::geometry::{draw, Local, dir2d, dist2d, dist_sq, put, speed_reward, stand_at_origin};
 use super::sit::{Goal, goal_info_names};
-use super::{Ctx, DT, HsiTask, TaskOut};
+use super::{Ctx, DT, HsiTask, TaskOut, hsi_spec};
 use crate::config::{ClimbConfig, EnvConfig};
 use crate::error::EnvError;
-use crate::task::{ActionSpace, TaskSpec};
+use crate::task::TaskSpec;
 use crate::vec_env::Env;
 
 /// The climbing task.
@@ -34,17 +32,7 @@ pub struct Climb {
 
 impl Climb {
     pub fn new(cfg: &ClimbConfig, random_heading: bool) -> Self {
-        let spec = TaskSpec {
-            name: "hsi_climb",
-            obs_dim: PROPRIO_DIM + 27,
-            action_space: ActionSpace::Box { dim: skillmimic_core::hsi_character::NUM_DOFS },
-            max_episode_steps: cfg.episode_length,
-            term_names: vec!["near", "far", "foot", "climb"],
-            metric_names: vec!["error_m", "success"],
-            info_names: goal_info_names(),
-            steps_per_action: 1,
-            choice_labels: Vec::new(),
-        };
+        let spec = hsi_spec("hsi_climb", 27, cfg.episode_length, vec!["near", "far", "foot", "climb"], goal_info_names());
         Self { spec, cfg: cfg.clone(), random_heading }
     }
 }
@@ -56,7 +44,6 @@ impl HsiTask for Climb {
     }
     fn objects(&self, rng: &mut ChaCha8Rng) -> Vec<HsiObject> {
         let c = &self.cfg;
-        let draw = |rng: &mut ChaCha8Rng, r: [f64; 2]| if r[1] > r[0] { rng.random_range(r[0]..r[1]) } else { r[0] };
         let h = draw(rng, c.height);
         let (sx, sy) = (draw(rng, c.size), draw(rng, c.size));
         vec![HsiObject { name: "platform".into(), mass: None, boxes: vec![ObjectBox { center: [0.0, 0.0, 0.5 * h], half: [0.5 * sx, 0.5 * sy, 0.5 * h] }], rgba: [0.45, 0.45, 0.5, 1.0] }]
@@ -84,10 +71,7 @@ impl HsiTask for Climb {
         out.terms[1] = far as f32;
         out.terms[2] = foot as f32;
         out.terms[3] = total as f32;
-        let err = dist_sq(goal.target, root).sqrt();
-        out.finish = goal.interaction_done(err, self.cfg.success_distance, self.cfg.iet_steps);
-        out.metrics[0] = err as f32;
-        out.metrics[1] = f32::from(err < self.cfg.success_distance);
+        goal.finish_step(root, self.cfg.success_distance, self.cfg.iet_steps, out);
     }
     fn info(&self, goal: &Goal, _steps: usize, out: &mut [f32]) {
         goal.write_info(out);
@@ -100,5 +84,5 @@ pub fn build(cfg: &EnvConfig) -> Result<Box<dyn Env>, EnvError> {
     cfg.hsi.validate()?;
     let h = &cfg.hsi;
     let task = Climb::new(&h.climb, h.random_heading);
-    Ok(Box::new(super::HsiVecEnv::new(task, h.object_variants, h.object_seed, cfg.num_envs, cfg.threads, cfg.start_seed(0), h.climb.episode_length, h.termination_height)?))
+    super::build_env(task, cfg, h.object_variants, h.climb.episode_length)
 }

@@ -19,11 +19,10 @@ use rand_chacha::ChaCha8Rng;
 use skillmimic_sim::{HsiEnvState, HsiObject, HsiReset, HsiScene};
 
 use super::geometry::{Local, put, stand_at_origin};
-use super::proprio::PROPRIO_DIM;
-use super::{Ctx, DT, HsiTask, TaskOut};
+use super::{Ctx, DT, HsiTask, TaskOut, hsi_spec};
 use crate::config::{EnvConfig, FollowConfig};
 use crate::error::EnvError;
-use crate::task::{ActionSpace, TaskSpec};
+use crate::task::TaskSpec;
 use crate::vec_env::Env;
 
 /// Waypoints in the observation.
@@ -65,17 +64,7 @@ pub struct Follow {
 impl Follow {
     pub fn new(cfg: &FollowConfig, random_heading: bool) -> Self {
         let info_names = (0..NUM_POINTS).flat_map(|k| [format!("waypoint{k}_x"), format!("waypoint{k}_y")]).collect();
-        let spec = TaskSpec {
-            name: "hsi_follow",
-            obs_dim: PROPRIO_DIM + 2 * NUM_POINTS,
-            action_space: ActionSpace::Box { dim: skillmimic_core::hsi_character::NUM_DOFS },
-            max_episode_steps: cfg.episode_length,
-            term_names: vec!["follow"],
-            metric_names: vec!["error_m", "success"],
-            info_names,
-            steps_per_action: 1,
-            choice_labels: Vec::new(),
-        };
+        let spec = hsi_spec("hsi_follow", 2 * NUM_POINTS, cfg.episode_length, vec!["follow"], info_names);
         Self { spec, cfg: cfg.clone(), random_heading }
     }
 }
@@ -150,5 +139,5 @@ pub fn build(cfg: &EnvConfig) -> Result<Box<dyn Env>, EnvError> {
     cfg.validate_driver()?;
     cfg.hsi.validate()?;
     let task = Follow::new(&cfg.hsi.follow, cfg.hsi.random_heading);
-    Ok(Box::new(super::HsiVecEnv::new(task, 1, cfg.hsi.object_seed, cfg.num_envs, cfg.threads, cfg.start_seed(0), cfg.hsi.follow.episode_length, cfg.hsi.termination_height)?))
+    super::build_env(task, cfg, 1, cfg.hsi.follow.episode_length)
 }

@@ -87,9 +87,14 @@ pub fn stand_at_origin(rng: &mut ChaCha8Rng, random_heading: bool, reset: &mut H
     yaw
 }
 
+/// A value drawn uniformly from the configured range `[low, high]` (`low` when they are equal).
+pub fn draw(rng: &mut ChaCha8Rng, r: [f64; 2]) -> f64 {
+    if r[1] > r[0] { rng.random_range(r[0]..r[1]) } else { r[0] }
+}
+
 /// A point on the ground at a random direction and a distance in `r` from the origin.
 pub fn ring_point(rng: &mut ChaCha8Rng, r: [f64; 2]) -> [f64; 2] {
     let a = rng.random_range(-std::f64::consts::PI..std::f64::consts::PI);
-    let d = if r[1] > r[0] { rng.random_range(r[0]..r[1]) } else { r[0] };
+    let d = draw(rng, r);
     [d * a.cos(), d * a.sin()]
 }

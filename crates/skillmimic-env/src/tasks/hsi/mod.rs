@@ -35,6 +35,29 @@ use crate::task::TaskSpec;
 /// Policy step (s): 4 physics steps of 1/120 s.
 pub const DT: f64 = 1.0 / 30.0;
 
+/// The [`TaskSpec`] of a TokenHSI task: observation `[proprioception 222 | task_obs]`, the
+/// character's 32 actions, one environment step per action.
+pub fn hsi_spec(name: &'static str, task_obs: usize, episode_length: usize, term_names: Vec<&'static str>, info_names: Vec<String>) -> TaskSpec {
+    TaskSpec {
+        name,
+        obs_dim: proprio::PROPRIO_DIM + task_obs,
+        action_space: crate::task::ActionSpace::Box { dim: skillmimic_core::hsi_character::NUM_DOFS },
+        max_episode_steps: episode_length,
+        term_names,
+        metric_names: vec!["error_m", "success"],
+        info_names,
+        steps_per_action: 1,
+        choice_labels: Vec::new(),
+    }
+}
+
+/// The batched environment of `task` from the `[env]` table (`variants` compiled object
+/// variants): what every TokenHSI registry constructor does after building its task.
+pub fn build_env<T: HsiTask>(task: T, cfg: &crate::config::EnvConfig, variants: usize, episode_length: usize) -> Result<Box<dyn crate::vec_env::Env>, crate::error::EnvError> {
+    let h = &cfg.hsi;
+    Ok(Box::new(HsiVecEnv::new(task, variants, h.object_seed, cfg.num_envs, cfg.threads, cfg.start_seed(0), episode_length, h.termination_height)?))
+}
+
 /// What a task sees of one environment after a step.
 pub struct Ctx<'a> {
     pub st: &'a HsiEnvState<'a>,

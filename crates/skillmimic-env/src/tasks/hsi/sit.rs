@@ -23,12 +23,11 @@ use rand_chacha::ChaCha8Rng;
 use skillmimic_core::math::{Quat, Vec3, heading};
 use skillmimic_sim::{HsiEnvState, HsiObject, HsiReset, HsiScene, ObjectBox, ObjectState};
 
-use super::geometry::{Local, corners, dir2d, dist2d, dist_sq, put, ring_point, speed_reward, stand_at_origin};
-use super::proprio::PROPRIO_DIM;
-use super::{Ctx, DT, HsiTask, TaskOut};
+use super::geometry::{draw, Local, corners, dir2d, dist2d, dist_sq, put, ring_point, speed_reward, stand_at_origin};
+use super::{Ctx, DT, HsiTask, TaskOut, hsi_spec};
 use crate::config::{EnvConfig, SitConfig};
 use crate::error::EnvError;
-use crate::task::{ActionSpace, TaskSpec};
+use crate::task::TaskSpec;
 use crate::vec_env::Env;
 
 /// A static object with a target on it (sit and climb).
@@ -82,6 +81,16 @@ impl Goal {
         self.near_steps = if err < d { self.near_steps + 1 } else { 0 };
         iet > 0 && self.near_steps >= iet
     }
+
+    /// The end of a step of a task that brings the root to the target (sit, climb): metrics
+    /// `error_m` (root–target distance) and `success` (below `success_distance`), and the
+    /// interaction early termination after `iet_steps` consecutive successful steps.
+    pub fn finish_step(&mut self, root: Vec3, success_distance: f64, iet_steps: usize, out: &mut TaskOut<'_>) {
+        let err = dist_sq(self.target, root).sqrt();
+        out.finish = self.interaction_done(err, success_distance, iet_steps);
+        out.metrics[0] = err as f32;
+        out.metrics[1] = f32::from(err < success_distance);
+    }
 }
 
 /// Info names of a [`Goal`].
@@ -98,17 +107,7 @@ pub struct Sit {
 
 impl Sit {
     pub fn new(cfg: &SitConfig, random_heading: bool) -> Self {
-        let spec = TaskSpec {
-            name: "hsi_sit",
-            obs_dim: PROPRIO_DIM + 38,
-            action_space: ActionSpace::Box { dim: skillmimic_core::hsi_character::NUM_DOFS },
-            max_episode_steps: cfg.episode_length,
-            term_names: vec!["near", "far", "sit"],
-            metric_names: vec!["error_m", "success"],
-            info_names: goal_info_names(),
-            steps_per_action: 1,
-            choice_labels: Vec::new(),
-        };
+        let spec = hsi_spec("hsi_sit", 38, cfg.episode_length, vec!["near", "far", "sit"], goal_info_names());
         Self { spec, cfg: cfg.clone(), random_heading }
     }
 }
@@ -120,7 +119,6 @@ impl HsiTask for Sit {
     }
     fn objects(&self, rng: &mut ChaCha8Rng) -> Vec<HsiObject> {
         let c = &self.cfg;
-        let draw = |rng: &mut ChaCha8Rng, r: [f64; 2]| if r[1] > r[0] { rng.random_range(r[0]..r[1]) } else { r[0] };
         let h = draw(rng, c.seat_height);
         let (depth, width) = (draw(rng, c.seat_size), draw(rng, c.seat_size));
         let mut boxes = vec![ObjectBox { center: [0.0, 0.0, 0.5 * h], half: [0.5 * depth, 0.5 * width, 0.5 * h] }];
@@ -152,10 +150,7 @@ impl HsiTask for Sit {
         out.terms[0] = near as f32;
         out.terms[1] = far as f32;
         out.terms[2] = total as f32;
-        let err = dist_sq(goal.target, root).sqrt();
-        out.finish = goal.interaction_done(err, self.cfg.success_distance, self.cfg.iet_steps);
-        out.metrics[0] = err as f32;
-        out.metrics[1] = f32::from(err < self.cfg.success_distance);
+        goal.finish_step(root, self.cfg.success_distance, self.cfg.iet_steps, out);
     }
     fn info(&self, goal: &Goal, _steps: usize, out: &mut [f32]) {
         goal.write_info(out);
@@ -168,5 +163,5 @@ pub fn build(cfg: &EnvConfig) -> Result<Box<dyn Env>, EnvError> {
     cfg.hsi.validate()?;
     let h = &cfg.hsi;
     let task = Sit::new(&h.sit, h.random_heading);
-    Ok(Box::new(super::HsiVecEnv::new(task, h.object_variants, h.object_seed, cfg.num_envs, cfg.threads, cfg.start_seed(0), h.sit.episode_length, h.termination_height)?))
+    super::build_env(task, cfg, h.object_variants, h.sit.episode_length)
 }
