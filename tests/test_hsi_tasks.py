@@ -243,7 +243,9 @@ def rollout(env, task, models, names, seed, staged, mx, cases):
                 if failed:
                     assert term[i], f"path-distance termination (env {i}, distance {err:.3f} m)"
                     cases["path distance > 4 m: terminated"] += 1
-                success = not failed and within[i] >= FOLLOW_FRACTION * steps[i]
+                # a termination without path failure is a character fall: never a success
+                fell = bool(term[i]) and not failed
+                success = not failed and not fell and within[i] >= FOLLOW_FRACTION * steps[i]
                 assert not trunc[i]
             elif task in ("hsi_sit", "hsi_climb"):
                 for k in ("target", "obj_pos", "lo", "hi"):
@@ -257,13 +259,13 @@ def rollout(env, task, models, names, seed, staged, mx, cases):
                 err = float(np.linalg.norm(target - root))
                 near[i] = near[i] + 1 if err < IET_DISTANCE else 0
                 assert trunc[i] == (near[i] >= IET_STEPS and not term[i]), "interaction early termination"
-                success = err < SUCCESS_DISTANCE
+                success = err < SUCCESS_DISTANCE and not term[i]  # sit/climb end early only by a fall
             else:
                 box = R.body_pos(m, d, "box")
                 hands = [R.body_pos(m, d, h) for h in R.HANDS]
                 want = R.carry_reward(root, prev_root[i], box, prev_obj[i], hands, g0.target)
                 err = float(np.linalg.norm(g0.target - box))
-                success = err < SUCCESS_DISTANCE
+                success = err < SUCCESS_DISTANCE and not term[i]  # object fall is off: a termination is a character fall
                 prev_obj[i] = box
                 assert not trunc[i]
             where = f"(env {i}, step {steps[i]}{', staged' if staged else ''})"

@@ -24,7 +24,8 @@
 //!   Velocities are finite differences over the policy step.
 //! * Ends: object fall (box centre below `fall_height`, off at 0 — Tab. A lists no object-fall
 //!   termination for this task); time limit (600 steps = 20 s).
-//! * Metrics: `error_m` (box–target distance), `success` (below `success_distance`).
+//! * Metrics: `error_m` (box–target distance), `success` (below `success_distance`, not in a
+//!   step where the character fell).
 //! * Info (9, world): target (3), start support top centre (3), box half sizes (3) (the box's
 //!   pose is in `qpos`).
 
@@ -141,7 +142,7 @@ impl HsiTask for Carry {
         out.fail = self.cfg.fall_height > 0.0 && obj[2] < self.cfg.fall_height;
         let err = dist_sq(goal.target, obj).sqrt();
         out.metrics[0] = err as f32;
-        out.metrics[1] = f32::from(err < self.cfg.success_distance);
+        out.metrics[1] = f32::from(err < self.cfg.success_distance && !ctx.fallen);
     }
     fn info(&self, goal: &Goal, _steps: usize, out: &mut [f32]) {
         let at = put(out, 0, &goal.target);

@@ -71,7 +71,7 @@ impl HsiTask for Climb {
         out.terms[1] = far as f32;
         out.terms[2] = foot as f32;
         out.terms[3] = total as f32;
-        goal.finish_step(root, self.cfg.success_distance, self.cfg.iet_steps, out);
+        goal.finish_step(root, self.cfg.success_distance, self.cfg.iet_steps, ctx.fallen, out);
     }
     fn info(&self, goal: &Goal, _steps: usize, out: &mut [f32]) {
         goal.write_info(out);

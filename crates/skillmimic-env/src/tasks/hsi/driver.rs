@@ -137,11 +137,11 @@ impl<T: HsiTask> HsiVecEnv<T> {
                 .for_each(|(i, (slot, obs, reward, terms, metrics, info, terminated, truncated))| {
                     let st = state.env(i);
                     slot.steps += 1;
-                    let ctx = Ctx { st: &st, prev_root: slot.prev_root, prev_obj: slot.prev_obj, steps: slot.steps };
+                    let fallen = slot.steps > 1 && (0..NUM_BODIES).any(|b| !CONTACT_BODIES.contains(&b) && st.contact[b] != 0 && st.pos(b)[2] < th);
+                    let ctx = Ctx { st: &st, prev_root: slot.prev_root, prev_obj: slot.prev_obj, steps: slot.steps, fallen };
                     let mut out = TaskOut { terms, metrics, fail: false, finish: false };
                     task.step(&mut slot.goal, &ctx, &mut out);
                     *reward = out.terms[nt - 1];
-                    let fallen = slot.steps > 1 && (0..NUM_BODIES).any(|b| !CONTACT_BODIES.contains(&b) && st.contact[b] != 0 && st.pos(b)[2] < th);
                     *terminated = u8::from(fallen || out.fail || st.unstable);
                     *truncated = u8::from(*terminated == 0 && (out.finish || slot.steps >= limit));
                     slot.prev_root = st.pos(0);

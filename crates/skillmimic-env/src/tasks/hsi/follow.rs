@@ -10,8 +10,9 @@
 //! * Reward (Eq. 1): `exp(−2 ‖x_root,2d − x(t)‖²)` after the step (t = steps/30 s).
 //! * Ends: path distance `‖x_root,2d − x(t)‖ > fail_distance` (termination); time limit.
 //! * Metrics: `error_m` (that distance), `success` (the released code's rule: within
-//!   `success_distance` for at least `success_fraction` of the steps so far and not failed —
-//!   its value at the episode's end is the success of the episode).
+//!   `success_distance` for at least `success_fraction` of the steps so far, and neither the
+//!   path distance nor a character fall ended the episode — its value at the episode's end is the
+//!   success of the episode).
 //! * Info (20): the same 10 waypoints in world coordinates (x, y).
 
 use rand::Rng;
@@ -119,7 +120,7 @@ impl HsiTask for Follow {
         let d = ((root[0] - w[0]).powi(2) + (root[1] - w[1]).powi(2)).sqrt();
         out.terms[0] = (-2.0 * d * d).exp() as f32;
         out.fail = d > self.cfg.fail_distance;
-        goal.failed |= out.fail;
+        goal.failed |= out.fail || ctx.fallen;
         if d <= self.cfg.success_distance {
             goal.within += 1;
         }

@@ -67,6 +67,9 @@ pub struct Ctx<'a> {
     pub prev_obj: [f64; 3],
     /// Policy steps taken in this episode (1 after the first step).
     pub steps: usize,
+    /// The character fell in this step (the episode terminates): no task counts a fall as a
+    /// success.
+    pub fallen: bool,
 }
 
 /// What a task writes for one environment after a step.

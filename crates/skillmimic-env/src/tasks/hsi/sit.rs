@@ -14,8 +14,9 @@
 //!   root → object; v: finite-difference root velocity), `r_near = exp(−10 ‖x_tar − x_root‖²)`.
 //! * Ends: interaction early termination (truncation) after `iet_steps` consecutive steps with the
 //!   root within `success_distance` of the target; time limit.
-//! * Metrics: `error_m` (root–target distance), `success` (below `success_distance`): their
-//!   values at an episode's end are the paper's error and success.
+//! * Metrics: `error_m` (root–target distance), `success` (below `success_distance`, not in a
+//!   step where the character fell): their values at an episode's end are the paper's error and
+//!   success.
 //! * Info (13, world): target (3), object position (3), object yaw (1), bounding box lo (3), hi (3).
 
 use rand::Rng;
@@ -83,13 +84,14 @@ impl Goal {
     }
 
     /// The end of a step of a task that brings the root to the target (sit, climb): metrics
-    /// `error_m` (root–target distance) and `success` (below `success_distance`), and the
-    /// interaction early termination after `iet_steps` consecutive successful steps.
-    pub fn finish_step(&mut self, root: Vec3, success_distance: f64, iet_steps: usize, out: &mut TaskOut<'_>) {
+    /// `error_m` (root–target distance) and `success` (below `success_distance`, and not in a
+    /// step where the character fell), and the interaction early termination after `iet_steps`
+    /// consecutive steps within `success_distance`.
+    pub fn finish_step(&mut self, root: Vec3, success_distance: f64, iet_steps: usize, fallen: bool, out: &mut TaskOut<'_>) {
         let err = dist_sq(self.target, root).sqrt();
         out.finish = self.interaction_done(err, success_distance, iet_steps);
         out.metrics[0] = err as f32;
-        out.metrics[1] = f32::from(err < success_distance);
+        out.metrics[1] = f32::from(err < success_distance && !fallen);
     }
 }
 
@@ -150,7 +152,7 @@ impl HsiTask for Sit {
         out.terms[0] = near as f32;
         out.terms[1] = far as f32;
         out.terms[2] = total as f32;
-        goal.finish_step(root, self.cfg.success_distance, self.cfg.iet_steps, out);
+        goal.finish_step(root, self.cfg.success_distance, self.cfg.iet_steps, ctx.fallen, out);
     }
     fn info(&self, goal: &Goal, _steps: usize, out: &mut [f32]) {
         goal.write_info(out);
