@@ -59,7 +59,10 @@ pub fn parse_hands(s: &str) -> anyhow::Result<HandModel> {
 pub fn run(a: Args) -> anyhow::Result<()> {
     match a.character.as_str() {
         "skillmimic" => {}
-        "tokenhsi" => return crate::cmd_trace_hsi::run(&a),
+        "tokenhsi" => {
+            let hsi = crate::cmd_trace_hsi::Args { out: &a.out, envs: a.envs, steps: a.steps, seed: a.seed, amplitude: a.amplitude, threads: a.threads };
+            return crate::cmd_trace_hsi::run(&hsi);
+        }
         other => anyhow::bail!("unknown --character '{other}', expected 'skillmimic' or 'tokenhsi'"),
     }
     let hands = parse_hands(&a.hands)?;

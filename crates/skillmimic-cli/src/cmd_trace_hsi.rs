@@ -13,7 +13,16 @@ use skillmimic_core::math::Quat;
 use skillmimic_core::tensorfile::{OwnedTensor, write_atomic};
 use skillmimic_sim::{HsiBatch, HsiObject, HsiReset, HsiScene, ObjectBox, ObjectState};
 
-use crate::cmd_trace::Args;
+/// What the TokenHSI trace needs of `skillmimic trace`'s arguments (its own type, so that this
+/// module does not depend on `cmd_trace`, which dispatches here).
+pub struct Args<'a> {
+    pub out: &'a std::path::Path,
+    pub envs: usize,
+    pub steps: usize,
+    pub seed: u64,
+    pub amplitude: f32,
+    pub threads: usize,
+}
 
 /// A carry scene: a 0.4 × 0.3 × 0.3 m box of 5 kg on a thin support, a second support.
 fn carry_objects() -> Vec<HsiObject> {
@@ -25,7 +34,7 @@ fn carry_objects() -> Vec<HsiObject> {
     ]
 }
 
-pub fn run(a: &Args) -> anyhow::Result<()> {
+pub fn run(a: &Args<'_>) -> anyhow::Result<()> {
     let scene = Arc::new(HsiScene::new(carry_objects())?);
     let (nq, nv, _) = scene.sizes();
     let mut sim = HsiBatch::new(vec![scene.clone()], a.envs, a.threads)?;
@@ -85,7 +94,7 @@ pub fn run(a: &Args) -> anyhow::Result<()> {
         OwnedTensor::f64("qpos", &[a.steps, a.envs, nq], &qpos),
         OwnedTensor::f64("qvel", &[a.steps, a.envs, nv], &qvel),
     ];
-    write_atomic(&a.out, &tensors, &meta).with_context(|| format!("cannot write {}", a.out.display()))?;
+    write_atomic(a.out, &tensors, &meta).with_context(|| format!("cannot write {}", a.out.display()))?;
     tracing::info!("wrote {} ({} envs x {} policy steps, {} unstable env-steps)", a.out.display(), a.envs, a.steps, unstable);
     Ok(())
 }
