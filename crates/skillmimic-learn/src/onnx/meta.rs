@@ -39,6 +39,10 @@ pub struct Gain {
     pub kp: f64,
     /// N·m·s/rad.
     pub kd: f64,
+    /// Torque limit of this joint (N·m) where joints differ (the TokenHSI character); absent
+    /// where one `force_limit_nm` holds for every joint.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub force_limit_nm: Option<f64>,
 }
 
 /// One discrete choice of a high-level policy.
@@ -111,6 +115,10 @@ pub struct DeployMeta {
     /// The 52 actuated joints in action order (joint j = body j + 1, actions 3j..3j+3).
     pub joint_order: Vec<String>,
     pub action_to_pd_target: String,
+    /// Per action entry `[offset, scale]` of `target = offset + scale · clamp(a, −1, 1)` (rad)
+    /// where the map is not π·a (the TokenHSI character); empty otherwise.
+    #[serde(skip_serializing_if = "Vec::is_empty", default)]
+    pub action_offset_scale: Vec<[f64; 2]>,
     pub pd_gains: Vec<Gain>,
     /// `env.hands` of the training run (`full` or `box`).
     pub hands: String,
@@ -170,7 +178,7 @@ impl DeployMeta {
         let entry = skillmimic_env::registry::entry(&cfg.env.task);
         let choices = entry.map(|e| e.choices).unwrap_or(&[]);
         let name_of = |l: u32| skill_name(l).unwrap_or("unnamed").to_string();
-        Ok(Self {
+        let mut m = Self {
             format: FORMAT.to_string(),
             format_version: FORMAT_VERSION,
             graph: graph.to_string(),
@@ -185,7 +193,8 @@ impl DeployMeta {
             normalizer: Normalizer { in_graph: false, eps: 0.0, clip: 0.0, formula: String::new() },
             joint_order: joints.iter().map(|b| b.name.to_string()).collect(),
             action_to_pd_target: PD_TARGET_DOC.to_string(),
-            pd_gains: joints.iter().map(|b| Gain { joint: b.name.to_string(), kp: b.group.gains().0, kd: b.group.gains().1 }).collect(),
+            action_offset_scale: Vec::new(),
+            pd_gains: joints.iter().map(|b| Gain { joint: b.name.to_string(), kp: b.group.gains().0, kd: b.group.gains().1, force_limit_nm: None }).collect(),
             hands: cfg.env.hands.clone(),
             welded_joints: (1..NUM_BODIES).filter(|&b| box_hands && is_finger(b)).map(|b| BODIES[b].name.to_string()).collect(),
             force_limit_nm: scene.force_limit,
@@ -196,7 +205,11 @@ impl DeployMeta {
             choices: choices.iter().enumerate().map(|(choice, &label)| Choice { choice, label, skill: name_of(label) }).collect(),
             source,
             skill_source: None,
-        })
+        };
+        if entry.map(|e| e.character) == Some(skillmimic_env::registry::Character::TokenHsi) {
+            super::meta_hsi::describe_tokenhsi(&mut m, obs_dim);
+        }
+        Ok(m)
     }
 
     /// One `(key, value)` per field: strings as they are, numbers and structures as compact JSON.

@@ -1,0 +1,64 @@
+//! Deployment metadata of a policy of a TokenHSI task ([`skillmimic_env::registry::Character::TokenHsi`]):
+//! the 32-DoF TokenHSI character replaces the SkillMimic humanoid in every character-specific
+//! field of [`DeployMeta`] — observation blocks (the 222-d proprioception and the task part),
+//! joint order, the action → PD target map with its per-entry offset and scale, gains and torque
+//! limits per joint, and the time steps (1/120 s physics, 4 steps per 30 Hz action).
+
+use skillmimic_core::hsi_character::{BODIES, JointSpec, action_offset_scale};
+use skillmimic_sim::hsi_mjcf::{HSI_SUBSTEPS, HSI_TIMESTEP};
+
+use super::meta::{Block, DeployMeta, Gain};
+
+/// Value of `obs_layout_version` for the TokenHSI tasks.
+pub const HSI_OBS_LAYOUT_VERSION: &str = "tokenhsi-obs-1";
+
+/// Rewrite the character-specific fields of `m` (built for the SkillMimic humanoid) for the
+/// TokenHSI character; `obs_dim` is the policy's observation width (222 + the task part).
+pub fn describe_tokenhsi(m: &mut DeployMeta, obs_dim: usize) {
+    let block = |name: &str, start: usize, end: usize| Block { name: name.to_string(), start, end };
+    m.obs_layout_version = HSI_OBS_LAYOUT_VERSION.to_string();
+    m.obs_blocks = vec![
+        block("body_pos (bodies 1-14 minus the root, heading frame, m)", 0, 42),
+        block("body_rot (15 bodies, tan-norm 6D; the root in the world frame, the others in the heading frame)", 42, 132),
+        block("body_linvel (15 bodies' centres of mass, heading frame, m/s)", 132, 177),
+        block("body_angvel (15 bodies, heading frame, rad/s)", 177, 222),
+    ];
+    if obs_dim > 222 {
+        m.obs_blocks.push(block(&format!("task ({})", m.task), 222, obs_dim));
+    }
+    let joints: Vec<_> = BODIES.iter().filter(|b| b.joint.dofs() > 0).collect();
+    let mut ranges = Vec::new();
+    let mut k = 0;
+    for b in &joints {
+        let n = b.joint.dofs();
+        ranges.push(if n == 3 { format!("{} {}-{}", b.joint_name, k, k + 2) } else { format!("{} {k}", b.joint_name) });
+        k += n;
+    }
+    m.joint_order = joints.iter().map(|b| b.joint_name.to_string()).collect();
+    m.action_to_pd_target = format!(
+        "action row = 32 float32 in joint_order ({}); ball joints take 3 entries (x, y, z of the joint's rotation vector = exp map of the body relative to its parent, Z-up), the elbows 1 (hinge angle about the forearm's y axis); PD target (rad) = action_offset_scale[i][0] + action_offset_scale[i][1] * clamp(a_i, -1, 1); torque = kp * (target - q) - kd * qdot per axis, clamped to +-force_limit_nm of the joint",
+        ranges.join(", ")
+    );
+    m.action_offset_scale = action_offset_scale().iter().map(|&(o, s)| [o, s]).collect();
+    m.pd_gains = joints
+        .iter()
+        .map(|b| {
+            let (kp, kd) = b.joint.gains();
+            let effort = match b.joint {
+                JointSpec::Ball { effort, .. } | JointSpec::HingeY { effort, .. } => Some(effort),
+                _ => None,
+            };
+            Gain { joint: b.joint_name.to_string(), kp, kd, force_limit_nm: effort }
+        })
+        .collect();
+    m.hands = String::new();
+    m.welded_joints = Vec::new();
+    m.force_limit_nm = joints.iter().filter_map(|b| match b.joint {
+        JointSpec::Ball { effort, .. } | JointSpec::HingeY { effort, .. } => Some(effort),
+        _ => None,
+    }).fold(0.0, f64::max);
+    m.sim_dt = HSI_TIMESTEP;
+    m.substeps = HSI_SUBSTEPS;
+    m.control_dt = HSI_TIMESTEP * HSI_SUBSTEPS as f64;
+    m.skill_labels.clear();
+}

@@ -1,0 +1,44 @@
+"""ONNX export of a policy trained on a TokenHSI task: the deployment metadata describes the 32-DoF
+TokenHSI character, not the SkillMimic humanoid — joint order, per-entry action → PD target map,
+gains and torque limits checked against the facts table of ``test_hsi_character`` (written from
+the facts file, independently of the Rust table), observation blocks 222 + task, 30 Hz over a
+1/120 s step — and onnxruntime gives our Rust inference on the task's observations."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from conftest import run_cli
+from test_hsi_character import JOINTS, action_maps
+from test_onnx_export import export, run
+
+
+def test_tokenhsi_policy_exports_with_the_characters_metadata(tmp_path, skillmimic_bin):
+    import skillmimic_rs
+
+    out = tmp_path / "sit"
+    run_cli(skillmimic_bin, "train", "--preset", "tiny", "--task", "hsi_sit", "--set", "run.iterations=2", "--set", "env.num_envs=8",
+            "--set", "ppo.minibatch=64", "--set", "ppo.hidden=[32]", "--set", "run.eval_episodes=1", "--no-video", "--out", str(out))
+    sess, side = export(skillmimic_bin, out / "latest.safetensors", tmp_path / "sit.onnx")
+    assert side["task"] == "hsi_sit" and side["obs_dim"] == 222 + 38 and side["act_dim"] == 32
+    assert side["obs_layout_version"] == "tokenhsi-obs-1"
+    assert [(b["start"], b["end"]) for b in side["obs_blocks"]] == [(0, 42), (42, 132), (132, 177), (177, 222), (222, 260)]
+    assert side["joint_order"] == [j[1] for j in JOINTS]
+    np.testing.assert_allclose(np.array(side["action_offset_scale"]), action_maps(), rtol=0, atol=1e-12)
+    assert [(g["joint"], g["kp"], g["kd"], g["force_limit_nm"]) for g in side["pd_gains"]] == [(j[1], j[4], j[5], j[6]) for j in JOINTS]
+    assert (side["sim_dt"], side["substeps"]) == (1 / 120, 4) and abs(side["control_dt"] - 1 / 30) < 1e-15
+    assert side["skill_labels"] == {} and side["welded_joints"] == []
+    env = skillmimic_rs.VecEnv(num_envs=8, task="hsi_sit")
+    env.action_space.seed(0)
+    x, _ = env.reset(seed=1)
+    xs = [x]
+    for _ in range(5):
+        x, *_ = env.step(env.action_space.sample() * 0.3)
+        xs.append(x)
+    x = np.concatenate(xs).astype(np.float32)
+    got = run(sess, x)
+    mu, _ = skillmimic_rs._core.Policy.load(str(out / "latest.safetensors")).infer(x)
+    print(f"onnxruntime on {len(x)} hsi_sit observations: max |d mu| vs Rust {np.abs(got['mu'] - mu).max():.2e}")
+    np.testing.assert_allclose(got["mu"], mu, rtol=1e-5, atol=1e-5)
+    np.testing.assert_array_equal(got["actions"], np.clip(got["mu"], -1, 1))
+    env.close()
