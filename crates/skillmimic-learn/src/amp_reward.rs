@@ -37,6 +37,9 @@ use crate::collective::Collective;
 use crate::config::{AmpConfig, TrainConfig};
 use crate::error::LearnError;
 
+/// Maps one observation row to its frame's prior features.
+type FrameFeatures = fn(&[f32], &mut [f32]);
+
 /// The motion prior's state in a training run.
 pub struct AmpReward {
     pub disc: Discriminator,
@@ -46,7 +49,7 @@ pub struct AmpReward {
     /// Features per frame (the humanoid's `FEATURE_DIM`, or the TokenHSI character's 222).
     fdim: usize,
     /// The per-frame feature map of the task's observation.
-    features: fn(&[f32], &mut [f32]),
+    features: FrameFeatures,
     /// `n × window × fdim`: every environment's current window, oldest frame first.
     rings: Vec<f32>,
     /// Environments whose window restarts at the next step (new episode).
@@ -66,7 +69,7 @@ impl AmpReward {
     /// and the discriminator's initialisation.
     pub fn new(cfg: &TrainConfig, obs_dim: usize, n: usize, seed: u64) -> Result<Self, LearnError> {
         let a = cfg.ppo.amp.clone();
-        let (fdim, features, reference): (usize, fn(&[f32], &mut [f32]), _) = if skillmimic_env::registry::character(&cfg.env.task) == Some(skillmimic_env::registry::Character::TokenHsi) {
+        let (fdim, features, reference): (usize, FrameFeatures, _) = if skillmimic_env::registry::character(&cfg.env.task) == Some(skillmimic_env::registry::Character::TokenHsi) {
             // TokenHSI character: the proprioception, references from env.hsi.style_motion
             let clips = style::load_style_clips(&cfg.env.hsi.style_motion)?;
             (style::STYLE_DIM, style::frame_features, style::clip_features(&clips)?)

@@ -21,6 +21,7 @@
 //!     `0.2 exp(−5 ‖x_box − x̄_hands‖²)`;
 //!   - put (Eq. 14): 0 when the 2-D box–target distance exceeds 0.1 m, else
 //!     `0.2 exp(−10 (z_box − z_tar)²)`.
+//!
 //!   Velocities are finite differences over the policy step.
 //! * Ends: object fall (box centre below `fall_height`, off at 0 — Tab. A lists no object-fall
 //!   termination for this task); time limit (600 steps = 20 s).
