@@ -33,7 +33,10 @@ pub fn export_checkpoint(ckpt: &Path, out: &Path, fused: bool, llc: Option<&Path
     }
     let source = source_of(ckpt, c.progress.iteration, c.progress.samples)?;
     let act = c.policy.actor.output_dim();
-    let meta = DeployMeta::new("", c.policy.family.name(), &cfg, c.policy.obs_dim(), act, source)?;
+    let mut meta = DeployMeta::new("", c.policy.family.name(), &cfg, c.policy.obs_dim(), act, source)?;
+    if skillmimic_env::registry::character(&cfg.env.task) == Some(skillmimic_env::registry::Character::TokenHsi) {
+        super::meta_hsi::describe_tokenhsi(&mut meta, c.policy.obs_dim());
+    }
     let exported = if fused {
         let llc_path = match llc {
             Some(p) => p.to_path_buf(),

@@ -178,7 +178,7 @@ impl DeployMeta {
         let entry = skillmimic_env::registry::entry(&cfg.env.task);
         let choices = entry.map(|e| e.choices).unwrap_or(&[]);
         let name_of = |l: u32| skill_name(l).unwrap_or("unnamed").to_string();
-        let mut m = Self {
+        let m = Self {
             format: FORMAT.to_string(),
             format_version: FORMAT_VERSION,
             graph: graph.to_string(),
@@ -206,9 +206,6 @@ impl DeployMeta {
             source,
             skill_source: None,
         };
-        if entry.map(|e| e.character) == Some(skillmimic_env::registry::Character::TokenHsi) {
-            super::meta_hsi::describe_tokenhsi(&mut m, obs_dim);
-        }
         Ok(m)
     }
 

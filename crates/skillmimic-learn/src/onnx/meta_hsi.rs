@@ -53,10 +53,8 @@ pub fn describe_tokenhsi(m: &mut DeployMeta, obs_dim: usize) {
         .collect();
     m.hands = String::new();
     m.welded_joints = Vec::new();
-    m.force_limit_nm = joints.iter().filter_map(|b| match b.joint {
-        JointSpec::Ball { effort, .. } | JointSpec::HingeY { effort, .. } => Some(effort),
-        _ => None,
-    }).fold(0.0, f64::max);
+    // the largest per-joint limit (each joint's own is in pd_gains)
+    m.force_limit_nm = m.pd_gains.iter().filter_map(|g| g.force_limit_nm).fold(0.0, f64::max);
     m.sim_dt = HSI_TIMESTEP;
     m.substeps = HSI_SUBSTEPS;
     m.control_dt = HSI_TIMESTEP * HSI_SUBSTEPS as f64;
