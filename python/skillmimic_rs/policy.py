@@ -21,7 +21,10 @@ giving logits; its checkpoints carry ``policy = "categorical_mlp"`` and ``action
 "discrete:<n>"`` in the metadata, and :func:`load_checkpoint` builds the right class.
 ``ModularAttentionPolicy`` mirrors ``modular_attention`` (ModSkill): actor tensors
 ``actor.parts.{k}.{q,k,v}.{0,1}.*`` and ``actor.parts.{k}.controller.*``, described by the
-metadata ``actor_net``.
+metadata ``actor_net``. ``TokenTransformerPolicy`` mirrors ``token_transformer`` and
+``token_transformer_categorical`` (TokenHSI): ``actor.output_token``, ``actor.tokenizers.*``,
+``actor.encoder.layers.*`` (``nn.TransformerEncoder`` names), ``actor.head.*``,
+``actor.adapters.*`` (adapted policies) and ``actor.mu.*``, described by ``actor_net``.
 Training checkpoints also hold ``optim.*`` tensors (Adam state), which :func:`load_checkpoint`
 skips. Observations are normalised in float64, ``clamp((x - mean) / sqrt(var + eps), ±clip)``,
 then cast to float32; the critic's output is de-normalised the same way (clamp, scale, shift).
@@ -191,6 +194,94 @@ class ModularAttentionPolicy(_MlpActorCritic):
     act = SkillMimicPolicy.act
 
 
+class TokenTransformerActor(nn.Module):
+    """TokenHSI's token transformer actor (``token_transformer*``; the Rust definition is
+    ``skillmimic_nn::token``): one tokenizer MLP per observation group (ReLU after every layer),
+    the sequence ``[output_token, token_0, ..., token_{G-1}]`` without positional embedding, a
+    post-norm ``nn.TransformerEncoder`` (dropout 0, ReLU) with a key padding mask that ignores task
+    token k where the raw mask entry k is <= 0.5, the encoded output token through the head MLP
+    (ReLU after each hidden layer, plus the zero-initialised ``adapters`` in parallel when present)
+    and the output layer ``mu``. ``spec`` = the checkpoint metadata ``actor_net``."""
+
+    def __init__(self, spec: dict, act_dim: int):
+        super().__init__()
+        self.spec, self.act_dim = spec, act_dim
+        e = spec["embed"]
+        self.widths = [w for _, w in spec["groups"]]
+        self.mask = spec["mask"]
+        self.output_token = nn.Parameter(torch.zeros(1, 1, e))
+
+        def tokenizer(w):
+            sizes = [w, *spec["tokenizer"], e]
+            layers: list[nn.Module] = []
+            for k in range(len(sizes) - 1):
+                layers += [nn.Linear(sizes[k], sizes[k + 1]), nn.ReLU()]
+            return nn.Sequential(*layers)
+
+        self.tokenizers = nn.ModuleList(tokenizer(w) for w in self.widths)
+        layer = nn.TransformerEncoderLayer(e, spec["heads"], spec["feedforward"], dropout=0.0, activation="relu", batch_first=True, norm_first=False)
+        self.encoder = nn.TransformerEncoder(layer, spec["layers"], enable_nested_tensor=False)
+        sizes = [e, *spec["head"]]
+        self.head = nn.Sequential(*[m for k in range(len(sizes) - 1) for m in (nn.Linear(sizes[k], sizes[k + 1]), nn.ReLU())])
+        if spec["adapters"]:
+            self.adapters = nn.ModuleList(nn.Linear(sizes[k], sizes[k + 1]) for k in range(len(sizes) - 1))
+        self.mu = nn.Linear(sizes[-1], act_dim)
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        """``x`` (B, obs_dim): normalised groups, raw mask entries. Returns (B, act_dim)."""
+        b, at, tokens = x.shape[0], 0, []
+        for w, tok in zip(self.widths, self.tokenizers):
+            tokens.append(tok(x[:, at : at + w]))
+            at += w
+        seq = torch.cat([self.output_token.expand(b, 1, -1), torch.stack(tokens, 1)], 1)
+        pad = None
+        if self.mask:
+            ignore = x[:, at : at + self.mask] <= 0.5
+            pad = torch.cat([torch.zeros(b, 2, dtype=torch.bool, device=x.device), ignore], 1)
+        h = self.encoder(seq, src_key_padding_mask=pad)[:, 0]
+        for k in range(len(self.head) // 2):
+            y = self.head[2 * k](h)
+            if self.spec["adapters"]:
+                y = y + self.adapters[k](h)
+            h = torch.relu(y)
+        return self.mu(h)
+
+
+class TokenTransformerPolicy(_MlpActorCritic):
+    """``token_transformer`` (Gaussian, fixed log-std) or ``token_transformer_categorical``
+    (logits; ``log_std=None``): :class:`TokenTransformerActor`, a critic MLP over the whole
+    normalised observation (``hidden``). The mask entries reach the actor unnormalised."""
+
+    def __init__(self, spec: dict, obs_dim: int, act_dim: int, hidden: Sequence[int] = (2048, 1024, 512), log_std: float | None = -2.9, norm_eps: float = 1e-5, norm_clip: float = 5.0, normalize_input: bool = True, normalize_value: bool = True):
+        super().__init__(obs_dim, act_dim, hidden, norm_eps, norm_clip, normalize_input, normalize_value, log_std=log_std)
+        self.actor = TokenTransformerActor(spec, act_dim)
+        self.raw = slice(obs_dim - spec["mask"], obs_dim)
+
+    def normalized(self, obs: torch.Tensor) -> torch.Tensor:
+        """The actor's and critic's input: normalised observation, mask entries raw."""
+        if not self.normalize_input:
+            return obs.float()
+        x = self.obs_norm.normalize(obs)
+        if self.raw.start < self.raw.stop:
+            x = torch.cat([x[:, : self.raw.start], obs[:, self.raw].float()], 1)
+        return x
+
+    def forward(self, obs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        x = self.normalized(obs)
+        out = self.actor(x)
+        v = self.critic(x).squeeze(-1)
+        if self.normalize_value:
+            v = self.value_norm.denormalize(v)
+        return out, v
+
+    @torch.no_grad()
+    def act(self, obs: torch.Tensor, deterministic: bool = True) -> torch.Tensor:
+        """Gaussian: actions in [-1, 1]; categorical: chosen indices."""
+        if hasattr(self, "log_std"):
+            return SkillMimicPolicy.act(self, obs, deterministic)
+        return CategoricalMlpPolicy.act(self, obs, deterministic)
+
+
 def checkpoint_metadata(path: str | pathlib.Path) -> dict[str, str]:
     """The metadata strings of a skillmimic checkpoint."""
     from safetensors import safe_open
@@ -202,7 +293,7 @@ def checkpoint_metadata(path: str | pathlib.Path) -> dict[str, str]:
     return meta
 
 
-def load_checkpoint(path: str | pathlib.Path, map_location: str | torch.device = "cpu") -> SkillMimicPolicy | CategoricalMlpPolicy | ModularAttentionPolicy:
+def load_checkpoint(path: str | pathlib.Path, map_location: str | torch.device = "cpu") -> SkillMimicPolicy | CategoricalMlpPolicy | ModularAttentionPolicy | TokenTransformerPolicy:
     """Build the PyTorch module of a checkpoint written by ``skillmimic train``/``export``
     (:class:`SkillMimicPolicy` for ``gaussian_mlp``, :class:`CategoricalMlpPolicy` for
     ``categorical_mlp``, :class:`ModularAttentionPolicy` for ``modular_attention``; strict: every
@@ -220,7 +311,7 @@ def load_checkpoint(path: str | pathlib.Path, map_location: str | torch.device =
         normalize_value=meta["normalize_value"] == "true",
     )
     if family == "gaussian_mlp":
-        policy: SkillMimicPolicy | CategoricalMlpPolicy | ModularAttentionPolicy = SkillMimicPolicy(act_dim=int(meta["act_dim"]), **common)
+        policy: SkillMimicPolicy | CategoricalMlpPolicy | ModularAttentionPolicy | TokenTransformerPolicy = SkillMimicPolicy(act_dim=int(meta["act_dim"]), **common)
     elif family == "categorical_mlp":
         kind, _, n = meta.get("actions", "").partition(":")
         if kind != "discrete" or not n.isdigit():
@@ -228,8 +319,12 @@ def load_checkpoint(path: str | pathlib.Path, map_location: str | torch.device =
         policy = CategoricalMlpPolicy(num_actions=int(n), **common)
     elif family == "modular_attention":
         policy = ModularAttentionPolicy(json.loads(meta["actor_net"]), act_dim=int(meta["act_dim"]), **common)
+    elif family in ("token_transformer", "token_transformer_categorical"):
+        kind, _, n = meta.get("actions", "").partition(":")
+        outputs = int(n) if kind == "discrete" else int(meta["act_dim"])
+        policy = TokenTransformerPolicy(json.loads(meta["actor_net"]), act_dim=outputs, log_std=-2.9 if family == "token_transformer" else None, **common)
     else:
-        raise ValueError(f"{path}: unknown policy family {family!r} (gaussian_mlp, categorical_mlp, modular_attention)")
+        raise ValueError(f"{path}: unknown policy family {family!r} (gaussian_mlp, categorical_mlp, modular_attention, token_transformer, token_transformer_categorical)")
     tensors = load_file(str(path), device=str(map_location))
     state = {k: v for k, v in tensors.items() if not k.startswith("optim.")}
     policy.load_state_dict(state, strict=True)

@@ -230,6 +230,8 @@ pub struct EnvConfig {
     pub tracking: TrackingConfig,
     /// Options of the TokenHSI tasks (`hsi_follow`, `hsi_sit`, `hsi_climb`, `hsi_carry`).
     pub hsi: HsiConfig,
+    /// Options of the multi-task environments (`hsi_multi`, `hlc_multi`).
+    pub multi: crate::config_multi::MultiConfig,
 }
 
 impl Default for EnvConfig {
@@ -251,6 +253,7 @@ impl Default for EnvConfig {
             stand: Default::default(),
             tracking: Default::default(),
             hsi: Default::default(),
+            multi: Default::default(),
             hlc: Default::default(),
             heading: Default::default(),
             steering: Default::default(),

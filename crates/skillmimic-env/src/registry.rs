@@ -43,12 +43,14 @@ pub const TASKS: &[TaskEntry] = &[
     TaskEntry { name: "hsi_sit", summary: "TokenHSI: sit on a procedural chair or stool (32-DoF TokenHSI character)", high_level: false, choices: &[], character: Character::TokenHsi, build: tasks::hsi::sit::build },
     TaskEntry { name: "hsi_climb", summary: "TokenHSI: climb onto a procedural platform (32-DoF TokenHSI character)", high_level: false, choices: &[], character: Character::TokenHsi, build: tasks::hsi::climb::build },
     TaskEntry { name: "hsi_carry", summary: "TokenHSI: carry a box between two supports (32-DoF TokenHSI character)", high_level: false, choices: &[], character: Character::TokenHsi, build: tasks::hsi::carry::build },
+    TaskEntry { name: "hsi_multi", summary: "TokenHSI multi-task: environments split across TokenHSI tasks by [env.multi] (one token policy)", high_level: false, choices: &[], character: Character::TokenHsi, build: tasks::multi::build },
     TaskEntry { name: "heading", summary: "skill reuse: dribble the ball to a target (frozen skill policy, --llc)", high_level: true, choices: tasks::hlc::heading::LABELS, character: Character::SkillMimic, build: tasks::hlc::heading::build },
     TaskEntry { name: "circling", summary: "skill reuse: dribble around a point at a radius (frozen skill policy, --llc)", high_level: true, choices: tasks::hlc::circling::LABELS, character: Character::SkillMimic, build: tasks::hlc::circling::build },
     TaskEntry { name: "throwing", summary: "skill reuse: throw the ball up to 2.5 m and catch it (frozen skill policy, --llc)", high_level: true, choices: tasks::hlc::throwing::LABELS, character: Character::SkillMimic, build: tasks::hlc::throwing::build },
     TaskEntry { name: "scoring", summary: "skill reuse: dribble to a basket and score with layups (frozen skill policy, --llc)", high_level: true, choices: tasks::hlc::scoring::LABELS, character: Character::SkillMimic, build: tasks::hlc::scoring::build },
     TaskEntry { name: "steering", summary: "skill reuse: move in a commanded direction at a commanded speed (ModSkill; skill or modular policy, --llc)", high_level: true, choices: tasks::hlc::steering::LABELS, character: Character::SkillMimic, build: tasks::hlc::steering::build },
     TaskEntry { name: "reach", summary: "skill reuse: bring the right hand to a 3-D target (ModSkill; skill or modular policy, --llc)", high_level: true, choices: tasks::hlc::reach::LABELS, character: Character::SkillMimic, build: tasks::hlc::reach::build },
+    TaskEntry { name: "hlc_multi", summary: "skill reuse, multi-task: environments split across high-level tasks by [env.multi] (one token policy)", high_level: true, choices: tasks::hlc::heading::LABELS, character: Character::SkillMimic, build: tasks::multi::build },
 ];
 
 /// Registered task names.

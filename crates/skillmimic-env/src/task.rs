@@ -41,6 +41,12 @@ pub struct TaskSpec {
     pub steps_per_action: usize,
     /// Skill label of each discrete choice (high-level tasks: `control_mapping`); empty otherwise.
     pub choice_labels: Vec<u32>,
+    /// The observation as named groups in column order, `(name, width)`, widths summing to
+    /// `obs_dim`: the character/state part first, then one group per task observation and, for
+    /// a multi-task environment, `("mask", K)` last (one 0/1 entry per task group, 1 = the
+    /// group is active). A token policy gives each group but the mask one token. Empty: the
+    /// task declares no groups.
+    pub token_groups: Vec<(String, usize)>,
 }
 
 /// The action space of a task.

@@ -99,6 +99,9 @@ pub fn save_with(path: &Path, policy: &Policy, adam: Option<&Adam>, progress: &P
     for ((name, shape), data) in names.iter().zip(&params) {
         tensors.push(OwnedTensor::f32(name, shape, data));
     }
+    for (name, shape, data) in policy.actor.frozen_tensors("actor") {
+        tensors.push(OwnedTensor::f32(&name, &shape, data));
+    }
     if !policy.log_std.is_empty() {
         tensors.push(OwnedTensor::f32("log_std", &[policy.log_std.len()], &policy.log_std));
     }
@@ -129,8 +132,14 @@ pub fn save_with(path: &Path, policy: &Policy, adam: Option<&Adam>, progress: &P
     // the critic's widths (an MLP actor has the same ones)
     let hidden = &policy.critic.dims[1..policy.critic.dims.len() - 1];
     meta.insert("hidden".to_string(), serde_json::to_string(hidden).unwrap());
-    if let ActorNet::Modular(m) = &policy.actor {
-        meta.insert("actor_net".to_string(), serde_json::to_string(&crate::policies::modular_attention::spec_of(m)).unwrap());
+    match &policy.actor {
+        ActorNet::Modular(m) => {
+            meta.insert("actor_net".to_string(), serde_json::to_string(&crate::policies::modular_attention::spec_of(m)).unwrap());
+        }
+        ActorNet::Token(t) => {
+            meta.insert("actor_net".to_string(), serde_json::to_string(&t.spec).unwrap());
+        }
+        ActorNet::Mlp(_) => {}
     }
     meta.insert("iteration".to_string(), progress.iteration.to_string());
     meta.insert("samples".to_string(), progress.samples.to_string());
@@ -203,6 +212,7 @@ fn load_raw(path: &Path, expect: Option<(usize, usize)>) -> Result<Checkpoint, S
         return Err(format!("{}: metadata 'actions' {space:?} does not fit act_dim {act_dim} and policy '{}'", path.display(), family.name()));
     }
     let actor = match f.meta("actor_net") {
+        Ok(text) if family.name().starts_with("token_transformer") => ActorNet::Token(crate::policies::token_transformer::read(&f, text, obs_dim, act_dim).map_err(|x| format!("{}: {x}", path.display()))?),
         Ok(text) => ActorNet::Modular(crate::policies::modular_attention::read(&f, text, obs_dim, act_dim).map_err(|x| format!("{}: {x}", path.display()))?),
         Err(_) => ActorNet::Mlp(mlp("actor", family.actor_outputs(&space))?),
     };

@@ -80,6 +80,8 @@ pub struct PpoConfig {
     pub device: String,
     /// The modular attention network (`policy = "modular_attention"`; ModSkill).
     pub modular: ModularConfig,
+    /// The token transformer (`policy = "token_transformer[_categorical]"`; TokenHSI).
+    pub token: crate::config_token::TokenConfig,
     /// The adversarial motion prior (style reward; ModSkill, TokenHSI).
     pub amp: AmpConfig,
 }
@@ -112,6 +114,7 @@ impl Default for PpoConfig {
             backend: Backend::Fast,
             device: "cpu".into(),
             modular: Default::default(),
+            token: Default::default(),
             amp: Default::default(),
         }
     }

@@ -6,6 +6,7 @@
 //! * [`policies`]: policy families by name (`gaussian_mlp`, `categorical_mlp`);
 //! * [`policy`]: the actor–critic over `skillmimic_nn` MLPs (PyTorch layout), batched inference;
 //! * [`ppo`]: the canonical loss (candle autograd), its fast specialisation, the update, GAE;
+//! * [`adapt`]: policy adaptation of a token transformer (TokenHSI: frozen base, new tokenizer, adapters);
 //! * [`active`]: active skill learning (clip evaluation, generation, failure-weighted sampling);
 //! * [`amp`]: the adversarial motion prior's discriminator (style reward);
 //! * [`adam`]: Adam with exposed state; [`storage`]: rollout buffers; [`error`]: typed errors;
@@ -19,6 +20,7 @@
 //! * [`tblog`]: TensorBoard scalar event files.
 
 pub mod active;
+pub mod adapt;
 pub mod actor;
 pub mod adam;
 pub mod amp;
@@ -31,6 +33,7 @@ pub mod config;
 pub mod config_active;
 pub mod config_doc;
 pub mod config_file;
+pub mod config_token;
 pub mod episode_eval;
 pub mod error;
 pub mod eval;

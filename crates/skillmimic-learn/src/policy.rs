@@ -107,10 +107,18 @@ impl Policy {
         self.actor.output_dim()
     }
 
-    /// Normalised observation rows (or a copy when input normalisation is off).
+    /// Normalised observation rows (or a copy when input normalisation is off); the actor's raw
+    /// columns (the token transformer's mask) are copied unnormalised.
     pub fn normalize_obs_into(&self, obs: &[f32], out: &mut [f32]) {
         if self.normalize_input {
             self.obs_norm.normalize_into(obs, out);
+            let raw = self.actor.raw_columns();
+            if !raw.is_empty() {
+                let d = self.obs_dim();
+                for (o, x) in out.chunks_exact_mut(d).zip(obs.chunks_exact(d)) {
+                    o[raw.clone()].copy_from_slice(&x[raw.clone()]);
+                }
+            }
         } else {
             out.copy_from_slice(obs);
         }

@@ -132,8 +132,13 @@ impl Trainer {
         let mut env = registry::make(&ecfg)?;
         let (obs_dim, act_dim) = (env.obs_dim(), env.act_dim());
         let mut rng = ChaCha8Rng::seed_from_u64(cfg.run.seed);
+        // a token policy's observation groups come from the task unless configured
+        let ppo = crate::policies::token_transformer::with_task_groups(&cfg.ppo, env.spec());
         let fresh = |rng: &mut ChaCha8Rng| -> Result<(Policy, Adam), LearnError> {
-            let policy = Policy::build(obs_dim, env.spec().action_space, &cfg.ppo, rng)?;
+            let mut policy = Policy::build(obs_dim, env.spec().action_space, &ppo, rng)?;
+            if !ppo.token.adapt_from.as_os_str().is_empty() {
+                crate::adapt::adapt(&mut policy, &ppo.token.adapt_from, rng)?;
+            }
             let adam = Adam::new(&crate::ppo::update::param_sizes(&policy), cfg.ppo.lr, cfg.ppo.adam_eps);
             Ok((policy, adam))
         };

@@ -24,6 +24,12 @@ fn config(task: &str, out: &str) -> TrainConfig {
     if skillmimic_env::registry::is_high_level(task) {
         c.env.hlc.llc = skill_policy("every-task");
     }
+    // the token transformer at test sizes
+    c.ppo.token.tokenizer = vec![32];
+    c.ppo.token.embed = 16;
+    c.ppo.token.layers = 1;
+    c.ppo.token.feedforward = 32;
+    c.ppo.token.head = vec![32];
     c
 }
 
@@ -44,7 +50,8 @@ fn every_task_steps_with_every_compatible_policy_family() {
         assert_eq!(spec.name, entry.name);
         let (n, d, a) = (env.num_envs(), spec.obs_dim, spec.act_dim());
         let mut rng = <rand_chacha::ChaCha8Rng as rand::SeedableRng>::seed_from_u64(1);
-        let policy = Policy::build(d, space, &c.ppo, &mut rng).unwrap();
+        let ppo = skillmimic_learn::policies::token_transformer::with_task_groups(&c.ppo, &spec);
+        let policy = Policy::build(d, space, &ppo, &mut rng).unwrap();
         let mut buf = InferenceBuffers::default();
         let o = policy.actor_outputs();
         let (mut mu, mut values, mut actions, mut neglogp) = (vec![0.0; n * o], vec![0.0; n], vec![0.0; n * a], vec![0.0; n]);

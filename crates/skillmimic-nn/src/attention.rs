@@ -14,8 +14,7 @@
 //! Shapes: inputs (B, S, E) batch-first; dropout is not modelled (inference and PPO updates run
 //! with dropout 0, as the reference policies do).
 
-use candle_core::{D, DType, Device, Tensor};
-use candle_nn::{LayerNorm, Linear, Module};
+use candle_core::{D, Tensor};
 use rand::Rng;
 
 use crate::network::{NamedTensor, Network, prefixed};
@@ -34,9 +33,6 @@ impl Dense {
     pub fn new<R: Rng>(inp: usize, out: usize, rng: &mut R) -> Self {
         let b = 1.0 / (inp as f32).sqrt();
         Self { out, inp, weight: (0..out * inp).map(|_| rng.random_range(-b..b)).collect(), bias: (0..out).map(|_| rng.random_range(-b..b)).collect() }
-    }
-    fn linear(&self, dev: &Device) -> candle_core::Result<Linear> {
-        Ok(Linear::new(Tensor::from_slice(&self.weight, (self.out, self.inp), dev)?, Some(Tensor::from_slice(&self.bias, self.out, dev)?)))
     }
     fn named(&self, prefix: &str) -> Vec<NamedTensor> {
         vec![
@@ -71,29 +67,66 @@ impl MultiHeadAttention {
     /// (B, S) with 1 = ignore that key. Returns (B, L, E).
     pub fn attend(&self, q: &Tensor, kv: &Tensor, key_padding_mask: Option<&Tensor>) -> candle_core::Result<Tensor> {
         let dev = q.device();
-        let (e, h) = (self.embed_dim, self.num_heads);
-        let hd = e / h;
-        let w = Tensor::from_slice(&self.in_proj.weight, (3 * e, e), dev)?;
-        let b = Tensor::from_slice(&self.in_proj.bias, 3 * e, dev)?;
-        let proj = |x: &Tensor, part: usize| -> candle_core::Result<Tensor> {
-            let (bs, n, _) = x.dims3()?;
-            let wp = w.narrow(0, part * e, e)?;
-            let bp = b.narrow(0, part * e, e)?;
-            x.broadcast_matmul(&wp.t()?)?.broadcast_add(&bp)?.reshape((bs, n, h, hd))?.transpose(1, 2)?.contiguous()
-        };
-        let (qh, kh, vh) = (proj(q, 0)?, proj(kv, 1)?, proj(kv, 2)?); // (B, H, n, hd)
-        let mut scores = (qh.matmul(&kh.t()?)? / (hd as f64).sqrt())?; // (B, H, L, S)
-        if let Some(mask) = key_padding_mask {
-            let (bs, s) = mask.dims2()?;
-            let neg = mask.to_dtype(DType::F32)?.affine(-1e30, 0.0)?.reshape((bs, 1, 1, s))?;
-            scores = scores.broadcast_add(&neg)?;
-        }
-        let att = candle_nn::ops::softmax_last_dim(&scores)?;
-        let y = att.matmul(&vh)?; // (B, H, L, hd)
-        let (bs, _, l, _) = y.dims4()?;
-        let y = y.transpose(1, 2)?.reshape((bs, l, e))?;
-        self.out_proj.linear(dev)?.forward(&y)
+        let e = self.embed_dim;
+        let p = [
+            Tensor::from_slice(&self.in_proj.weight, (3 * e, e), dev)?,
+            Tensor::from_slice(&self.in_proj.bias, 3 * e, dev)?,
+            Tensor::from_slice(&self.out_proj.weight, (e, e), dev)?,
+            Tensor::from_slice(&self.out_proj.bias, e, dev)?,
+        ];
+        mha(q, kv, &p, self.num_heads, key_padding_mask)
     }
+}
+
+/// `x Wᵀ + b` for `x` (B, n, in) or (B, in), `w` (out, in), `b` (out).
+pub fn dense(x: &Tensor, w: &Tensor, b: &Tensor) -> candle_core::Result<Tensor> {
+    x.broadcast_matmul(&w.t()?)?.broadcast_add(b)
+}
+
+/// Multi-head attention over parameter tensors `p` = [in_proj_weight (3E, E), in_proj_bias (3E),
+/// out_proj.weight (E, E), out_proj.bias (E)] (PyTorch's packing; any of them may be a candle
+/// `Var`, gradients flow): queries `q` (B, L, E), keys/values `kv` (B, S, E), `heads` heads of
+/// width E/heads, scale 1/√(E/heads), optional key padding mask (B, S) float or integer with
+/// nonzero = ignore (the score gets −1e30, which underflows to a zero weight as PyTorch's −∞
+/// does). Softmax as exp/sum (differentiable). Returns (B, L, E).
+pub fn mha(q: &Tensor, kv: &Tensor, p: &[Tensor], heads: usize, key_padding_mask: Option<&Tensor>) -> candle_core::Result<Tensor> {
+    let e = p[2].dim(0)?;
+    let hd = e / heads;
+    let proj = |x: &Tensor, part: usize| -> candle_core::Result<Tensor> {
+        let (bs, n, _) = x.dims3()?;
+        dense(x, &p[0].narrow(0, part * e, e)?, &p[1].narrow(0, part * e, e)?)?.reshape((bs, n, heads, hd))?.transpose(1, 2)?.contiguous()
+    };
+    let (qh, kh, vh) = (proj(q, 0)?, proj(kv, 1)?, proj(kv, 2)?); // (B, H, n, hd)
+    let mut scores = (qh.matmul(&kh.t()?.contiguous()?)? / (hd as f64).sqrt())?; // (B, H, L, S)
+    if let Some(mask) = key_padding_mask {
+        let (bs, s) = mask.dims2()?;
+        let neg = mask.to_dtype(scores.dtype())?.ne(0.0)?.to_dtype(scores.dtype())?.affine(-1e30, 0.0)?.reshape((bs, 1, 1, s))?;
+        scores = scores.broadcast_add(&neg)?;
+    }
+    let att = candle_nn::ops::softmax(&scores, D::Minus1)?;
+    let y = att.matmul(&vh)?; // (B, H, L, hd)
+    let (bs, _, l, _) = y.dims4()?;
+    dense(&y.transpose(1, 2)?.reshape((bs, l, e))?, &p[2], &p[3])
+}
+
+/// LayerNorm over the last axis with weight `w` and bias `b` (ε [`LAYER_NORM_EPS`], biased
+/// variance as PyTorch), written with differentiable candle ops.
+pub fn layer_norm(x: &Tensor, w: &Tensor, b: &Tensor) -> candle_core::Result<Tensor> {
+    let mean = x.mean_keepdim(D::Minus1)?;
+    let xc = x.broadcast_sub(&mean)?;
+    let var = xc.sqr()?.mean_keepdim(D::Minus1)?;
+    xc.broadcast_div(&(var + LAYER_NORM_EPS)?.sqrt()?)?.broadcast_mul(w)?.broadcast_add(b)
+}
+
+/// A post-norm encoder layer over parameter tensors `p` in [`TransformerEncoderLayer`]'s
+/// `state_dict` order (self_attn in_proj_weight, in_proj_bias, out_proj.weight, out_proj.bias,
+/// linear1.weight, linear1.bias, linear2.weight, linear2.bias, norm1.weight, norm1.bias,
+/// norm2.weight, norm2.bias): x ← LN1(x + SA(x)); x ← LN2(x + W2 ReLU(W1 x)). `x` (B, S, E).
+pub fn encoder_layer(x: &Tensor, p: &[Tensor], heads: usize, key_padding_mask: Option<&Tensor>) -> candle_core::Result<Tensor> {
+    let sa = mha(x, x, &p[0..4], heads, key_padding_mask)?;
+    let x = layer_norm(&(x + sa)?, &p[8], &p[9])?;
+    let ff = dense(&dense(&x, &p[4], &p[5])?.relu()?, &p[6], &p[7])?;
+    layer_norm(&(x + ff)?, &p[10], &p[11])
 }
 
 impl Network for MultiHeadAttention {
@@ -138,18 +171,11 @@ impl TransformerEncoderLayer {
         }
     }
 
-    fn layer_norm(p: &(Vec<f32>, Vec<f32>), dev: &Device) -> candle_core::Result<LayerNorm> {
-        let n = p.0.len();
-        Ok(LayerNorm::new(Tensor::from_slice(&p.0, n, dev)?, Tensor::from_slice(&p.1, n, dev)?, LAYER_NORM_EPS))
-    }
-
     /// The layer on `x` (B, S, E) with an optional key padding mask (B, S), 1 = ignore.
     pub fn forward_masked(&self, x: &Tensor, key_padding_mask: Option<&Tensor>) -> candle_core::Result<Tensor> {
         let dev = x.device();
-        let sa = self.self_attn.attend(x, x, key_padding_mask)?;
-        let x = Self::layer_norm(&self.norm1, dev)?.forward(&(x + sa)?)?;
-        let ff = self.linear2.linear(dev)?.forward(&self.linear1.linear(dev)?.forward(&x)?.relu()?)?;
-        Self::layer_norm(&self.norm2, dev)?.forward(&(x + ff)?)
+        let p = self.state_dict().into_iter().map(|t| Tensor::from_vec(t.data, t.shape, dev)).collect::<candle_core::Result<Vec<_>>>()?;
+        encoder_layer(x, &p, self.self_attn.num_heads, key_padding_mask)
     }
 }
 

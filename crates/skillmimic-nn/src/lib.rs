@@ -10,7 +10,8 @@
 //! * [`history`]: the SkillMimic-V2 history encoder (candle forward, plain pass, online buffer);
 //! * [`modular`]: ModSkill's modular attention actor (per-part tokens, attention, controllers);
 //! * [`attention`]: multi-head attention and a transformer encoder layer (candle-nn), with the
-//!   parameter names of PyTorch's `nn.MultiheadAttention` / `nn.TransformerEncoderLayer`.
+//!   parameter names of PyTorch's `nn.MultiheadAttention` / `nn.TransformerEncoderLayer`;
+//! * [`token`]: TokenHSI's token transformer actor (tokenizers, masked encoder, adapters).
 
 pub mod attention;
 pub mod frozen;
@@ -21,5 +22,6 @@ pub mod mlp;
 pub mod modular;
 pub mod network;
 pub mod normalizer;
+pub mod token;
 
 pub use network::{NamedTensor, Network};

@@ -57,6 +57,7 @@ impl Stand {
             metric_names: vec!["height_err", "heading_err"],
             steps_per_action: 1,
             choice_labels: Vec::new(),
+            token_groups: Vec::new(),
             info_names: Vec::new(),
         };
         Self { cfg, spec }

@@ -8,19 +8,22 @@
 //! * [`gaussian_mlp`]: fixed-σ diagonal Gaussian over MLP action means (SkillMimic's policy);
 //! * [`categorical_mlp`]: categorical distribution over MLP logits (discrete actions, e.g. a
 //!   high-level policy choosing skills);
-//! * [`modular_attention`]: ModSkill's per-part attention actor with the fixed-σ Gaussian.
+//! * [`modular_attention`]: ModSkill's per-part attention actor with the fixed-σ Gaussian;
+//! * [`token_transformer`]: TokenHSI's token transformer with the fixed-σ Gaussian
+//!   (`token_transformer`) or a categorical head (`token_transformer_categorical`).
 
 pub mod categorical_mlp;
 pub mod family;
 pub mod gaussian_mlp;
 pub mod modular_attention;
+pub mod token_transformer;
 
 pub use family::{ExtraLoss, Head, PolicyFamily};
 
 use crate::error::LearnError;
 
 /// Every family, in listing order.
-pub const FAMILIES: &[&dyn PolicyFamily] = &[&gaussian_mlp::GaussianMlp, &categorical_mlp::CategoricalMlp, &modular_attention::ModularAttentionFamily];
+pub const FAMILIES: &[&dyn PolicyFamily] = &[&gaussian_mlp::GaussianMlp, &categorical_mlp::CategoricalMlp, &modular_attention::ModularAttentionFamily, &token_transformer::TokenTransformerFamily, &token_transformer::TokenTransformerCategorical];
 
 /// The family named `name`.
 pub fn family(name: &str) -> Result<&'static dyn PolicyFamily, LearnError> {

@@ -49,6 +49,7 @@ pub fn applies_to(policy: &Policy) -> bool {
     match &policy.actor {
         ActorNet::Mlp(_) => policy.family.name() == crate::policies::gaussian_mlp::GaussianMlp.name(),
         ActorNet::Modular(m) => policy.family.name() == "modular_attention" && m.parts.len() <= super::fast_modular::MAX_PARTS,
+        ActorNet::Token(_) => false,
     }
 }
 
@@ -58,11 +59,13 @@ pub fn loss_and_grads_fast(policy: &Policy, mb: &Minibatch<'_>, cfg: &PpoConfig,
     match &policy.actor {
         ActorNet::Mlp(actor) => forward_keep(actor, mb.obs_n, n, &mut ws.actor_h, threads),
         ActorNet::Modular(m) => ws.modular.forward(m, mb.obs_n, n, threads),
+        ActorNet::Token(_) => unreachable!("the token transformer takes the canonical loss (applies_to)"),
     }
     forward_keep(&policy.critic, mb.obs_n, n, &mut ws.critic_h, threads);
     let mu: &[f32] = match &policy.actor {
         ActorNet::Mlp(_) => ws.actor_h.last().expect("actor layers"),
         ActorNet::Modular(_) => &ws.modular.out,
+        ActorNet::Token(_) => unreachable!("the token transformer takes the canonical loss (applies_to)"),
     };
     let v = ws.critic_h.last().expect("critic layers");
     let inv_var: Vec<f64> = policy.log_std.iter().map(|&l| (-2.0 * l as f64).exp()).collect();
@@ -139,6 +142,7 @@ pub fn loss_and_grads_fast(policy: &Policy, mb: &Minibatch<'_>, cfg: &PpoConfig,
     match &policy.actor {
         ActorNet::Mlp(actor) => backward(actor, mb.obs_n, n, actor_h, g_a, scratch, ga_grads, threads),
         ActorNet::Modular(m) => modular.backward(m, g_a, n, ga_grads, threads),
+        ActorNet::Token(_) => unreachable!("the token transformer takes the canonical loss (applies_to)"),
     }
     backward(&policy.critic, mb.obs_n, n, critic_h, g_b, scratch, gc_grads, threads);
     stats

@@ -55,7 +55,13 @@ pub fn update_minibatch(
     comm: &mut dyn Collective,
 ) -> Result<LossStats, LearnError> {
     if policy.normalize_input {
+        // adaptation: the frozen tokenizers' inputs keep the statistics they were trained with
+        let frozen: Vec<(usize, f64, f64)> = policy.actor.frozen_obs_columns().iter().map(|&c| (c, policy.obs_norm.mean[c], policy.obs_norm.var[c])).collect();
         collective::update_normalizer(&mut policy.obs_norm, mb.obs, comm, &mut buf.sums)?;
+        for (c, m, v) in frozen {
+            policy.obs_norm.mean[c] = m;
+            policy.obs_norm.var[c] = v;
+        }
     }
     buf.obs_n.resize(mb.obs.len(), 0.0);
     policy.normalize_obs_into(mb.obs, &mut buf.obs_n);

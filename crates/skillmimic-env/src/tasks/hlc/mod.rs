@@ -236,6 +236,7 @@ impl<R: Rule> HighLevel<R> {
             info_names: rule.info_names().iter().map(|s| s.to_string()).collect(),
             steps_per_action: 1,
             choice_labels,
+            token_groups: [("state".to_string(), layout::STATE_DIM), (R::NAME.to_string(), rule.task_obs_dim())].into_iter().filter(|g| g.1 > 0).collect(),
         };
         let threads = if cfg.threads == 0 { rayon::current_num_threads() } else { cfg.threads };
         Ok(Self { rule, cfg: h.clone(), lib, spec, driver, threads, ball_radius, llc_obs: Vec::new(), skills: vec![0; cfg.num_envs] })

@@ -48,6 +48,7 @@ pub fn hsi_spec(name: &'static str, task_obs: usize, episode_length: usize, term
         info_names,
         steps_per_action: 1,
         choice_labels: Vec::new(),
+        token_groups: vec![("proprio".to_string(), proprio::PROPRIO_DIM), (name.to_string(), task_obs)],
     }
 }
 

@@ -68,6 +68,7 @@ impl Imitation {
             metric_names: FRAME_METRIC_NAMES.to_vec(),
             steps_per_action: 1,
             choice_labels: Vec::new(),
+            token_groups: Vec::new(),
             info_names: cg_names(cfg.reward.contact_graph).iter().map(|s| s.to_string()).collect(),
         };
         // random balls of ball-free clips are placed with the radius actually simulated

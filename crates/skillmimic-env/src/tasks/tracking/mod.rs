@@ -141,6 +141,7 @@ impl Tracking {
             info_names: vec!["clip".into(), "ref_frame".into()],
             steps_per_action: 1,
             choice_labels: Vec::new(),
+            token_groups: Vec::new(),
         };
         let cumulative = lib.cumulative_weighted(|c| t.clip_weights.get(&c.name).copied().unwrap_or(1.0));
         Ok(Self { cfg: t, lib, refs, bodies, spec, force_limit: opts.force_limit, active, targets: vec![0.0; cfg.num_envs * NUM_DOFS], cumulative })

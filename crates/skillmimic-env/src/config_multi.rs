@@ -1,0 +1,83 @@
+//! `[env.multi]`: the multi-task environment (`hsi_multi`, `hlc_multi`; TokenHSI's multi-task
+//! training, seed 004 §C; modskill-tokenhsi-facts §2.4).
+
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+
+/// Which tasks share one batch, in what proportion, and the token layout of the observation.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct MultiConfig {
+    /// Registered task names, one sub-batch each (all on the same character, one action space).
+    /// Empty (default): `hsi_multi` trains TokenHSI's four tasks (follow, sit, carry, climb),
+    /// `hlc_multi` heading and circling.
+    pub tasks: Vec<String>,
+    /// Share of the environments per task (normalised; largest remainder, at least one each).
+    /// Empty (default): TokenHSI's mix follow 0.1, sit 0.3, carry 0.3, climb 0.3 for the default
+    /// `hsi_multi` tasks, equal shares otherwise.
+    pub mix: Vec<f64>,
+    /// Task observation groups of the observation, in column order (each task's own group is
+    /// named after the task). Empty = every group of `tasks`, in order of first appearance. Name
+    /// more groups than the tasks fill to keep a trained policy's layout (evaluating one task
+    /// of a multi-task policy; adaptation to a new task keeps the old groups first).
+    pub groups: Vec<String>,
+}
+
+impl Default for MultiConfig {
+    fn default() -> Self {
+        Self { tasks: Vec::new(), mix: Vec::new(), groups: Vec::new() }
+    }
+}
+
+impl MultiConfig {
+    /// The tasks and mix in effect for the registered multi-task environment `name`.
+    pub fn effective(&self, name: &str) -> (Vec<String>, Vec<f64>) {
+        if !self.tasks.is_empty() {
+            return (self.tasks.clone(), self.mix.clone());
+        }
+        if name == "hlc_multi" {
+            (vec!["heading".into(), "circling".into()], self.mix.clone())
+        } else {
+            let mix = if self.mix.is_empty() { vec![0.1, 0.3, 0.3, 0.3] } else { self.mix.clone() };
+            (["hsi_follow", "hsi_sit", "hsi_carry", "hsi_climb"].map(String::from).to_vec(), mix)
+        }
+    }
+}
+
+/// Environments per task for `n` environments and weights `mix` (empty = equal): largest
+/// remainder, each task at least one. Errors name the field.
+pub fn split(n: usize, tasks: usize, mix: &[f64]) -> Result<Vec<usize>, String> {
+    let w: Vec<f64> = if mix.is_empty() { vec![1.0; tasks] } else { mix.to_vec() };
+    if w.len() != tasks {
+        return Err(format!("config field 'env.multi.mix' has {} weights for {tasks} tasks", w.len()));
+    }
+    if w.iter().any(|&x| !(x.is_finite() && x > 0.0)) {
+        return Err(format!("config field 'env.multi.mix' is {w:?}; expected positive finite weights"));
+    }
+    if n < tasks {
+        return Err(format!("config field 'env.num_envs' is {n}; the multi-task environment needs at least one per task ({tasks})"));
+    }
+    let total: f64 = w.iter().sum();
+    let spare = n - tasks;
+    let exact: Vec<f64> = w.iter().map(|x| x / total * spare as f64).collect();
+    let mut counts: Vec<usize> = exact.iter().map(|x| x.floor() as usize).collect();
+    let mut order: Vec<usize> = (0..tasks).collect();
+    order.sort_by(|&a, &b| (exact[b] - exact[b].floor()).total_cmp(&(exact[a] - exact[a].floor())).then(a.cmp(&b)));
+    let left = spare - counts.iter().sum::<usize>();
+    for &k in order.iter().take(left) {
+        counts[k] += 1;
+    }
+    Ok(counts.into_iter().map(|c| c + 1).collect())
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn split_follows_the_mix() {
+        assert_eq!(super::split(64, 4, &[0.1, 0.3, 0.3, 0.3]).unwrap(), vec![7, 19, 19, 19]);
+        assert_eq!(super::split(4, 4, &[0.1, 0.3, 0.3, 0.3]).unwrap(), vec![1, 1, 1, 1]);
+        assert_eq!(super::split(10, 2, &[]).unwrap(), vec![5, 5]);
+        assert!(super::split(3, 4, &[]).unwrap_err().contains("env.num_envs"));
+        assert!(super::split(8, 2, &[1.0]).unwrap_err().contains("env.multi.mix"));
+    }
+}

@@ -1,0 +1,310 @@
+//! The multi-task environment (`hsi_multi`, `hlc_multi`): TokenHSI's multi-task training (seed
+//! 004 §C; modskill-tokenhsi-facts §2.4) — one batch whose environments are split across
+//! registered tasks by `[env.multi]` (`mix`), every sub-batch a task's own environment, one
+//! shared policy.
+//!
+//! **Observation** (per environment, width `P + Σ groups + K`): `[shared part P | group_1 |
+//! … | group_K | mask K]`. The shared part is every task's first group (TokenHSI: the 222-d
+//! proprioception; high-level tasks: the 838 state entries), which all tasks must agree on. Each
+//! task group (`env.multi.groups`, default: the tasks' groups in order) holds a task's own
+//! observation where that task runs and zeros elsewhere; mask entry k is 1 where group k is
+//! active, 0 elsewhere (TokenHSI's task one-hot; a composition task activates several groups).
+//! `TaskSpec::token_groups` describes this layout to the token policy.
+//!
+//! **Actions**: the tasks must share the action space (and, for high-level tasks, the choice
+//! table and `steps_per_action`); rows go to the sub-batches in order.
+//!
+//! **Terms and metrics**: per task t, `t/reward` and `t/<term>` for each of its reward terms,
+//! multiplied by N / N_t on t's environments and 0 elsewhere — so their mean over all
+//! environments (what the trainer logs) is t's own per-step mean; metrics `t/<metric>` hold t's
+//! values on its environments and 0 elsewhere (not rescaled). Info entries likewise prefixed.
+//!
+//! **Not multiplexed**: `mujoco()`/`humanoid_sim()` give the first task's batch (rendering
+//! shows its environments); `pd_targets` is empty.
+
+use std::any::Any;
+
+use skillmimic_sim::{BatchSim, MjBatch};
+
+use crate::config::EnvConfig;
+use crate::config_multi::split;
+use crate::error::{EnvError, bad};
+use crate::registry;
+use crate::task::TaskSpec;
+use crate::vec_env::{Env, StepBuffers};
+
+/// One task's sub-batch and where its columns go.
+struct Sub {
+    env: Box<dyn Env>,
+    /// First environment row in the combined batch.
+    start: usize,
+    /// (source column, destination column, width) of the shared part and each of its groups.
+    copies: Vec<(usize, usize, usize)>,
+    /// Mask entries set to 1 (indices into the mask block).
+    active: Vec<usize>,
+    /// First combined term, metric and info column.
+    term_at: usize,
+    metric_at: usize,
+    info_at: usize,
+    /// N / N_t.
+    scale: f32,
+}
+
+/// The multi-task environment (see the module doc).
+pub struct MultiEnv {
+    spec: TaskSpec,
+    subs: Vec<Sub>,
+    n: usize,
+    mask_at: usize,
+    buf: StepBuffers,
+}
+
+/// Build the multi-task environment of `cfg.multi` (registry constructor of `hsi_multi` and
+/// `hlc_multi`).
+pub fn build(cfg: &EnvConfig) -> Result<Box<dyn Env>, EnvError> {
+    Ok(Box::new(MultiEnv::new(cfg)?))
+}
+
+impl MultiEnv {
+    /// Build every task's sub-batch (environment counts from `env.multi.mix`; sub-batch k's
+    /// episode starts seeded with `start_seed(0) + k`) and lay out the combined observation.
+    pub fn new(cfg: &EnvConfig) -> Result<Self, EnvError> {
+        let m = &cfg.multi;
+        let (tasks, mix) = m.effective(&cfg.task);
+        let counts = split(cfg.num_envs, tasks.len(), &mix).map_err(|e| bad("env.multi", e))?;
+        let base_seed = cfg.start_seed(0);
+        let mut envs = Vec::new();
+        for (k, (task, &n)) in tasks.iter().zip(&counts).enumerate() {
+            if task.ends_with("_multi") {
+                return Err(bad("env.multi.tasks", format!("'{task}' is itself a multi-task environment")).into());
+            }
+            let want_hl = cfg.task == "hlc_multi";
+            if registry::entry(task).is_some_and(|e| e.high_level != want_hl) {
+                let kind = if want_hl { "high-level (heading, circling, …)" } else { "TokenHSI (hsi_*)" };
+                return Err(bad("env.multi.tasks", format!("'{task}' cannot run in '{}': it takes {kind} tasks", cfg.task)).into());
+            }
+            let mut c = cfg.clone();
+            c.task = task.clone();
+            c.num_envs = n;
+            c.seed = Some(base_seed.wrapping_add(k as u64));
+            envs.push(registry::make(&c)?);
+        }
+        let first = envs[0].spec().clone();
+        let Some(shared) = first.token_groups.first().cloned() else {
+            return Err(bad("env.multi.tasks", format!("task '{}' declares no observation groups", first.name)).into());
+        };
+        let mut groups: Vec<(String, usize)> = Vec::new();
+        let named = !m.groups.is_empty();
+        for e in &envs {
+            let s = e.spec();
+            if s.token_groups.first() != Some(&shared) || s.action_space != first.action_space || s.steps_per_action != first.steps_per_action || s.choice_labels != first.choice_labels {
+                return Err(bad("env.multi.tasks", format!("'{}' and '{}' do not share the observed character part, the action space or the choice table", first.name, s.name)).into());
+            }
+            for g in &s.token_groups[1..] {
+                if !groups.iter().any(|x| x.0 == g.0) {
+                    groups.push(g.clone());
+                }
+            }
+        }
+        if named {
+            let mut ordered = Vec::new();
+            for name in &m.groups {
+                // a group no task fills keeps the width the policy expects: known task widths
+                let width = groups.iter().find(|g| &g.0 == name).map(|g| g.1).or_else(|| group_width(cfg, name));
+                let Some(w) = width else {
+                    return Err(bad("env.multi.groups", format!("'{name}' is not a task observation group of a registered task")).into());
+                };
+                ordered.push((name.clone(), w));
+            }
+            if let Some(g) = groups.iter().find(|g| !ordered.iter().any(|o| o.0 == g.0)) {
+                return Err(bad("env.multi.groups", format!("misses '{}', a group of the configured tasks", g.0)).into());
+            }
+            groups = ordered;
+        }
+        let k = groups.len();
+        let offsets: Vec<usize> = groups.iter().scan(shared.1, |at, g| Some(std::mem::replace(at, *at + g.1))).collect();
+        let mask_at = shared.1 + groups.iter().map(|g| g.1).sum::<usize>();
+        let n = cfg.num_envs;
+        let (mut term_names, mut metric_names, mut info_names) = (Vec::new(), Vec::new(), Vec::new());
+        let mut subs = Vec::new();
+        let mut start = 0;
+        for env in envs {
+            let s = env.spec().clone();
+            let mut copies = vec![(0, 0, shared.1)];
+            let mut active = Vec::new();
+            let mut src = shared.1;
+            for g in &s.token_groups[1..] {
+                let j = groups.iter().position(|x| x.0 == g.0).expect("every task group is laid out");
+                copies.push((src, offsets[j], g.1));
+                active.push(j);
+                src += g.1;
+            }
+            let leak = |v: String| -> &'static str { Box::leak(v.into_boxed_str()) };
+            let (term_at, metric_at, info_at) = (term_names.len(), metric_names.len(), info_names.len());
+            term_names.push(leak(format!("{}/reward", s.name)));
+            term_names.extend(s.term_names.iter().map(|t| leak(format!("{}/{t}", s.name))));
+            metric_names.extend(s.metric_names.iter().map(|t| leak(format!("{}/{t}", s.name))));
+            info_names.extend(s.info_names.iter().map(|t| format!("{}/{t}", s.name)));
+            let nt = env.num_envs();
+            subs.push(Sub { env, start, copies, active, term_at, metric_at, info_at, scale: n as f32 / nt as f32 });
+            start += nt;
+        }
+        let mut token_groups = vec![shared];
+        token_groups.extend(groups);
+        token_groups.push(("mask".to_string(), k));
+        let obs_dim = mask_at + k;
+        let spec = TaskSpec {
+            name: registry::entry(&cfg.task).map_or("hsi_multi", |e| e.name),
+            obs_dim,
+            action_space: first.action_space,
+            max_episode_steps: subs.iter().map(|s| s.env.spec().max_episode_steps).max().unwrap_or(0),
+            term_names,
+            metric_names,
+            info_names,
+            steps_per_action: first.steps_per_action,
+            choice_labels: first.choice_labels.clone(),
+            token_groups,
+        };
+        let buf = StepBuffers {
+            obs: vec![0.0; n * obs_dim],
+            reward: vec![0.0; n],
+            terms: vec![0.0; n * spec.term_names.len()],
+            info: vec![0.0; n * spec.info_names.len()],
+            metrics: vec![0.0; n * spec.metric_names.len()],
+            terminated: vec![0; n],
+            truncated: vec![0; n],
+            final_obs: vec![0.0; n * obs_dim],
+            final_mask: vec![0; n],
+        };
+        let mut me = Self { spec, subs, n, mask_at, buf };
+        me.gather();
+        Ok(me)
+    }
+
+    /// Rows `start..start + n_t` of every combined buffer from each sub-batch's buffers.
+    fn gather(&mut self) {
+        let d = self.spec.obs_dim;
+        let (nt, nm, ni) = (self.spec.term_names.len(), self.spec.metric_names.len(), self.spec.info_names.len());
+        let b = &mut self.buf;
+        b.terms.fill(0.0);
+        b.metrics.fill(0.0);
+        b.info.fill(0.0);
+        for s in &self.subs {
+            let sb = s.env.buffers();
+            let sd = s.env.spec().obs_dim;
+            let (st, sm, si) = (s.env.spec().term_names.len(), s.env.spec().metric_names.len(), s.env.spec().info_names.len());
+            for i in 0..s.env.num_envs() {
+                let r = s.start + i;
+                for (obs, src) in [(&mut b.obs, &sb.obs), (&mut b.final_obs, &sb.final_obs)] {
+                    let row = &mut obs[r * d..(r + 1) * d];
+                    row.fill(0.0);
+                    for &(from, to, w) in &s.copies {
+                        row[to..to + w].copy_from_slice(&src[i * sd + from..i * sd + from + w]);
+                    }
+                    for &j in &s.active {
+                        row[self.mask_at + j] = 1.0;
+                    }
+                }
+                b.reward[r] = sb.reward[i];
+                b.terminated[r] = sb.terminated[i];
+                b.truncated[r] = sb.truncated[i];
+                b.final_mask[r] = sb.final_mask[i];
+                let t = &mut b.terms[r * nt + s.term_at..r * nt + s.term_at + 1 + st];
+                t[0] = sb.reward[i] * s.scale;
+                for (o, &v) in t[1..].iter_mut().zip(&sb.terms[i * st..(i + 1) * st]) {
+                    *o = v * s.scale;
+                }
+                b.metrics[r * nm + s.metric_at..r * nm + s.metric_at + sm].copy_from_slice(&sb.metrics[i * sm..(i + 1) * sm]);
+                b.info[r * ni + s.info_at..r * ni + s.info_at + si].copy_from_slice(&sb.info[i * si..(i + 1) * si]);
+            }
+        }
+    }
+
+    /// Each sub-batch with its row range.
+    pub fn tasks(&self) -> impl Iterator<Item = (&str, std::ops::Range<usize>)> {
+        self.subs.iter().map(|s| (s.env.spec().name, s.start..s.start + s.env.num_envs()))
+    }
+}
+
+/// The task observation width of group `name` (a registered task's own group) when no
+/// configured task fills it: built from a one-environment instance of that task.
+fn group_width(cfg: &EnvConfig, name: &str) -> Option<usize> {
+    registry::entry(name)?;
+    let mut c = cfg.clone();
+    c.task = name.to_string();
+    c.num_envs = 1;
+    let env = registry::make(&c).ok()?;
+    env.spec().token_groups.iter().find(|g| g.0 == name).map(|g| g.1)
+}
+
+impl Env for MultiEnv {
+    fn spec(&self) -> &TaskSpec {
+        &self.spec
+    }
+    fn num_envs(&self) -> usize {
+        self.n
+    }
+    fn buffers(&self) -> &StepBuffers {
+        &self.buf
+    }
+    fn step(&mut self, actions: &[f32]) -> Result<(), EnvError> {
+        let a = self.spec.act_dim();
+        if actions.len() != self.n * a {
+            return Err(EnvError::ActionShape { expected: self.n * a, got: actions.len() });
+        }
+        for s in self.subs.iter_mut() {
+            let n = s.env.num_envs();
+            s.env.step(&actions[s.start * a..(s.start + n) * a])?;
+        }
+        self.gather();
+        Ok(())
+    }
+    fn reset_all(&mut self, seed: Option<u64>) {
+        for (k, s) in self.subs.iter_mut().enumerate() {
+            s.env.reset_all(seed.map(|x| x.wrapping_add(k as u64)));
+        }
+        self.gather();
+    }
+    fn reset_envs(&mut self, mask: &[bool]) {
+        for s in self.subs.iter_mut() {
+            let n = s.env.num_envs();
+            s.env.reset_envs(&mask[s.start..s.start + n]);
+        }
+        self.gather();
+    }
+    fn reset_done(&mut self) {
+        for s in self.subs.iter_mut() {
+            s.env.reset_done();
+        }
+        self.gather();
+    }
+    fn set_autoreset(&mut self, on: bool) {
+        for s in self.subs.iter_mut() {
+            s.env.set_autoreset(on);
+        }
+    }
+    fn refresh_observations(&mut self) {
+        for s in self.subs.iter_mut() {
+            s.env.refresh_observations();
+        }
+        self.gather();
+    }
+    fn humanoid_sim(&self) -> Option<&BatchSim> {
+        self.subs[0].env.humanoid_sim()
+    }
+    fn mujoco(&self) -> &dyn MjBatch {
+        self.subs[0].env.mujoco()
+    }
+    fn mujoco_mut(&mut self) -> &mut dyn MjBatch {
+        self.subs[0].env.mujoco_mut()
+    }
+    fn pd_targets(&self) -> &[f32] {
+        &[]
+    }
+    fn as_any(&self) -> &dyn Any {
+        self
+    }
+    fn as_any_mut(&mut self) -> &mut dyn Any {
+        self
+    }
+}
