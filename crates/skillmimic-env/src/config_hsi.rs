@@ -72,6 +72,10 @@ pub struct FollowConfig {
     /// Fraction of the episode's steps within `success_distance` for success (0.98, the
     /// released code's rule).
     pub success_fraction: f64,
+    /// Reference clips of this task's own discriminator (multi-task training keeps one per task,
+    /// as TokenHSI); empty = `env.hsi.style_motion`.
+    #[schemars(extend("items" = {"type": "string", "format": "path"}))]
+    pub style_motion: Vec<std::path::PathBuf>,
 }
 
 impl Default for FollowConfig {
@@ -86,6 +90,7 @@ impl Default for FollowConfig {
             fail_distance: 4.0,
             success_distance: 0.4,
             success_fraction: 0.98,
+            style_motion: Vec::new(),
         }
     }
 }
@@ -111,6 +116,10 @@ pub struct SitConfig {
     /// Interaction early termination after this many consecutive steps within
     /// `success_distance` (0 = off).
     pub iet_steps: usize,
+    /// Reference clips of this task's own discriminator (multi-task training keeps one per task,
+    /// as TokenHSI); empty = `env.hsi.style_motion`.
+    #[schemars(extend("items" = {"type": "string", "format": "path"}))]
+    pub style_motion: Vec<std::path::PathBuf>,
 }
 
 impl Default for SitConfig {
@@ -124,6 +133,7 @@ impl Default for SitConfig {
             target_above_seat: 0.1,
             success_distance: 0.2,
             iet_steps: 60,
+            style_motion: Vec::new(),
         }
     }
 }
@@ -147,11 +157,15 @@ pub struct ClimbConfig {
     /// Interaction early termination after this many consecutive steps within
     /// `success_distance` (0 = off).
     pub iet_steps: usize,
+    /// Reference clips of this task's own discriminator (multi-task training keeps one per task,
+    /// as TokenHSI); empty = `env.hsi.style_motion`.
+    #[schemars(extend("items" = {"type": "string", "format": "path"}))]
+    pub style_motion: Vec<std::path::PathBuf>,
 }
 
 impl Default for ClimbConfig {
     fn default() -> Self {
-        Self { episode_length: 300, height: [0.2, 0.6], size: [0.6, 1.2], distance: [1.0, 5.0], target_above_top: 0.94, success_distance: 0.2, iet_steps: 60 }
+        Self { episode_length: 300, height: [0.2, 0.6], size: [0.6, 1.2], distance: [1.0, 5.0], target_above_top: 0.94, success_distance: 0.2, iet_steps: 60, style_motion: Vec::new() }
     }
 }
 
@@ -174,6 +188,10 @@ pub struct CarryConfig {
     pub fall_height: f64,
     /// Success: box centre within this distance (m) of its target.
     pub success_distance: f64,
+    /// Reference clips of this task's own discriminator (multi-task training keeps one per task,
+    /// as TokenHSI); empty = `env.hsi.style_motion`.
+    #[schemars(extend("items" = {"type": "string", "format": "path"}))]
+    pub style_motion: Vec<std::path::PathBuf>,
 }
 
 impl Default for CarryConfig {
@@ -186,6 +204,7 @@ impl Default for CarryConfig {
             distance: [1.0, 5.0],
             fall_height: 0.0,
             success_distance: 0.2,
+            style_motion: Vec::new(),
         }
     }
 }
@@ -198,6 +217,20 @@ fn range(key: &str, r: [f64; 2], min: f64) -> Result<(), ConfigError> {
 }
 
 impl HsiConfig {
+    /// The reference clips of task `task`'s discriminator: its table's `style_motion`, else the
+    /// shared `style_motion`; `hsi_follow_carry` takes the follow and carry clips together.
+    pub fn style_motion_of(&self, task: &str) -> Vec<std::path::PathBuf> {
+        let own: Vec<std::path::PathBuf> = match task {
+            "hsi_follow" => self.follow.style_motion.clone(),
+            "hsi_sit" => self.sit.style_motion.clone(),
+            "hsi_climb" => self.climb.style_motion.clone(),
+            "hsi_carry" => self.carry.style_motion.clone(),
+            "hsi_follow_carry" => self.follow.style_motion.iter().chain(&self.carry.style_motion).cloned().collect(),
+            _ => Vec::new(),
+        };
+        if own.is_empty() { self.style_motion.clone() } else { own }
+    }
+
     /// Check the values (errors name the key).
     pub fn validate(&self) -> Result<(), ConfigError> {
         if self.object_variants == 0 {

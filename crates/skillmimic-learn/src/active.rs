@@ -156,7 +156,7 @@ pub fn train_round(t: &mut Trainer) -> Result<RoundReport, LearnError> {
     let out = t.cfg.run.out_dir.clone();
     let mut g = generator(&a, &out.join("generator_work"));
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(t.cfg.run.seed ^ t.progress.iteration.wrapping_mul(0x9e37_79b9_7f4a_7c15));
-    let report = round(&t.policy, &t.cfg, g.as_mut(), &a, t.amp.as_mut().map(|x| &mut x.disc), &mut rng)?;
+    let report = round(&t.policy, &t.cfg, g.as_mut(), &a, t.amp.as_mut().map(|x| x.disc_mut()), &mut rng)?;
     apply(t, &report)?;
     let path = out.join("active.jsonl");
     let line = serde_json::json!({"iteration": t.progress.iteration, "report": &report});

@@ -15,6 +15,9 @@
 //!   discriminator steps on `batch` buffer windows against `batch` reference windows.
 //! * Checkpoint tensors: `amp.disc.{0,2,…}.weight/.bias`, `amp.norm.{mean,var,count}`,
 //!   `amp.optim.step`, `amp.optim.{m,v}.<param>`.
+//! * Multi-task environments (`hsi_multi`): one discriminator per task (TokenHSI), each scoring
+//!   its task's environment rows against its task's clips (`env.hsi.<task>.style_motion`), with
+//!   its own buffer and steps; tensors `amp.<task>.*`.
 //! * Data-parallel runs: every rank keeps the windows of its own environments in a buffer of
 //!   `buffer / world` windows and brings `batch / world` reference and buffer windows to each
 //!   discriminator step ([`Discriminator::update_with`]: merged normaliser, averaged gradients),
@@ -40,12 +43,33 @@ use crate::error::LearnError;
 /// Maps one observation row to its frame's prior features.
 type FrameFeatures = fn(&[f32], &mut [f32]);
 
+/// One discriminator with its reference windows and its buffer of simulated windows (one per
+/// task in multi-task training, TokenHSI's rule; otherwise one for the run).
+pub struct Prior {
+    /// Task name (multi-task) or empty (the run's one prior).
+    pub name: String,
+    pub disc: Discriminator,
+    /// Environment rows this prior scores.
+    rows: std::ops::Range<usize>,
+    reference: Vec<Vec<f32>>,
+    buffer: Vec<f32>,
+    filled: usize,
+    next: usize,
+}
+
+impl Prior {
+    /// Checkpoint tensor prefix: `amp` (one prior) or `amp.<task>`.
+    fn prefix(&self) -> String {
+        if self.name.is_empty() { "amp".to_string() } else { format!("amp.{}", self.name) }
+    }
+}
+
 /// The motion prior's state in a training run.
 pub struct AmpReward {
-    pub disc: Discriminator,
+    /// The discriminators (one, or one per task of a multi-task environment).
+    pub priors: Vec<Prior>,
     cfg: AmpConfig,
     horizon: usize,
-    reference: Vec<Vec<f32>>,
     /// Features per frame (the humanoid's `FEATURE_DIM`, or the TokenHSI character's 222).
     fdim: usize,
     /// The per-frame feature map of the task's observation.
@@ -54,9 +78,6 @@ pub struct AmpReward {
     rings: Vec<f32>,
     /// Environments whose window restarts at the next step (new episode).
     fresh: Vec<bool>,
-    buffer: Vec<f32>,
-    filled: usize,
-    next: usize,
     rng: ChaCha8Rng,
     frame: Vec<f32>,
     picks: Vec<usize>,
@@ -65,34 +86,43 @@ pub struct AmpReward {
 
 impl AmpReward {
     /// The prior for `n` environments of the run configured by `cfg` (the reference clips are
-    /// `env.motion`, posed in the task's scene); `seed` drives reference sampling, buffer choice
-    /// and the discriminator's initialisation.
-    pub fn new(cfg: &TrainConfig, obs_dim: usize, n: usize, seed: u64) -> Result<Self, LearnError> {
+    /// `env.motion`, posed in the task's scene; TokenHSI tasks: `env.hsi` style clips); `seed`
+    /// drives reference sampling, buffer choice and the discriminators' initialisation. `tasks`:
+    /// the (task, environment rows) of a multi-task environment, one discriminator each (empty:
+    /// one discriminator for all rows).
+    pub fn new(cfg: &TrainConfig, obs_dim: usize, n: usize, seed: u64, tasks: &[(String, std::ops::Range<usize>)]) -> Result<Self, LearnError> {
         let a = cfg.ppo.amp.clone();
-        let (fdim, features, reference): (usize, FrameFeatures, _) = if skillmimic_env::registry::character(&cfg.env.task) == Some(skillmimic_env::registry::Character::TokenHsi) {
-            // TokenHSI character: the proprioception, references from env.hsi.style_motion
-            let clips = style::load_style_clips(&cfg.env.hsi.style_motion)?;
-            (style::STYLE_DIM, style::frame_features, style::clip_features(&clips)?)
-        } else {
-            if obs_dim < layout::HUMANOID_DIM {
-                return Err(LearnError::Config(format!("ppo.amp needs an observation that starts with the {} humanoid entries; task '{}' has {obs_dim}", layout::HUMANOID_DIM, cfg.env.task)));
-            }
-            let lib = load_motion_library(&cfg.env.motion)?;
-            let scene = Arc::new(Scene::new(cfg.env.scene_options().map_err(|e| LearnError::Config(e.to_string()))?).map_err(|e| LearnError::Config(e.to_string()))?);
-            (FEATURE_DIM, frame_features, clip_features(scene, &lib).map_err(|e| LearnError::Config(format!("ppo.amp reference clips: {e}")))?)
-        };
+        let groups: Vec<(String, std::ops::Range<usize>)> = if tasks.is_empty() { vec![(String::new(), 0..n)] } else { tasks.to_vec() };
+        let hsi = skillmimic_env::registry::character(&cfg.env.task) == Some(skillmimic_env::registry::Character::TokenHsi);
+        let (fdim, features): (usize, FrameFeatures) = if hsi { (style::STYLE_DIM, style::frame_features) } else { (FEATURE_DIM, frame_features) };
+        let mut references = Vec::new();
+        for (name, _) in &groups {
+            references.push(if hsi {
+                // TokenHSI character: the proprioception, references of the task's clips
+                let task = if name.is_empty() { cfg.env.task.as_str() } else { name.as_str() };
+                let clips = style::load_style_clips(&cfg.env.hsi.style_motion_of(task))?;
+                style::clip_features(&clips)?
+            } else {
+                if obs_dim < layout::HUMANOID_DIM {
+                    return Err(LearnError::Config(format!("ppo.amp needs an observation that starts with the {} humanoid entries; task '{}' has {obs_dim}", layout::HUMANOID_DIM, cfg.env.task)));
+                }
+                let lib = load_motion_library(&cfg.env.motion)?;
+                let scene = Arc::new(Scene::new(cfg.env.scene_options().map_err(|e| LearnError::Config(e.to_string()))?).map_err(|e| LearnError::Config(e.to_string()))?);
+                clip_features(scene, &lib).map_err(|e| LearnError::Config(format!("ppo.amp reference clips: {e}")))?
+            });
+        }
         let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x616d_705f_7265_6621);
         let width = a.window * fdim;
-        let disc = Discriminator::new(width, a.clone(), &mut rng);
+        let priors = groups
+            .into_iter()
+            .zip(references)
+            .map(|((name, rows), reference)| Prior { name, disc: Discriminator::new(width, a.clone(), &mut rng), rows, reference, buffer: vec![0.0; a.buffer * width], filled: 0, next: 0 })
+            .collect();
         Ok(Self {
-            disc,
+            priors,
             horizon: cfg.ppo.horizon,
-            reference,
             rings: vec![0.0; n * width],
             fresh: vec![true; n],
-            buffer: vec![0.0; a.buffer * width],
-            filled: 0,
-            next: 0,
             rng,
             frame: vec![0.0; fdim],
             fdim,
@@ -105,7 +135,7 @@ impl AmpReward {
 
     /// The prior of a training run when `ppo.amp.enabled` (restored from `resume` when that
     /// checkpoint holds one; in a data-parallel run rank 0 reads it and broadcasts).
-    pub fn for_run(cfg: &TrainConfig, obs_dim: usize, n: usize, comm: &mut dyn Collective, resume: Option<&std::path::Path>) -> Result<Option<Self>, LearnError> {
+    pub fn for_run(cfg: &TrainConfig, obs_dim: usize, n: usize, tasks: &[(String, std::ops::Range<usize>)], comm: &mut dyn Collective, resume: Option<&std::path::Path>) -> Result<Option<Self>, LearnError> {
         if !cfg.ppo.amp.enabled {
             return Ok(None);
         }
@@ -122,7 +152,7 @@ impl AmpReward {
             local.ppo.amp.batch /= world;
             local.ppo.amp.buffer /= world;
         }
-        let mut a = Self::new(&local, obs_dim, n, cfg.run.seed)?;
+        let mut a = Self::new(&local, obs_dim, n, cfg.run.seed, tasks)?;
         if rank > 0 {
             a.rng = ChaCha8Rng::seed_from_u64(crate::collective::mix_seed(cfg.run.seed ^ 0x616d_705f_7265_6621, rank as u64));
         }
@@ -133,9 +163,20 @@ impl AmpReward {
             }
         }
         if world > 1 {
-            a.disc.broadcast(comm)?;
+            for p in a.priors.iter_mut() {
+                p.disc.broadcast(comm)?;
+            }
         }
         Ok(Some(a))
+    }
+
+    /// The first (single-task runs: the only) discriminator.
+    pub fn disc(&self) -> &Discriminator {
+        &self.priors[0].disc
+    }
+    /// The first (single-task runs: the only) discriminator, mutably.
+    pub fn disc_mut(&mut self) -> &mut Discriminator {
+        &mut self.priors[0].disc
     }
 
     /// Every environment starts a new window at the next step (new episodes everywhere).
@@ -174,25 +215,31 @@ impl AmpReward {
             (self.features)(&obs_after[i * d..(i + 1) * d], &mut ring[w - self.fdim..]);
             self.fresh[i] = done[i] != 0;
         }
-        self.disc.style_reward_into(&self.rings, n, &mut self.style);
+        for p in self.priors.iter_mut() {
+            let r = p.rows.clone();
+            p.disc.style_reward_into(&self.rings[r.start * w..r.end * w], r.len(), &mut self.style[r.clone()]);
+        }
         let (mut st, mut ss) = (0.0, 0.0);
         for (r, &s) in rewards.iter_mut().zip(&self.style) {
             st += *r as f64;
             ss += s as f64;
             *r = (self.cfg.task_weight * *r as f64 + self.cfg.style_weight * s as f64) as f32;
         }
-        // keep `buffer / horizon` windows per step
-        let keep = (self.cfg.buffer / self.horizon.max(1)).clamp(1, n);
-        self.picks.clear();
-        self.picks.extend(0..n);
-        for k in 0..keep {
-            let j = self.rng.random_range(k..n);
-            self.picks.swap(k, j);
-            let i = self.picks[k];
-            let at = self.next * w;
-            self.buffer[at..at + w].copy_from_slice(&self.rings[i * w..(i + 1) * w]);
-            self.next = (self.next + 1) % self.cfg.buffer;
-            self.filled = (self.filled + 1).min(self.cfg.buffer);
+        // keep `buffer / horizon` windows per step and prior
+        for p in self.priors.iter_mut() {
+            let m = p.rows.len();
+            let keep = (self.cfg.buffer / self.horizon.max(1)).clamp(1, m);
+            self.picks.clear();
+            self.picks.extend(p.rows.clone());
+            for k in 0..keep {
+                let j = self.rng.random_range(k..m);
+                self.picks.swap(k, j);
+                let i = self.picks[k];
+                let at = p.next * w;
+                p.buffer[at..at + w].copy_from_slice(&self.rings[i * w..(i + 1) * w]);
+                p.next = (p.next + 1) % self.cfg.buffer;
+                p.filled = (p.filled + 1).min(self.cfg.buffer);
+            }
         }
         (st, ss)
     }
@@ -202,75 +249,85 @@ impl AmpReward {
     pub fn update(&mut self, comm: &mut dyn Collective) -> Result<DiscLoss, LearnError> {
         let (w, b) = (self.width(), self.cfg.batch);
         let mut mean = DiscLoss::default();
-        // every rank fills its buffer at the same steps, so all skip or all step together
-        if self.filled == 0 || self.cfg.updates == 0 {
-            return Ok(mean);
-        }
         let (mut xr, mut xs) = (vec![0.0f32; b * w], vec![0.0f32; b * w]);
-        for _ in 0..self.cfg.updates {
-            for k in 0..b {
-                let c = self.rng.random_range(0..self.reference.len());
-                let end = self.rng.random_range(0..self.reference[c].len() / self.fdim);
-                window_of(&self.reference[c], self.fdim, end, self.cfg.window, &mut xr[k * w..(k + 1) * w]);
-                let j = self.rng.random_range(0..self.filled);
-                xs[k * w..(k + 1) * w].copy_from_slice(&self.buffer[j * w..(j + 1) * w]);
+        let u = (self.cfg.updates * self.priors.len()) as f64;
+        for p in self.priors.iter_mut() {
+            // every rank fills its buffers at the same steps, so all skip or all step together
+            if p.filled == 0 || self.cfg.updates == 0 {
+                continue;
             }
-            let l = self.disc.update_with(&xr, b, &xs, b, comm)?;
-            let u = self.cfg.updates as f64;
-            mean.adversarial += l.adversarial / u;
-            mean.grad_penalty += l.grad_penalty / u;
-            mean.logit_reg += l.logit_reg / u;
-            mean.total += l.total / u;
-            mean.mean_ref += l.mean_ref / u;
-            mean.mean_sim += l.mean_sim / u;
+            for _ in 0..self.cfg.updates {
+                for k in 0..b {
+                    let c = self.rng.random_range(0..p.reference.len());
+                    let end = self.rng.random_range(0..p.reference[c].len() / self.fdim);
+                    window_of(&p.reference[c], self.fdim, end, self.cfg.window, &mut xr[k * w..(k + 1) * w]);
+                    let j = self.rng.random_range(0..p.filled);
+                    xs[k * w..(k + 1) * w].copy_from_slice(&p.buffer[j * w..(j + 1) * w]);
+                }
+                let l = p.disc.update_with(&xr, b, &xs, b, comm)?;
+                mean.adversarial += l.adversarial / u;
+                mean.grad_penalty += l.grad_penalty / u;
+                mean.logit_reg += l.logit_reg / u;
+                mean.total += l.total / u;
+                mean.mean_ref += l.mean_ref / u;
+                mean.mean_sim += l.mean_sim / u;
+            }
         }
         Ok(mean)
     }
 
-    /// The discriminator, its normaliser and its Adam state as checkpoint tensors.
+    /// Every discriminator, its normaliser and its Adam state as checkpoint tensors (`amp.*` for
+    /// the run's one prior, `amp.<task>.*` per task of a multi-task run).
     pub fn tensors(&self) -> Vec<OwnedTensor> {
-        let d = &self.disc;
         let mut out = Vec::new();
-        let names = d.mlp.param_names("amp.disc");
-        for ((name, shape), p) in names.iter().zip(d.mlp.params()) {
-            out.push(OwnedTensor::f32(name, shape, p));
-        }
-        let n = d.norm.dim();
-        out.push(OwnedTensor::f64("amp.norm.mean", &[n], &d.norm.mean));
-        out.push(OwnedTensor::f64("amp.norm.var", &[n], &d.norm.var));
-        out.push(OwnedTensor::f64("amp.norm.count", &[], &[d.norm.count]));
-        out.push(OwnedTensor::i64("amp.optim.step", &[], &[d.adam.step as i64]));
-        for (k, (name, shape)) in names.iter().enumerate() {
-            let tail = name.trim_start_matches("amp.");
-            out.push(OwnedTensor::f32(&format!("amp.optim.m.{tail}"), shape, &d.adam.m[k]));
-            out.push(OwnedTensor::f32(&format!("amp.optim.v.{tail}"), shape, &d.adam.v[k]));
+        for p in &self.priors {
+            let (d, pre) = (&p.disc, p.prefix());
+            let names = d.mlp.param_names(&format!("{pre}.disc"));
+            for ((name, shape), x) in names.iter().zip(d.mlp.params()) {
+                out.push(OwnedTensor::f32(name, shape, x));
+            }
+            let n = d.norm.dim();
+            out.push(OwnedTensor::f64(&format!("{pre}.norm.mean"), &[n], &d.norm.mean));
+            out.push(OwnedTensor::f64(&format!("{pre}.norm.var"), &[n], &d.norm.var));
+            out.push(OwnedTensor::f64(&format!("{pre}.norm.count"), &[], &[d.norm.count]));
+            out.push(OwnedTensor::i64(&format!("{pre}.optim.step"), &[], &[d.adam.step as i64]));
+            for (k, (name, shape)) in names.iter().enumerate() {
+                let tail = &name[pre.len() + 1..];
+                out.push(OwnedTensor::f32(&format!("{pre}.optim.m.{tail}"), shape, &d.adam.m[k]));
+                out.push(OwnedTensor::f32(&format!("{pre}.optim.v.{tail}"), shape, &d.adam.v[k]));
+            }
         }
         out
     }
 
-    /// Restore the discriminator from a checkpoint written with [`AmpReward::tensors`]; `Ok(false)`
-    /// when the file has no motion prior (training then starts a fresh discriminator).
+    /// Restore the discriminators from a checkpoint written with [`AmpReward::tensors`];
+    /// `Ok(false)` when the file has none of them (training then starts fresh discriminators).
     pub fn load_from(&mut self, f: &TensorFile) -> Result<bool, String> {
-        if !f.names().iter().any(|n| n == "amp.norm.mean") {
-            return Ok(false);
-        }
         let e = |x: skillmimic_core::tensorfile::TensorFileError| x.to_string();
-        let d = &mut self.disc;
-        let names = d.mlp.param_names("amp.disc");
         let want = |shape: &[usize]| shape.iter().map(|&s| Some(s)).collect::<Vec<_>>();
-        for ((name, shape), dst) in names.iter().zip(d.mlp.params_mut()) {
-            *dst = f.f32(name, &want(shape)).map_err(e)?.1;
+        let mut any = false;
+        for p in self.priors.iter_mut() {
+            let pre = p.prefix();
+            if !f.names().iter().any(|n| *n == format!("{pre}.norm.mean")) {
+                continue;
+            }
+            any = true;
+            let d = &mut p.disc;
+            let names = d.mlp.param_names(&format!("{pre}.disc"));
+            for ((name, shape), dst) in names.iter().zip(d.mlp.params_mut()) {
+                *dst = f.f32(name, &want(shape)).map_err(e)?.1;
+            }
+            let n = d.norm.dim();
+            d.norm.mean = f.f64(&format!("{pre}.norm.mean"), &[Some(n)]).map_err(e)?.1;
+            d.norm.var = f.f64(&format!("{pre}.norm.var"), &[Some(n)]).map_err(e)?.1;
+            d.norm.count = f.f64(&format!("{pre}.norm.count"), &[]).map_err(e)?.1[0];
+            d.adam.step = f.i64(&format!("{pre}.optim.step"), &[]).map_err(e)?.1[0] as u64;
+            for (k, (name, shape)) in names.iter().enumerate() {
+                let tail = &name[pre.len() + 1..];
+                d.adam.m[k] = f.f32(&format!("{pre}.optim.m.{tail}"), &want(shape)).map_err(e)?.1;
+                d.adam.v[k] = f.f32(&format!("{pre}.optim.v.{tail}"), &want(shape)).map_err(e)?.1;
+            }
         }
-        let n = d.norm.dim();
-        d.norm.mean = f.f64("amp.norm.mean", &[Some(n)]).map_err(e)?.1;
-        d.norm.var = f.f64("amp.norm.var", &[Some(n)]).map_err(e)?.1;
-        d.norm.count = f.f64("amp.norm.count", &[]).map_err(e)?.1[0];
-        d.adam.step = f.i64("amp.optim.step", &[]).map_err(e)?.1[0] as u64;
-        for (k, (name, shape)) in names.iter().enumerate() {
-            let tail = name.trim_start_matches("amp.");
-            d.adam.m[k] = f.f32(&format!("amp.optim.m.{tail}"), &want(shape)).map_err(e)?.1;
-            d.adam.v[k] = f.f32(&format!("amp.optim.v.{tail}"), &want(shape)).map_err(e)?.1;
-        }
-        Ok(true)
+        Ok(any)
     }
 }

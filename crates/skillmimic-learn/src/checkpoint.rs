@@ -212,7 +212,7 @@ fn load_raw(path: &Path, expect: Option<(usize, usize)>) -> Result<Checkpoint, S
         return Err(format!("{}: metadata 'actions' {space:?} does not fit act_dim {act_dim} and policy '{}'", path.display(), family.name()));
     }
     let actor = match f.meta("actor_net") {
-        Ok(text) if family.name().starts_with("token_transformer") => ActorNet::Token(crate::policies::token_transformer::read(&f, text, obs_dim, act_dim).map_err(|x| format!("{}: {x}", path.display()))?),
+        Ok(text) if family.name().starts_with("token_transformer") => ActorNet::Token(crate::policies::token_transformer::read(&f, text, obs_dim, family.actor_outputs(&space)).map_err(|x| format!("{}: {x}", path.display()))?),
         Ok(text) => ActorNet::Modular(crate::policies::modular_attention::read(&f, text, obs_dim, act_dim).map_err(|x| format!("{}: {x}", path.display()))?),
         Err(_) => ActorNet::Mlp(mlp("actor", family.actor_outputs(&space))?),
     };

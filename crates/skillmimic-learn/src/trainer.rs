@@ -186,7 +186,9 @@ impl Trainer {
             rng = ChaCha8Rng::seed_from_u64(mix_seed(cfg.run.seed, rank as u64));
         }
         comm.take_seconds();
-        let amp = crate::amp_reward::AmpReward::for_run(&cfg, obs_dim, env.num_envs(), &mut comm, resume)?;
+        // one discriminator per task of a multi-task environment
+        let amp_tasks: Vec<(String, std::ops::Range<usize>)> = env.as_any().downcast_ref::<skillmimic_env::tasks::multi::MultiEnv>().map(|m| m.tasks().map(|(t, r)| (t.to_string(), r)).collect()).unwrap_or_default();
+        let amp = crate::amp_reward::AmpReward::for_run(&cfg, obs_dim, env.num_envs(), &amp_tasks, &mut comm, resume)?;
         let threads = if cfg.run.learner_threads == 0 { rayon::current_num_threads() } else { cfg.run.learner_threads };
         let n = env.num_envs();
         let outputs = policy.actor_outputs();

@@ -143,7 +143,7 @@ fn the_discriminator_filter_scores_generated_clips() {
     cfg.ppo.amp.hidden = vec![16];
     cfg.run.out_dir = root.clone();
     let t = Trainer::new(cfg.clone(), None).unwrap();
-    let mut disc = t.amp.as_ref().unwrap().disc.clone();
+    let mut disc = t.amp.as_ref().unwrap().disc().clone();
     // the score against windows cut by hand from the posed clip's features
     let clip = Clip::load(&skillmimic_motion::library::find_clip_files(&cfg.env.motion[0]).unwrap()[0]).unwrap();
     let lib = skillmimic_motion::MotionLibrary::from_clips(vec![clip.clone()]).unwrap();

@@ -131,7 +131,7 @@ fn motion_prior_trains_inside_ppo_and_resumes_from_the_checkpoint() {
     c.run.eval_episodes = 2;
     c.run.out_dir = std::env::temp_dir().join(format!("sm-amp-{}", std::process::id()));
     let mut t = Trainer::new(c.clone(), None).unwrap();
-    let before = t.amp.as_ref().unwrap().disc.mlp.clone();
+    let before = t.amp.as_ref().unwrap().disc().mlp.clone();
     let mut seen = Vec::new();
     let last = skillmimic_learn::runner::train_loop(&mut t, |s| seen.push(s.clone())).unwrap();
     let s = &seen[1];
@@ -141,9 +141,9 @@ fn motion_prior_trains_inside_ppo_and_resumes_from_the_checkpoint() {
     println!("mixed reward {:.4} = 0.5 x task {task:.4} + 0.5 x style {style:.4}; discriminator loss {:.4}", s.mean_reward, s.disc_loss);
     assert!((s.mean_reward - 0.5 * (task + style)).abs() < 1e-5);
     assert!(s.disc_loss > 0.0 && style.is_finite() && style >= 0.0);
-    assert_ne!(t.amp.as_ref().unwrap().disc.mlp, before, "the discriminator trains");
+    assert_ne!(t.amp.as_ref().unwrap().disc().mlp, before, "the discriminator trains");
     let t2 = Trainer::new(c, Some(&last)).unwrap();
-    let (a, b) = (&t.amp.as_ref().unwrap().disc, &t2.amp.as_ref().unwrap().disc);
+    let (a, b) = (&t.amp.as_ref().unwrap().disc(), &t2.amp.as_ref().unwrap().disc());
     assert_eq!(a.mlp, b.mlp);
     assert_eq!((a.norm.mean.clone(), a.adam.step, a.adam.m.clone()), (b.norm.mean.clone(), b.adam.step, b.adam.m.clone()));
 }
@@ -228,7 +228,7 @@ fn motion_prior_trains_data_parallel() {
                             let s = t.iteration().map_err(|e| e.to_string())?;
                             style = s.reward_terms.iter().find(|(n, _)| n == "style").map(|(_, v)| *v).unwrap();
                         }
-                        Ok((t.amp.as_ref().unwrap().disc.clone(), style))
+                        Ok((t.amp.as_ref().unwrap().disc().clone(), style))
                     })
                 })
                 .collect();

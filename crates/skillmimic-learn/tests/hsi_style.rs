@@ -129,8 +129,8 @@ fn the_style_reward_mixes_into_ppo_on_a_tokenhsi_task() {
     c.run.eval_episodes = 2;
     c.run.out_dir = std::env::temp_dir().join(format!("sm-hsi-amp-{}", std::process::id()));
     let mut t = Trainer::new(c.clone(), None).unwrap();
-    let before = t.amp.as_ref().unwrap().disc.mlp.clone();
-    assert_eq!(t.amp.as_ref().unwrap().disc.input_dim(), K * STYLE_DIM);
+    let before = t.amp.as_ref().unwrap().disc().mlp.clone();
+    assert_eq!(t.amp.as_ref().unwrap().disc().input_dim(), K * STYLE_DIM);
     let mut seen = Vec::new();
     skillmimic_learn::runner::train_loop(&mut t, |s| seen.push(s.clone())).unwrap();
     let s = &seen[1];
@@ -139,10 +139,63 @@ fn the_style_reward_mixes_into_ppo_on_a_tokenhsi_task() {
     println!("terms {:?}; mixed reward {:.4} = 0.5 x task {task:.4} + 0.5 x style {style:.4}", s.reward_terms, s.mean_reward);
     assert!((s.mean_reward - 0.5 * (task + style)).abs() < 1e-5);
     assert!(style.is_finite() && style >= 0.0 && s.disc_loss > 0.0);
-    assert_ne!(t.amp.as_ref().unwrap().disc.mlp, before, "the discriminator trains");
+    assert_ne!(t.amp.as_ref().unwrap().disc().mlp, before, "the discriminator trains");
     // a TokenHSI task without reference clips is refused with the key named
     c.env.hsi.style_motion.clear();
     let err = Trainer::new(c, None).err().expect("no style clips").to_string();
     assert!(err.contains("env.hsi.style_motion"), "{err}");
+    std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn multi_task_training_keeps_one_discriminator_per_task() {
+    use skillmimic_learn::config::TrainConfig;
+    use skillmimic_learn::trainer::Trainer;
+    let Some(shared) = shared_dir_or_skip("multi_task_training_keeps_one_discriminator_per_task") else { return };
+    let dir = retargeted(&shared, "multi");
+    let mut c = TrainConfig::preset("tiny").unwrap();
+    c.env.task = "hsi_multi".into();
+    c.env.multi.tasks = vec!["hsi_follow".into(), "hsi_sit".into()];
+    c.env.multi.mix = vec![0.25, 0.75];
+    c.env.num_envs = 8;
+    c.env.threads = 2;
+    c.env.hsi.object_variants = 2;
+    // follow's discriminator reads the run clip only, sit's all three
+    c.env.hsi.follow.style_motion = vec![dir.join("013_018pickle_run_3.safetensors")];
+    c.env.hsi.style_motion = vec![dir.clone()];
+    c.ppo.policy = "token_transformer".into();
+    c.ppo.token.tokenizer = vec![32];
+    c.ppo.token.embed = 16;
+    c.ppo.token.layers = 1;
+    c.ppo.token.feedforward = 32;
+    c.ppo.token.head = vec![32];
+    c.ppo.hidden = vec![32];
+    c.ppo.amp.enabled = true;
+    c.ppo.amp.hidden = vec![32];
+    c.ppo.amp.batch = 32;
+    c.ppo.amp.buffer = 256;
+    c.run.out_dir = std::env::temp_dir().join(format!("sm-hsi-multi-amp-{}", std::process::id()));
+    let mut t = Trainer::new(c.clone(), None).unwrap();
+    let amp = t.amp.as_ref().unwrap();
+    let names: Vec<&str> = amp.priors.iter().map(|p| p.name.as_str()).collect();
+    assert_eq!(names, ["hsi_follow", "hsi_sit"]);
+    let before: Vec<_> = amp.priors.iter().map(|p| p.disc.mlp.clone()).collect();
+    let s = t.iteration().unwrap();
+    assert!(s.disc_loss > 0.0 && s.mean_reward.is_finite());
+    for (p, b) in t.amp.as_ref().unwrap().priors.iter().zip(&before) {
+        assert_ne!(&p.disc.mlp, b, "{}'s discriminator trains", p.name);
+    }
+    let a = t.amp.as_ref().unwrap();
+    assert_ne!(a.priors[0].disc.mlp, a.priors[1].disc.mlp);
+    // per-task tensors survive a checkpoint round trip
+    let path = c.run.out_dir.join("c.safetensors");
+    t.save(&path).unwrap();
+    let f = skillmimic_core::tensorfile::TensorFile::open(&path).unwrap();
+    assert!(f.names().iter().any(|n| n == "amp.hsi_sit.disc.0.weight") && f.names().iter().any(|n| n == "amp.hsi_follow.norm.mean"));
+    let t2 = Trainer::new(c.clone(), Some(&path)).unwrap();
+    for (p, q) in t.amp.as_ref().unwrap().priors.iter().zip(&t2.amp.as_ref().unwrap().priors) {
+        assert_eq!(p.disc.mlp, q.disc.mlp, "{} restored", p.name);
+    }
+    std::fs::remove_dir_all(&c.run.out_dir).ok();
     std::fs::remove_dir_all(dir).ok();
 }
