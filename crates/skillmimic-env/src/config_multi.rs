@@ -5,7 +5,7 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 /// Which tasks share one batch, in what proportion, and the token layout of the observation.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct MultiConfig {
     /// Registered task names, one sub-batch each (all on the same character, one action space).
@@ -21,12 +21,6 @@ pub struct MultiConfig {
     /// more groups than the tasks fill to keep a trained policy's layout (evaluating one task
     /// of a multi-task policy; adaptation to a new task keeps the old groups first).
     pub groups: Vec<String>,
-}
-
-impl Default for MultiConfig {
-    fn default() -> Self {
-        Self { tasks: Vec::new(), mix: Vec::new(), groups: Vec::new() }
-    }
 }
 
 impl MultiConfig {

@@ -117,3 +117,46 @@ fn adaptation_freezes_the_base_and_starts_from_its_actions() {
     let _ = std::fs::remove_dir_all(&base_cfg.run.out_dir);
     let _ = std::fs::remove_dir_all(&c.run.out_dir);
 }
+
+/// SkillMimic's high-level tasks as task tokens: one categorical token controller over the frozen
+/// skill policy trains on heading + circling, then a new high-level task with the same skill
+/// choices (steering) is added by adaptation with the base frozen; a task with another choice
+/// table (scoring: 7 choices) is refused, as the frozen output layer cannot serve it.
+#[test]
+fn a_new_high_level_task_is_added_by_adaptation() {
+    #[path = "common/mod.rs"]
+    mod common;
+    let mut c = config("hlc-base");
+    c.env.task = "hlc_multi".into();
+    c.env.multi.tasks = vec!["heading".into(), "circling".into()];
+    c.env.motion = vec![common::workspace_root().join("motions")];
+    c.env.hlc.llc = common::skill_policy("token-adapt");
+    c.ppo.policy = "token_transformer_categorical".into();
+    let mut base = Trainer::new(c.clone(), None).unwrap();
+    let groups: Vec<String> = token(&base.policy).spec.groups.iter().map(|g| g.0.clone()).collect();
+    assert_eq!(groups, ["state", "heading", "circling"]);
+    assert_eq!(token(&base.policy).spec.mask, 2);
+    base.iteration().unwrap();
+    let path = c.run.out_dir.join("hl_base.safetensors");
+    base.save(&path).unwrap();
+
+    let mut a = c.clone();
+    a.env.multi.tasks = vec!["scoring".into()];
+    a.env.multi.groups = vec!["heading".into(), "circling".into(), "scoring".into()];
+    a.ppo.token.adapt_from = path.clone();
+    a.run.out_dir = c.run.out_dir.join("adapt");
+    let err = Trainer::new(a.clone(), None).err().expect("another action space").to_string();
+    assert!(err.contains("Discrete { n: 3 }") && err.contains("Discrete { n: 7 }"), "{err}");
+    a.env.multi.tasks = vec!["steering".into()];
+    a.env.multi.groups = vec!["heading".into(), "circling".into(), "steering".into()];
+    let mut t = Trainer::new(a, None).unwrap();
+    let spec = &token(&t.policy).spec;
+    assert!(spec.adapters && spec.groups.len() == 4 && spec.groups[3].0 == "steering");
+    t.iteration().unwrap();
+    let base_policy = checkpoint::load(&path, None).unwrap().policy;
+    for o in &token(&base_policy).tensors {
+        let x = token(&t.policy).tensors.iter().find(|x| x.name == o.name).unwrap();
+        assert_eq!(o.data, x.data, "frozen tensor {} changed", o.name);
+    }
+    let _ = std::fs::remove_dir_all(&c.run.out_dir);
+}
