@@ -40,16 +40,17 @@ impl MultiConfig {
 
 /// Environments per task for `n` environments and weights `mix` (empty = equal): largest
 /// remainder, each task at least one. Errors name the field.
-pub fn split(n: usize, tasks: usize, mix: &[f64]) -> Result<Vec<usize>, String> {
+pub fn split(n: usize, tasks: usize, mix: &[f64]) -> Result<Vec<usize>, crate::error::ConfigError> {
+    use crate::error::bad;
     let w: Vec<f64> = if mix.is_empty() { vec![1.0; tasks] } else { mix.to_vec() };
     if w.len() != tasks {
-        return Err(format!("config field 'env.multi.mix' has {} weights for {tasks} tasks", w.len()));
+        return Err(bad("env.multi.mix", format!("has {} weights for {tasks} tasks", w.len())));
     }
     if w.iter().any(|&x| !(x.is_finite() && x > 0.0)) {
-        return Err(format!("config field 'env.multi.mix' is {w:?}; expected positive finite weights"));
+        return Err(bad("env.multi.mix", format!("is {w:?}; expected positive finite weights")));
     }
     if n < tasks {
-        return Err(format!("config field 'env.num_envs' is {n}; the multi-task environment needs at least one per task ({tasks})"));
+        return Err(bad("env.num_envs", format!("is {n}; the multi-task environment needs at least one per task ({tasks})")));
     }
     let total: f64 = w.iter().sum();
     let spare = n - tasks;
@@ -71,7 +72,7 @@ mod tests {
         assert_eq!(super::split(64, 4, &[0.1, 0.3, 0.3, 0.3]).unwrap(), vec![7, 19, 19, 19]);
         assert_eq!(super::split(4, 4, &[0.1, 0.3, 0.3, 0.3]).unwrap(), vec![1, 1, 1, 1]);
         assert_eq!(super::split(10, 2, &[]).unwrap(), vec![5, 5]);
-        assert!(super::split(3, 4, &[]).unwrap_err().contains("env.num_envs"));
-        assert!(super::split(8, 2, &[1.0]).unwrap_err().contains("env.multi.mix"));
+        assert!(super::split(3, 4, &[]).unwrap_err().to_string().contains("env.num_envs"));
+        assert!(super::split(8, 2, &[1.0]).unwrap_err().to_string().contains("env.multi.mix"));
     }
 }

@@ -19,12 +19,16 @@
 //! environments (what the trainer logs) is t's own per-step mean; metrics `t/<metric>` hold t's
 //! values on its environments and 0 elsewhere (not rescaled). Info entries likewise prefixed.
 //!
-//! **Not multiplexed**: `mujoco()`/`humanoid_sim()` give the first task's batch (rendering
-//! shows its environments); `pd_targets` is empty.
+//! **MuJoCo access** (`mujoco()`: state reads and edits, rendering) is routed to the sub-batch
+//! holding environment i. Not multiplexed: `humanoid_sim()` gives the first task's batch;
+//! `pd_targets` is empty.
 
 use std::any::Any;
 
-use skillmimic_sim::{BatchSim, MjBatch};
+use std::sync::Arc;
+
+use mujoco_rs::prelude::MjModel;
+use skillmimic_sim::{BatchSim, MjBatch, SimError};
 
 use crate::config::EnvConfig;
 use crate::config_multi::split;
@@ -71,10 +75,13 @@ impl MultiEnv {
     pub fn new(cfg: &EnvConfig) -> Result<Self, EnvError> {
         let m = &cfg.multi;
         let (tasks, mix) = m.effective(&cfg.task);
-        let counts = split(cfg.num_envs, tasks.len(), &mix).map_err(|e| bad("env.multi", e))?;
+        let counts = split(cfg.num_envs, tasks.len(), &mix)?;
         let base_seed = cfg.start_seed(0);
         let mut envs = Vec::new();
         for (k, (task, &n)) in tasks.iter().zip(&counts).enumerate() {
+            if registry::entry(task).is_none() {
+                return Err(bad("env.multi.tasks", format!("'{task}' is not a registered task; registered: {}", registry::names().join(", "))).into());
+            }
             if task.ends_with("_multi") {
                 return Err(bad("env.multi.tasks", format!("'{task}' is itself a multi-task environment")).into());
             }
@@ -220,6 +227,12 @@ impl MultiEnv {
         }
     }
 
+    /// The sub-batch holding environment `i` and `i`'s index in it.
+    fn locate(&self, i: usize) -> (usize, usize) {
+        let k = self.subs.iter().rposition(|s| s.start <= i).unwrap_or(0);
+        (k, i - self.subs[k].start)
+    }
+
     /// Each sub-batch with its row range.
     pub fn tasks(&self) -> impl Iterator<Item = (&str, std::ops::Range<usize>)> {
         self.subs.iter().map(|s| (s.env.spec().name, s.start..s.start + s.env.num_envs()))
@@ -293,10 +306,10 @@ impl Env for MultiEnv {
         self.subs[0].env.humanoid_sim()
     }
     fn mujoco(&self) -> &dyn MjBatch {
-        self.subs[0].env.mujoco()
+        self
     }
     fn mujoco_mut(&mut self) -> &mut dyn MjBatch {
-        self.subs[0].env.mujoco_mut()
+        self
     }
     fn pd_targets(&self) -> &[f32] {
         &[]
@@ -306,5 +319,32 @@ impl Env for MultiEnv {
     }
     fn as_any_mut(&mut self) -> &mut dyn Any {
         self
+    }
+}
+
+/// MuJoCo access routed to the sub-batch of each environment.
+impl MjBatch for MultiEnv {
+    fn num_envs(&self) -> usize {
+        self.n
+    }
+    fn env_model(&self, i: usize) -> &Arc<MjModel> {
+        let (k, j) = self.locate(i);
+        self.subs[k].env.mujoco().env_model(j)
+    }
+    fn env_xml(&self, i: usize) -> &str {
+        let (k, j) = self.locate(i);
+        self.subs[k].env.mujoco().env_xml(j)
+    }
+    fn env_qpos(&self, i: usize) -> &[f64] {
+        let (k, j) = self.locate(i);
+        self.subs[k].env.mujoco().env_qpos(j)
+    }
+    fn env_qvel(&self, i: usize) -> &[f64] {
+        let (k, j) = self.locate(i);
+        self.subs[k].env.mujoco().env_qvel(j)
+    }
+    fn set_env_qpos_qvel(&mut self, i: usize, qpos: &[f64], qvel: &[f64]) -> Result<(), SimError> {
+        let (k, j) = self.locate(i);
+        self.subs[k].env.mujoco_mut().set_env_qpos_qvel(j, qpos, qvel)
     }
 }

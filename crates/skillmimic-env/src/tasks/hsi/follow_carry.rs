@@ -6,8 +6,9 @@
 //! * Trajectory: `hsi_follow`'s (`[env.hsi.follow]`: speeds, turns, episode length, failure and
 //!   success distances).
 //! * Objects: the box of `hsi_carry` (sizes and mass from `[env.hsi.carry]`) and one support slab.
-//!   Each episode puts the support `box_distance` m ahead of the character along the path's first
-//!   segment, its top at a height from `env.hsi.carry.support_height`, the box resting on it (our
+//!   Each episode puts the support 0.55 m ahead of the character in the direction of the path's
+//!   first move (the first vertex away from the start; the path may start at rest), else along
+//!   the character's heading, its top at a height from `env.hsi.carry.support_height`, the box resting on it (our
 //!   choice: the supplementary does not say where the box starts; within 0.7 m the reward is
 //!   live from the first step, so picking the box up is the first thing the reward asks for).
 //! * Observation (121) in three groups, the token layout of the composition:
@@ -90,9 +91,21 @@ impl HsiTask for FollowCarry {
     fn plan(&self, scene: &HsiScene, rng: &mut ChaCha8Rng, reset: &mut HsiReset, goal: &mut Goal) {
         self.follow.plan(scene, rng, reset, &mut goal.follow);
         let half = scene.objects()[0].boxes[0].half;
-        let (a, b) = (goal.follow.at(0.0), goal.follow.at(POINT_DT));
-        let len = ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2)).sqrt().max(1e-9);
-        let (dx, dy) = ((b[0] - a[0]) / len, (b[1] - a[1]) / len);
+        // direction of the path's first move (the trajectory may start at rest: the first
+        // vertex that differs from the start), else the character's heading
+        let a = goal.follow.verts[0];
+        let ahead = goal.follow.verts.iter().find(|v| (v[0] - a[0]).hypot(v[1] - a[1]) > 1e-3);
+        let (dx, dy) = match ahead {
+            Some(b) => {
+                let len = (b[0] - a[0]).hypot(b[1] - a[1]);
+                ((b[0] - a[0]) / len, (b[1] - a[1]) / len)
+            }
+            None => {
+                let f = reset.root_quat.rotate([1.0, 0.0, 0.0]);
+                let len = f[0].hypot(f[1]).max(1e-9);
+                (f[0] / len, f[1] / len)
+            }
+        };
         let root = reset.root_pos;
         let h = draw(rng, self.support_height);
         let at = [root[0] + BOX_DISTANCE * dx, root[1] + BOX_DISTANCE * dy, h];
