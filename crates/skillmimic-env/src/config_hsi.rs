@@ -218,7 +218,7 @@ fn range(key: &str, r: [f64; 2], min: f64) -> Result<(), ConfigError> {
 
 impl HsiConfig {
     /// The reference clips of task `task`'s discriminator: its table's `style_motion`, else the
-    /// shared `style_motion`; `hsi_follow_carry` takes the follow and carry clips together.
+    /// shared `style_motion`; a composition (`hsi_sit_carry`, …) takes both tasks' clips together.
     pub fn style_motion_of(&self, task: &str) -> Vec<std::path::PathBuf> {
         let own: Vec<std::path::PathBuf> = match task {
             "hsi_follow" => self.follow.style_motion.clone(),
@@ -226,6 +226,8 @@ impl HsiConfig {
             "hsi_climb" => self.climb.style_motion.clone(),
             "hsi_carry" => self.carry.style_motion.clone(),
             "hsi_follow_carry" => self.follow.style_motion.iter().chain(&self.carry.style_motion).cloned().collect(),
+            "hsi_sit_carry" => self.sit.style_motion.iter().chain(&self.carry.style_motion).cloned().collect(),
+            "hsi_climb_carry" => self.climb.style_motion.iter().chain(&self.carry.style_motion).cloned().collect(),
             _ => Vec::new(),
         };
         if own.is_empty() { self.style_motion.clone() } else { own }

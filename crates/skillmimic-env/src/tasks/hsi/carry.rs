@@ -110,17 +110,7 @@ impl HsiTask for Carry {
         *goal = Goal { target: [tgt[0], tgt[1], ht + half[2]], start, half };
     }
     fn observe(&self, goal: &Goal, st: &HsiEnvState<'_>, _steps: usize, out: &mut [f32]) {
-        let l = Local::of(st);
-        let (pos, quat) = box_state(st);
-        let at = put(out, 0, &l.point(goal.target));
-        let at = put(out, at, &l.point(pos));
-        let at = put(out, at, &l.rotation(quat));
-        let at = put(out, at, &l.vector(st.linvel(NUM_BODIES)));
-        let mut at = put(out, at, &l.vector(st.angvel(NUM_BODIES)));
-        let neg = [-goal.half[0], -goal.half[1], -goal.half[2]];
-        for c in corners(pos, quat, neg, goal.half) {
-            at = put(out, at, &l.point(c));
-        }
+        observe_box(goal.target, goal.half, st, NUM_BODIES, out);
     }
     fn step(&self, goal: &mut Goal, ctx: &Ctx<'_>, out: &mut TaskOut<'_>) {
         let st = ctx.st;
@@ -149,6 +139,22 @@ impl HsiTask for Carry {
         let at = put(out, 0, &goal.target);
         let at = put(out, at, &goal.start);
         put(out, at, &goal.half);
+    }
+}
+
+/// The 42-d carry observation (see the module doc) of the box whose body is `body` (object k of
+/// the scene: `NUM_BODIES + k`) with half sizes `half` and target location `target` (world, m).
+pub fn observe_box(target: Vec3, half: Vec3, st: &HsiEnvState<'_>, body: usize, out: &mut [f32]) {
+    let l = Local::of(st);
+    let (pos, quat) = (st.pos(body), st.quat(body));
+    let at = put(out, 0, &l.point(target));
+    let at = put(out, at, &l.point(pos));
+    let at = put(out, at, &l.rotation(quat));
+    let at = put(out, at, &l.vector(st.linvel(body)));
+    let mut at = put(out, at, &l.vector(st.angvel(body)));
+    let neg = [-half[0], -half[1], -half[2]];
+    for c in corners(pos, quat, neg, half) {
+        at = put(out, at, &l.point(c));
     }
 }
 

@@ -1,6 +1,7 @@
 //! The TokenHSI tasks (TokenHSI supplementary §B.2): `hsi_follow`, `hsi_sit`, `hsi_climb`,
 //! `hsi_carry` on the 32-DoF TokenHSI character ([`skillmimic_core::hsi_character`]), and the
-//! skill-composition task `hsi_follow_carry` (§B.3).
+//! skill-composition tasks `hsi_follow_carry`, `hsi_sit_carry`, `hsi_climb_carry` (§B.3,
+//! [`compose`]).
 //!
 //! [`HsiVecEnv<T>`] is the batched driver of these tasks, the TokenHSI character's counterpart of
 //! [`VecEnv`](crate::VecEnv) with the same [`Env`] face and the same semantics (buffers, explicit
@@ -19,9 +20,9 @@
 
 pub mod carry;
 pub mod climb;
+pub mod compose;
 pub mod driver;
 pub mod follow;
-pub mod follow_carry;
 pub mod geometry;
 pub mod proprio;
 pub mod sit;
