@@ -7,8 +7,9 @@
 //!   then `hsi_carry`'s box (sizes and mass from `[env.hsi.carry]`) and one support slab. Each
 //!   episode plans the primary task as its own task does, then puts the support 0.55 m from the
 //!   character — follow: in the direction of the path's first move (the first vertex away from
-//!   the start; the path may start at rest); sit / climb: towards the target; else along the
-//!   character's heading — its top at a height from `env.hsi.carry.support_height`, the box
+//!   the start; the path may start at rest); sit / climb: towards the target, or — where the
+//!   support would come within 5 cm of the seat / platform — the first of left, right, behind
+//!   that keeps clear; else along the character's heading — its top at a height from `env.hsi.carry.support_height`, the box
 //!   resting on it (our choice: the supplementary does not say where the box starts; within
 //!   0.7 m the reward is live from the first step, so picking the box up comes first).
 //! * Observation (2·p + 81, p = the primary observation: follow 20, sit 38, climb 27) in three
@@ -63,6 +64,24 @@ pub trait Primary: HsiTask {
     fn box_direction(&self, goal: &Self::Goal, reset: &HsiReset) -> Option<[f64; 2]>;
     /// The target location the frozen carry token reads (world, m); `box_pos` the box's centre.
     fn carry_target(&self, goal: &Self::Goal, steps: usize, box_pos: [f64; 3]) -> [f64; 3];
+    /// The primary object's pose and bounding box in its own frame (position, rotation, lo, hi;
+    /// m), which the box must not start in.
+    fn keep_out(&self, _goal: &Self::Goal) -> Option<([f64; 3], Quat, [f64; 3], [f64; 3])> {
+        None
+    }
+}
+
+/// Clearance (m) kept between the box's support and the primary object at the start.
+const CLEARANCE: f64 = 0.05;
+
+/// Whether a disc of radius `r` at `p` (world xy) comes within [`CLEARANCE`] of the object's
+/// bounding box (xy in its own frame).
+fn overlaps(p: [f64; 2], r: f64, obj: &([f64; 3], Quat, [f64; 3], [f64; 3])) -> bool {
+    let (pos, quat, lo, hi) = obj;
+    let local = quat.conj().rotate([p[0] - pos[0], p[1] - pos[1], 0.0]);
+    let dx = (lo[0] - local[0]).max(local[0] - hi[0]).max(0.0);
+    let dy = (lo[1] - local[1]).max(local[1] - hi[1]).max(0.0);
+    dx.hypot(dy) < r + CLEARANCE
 }
 
 fn unit(d: [f64; 2]) -> Option<[f64; 2]> {
@@ -88,6 +107,9 @@ fn towards_target(goal: &TargetGoal, reset: &HsiReset) -> Option<[f64; 2]> {
 }
 
 impl Primary for Sit {
+    fn keep_out(&self, goal: &TargetGoal) -> Option<([f64; 3], Quat, [f64; 3], [f64; 3])> {
+        Some((goal.obj_pos, goal.obj_quat, goal.lo, goal.hi))
+    }
     const NAME: &'static str = "hsi_sit_carry";
     const WEIGHT: f64 = 0.7;
     fn box_direction(&self, goal: &TargetGoal, reset: &HsiReset) -> Option<[f64; 2]> {
@@ -99,6 +121,9 @@ impl Primary for Sit {
 }
 
 impl Primary for Climb {
+    fn keep_out(&self, goal: &TargetGoal) -> Option<([f64; 3], Quat, [f64; 3], [f64; 3])> {
+        Some((goal.obj_pos, goal.obj_quat, goal.lo, goal.hi))
+    }
     const NAME: &'static str = "hsi_climb_carry";
     const WEIGHT: f64 = 0.7;
     fn box_direction(&self, goal: &TargetGoal, reset: &HsiReset) -> Option<[f64; 2]> {
@@ -166,11 +191,17 @@ impl<P: Primary> HsiTask for WithBox<P> {
     fn plan(&self, scene: &HsiScene, rng: &mut ChaCha8Rng, reset: &mut HsiReset, goal: &mut Self::Goal) {
         self.primary.plan(scene, rng, reset, &mut goal.primary);
         let half = scene.objects()[self.objects].boxes[0].half;
-        let [dx, dy] = self.primary.box_direction(&goal.primary, reset).unwrap_or_else(|| {
+        let d = self.primary.box_direction(&goal.primary, reset).unwrap_or_else(|| {
             let f = reset.root_quat.rotate([1.0, 0.0, 0.0]);
             unit([f[0], f[1]]).unwrap_or([1.0, 0.0])
         });
         let root = reset.root_pos;
+        // the first of ahead, left, right, behind whose support keeps clear of the primary object
+        // (the object is ≥ 1 m away, so behind always does)
+        let reach = (half[0] + 0.1).hypot(half[1] + 0.1);
+        let candidates = [d, [-d[1], d[0]], [d[1], -d[0]], [-d[0], -d[1]]];
+        let clear = |c: &[f64; 2]| self.primary.keep_out(&goal.primary).is_none_or(|o| !overlaps([root[0] + BOX_DISTANCE * c[0], root[1] + BOX_DISTANCE * c[1]], reach, &o));
+        let [dx, dy] = candidates.iter().copied().find(|c| clear(c)).unwrap_or(candidates[3]);
         let h = draw(rng, self.carry.support_height);
         let at = [root[0] + BOX_DISTANCE * dx, root[1] + BOX_DISTANCE * dy, h];
         let yaw = Quat::about_z(dy.atan2(dx));
