@@ -200,7 +200,8 @@ class TokenTransformerActor(nn.Module):
     the sequence ``[output_token, token_0, ..., token_{G-1}]`` without positional embedding, a
     post-norm ``nn.TransformerEncoder`` (dropout 0, ReLU) with a key padding mask that ignores task
     token k where the raw mask entry k is <= 0.5, the encoded output token through the head MLP
-    (ReLU after each hidden layer, plus the zero-initialised ``adapters`` in parallel when present)
+    (ReLU after each hidden layer, plus the zero-initialised ``adapters`` in parallel when present,
+    multiplied by the largest raw mask entry of ``adapter_gate`` when that is given)
     and the output layer ``mu``. ``spec`` = the checkpoint metadata ``actor_net``."""
 
     def __init__(self, spec: dict, act_dim: int):
@@ -239,10 +240,14 @@ class TokenTransformerActor(nn.Module):
             ignore = x[:, at : at + self.mask] <= 0.5
             pad = torch.cat([torch.zeros(b, 2, dtype=torch.bool, device=x.device), ignore], 1)
         h = self.encoder(seq, src_key_padding_mask=pad)[:, 0]
+        gate = None
+        if self.spec["adapters"] and self.spec.get("adapter_gate") and self.mask:
+            gate = x[:, [at + k for k in self.spec["adapter_gate"]]].max(1, keepdim=True).values
         for k in range(len(self.head) // 2):
             y = self.head[2 * k](h)
             if self.spec["adapters"]:
-                y = y + self.adapters[k](h)
+                a = self.adapters[k](h)
+                y = y + (a if gate is None else a * gate)
             h = torch.relu(y)
         return self.mu(h)
 

@@ -8,6 +8,10 @@
 //! * New: one tokenizer per new group (PyTorch default initialisation), zero-initialised adapter
 //!   layers parallel to the head's hidden layers (so the initial actions equal the base
 //!   policy's wherever the new tokens are masked out), a fresh critic and value normaliser.
+//! * With `gate` (`ppo.token.gate_adapters`, default), the adapters act only on rows where a new
+//!   group is active (mask entry 1): the adapted policy keeps the base policy's actions on the
+//!   base tasks after training too, one network for old and new tasks. Without, the adapters act
+//!   on every row (the released code, which evaluates the adapted policy on the new task only).
 //! * The observation statistics of the base groups are copied from the base checkpoint and stay
 //!   fixed during training (the frozen tokenizers keep seeing inputs normalised as in stage 1);
 //!   the new groups' statistics are learnt.
@@ -25,7 +29,7 @@ use crate::policy::Policy;
 
 /// Replace `policy`'s actor (freshly built for the new task's layout) by the base checkpoint
 /// `from`, frozen and extended; see the module doc. `rng` draws the new tokenizers.
-pub fn adapt(policy: &mut Policy, from: &Path, rng: &mut dyn RngCore) -> Result<(), LearnError> {
+pub fn adapt(policy: &mut Policy, from: &Path, gate: bool, rng: &mut dyn RngCore) -> Result<(), LearnError> {
     let err = |m: String| bad_checkpoint(from)(format!("{}: {m}", from.display()));
     let base = checkpoint::load(from, None)?.policy;
     let (ActorNet::Token(old), ActorNet::Token(new)) = (&base.actor, &policy.actor) else {
@@ -38,7 +42,9 @@ pub fn adapt(policy: &mut Policy, from: &Path, rng: &mut dyn RngCore) -> Result<
     if g1.len() <= g0.len() || g1[..g0.len()] != g0[..] {
         return Err(err(format!("the task's observation groups {g1:?} must start with the checkpoint's {g0:?} and add at least one new group (set env.multi.groups to the old groups followed by the new task's)")));
     }
-    let mut spec = TokenSpec { groups: g1.clone(), mask: new.spec.mask, adapters: true, frozen: old.tensors.iter().map(|t| t.name.clone()).collect(), frozen_obs: Vec::new(), ..old.spec.clone() };
+    // the new groups' mask entries switch the adapters on (group g ≥ 1 is mask entry g − 1)
+    let adapter_gate = if gate && new.spec.mask > 0 { (g0.len() - 1..g1.len() - 1).collect() } else { Vec::new() };
+    let mut spec = TokenSpec { groups: g1.clone(), mask: new.spec.mask, adapters: true, adapter_gate, frozen: old.tensors.iter().map(|t| t.name.clone()).collect(), frozen_obs: Vec::new(), ..old.spec.clone() };
     let old_cols = old.spec.obs_dim() - old.spec.mask;
     spec.frozen_obs = (0..old_cols).collect();
     let mut net = TokenTransformer::new(spec, old.act_dim, rng).map_err(err)?;

@@ -29,11 +29,15 @@ pub struct TokenConfig {
     /// observation statistic is frozen; the task's new groups get new tokenizers, the head
     /// zero-initialised adapters, and the critic is new. Empty = train from scratch.
     pub adapt_from: std::path::PathBuf,
+    /// Adaptation: the adapters act only where a new task group is active, so the base tasks keep
+    /// the base policy's actions (one network for old and new tasks; our choice). false = adapters
+    /// on every row (the released code, which runs only the new task after adaptation).
+    pub gate_adapters: bool,
 }
 
 impl Default for TokenConfig {
     fn default() -> Self {
-        Self { tokenizer: vec![256, 128], embed: 64, layers: 4, heads: 2, feedforward: 512, head: vec![1024, 512], groups: Vec::new(), adapt_from: std::path::PathBuf::new() }
+        Self { tokenizer: vec![256, 128], embed: 64, layers: 4, heads: 2, feedforward: 512, head: vec![1024, 512], groups: Vec::new(), adapt_from: std::path::PathBuf::new(), gate_adapters: true }
     }
 }
 

@@ -137,7 +137,7 @@ impl Trainer {
         let fresh = |rng: &mut ChaCha8Rng| -> Result<(Policy, Adam), LearnError> {
             let mut policy = Policy::build(obs_dim, env.spec().action_space, &ppo, rng)?;
             if !ppo.token.adapt_from.as_os_str().is_empty() {
-                crate::adapt::adapt(&mut policy, &ppo.token.adapt_from, rng)?;
+                crate::adapt::adapt(&mut policy, &ppo.token.adapt_from, ppo.token.gate_adapters, rng)?;
             }
             let adam = Adam::new(&crate::ppo::update::param_sizes(&policy), cfg.ppo.lr, cfg.ppo.adam_eps);
             Ok((policy, adam))

@@ -2,7 +2,8 @@
 //! `hsi_follow` + `hsi_sit` is frozen and extended for `hsi_carry` (a new tokenizer, zero
 //! adapters, a new critic). Before training the adapted policy acts exactly as the base policy on
 //! base-task observations; after an adaptation run every frozen tensor and the base groups'
-//! observation statistics are bit-identical to the base checkpoint, while the new parameters moved.
+//! observation statistics are bit-identical to the base checkpoint, the gated adapters leave the
+//! base tasks' actions unchanged, while the new parameters and the new task's actions moved.
 
 use skillmimic_learn::actor::ActorNet;
 use skillmimic_learn::checkpoint;
@@ -35,6 +36,23 @@ fn actions(p: &Policy, obs: &[f32], n: usize) -> Vec<f32> {
     let (mut mu, mut v) = (vec![0.0; n * p.act_dim()], vec![0.0; n]);
     p.infer(obs, n, &mut InferenceBuffers::default(), &mut mu, &mut v, 1);
     mu
+}
+
+/// `p` with its new tokenizer's first weight reset to `w0` and zero adapters (its initial state
+/// as far as the new task's actions go).
+fn perturbed_free(p: &Policy, w0: &[f32]) -> Policy {
+    let mut q = p.clone();
+    if let ActorNet::Token(t) = &mut q.actor {
+        for x in t.tensors.iter_mut() {
+            if x.name.starts_with("adapters.") {
+                x.data.iter_mut().for_each(|v| *v = 0.0);
+            }
+            if x.name == "tokenizers.3.0.weight" {
+                x.data.copy_from_slice(w0);
+            }
+        }
+    }
+    q
 }
 
 fn token(p: &Policy) -> &skillmimic_nn::token::TokenTransformer {
@@ -85,13 +103,16 @@ fn adaptation_freezes_the_base_and_starts_from_its_actions() {
     let diff = a0.iter().zip(&a1).map(|(x, y)| (x - y).abs()).fold(0.0f32, f32::max);
     println!("initial actions, adapted vs base policy on base-task observations: max |diff| {diff:.2e}");
     assert!(diff <= 1e-6, "{diff}");
-    // the check can fail: non-zero adapters change the actions
+    // the check can fail: non-zero adapters change the actions where the new task is active
+    // (and, gated, nowhere else)
     let mut perturbed = t.policy.clone();
     if let ActorNet::Token(tt) = &mut perturbed.actor {
         tt.tensors.iter_mut().filter(|x| x.name == "adapters.0.weight").for_each(|x| x.data.iter_mut().for_each(|v| *v = 0.05));
     }
-    let a2 = actions(&perturbed, &new_obs, n);
-    assert!(a1.iter().zip(&a2).any(|(x, y)| (x - y).abs() > 1e-4));
+    let new_task_obs = t.env.buffers().obs.clone();
+    let (b1, b2) = (actions(&t.policy, &new_task_obs, n), actions(&perturbed, &new_task_obs, n));
+    assert!(b1.iter().zip(&b2).any(|(x, y)| (x - y).abs() > 1e-4));
+    assert_eq!(a1, actions(&perturbed, &new_obs, n));
 
     let init_new = token(&t.policy).tensors.iter().find(|x| x.name == "tokenizers.3.0.weight").unwrap().data.clone();
     for _ in 0..3 {
@@ -101,6 +122,15 @@ fn adaptation_freezes_the_base_and_starts_from_its_actions() {
     let out = c.run.out_dir.join("adapted.safetensors");
     t.save(&out).unwrap();
     let adapted = checkpoint::load(&out, None).unwrap().policy;
+    // gated adapters (default): the base tasks keep the base policy's actions after training,
+    // while the new task's actions moved
+    let after = actions(&adapted, &new_obs, n);
+    let diff = a0.iter().zip(&after).map(|(x, y)| (x - y).abs()).fold(0.0f32, f32::max);
+    println!("after adaptation, base-task actions vs base policy: max |diff| {diff:.2e}");
+    assert!(diff <= 1e-6, "{diff}");
+    let carry_obs = new_task_obs;
+    let (now, before) = (actions(&adapted, &carry_obs, n), actions(&perturbed_free(&t.policy, &init_new), &carry_obs, n));
+    assert!(now.iter().zip(&before).any(|(x, y)| (x - y).abs() > 1e-5), "the new task's actions changed");
     let (old, new) = (token(&base_policy), token(&adapted));
     for o in &old.tensors {
         let x = new.tensors.iter().find(|x| x.name == o.name).unwrap();

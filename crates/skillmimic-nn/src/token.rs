@@ -20,8 +20,9 @@
 //!   a final norm;
 //! * the encoded output token → the action head: hidden layers `head` (ReLU), each with an
 //!   optional zero-initialised **adapter** `Linear` in parallel (adaptation, seed 004 §E:
-//!   h_l = ReLU(W_l h + b_l + A_l h + c_l)), then the linear output `mu` (the Gaussian means, or
-//!   logits for the categorical variant).
+//!   h_l = ReLU(W_l h + b_l + g (A_l h + c_l)), g = 1, or — with `adapter_gate` — the largest
+//!   of the new task groups' mask entries, so base-task rows keep the base policy's actions),
+//!   then the linear output `mu` (the Gaussian means, or logits for the categorical variant).
 //!
 //! **Parameters** in [`TokenTransformer::tensors`] order, named like the PyTorch mirror
 //! `skillmimic_rs.policy.TokenTransformerActor`'s `state_dict`: `output_token` (1, 1, E);
@@ -60,6 +61,12 @@ pub struct TokenSpec {
     pub head: Vec<usize>,
     /// Zero-initialised adapters parallel to the head's hidden layers (adaptation).
     pub adapters: bool,
+    /// Mask entries that switch the adapters on: a row's adapters are multiplied by the largest
+    /// of these entries (0/1), so rows of the base tasks (the new groups masked out) act exactly
+    /// as the frozen base policy. Empty: adapters on for every row (the released code, which
+    /// runs only the new task during adaptation).
+    #[serde(default)]
+    pub adapter_gate: Vec<usize>,
     /// Names of the frozen tensors (adaptation; empty = all train).
     #[serde(default)]
     pub frozen: Vec<String>,
@@ -270,11 +277,22 @@ impl TokenTransformer {
         }
         let mut h = z.narrow(1, 0, 1)?.squeeze(1)?;
         let nh = s.head.len();
+        let gate = match (s.adapters && !s.adapter_gate.is_empty() && s.mask > 0, s.obs_dim() - s.mask) {
+            (true, at) => {
+                let cols = s.adapter_gate.iter().map(|&k| x.narrow(1, at + k, 1)).collect::<candle_core::Result<Vec<_>>>()?;
+                Some(Tensor::cat(&cols, 1)?.max_keepdim(1)?)
+            }
+            (false, _) => None,
+        };
         let adapters = if s.adapters { at + 2 * nh } else { at };
         for l in 0..nh {
             let mut y = dense(&h, &p[at + 2 * l], &p[at + 2 * l + 1])?;
             if s.adapters {
-                y = (y + dense(&h, &p[adapters + 2 * l], &p[adapters + 2 * l + 1])?)?;
+                let a = dense(&h, &p[adapters + 2 * l], &p[adapters + 2 * l + 1])?;
+                y = match &gate {
+                    Some(g) => (y + a.broadcast_mul(g)?)?,
+                    None => (y + a)?,
+                };
             }
             h = y.relu()?;
         }
@@ -325,6 +343,7 @@ mod tests {
             feedforward: 16,
             head: vec![20, 14],
             adapters,
+            adapter_gate: Vec::new(),
             frozen: Vec::new(),
             frozen_obs: Vec::new(),
         }

@@ -44,7 +44,7 @@ pub fn spec(cfg: &crate::config_token::TokenConfig, obs_dim: usize) -> Result<To
     if groups.is_empty() {
         return Err(LearnError::Config("config field 'ppo.token.groups' is empty and the task declares no observation groups: set it to \"name:width\" entries (proprioception first, \"mask:K\" last)".into()));
     }
-    let s = TokenSpec { groups, mask, tokenizer: cfg.tokenizer.clone(), embed: cfg.embed, layers: cfg.layers, heads: cfg.heads, feedforward: cfg.feedforward, head: cfg.head.clone(), adapters: false, frozen: Vec::new(), frozen_obs: Vec::new() };
+    let s = TokenSpec { groups, mask, tokenizer: cfg.tokenizer.clone(), embed: cfg.embed, layers: cfg.layers, heads: cfg.heads, feedforward: cfg.feedforward, head: cfg.head.clone(), adapters: false, adapter_gate: Vec::new(), frozen: Vec::new(), frozen_obs: Vec::new() };
     s.check().map_err(|e| LearnError::Config(format!("config field 'ppo.token': {e}")))?;
     if s.obs_dim() != obs_dim {
         return Err(LearnError::Config(format!("config field 'ppo.token.groups': the groups {:?} and mask {} cover {} observation columns, the task's observation has {obs_dim}", cfg.groups, s.mask, s.obs_dim())));
