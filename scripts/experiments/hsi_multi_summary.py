@@ -1,6 +1,6 @@
 """Tables of scripts/experiments/hsi_multi.sh: per-task reward curves of the multi-task run, the
 base tasks' evaluation before and after adaptation, and the composition task's curve.
-Usage: python3 scripts/experiments/hsi_multi_summary.py OUT_DIR"""
+Usage: python3 scripts/experiments/hsi_multi_summary.py OUT_DIR [ADAPT_SUBDIR (default adapt)]"""
 
 from __future__ import annotations
 
@@ -14,7 +14,9 @@ TASKS = ("hsi_follow", "hsi_sit", "hsi_carry", "hsi_climb")
 
 
 def rows(run: str) -> list[dict]:
-    return [json.loads(line) for line in open(out / run / "log.jsonl")]
+    """Iterations 2.. of a run's log (iteration 1 starts every episode at once, which inflates its
+    per-step reward: all environments are in their easy first steps)."""
+    return [json.loads(line) for line in open(out / run / "log.jsonl")][1:]
 
 
 def term(r: dict, name: str) -> float:
@@ -37,20 +39,21 @@ def ev(path: pathlib.Path, task: str) -> str:
 
 m = rows("multi")
 w = max(1, len(m) // 40)
-print(f"multi-task run: {len(m)} iterations, {m[-1]['samples']} samples; columns: mean over {w} iterations at evenly spaced points\n")
-print("| task reward / step | " + " | ".join(f"it. {round(i * (len(m) - w) / 5) + 1}" for i in range(6)) + " |")
+print(f"multi-task run: {m[-1]['iteration']} iterations, {m[-1]['samples']} samples; columns: mean over {w} iterations starting at evenly spaced points (iteration 1 left out)\n")
+print("| task reward / step | " + " | ".join(f"it. {round(i * (len(m) - w) / 5) + 2}" for i in range(6)) + " |")
 print("|---|" + "---|" * 6)
 for t in TASKS:
     print(f"| `{t}` | {curve(m, f'{t}/reward')} |")
 print("\n| base task (64 episodes, deterministic) | multi-task policy: reward/step | length | success (error) | after adaptation: reward/step | length | success (error) |")
 print("|---|---|---|---|---|---|---|")
 for t in TASKS:
-    print(f"| `{t}` | {ev(out / 'multi' / f'eval_{t}.json', t)} | {ev(out / 'adapt' / f'eval_{t}.json', t)} |")
-if (out / "adapt" / "log.jsonl").exists():
-    a = rows("adapt")
-    print(f"\nadaptation to hsi_follow_carry: {len(a)} iterations, {a[-1]['samples']} samples")
-    print("| reward / step | " + " | ".join(f"it. {round(i * (len(a) - max(1, len(a) // 40)) / 5) + 1}" for i in range(6)) + " |")
+    print(f"| `{t}` | {ev(out / 'multi' / f'eval_{t}.json', t)} | {ev(out / (sys.argv[2] if len(sys.argv) > 2 else 'adapt') / f'eval_{t}.json', t)} |")
+ADAPT = sys.argv[2] if len(sys.argv) > 2 else "adapt"
+if (out / ADAPT / "log.jsonl").exists():
+    a = rows(ADAPT)
+    print(f"\nadaptation to hsi_follow_carry ({sys.argv[2] if len(sys.argv) > 2 else 'adapt'}): {a[-1]['iteration']} iterations, {a[-1]['samples']} samples")
+    print("| reward / step | " + " | ".join(f"it. {round(i * (len(a) - max(1, len(a) // 40)) / 5) + 2}" for i in range(6)) + " |")
     print("|---|" + "---|" * 6)
     for name in ("hsi_follow_carry/reward", "hsi_follow_carry/follow", "hsi_follow_carry/pick"):
         print(f"| `{name}` | {curve(a, name)} |")
-    print(f"\nevaluation of `hsi_follow_carry`: {ev(out / 'adapt' / 'eval_hsi_follow_carry.json', 'hsi_follow_carry')}")
+    print(f"\nevaluation of `hsi_follow_carry`: {ev(out / ADAPT / 'eval_hsi_follow_carry.json', 'hsi_follow_carry')}")
