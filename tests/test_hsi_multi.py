@@ -21,25 +21,7 @@ PROPRIO = R.PROPRIO_DIM
 TOL = dict(rtol=1e-5, atol=1e-5)
 
 
-class MaxDiff:
-    """Largest |Rust − reference| per quantity (printed at the end of a test)."""
-
-    def __init__(self):
-        self.d: dict[str, float] = {}
-
-    def check(self, what, got, want, msg="", exact=False):
-        got, want = np.asarray(got, dtype=np.float64), np.asarray(want, dtype=np.float64)
-        assert got.shape == want.shape, f"{what}: shape {got.shape} != {want.shape} {msg}"
-        if exact:
-            np.testing.assert_array_equal(got, want, err_msg=f"{what} {msg}")
-        else:
-            np.testing.assert_allclose(got, want, **TOL, err_msg=f"{what} {msg}")
-        self.d[what] = max(self.d.get(what, 0.0), float(np.abs(got - want).max()) if got.size else 0.0)
-
-    def report(self, title):
-        print(f"\n{title}: max |difference|")
-        for k, v in self.d.items():
-            print(f"    {k:55s} {v:.3e}")
+from test_hsi_compose import MaxDiff  # noqa: E402  (the shared max-difference recorder)
 
 TASK_GROUPS = {
     "hsi_follow": [("hsi_follow", 20)],

@@ -48,6 +48,23 @@ pub struct StepBuffers {
     pub final_mask: Vec<u8>,
 }
 
+impl StepBuffers {
+    /// Zeroed buffers for `n` environments of a task declaring `spec`.
+    pub fn for_spec(n: usize, spec: &TaskSpec) -> Self {
+        Self {
+            obs: vec![0.0; n * spec.obs_dim],
+            reward: vec![0.0; n],
+            terms: vec![0.0; n * spec.term_names.len()],
+            info: vec![0.0; n * spec.info_names.len()],
+            metrics: vec![0.0; n * spec.metric_names.len()],
+            terminated: vec![0; n],
+            truncated: vec![0; n],
+            final_obs: vec![0.0; n * spec.obs_dim],
+            final_mask: vec![0; n],
+        }
+    }
+}
+
 /// Per-environment rows of a `[N][width]` buffer, also for width 0 (N empty rows: a zero-width
 /// buffer must not shorten the zipped per-environment iteration).
 pub(crate) fn rows(buf: &mut [f32], n: usize, width: usize) -> impl IndexedParallelIterator<Item = &mut [f32]> {
@@ -80,17 +97,7 @@ impl<T: Task> VecEnv<T> {
         let sim = BatchSim::new(scene, n, threads)?;
         let spec = task.spec().clone();
         let slots = (0..n).map(|_| task.new_slot()).collect();
-        let buf = StepBuffers {
-            obs: vec![0.0; n * spec.obs_dim],
-            reward: vec![0.0; n],
-            terms: vec![0.0; n * spec.term_names.len()],
-            info: vec![0.0; n * spec.info_names.len()],
-            metrics: vec![0.0; n * spec.metric_names.len()],
-            terminated: vec![0; n],
-            truncated: vec![0; n],
-            final_obs: vec![0.0; n * spec.obs_dim],
-            final_mask: vec![0; n],
-        };
+        let buf = StepBuffers::for_spec(n, &spec);
         let mut env = Self {
             task,
             slots,

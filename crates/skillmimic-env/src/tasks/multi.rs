@@ -172,17 +172,7 @@ impl MultiEnv {
             choice_labels: first.choice_labels.clone(),
             token_groups,
         };
-        let buf = StepBuffers {
-            obs: vec![0.0; n * obs_dim],
-            reward: vec![0.0; n],
-            terms: vec![0.0; n * spec.term_names.len()],
-            info: vec![0.0; n * spec.info_names.len()],
-            metrics: vec![0.0; n * spec.metric_names.len()],
-            terminated: vec![0; n],
-            truncated: vec![0; n],
-            final_obs: vec![0.0; n * obs_dim],
-            final_mask: vec![0; n],
-        };
+        let buf = StepBuffers::for_spec(n, &spec);
         let mut me = Self { spec, subs, n, mask_at, buf };
         me.gather();
         Ok(me)

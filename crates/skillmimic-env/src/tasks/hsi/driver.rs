@@ -48,17 +48,7 @@ impl<T: HsiTask> HsiVecEnv<T> {
         let sim = HsiBatch::new(scenes, num_envs, threads)?;
         let spec = task.spec().clone();
         let n = num_envs;
-        let buf = StepBuffers {
-            obs: vec![0.0; n * spec.obs_dim],
-            reward: vec![0.0; n],
-            terms: vec![0.0; n * spec.term_names.len()],
-            info: vec![0.0; n * spec.info_names.len()],
-            metrics: vec![0.0; n * spec.metric_names.len()],
-            terminated: vec![0; n],
-            truncated: vec![0; n],
-            final_obs: vec![0.0; n * spec.obs_dim],
-            final_mask: vec![0; n],
-        };
+        let buf = StepBuffers::for_spec(n, &spec);
         let mut env = Self {
             task,
             slots: vec![Slot::default(); n],
