@@ -146,7 +146,13 @@ fn every_task_and_family_trains_on_two_ranks() {
     let mut pairs = 0;
     for (entry, family) in TASKS.iter().flat_map(|e| FAMILIES.iter().map(move |f| (e, *f))) {
         let mut c = config(entry.name, &format!("{}-{}", entry.name, family.name()));
-        c.env.num_envs = 4;
+        // a multi-task environment needs one environment per task on every rank
+        c.env.num_envs = if entry.name.ends_with("_multi") { 8 } else { 4 };
+        c.ppo.token.tokenizer = vec![32];
+        c.ppo.token.embed = 16;
+        c.ppo.token.layers = 1;
+        c.ppo.token.feedforward = 32;
+        c.ppo.token.head = vec![32];
         c.ppo.horizon = 8;
         c.ppo.minibatch = 16;
         c.ppo.mini_epochs = 1;
