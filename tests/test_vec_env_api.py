@@ -175,18 +175,19 @@ def test_every_registered_task_runs_through_the_python_vecenv(tmp_path):
     assert {"heading", "circling", "throwing", "scoring", "steering", "reach"} <= high_level <= set(skillmimic_rs.TASKS)
     for task in skillmimic_rs.TASKS:
         extra = {"llc": llc} if task in high_level else {}
-        env = skillmimic_rs.VecEnv(num_envs=3, task=task, threads=1, **extra)
+        n = 4 if task == "hsi_multi" else 3  # one environment per task of TokenHSI's mix
+        env = skillmimic_rs.VecEnv(num_envs=n, task=task, threads=1, **extra)
         try:
             assert env.task == task
             obs, info = env.reset(seed=2)
-            assert obs.shape == (3,) + env.single_observation_space.shape and obs.dtype == np.float32
+            assert obs.shape == (n,) + env.single_observation_space.shape and obs.dtype == np.float32
             for _ in range(30):
                 a = env.action_space.sample()
                 a = a.astype(np.float32) if task not in high_level else a
                 obs, rew, term, trunc, info = env.step(a)
                 assert np.isfinite(obs).all() and np.isfinite(rew).all()
-                assert info["reward_terms"].shape == (3, len(env.reward_term_names))
-                assert info["frame_metrics"].shape == (3, len(env.frame_metric_names))
+                assert info["reward_terms"].shape == (n, len(env.reward_term_names))
+                assert info["frame_metrics"].shape == (n, len(env.frame_metric_names))
         finally:
             env.close()
     stand = skillmimic_rs.VecEnv(num_envs=2, task="stand")
