@@ -83,9 +83,13 @@ class _MlpActorCritic(nn.Module):
         self.normalize_input = normalize_input
         self.normalize_value = normalize_value
 
+    def normalized(self, obs: torch.Tensor) -> torch.Tensor:
+        """The actor's and critic's input for raw observations ``(N, obs_dim)``."""
+        return self.obs_norm.normalize(obs) if self.normalize_input else obs.float()
+
     def forward(self, obs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """Actor outputs ``(N, outputs)`` and values ``(N,)`` for raw observations ``(N, obs_dim)``."""
-        x = self.obs_norm.normalize(obs) if self.normalize_input else obs.float()
+        x = self.normalized(obs)
         out = self.actor(x)
         v = self.critic(x).squeeze(-1)
         if self.normalize_value:
@@ -264,20 +268,10 @@ class TokenTransformerPolicy(_MlpActorCritic):
 
     def normalized(self, obs: torch.Tensor) -> torch.Tensor:
         """The actor's and critic's input: normalised observation, mask entries raw."""
-        if not self.normalize_input:
-            return obs.float()
-        x = self.obs_norm.normalize(obs)
-        if self.raw.start < self.raw.stop:
+        x = super().normalized(obs)
+        if self.normalize_input and self.raw.start < self.raw.stop:
             x = torch.cat([x[:, : self.raw.start], obs[:, self.raw].float()], 1)
         return x
-
-    def forward(self, obs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        x = self.normalized(obs)
-        out = self.actor(x)
-        v = self.critic(x).squeeze(-1)
-        if self.normalize_value:
-            v = self.value_norm.denormalize(v)
-        return out, v
 
     @torch.no_grad()
     def act(self, obs: torch.Tensor, deterministic: bool = True) -> torch.Tensor:

@@ -331,6 +331,11 @@ pub trait Env: Send + Sync {
     /// step (high-level tasks: the frozen skill policy's actions); empty when the actions are the
     /// targets.
     fn pd_targets(&self) -> &[f32];
+    /// The tasks of a multi-task environment with their environment rows (empty: one task); the
+    /// motion prior keeps one discriminator per entry.
+    fn task_rows(&self) -> Vec<(String, std::ops::Range<usize>)> {
+        Vec::new()
+    }
     /// Downcast to the concrete `VecEnv<T>` (task-specific accessors).
     fn as_any(&self) -> &dyn Any;
     fn as_any_mut(&mut self) -> &mut dyn Any;

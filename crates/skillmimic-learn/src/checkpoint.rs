@@ -17,8 +17,9 @@
 //! `obs_dim`, `act_dim`, `hidden` (JSON list), `iteration`, `samples`, `config` (TOML text), and
 //! the normaliser switches and settings; `policy` = the family (`gaussian_mlp` when absent, as in
 //! files written before families existed) and `actions` = the action space (`box:<dim>` or
-//! `discrete:<n>`; absent = `box:<act_dim>`); `actor_net` = the modular attention network's
-//! description (`modular_attention` only; its actor tensors are `actor.parts.*`).
+//! `discrete:<n>`; absent = `box:<act_dim>`); `actor_net` = the description of an actor that is
+//! not an MLP (`modular_attention`: tensors `actor.parts.*`; `token_transformer*`: the token
+//! network's tensors, frozen ones included), read back by the family (`PolicyFamily::read_actor`).
 
 use std::collections::BTreeMap;
 
@@ -211,10 +212,9 @@ fn load_raw(path: &Path, expect: Option<(usize, usize)>) -> Result<Checkpoint, S
     if space.width() != act_dim || !family.supports(&space) {
         return Err(format!("{}: metadata 'actions' {space:?} does not fit act_dim {act_dim} and policy '{}'", path.display(), family.name()));
     }
-    let actor = match f.meta("actor_net") {
-        Ok(text) if family.name().starts_with("token_transformer") => ActorNet::Token(crate::policies::token_transformer::read(&f, text, obs_dim, family.actor_outputs(&space)).map_err(|x| format!("{}: {x}", path.display()))?),
-        Ok(text) => ActorNet::Modular(crate::policies::modular_attention::read(&f, text, obs_dim, act_dim).map_err(|x| format!("{}: {x}", path.display()))?),
-        Err(_) => ActorNet::Mlp(mlp("actor", family.actor_outputs(&space))?),
+    let actor = match family.read_actor(&f, obs_dim, &space).map_err(|x| format!("{}: {x}", path.display()))? {
+        Some(net) => net,
+        None => ActorNet::Mlp(mlp("actor", family.actor_outputs(&space))?),
     };
     let critic = mlp("critic", 1)?;
     let policy = Policy {

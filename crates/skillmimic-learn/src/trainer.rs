@@ -187,8 +187,7 @@ impl Trainer {
         }
         comm.take_seconds();
         // one discriminator per task of a multi-task environment
-        let amp_tasks: Vec<(String, std::ops::Range<usize>)> = env.as_any().downcast_ref::<skillmimic_env::tasks::multi::MultiEnv>().map(|m| m.tasks().map(|(t, r)| (t.to_string(), r)).collect()).unwrap_or_default();
-        let amp = crate::amp_reward::AmpReward::for_run(&cfg, obs_dim, env.num_envs(), &amp_tasks, &mut comm, resume)?;
+        let amp = crate::amp_reward::AmpReward::for_run(&cfg, obs_dim, env.num_envs(), &env.task_rows(), &mut comm, resume)?;
         let threads = if cfg.run.learner_threads == 0 { rayon::current_num_threads() } else { cfg.run.learner_threads };
         let n = env.num_envs();
         let outputs = policy.actor_outputs();

@@ -223,10 +223,6 @@ impl MultiEnv {
         (k, i - self.subs[k].start)
     }
 
-    /// Each sub-batch with its row range.
-    pub fn tasks(&self) -> impl Iterator<Item = (&str, std::ops::Range<usize>)> {
-        self.subs.iter().map(|s| (s.env.spec().name, s.start..s.start + s.env.num_envs()))
-    }
 }
 
 /// The task observation width of group `name` (a registered task's own group) when no
@@ -303,6 +299,9 @@ impl Env for MultiEnv {
     }
     fn pd_targets(&self) -> &[f32] {
         &[]
+    }
+    fn task_rows(&self) -> Vec<(String, std::ops::Range<usize>)> {
+        self.subs.iter().map(|s| (s.env.spec().name.to_string(), s.start..s.start + s.env.num_envs())).collect()
     }
     fn as_any(&self) -> &dyn Any {
         self

@@ -43,6 +43,11 @@ pub trait PolicyFamily: Send + Sync + 'static {
     fn build_actor(&self, _obs_dim: usize, _space: &ActionSpace, _cfg: &PpoConfig, _rng: &mut dyn RngCore) -> Result<Option<crate::actor::ActorNet>, crate::error::LearnError> {
         Ok(None)
     }
+    /// Rebuild the actor from checkpoint `f` when it is not an MLP (default: `None`, the MLP
+    /// tensors `actor.*`); errors name what is wrong with the file.
+    fn read_actor(&self, _f: &skillmimic_core::tensorfile::TensorFile, _obs_dim: usize, _space: &ActionSpace) -> Result<Option<crate::actor::ActorNet>, String> {
+        Ok(None)
+    }
     /// Re-initialise the actor's output layer after the default initialisation (default: keep
     /// it). `rng` continues the policy's initialisation stream.
     fn init_output_layer(&self, _actor: &mut skillmimic_nn::mlp::Mlp, _rng: &mut dyn RngCore) {}

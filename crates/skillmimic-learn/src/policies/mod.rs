@@ -23,7 +23,7 @@ pub use family::{ExtraLoss, Head, PolicyFamily};
 use crate::error::LearnError;
 
 /// Every family, in listing order.
-pub const FAMILIES: &[&dyn PolicyFamily] = &[&gaussian_mlp::GaussianMlp, &categorical_mlp::CategoricalMlp, &modular_attention::ModularAttentionFamily, &token_transformer::TokenTransformerFamily, &token_transformer::TokenTransformerCategorical];
+pub const FAMILIES: &[&dyn PolicyFamily] = &[&gaussian_mlp::GaussianMlp, &categorical_mlp::CategoricalMlp, &modular_attention::ModularAttentionFamily, &token_transformer::GAUSSIAN, &token_transformer::CATEGORICAL];
 
 /// The family named `name`.
 pub fn family(name: &str) -> Result<&'static dyn PolicyFamily, LearnError> {

@@ -114,6 +114,10 @@ impl PolicyFamily for ModularAttentionFamily {
         let s = spec(&cfg.modular, obs_dim)?;
         Ok(Some(ActorNet::Modular(build(&s, obs_dim, space.width(), rng)?)))
     }
+    fn read_actor(&self, f: &skillmimic_core::tensorfile::TensorFile, obs_dim: usize, space: &ActionSpace) -> Result<Option<ActorNet>, String> {
+        let text = f.meta("actor_net").map_err(|e| e.to_string())?;
+        Ok(Some(ActorNet::Modular(read(f, text, obs_dim, space.width())?)))
+    }
     fn sample(&self, head: Head<'_>, out: &[f32], n: usize, rng: &mut dyn RngCore, actions: &mut [f32], neglogp: &mut [f32]) {
         GaussianMlp.sample(head, out, n, rng, actions, neglogp)
     }

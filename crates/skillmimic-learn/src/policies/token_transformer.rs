@@ -68,70 +68,50 @@ pub fn read(f: &skillmimic_core::tensorfile::TensorFile, spec_json: &str, obs_di
     Ok(net)
 }
 
-fn build(obs_dim: usize, act_dim: usize, cfg: &PpoConfig, rng: &mut dyn RngCore) -> Result<Option<ActorNet>, LearnError> {
-    let s = spec(&cfg.token, obs_dim)?;
-    Ok(Some(ActorNet::Token(TokenTransformer::new(s, act_dim, rng).map_err(|e| LearnError::Config(format!("config field 'ppo.token': {e}")))?)))
+/// A token transformer family: the network of this module with the distribution of `dist`
+/// (action space, σ, sampling, log-probability and extra loss are `dist`'s).
+pub struct TokenFamily {
+    name: &'static str,
+    dist: &'static dyn PolicyFamily,
 }
 
 /// The Gaussian token transformer (TokenHSI's policy).
-pub struct TokenTransformerFamily;
+pub static GAUSSIAN: TokenFamily = TokenFamily { name: "token_transformer", dist: &GaussianMlp };
+/// The categorical token transformer (discrete choices: a multi-task high-level controller).
+pub static CATEGORICAL: TokenFamily = TokenFamily { name: "token_transformer_categorical", dist: &CategoricalMlp };
 
-impl PolicyFamily for TokenTransformerFamily {
+impl PolicyFamily for TokenFamily {
     fn name(&self) -> &'static str {
-        "token_transformer"
+        self.name
     }
     fn supports(&self, space: &ActionSpace) -> bool {
-        matches!(space, ActionSpace::Box { .. })
+        self.dist.supports(space)
     }
     fn uses_log_std(&self) -> bool {
-        true
+        self.dist.uses_log_std()
     }
     fn actor_outputs(&self, space: &ActionSpace) -> usize {
-        space.width()
+        self.dist.actor_outputs(space)
     }
     fn build_actor(&self, obs_dim: usize, space: &ActionSpace, cfg: &PpoConfig, rng: &mut dyn RngCore) -> Result<Option<ActorNet>, LearnError> {
-        build(obs_dim, space.width(), cfg, rng)
+        let s = spec(&cfg.token, obs_dim)?;
+        let net = TokenTransformer::new(s, self.actor_outputs(space), rng).map_err(|e| LearnError::Config(format!("config field 'ppo.token': {e}")))?;
+        Ok(Some(ActorNet::Token(net)))
+    }
+    fn read_actor(&self, f: &skillmimic_core::tensorfile::TensorFile, obs_dim: usize, space: &ActionSpace) -> Result<Option<ActorNet>, String> {
+        let text = f.meta("actor_net").map_err(|e| e.to_string())?;
+        Ok(Some(ActorNet::Token(read(f, text, obs_dim, self.actor_outputs(space))?)))
     }
     fn sample(&self, head: Head<'_>, out: &[f32], n: usize, rng: &mut dyn RngCore, actions: &mut [f32], neglogp: &mut [f32]) {
-        GaussianMlp.sample(head, out, n, rng, actions, neglogp)
+        self.dist.sample(head, out, n, rng, actions, neglogp)
     }
     fn mode(&self, head: Head<'_>, out: &[f32], n: usize, actions: &mut [f32]) {
-        GaussianMlp.mode(head, out, n, actions)
+        self.dist.mode(head, out, n, actions)
     }
     fn neglogp(&self, head: Head<'_>, out: &Tensor, actions: &Tensor) -> candle_core::Result<Tensor> {
-        GaussianMlp.neglogp(head, out, actions)
+        self.dist.neglogp(head, out, actions)
     }
     fn extra_loss(&self, out: &Tensor, cfg: &PpoConfig) -> candle_core::Result<ExtraLoss> {
-        GaussianMlp.extra_loss(out, cfg)
-    }
-}
-
-/// The categorical token transformer (discrete choices: a multi-task high-level controller).
-pub struct TokenTransformerCategorical;
-
-impl PolicyFamily for TokenTransformerCategorical {
-    fn name(&self) -> &'static str {
-        "token_transformer_categorical"
-    }
-    fn supports(&self, space: &ActionSpace) -> bool {
-        matches!(space, ActionSpace::Discrete { .. })
-    }
-    fn actor_outputs(&self, space: &ActionSpace) -> usize {
-        CategoricalMlp.actor_outputs(space)
-    }
-    fn build_actor(&self, obs_dim: usize, space: &ActionSpace, cfg: &PpoConfig, rng: &mut dyn RngCore) -> Result<Option<ActorNet>, LearnError> {
-        build(obs_dim, self.actor_outputs(space), cfg, rng)
-    }
-    fn sample(&self, head: Head<'_>, out: &[f32], n: usize, rng: &mut dyn RngCore, actions: &mut [f32], neglogp: &mut [f32]) {
-        CategoricalMlp.sample(head, out, n, rng, actions, neglogp)
-    }
-    fn mode(&self, head: Head<'_>, out: &[f32], n: usize, actions: &mut [f32]) {
-        CategoricalMlp.mode(head, out, n, actions)
-    }
-    fn neglogp(&self, head: Head<'_>, out: &Tensor, actions: &Tensor) -> candle_core::Result<Tensor> {
-        CategoricalMlp.neglogp(head, out, actions)
-    }
-    fn extra_loss(&self, out: &Tensor, cfg: &PpoConfig) -> candle_core::Result<ExtraLoss> {
-        CategoricalMlp.extra_loss(out, cfg)
+        self.dist.extra_loss(out, cfg)
     }
 }
