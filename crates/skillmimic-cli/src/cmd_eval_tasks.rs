@@ -39,7 +39,19 @@ pub fn run(a: &Options, policy: Option<&Policy>, cfg: &TrainConfig) -> anyhow::R
     let mut reports: BTreeMap<String, EpisodeReport> = BTreeMap::new();
     for actor in actors {
         let r = evaluate_actor(actor, env.as_mut(), a.episodes, a.seed, 0).with_context(|| format!("evaluating {}", actor.label()))?;
-        let fin = |k: &str| r.final_metrics.get(k).map_or("-".to_string(), |v| format!("{:.1} %", 100.0 * v));
+        // a multi-task environment names its metrics `<task>/success`: one entry per task
+        let fin = |k: &str| {
+            let hits: Vec<String> = r
+                .final_metrics
+                .iter()
+                .filter_map(|(name, v)| match name.strip_suffix(k) {
+                    Some("") => Some(format!("{:.1} %", 100.0 * v)),
+                    Some(prefix) => prefix.strip_suffix('/').map(|task| format!("{task} {:.1} %", 100.0 * v)),
+                    _ => None,
+                })
+                .collect();
+            if hits.is_empty() { "-".to_string() } else { hits.join(", ") }
+        };
         println!(
             "{:<9} {} episodes: return {:.3}, reward/step {:.4}, length {:.1} ({:.0} sim steps), early end {:.1} %, success {} (code latch {})",
             actor.label(),
