@@ -1,6 +1,6 @@
 """The multi-task environment (``hsi_multi``, ``[env.multi]``): the batch of a mix of tasks against
 single-task environments seeded as the multi-task environment seeds its sub-batches
-(``seed + k``), stepped with the same actions: the observation layout [shared 222 | groups |
+(``seed + first row``: row r of the batch draws from the stream ``seed + r``), stepped with the same actions: the observation layout [shared 222 | groups |
 mask K], the rows, rewards, flags, terminal observations, the rescaled per-task terms, metrics and
 task information; MuJoCo state access routed to each row's task; the split of the environments over
 the mix (largest remainder, at least one each); named groups (extra groups zero, a composition task
@@ -92,8 +92,8 @@ class MultiCheck:
         self.tasks, self.n = tasks, n
         self.counts = split_reference(n, mix)
         self.starts = np.concatenate([[0], np.cumsum(self.counts)[:-1]]).astype(int)
-        # sub-batch k: env.seed + k, its own number of environments
-        self.singles = [make(t, c, seed + k, mode) for k, (t, c) in enumerate(zip(tasks, self.counts))]
+        # sub-batch k: env.seed + its first row, its own number of environments
+        self.singles = [make(t, c, seed + int(s0), mode) for t, c, s0 in zip(tasks, self.counts, self.starts)]
         self.groups, self.offsets, self.mask_at, self.width = layout(tasks, groups)
         self.mx = MaxDiff()
         self.ended = 0
@@ -134,7 +134,7 @@ class MultiCheck:
 
     def reset(self, seed=None):
         obs, _ = self.env.reset(seed=seed)
-        sobs = [s.reset(seed=None if seed is None else seed + k)[0] for k, s in enumerate(self.singles)]
+        sobs = [s.reset(seed=None if seed is None else seed + int(s0))[0] for s, s0 in zip(self.singles, self.starts)]
         self.last = sobs
         self.check_obs(obs, sobs, "reset obs")
 
@@ -212,7 +212,7 @@ def test_multi_matches_single_task_environments(mode):
     c = MultiCheck(tasks, mix, n, seed, mode)
     assert c.counts == [2, 4, 3]
     c.check_spaces()
-    obs = c.env.reset()[0]  # no seed: the streams the constructors seeded (seed + k)
+    obs = c.env.reset()[0]  # no seed: the streams the constructors seeded (seed + first row)
     c.check_obs(obs, [s.reset()[0] for s in c.singles], "first reset obs")
     rng = np.random.default_rng(7)
     steps = 0
@@ -224,7 +224,7 @@ def test_multi_matches_single_task_environments(mode):
             if mode == "disabled" and done.any():
                 c.reset_mask(done)
         if phase == 0:
-            c.reset(seed=123)          # sub-batch k: 123 + k
+            c.reset(seed=123)          # sub-batch k: 123 + its first row
         elif phase == 1:
             mask = np.zeros(n, bool)
             mask[[0, 3, 8]] = True
@@ -238,10 +238,10 @@ def test_multi_matches_single_task_environments(mode):
 def test_multi_state_access_is_routed_to_each_rows_task():
     """``get_state`` / ``set_state`` / ``mjcf_xml_of`` of any row of the multi-task environment
     reach the sub-batch holding that row (its MuJoCo access is multiplexed): rows 0-1 are the
-    follow batch's environments, rows 2-3 the sit batch's (seeded ``seed + 1``); a state written
+    follow batch's environments, rows 2-3 the sit batch's (seeded ``seed + 2``); a state written
     into row 3 is read back, and the index is checked."""
     env = make("hsi_multi", 4, 2, multi={"tasks": ["hsi_follow", "hsi_sit"], "mix": [1, 1]})
-    follow, sit = make("hsi_follow", 2, 2), make("hsi_sit", 2, 3)
+    follow, sit = make("hsi_follow", 2, 2), make("hsi_sit", 2, 4)
     for i, (single, j) in enumerate([(follow, 0), (follow, 1), (sit, 0), (sit, 1)]):
         for x, y in zip(env.get_state(i), single.get_state(j)):
             np.testing.assert_array_equal(x, y)
@@ -316,7 +316,7 @@ def test_multi_named_groups_extra_group_is_zero():
     obs = c.env.reset(seed=9)[0]
     np.testing.assert_array_equal(obs[:, -3:], [[0, 0, 1], [0, 0, 1], [1, 0, 0], [1, 0, 0]])
     assert not obs[:, 222 + 38:222 + 38 + 27].any(), "the unfilled climb block is zero"
-    c.check_obs(obs, [s.reset(seed=9 + k)[0] for k, s in enumerate(c.singles)], "reset obs")
+    c.check_obs(obs, [s.reset(seed=9 + int(s0))[0] for s, s0 in zip(c.singles, c.starts)], "reset obs")
     rng = np.random.default_rng(4)
     for _ in range(5):
         c.step(rng.uniform(-1, 1, (4, 32)).astype(np.float32))
@@ -338,7 +338,7 @@ def test_follow_carry_inside_multi_activates_its_three_groups():
     # its composite; sit and climb blocks zero
     obs = c.env.reset(seed=80)[0]
     c.singles[0].reset(seed=80)
-    fc = c.singles[1].reset(seed=81)[0]  # sub-batch 1: seed + 1
+    fc = c.singles[1].reset(seed=82)[0]  # sub-batch 1 starts at row 2: seed + 2
     at = {g: c.offsets[g][0] for g in groups}
     np.testing.assert_array_equal(obs[2:, at["hsi_follow"]:at["hsi_follow"] + 20], fc[:, 222:242])
     np.testing.assert_array_equal(obs[2:, at["hsi_carry"]:at["hsi_carry"] + 42], fc[:, 242:284])

@@ -85,7 +85,7 @@ def test_tracking_reward_obs_and_metrics_match_numpy_on_real_clips(shared_dir):
     names = [m.body(i).name for i in range(1, 54)]
     bodies = [b for b, n in enumerate(names) if not any(w in n for w in FINGER_WORDS)]
     assert len(bodies) == 23 and env.single_observation_space.shape[0] == 823 + 24 * 23
-    obs, _ = env.reset(seed=5)
+    obs, _ = env.reset(seed=2)
     info0 = env.task_info()
     hist = []
     for i in range(env.num_envs):

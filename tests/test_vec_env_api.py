@@ -21,7 +21,16 @@ def env():
 def test_spaces_dtypes_and_shapes(env):
     assert isinstance(env, gym.vector.VectorEnv)
     assert env.num_envs == 3
-    assert env.single_observation_space == gym.spaces.Box(-np.inf, np.inf, (902,), np.float32)
+    space = env.single_observation_space
+    assert space.shape == (902,) and space.dtype == np.float32
+    # finite bounds only where bounded: rotation columns [-1, 1], skill one-hot [0, 1]
+    blocks = skillmimic_rs.OBS_BLOCKS
+    for name in ("body_rot", "ball_rot"):
+        a, b = blocks[name]
+        assert (space.low[a:b] == -1).all() and (space.high[a:b] == 1).all()
+    a, b = blocks["skill"]
+    assert (space.low[a:b] == 0).all() and (space.high[a:b] == 1).all()
+    assert np.isinf(space.low[:blocks["body_rot"][0]]).all() and np.isinf(space.high[blocks["ball_linvel"][0]:blocks["skill"][0]]).all()
     assert env.single_action_space == gym.spaces.Box(-1.0, 1.0, (156,), np.float32)
     assert env.observation_space.shape == (3, 902) and env.action_space.shape == (3, 156)
     assert env.metadata["autoreset_mode"] == AutoresetMode.SAME_STEP
@@ -141,7 +150,7 @@ def test_bad_inputs_raise_clear_python_errors(env):
     with pytest.raises(FileNotFoundError):
         skillmimic_rs.VecEnv(num_envs=2, config="/nonexistent/config.toml")
     with pytest.raises(ValueError, match="autoreset_mode"):
-        skillmimic_rs.VecEnv(num_envs=2, autoreset_mode="next_step")
+        skillmimic_rs.VecEnv(num_envs=2, autoreset_mode="every_step")
     env.close()
     env.close()  # idempotent
     for call in (lambda: env.step(a), lambda: env.reset(), lambda: env.get_state(0), lambda: env.mjcf_xml):

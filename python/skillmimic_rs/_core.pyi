@@ -38,6 +38,9 @@ def resolve_config_path(written: str, config_dir: str) -> str:
 def core_version() -> str:
     """Version of the Rust core."""
 
+def cli_main(argv: list[str]) -> int:
+    """Run the ``skillmimic`` command-line tool in-process (GIL released); its exit code."""
+
 class CoreEnv:
     """The batched SkillMimic environment of the Rust core."""
 
@@ -91,6 +94,8 @@ class CoreEnv:
         """(name, skill label, frames) of every clip."""
     def reset_all(self, seed: int | None, obs_out: npt.NDArray[np.float32]) -> None:
         """Reset every environment; writes observations into ``obs_out`` (N, D)."""
+    def end_episodes(self, mask: npt.NDArray[np.bool_]) -> None:
+        """End-of-episode bookkeeping (ATS) of the masked environments before ``reset_mask``."""
     def reset_mask(self, mask: npt.NDArray[np.bool_], obs_out: npt.NDArray[np.float32]) -> None:
         """Reset the environments selected by ``mask``."""
     def step(

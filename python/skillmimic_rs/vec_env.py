@@ -5,11 +5,19 @@ observations, rewards and flags into numpy buffers preallocated here. Convention
 
 * observations ``float32 (num_envs, 902)`` (index table: ``skillmimic_rs.OBS_BLOCKS``), actions
   ``float32 (num_envs, 156)`` in [-1, 1] (PD target = pi * action, exp-map joint coordinates);
-* ``autoreset_mode="same_step"`` (default): finished environments are reset inside ``step``; the
-  terminal observations are in ``info["final_obs"]`` (object array, ``None`` elsewhere) with the
-  mask ``info["_final_obs"]``, and densely in ``info["final_obs_dense"]``;
+* ``autoreset_mode="same_step"`` (default here; what the SB3 / rsl_rl adapters and most RL loops
+  want): finished environments are reset inside ``step``; the terminal observations are in
+  ``info["final_obs"]`` (object array, ``None`` elsewhere) with the mask ``info["_final_obs"]``,
+  and densely in ``info["final_obs_dense"]``; the terminal step's reward terms and frame metrics
+  in ``info["final_info"]`` (mask ``info["_final_info"]``);
+* ``autoreset_mode="next_step"`` (gymnasium's default, ``gymnasium.make_vec``'s here): a finished
+  environment returns its terminal observation; the next ``step`` resets it instead of stepping
+  it (its action is ignored, reward 0, flags false, its step-info rows masked out);
 * ``autoreset_mode="disabled"``: nothing resets by itself; call
   ``reset(options={"reset_mask": mask})`` (the loop of the original SkillMimic learner);
+* episode starts: environment ``i`` draws from its own stream seeded ``seed + i`` (gymnasium's
+  convention), so in every mode a batch plans the same episodes as
+  ``gymnasium.vector.SyncVectorEnv`` over :class:`skillmimic_rs.SkillMimicEnv` with the same seed;
 * ``info`` also carries the per-term reward breakdown (``reward_terms``, columns
   ``VecEnv.reward_term_names``), the contact graph, frame metrics and episode bookkeeping.
 """
@@ -52,7 +60,7 @@ def load_config(config: Mapping[str, Any] | str | os.PathLike | None) -> dict[st
     return json.loads(_core.load_env_config(str(path)))
 
 
-_MODES = {"same_step": AutoresetMode.SAME_STEP, "disabled": AutoresetMode.DISABLED}
+_MODES = {"same_step": AutoresetMode.SAME_STEP, "next_step": AutoresetMode.NEXT_STEP, "disabled": AutoresetMode.DISABLED}
 
 
 def _parse_mode(mode: str | AutoresetMode) -> AutoresetMode:
@@ -60,10 +68,26 @@ def _parse_mode(mode: str | AutoresetMode) -> AutoresetMode:
         return mode
     if isinstance(mode, str):
         key = mode.lower().replace("-", "_")
-        key = {"samestep": "same_step"}.get(key, key)
+        key = {"samestep": "same_step", "nextstep": "next_step"}.get(key, key)
         if key in _MODES:
             return _MODES[key]
-    raise ValueError(f"autoreset_mode {mode!r} is not supported: use 'same_step' or 'disabled' (or the AutoresetMode members)")
+    raise ValueError(f"autoreset_mode {mode!r} is not supported: use 'same_step', 'next_step' or 'disabled' (or the AutoresetMode members)")
+
+
+def _observation_space(task: str, dim: int) -> gym.spaces.Box:
+    """One environment's observation space: finite bounds where the values are bounded by
+    construction (the imitation observation's rotation-matrix columns in [-1, 1] and its skill
+    one-hot in [0, 1]; ``OBS_BLOCKS``), unbounded elsewhere."""
+    low = np.full(dim, -np.inf, np.float32)
+    high = np.full(dim, np.inf, np.float32)
+    if task == "imitation" and dim >= _core.OBS_DIM:
+        blocks = _core.OBS_BLOCKS
+        for name in ("body_rot", "ball_rot"):
+            a, b = blocks[name]
+            low[a:b], high[a:b] = -1.0, 1.0
+        a, b = blocks["skill"]
+        low[a:b], high[a:b] = 0.0, 1.0
+    return gym.spaces.Box(low, high, (dim,), np.float32)
 
 
 class VecEnv(gym.vector.VectorEnv):
@@ -82,7 +106,8 @@ class VecEnv(gym.vector.VectorEnv):
             checkpoint (ModSkill skill reuse) they are one embedding per body part (``Box`` of
             parts × embedding width), each projected onto the unit sphere and fed to that
             part's frozen controller, held for ``hlc.latent_steps`` (1) steps.
-        autoreset_mode: ``"same_step"`` (default) or ``"disabled"``.
+        autoreset_mode: ``"same_step"`` (default), ``"next_step"`` (gymnasium's default) or
+            ``"disabled"``.
         copy: return copies of the internal buffers (default, safe); ``False`` returns the
             buffers themselves, which the next call overwrites.
         render_mode: ``"rgb_array"`` or ``None``.
@@ -126,7 +151,7 @@ class VecEnv(gym.vector.VectorEnv):
         self.render_mode = render_mode
         self.copy = copy
         n, d, a = num_envs, self._core.obs_dim, self._core.act_dim
-        self.single_observation_space = gym.spaces.Box(-np.inf, np.inf, (d,), np.float32)
+        self.single_observation_space = _observation_space(self._core.task, d)
         kind, size = self._core.action_space
         if kind == "discrete":
             self.single_action_space = gym.spaces.Discrete(size)
@@ -140,10 +165,15 @@ class VecEnv(gym.vector.VectorEnv):
         self._trunc = np.zeros(n, bool)
         self._final_obs = np.zeros((n, d), np.float32)
         self._final_mask = np.zeros(n, bool)
-        self._renderer = None
-        self._render_model = None
+        # episodes that ended but whose end-of-episode bookkeeping has not run (NEXT_STEP, DISABLED)
+        self._unclosed = np.zeros(n, bool)
+        # NEXT_STEP: environments the next step resets; rows reset by the last step
+        self._pending = np.zeros(n, bool)
+        self._reset_rows = np.zeros(n, bool)
+        self._renderers: dict[str, tuple[Any, Any]] = {}  # scene XML -> (MjModel, Renderer)
         self._mjcf_path: pathlib.Path | None = None
-        self.render_env_ids: tuple[int, ...] = (0,)
+        #: environments ``render()`` draws (None: all, gymnasium's vector convention)
+        self.render_env_ids: tuple[int, ...] | None = None
         self.closed = False
 
     # --- gymnasium API ---------------------------------------------------------------------
@@ -159,10 +189,17 @@ class VecEnv(gym.vector.VectorEnv):
                 raise ValueError(f"reset_mask: expected a bool array of shape ({self.num_envs},), got {mask.dtype} {mask.shape}")
             if seed is not None:
                 raise ValueError("reset: pass either seed (full reset) or reset_mask, not both")
+            if not mask.any():
+                raise ValueError("reset_mask selects no environment")
+            self._close_episodes(mask)
             self._core.reset_mask(mask, self._obs)
+            self._pending[mask] = False
         else:
+            self._close_episodes(np.ones(self.num_envs, bool))
             self._core.reset_all(seed, self._obs)
+            self._pending[:] = False
         self._final_mask[:] = False
+        self._reset_rows[:] = False
         return self._out(self._obs), self._info(step=False)
 
     def step(self, actions):
@@ -176,19 +213,45 @@ class VecEnv(gym.vector.VectorEnv):
                 raise ValueError(f"actions: expected {self.num_envs} integer choices, shape ({self.num_envs},), got {a.shape}")
             if not np.issubdtype(a.dtype, np.integer) or a.min() < 0 or a.max() >= k:
                 raise ValueError(f"actions: expected integer choices in 0..{k}, got dtype {a.dtype} with values {a.min()}..{a.max()}")
-            a = np.ascontiguousarray(a.reshape(self.num_envs, 1), dtype=np.float32)
-            self._core.step(a, self._obs, self._rew, self._term, self._trunc, self._final_obs, self._final_mask)
-            return self._out(self._obs), self._out(self._rew), self._out(self._term), self._out(self._trunc), self._info(step=True)
+            return self._step_core(np.ascontiguousarray(a.reshape(self.num_envs, 1), dtype=np.float32))
         if a.shape != (self.num_envs, self.single_action_space.shape[0]):
             raise ValueError(f"actions: expected shape {(self.num_envs, self.single_action_space.shape[0])}, got {a.shape}")
         if not np.issubdtype(a.dtype, np.floating):
             raise ValueError(f"actions: expected a float array, got dtype {a.dtype}")
-        a = np.ascontiguousarray(a, dtype=np.float32)
+        return self._step_core(np.ascontiguousarray(a, dtype=np.float32))
+
+    def _step_core(self, a: np.ndarray):
+        mode = self.metadata["autoreset_mode"]
+        p = self._pending.copy() if mode == AutoresetMode.NEXT_STEP else np.zeros(self.num_envs, bool)
+        if p.any():
+            # NEXT_STEP: the finished environments are stepped once more with the batch (their
+            # result is discarded), then reset from their own start streams; the reset overwrites
+            # the whole simulation and task state, so the outcome equals not stepping them
+            self._close_episodes(p)
         self._core.step(a, self._obs, self._rew, self._term, self._trunc, self._final_obs, self._final_mask)
+        if p.any():
+            self._core.reset_mask(p, self._obs)
+            self._rew[p] = 0.0
+            self._term[p] = False
+            self._trunc[p] = False
+        self._reset_rows[:] = p
+        if mode != AutoresetMode.SAME_STEP:
+            self._unclosed[:] = self._term | self._trunc
+        if mode == AutoresetMode.NEXT_STEP:
+            self._pending[:] = self._term | self._trunc
         return self._out(self._obs), self._out(self._rew), self._out(self._term), self._out(self._trunc), self._info(step=True)
 
+    def _close_episodes(self, rows: np.ndarray) -> None:
+        """End-of-episode bookkeeping of the ended episodes among ``rows`` before they reset."""
+        m = rows & self._unclosed
+        if m.any():
+            self._core.end_episodes(m)
+        self._unclosed[rows] = False
+
     def render(self):
-        """RGB frames (``uint8 (H, W, 3)``) of the environments in ``render_env_ids``."""
+        """RGB frames (``uint8 (H, W, 3)``), one per environment of ``render_env_ids`` (default:
+        every environment, gymnasium's vector convention that its vector ``RecordVideo`` /
+        ``HumanRendering`` wrappers expect; set ``render_env_ids = (0,)`` to render one)."""
         self._check_open()
         if self.render_mode != "rgb_array":
             return None
@@ -196,16 +259,23 @@ class VecEnv(gym.vector.VectorEnv):
 
         from .render import make_renderer, render_state
 
-        if self._renderer is None:
-            self._render_model = mujoco.MjModel.from_xml_string(self.mjcf_xml)
-            self._renderer = make_renderer(self._render_model)
-        return tuple(render_state(self._renderer, self._render_model, *self.get_state(i)) for i in self.render_env_ids)
+        ids = range(self.num_envs) if self.render_env_ids is None else self.render_env_ids
+        frames = []
+        for i in ids:
+            # tasks with object variants have one scene per variant
+            xml = self.mjcf_xml_of(i)
+            if xml not in self._renderers:
+                model = mujoco.MjModel.from_xml_string(xml)
+                self._renderers[xml] = (model, make_renderer(model))
+            model, renderer = self._renderers[xml]
+            frames.append(render_state(renderer, model, *self.get_state(i)))
+        return tuple(frames)
 
     def close(self, **kwargs) -> None:
         """Release the simulation; later calls raise ``RuntimeError``."""
-        if self._renderer is not None:
-            self._renderer.close()
-            self._renderer = None
+        for _, renderer in self._renderers.values():
+            renderer.close()
+        self._renderers.clear()
         if not self.closed:
             self._core.close()
         self.closed = True
@@ -366,19 +436,31 @@ class VecEnv(gym.vector.VectorEnv):
             for k in ("clip", "ref_frame", "progress", "skill"):
                 info[k], info["_" + k] = ep[k], every
         if step:
-            # columns: reward_term_names, contact_graph_names (task info), frame_metric_names
-            info["reward_terms"], info["_reward_terms"] = self._core.reward_terms(), every
+            # columns: reward_term_names, contact_graph_names (task info), frame_metric_names;
+            # rows an automatic NEXT_STEP reset took this step carry no step result
+            stepped = ~self._reset_rows
+            res: dict[str, np.ndarray] = {"reward_terms": self._core.reward_terms()}
             if self._core.cg_names and self._core.task == "imitation":
-                info["contact_graph"], info["_contact_graph"] = self.contact_graph(), every
+                res["contact_graph"] = self.contact_graph()
             elif self._core.cg_names:
-                info["task_info"], info["_task_info"] = self.task_info(), every
-            info["frame_metrics"], info["_frame_metrics"] = self._core.frame_metrics(), every
+                res["task_info"] = self.task_info()
+            res["frame_metrics"] = self._core.frame_metrics()
+            for k, v in res.items():
+                v[self._reset_rows] = 0
+                info[k], info["_" + k] = v, stepped.copy()
             if self.metadata["autoreset_mode"] == AutoresetMode.SAME_STEP and self._final_mask.any():
+                fm = self._final_mask.copy()
                 final = np.empty(n, dtype=object)
-                for i in np.flatnonzero(self._final_mask):
+                for i in np.flatnonzero(fm):
                     final[i] = self._final_obs[i].copy()
-                info["final_obs"], info["_final_obs"] = final, self._final_mask.copy()
+                info["final_obs"], info["_final_obs"] = final, fm
                 info["final_obs_dense"] = self._final_obs.copy()
+                # the terminal step's reward terms and frame metrics (the reset leaves those rows;
+                # the task information rows above already describe the new episode)
+                info["final_info"] = {}
+                for key in ("reward_terms", "frame_metrics"):
+                    info["final_info"][key], info["final_info"]["_" + key] = res[key].copy(), fm.copy()
+                info["_final_info"] = fm.copy()
         return info
 
     def __del__(self):

@@ -75,12 +75,24 @@ pub(crate) fn rows(buf: &mut [f32], n: usize, width: usize) -> impl IndexedParal
     }
 }
 
+/// The random streams of episode starts of `n` environments: environment `i` draws from its own
+/// ChaCha8 stream seeded `seed + i` (wrapping). This is gymnasium's convention for a vector
+/// environment reset with `seed` (sub-environment `i` gets `seed + i`), so a batch of `n`
+/// environments plans the same episodes as `n` single environments seeded `seed`, `seed + 1`, …,
+/// whatever the autoreset mode, the order of resets or the thread count. (A task with state
+/// shared across environments, such as SkillMimic-V2's adaptive trajectory sampling, still couples
+/// them through that state.)
+pub fn env_streams(seed: u64, n: usize) -> Vec<ChaCha8Rng> {
+    (0..n as u64).map(|i| ChaCha8Rng::seed_from_u64(seed.wrapping_add(i))).collect()
+}
+
 /// The batched environment of task `T`.
 pub struct VecEnv<T: Task> {
     pub(crate) task: T,
     pub(crate) slots: Vec<T::Slot>,
     sim: BatchSim,
-    rng: ChaCha8Rng,
+    /// One stream of episode starts per environment ([`env_streams`]).
+    rngs: Vec<ChaCha8Rng>,
     buf: StepBuffers,
     autoreset: bool,
     reset_mask: Vec<bool>,
@@ -102,7 +114,7 @@ impl<T: Task> VecEnv<T> {
             task,
             slots,
             sim,
-            rng: ChaCha8Rng::seed_from_u64(seed),
+            rngs: env_streams(seed, n),
             buf,
             autoreset: false,
             reset_mask: vec![false; n],
@@ -171,7 +183,7 @@ impl<T: Task> VecEnv<T> {
     /// Reseed (if `seed` is given) and reset every environment.
     pub fn reset_all(&mut self, seed: Option<u64>) {
         if let Some(s) = seed {
-            self.rng = ChaCha8Rng::seed_from_u64(s);
+            self.rngs = env_streams(s, self.num_envs());
         }
         let mask = vec![true; self.num_envs()];
         self.reset_envs(&mask);
@@ -183,7 +195,7 @@ impl<T: Task> VecEnv<T> {
         for (i, &m) in mask.iter().enumerate() {
             self.reset_mask[i] = m;
             if m {
-                self.task.plan_reset(i, &mut self.slots[i], &mut self.rng, &mut self.reset_states[i]);
+                self.task.plan_reset(i, &mut self.slots[i], &mut self.rngs[i], &mut self.reset_states[i]);
             }
         }
         self.apply_resets(true);
@@ -198,7 +210,7 @@ impl<T: Task> VecEnv<T> {
             if done {
                 any = true;
                 self.task.end_episode(i, &self.slots[i]);
-                self.task.plan_reset(i, &mut self.slots[i], &mut self.rng, &mut self.reset_states[i]);
+                self.task.plan_reset(i, &mut self.slots[i], &mut self.rngs[i], &mut self.reset_states[i]);
             }
         }
         if any {
@@ -288,7 +300,7 @@ impl<T: Task> VecEnv<T> {
                 for i in 0..n {
                     if self.reset_mask[i] {
                         self.task.end_episode(i, &self.slots[i]);
-                        self.task.plan_reset(i, &mut self.slots[i], &mut self.rng, &mut self.reset_states[i]);
+                        self.task.plan_reset(i, &mut self.slots[i], &mut self.rngs[i], &mut self.reset_states[i]);
                     }
                 }
                 // the flags describe the finished step: keep them
@@ -315,6 +327,11 @@ pub trait Env: Send + Sync {
     fn reset_all(&mut self, seed: Option<u64>);
     fn reset_envs(&mut self, mask: &[bool]);
     fn reset_done(&mut self);
+    /// Close the episodes of the environments in `mask` without resetting them: the task's
+    /// end-of-episode bookkeeping (SkillMimic-V2's ATS statistics), as `reset_done` and SAME_STEP
+    /// autoreset do before a reset. For callers that reset through
+    /// [`reset_envs`](Env::reset_envs) (gymnasium's NEXT_STEP and DISABLED modes).
+    fn end_episodes(&mut self, _mask: &[bool]) {}
     fn set_autoreset(&mut self, on: bool);
     fn refresh_observations(&mut self);
     /// The SkillMimic humanoid batch (`None` for tasks of another character, e.g. TokenHSI's).
@@ -362,6 +379,11 @@ impl<T: Task> Env for VecEnv<T> {
     }
     fn reset_done(&mut self) {
         VecEnv::reset_done(self)
+    }
+    fn end_episodes(&mut self, mask: &[bool]) {
+        for (i, _) in mask.iter().enumerate().filter(|m| *m.1) {
+            self.task.end_episode(i, &self.slots[i]);
+        }
     }
     fn set_autoreset(&mut self, on: bool) {
         self.autoreset = on;

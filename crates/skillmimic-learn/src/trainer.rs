@@ -22,9 +22,11 @@
 //! `ppo.amp.enabled` adds the motion prior's style reward and discriminator ([`crate::amp_reward`]).
 //!
 //! Data-parallel ([`Trainer::with_collective`], [`crate::collective`]): `env.num_envs` is the
-//! total over all ranks; each rank steps its share ([`crate::shard`]) with its own streams of
-//! action noise and episode starts (rank 0's are those of a single process; rank r > 0 mixes r
-//! into the seeds), every rank computes the same minibatch order from `run.seed` and the
+//! total over all ranks; each rank steps its share ([`crate::shard`]): global environment g draws
+//! its episode starts from the stream `env.seed + g`, as in one process
+//! (`skillmimic_env::vec_env::env_streams`), so the ranks together plan exactly the episodes of a
+//! single process; the action noise has a stream per rank (rank 0's is a single process's, rank
+//! r > 0 mixes r into the seed); every rank computes the same minibatch order from `run.seed` and the
 //! iteration, and gradients and normaliser statistics are reduced so every rank takes the update
 //! one process would take on the same rollout. Only rank 0 reads a checkpoint to resume from; the
 //! state reaches the others by broadcast, so the world size may differ from the saving run's.
@@ -126,9 +128,8 @@ impl Trainer {
             ecfg.v2.history.encoder = cfg.env.v2.history.encoder.clone();
         }
         ecfg.num_envs = shard.local;
-        if rank > 0 {
-            ecfg.seed = Some(mix_seed(start_seed, rank as u64));
-        }
+        // global environment g (= shard.offset + local index) uses the episode stream seed + g
+        ecfg.seed = Some(start_seed.wrapping_add(shard.offset as u64));
         let mut env = registry::make(&ecfg)?;
         let (obs_dim, act_dim) = (env.obs_dim(), env.act_dim());
         let mut rng = ChaCha8Rng::seed_from_u64(cfg.run.seed);
@@ -176,9 +177,9 @@ impl Trainer {
             // resumed: continue with streams of random numbers that differ from the first run's
             let it = progress.iteration;
             let mut noise = cfg.run.seed ^ it.wrapping_mul(0x9e37_79b9_7f4a_7c15);
-            let mut starts = cfg.run.seed.wrapping_add(it);
+            let starts = cfg.run.seed.wrapping_add(it).wrapping_mul(0x9e37_79b9).wrapping_add(shard.offset as u64);
             if rank > 0 {
-                (noise, starts) = (mix_seed(noise, rank as u64), mix_seed(starts, rank as u64));
+                noise = mix_seed(noise, rank as u64);
             }
             rng = ChaCha8Rng::seed_from_u64(noise);
             env.reset_all(Some(starts));

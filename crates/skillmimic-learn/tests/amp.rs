@@ -191,7 +191,10 @@ fn two_ranks_take_the_single_process_discriminator_step() {
     let dp = worst(&single.mlp.params(), &ranks[0].mlp.params());
     let dm = single.norm.mean.iter().zip(&ranks[0].norm.mean).map(|(a, b)| (a - b).abs()).fold(0.0f64, f64::max);
     println!("2 ranks vs 1 process after 3 steps: max |d param| {dp:.2e}, max |d norm mean| {dm:.2e}");
-    assert!(dp < 1e-5 && dm < 1e-9, "{dp} {dm}");
+    // float32 sums in another order differ by rounding; Adam divides by sqrt(v), so a gradient
+    // component near zero turns rounding into up to ~lr per step: 5e-5 = lr / 20 after 3 steps
+    // (measured 2e-6 to 2e-5 depending on the episode starts); a wrong reduction moves by ~lr
+    assert!(dp < 5e-5 && dm < 1e-9, "{dp} {dm}");
 }
 
 /// The motion prior in a 2-rank training run: the ranks' discriminators stay equal, the style

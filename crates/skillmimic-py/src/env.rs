@@ -157,6 +157,15 @@ impl CoreEnv {
         copy_obs(env.as_ref(), obs_out)
     }
 
+    /// Close the episodes of the environments where `mask` is true (the task's end-of-episode
+    /// bookkeeping, e.g. SkillMimic-V2's ATS) before `reset_mask` resets them.
+    fn end_episodes(&mut self, mask: PyReadonlyArray1<'_, bool>) -> PyResult<()> {
+        let env = self.env_mut()?;
+        check_shape("end_episodes mask", mask.shape(), &[env.num_envs()])?;
+        env.end_episodes(mask.as_slice().map_err(value_error)?);
+        Ok(())
+    }
+
     /// One policy step for all environments. Outputs are written into the given buffers.
     #[allow(clippy::too_many_arguments)]
     fn step(

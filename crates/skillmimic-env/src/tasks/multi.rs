@@ -71,7 +71,7 @@ pub fn build(cfg: &EnvConfig) -> Result<Box<dyn Env>, EnvError> {
 
 impl MultiEnv {
     /// Build every task's sub-batch (environment counts from `env.multi.mix`; sub-batch k's
-    /// episode starts seeded with `start_seed(0) + k`) and lay out the combined observation.
+    /// episode starts of batch row r seeded with `start_seed(0) + r`) and lay out the combined observation.
     pub fn new(cfg: &EnvConfig) -> Result<Self, EnvError> {
         let m = &cfg.multi;
         let (tasks, mix) = m.effective(&cfg.task);
@@ -93,7 +93,8 @@ impl MultiEnv {
             let mut c = cfg.clone();
             c.task = task.clone();
             c.num_envs = n;
-            c.seed = Some(base_seed.wrapping_add(k as u64));
+            // row r of the batch draws from the stream `seed + r`, as in one task's batch
+            c.seed = Some(base_seed.wrapping_add(counts[..k].iter().sum::<usize>() as u64));
             envs.push(registry::make(&c)?);
         }
         let first = envs[0].spec().clone();
@@ -259,8 +260,8 @@ impl Env for MultiEnv {
         Ok(())
     }
     fn reset_all(&mut self, seed: Option<u64>) {
-        for (k, s) in self.subs.iter_mut().enumerate() {
-            s.env.reset_all(seed.map(|x| x.wrapping_add(k as u64)));
+        for s in self.subs.iter_mut() {
+            s.env.reset_all(seed.map(|x| x.wrapping_add(s.start as u64)));
         }
         self.gather();
     }
@@ -276,6 +277,12 @@ impl Env for MultiEnv {
             s.env.reset_done();
         }
         self.gather();
+    }
+    fn end_episodes(&mut self, mask: &[bool]) {
+        for s in self.subs.iter_mut() {
+            let n = s.env.num_envs();
+            s.env.end_episodes(&mask[s.start..s.start + n]);
+        }
     }
     fn set_autoreset(&mut self, on: bool) {
         for s in self.subs.iter_mut() {

@@ -28,7 +28,8 @@ pub struct HsiVecEnv<T: HsiTask> {
     task: T,
     slots: Vec<Slot<T::Goal>>,
     sim: HsiBatch,
-    rng: ChaCha8Rng,
+    /// One stream of episode starts per environment (`crate::vec_env::env_streams`).
+    rngs: Vec<ChaCha8Rng>,
     buf: StepBuffers,
     autoreset: bool,
     reset_mask: Vec<bool>,
@@ -53,7 +54,7 @@ impl<T: HsiTask> HsiVecEnv<T> {
             task,
             slots: vec![Slot::default(); n],
             sim,
-            rng: ChaCha8Rng::seed_from_u64(seed),
+            rngs: crate::vec_env::env_streams(seed, n),
             buf,
             autoreset: false,
             reset_mask: vec![false; n],
@@ -77,7 +78,7 @@ impl<T: HsiTask> HsiVecEnv<T> {
     fn plan(&mut self, i: usize) {
         let scene = Arc::clone(self.sim.scene(i));
         let slot = &mut self.slots[i];
-        self.task.plan(&scene, &mut self.rng, &mut self.reset_states[i], &mut slot.goal);
+        self.task.plan(&scene, &mut self.rngs[i], &mut self.reset_states[i], &mut slot.goal);
     }
 
     fn apply_resets(&mut self, clear_flags: bool) {
@@ -183,7 +184,7 @@ impl<T: HsiTask> Env for HsiVecEnv<T> {
     }
     fn reset_all(&mut self, seed: Option<u64>) {
         if let Some(s) = seed {
-            self.rng = ChaCha8Rng::seed_from_u64(s);
+            self.rngs = crate::vec_env::env_streams(s, self.slots.len());
         }
         let mask = vec![true; self.slots.len()];
         self.reset_envs(&mask);
