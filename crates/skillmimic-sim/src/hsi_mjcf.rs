@@ -97,13 +97,14 @@ pub fn hsi_scene_xml(objects: &[HsiObject]) -> String {
         "  </default>\n",
         "  <asset>\n",
         "    <texture name=\"grid\" type=\"2d\" builtin=\"checker\" rgb1=\"0.22 0.24 0.26\" rgb2=\"0.3 0.32 0.34\" width=\"512\" height=\"512\"/>\n",
-        "    <material name=\"grid\" texture=\"grid\" texrepeat=\"8 8\" texuniform=\"true\" reflectance=\"0.1\"/>\n",
+        "    <material name=\"grid\" texture=\"grid\" texrepeat=\"8 8\" texuniform=\"true\" reflectance=\"0\"/>\n",
         "    <material name=\"body\" rgba=\"0.55 0.62 0.78 1\"/>\n",
         "  </asset>\n",
         "  <worldbody>\n",
-        "    <light name=\"sun\" directional=\"true\" pos=\"0 0 5\" dir=\"-0.3 0.2 -1\" diffuse=\"0.6 0.6 0.6\"/>\n",
+        "    <light name=\"sun\" directional=\"true\" pos=\"0 0 5\" dir=\"-0.3 0.2 -1\" diffuse=\"0.35 0.35 0.35\" castshadow=\"false\"/>\n",
+        "    <light name=\"key\" mode=\"trackcom\" pos=\"1.8 -1.2 6\" dir=\"-0.3 0.2 -1\" cutoff=\"70\" exponent=\"1\" diffuse=\"0.4 0.4 0.4\" castshadow=\"true\" bulbradius=\"0\"/>\n",
         "    <geom name=\"floor\" type=\"plane\" size=\"0 0 0.05\" condim=\"3\" friction=\"1 0.005 0.0001\" material=\"grid\"/>\n",
-        "    <camera name=\"side\" mode=\"trackcom\" pos=\"0 -4.5 1.4\" xyaxes=\"1 0 0 0 0.25 0.97\"/>\n",
+        "    <camera name=\"side\" mode=\"trackcom\" pos=\"0 -5.5 1.7\" xyaxes=\"1 0 0 0 0.09 0.996\"/>\n",
     ));
     let mut open: Vec<usize> = Vec::new();
     for (i, b) in BODIES.iter().enumerate() {
