@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -58,3 +60,23 @@ def test_rsl_rl_runner_runs_a_few_iterations(tmp_path):
     assert obs["policy"].shape == (4, 902) and dones.dtype == torch.long
     assert "time_outs" in extras and "reward_total" in extras["log"]
     env.close()
+
+
+def test_adapters_warn_about_exploration_too_wide_for_the_reward():
+    """SB3's / rsl_rl's default action noise (σ ≈ 1) gets ~0 reward here and learns nothing: the
+    adapters warn after 64 steps; the paper's σ = 0.055 around zero actions does not warn."""
+    pytest.importorskip("stable_baselines3")
+    from skillmimic_rs.sb3 import Sb3VecEnv, ppo_recipe
+
+    assert ppo_recipe()["policy_kwargs"]["log_std_init"] == -2.9
+    rng = np.random.default_rng(0)
+    for sigma, warns in ((1.0, True), (0.055, False)):
+        venv = Sb3VecEnv(skillmimic_rs.VecEnv(num_envs=4, threads=2))
+        venv.reset()
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            for _ in range(64):
+                venv.step(np.clip(rng.normal(0, sigma, (4, 156)), -1, 1).astype(np.float32))
+        hits = [w for w in caught if "will not learn" in str(w.message)]
+        assert bool(hits) == warns, (sigma, [str(w.message) for w in caught])
+        venv.close()

@@ -11,12 +11,60 @@ from __future__ import annotations
 
 import os
 import pathlib
+import shutil
 
-import maturin
-from maturin import get_requires_for_build_sdist, get_requires_for_build_wheel  # noqa: F401
-from maturin import prepare_metadata_for_build_wheel, build_sdist  # noqa: F401
+# Never let maturin fetch a Rust toolchain behind the user's back (it would otherwise download
+# one into a temporary folder when cargo is missing, which looks like a hang), and silence its
+# warning that `build-backend` is not maturin: this file is the backend and calls maturin.
+os.environ.setdefault("MATURIN_NO_INSTALL_RUST", "1")
+os.environ.setdefault("MATURIN_NO_MISSING_BUILD_BACKEND_WARNING", "1")
+
+import maturin  # noqa: E402
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
+
+
+class RustMissing(RuntimeError):
+    """Raised when cargo is not on PATH."""
+
+
+def _require_cargo() -> None:
+    """Fail at once, naming Rust, when cargo is not on PATH (a source build needs it)."""
+    if shutil.which("cargo"):
+        return
+    hint = ""
+    home_cargo = pathlib.Path.home() / ".cargo" / "bin" / "cargo"
+    if home_cargo.exists():
+        hint = f" ({home_cargo} exists: run `. \"$HOME/.cargo/env\"` to put it on PATH)"
+    raise RustMissing(
+        "skillmimic-rs builds its Rust core from source and needs Rust (cargo) on PATH, which was not found"
+        f"{hint}. Install Rust from https://rustup.rs (then `. \"$HOME/.cargo/env\"`), or install a prebuilt "
+        "wheel instead: `pip install skillmimic_rs-*.whl` (build one once with `pip wheel . --no-deps -w dist` "
+        "on a machine with Rust; README, \"Install\")."
+    )
+
+
+def get_requires_for_build_wheel(config_settings=None):
+    _require_cargo()
+    return maturin.get_requires_for_build_wheel(config_settings)
+
+
+def get_requires_for_build_editable(config_settings=None):
+    _require_cargo()
+    return maturin.get_requires_for_build_editable(config_settings)
+
+
+def get_requires_for_build_sdist(config_settings=None):
+    return []  # an sdist is the source tree: no Rust needed to write it
+
+
+def prepare_metadata_for_build_wheel(metadata_directory, config_settings=None):
+    _require_cargo()
+    return maturin.prepare_metadata_for_build_wheel(metadata_directory, config_settings)
+
+
+def build_sdist(sdist_directory, config_settings=None):
+    return maturin.build_sdist(sdist_directory, config_settings)
 
 
 def _link_mujoco() -> None:
@@ -36,18 +84,18 @@ def _link_mujoco() -> None:
 
 
 def build_wheel(wheel_directory, config_settings=None, metadata_directory=None):
+    _require_cargo()
     _link_mujoco()
     return maturin.build_wheel(wheel_directory, config_settings, metadata_directory)
 
 
 def build_editable(wheel_directory, config_settings=None, metadata_directory=None):
+    _require_cargo()
     _link_mujoco()
     return maturin.build_editable(wheel_directory, config_settings, metadata_directory)
 
 
 def prepare_metadata_for_build_editable(metadata_directory, config_settings=None):
+    _require_cargo()
     return maturin.prepare_metadata_for_build_editable(metadata_directory, config_settings)
 
-
-def get_requires_for_build_editable(config_settings=None):
-    return maturin.get_requires_for_build_editable(config_settings)

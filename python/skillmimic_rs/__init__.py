@@ -7,6 +7,13 @@ Quick start::
     obs, info = env.reset(seed=0)
     obs, rew, term, trunc, info = env.step(env.action_space.sample())
 
+    summary = skillmimic_rs.train(preset="tiny", iterations=20, out="runs/a")   # the paper's PPO
+    report = skillmimic_rs.evaluate(summary["checkpoint"])                        # `skillmimic eval`
+
+The console command ``skillmimic`` (and ``python -m skillmimic_rs``) is the full command-line tool;
+``gymnasium.make_vec("SkillMimic-Imitation-v0", num_envs=16)`` and ``gymnasium.make(...)`` work
+after ``import skillmimic_rs`` (one id per task, ``skillmimic_rs.GYM_IDS``).
+
 ``mujoco`` (3.17.0) is imported first: the Rust extension uses the very same ``libmujoco`` that
 the ``mujoco`` package loaded. Without a display, ``MUJOCO_GL`` defaults to ``egl`` (headless
 rendering).
@@ -25,8 +32,11 @@ from . import _core  # noqa: E402
 from ._core import ACT_DIM, BUILTIN_DEMO, FRAME_METRIC_NAMES, HIGH_LEVEL_TASKS, OBS_DIM, POLICY_FAMILIES, TASKS, TERM_NAMES, core_version  # noqa: E402
 from .motion import register_generator  # noqa: E402
 from .vec_env import VecEnv, load_config  # noqa: E402
+from .api import cli, evaluate, play, train  # noqa: E402
+from .gym_env import GYM_IDS, SkillMimicEnv, gym_id, register as _register_gym  # noqa: E402
 
 __version__ = core_version()
+_register_gym()  # gymnasium.make("SkillMimic-Imitation-v0") / make_vec(..., num_envs=N)
 
 #: Observation blocks: name -> (start, stop) index range of the 902-wide observation (from the
 #: Rust core's ``obs::BLOCKS``, in observation order).
@@ -34,6 +44,13 @@ OBS_BLOCKS: dict[str, tuple[int, int]] = {name: (int(a), int(b)) for name, (a, b
 
 __all__ = [
     "VecEnv",
+    "train",
+    "evaluate",
+    "play",
+    "cli",
+    "SkillMimicEnv",
+    "GYM_IDS",
+    "gym_id",
     "load_config",
     "register_generator",
     "OBS_DIM",

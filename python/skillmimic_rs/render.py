@@ -16,6 +16,9 @@ import numpy as np
 
 def make_renderer(model: mujoco.MjModel, width: int = 640, height: int = 480) -> mujoco.Renderer:
     """An offscreen renderer; call ``close()`` on it when done."""
+    from ._gl import before_rendering
+
+    before_rendering()
     return mujoco.Renderer(model, height=height, width=width)
 
 
@@ -37,7 +40,10 @@ def write_video(frames: Sequence[np.ndarray] | Iterable[np.ndarray], path: str |
     if not frames:
         raise ValueError("write_video: no frames")
     if path.suffix == ".gif":
-        from PIL import Image
+        try:
+            from PIL import Image
+        except ImportError as e:  # pragma: no cover - depends on the optional extra
+            raise ImportError("GIF output needs Pillow (the video extra): pip install 'skillmimic-rs[video]'") from e
 
         images = [Image.fromarray(f) for f in frames]
         images[0].save(path, save_all=True, append_images=images[1:], duration=int(1000 / fps), loop=0)

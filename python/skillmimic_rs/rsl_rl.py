@@ -15,7 +15,24 @@ import torch
 from rsl_rl.env import VecEnv as _RslVecEnv
 from tensordict import TensorDict
 
+from ._explore import ExplorationCheck
 from .vec_env import VecEnv, _MODES
+
+
+def runner_recipe() -> dict:
+    """A fresh copy of the README's rsl_rl recipe: an ``OnPolicyRunner`` config (rsl-rl-lib 5) with
+    the paper's fixed action noise σ = e^-2.9 ≈ 0.055, ReLU MLPs [512, 256], learning rate 1e-4."""
+    return {
+        "num_steps_per_env": 32,
+        "save_interval": 100000,
+        "obs_groups": {"actor": ["policy"], "critic": ["policy"]},
+        "algorithm": {"class_name": "PPO", "num_learning_epochs": 5, "num_mini_batches": 4, "learning_rate": 1e-4,
+                      "schedule": "fixed", "entropy_coef": 0.0, "gamma": 0.99, "lam": 0.95, "clip_param": 0.2},
+        "actor": {"class_name": "MLPModel", "hidden_dims": [512, 256], "activation": "relu",
+                  "distribution_cfg": {"class_name": "GaussianDistribution", "init_std": 0.055}},
+        "critic": {"class_name": "MLPModel", "hidden_dims": [512, 256], "activation": "relu"},
+        "multi_gpu": None,
+    }
 
 
 class RslRlVecEnv(_RslVecEnv):
@@ -33,6 +50,7 @@ class RslRlVecEnv(_RslVecEnv):
         obs, _ = env.reset()
         self._obs = self._wrap(obs)
         self.episode_length_buf = torch.zeros(self.num_envs, dtype=torch.long, device=self.device)
+        self._explore = ExplorationCheck("RslRlVecEnv", "actor distribution_cfg init_std=0.055, see skillmimic_rs.rsl_rl.runner_recipe()")
 
     def _wrap(self, obs: np.ndarray) -> TensorDict:
         t = torch.as_tensor(obs, device=self.device)
@@ -44,6 +62,7 @@ class RslRlVecEnv(_RslVecEnv):
     def step(self, actions: torch.Tensor):
         a = actions.detach().to("cpu", torch.float32).numpy()
         obs, rew, term, trunc, info = self.env.step(a)
+        self._explore.observe(a, rew)
         self._obs = self._wrap(obs)
         dones = torch.as_tensor(term | trunc, device=self.device).long()
         self.episode_length_buf += 1

@@ -13,7 +13,27 @@ from typing import Any, Sequence
 import numpy as np
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv as _Sb3VecEnv
 
+from ._explore import ExplorationCheck
 from .vec_env import VecEnv, _MODES
+
+
+def ppo_recipe() -> dict[str, Any]:
+    """The PPO settings that learn on SkillMimic's reward, as keyword arguments of
+    ``stable_baselines3.PPO`` (``PPO("MlpPolicy", venv, **ppo_recipe())``; measured in the README):
+    the paper's fixed action noise log σ = -2.9, ReLU MLPs [512, 256], learning rate 1e-4. A fresh
+    copy on every call."""
+    import torch
+
+    return dict(
+        n_steps=32,
+        batch_size=512,
+        n_epochs=5,
+        learning_rate=1e-4,
+        gamma=0.99,
+        gae_lambda=0.95,
+        clip_range=0.2,
+        policy_kwargs=dict(log_std_init=-2.9, net_arch=dict(pi=[512, 256], vf=[512, 256]), activation_fn=torch.nn.ReLU),
+    )
 
 
 class Sb3VecEnv(_Sb3VecEnv):
@@ -25,6 +45,7 @@ class Sb3VecEnv(_Sb3VecEnv):
         self.env = env
         self._actions: np.ndarray | None = None
         self._seed: int | None = None
+        self._explore = ExplorationCheck("Sb3VecEnv", "policy_kwargs=dict(log_std_init=-2.9), see skillmimic_rs.sb3.ppo_recipe()")
         super().__init__(env.num_envs, env.single_observation_space, env.single_action_space)
 
     def reset(self) -> np.ndarray:
@@ -38,6 +59,7 @@ class Sb3VecEnv(_Sb3VecEnv):
 
     def step_wait(self):
         obs, rew, term, trunc, info = self.env.step(self._actions)
+        self._explore.observe(self._actions, rew)
         dones = term | trunc
         infos: list[dict[str, Any]] = [{} for _ in range(self.num_envs)]
         for i in np.flatnonzero(dones):

@@ -55,6 +55,15 @@ impl RunHook for VideoHook {
     }
 }
 
+/// The end-of-run artefacts of `skillmimic train` besides the runner's own (checkpoint, log,
+/// metrics, summary): `curve.png` and, unless `run.final_video` is off, `video.gif`. The Python
+/// trainer (`skillmimic_rs.train`, `python -m skillmimic_rs.train`) adds the same hooks.
+pub fn with_artefact_hooks(runner: Runner) -> Runner {
+    let video = runner.trainer.cfg.run.final_video;
+    let runner = runner.hook(Box::new(CurveHook));
+    if video { runner.hook(Box::new(VideoHook)) } else { runner }
+}
+
 fn progress_bar(total: u64, done: u64) -> Option<ProgressBar> {
     if !std::io::stderr().is_terminal() {
         return None;
@@ -99,10 +108,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     );
     let pb = progress_bar(cfg.run.iterations as u64, trainer.progress.iteration);
     let every = (cfg.run.iterations / 20).max(1) as u64;
-    let mut runner = Runner::new(trainer).hook(Box::new(CurveHook));
-    if cfg.run.final_video {
-        runner = runner.hook(Box::new(VideoHook));
-    }
+    let mut runner = with_artefact_hooks(Runner::new(trainer));
     let summary = runner.run(|s| match &pb {
         Some(pb) => {
             pb.set_position(s.iteration);

@@ -1,9 +1,13 @@
-//! `skillmimic`: the command-line tool of skillmimic-rs.
+//! `skillmimic`: the command-line tool of skillmimic-rs, as a library.
 //!
-//! Every subcommand lives in its own module; user mistakes end with a one-line `error:` message
-//! and exit code 1 (no backtrace).
+//! [`run`] is the whole tool: the cargo-built binary (`src/main.rs`) and the Python package's
+//! `skillmimic` command and `python -m skillmimic_rs` (through `skillmimic_rs._core.cli_main`) call
+//! it, so every way of installing gives the same command. Every subcommand lives in its own
+//! module; user mistakes end with a one-line `error:` message and exit code 1 (no backtrace).
 
-use std::process::ExitCode;
+use std::ffi::OsString;
+
+pub use cmd_train::with_artefact_hooks;
 
 use clap::{Parser, Subcommand};
 
@@ -79,25 +83,40 @@ enum Command {
 /// Keep freed large blocks in the process instead of returning them to the kernel: candle
 /// allocates fresh multi-megabyte tensors for every operation, and with glibc's defaults each of
 /// them is a new mmap whose pages fault in again (measured on history pre-training: 4.6 s of
-/// 8.8 s were kernel time; with these settings 0.4 s, 1.3–1.4x faster overall).
-fn tune_allocator() {
+/// 8.8 s were kernel time; with these settings 0.4 s, 1.3–1.4x faster overall). The binary calls
+/// it first thing; in Python it runs when the first command starts (mallopt is thread-safe).
+pub fn tune_allocator() {
     #[cfg(all(target_os = "linux", target_env = "gnu"))]
-    // SAFETY: mallopt only changes allocator thresholds; called before any other thread exists.
+    // SAFETY: mallopt only changes allocator thresholds.
     unsafe {
         libc::mallopt(libc::M_MMAP_THRESHOLD, 32 << 20);
         libc::mallopt(libc::M_TRIM_THRESHOLD, 1 << 30);
     }
 }
 
-fn main() -> ExitCode {
-    tune_allocator();
-    tracing_subscriber::fmt()
+/// Run the tool on `args` (the program name first, as in `std::env::args_os`) and return the exit
+/// code: 0 on success (also for `--help` / `--version`), 1 with an `error:` line on stderr for a
+/// failed command, 2 for a usage error (clap's message on stderr). Never exits the process itself,
+/// so a Python caller keeps control.
+pub fn run<I, T>(args: I) -> i32
+where
+    I: IntoIterator<Item = T>,
+    T: Into<OsString> + Clone,
+{
+    // a second call in one process (Python) keeps the subscriber of the first
+    let _ = tracing_subscriber::fmt()
         .with_env_filter(
             tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info")),
         )
         .with_target(false)
-        .init();
-    let cli = Cli::parse();
+        .try_init();
+    let cli = match Cli::try_parse_from(args) {
+        Ok(c) => c,
+        Err(e) => {
+            let _ = e.print();
+            return if e.use_stderr() { 2 } else { 0 };
+        }
+    };
     let result = match cli.command {
         Command::Train(a) => cmd_train::run(a),
         Command::Eval(a) => cmd_policy::eval(a),
@@ -117,10 +136,10 @@ fn main() -> ExitCode {
         Command::Config(c) => cmd_config::run(c),
     };
     match result {
-        Ok(()) => ExitCode::SUCCESS,
+        Ok(()) => 0,
         Err(e) => {
             eprintln!("error: {e:#}");
-            ExitCode::FAILURE
+            1
         }
     }
 }

@@ -172,6 +172,10 @@ pub enum StateInit {
     Frame(usize),
 }
 
+/// Motion source name of the built-in demo clips (the clips of `motions/`, synthesised in memory;
+/// loaded by `tasks::imitation::load_motion_library`); the default of `env.motion`.
+pub const BUILTIN_DEMO: &str = "builtin:demo";
+
 /// Environment configuration.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
@@ -180,7 +184,9 @@ pub struct EnvConfig {
     /// driver's keys and, for historical reasons, the imitation task's; every other task has its
     /// own `[env.<task>]` table.
     pub task: String,
-    /// Clip files or folders (searched recursively for `.pt` and `.safetensors`).
+    /// Clip files or folders (searched recursively for `.pt` and `.safetensors`); the entry
+    /// "builtin:demo" (the default) stands for the built-in demo clips (the same clips as the
+    /// repository's `motions/`), so the default works from any working directory.
     #[schemars(extend("items" = {"type": "string", "format": "path"}))]
     pub motion: Vec<PathBuf>,
     /// Number of parallel environments.
@@ -237,7 +243,7 @@ pub struct EnvConfig {
 impl Default for EnvConfig {
     fn default() -> Self {
         Self {
-            motion: vec![PathBuf::from("motions")],
+            motion: vec![PathBuf::from(BUILTIN_DEMO)],
             num_envs: 64,
             threads: 0,
             hands: "full".into(),

@@ -20,6 +20,16 @@ mod train;
 // convert.rs: argument checks and array helpers shared by them; generator.rs: Python clip
 // generators of active skill learning
 
+/// Run the `skillmimic` command-line tool in this process (`argv` without the program name) with
+/// the GIL released; returns its exit code (0 ok, 1 failed command, 2 usage error). The console
+/// command `skillmimic` and `python -m skillmimic_rs` call this, so the pip-installed command is
+/// the cargo-built one.
+#[pyfunction]
+fn cli_main(py: Python<'_>, argv: Vec<String>) -> i32 {
+    let args: Vec<String> = std::iter::once("skillmimic".to_string()).chain(argv).collect();
+    py.detach(|| skillmimic_cli::run(args))
+}
+
 /// Version of the Rust core.
 #[pyfunction]
 fn core_version() -> &'static str {
@@ -34,6 +44,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<learner::HistoryEncoder>()?;
     m.add_class::<train::PyTrainer>()?;
     m.add_function(wrap_pyfunction!(core_version, m)?)?;
+    m.add_function(wrap_pyfunction!(cli_main, m)?)?;
     m.add_function(wrap_pyfunction!(learner::ppo_loss_and_grads, m)?)?;
     m.add_function(wrap_pyfunction!(learner::init_policy, m)?)?;
     m.add_function(wrap_pyfunction!(nn::transformer_encoder_layer, m)?)?;

@@ -138,7 +138,13 @@ impl PyTrainer {
     #[pyo3(signature = (on_iteration = None))]
     fn run(&mut self, py: Python<'_>, on_iteration: Option<Py<PyAny>>) -> PyResult<Option<String>> {
         let trainer = self.trainer.take().ok_or_else(|| PyRuntimeError::new_err("the trainer is in use"))?;
-        let mut runner = Runner::new(trainer);
+        if trainer.cfg.run.final_video {
+            // the end-of-training video starts EGL in this process: keep a later `import triton`
+            // safe (skillmimic_rs/_gl.py); failing to do so must not stop training
+            let _ = py.import("skillmimic_rs._gl").and_then(|m| m.call_method0("before_rendering"));
+        }
+        // the artefacts of `skillmimic train` (curve, video) besides checkpoint, log and summary
+        let mut runner = skillmimic_cli::with_artefact_hooks(Runner::new(trainer));
         let mut stop: Option<PyErr> = None;
         let result = py.detach(|| {
             runner.run_until(|s| {

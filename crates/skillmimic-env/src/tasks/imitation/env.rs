@@ -21,8 +21,7 @@ use crate::v2::graph::StitchGraph;
 use crate::v2::history::{HistoryEncoder, reference_features};
 use crate::vec_env::VecEnv;
 
-/// Motion source name of the built-in demo clips (the clips of `motions/`, synthesised in memory).
-pub const BUILTIN_DEMO: &str = "builtin:demo";
+pub use crate::config::BUILTIN_DEMO;
 
 /// Load a motion library from clip files/folders; the entry `builtin:demo` stands for the
 /// procedurally synthesised demo clips (identical to the shipped `motions/` files).

@@ -1,0 +1,9 @@
+//! `skillmimic`: the command-line tool of skillmimic-rs (the whole tool is the library's
+//! [`skillmimic_cli::run`], shared with the Python package's `skillmimic` command).
+
+use std::process::ExitCode;
+
+fn main() -> ExitCode {
+    skillmimic_cli::tune_allocator();
+    ExitCode::from(skillmimic_cli::run(std::env::args_os()) as u8)
+}
