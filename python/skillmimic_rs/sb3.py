@@ -19,21 +19,41 @@ from .vec_env import VecEnv, _MODES
 
 def ppo_recipe() -> dict[str, Any]:
     """The PPO settings that learn on SkillMimic's reward, as keyword arguments of
-    ``stable_baselines3.PPO`` (``PPO("MlpPolicy", venv, **ppo_recipe())``; measured in the README):
-    the paper's fixed action noise log σ = -2.9, ReLU MLPs [512, 256], learning rate 1e-4. A fresh
-    copy on every call."""
+    ``stable_baselines3.PPO`` (measured in the README): the `tiny` preset's PPO (ReLU MLPs
+    [256, 128], horizon 16, minibatch 128, 2 epochs, learning rate 3e-5, gamma 0.99, lambda 0.95,
+    clip 0.2) and the paper's action noise log σ = -2.9. Use it through :func:`recipe_model`,
+    which adds the two parts keyword arguments cannot express. A fresh copy on every call."""
     import torch
 
     return dict(
-        n_steps=32,
-        batch_size=512,
-        n_epochs=5,
-        learning_rate=1e-4,
+        n_steps=16,
+        batch_size=128,
+        n_epochs=2,
+        learning_rate=3e-5,
         gamma=0.99,
         gae_lambda=0.95,
         clip_range=0.2,
-        policy_kwargs=dict(log_std_init=-2.9, net_arch=dict(pi=[512, 256], vf=[512, 256]), activation_fn=torch.nn.ReLU),
+        ent_coef=0.0,
+        policy_kwargs=dict(log_std_init=-2.9, net_arch=dict(pi=[256, 128], vf=[256, 128]), activation_fn=torch.nn.ReLU),
     )
+
+
+def recipe_model(env: VecEnv, seed: int = 0, **overrides: Any):
+    """SB3 PPO on ``env`` with the recipe: :func:`ppo_recipe` (``overrides`` replace entries),
+    observations normalised by running mean / std clipped at 5 (``VecNormalize``, rewards left
+    as they are; ``VecMonitor`` inside it logs raw episode returns), and the action noise fixed
+    at σ = e^-2.9 as in the paper (SB3 would otherwise learn log σ). Returns the ``PPO`` model;
+    its environment is ``model.get_env()`` (call ``.normalize_obs`` on raw observations to act
+    with ``model.predict`` elsewhere)."""
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
+
+    kw = dict(ppo_recipe(), **overrides)
+    venv = VecNormalize(VecMonitor(Sb3VecEnv(env)), norm_obs=True, norm_reward=False, clip_obs=5.0, gamma=kw["gamma"])
+    venv.seed(seed)
+    model = PPO("MlpPolicy", venv, seed=seed, **kw)
+    model.policy.log_std.requires_grad_(False)  # fixed σ: Adam skips a parameter without gradient
+    return model
 
 
 class Sb3VecEnv(_Sb3VecEnv):
