@@ -171,6 +171,7 @@ class VecEnv(gym.vector.VectorEnv):
         self._pending = np.zeros(n, bool)
         self._reset_rows = np.zeros(n, bool)
         self._renderers: dict[str, tuple[Any, Any]] = {}  # scene XML -> (MjModel, Renderer)
+        self._render_of: dict[int, tuple[Any, Any]] = {}  # environment -> its entry of _renderers
         self._mjcf_path: pathlib.Path | None = None
         #: environments ``render()`` draws (None: all, gymnasium's vector convention)
         self.render_env_ids: tuple[int, ...] | None = None
@@ -222,23 +223,26 @@ class VecEnv(gym.vector.VectorEnv):
 
     def _step_core(self, a: np.ndarray):
         mode = self.metadata["autoreset_mode"]
-        p = self._pending.copy() if mode == AutoresetMode.NEXT_STEP else np.zeros(self.num_envs, bool)
-        if p.any():
+        reset = mode == AutoresetMode.NEXT_STEP and bool(self._pending.any())
+        if reset:
             # NEXT_STEP: the finished environments are stepped once more with the batch (their
             # result is discarded), then reset from their own start streams; the reset overwrites
             # the whole simulation and task state, so the outcome equals not stepping them
+            p = self._pending.copy()
             self._close_episodes(p)
         self._core.step(a, self._obs, self._rew, self._term, self._trunc, self._final_obs, self._final_mask)
-        if p.any():
+        if reset:
             self._core.reset_mask(p, self._obs)
             self._rew[p] = 0.0
             self._term[p] = False
             self._trunc[p] = False
-        self._reset_rows[:] = p
+            self._reset_rows[:] = p
+        else:
+            self._reset_rows.fill(False)
         if mode != AutoresetMode.SAME_STEP:
-            self._unclosed[:] = self._term | self._trunc
+            np.logical_or(self._term, self._trunc, out=self._unclosed)
         if mode == AutoresetMode.NEXT_STEP:
-            self._pending[:] = self._term | self._trunc
+            self._pending[:] = self._unclosed
         return self._out(self._obs), self._out(self._rew), self._out(self._term), self._out(self._trunc), self._info(step=True)
 
     def _close_episodes(self, rows: np.ndarray) -> None:
@@ -262,12 +266,15 @@ class VecEnv(gym.vector.VectorEnv):
         ids = range(self.num_envs) if self.render_env_ids is None else self.render_env_ids
         frames = []
         for i in ids:
-            # tasks with object variants have one scene per variant
-            xml = self.mjcf_xml_of(i)
-            if xml not in self._renderers:
-                model = mujoco.MjModel.from_xml_string(xml)
-                self._renderers[xml] = (model, make_renderer(model))
-            model, renderer = self._renderers[xml]
+            if i not in self._render_of:
+                # tasks with object variants have one scene per variant: one model and renderer
+                # per distinct scene, each environment's scene text fetched once
+                xml = self.mjcf_xml_of(i)
+                if xml not in self._renderers:
+                    model = mujoco.MjModel.from_xml_string(xml)
+                    self._renderers[xml] = (model, make_renderer(model))
+                self._render_of[i] = self._renderers[xml]
+            model, renderer = self._render_of[i]
             frames.append(render_state(renderer, model, *self.get_state(i)))
         return tuple(frames)
 
@@ -276,6 +283,7 @@ class VecEnv(gym.vector.VectorEnv):
         for _, renderer in self._renderers.values():
             renderer.close()
         self._renderers.clear()
+        self._render_of.clear()
         if not self.closed:
             self._core.close()
         self.closed = True
@@ -438,7 +446,8 @@ class VecEnv(gym.vector.VectorEnv):
         if step:
             # columns: reward_term_names, contact_graph_names (task info), frame_metric_names;
             # rows an automatic NEXT_STEP reset took this step carry no step result
-            stepped = ~self._reset_rows
+            any_reset = bool(self._reset_rows.any())
+            stepped = ~self._reset_rows if any_reset else every
             res: dict[str, np.ndarray] = {"reward_terms": self._core.reward_terms()}
             if self._core.cg_names and self._core.task == "imitation":
                 res["contact_graph"] = self.contact_graph()
@@ -446,8 +455,9 @@ class VecEnv(gym.vector.VectorEnv):
                 res["task_info"] = self.task_info()
             res["frame_metrics"] = self._core.frame_metrics()
             for k, v in res.items():
-                v[self._reset_rows] = 0
-                info[k], info["_" + k] = v, stepped.copy()
+                if any_reset:
+                    v[self._reset_rows] = 0
+                info[k], info["_" + k] = v, stepped
             if self.metadata["autoreset_mode"] == AutoresetMode.SAME_STEP and self._final_mask.any():
                 fm = self._final_mask.copy()
                 final = np.empty(n, dtype=object)
