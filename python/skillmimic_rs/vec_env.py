@@ -28,6 +28,7 @@ import json
 import os
 import pathlib
 import tempfile
+import threading
 from typing import Any, Mapping
 
 import gymnasium as gym
@@ -88,6 +89,23 @@ def _observation_space(task: str, dim: int) -> gym.spaces.Box:
         a, b = blocks["skill"]
         low[a:b], high[a:b] = 0.0, 1.0
     return gym.spaces.Box(low, high, (dim,), np.float32)
+
+
+class _Exclusive:
+    """Non-blocking hold of a ``VecEnv`` for one call (see ``VecEnv._exclusive``)."""
+
+    def __init__(self, lock: threading.Lock, what: str) -> None:
+        self.lock, self.what = lock, what
+
+    def __enter__(self) -> None:
+        if not self.lock.acquire(blocking=False):
+            raise RuntimeError(
+                f"VecEnv.{self.what}: the environment is in use by another thread; one VecEnv must be used "
+                "from one thread at a time (make one VecEnv per thread)"
+            )
+
+    def __exit__(self, *exc: object) -> None:
+        self.lock.release()
 
 
 class VecEnv(gym.vector.VectorEnv):
@@ -176,10 +194,20 @@ class VecEnv(gym.vector.VectorEnv):
         #: environments ``render()`` draws (None: all, gymnasium's vector convention)
         self.render_env_ids: tuple[int, ...] | None = None
         self.closed = False
+        self._busy = threading.Lock()
 
     # --- gymnasium API ---------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         """Reset all environments, or those of ``options["reset_mask"]`` (bool array of num_envs)."""
+        with self._exclusive("reset"):
+            return self._reset(seed, options)
+
+    def _exclusive(self, what: str) -> _Exclusive:
+        """Hold the environment for one call: a second thread calling meanwhile gets a clear
+        ``RuntimeError`` (the shared output buffers make concurrent calls meaningless)."""
+        return _Exclusive(self._busy, what)
+
+    def _reset(self, seed: int | None, options: dict[str, Any] | None):
         self._check_open()
         if seed is not None:
             self._np_random, self._np_random_seed = gym.utils.seeding.np_random(seed)
@@ -206,6 +234,10 @@ class VecEnv(gym.vector.VectorEnv):
     def step(self, actions):
         """One policy step (60 Hz; high-level tasks: 20 Hz). Returns ``(obs, reward, terminated,
         truncated, info)``."""
+        with self._exclusive("step"):
+            return self._step(actions)
+
+    def _step(self, actions):
         self._check_open()
         a = np.asarray(actions)
         if isinstance(self.single_action_space, gym.spaces.Discrete):

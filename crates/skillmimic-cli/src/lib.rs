@@ -117,7 +117,42 @@ where
             return if e.use_stderr() { 2 } else { 0 };
         }
     };
-    let result = match cli.command {
+    let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| dispatch(cli.command)));
+    match result {
+        Ok(Ok(())) => 0,
+        Ok(Err(e)) => {
+            eprintln!("error: {e:#}");
+            1
+        }
+        Err(payload) => {
+            let what = LAST_PANIC.lock().unwrap_or_else(|e| e.into_inner()).take().unwrap_or_else(|| panic_text(&*payload));
+            eprintln!("error: internal error: {what} (a bug of skillmimic-rs, not of your input; please report it with the command line)");
+            1
+        }
+    }
+}
+
+/// The last panic's message and location, recorded by the hook of [`quiet_panics`].
+static LAST_PANIC: std::sync::Mutex<Option<String>> = std::sync::Mutex::new(None);
+
+fn panic_text(payload: &(dyn std::any::Any + Send)) -> String {
+    payload.downcast_ref::<&str>().map(|s| s.to_string()).or_else(|| payload.downcast_ref::<String>().cloned()).unwrap_or_else(|| "unknown panic".into())
+}
+
+/// For the `skillmimic` binary: a panic prints nothing where it happens (no multi-line
+/// "thread panicked" report, no backtrace); [`run`] reports it as one `error:` line with its
+/// location and exits with code 1. Not installed for the Python module, whose host process keeps
+/// its own hook.
+pub fn quiet_panics() {
+    std::panic::set_hook(Box::new(|info| {
+        let loc = info.location().map(|l| format!(" (at {}:{})", l.file(), l.line())).unwrap_or_default();
+        let text = format!("{}{loc}", panic_text(info.payload()));
+        *LAST_PANIC.lock().unwrap_or_else(|e| e.into_inner()) = Some(text);
+    }));
+}
+
+fn dispatch(command: Command) -> anyhow::Result<()> {
+    match command {
         Command::Train(a) => cmd_train::run(a),
         Command::Eval(a) => cmd_policy::eval(a),
         Command::Play(a) => cmd_play::run(a),
@@ -134,12 +169,5 @@ where
         Command::Retarget(a) => cmd_retarget::run(a),
         Command::History(c) => cmd_history::run(c),
         Command::Config(c) => cmd_config::run(c),
-    };
-    match result {
-        Ok(()) => 0,
-        Err(e) => {
-            eprintln!("error: {e:#}");
-            1
-        }
     }
 }

@@ -5,5 +5,6 @@ use std::process::ExitCode;
 
 fn main() -> ExitCode {
     skillmimic_cli::tune_allocator();
+    skillmimic_cli::quiet_panics();
     ExitCode::from(skillmimic_cli::run(std::env::args_os()) as u8)
 }

@@ -44,7 +44,7 @@ impl Policy {
         let a = self.policy.actor_outputs();
         let (mut mu, mut v) = (vec![0.0f32; n * a], vec![0.0f32; n]);
         let Self { policy, buf } = self;
-        py.detach(|| policy.infer(&x, n, buf, &mut mu, &mut v, 0));
+        crate::convert::detach_guarded(py, "Policy.infer", || policy.infer(&x, n, buf, &mut mu, &mut v, 0))?;
         Ok((PyArray1::from_vec(py, mu).reshape([n, a])?, PyArray1::from_vec(py, v)))
     }
 }

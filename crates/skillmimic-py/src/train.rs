@@ -20,6 +20,8 @@ use skillmimic_learn::collective::{Collective, Single};
 use skillmimic_learn::runner::Runner;
 use skillmimic_learn::trainer::Trainer;
 
+use crate::convert::detach_guarded;
+
 /// A Python object with `rank`, `world_size`, `all_reduce(np.ndarray)`, `broadcast(np.ndarray)`.
 struct PyCollective {
     obj: Py<PyAny>,
@@ -91,7 +93,7 @@ pub struct PyTrainer {
 
 impl PyTrainer {
     fn t(&mut self) -> PyResult<&mut Trainer> {
-        self.trainer.as_mut().ok_or_else(|| PyRuntimeError::new_err("the trainer is in use"))
+        self.trainer.as_mut().ok_or_else(|| PyRuntimeError::new_err("the trainer is in use, or was closed after an internal error"))
     }
 }
 
@@ -119,7 +121,7 @@ impl PyTrainer {
         };
         init_learner_threads(cfg.run.learner_threads);
         let r = resume.clone();
-        let trainer = py.detach(move || Trainer::with_collective(cfg, r.as_deref(), comm)).map_err(|e| PyValueError::new_err(e.to_string()))?;
+        let trainer = detach_guarded(py, "Trainer()", move || Trainer::with_collective(cfg, r.as_deref(), comm))?.map_err(|e| PyValueError::new_err(e.to_string()))?;
         Ok(Self { trainer: Some(trainer), resumed_from: resume })
     }
 
@@ -146,7 +148,7 @@ impl PyTrainer {
         // the artefacts of `skillmimic train` (curve, video) besides checkpoint, log and summary
         let mut runner = skillmimic_cli::with_artefact_hooks(Runner::new(trainer));
         let mut stop: Option<PyErr> = None;
-        let result = py.detach(|| {
+        let result = detach_guarded(py, "Trainer.run", || {
             runner.run_until(|s| {
                 let r = Python::attach(|py| -> PyResult<()> {
                     py.check_signals()?;
@@ -159,6 +161,8 @@ impl PyTrainer {
                 stop.is_none()
             })
         });
+        // after an internal error the trainer's state is unknown: it stays closed
+        let result = result?;
         self.trainer = Some(runner.trainer);
         if let Some(e) = stop {
             return Err(e);
@@ -170,14 +174,14 @@ impl PyTrainer {
     /// One iteration (rollout + update); its statistics as JSON.
     fn iteration(&mut self, py: Python<'_>) -> PyResult<String> {
         let t = self.t()?;
-        let s = py.detach(|| t.iteration()).map_err(err)?;
+        let s = detach_guarded(py, "Trainer.iteration", || t.iteration())?.map_err(err)?;
         stats_json(&s)
     }
 
     /// Collect a rollout only; its statistics as JSON (pass them to `update_from_rollout`).
     fn collect_rollout(&mut self, py: Python<'_>) -> PyResult<String> {
         let t = self.t()?;
-        let s = py.detach(|| t.collect_rollout()).map_err(err)?;
+        let s = detach_guarded(py, "Trainer.collect_rollout", || t.collect_rollout())?.map_err(err)?;
         stats_json(&s)
     }
 
@@ -189,7 +193,7 @@ impl PyTrainer {
             None => Default::default(),
         };
         let t = self.t()?;
-        let s = py.detach(|| t.update_from_rollout(stats)).map_err(err)?;
+        let s = detach_guarded(py, "Trainer.update_from_rollout", || t.update_from_rollout(stats))?.map_err(err)?;
         self::stats_json(&s)
     }
 

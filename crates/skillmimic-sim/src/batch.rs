@@ -63,13 +63,14 @@ impl BatchSim {
             .thread_name(|i| format!("skillmimic-sim-{i}"))
             .build()
             .map_err(|e| SimError::Config(format!("cannot start {num_threads} simulation threads: {e}")))?;
-        let envs = (0..num_envs)
-            .map(|_| {
-                MjData::try_new(Arc::clone(scene.model()))
-                    .map(|data| EnvSlot { data })
-                    .map_err(|e| SimError::Config(format!("cannot allocate MuJoCo data: {e}")))
-            })
-            .collect::<Result<Vec<_>, _>>()?;
+        let make = || {
+            MjData::try_new(Arc::clone(scene.model()))
+                .map(|data| EnvSlot { data })
+                .map_err(|e| SimError::Config(format!("cannot allocate MuJoCo data: {e}")))
+        };
+        let first = make()?;
+        crate::memory::check_batch(num_envs, crate::memory::data_bytes(first.data.ffi()), "the SkillMimic scene")?;
+        let envs = std::iter::once(Ok(first)).chain((1..num_envs).map(|_| make())).collect::<Result<Vec<_>, _>>()?;
         let mut sim = Self { scene, envs, pool, state: BatchState::new(num_envs), substeps: DEFAULT_SUBSTEPS };
         let mask = vec![true; num_envs];
         let init = vec![ResetState::default(); num_envs];

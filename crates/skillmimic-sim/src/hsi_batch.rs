@@ -211,6 +211,9 @@ impl HsiBatch {
             .thread_name(|i| format!("skillmimic-hsi-{i}"))
             .build()
             .map_err(|e| SimError::Config(format!("cannot start {num_threads} simulation threads: {e}")))?;
+        let probe = MjData::try_new(Arc::clone(variants[0].model())).map_err(|e| SimError::Config(format!("cannot allocate MuJoCo data: {e}")))?;
+        crate::memory::check_batch(num_envs, crate::memory::data_bytes(probe.ffi()), "the TokenHSI scene")?;
+        drop(probe);
         let envs = (0..num_envs)
             .map(|i| {
                 let variant = i % variants.len();

@@ -16,6 +16,7 @@ pub mod error;
 pub mod hsi_batch;
 pub mod hsi_mjcf;
 pub mod hsi_scene;
+pub mod memory;
 pub mod mj_batch;
 pub mod mjcf;
 pub mod scene;

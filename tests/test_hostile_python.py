@@ -1,0 +1,80 @@
+"""Issue 19, the Python package under hostile use: every failure is an ordinary exception.
+
+* a ``VecEnv`` too large for the memory this process may take raises ``ValueError`` naming
+  ``env.num_envs`` before MuJoCo's allocation would end the interpreter (checked in a subprocess
+  under an address-space limit, so the machine's memory is never touched);
+* one ``VecEnv`` stepped from two threads at once gives a ``RuntimeError`` that says so (never a
+  crash, never a pyo3 "Already borrowed").
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import textwrap
+import threading
+
+import numpy as np
+import pytest
+
+from skillmimic_rs import VecEnv
+
+
+def test_vec_env_too_large_for_memory_raises_in_a_limited_process():
+    code = textwrap.dedent(
+        """
+        import resource, sys
+        limit = 6 << 30  # 6 GiB of address space; 100 000 environments need about 87 GB
+        resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
+        import skillmimic_rs
+        try:
+            skillmimic_rs.VecEnv(100_000)
+        except ValueError as e:
+            print("VALUE_ERROR", e)
+            sys.exit(0)
+        print("NO_ERROR")
+        sys.exit(3)
+        """
+    )
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, f"rc {r.returncode}\nstdout: {r.stdout}\nstderr: {r.stderr[-2000:]}"
+    assert "VALUE_ERROR" in r.stdout and "env.num_envs = 100000" in r.stdout and "at most about" in r.stdout, r.stdout
+    # the process lived on after the refusal: the message came from Python, not from MuJoCo's exit
+    assert "Could not allocate" not in r.stderr
+
+
+def test_one_vec_env_from_two_threads_gives_a_clear_error():
+    env = VecEnv(64)
+    env.reset(seed=0)
+    actions = np.zeros((64, env.single_action_space.shape[0]), dtype=np.float32)
+    errors: list[BaseException] = []
+    start = threading.Barrier(2)
+
+    def worker():
+        start.wait()
+        for _ in range(150):
+            try:
+                env.step(actions)
+            except BaseException as e:  # noqa: BLE001 - we assert on the exact type below
+                errors.append(e)
+
+    threads = [threading.Thread(target=worker) for _ in range(2)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert errors, "two threads stepping one VecEnv 150 times each never overlapped"
+    for e in errors:
+        assert type(e) is RuntimeError, repr(e)
+        assert "in use by another thread" in str(e), str(e)
+    # the environment is still usable from one thread afterwards
+    env.step(actions)
+    env.close()
+
+
+def test_closed_env_raises_runtime_error():
+    env = VecEnv(2)
+    env.reset(seed=0)
+    env.close()
+    with pytest.raises(RuntimeError, match="closed"):
+        env.step(np.zeros((2, env.single_action_space.shape[0]), dtype=np.float32))
