@@ -9,6 +9,7 @@ use skillmimic_core::skeleton::{NUM_BODIES, NUM_DOFS};
 
 use crate::error::ClipError;
 use crate::pt::read_pt_matrix;
+use crate::validate::{Naming, check_pt_rows, validate_clip};
 
 // The layout items keep their historical paths `clip::PT_WIDTH`, `clip::BALLPLAY_FPS` and
 // `clip::pt_column_field`.
@@ -101,28 +102,23 @@ fn rotvec_to_wxyz(v: [f32; 3]) -> [f32; 4] {
 }
 
 impl Clip {
-    /// Load a BallPlay-M `.pt` clip (label from the file name, 60 fps).
+    /// Load a BallPlay-M `.pt` clip (label from the file name, 60 fps), validated by
+    /// [`crate::validate`] (errors name `.pt` columns).
     pub fn from_pt(path: &Path) -> Result<Clip, ClipError> {
         let skill = skill_label_from_name(path)?;
         let m = read_pt_matrix(path)?;
         if m.cols != PT_WIDTH || m.rows == 0 {
             return Err(ClipError::Shape { path: path.to_path_buf(), shape: vec![m.rows, m.cols], expected_width: PT_WIDTH });
         }
-        if let Some(k) = m.data.iter().position(|x| !x.is_finite()) {
-            let (frame, column) = (k / PT_WIDTH, k % PT_WIDTH);
-            return Err(ClipError::NonFinite {
-                path: path.to_path_buf(),
-                frame,
-                column,
-                field: pt_column_field(column),
-                value: m.data[k],
-            });
-        }
+        check_pt_rows(&m.data, path)?;
         let name = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
-        Ok(Self::from_rows(name, path.display().to_string(), skill, BALLPLAY_FPS, m.rows, &m.data))
+        let clip = Self::from_rows(name, path.display().to_string(), skill, BALLPLAY_FPS, m.rows, &m.data);
+        validate_clip(&clip, path, Naming::PtColumns)?;
+        Ok(clip)
     }
 
-    /// Decode `t` rows of the 337-column layout (values must be finite).
+    /// Decode `t` rows of the 337-column layout (values must be finite). Nothing is validated or
+    /// rounded: the contact label is column 336 as stored; see [`crate::validate::validate_clip`].
     pub fn from_rows(name: String, source: String, skill: u32, fps: f64, t: usize, rows: &[f32]) -> Clip {
         assert_eq!(rows.len(), t * PT_WIDTH);
         let mut clip = Clip {
@@ -156,7 +152,7 @@ impl Clip {
             clip.ball_pos.extend_from_slice(&r[324..327]);
             // the loaders negate the stored ball exp map
             clip.ball_rot.extend_from_slice(&rotvec_to_wxyz([-r[327], -r[328], -r[329]]));
-            clip.contact.push(r[336].round());
+            clip.contact.push(r[336]);
         }
         clip
     }

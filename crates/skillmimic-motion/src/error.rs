@@ -17,6 +17,8 @@ pub enum ClipError {
     Shape { path: PathBuf, shape: Vec<usize>, expected_width: usize },
     #[error("{path}: non-finite value {value} at frame {frame}, column {column} ({field})")]
     NonFinite { path: PathBuf, frame: usize, column: usize, field: &'static str, value: f32 },
+    #[error("{path}: {field} at frame {frame} {problem}")]
+    Invalid { path: PathBuf, field: String, frame: usize, problem: String },
     #[error("{path}: cannot read the skill label: the file name must start with three digits (e.g. 013_run.pt), got '{name}'")]
     Label { path: PathBuf, name: String },
     #[error("{path}: skill label {label} is outside the one-hot width {width}")]

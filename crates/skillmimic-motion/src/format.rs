@@ -11,7 +11,10 @@
 //! | `contact` | F32 | (T,) | hand–ball contact label, 0 or 1 |
 //!
 //! Metadata (strings): `format = "skillmimic-clip"`, `format_version = "1"`, `fps` (frames per
-//! second, > 0), `skill` (label 0…63), `name`, `source`.
+//! second, 1 … 1000), `skill` (label 0…63), `name`, `source`.
+//!
+//! Loading checks every rule of [`crate::validate`] (at least 4 frames, finite and plausible
+//! values, unit quaternions, contact exactly 0 or 1).
 //!
 //! Body order, skeleton frames and bone offsets are those of `skillmimic_core::skeleton`; bring
 //! your own clips by filling these arrays for the same skeleton.
@@ -24,6 +27,7 @@ use skillmimic_core::tensorfile::{OwnedTensor, TensorFile, TensorFileError, writ
 
 use crate::clip::{Clip, SKILL_WIDTH};
 use crate::error::ClipError;
+use crate::validate::{Naming, validate_clip};
 
 /// Value of the `format` metadata field.
 pub const FORMAT_NAME: &str = "skillmimic-clip";
@@ -64,7 +68,8 @@ impl Clip {
         write_atomic(path, &tensors, &meta)
     }
 
-    /// Load a clip in the project format, validating every field.
+    /// Load a clip in the project format, validating every field ([`crate::validate`]; errors name
+    /// `path`, the file loaded, never the `source` metadata).
     pub fn load(path: &Path) -> Result<Clip, ClipError> {
         let f = TensorFile::open(path).map_err(|e| tf_err(path, e))?;
         let fmt = f.meta("format").map_err(|e| tf_err(path, e))?;
@@ -78,19 +83,13 @@ impl Clip {
                 detail: format!("format_version {version} is newer than this build supports ({FORMAT_VERSION})"),
             });
         }
-        let fps: f64 = f.meta_parse("fps", "a positive number").map_err(|e| tf_err(path, e))?;
-        if !(fps.is_finite() && fps > 0.0) {
-            return Err(ClipError::Format { path: path.into(), detail: format!("metadata fps is {fps}, expected a positive number") });
-        }
+        let fps: f64 = f.meta_parse("fps", "a number of frames per second").map_err(|e| tf_err(path, e))?;
         let skill: u32 = f.meta_parse("skill", "an integer 0..63").map_err(|e| tf_err(path, e))?;
         if skill as usize >= SKILL_WIDTH {
             return Err(ClipError::LabelRange { path: path.into(), label: skill, width: SKILL_WIDTH });
         }
         let (shape, root_pos) = f.f32("root_pos", &[None, Some(3)]).map_err(|e| tf_err(path, e))?;
         let t = shape[0];
-        if t == 0 {
-            return Err(ClipError::Format { path: path.into(), detail: "clip has 0 frames, expected T >= 1".into() });
-        }
         let get = |name: &str, dims: &[usize]| {
             let mut want = vec![Some(t)];
             want.extend(dims.iter().map(|&d| Some(d)));
@@ -110,23 +109,7 @@ impl Clip {
             ball_rot: get("ball_rot", &[4])?,
             contact: get("contact", &[])?,
         };
-        for (field, q) in [("root_rot", &clip.root_rot), ("ball_rot", &clip.ball_rot)] {
-            for (frame, q) in q.chunks_exact(4).enumerate() {
-                let n = q.iter().map(|x| x * x).sum::<f32>().sqrt();
-                if (n - 1.0).abs() > 1e-3 {
-                    return Err(ClipError::Format {
-                        path: path.into(),
-                        detail: format!("{field} at frame {frame} has norm {n}, expected a unit quaternion (w, x, y, z)"),
-                    });
-                }
-            }
-        }
-        if let Some(frame) = clip.contact.iter().position(|&c| c != 0.0 && c != 1.0) {
-            return Err(ClipError::Format {
-                path: path.into(),
-                detail: format!("contact at frame {frame} is {}, expected 0 or 1", clip.contact[frame]),
-            });
-        }
+        validate_clip(&clip, path, Naming::Project)?;
         Ok(clip)
     }
 

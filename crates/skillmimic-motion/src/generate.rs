@@ -326,16 +326,19 @@ pub enum Invalid {
     BelowFloor { clip: String, body: &'static str, depth: f64, frame: usize },
     #[error("clip '{clip}': joint {joint} turns at {speed:.1} rad/s at frame {frame} (limit {limit} rad/s)")]
     TooFast { clip: String, joint: &'static str, speed: f64, frame: usize, limit: f64 },
-    #[error("clip '{clip}': fewer than 2 frames")]
+    #[error("clip '{clip}': fewer than {min} frames", min = crate::validate::MIN_FRAMES)]
     TooShort { clip: String },
+    #[error("{why}")]
+    Implausible { clip: String, why: String },
 }
 
-/// The validity filter: at least 2 frames, finite values, no body frame lower than `floor_tol`
+/// The validity filter: at least [`MIN_FRAMES`](crate::validate::MIN_FRAMES) frames, finite values, no body frame lower than `floor_tol`
 /// below the floor (z < −floor_tol, m), no joint turning faster than `max_speed` (rad/s, the
-/// angle between consecutive frames' local rotations × fps).
+/// angle between consecutive frames' local rotations × fps), and every rule of the loaders'
+/// validation ([`crate::validate::validate_clip`]), so that an accepted clip can be loaded again.
 pub fn check_validity(c: &Clip, floor_tol: f64, max_speed: f64) -> Result<(), Invalid> {
     let clip = c.name.clone();
-    if c.num_frames < 2 {
+    if c.num_frames < crate::validate::MIN_FRAMES {
         return Err(Invalid::TooShort { clip });
     }
     for (field, v, w) in [("root_pos", &c.root_pos, 3), ("root_rot", &c.root_rot, 4), ("dof_rot", &c.dof_rot, NUM_DOFS), ("body_pos", &c.body_pos, 3 * NUM_BODIES), ("ball_pos", &c.ball_pos, 3)] {
@@ -361,5 +364,8 @@ pub fn check_validity(c: &Clip, floor_tol: f64, max_speed: f64) -> Result<(), In
             }
         }
     }
+    let origin = format!("clip '{}'", c.name);
+    crate::validate::validate_clip(c, Path::new(&origin), crate::validate::Naming::Project)
+        .map_err(|e| Invalid::Implausible { clip, why: e.to_string() })?;
     Ok(())
 }

@@ -8,6 +8,7 @@
 //! * [`reference`]: reference quantities derived once per clip (velocities, key bodies);
 //! * [`hsi_clip`], [`retarget_hsi`]: clips of the TokenHSI character (file format, forward
 //!   kinematics) and retargeting SkillMimic-skeleton clips onto it;
+//! * [`validate`]: the one validation of clips (bounds, minimum length, fps) every loader runs;
 //! * [`library`]: many clips, class-balanced clip sampling and random start frames.
 
 pub mod clip;
@@ -20,6 +21,7 @@ pub mod library;
 pub mod pt;
 pub mod reference;
 pub mod retarget_hsi;
+pub mod validate;
 
 pub use clip::{Clip, SKILL_WIDTH};
 pub use error::ClipError;

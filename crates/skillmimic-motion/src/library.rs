@@ -11,11 +11,13 @@ use rand::Rng;
 use crate::clip::Clip;
 use crate::error::ClipError;
 use crate::reference::ClipReference;
+use crate::validate::{Naming, validate_clip};
 
 /// Label of the pickup skill, whose class weight is doubled.
 pub const PICKUP_LABEL: u32 = 1;
-/// Smallest clip length usable for training (start frames 2 … T−2 must exist).
-pub const MIN_FRAMES: usize = 4;
+/// Smallest clip length usable for training (start frames 2 … T−2 must exist); the one minimum
+/// of every loader, defined in [`crate::validate`].
+pub use crate::validate::MIN_FRAMES;
 
 /// One clip of the library with its derived reference.
 #[derive(Clone, Debug)]
@@ -82,18 +84,13 @@ impl MotionLibrary {
         Self::from_clips(clips)
     }
 
-    /// Build a library from loaded clips (each needs at least [`MIN_FRAMES`] frames).
+    /// Build a library from loaded clips, each checked by [`validate_clip`] (at least
+    /// [`MIN_FRAMES`] frames, plausible values).
     pub fn from_clips(clips: Vec<Clip>) -> Result<Self, ClipError> {
         for c in &clips {
-            if c.num_frames < MIN_FRAMES {
-                return Err(ClipError::Format {
-                    path: PathBuf::from(&c.source),
-                    detail: format!(
-                        "clip '{}' has {} frames; reference-state initialisation (start frames 2..T-2) needs at least {MIN_FRAMES}",
-                        c.name, c.num_frames
-                    ),
-                });
-            }
+            // clips from files were validated by their loader under the file's name; clips built
+            // in memory are named by clip name and `source` (not a file that was loaded)
+            validate_clip(c, Path::new(&format!("clip '{}' (from {})", c.name, c.source)), Naming::Project)?;
         }
         if clips.is_empty() {
             return Err(ClipError::Format { path: PathBuf::new(), detail: "the motion library is empty".into() });
