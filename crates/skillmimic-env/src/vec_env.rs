@@ -42,6 +42,10 @@ pub struct StepBuffers {
     pub terminated: Vec<u8>,
     /// `[N]` 1 = time limit reached.
     pub truncated: Vec<u8>,
+    /// `[N]` 1 = MuJoCo reported a numerical instability (non-finite or huge `qpos`, `qvel` or
+    /// `qacc`; MuJoCo then reset that environment's physics) during the last `step` call; such a
+    /// step also ends the episode (`terminated`). Set by every step, left as is by resets.
+    pub unstable: Vec<u8>,
     /// `[N][obs_dim]` terminal observations of environments auto-reset in the last step.
     pub final_obs: Vec<f32>,
     /// `[N]` 1 where `final_obs` is valid.
@@ -59,6 +63,7 @@ impl StepBuffers {
             metrics: vec![0.0; n * spec.metric_names.len()],
             terminated: vec![0; n],
             truncated: vec![0; n],
+            unstable: vec![0; n],
             final_obs: vec![0.0; n * spec.obs_dim],
             final_mask: vec![0; n],
         }
@@ -283,6 +288,7 @@ impl<T: Task> VecEnv<T> {
                     t.step_env(i, slot, &state.env(i), StepOut { obs, reward, terms, info, metrics, terminated, truncated });
                 });
         });
+        buf.unstable.copy_from_slice(&state.unstable);
         self.task.after_step(&self.slots, &mut self.buf.reward, &self.buf.terms);
         if self.autoreset {
             let n = self.num_envs();

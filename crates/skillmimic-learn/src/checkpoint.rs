@@ -87,7 +87,8 @@ pub const OBS_NORM_DOC: &str = "if normalize_input: x_n = clamp((x - obs_norm.me
 /// Metadata `value_output`: how the critic output becomes a value.
 pub const VALUE_DOC: &str = "if normalize_value: value = clamp(critic_out, -norm_clip, norm_clip) * sqrt(value_norm.var + norm_eps) + value_norm.mean; else value = critic_out";
 
-/// Save `policy` (and `adam` for a training checkpoint) atomically.
+/// Save `policy` (and `adam` for a training checkpoint) atomically; refuses (`InvalidData`, nothing
+/// written) when a float tensor is not finite.
 pub fn save(path: &Path, policy: &Policy, adam: Option<&Adam>, progress: &Progress, config_toml: &str) -> std::io::Result<()> {
     save_with(path, policy, adam, progress, config_toml, Vec::new())
 }
@@ -157,7 +158,27 @@ pub fn save_with(path: &Path, policy: &Policy, adam: Option<&Adam>, progress: &P
         meta.insert("adam_eps".to_string(), a.eps.to_string());
     }
     meta.insert("config".to_string(), config_toml.to_string());
+    refuse_non_finite(&tensors)?;
     write_atomic(path, &tensors, &meta)
+}
+
+/// The last line of defence against a diverged run (training itself stops earlier, see
+/// [`crate::divergence`]): an `InvalidData` error naming the tensor, the index and the value if
+/// a float tensor holds a NaN or an infinity; nothing is written then.
+fn refuse_non_finite(tensors: &[OwnedTensor]) -> std::io::Result<()> {
+    use safetensors::tensor::Dtype;
+    for t in tensors {
+        let bad = match t.dtype {
+            Dtype::F32 => t.bytes.chunks_exact(4).map(|b| f32::from_le_bytes(b.try_into().unwrap()) as f64).enumerate().find(|(_, x)| !x.is_finite()),
+            Dtype::F64 => t.bytes.chunks_exact(8).map(|b| f64::from_le_bytes(b.try_into().unwrap())).enumerate().find(|(_, x)| !x.is_finite()),
+            _ => None,
+        };
+        if let Some((i, x)) = bad {
+            let msg = format!("refusing to write a checkpoint with non-finite values: tensor '{}' holds {x} at index {i}", t.name);
+            return Err(std::io::Error::new(std::io::ErrorKind::InvalidData, msg));
+        }
+    }
+    Ok(())
 }
 
 fn load_norm(f: &TensorFile, prefix: &str, dim: usize, eps: f64, clip: f64) -> Result<RunningMeanStd, String> {
@@ -280,6 +301,15 @@ mod tests {
         assert!(e.to_string().contains("observations of 10") && e.to_string().contains("902"), "{e}");
         save(&path, &p, None, &Progress::default(), "").unwrap();
         assert!(load(&path, None).unwrap().adam.is_none());
+        // non-finite values are never written: the file keeps its previous content
+        let mut bad = p.clone();
+        bad.critic.params_mut()[0][2] = f32::NAN;
+        let e = save(&path, &bad, None, &Progress::default(), "").unwrap_err().to_string();
+        assert!(e.contains("'critic.0.weight'") && e.contains("NaN at index 2"), "{e}");
+        assert!(load(&path, None).unwrap().adam.is_none());
+        bad.critic.params_mut()[0][2] = 0.0;
+        bad.obs_norm.var[1] = f64::INFINITY;
+        assert!(save(&path, &bad, None, &Progress::default(), "").unwrap_err().to_string().contains("'obs_norm.var'"));
         std::fs::write(&path, b"garbage").unwrap();
         assert!(load(&path, None).unwrap_err().to_string().contains("not a safetensors file"));
     }

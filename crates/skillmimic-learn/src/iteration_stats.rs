@@ -29,6 +29,9 @@ pub struct IterationStats {
     pub episode_return: f64,
     /// Fraction of finished episodes that ended early (fall or instability).
     pub early_terminations: f64,
+    /// Environment steps of the rollout (all ranks) in which MuJoCo reported a numerical
+    /// instability (the environments' `unstable` flag; each such step also ended its episode).
+    pub unstable_steps: u64,
     pub actor_loss: f64,
     pub critic_loss: f64,
     pub bounds_loss: f64,

@@ -15,6 +15,7 @@
 //! * [`onnx`]: ONNX export (normaliser folded in, deployment metadata), [`rlgames`]: rl_games import;
 //! * [`trainer`]: rollouts on any registered task's environment and PPO updates;
 //! * [`runner`]: the training loop — logs, checkpoints, end-of-run evaluation, hooks, summary;
+//!   [`divergence`]: when training stops as diverged; [`run_dir`]: the run folder on start and resume;
 //! * [`collective`], [`shard`], [`sync`]: data-parallel training (the collective operations, which
 //!   environments and samples a rank holds, the start-of-run agreement);
 //! * [`tblog`]: TensorBoard scalar event files.
@@ -34,6 +35,7 @@ pub mod config_active;
 pub mod config_doc;
 pub mod config_file;
 pub mod config_token;
+pub mod divergence;
 pub mod episode_eval;
 pub mod error;
 pub mod eval;
@@ -44,6 +46,7 @@ pub mod policies;
 pub mod policy;
 pub mod ppo;
 pub mod rlgames;
+pub mod run_dir;
 pub mod runner;
 pub mod shard;
 pub mod storage;

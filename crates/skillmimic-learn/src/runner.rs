@@ -34,9 +34,22 @@ pub fn train_loop(t: &mut Trainer, mut on_iteration: impl FnMut(&IterationStats)
 /// [`train_loop`] that stops early when `on_iteration` returns false (an interrupt seen by the
 /// caller), after saving a checkpoint of the last finished iteration. Returns the last checkpoint
 /// and whether it stopped early.
+///
+/// Before the first iteration rank 0 prepares the run folder ([`crate::run_dir::prepare`]: stale
+/// temporary files removed, `log.jsonl` and the TensorBoard events cut to the starting
+/// iteration). A resumed run that already reached `run.iterations` is a [`LearnError::Config`]
+/// saying so. A divergence ([`crate::divergence`]) is a [`LearnError::Diverged`] naming the
+/// iteration and the last good checkpoint; nothing of the diverged state is saved.
 pub fn train_loop_until(t: &mut Trainer, mut on_iteration: impl FnMut(&IterationStats) -> bool) -> Result<(PathBuf, bool), LearnError> {
     let out = t.cfg.run.out_dir.clone();
     let target = t.cfg.run.iterations as u64;
+    let start = t.progress.iteration;
+    if start > 0 && start >= target {
+        let from = t.resumed_from.as_ref().map_or(String::new(), |p| format!(" {}", p.display()));
+        return Err(LearnError::Config(format!(
+            "config field 'run.iterations': the run is already complete: the checkpoint{from} is at iteration {start} and run.iterations is {target}; raise run.iterations (--iterations) to train further"
+        )));
+    }
     if t.shard.rank != 0 {
         while t.progress.iteration < target {
             let s = t.iteration()?;
@@ -48,14 +61,16 @@ pub fn train_loop_until(t: &mut Trainer, mut on_iteration: impl FnMut(&Iteration
     }
     let ckpt_dir = out.join("checkpoints");
     std::fs::create_dir_all(&ckpt_dir).map_err(io(&ckpt_dir))?;
+    crate::run_dir::prepare(&out, &t.progress)?;
     let cfg_path = out.join("config.toml");
     write_bytes_atomic(&cfg_path, t.config_toml().as_bytes()).map_err(io(&cfg_path))?;
     let log_path = out.join("log.jsonl");
     let mut log = std::fs::OpenOptions::new().create(true).append(true).open(&log_path).map_err(io(&log_path))?;
     let mut tb = EventWriter::create(&out.join("tb")).map_err(io(&out.join("tb")))?;
     let mut last = out.join("latest.safetensors");
+    let mut last_good = t.resumed_from.clone();
     while t.progress.iteration < target {
-        let s = t.iteration()?;
+        let s = t.iteration().map_err(|e| crate::divergence::with_last_good(e, last_good.as_deref()))?;
         use std::io::Write;
         writeln!(log, "{}", serde_json::to_string(&s).expect("serialisable stats")).map_err(io(&log_path))?;
         let mut scalars: Vec<(String, f32)> = vec![
@@ -63,6 +78,7 @@ pub fn train_loop_until(t: &mut Trainer, mut on_iteration: impl FnMut(&Iteration
             ("episode/length".into(), s.episode_length as f32),
             ("episode/return".into(), s.episode_return as f32),
             ("episode/early_termination".into(), s.early_terminations as f32),
+            ("sim/unstable_steps".into(), s.unstable_steps as f32),
             ("loss/actor".into(), s.actor_loss as f32),
             ("loss/critic".into(), s.critic_loss as f32),
             ("loss/bounds".into(), s.bounds_loss as f32),
@@ -77,12 +93,13 @@ pub fn train_loop_until(t: &mut Trainer, mut on_iteration: impl FnMut(&Iteration
         let go_on = on_iteration(&s);
         let it = t.progress.iteration;
         if t.cfg.run.active.enabled && it.is_multiple_of(t.cfg.run.active.every as u64) && it < target && go_on {
-            crate::active::train_round(t)?;
+            crate::active::train_round(t).map_err(|e| crate::divergence::with_last_good(e, last_good.as_deref()))?;
         }
         if it.is_multiple_of(t.cfg.run.save_every as u64) || it == target || !go_on {
             let p = ckpt_dir.join(format!("iter_{it:06}.safetensors"));
             t.save(&p)?;
             t.save(&out.join("latest.safetensors"))?;
+            last_good = Some(p.clone());
             last = p;
         }
         if !go_on {

@@ -80,6 +80,8 @@ pub struct Trainer {
     sums: Vec<f64>,
     /// The motion prior (`ppo.amp.enabled`).
     pub amp: Option<crate::amp_reward::AmpReward>,
+    /// The checkpoint this run resumed from (rank 0; the last good checkpoint until it saves one).
+    pub resumed_from: Option<std::path::PathBuf>,
     step_rewards: Vec<f32>,
     step_done: Vec<u8>,
 }
@@ -220,6 +222,7 @@ impl Trainer {
             members: Vec::new(),
             sums: Vec::new(),
             amp,
+            resumed_from: resume.filter(|_| rank == 0).map(Path::to_path_buf),
             step_rewards: vec![0.0; n],
             step_done: vec![0; n],
         })
@@ -257,7 +260,7 @@ impl Trainer {
         let (h, n, d, a) = (self.cfg.ppo.horizon, self.env.num_envs(), self.env.obs_dim(), self.env.act_dim());
         let nt = self.term_sums.len();
         self.term_sums.fill(0.0);
-        let (mut ep_count, mut ep_len_sum, mut ep_ret_sum, mut early) = (0usize, 0u64, 0.0f64, 0usize);
+        let (mut ep_count, mut ep_len_sum, mut ep_ret_sum, mut early, mut unstable) = (0usize, 0u64, 0.0f64, 0usize, 0usize);
         let mut pending = false; // next_values[t-1] still to fill from values[t]
         let mut amp_sums = [0.0f64; 2];
         let mut env_time = std::time::Duration::ZERO;
@@ -304,6 +307,7 @@ impl Trainer {
                 self.roll.dones[t * n + i] = u8::from(done);
                 self.ep_return[i] += r as f64;
                 self.ep_len[i] += 1;
+                unstable += usize::from(b.unstable[i] != 0);
                 for (s, &v) in self.term_sums.iter_mut().zip(&b.terms[i * nt..(i + 1) * nt]) {
                     *s += v as f64;
                 }
@@ -336,7 +340,7 @@ impl Trainer {
         }
         stats.env_s = env_time.as_secs_f64();
         // sums over all ranks' environments: [steps, rewards, values, episodes, lengths,
-        // returns, early endings, reward terms…]
+        // returns, early endings, unstable steps, reward terms…]
         let mut s = vec![
             (h * n) as f64,
             self.roll.rewards.iter().map(|&r| r as f64).sum::<f64>(),
@@ -345,19 +349,21 @@ impl Trainer {
             ep_len_sum as f64,
             ep_ret_sum,
             early as f64,
+            unstable as f64,
         ];
         s.extend_from_slice(&self.term_sums);
         s.extend_from_slice(&amp_sums);
         self.comm.all_reduce_f64(&mut s)?;
         let steps = s[0];
         stats.mean_reward = s[1] / steps;
-        stats.reward_terms = self.env.spec().term_names.iter().zip(&s[7..]).map(|(nm, v)| (nm.to_string(), v / steps)).collect();
+        stats.reward_terms = self.env.spec().term_names.iter().zip(&s[8..]).map(|(nm, v)| (nm.to_string(), v / steps)).collect();
         if self.amp.is_some() {
             // the task reward before mixing and the style reward (the mixed one is `mean_reward`)
             let at = s.len() - 2;
             stats.reward_terms.extend([("task".to_string(), s[at] / steps), ("style".to_string(), s[at + 1] / steps)]);
         }
         stats.episodes = s[3] as usize;
+        stats.unstable_steps = s[7] as u64;
         if s[3] > 0.0 {
             stats.episode_length = s[4] / s[3];
             stats.episode_return = s[5] / s[3];
@@ -447,12 +453,20 @@ impl Trainer {
         Ok(stats)
     }
 
-    /// The update half of an iteration on the rollout storage, then count the iteration.
+    /// The update half of an iteration on the rollout storage, then count the iteration. A
+    /// divergence ([`crate::divergence`]) is an error naming the iteration; the trainer's state
+    /// is then unusable (not to be saved).
     pub fn update_from_rollout(&mut self, mut stats: IterationStats) -> Result<IterationStats, LearnError> {
         let t1 = Instant::now();
-        self.update(&mut stats)?;
+        let it = self.progress.iteration + 1;
+        let at = move |e| crate::divergence::in_iteration(e, it);
+        self.update(&mut stats).map_err(at)?;
+        crate::divergence::check_state(&self.policy, &self.adam).map_err(at)?;
         if let Some(amp) = &mut self.amp {
             let l = amp.update(&mut self.comm)?;
+            if !l.total.is_finite() {
+                return Err(at(LearnError::Diverged(format!("the discriminator loss is {}", l.total))));
+            }
             (stats.disc_loss, stats.disc_ref, stats.disc_sim) = (l.total, l.mean_ref, l.mean_sim);
         }
         stats.update_s = t1.elapsed().as_secs_f64();

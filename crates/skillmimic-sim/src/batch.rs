@@ -148,7 +148,7 @@ impl BatchSim {
             for (c, &k) in ctrl.iter_mut().zip(&scene.actuator_action) {
                 *c = (row[k] as f64).clamp(-1.0, 1.0) * std::f64::consts::PI;
             }
-            let before = bad_acc_count(d);
+            clear_bad_state(d);
             // The data always holds the position/velocity stages of its current state (computed
             // by the previous step's mj_step1 or by the reset's mj_forward), so the first sub-step
             // only needs mj_step2. The same MuJoCo stages run in the same order as in mj_step,
@@ -162,7 +162,7 @@ impl BatchSim {
             // and for the next call
             read_contacts(scene, d, &mut rows);
             d.step1();
-            *rows.unstable = u8::from(bad_acc_count(d) != before);
+            *rows.unstable = u8::from(bad_state(d));
             read_kinematics(scene, d, &mut rows);
         });
         Ok(())
@@ -190,9 +190,9 @@ impl BatchSim {
             }
             let d = &mut slot.data;
             write_reset_state(scene, d, &states[i]);
-            let before = bad_acc_count(d);
+            clear_bad_state(d);
             d.forward();
-            *rows.unstable = u8::from(bad_acc_count(d) != before);
+            *rows.unstable = u8::from(bad_state(d));
             read_contacts(scene, d, &mut rows);
             read_kinematics(scene, d, &mut rows);
         });
@@ -220,9 +220,9 @@ impl BatchSim {
             clear_for_reset(d);
             d.qpos_mut().copy_from_slice(qpos);
             d.qvel_mut().copy_from_slice(qvel);
-            let before = bad_acc_count(d);
+            clear_bad_state(d);
             d.forward();
-            *rows.unstable = u8::from(bad_acc_count(d) != before);
+            *rows.unstable = u8::from(bad_state(d));
             read_contacts(scene, d, &mut rows);
             read_kinematics(scene, d, &mut rows);
         });
@@ -294,8 +294,23 @@ fn check_reset_state(env: usize, s: &ResetState) -> Result<(), SimError> {
     Ok(())
 }
 
-fn bad_acc_count(d: &Data) -> i32 {
-    d.ffi().warning[mjtWarning::mjWARN_BADQACC as usize].number
+/// MuJoCo's warnings of a bad state: a non-finite or huge `qpos`, `qvel` or `qacc`. On each of
+/// them MuJoCo resets that environment's data (auto-reset), so the step's outcome is not physics.
+const BAD_STATE: [mjtWarning; 3] = [mjtWarning::mjWARN_BADQPOS, mjtWarning::mjWARN_BADQVEL, mjtWarning::mjWARN_BADQACC];
+
+/// Zero the [`BAD_STATE`] warning counters before a step, reset or forward pass.
+pub(crate) fn clear_bad_state(d: &mut Data) {
+    for w in BAD_STATE {
+        // SAFETY: the warning statistics are plain counters of mjData, read only by callers.
+        unsafe { d.ffi_mut().warning[w as usize].number = 0 };
+    }
+}
+
+/// Whether MuJoCo reported a bad state since [`clear_bad_state`] (the environment's `unstable`
+/// flag). Clearing first, rather than comparing counts, also catches a repeat of the same
+/// warning after MuJoCo's auto-reset set its counter back to 1.
+pub(crate) fn bad_state(d: &Data) -> bool {
+    BAD_STATE.iter().any(|&w| d.ffi().warning[w as usize].number > 0)
 }
 
 /// Clear the parts of `mjData` that carry over between steps besides `qpos`/`qvel`.

@@ -18,12 +18,12 @@
 
 use std::sync::Arc;
 
-use mujoco_rs::mujoco_c::mjtWarning;
 use mujoco_rs::prelude::*;
 use rayon::prelude::*;
 use skillmimic_core::hsi_character::{NUM_BODIES, NUM_DOFS, STANDING_ROOT_HEIGHT};
 use skillmimic_core::math::Quat;
 
+use crate::batch::{bad_state, clear_bad_state};
 use crate::error::SimError;
 use crate::hsi_mjcf::HSI_SUBSTEPS;
 use crate::hsi_scene::{HsiScene, MAX_OBJECTS, ObjectAddr};
@@ -99,7 +99,8 @@ pub struct HsiState {
     pub dof_vel: Vec<f64>,
     /// `[N][15]`: 1 if the body touched the floor or an object in the last physics step.
     pub contact: Vec<u8>,
-    /// `[N]`: 1 if MuJoCo reported an instability in the last step or reset.
+    /// `[N]`: 1 if MuJoCo reported an instability (bad `qpos`/`qvel`/`qacc`) in the last step or
+    /// reset.
     pub unstable: Vec<u8>,
 }
 
@@ -275,7 +276,7 @@ impl HsiBatch {
             for (c, &(k, off, sc)) in d.ctrl_mut().iter_mut().zip(&scene.actuator_map) {
                 *c = off + sc * (row[k] as f64).clamp(-1.0, 1.0);
             }
-            let before = bad_acc(d);
+            clear_bad_state(d);
             // the data holds the position/velocity stages of its state (previous mj_step1 or the
             // reset's mj_forward): same stages, same order as a plain mj_step loop
             d.step2();
@@ -284,7 +285,7 @@ impl HsiBatch {
             }
             read_contacts(scene, d, &mut rows);
             d.step1();
-            *rows.unstable = u8::from(bad_acc(d) != before);
+            *rows.unstable = u8::from(bad_state(d));
             read_state(scene, d, &mut rows);
         });
         Ok(())
@@ -311,9 +312,9 @@ impl HsiBatch {
             let scene = &*variants[slot.variant];
             let d = &mut slot.data;
             write_reset(scene, d, &states[i]);
-            let before = bad_acc(d);
+            clear_bad_state(d);
             d.forward();
-            *rows.unstable = u8::from(bad_acc(d) != before);
+            *rows.unstable = u8::from(bad_state(d));
             read_contacts(scene, d, &mut rows);
             read_state(scene, d, &mut rows);
         });
@@ -374,10 +375,6 @@ impl HsiBatch {
                 });
         });
     }
-}
-
-fn bad_acc(d: &Data) -> i32 {
-    d.ffi().warning[mjtWarning::mjWARN_BADQACC as usize].number
 }
 
 fn clear(d: &mut Data) {

@@ -99,8 +99,9 @@ pub struct BatchState {
     pub contact_force: Vec<f64>,
     /// `[N][7]`
     pub contact_pairs: Vec<u8>,
-    /// `[N]`: 1 if MuJoCo reported a numerical instability during the last step or reset
-    /// (MuJoCo then resets that environment's data to the model default pose).
+    /// `[N]`: 1 if MuJoCo reported a numerical instability (a non-finite or huge `qpos`, `qvel`
+    /// or `qacc`) during the last step or reset (MuJoCo then resets that environment's data to
+    /// the model default pose).
     pub unstable: Vec<u8>,
 }
 

@@ -206,6 +206,7 @@ impl MultiEnv {
                 b.reward[r] = sb.reward[i];
                 b.terminated[r] = sb.terminated[i];
                 b.truncated[r] = sb.truncated[i];
+                b.unstable[r] = sb.unstable[i];
                 b.final_mask[r] = sb.final_mask[i];
                 let t = &mut b.terms[r * nt + s.term_at..r * nt + s.term_at + 1 + st];
                 t[0] = sb.reward[i] * s.scale;

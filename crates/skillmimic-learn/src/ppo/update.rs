@@ -36,7 +36,8 @@ fn stats_from(s: &[f32]) -> LossStats {
 
 /// One optimisation step on a minibatch, as rl_games does it: update the observation normaliser
 /// with the batch, normalise with the updated statistics, compute the losses and gradients
-/// (`cfg.backend`), clip them if configured, and take an Adam step.
+/// (`cfg.backend`), clip them if configured, and take an Adam step. Non-finite loss terms or
+/// gradients stop before the step with [`LearnError::Diverged`] ([`crate::divergence`]).
 ///
 /// Data-parallel: `mb` holds this rank's members of a minibatch of `global_n` samples (one
 /// process: `mb.n == global_n`). The normaliser statistics are merged over all ranks, each
@@ -103,9 +104,9 @@ pub fn update_minibatch(
         l = stats_from(&buf.flat[at..at + STATS]);
         grads = &mut buf.reduced;
     }
-    if cfg.truncate_grads {
-        crate::adam::clip_global_norm(grads, cfg.grad_norm);
-    }
+    // the norm before clipping: a non-finite one means the run diverged (crate::divergence)
+    let norm = if cfg.truncate_grads { crate::adam::clip_global_norm(grads, cfg.grad_norm) } else { crate::adam::global_norm(grads) };
+    crate::divergence::check_minibatch(&l, norm)?;
     let mut params: Vec<&mut Vec<f32>> = policy.actor.params_mut();
     params.extend(policy.critic.params_mut());
     adam.update(&mut params, grads);

@@ -107,6 +107,7 @@ impl<R: Rule> Env for HoldEnv<R> {
         self.done.fill(false);
         self.buf.reward.fill(0.0);
         self.buf.terms.fill(0.0);
+        self.buf.unstable.fill(0);
         for k in 0..self.llc_steps {
             let last = k + 1 == self.llc_steps;
             self.inner.step(actions)?;
@@ -122,6 +123,8 @@ impl<R: Rule> Env for HoldEnv<R> {
                 }
                 self.buf.terminated[i] = b.terminated[i];
                 self.buf.truncated[i] = b.truncated[i];
+                // any instability among the transition's counted simulation steps
+                self.buf.unstable[i] |= b.unstable[i];
                 self.done[i] = b.terminated[i] != 0 || b.truncated[i] != 0;
                 // the rows of the transition's last counted step only
                 if self.done[i] || last {

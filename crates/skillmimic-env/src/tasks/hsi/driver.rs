@@ -144,6 +144,7 @@ impl<T: HsiTask> HsiVecEnv<T> {
                     task.info(&slot.goal, slot.steps, info);
                 });
         });
+        buf.unstable.copy_from_slice(&state.unstable);
         if self.autoreset {
             let n = self.slots.len();
             let mut any = false;
