@@ -160,15 +160,32 @@ pub fn save_with(path: &Path, policy: &Policy, adam: Option<&Adam>, progress: &P
     write_atomic(path, &tensors, &meta)
 }
 
+/// A normaliser of the file, its statistics checked ([`RunningMeanStd::check`]).
 fn load_norm(f: &TensorFile, prefix: &str, dim: usize, eps: f64, clip: f64) -> Result<RunningMeanStd, String> {
-    read_normalizer(f, prefix, dim, eps, clip).map_err(|e| e.to_string())
+    let n = read_normalizer(f, prefix, dim, eps, clip).map_err(|e| e.to_string())?;
+    n.check(prefix).map_err(|detail| format!("{}: {detail}", f.path().display()))?;
+    Ok(n)
+}
+
+/// The training configuration stored in checkpoint `path` (metadata `config`, TOML over the
+/// defaults), every number checked against its documented range
+/// ([`TrainConfig::validate_ranges`](crate::config::TrainConfig::validate_ranges)).
+pub fn stored_config(path: &Path, text: &str) -> Result<crate::config::TrainConfig, crate::error::LearnError> {
+    use crate::config::TrainConfig;
+    let cfg = TrainConfig::from_toml_over(&TrainConfig::default(), text, path)?;
+    check_stored(path, &cfg).map_err(crate::error::bad_checkpoint(path))?;
+    Ok(cfg)
+}
+
+fn check_stored(path: &Path, cfg: &crate::config::TrainConfig) -> Result<(), String> {
+    cfg.validate_ranges().map_err(|e| format!("{}: metadata 'config' (the stored training configuration): {e}", path.display()))
 }
 
 /// A checkpoint and the training configuration stored in it (the defaults when it has none).
 pub fn load_with_config(path: &Path) -> Result<(Checkpoint, crate::config::TrainConfig), crate::error::LearnError> {
     use crate::config::TrainConfig;
     let c = load(path, None)?;
-    let cfg = if c.config.is_empty() { TrainConfig::default() } else { TrainConfig::from_toml_over(&TrainConfig::default(), &c.config, path)? };
+    let cfg = if c.config.is_empty() { TrainConfig::default() } else { stored_config(path, &c.config)? };
     Ok((c, cfg))
 }
 
@@ -183,6 +200,20 @@ fn load_raw(path: &Path, expect: Option<(usize, usize)>) -> Result<Checkpoint, S
     let fmt = f.meta("format").map_err(e)?;
     if fmt != FORMAT {
         return Err(format!("{}: format '{fmt}', expected '{FORMAT}' (a skillmimic checkpoint)", path.display()));
+    }
+    let version: u32 = f.meta_parse("format_version", "an integer").map_err(e)?;
+    if version != VERSION {
+        return Err(format!(
+            "{}: metadata field 'format_version' is {version}, this build reads version {VERSION} only{}",
+            path.display(),
+            if version > VERSION { " (the file was written by a newer skillmimic)" } else { "" }
+        ));
+    }
+    // the stored configuration: a value outside its range is refused; a text this build cannot
+    // parse (keys of another version) is left to the readers of the configuration
+    let config = f.metadata().get("config").cloned().unwrap_or_default();
+    if let Ok(cfg) = crate::config::TrainConfig::from_toml_over(&Default::default(), &config, path) {
+        check_stored(path, &cfg)?;
     }
     let obs_dim: usize = f.meta_parse("obs_dim", "an integer").map_err(e)?;
     let act_dim: usize = f.meta_parse("act_dim", "an integer").map_err(e)?;
@@ -248,7 +279,7 @@ fn load_raw(path: &Path, expect: Option<(usize, usize)>) -> Result<Checkpoint, S
             iteration: f.meta_parse("iteration", "an integer").map_err(e)?,
             samples: f.meta_parse("samples", "an integer").map_err(e)?,
         },
-        config: f.metadata().get("config").cloned().unwrap_or_default(),
+        config,
     })
 }
 
