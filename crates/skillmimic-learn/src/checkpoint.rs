@@ -13,13 +13,19 @@
 //!
 //! Training checkpoints add the Adam state: `optim.step` (I64, ()) and `optim.m.<param>`,
 //! `optim.v.<param>` (F32) for every actor/critic parameter; `export` writes the policy part only.
-//! Metadata: `format = "skillmimic-policy"`, `format_version = "1"`, `kind` (`train`/`policy`),
+//! Metadata: `format = "skillmimic-policy"`, `format_version = "1"` (another version is refused),
+//! `kind` (`train`/`policy`),
 //! `obs_dim`, `act_dim`, `hidden` (JSON list), `iteration`, `samples`, `config` (TOML text), and
 //! the normaliser switches and settings; `policy` = the family (`gaussian_mlp` when absent, as in
 //! files written before families existed) and `actions` = the action space (`box:<dim>` or
 //! `discrete:<n>`; absent = `box:<act_dim>`); `actor_net` = the description of an actor that is
 //! not an MLP (`modular_attention`: tensors `actor.parts.*`; `token_transformer*`: the token
 //! network's tensors, frozen ones included), read back by the family (`PolicyFamily::read_actor`).
+//!
+//! Loading checks what would otherwise give silent NaN or a panic later: the normaliser
+//! statistics (`RunningMeanStd::check`: finite, variance ≥ 0, `norm_eps` > 0, `norm_clip` > 0)
+//! and every number of the stored `config` against its documented range
+//! (`TrainConfig::validate_ranges`).
 
 use std::collections::BTreeMap;
 
