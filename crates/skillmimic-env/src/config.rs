@@ -52,12 +52,16 @@ pub enum ContactGraphMode {
 #[serde(deny_unknown_fields, default)]
 pub struct DeepMimicWeights {
     /// Body position.
+    #[schemars(range(min = 0))]
     pub w_p: f64,
     /// Body rotation.
+    #[schemars(range(min = 0))]
     pub w_r: f64,
     /// Joint velocity.
+    #[schemars(range(min = 0))]
     pub w_rv: f64,
     /// Ball position.
+    #[schemars(range(min = 0))]
     pub w_op: f64,
 }
 
@@ -74,42 +78,60 @@ pub struct RewardConfig {
     /// How the reward combines its terms.
     pub variant: RewardVariant,
     /// Body position: root + 17 key bodies.
+    #[schemars(range(min = 0))]
     pub w_p: f64,
     /// Body rotation: root exp map + 156 joint exp-map components.
+    #[schemars(range(min = 0))]
     pub w_r: f64,
     /// Key-body linear velocity.
+    #[schemars(range(min = 0))]
     pub w_pv: f64,
     /// Joint velocity.
+    #[schemars(range(min = 0))]
     pub w_rv: f64,
     /// Velocity regulariser exponent weight.
+    #[schemars(range(min = 0))]
     pub w_reg: f64,
     /// Scale of the reference velocity in the regulariser denominator 1 + scale·v̂².
+    #[schemars(range(min = 0))]
     pub reg_scale: f64,
     /// Ball position.
+    #[schemars(range(min = 0))]
     pub w_op: f64,
     /// Ball rotation (squared rotation angle).
+    #[schemars(range(min = 0))]
     pub w_or: f64,
     /// Ball linear velocity.
+    #[schemars(range(min = 0))]
     pub w_opv: f64,
     /// Ball angular velocity.
+    #[schemars(range(min = 0))]
     pub w_orv: f64,
     /// Relative (interaction-graph) term: root and key bodies minus the ball.
+    #[schemars(range(min = 0))]
     pub w_ig: f64,
     /// How contact-graph states are measured.
     pub contact_graph: ContactGraphMode,
     /// Exact mode edge weight: hand–ball.
+    #[schemars(range(min = 0))]
     pub w_cg_hand_ball: f64,
     /// Exact mode edge weight: body–ball.
+    #[schemars(range(min = 0))]
     pub w_cg_body_ball: f64,
     /// Exact mode edge weight: hand–body.
+    #[schemars(range(min = 0))]
     pub w_cg_hand_body: f64,
     /// Exact mode edge weight: body–floor.
+    #[schemars(range(min = 0))]
     pub w_cg_body_floor: f64,
     /// Force-threshold mode node weight: body node (cg1).
+    #[schemars(range(min = 0))]
     pub w_cg1_body: f64,
     /// Force-threshold mode node weight: ball node (cg2).
+    #[schemars(range(min = 0))]
     pub w_cg2_ball: f64,
     /// Force threshold (N) of the force-threshold mode.
+    #[schemars(range(min = 0))]
     pub force_threshold: f64,
     /// Weights of the DeepMimic-style variant.
     pub deepmimic: DeepMimicWeights,
@@ -148,10 +170,13 @@ impl Default for RewardConfig {
 #[serde(deny_unknown_fields, default)]
 pub struct BallOverrides {
     /// Factor on the ball radius.
+    #[schemars(range(max = 100), extend("exclusiveMinimum" = 0))]
     pub radius_scale: f64,
     /// Factor on the ball density.
+    #[schemars(range(max = 100), extend("exclusiveMinimum" = 0))]
     pub density_scale: f64,
     /// Factor on the ball restitution (the result must stay ≤ 1).
+    #[schemars(extend("exclusiveMinimum" = 0))]
     pub restitution_scale: f64,
 }
 
@@ -190,12 +215,15 @@ pub struct EnvConfig {
     #[schemars(extend("items" = {"type": "string", "format": "path"}))]
     pub motion: Vec<PathBuf>,
     /// Number of parallel environments.
+    #[schemars(range(min = 1))]
     pub num_envs: usize,
-    /// Simulation threads (0 = one per core).
+    /// Simulation threads (0 = one per core; a count above four per core is capped to that).
+    #[schemars(range(max = crate::config_range::MAX_THREADS))]
     pub threads: usize,
     /// Hand model: "full" (156 dofs) or "box" (fingers welded).
     pub hands: String,
     /// Maximum episode length in policy steps (reference frames), 60 = 1 s.
+    #[schemars(range(min = 2))]
     pub episode_length: usize,
     /// Early termination when the root is below this height (m) after the first step.
     pub termination_height: f64,
@@ -276,6 +304,7 @@ impl Default for EnvConfig {
 #[serde(deny_unknown_fields, default)]
 pub struct StandConfig {
     /// Episode length in policy steps (60 = 1 s).
+    #[schemars(range(min = 1))]
     pub episode_length: usize,
     /// Pelvis height at the start (m); the zero pose's feet then touch the floor.
     pub start_height: f64,
@@ -284,10 +313,13 @@ pub struct StandConfig {
     /// Early termination below this pelvis height (m).
     pub termination_height: f64,
     /// Weight w_h of the height term (the heading term gets 1 − w_h).
+    #[schemars(range(min = 0, max = 1))]
     pub height_weight: f64,
     /// Height error scale k_h (1/m²).
+    #[schemars(range(min = 0))]
     pub height_scale: f64,
     /// Heading error scale k_ψ (1/rad²).
+    #[schemars(range(min = 0))]
     pub heading_scale: f64,
 }
 
@@ -325,22 +357,18 @@ impl EnvConfig {
         Ok(SceneOptions { hands: self.hand_model()?, ball, ..Default::default() })
     }
 
-    /// Check the driver's keys (every task): hand model, number of environments (the task name
-    /// is checked by `registry::make`).
+    /// Check the driver's keys (every task): the documented range of every number of `[env]`
+    /// and its sub-tables ([`crate::config_range::check_ranges`]) and the hand model (the task
+    /// name is checked by `registry::make`).
     pub fn validate_driver(&self) -> Result<(), ConfigError> {
+        crate::config_range::check_ranges(self, "env")?;
         self.hand_model()?;
-        if self.num_envs == 0 {
-            return Err(bad("env.num_envs", "must be at least 1"));
-        }
         Ok(())
     }
 
     /// Check value ranges of the driver and the imitation task (called by its constructor).
     pub fn validate(&self) -> Result<(), ConfigError> {
         self.validate_driver()?;
-        if self.episode_length < 2 {
-            return Err(bad("env.episode_length", "must be at least 2 policy steps"));
-        }
         if let StateInit::Frame(f) = self.state_init {
             if f < 2 {
                 return Err(bad("env.state_init", format!("start frame {f} is below 2 (frames 0 and 1 have no velocity)")));
@@ -350,39 +378,8 @@ impl EnvConfig {
             return Err(bad("env.motion", "no clip file or folder given"));
         }
         let b = &self.ball;
-        for (f, v) in [("env.ball.radius_scale", b.radius_scale), ("env.ball.density_scale", b.density_scale), ("env.ball.restitution_scale", b.restitution_scale)] {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(bad(f, format!("{v} must be a positive number")));
-            }
-        }
         if !(b.restitution_scale * BallParams::default().restitution <= 1.0) {
             return Err(bad("env.ball.restitution_scale", "restitution would exceed 1"));
-        }
-        let r = &self.reward;
-        let weights = [
-            ("w_p", r.w_p),
-            ("w_r", r.w_r),
-            ("w_pv", r.w_pv),
-            ("w_rv", r.w_rv),
-            ("w_reg", r.w_reg),
-            ("reg_scale", r.reg_scale),
-            ("w_op", r.w_op),
-            ("w_or", r.w_or),
-            ("w_opv", r.w_opv),
-            ("w_orv", r.w_orv),
-            ("w_ig", r.w_ig),
-            ("w_cg_hand_ball", r.w_cg_hand_ball),
-            ("w_cg_body_ball", r.w_cg_body_ball),
-            ("w_cg_hand_body", r.w_cg_hand_body),
-            ("w_cg_body_floor", r.w_cg_body_floor),
-            ("w_cg1_body", r.w_cg1_body),
-            ("w_cg2_ball", r.w_cg2_ball),
-            ("force_threshold", r.force_threshold),
-        ];
-        for (name, v) in weights {
-            if !(v.is_finite() && v >= 0.0) {
-                return Err(bad(&format!("env.reward.{name}"), format!("{v} must be a finite number >= 0")));
-            }
         }
         self.v2.validate()
     }

@@ -33,19 +33,23 @@ pub struct HlcConfig {
     #[schemars(extend("format" = "path"))]
     pub llc: PathBuf,
     /// Low-level steps each high-level choice is held for (3 = 20 Hz at the 60 Hz policy rate).
+    #[schemars(range(min = 1))]
     pub llc_steps: usize,
     /// Low-level steps each high-level action is held for when `llc` is a `modular_attention`
     /// checkpoint (1: ModSkill's high-level policy gives the part embeddings at the controllers'
     /// rate).
+    #[schemars(range(min = 1))]
     pub latent_steps: usize,
     /// Episode length in low-level steps; an episode is truncated after `episode_length − 1`
     /// steps (the released code resets when its progress counter reaches 799 with 800).
+    #[schemars(range(min = 2))]
     pub episode_length: usize,
     /// Early termination when the root (pelvis) is below this height (m) after the first step.
     pub termination_height: f64,
     /// Every episode starts at this frame of a clip drawn from `env.motion` (class-balanced).
     /// The original uses BallPlay-M `run` clips for heading, circling and scoring and
     /// `turnhook` clips for throwing: pass them with `--motion`.
+    #[schemars(range(min = 2))]
     pub start_frame: usize,
 }
 
@@ -71,8 +75,10 @@ pub enum GoalSampling {
 #[serde(deny_unknown_fields, default)]
 pub struct HeadingConfig {
     /// Smallest goal offset per axis (m).
+    #[schemars(range(min = 0))]
     pub goal_min: f64,
     /// Largest goal offset per axis (m).
+    #[schemars(range(min = 0))]
     pub goal_max: f64,
     /// Goal directions.
     pub goal_sampling: GoalSampling,
@@ -81,6 +87,7 @@ pub struct HeadingConfig {
     /// Reward: code exp(−‖ball − target‖), paper exp(−‖ball − target‖²).
     pub reward: Formula,
     /// Success: the ball comes within this distance (m) of the target point (paper = code).
+    #[schemars(extend("exclusiveMinimum" = 0))]
     pub success_radius: f64,
 }
 
@@ -96,14 +103,19 @@ impl Default for HeadingConfig {
 #[serde(deny_unknown_fields, default)]
 pub struct SteeringConfig {
     /// Slowest commanded speed (m/s).
+    #[schemars(range(min = 0))]
     pub speed_min: f64,
     /// Fastest commanded speed (m/s).
+    #[schemars(range(min = 0))]
     pub speed_max: f64,
     /// Fewest low-level steps before a new direction and speed are drawn (200 = 3.3 s at 60 Hz).
+    #[schemars(range(min = 1))]
     pub change_steps_min: u32,
     /// Most low-level steps before a new direction and speed are drawn (600 = 10 s).
+    #[schemars(range(min = 1))]
     pub change_steps_max: u32,
     /// k in the reward exp(−k·‖v*·d − v_root,xy‖²) (1/(m/s)², ASE's velocity-error scale 0.25).
+    #[schemars(extend("exclusiveMinimum" = 0))]
     pub error_scale: f64,
 }
 
@@ -116,8 +128,7 @@ impl Default for SteeringConfig {
 impl SteeringConfig {
     pub fn validate(&self) -> Result<(), ConfigError> {
         range("env.steering.speed_min", self.speed_min, self.speed_max)?;
-        step_range("env.steering.change_steps_min", self.change_steps_min, self.change_steps_max)?;
-        positive("env.steering.error_scale", self.error_scale)
+        range("env.steering.change_steps_min", self.change_steps_min, self.change_steps_max)
     }
 }
 
@@ -127,16 +138,20 @@ impl SteeringConfig {
 #[serde(deny_unknown_fields, default)]
 pub struct ReachConfig {
     /// Side of the target box (m).
+    #[schemars(range(min = 0))]
     pub box_size: f64,
     /// Height of the box centre above the floor (m); its xy is the root's start position.
     pub center_height: f64,
     /// The body brought to the target (a body name of the humanoid).
     pub hand_body: String,
     /// k in the reward exp(−k·‖p_hand − c‖²) (1/m²).
+    #[schemars(extend("exclusiveMinimum" = 0))]
     pub scale: f64,
     /// Fewest low-level steps before a new target is drawn.
+    #[schemars(range(min = 1))]
     pub change_steps_min: u32,
     /// Most low-level steps before a new target is drawn.
+    #[schemars(range(min = 1))]
     pub change_steps_max: u32,
 }
 
@@ -148,14 +163,7 @@ impl Default for ReachConfig {
 
 impl ReachConfig {
     pub fn validate(&self) -> Result<(), ConfigError> {
-        if !(self.box_size.is_finite() && self.box_size >= 0.0) {
-            return Err(bad("env.reach.box_size", format!("{} must be a number >= 0", self.box_size)));
-        }
-        if !self.center_height.is_finite() {
-            return Err(bad("env.reach.center_height", "must be a finite number"));
-        }
-        step_range("env.reach.change_steps_min", self.change_steps_min, self.change_steps_max)?;
-        positive("env.reach.scale", self.scale)
+        range("env.reach.change_steps_min", self.change_steps_min, self.change_steps_max)
     }
 }
 
@@ -164,21 +172,27 @@ impl ReachConfig {
 #[serde(deny_unknown_fields, default)]
 pub struct CirclingConfig {
     /// Smallest radius (m).
+    #[schemars(range(min = 0))]
     pub radius_min: f64,
     /// Largest radius (m).
+    #[schemars(range(min = 0))]
     pub radius_max: f64,
     /// Ball speed (m/s) below which the reward is scaled by `slow_factor` (paper: ‖v‖² compared
     /// with this value).
+    #[schemars(range(min = 0))]
     pub speed_threshold: f64,
     /// Reward factor when the ball is slow.
+    #[schemars(range(min = 0, max = 1))]
     pub slow_factor: f64,
     /// Reward: code exp(−|‖ball_xy − c‖ − r|), paper exp(−|‖ball_xy − c‖² − r|) with the
     /// squared-speed gate.
     pub reward: Formula,
     /// Paper success: a frame is valid when |‖ball_xy − c‖ − r| is below this (m) and the ball
     /// is faster than `speed_threshold`; the success rate is the share of valid frames.
+    #[schemars(extend("exclusiveMinimum" = 0))]
     pub success_band: f64,
     /// The code's latch: the ball came within this distance (m) of the centre.
+    #[schemars(extend("exclusiveMinimum" = 0))]
     pub code_latch_radius: f64,
 }
 
@@ -197,10 +211,12 @@ pub struct ThrowingConfig {
     /// Success (paper): after the first throw the ball stays above `floor_height` for
     /// `success_seconds`. The first throw is the first step on which the ball is above
     /// `throw_height` (m) and touches nothing (our definition; the paper does not give one).
+    #[schemars(extend("exclusiveMinimum" = 0))]
     pub throw_height: f64,
     /// Height (m) the ball must stay above after the first throw.
     pub floor_height: f64,
     /// Seconds after the first throw (60 low-level steps per second).
+    #[schemars(extend("exclusiveMinimum" = 0))]
     pub success_seconds: f64,
 }
 
@@ -228,28 +244,37 @@ pub enum Prediction {
 #[serde(deny_unknown_fields, default)]
 pub struct ScoringConfig {
     /// Smallest basket distance from the start root (m).
+    #[schemars(range(min = 0))]
     pub dist_min: f64,
     /// Largest basket distance (m).
+    #[schemars(range(min = 0))]
     pub dist_max: f64,
     /// Height of the basket point (m).
+    #[schemars(extend("exclusiveMinimum" = 0))]
     pub basket_height: f64,
     /// "Reached" latch: predicted crossing within this horizontal distance (m) of the basket.
+    #[schemars(extend("exclusiveMinimum" = 0))]
     pub reach_radius: f64,
     /// Rim height h of the prediction and the least ball height (m) for "reached".
+    #[schemars(extend("exclusiveMinimum" = 0))]
     pub reach_height: f64,
     /// Prediction of the crossing point.
     pub prediction: Prediction,
     /// Any |component| of the ball's net contact force above this (N) counts as touching.
+    #[schemars(range(min = 0))]
     pub contact_force: f64,
     /// Speed (m/s) of the gate (code: root speed ≥ it; paper: ball ‖v‖² > it).
+    #[schemars(range(min = 0))]
     pub speed_threshold: f64,
     /// Reward factor when the gate is closed.
+    #[schemars(range(min = 0, max = 1))]
     pub slow_factor: f64,
     /// Reward: code gate × [exp(−0.5‖ball − basket‖) + 1{reached} + 0.2·exp(−|z − h_b|)];
     /// paper gate × [exp(−‖ball − basket‖²) + 1{scored} + 0.2·exp(−|z − h_b|)].
     pub reward: Formula,
     /// Paper success (and the paper's bonus): the ball is higher than the basket point and
     /// within this distance (m) of it.
+    #[schemars(extend("exclusiveMinimum" = 0))]
     pub success_radius: f64,
 }
 
@@ -271,38 +296,17 @@ impl Default for ScoringConfig {
     }
 }
 
-fn positive(field: &str, v: f64) -> Result<(), ConfigError> {
-    if v.is_finite() && v > 0.0 { Ok(()) } else { Err(bad(field, format!("{v} must be a positive number"))) }
-}
-
-fn step_range(field: &str, lo: u32, hi: u32) -> Result<(), ConfigError> {
-    if 1 <= lo && lo <= hi { Ok(()) } else { Err(bad(field, format!("[{lo}, {hi}] is not a range 1 <= min <= max"))) }
-}
-
-fn range(field: &str, lo: f64, hi: f64) -> Result<(), ConfigError> {
-    if lo.is_finite() && hi.is_finite() && 0.0 <= lo && lo <= hi { Ok(()) } else { Err(bad(field, format!("[{lo}, {hi}] is not a range 0 <= min <= max"))) }
+/// A `[min, max]` pair of keys in order (each key's own range is checked by
+/// [`EnvConfig::validate_driver`](crate::EnvConfig::validate_driver)).
+fn range<T: PartialOrd + std::fmt::Display>(field: &str, lo: T, hi: T) -> Result<(), ConfigError> {
+    if lo <= hi { Ok(()) } else { Err(bad(field, format!("[{lo}, {hi}] is not a range min <= max"))) }
 }
 
 impl HlcConfig {
-    /// Check the shared options.
+    /// Check the shared options (each key's own range is checked by `EnvConfig::validate_driver`).
     pub fn validate(&self) -> Result<(), ConfigError> {
         if self.llc.as_os_str().is_empty() {
             return Err(bad("env.hlc.llc", "no skill policy given: pass the checkpoint of a skill policy with --llc (or set env.hlc.llc)"));
-        }
-        if self.llc_steps == 0 {
-            return Err(bad("env.hlc.llc_steps", "must be at least 1"));
-        }
-        if self.latent_steps == 0 {
-            return Err(bad("env.hlc.latent_steps", "must be at least 1"));
-        }
-        if self.episode_length < 2 {
-            return Err(bad("env.hlc.episode_length", "must be at least 2 low-level steps"));
-        }
-        if self.start_frame < 2 {
-            return Err(bad("env.hlc.start_frame", format!("{} is below 2 (frames 0 and 1 have no velocity)", self.start_frame)));
-        }
-        if !self.termination_height.is_finite() {
-            return Err(bad("env.hlc.termination_height", "must be a finite number"));
         }
         Ok(())
     }
@@ -310,32 +314,25 @@ impl HlcConfig {
 
 impl HeadingConfig {
     pub fn validate(&self) -> Result<(), ConfigError> {
-        range("env.heading.goal_min", self.goal_min, self.goal_max)?;
-        positive("env.heading.success_radius", self.success_radius)
+        range("env.heading.goal_min", self.goal_min, self.goal_max)
     }
 }
 
 impl CirclingConfig {
     pub fn validate(&self) -> Result<(), ConfigError> {
-        range("env.circling.radius_min", self.radius_min, self.radius_max)?;
-        positive("env.circling.success_band", self.success_band)?;
-        positive("env.circling.code_latch_radius", self.code_latch_radius)
+        range("env.circling.radius_min", self.radius_min, self.radius_max)
     }
 }
 
 impl ThrowingConfig {
+    /// Nothing beyond each key's own range (checked by `EnvConfig::validate_driver`).
     pub fn validate(&self) -> Result<(), ConfigError> {
-        positive("env.throwing.throw_height", self.throw_height)?;
-        positive("env.throwing.success_seconds", self.success_seconds)
+        Ok(())
     }
 }
 
 impl ScoringConfig {
     pub fn validate(&self) -> Result<(), ConfigError> {
-        range("env.scoring.dist_min", self.dist_min, self.dist_max)?;
-        positive("env.scoring.basket_height", self.basket_height)?;
-        positive("env.scoring.reach_radius", self.reach_radius)?;
-        positive("env.scoring.reach_height", self.reach_height)?;
-        positive("env.scoring.success_radius", self.success_radius)
+        range("env.scoring.dist_min", self.dist_min, self.dist_max)
     }
 }

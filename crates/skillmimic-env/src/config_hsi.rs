@@ -13,11 +13,13 @@ use crate::error::{ConfigError, bad};
 pub struct HsiConfig {
     /// Compiled object variants per run: environment i uses variant i mod this (each variant
     /// samples the task's object sizes once, like the original's per-environment assets).
+    #[schemars(range(min = 1))]
     pub object_variants: usize,
     /// Seed of the object sizes of the variants.
     pub object_seed: u64,
     /// Character-fall termination: a body other than the feet that touches the floor or an
     /// object below this height (m) ends the episode (ASE's rule).
+    #[schemars(range(min = 0))]
     pub termination_height: f64,
     /// Start heading of the character: uniformly random (else facing +x).
     pub random_heading: bool,
@@ -53,24 +55,33 @@ impl Default for HsiConfig {
 #[serde(deny_unknown_fields, default)]
 pub struct FollowConfig {
     /// Episode length (policy steps; 300 = 10 s).
+    #[schemars(range(min = 1))]
     pub episode_length: usize,
     /// Time between trajectory vertices (s): 0.1 in the supplementary, 0.5 in the released code.
+    #[schemars(extend("exclusiveMinimum" = 0))]
     pub vertex_dt: f64,
     /// Speed range of the trajectory (m/s).
+    #[schemars(inner(range(min = 0)))]
     pub speed: [f64; 2],
     /// Largest speed change per vertex (m/s per s).
+    #[schemars(range(min = 0))]
     pub accel_max: f64,
     /// Largest heading change per vertex (rad per s).
+    #[schemars(range(min = 0))]
     pub turn_rate_max: f64,
     /// Probability per vertex of a sharp turn (a heading jump of up to ±π).
+    #[schemars(range(min = 0, max = 1))]
     pub sharp_turn_prob: f64,
     /// Path-distance termination: the 2-D root distance to the current waypoint above this (m).
+    #[schemars(extend("exclusiveMinimum" = 0))]
     pub fail_distance: f64,
     /// Success: within this distance (m) of the current waypoint for at least `success_fraction`
     /// of the episode.
+    #[schemars(extend("exclusiveMinimum" = 0))]
     pub success_distance: f64,
     /// Fraction of the episode's steps within `success_distance` for success (0.98, the
     /// released code's rule).
+    #[schemars(range(min = 0, max = 1))]
     pub success_fraction: f64,
     /// Reference clips of this task's own discriminator (multi-task training keeps one per task,
     /// as TokenHSI); empty = `env.hsi.style_motion`.
@@ -100,18 +111,24 @@ impl Default for FollowConfig {
 #[serde(deny_unknown_fields, default)]
 pub struct SitConfig {
     /// Episode length (policy steps; 300 = 10 s, Tab. A).
+    #[schemars(range(min = 1))]
     pub episode_length: usize,
     /// Seat height range (m, floor to seat top).
+    #[schemars(inner(range(min = 0.05)))]
     pub seat_height: [f64; 2],
     /// Seat width and depth range (m).
+    #[schemars(inner(range(min = 0.1)))]
     pub seat_size: [f64; 2],
     /// Probability that a variant has a backrest (a chair rather than a stool).
+    #[schemars(range(min = 0, max = 1))]
     pub backrest_prob: f64,
     /// Distance range (m) of the object from the character at the start.
+    #[schemars(inner(range(min = 0)))]
     pub distance: [f64; 2],
     /// Target height above the seat top (m; 0.1 in the paper).
     pub target_above_seat: f64,
     /// Success / interaction early termination: root within this distance (m) of the target.
+    #[schemars(extend("exclusiveMinimum" = 0))]
     pub success_distance: f64,
     /// Interaction early termination after this many consecutive steps within
     /// `success_distance` (0 = off).
@@ -143,16 +160,21 @@ impl Default for SitConfig {
 #[serde(deny_unknown_fields, default)]
 pub struct ClimbConfig {
     /// Episode length (policy steps; 300 = 10 s, Tab. A).
+    #[schemars(range(min = 1))]
     pub episode_length: usize,
     /// Platform height range (m).
+    #[schemars(inner(range(min = 0.02)))]
     pub height: [f64; 2],
     /// Platform width and depth range (m).
+    #[schemars(inner(range(min = 0.1)))]
     pub size: [f64; 2],
     /// Distance range (m) of the platform from the character at the start.
+    #[schemars(inner(range(min = 0)))]
     pub distance: [f64; 2],
     /// Target root height above the platform top (m; 0.94 in the paper).
     pub target_above_top: f64,
     /// Success / interaction early termination: root within this distance (m) of the target.
+    #[schemars(extend("exclusiveMinimum" = 0))]
     pub success_distance: f64,
     /// Interaction early termination after this many consecutive steps within
     /// `success_distance` (0 = off).
@@ -174,19 +196,26 @@ impl Default for ClimbConfig {
 #[serde(deny_unknown_fields, default)]
 pub struct CarryConfig {
     /// Episode length (600 = 20 s).
+    #[schemars(range(min = 1))]
     pub episode_length: usize,
     /// Box side length range (m), each side drawn independently.
+    #[schemars(inner(range(min = 0.05)))]
     pub box_size: [f64; 2],
     /// Box mass range (kg).
+    #[schemars(inner(range(min = 0.01)))]
     pub box_mass: [f64; 2],
     /// Height range of the start and target support tops (m).
+    #[schemars(inner(range(min = 0)))]
     pub support_height: [f64; 2],
     /// Distance range (m) of the start support from the character, and of the target support
     /// from the start support.
+    #[schemars(inner(range(min = 0)))]
     pub distance: [f64; 2],
     /// Object-fall termination: the box centre below this height (m) (off when 0).
+    #[schemars(range(min = 0))]
     pub fall_height: f64,
     /// Success: box centre within this distance (m) of its target.
+    #[schemars(extend("exclusiveMinimum" = 0))]
     pub success_distance: f64,
     /// Reference clips of this task's own discriminator (multi-task training keeps one per task,
     /// as TokenHSI); empty = `env.hsi.style_motion`.
@@ -209,11 +238,10 @@ impl Default for CarryConfig {
     }
 }
 
-fn range(key: &str, r: [f64; 2], min: f64) -> Result<(), ConfigError> {
-    if !(r[0].is_finite() && r[1].is_finite() && r[0] >= min && r[0] <= r[1]) {
-        return Err(bad(key, format!("{r:?} must be a finite [low, high] range with low >= {min}")));
-    }
-    Ok(())
+/// A `[low, high]` pair in order (the bounds of each value are checked by
+/// `EnvConfig::validate_driver`).
+fn range(key: &str, r: [f64; 2]) -> Result<(), ConfigError> {
+    if r[0] <= r[1] { Ok(()) } else { Err(bad(key, format!("{r:?} must be a [low, high] range with low <= high"))) }
 }
 
 impl HsiConfig {
@@ -233,35 +261,23 @@ impl HsiConfig {
         if own.is_empty() { self.style_motion.clone() } else { own }
     }
 
-    /// Check the values (errors name the key).
+    /// Check the values: each range in order (each key's own range is checked by
+    /// `EnvConfig::validate_driver`).
     pub fn validate(&self) -> Result<(), ConfigError> {
-        if self.object_variants == 0 {
-            return Err(bad("env.hsi.object_variants", "must be at least 1"));
-        }
-        if !(self.termination_height.is_finite() && self.termination_height >= 0.0) {
-            return Err(bad("env.hsi.termination_height", "must be a non-negative height in metres"));
-        }
-        let f = &self.follow;
-        range("env.hsi.follow.speed", f.speed, 0.0)?;
-        for (k, v) in [("env.hsi.follow.vertex_dt", f.vertex_dt), ("env.hsi.follow.fail_distance", f.fail_distance), ("env.hsi.follow.success_distance", f.success_distance)] {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(bad(k, format!("{v} must be positive")));
-            }
-        }
-        range("env.hsi.sit.seat_height", self.sit.seat_height, 0.05)?;
-        range("env.hsi.sit.seat_size", self.sit.seat_size, 0.1)?;
-        range("env.hsi.sit.distance", self.sit.distance, 0.0)?;
-        range("env.hsi.climb.height", self.climb.height, 0.02)?;
-        range("env.hsi.climb.size", self.climb.size, 0.1)?;
-        range("env.hsi.climb.distance", self.climb.distance, 0.0)?;
-        range("env.hsi.carry.box_size", self.carry.box_size, 0.05)?;
-        range("env.hsi.carry.box_mass", self.carry.box_mass, 0.01)?;
-        range("env.hsi.carry.support_height", self.carry.support_height, 0.0)?;
-        range("env.hsi.carry.distance", self.carry.distance, 0.0)?;
-        for (k, n) in [("follow", f.episode_length), ("sit", self.sit.episode_length), ("climb", self.climb.episode_length), ("carry", self.carry.episode_length)] {
-            if n == 0 {
-                return Err(bad(&format!("env.hsi.{k}.episode_length"), "must be at least 1 step"));
-            }
+        for (key, r) in [
+            ("env.hsi.follow.speed", self.follow.speed),
+            ("env.hsi.sit.seat_height", self.sit.seat_height),
+            ("env.hsi.sit.seat_size", self.sit.seat_size),
+            ("env.hsi.sit.distance", self.sit.distance),
+            ("env.hsi.climb.height", self.climb.height),
+            ("env.hsi.climb.size", self.climb.size),
+            ("env.hsi.climb.distance", self.climb.distance),
+            ("env.hsi.carry.box_size", self.carry.box_size),
+            ("env.hsi.carry.box_mass", self.carry.box_mass),
+            ("env.hsi.carry.support_height", self.carry.support_height),
+            ("env.hsi.carry.distance", self.carry.distance),
+        ] {
+            range(key, r)?;
         }
         Ok(())
     }

@@ -15,6 +15,7 @@ pub struct MultiConfig {
     /// Share of the environments per task (normalised; largest remainder, at least one each).
     /// Empty (default): TokenHSI's mix follow 0.1, sit 0.3, carry 0.3, climb 0.3 for the default
     /// `hsi_multi` tasks, equal shares otherwise.
+    #[schemars(extend("items" = {"type": "number", "format": "double", "exclusiveMinimum": 0}))]
     pub mix: Vec<f64>,
     /// Task observation groups of the observation, in column order (each task's own group is
     /// named after the task). Empty = every group of `tasks`, in order of first appearance. Name

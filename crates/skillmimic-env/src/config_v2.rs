@@ -49,28 +49,40 @@ pub struct HistoryConfig {
 #[serde(deny_unknown_fields, default)]
 pub struct NoiseEps {
     /// Root x, y (m).
+    #[schemars(range(min = 0))]
     pub root_pos: f64,
     /// Root height, upward only (m).
+    #[schemars(range(min = 0))]
     pub root_height: f64,
     /// Root orientation (rad, rotation-vector components).
+    #[schemars(range(min = 0))]
     pub root_rot: f64,
     /// Root linear velocity (m/s).
+    #[schemars(range(min = 0))]
     pub root_linvel: f64,
     /// Root angular velocity (rad/s, root frame).
+    #[schemars(range(min = 0))]
     pub root_angvel: f64,
     /// Joint exp-map components (rad).
+    #[schemars(range(min = 0))]
     pub dof_pos: f64,
     /// Joint velocities (rad/s).
+    #[schemars(range(min = 0))]
     pub dof_vel: f64,
     /// Ball x, y (m).
+    #[schemars(range(min = 0))]
     pub ball_pos: f64,
     /// Ball height, upward only (m).
+    #[schemars(range(min = 0))]
     pub ball_height: f64,
     /// Ball orientation (rad).
+    #[schemars(range(min = 0))]
     pub ball_rot: f64,
     /// Ball linear velocity (m/s).
+    #[schemars(range(min = 0))]
     pub ball_linvel: f64,
     /// Ball angular velocity (rad/s).
+    #[schemars(range(min = 0))]
     pub ball_angvel: f64,
 }
 
@@ -120,6 +132,7 @@ pub struct StfConfig {
     /// Use the State Transition Field.
     pub enabled: bool,
     /// p_n: probability that a reset starts from a perturbed state.
+    #[schemars(range(min = 0, max = 1))]
     pub prob: f64,
     /// Per-component half-widths ε of the neighbourhood.
     pub eps: NoiseEps,
@@ -139,6 +152,7 @@ pub struct StgConfig {
     pub enabled: bool,
     /// p_e: probability that a reset imitates another skill from the sampled state (applied to
     /// resets that were not perturbed by the STF, as in the reference code).
+    #[schemars(range(min = 0, max = 1))]
     pub prob: f64,
 }
 
@@ -170,6 +184,7 @@ pub struct BridgeConfig {
     pub max_masked_steps: usize,
     /// τ: similarity floor. STG connections below it are not made; an STF connection below it
     /// gets N_max steps.
+    #[schemars(extend("exclusiveMinimum" = 0, "exclusiveMaximum" = 1))]
     pub tau: f64,
     /// How the masked bridging steps enter the reward.
     pub masked_reward: MaskedReward,
@@ -188,10 +203,13 @@ pub struct AtsConfig {
     /// Use Adaptive Trajectory Sampling.
     pub enabled: bool,
     /// λ_s: start-frame weights ∝ exp(−λ_s r̄).
+    #[schemars(range(min = 0))]
     pub lambda_s: f64,
     /// λ_c: class and clip weights ∝ exp(−λ_c R).
+    #[schemars(range(min = 0))]
     pub lambda_c: f64,
     /// Mixing with uniform sampling: p = (1 − α)/n + α·p_ATS (1 = pure ATS).
+    #[schemars(range(min = 0, max = 1))]
     pub alpha: f64,
     /// Vectorised environment steps between two recomputations of the distributions;
     /// 0 = 5 × (sum of the clip lengths), the reference code's interval.
@@ -213,38 +231,6 @@ impl V2Config {
     pub(crate) fn validate(&self) -> Result<(), ConfigError> {
         if self.history.enabled && self.history.encoder.as_os_str().is_empty() {
             return Err(bad("env.v2.history.encoder", "history is enabled but no encoder file is given (write one with `skillmimic history pretrain`)"));
-        }
-        for (f, v) in [("env.v2.stf.prob", self.stf.prob), ("env.v2.stg.prob", self.stg.prob), ("env.v2.ats.alpha", self.ats.alpha)] {
-            if !(0.0..=1.0).contains(&v) {
-                return Err(bad(f, format!("{v} must be a probability in [0, 1]")));
-            }
-        }
-        let e = &self.stf.eps;
-        for (f, v) in [
-            ("root_pos", e.root_pos),
-            ("root_height", e.root_height),
-            ("root_rot", e.root_rot),
-            ("root_linvel", e.root_linvel),
-            ("root_angvel", e.root_angvel),
-            ("dof_pos", e.dof_pos),
-            ("dof_vel", e.dof_vel),
-            ("ball_pos", e.ball_pos),
-            ("ball_height", e.ball_height),
-            ("ball_rot", e.ball_rot),
-            ("ball_linvel", e.ball_linvel),
-            ("ball_angvel", e.ball_angvel),
-        ] {
-            if !(v.is_finite() && v >= 0.0) {
-                return Err(bad(&format!("env.v2.stf.eps.{f}"), format!("{v} must be a finite number >= 0")));
-            }
-        }
-        for (f, v) in [("env.v2.ats.lambda_s", self.ats.lambda_s), ("env.v2.ats.lambda_c", self.ats.lambda_c)] {
-            if !(v.is_finite() && v >= 0.0) {
-                return Err(bad(f, format!("{v} must be a finite number >= 0")));
-            }
-        }
-        if !(self.bridge.tau.is_finite() && self.bridge.tau > 0.0 && self.bridge.tau < 1.0) {
-            return Err(bad("env.v2.bridge.tau", format!("{} must be in (0, 1)", self.bridge.tau)));
         }
         Ok(())
     }

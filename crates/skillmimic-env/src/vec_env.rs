@@ -111,7 +111,7 @@ impl<T: Task> VecEnv<T> {
     /// stream of episode starts; `threads` = simulation threads (0 = one per core).
     pub fn with_task(task: T, scene: Arc<Scene>, num_envs: usize, threads: usize, seed: u64) -> Result<Self, EnvError> {
         let n = num_envs;
-        let sim = BatchSim::new(scene, n, threads)?;
+        let sim = BatchSim::new(scene, n, crate::config_range::capped_threads(threads, "env.threads"))?;
         let spec = task.spec().clone();
         let slots = (0..n).map(|_| task.new_slot()).collect();
         let buf = StepBuffers::for_spec(n, &spec);

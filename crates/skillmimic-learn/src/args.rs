@@ -26,7 +26,8 @@ pub struct ConfigFlags {
     /// ranks).
     #[arg(long)]
     pub num_envs: Option<usize>,
-    /// Simulation threads (`env.threads`, 0 = all cores).
+    /// Simulation threads (`env.threads`, 0 = one per core; at most 1024, and more than four per
+    /// core are capped to four per core).
     #[arg(long)]
     pub threads: Option<usize>,
     /// Any config field as `table.field=value` (TOML value syntax), repeatable, applied last.
@@ -53,7 +54,7 @@ fn policy_help() -> String {
 }
 
 impl ConfigFlags {
-    /// Apply the flags to `cfg`.
+    /// Apply the flags to `cfg`, then check every number against its range.
     pub fn apply(&self, cfg: &mut TrainConfig) -> anyhow::Result<()> {
         if let Some(t) = &self.task {
             cfg.env.task = t.clone();
@@ -81,6 +82,8 @@ impl ConfigFlags {
         for s in &self.set {
             cfg.set(s).map_err(anyhow::Error::msg)?;
         }
+        // every number in its range at once (train, eval, play), before threads or networks exist
+        cfg.validate_ranges().map_err(anyhow::Error::msg)?;
         Ok(())
     }
 }
@@ -131,7 +134,8 @@ pub struct TrainArgs {
     /// Output folder (`run.out_dir`).
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Learner threads (`run.learner_threads`, 0 = all cores).
+    /// Learner threads (`run.learner_threads`, 0 = all cores; at most 1024, capped to four per
+    /// core).
     #[arg(long)]
     pub learner_threads: Option<usize>,
     /// Continue from a training checkpoint (optimizer and normaliser state included), or
@@ -145,7 +149,8 @@ pub struct TrainArgs {
 }
 
 impl TrainArgs {
-    /// The configuration: preset, file, flags, then the run flags.
+    /// The configuration: preset, file, flags, then the run flags; every number is checked
+    /// against its range at once ([`TrainConfig::validate_ranges`]), before any thread starts.
     pub fn config(&self) -> anyhow::Result<TrainConfig> {
         let mut cfg = self.base.assemble()?;
         if let Some(v) = self.iterations {
@@ -163,6 +168,7 @@ impl TrainArgs {
         if self.no_video {
             cfg.run.final_video = false;
         }
+        cfg.validate_ranges().map_err(anyhow::Error::msg)?;
         Ok(cfg)
     }
 
@@ -175,8 +181,11 @@ impl TrainArgs {
     }
 }
 
-/// Size the global rayon pool used by the learner's matrix products (once per process).
+/// Size the global rayon pool used by the learner's matrix products (once per process); `n`
+/// = 0 is one thread per core, and a count far above the cores is capped
+/// ([`capped_threads`](skillmimic_env::config_range::capped_threads)).
 pub fn init_learner_threads(n: usize) {
+    let n = skillmimic_env::config_range::capped_threads(n, "run.learner_threads");
     let mut b = rayon::ThreadPoolBuilder::new().thread_name(|i| format!("skillmimic-learn-{i}"));
     if n > 0 {
         b = b.num_threads(n);

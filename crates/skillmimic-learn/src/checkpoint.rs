@@ -13,13 +13,19 @@
 //!
 //! Training checkpoints add the Adam state: `optim.step` (I64, ()) and `optim.m.<param>`,
 //! `optim.v.<param>` (F32) for every actor/critic parameter; `export` writes the policy part only.
-//! Metadata: `format = "skillmimic-policy"`, `format_version = "1"`, `kind` (`train`/`policy`),
+//! Metadata: `format = "skillmimic-policy"`, `format_version = "1"` (another version is refused),
+//! `kind` (`train`/`policy`),
 //! `obs_dim`, `act_dim`, `hidden` (JSON list), `iteration`, `samples`, `config` (TOML text), and
 //! the normaliser switches and settings; `policy` = the family (`gaussian_mlp` when absent, as in
 //! files written before families existed) and `actions` = the action space (`box:<dim>` or
 //! `discrete:<n>`; absent = `box:<act_dim>`); `actor_net` = the description of an actor that is
 //! not an MLP (`modular_attention`: tensors `actor.parts.*`; `token_transformer*`: the token
 //! network's tensors, frozen ones included), read back by the family (`PolicyFamily::read_actor`).
+//!
+//! Loading checks what would otherwise give silent NaN or a panic later: the normaliser
+//! statistics (`RunningMeanStd::check`: finite, variance ≥ 0, `norm_eps` > 0, `norm_clip` > 0)
+//! and every number of the stored `config` against its documented range
+//! (`TrainConfig::validate_ranges`).
 
 use std::collections::BTreeMap;
 
@@ -181,15 +187,32 @@ fn refuse_non_finite(tensors: &[OwnedTensor]) -> std::io::Result<()> {
     Ok(())
 }
 
+/// A normaliser of the file, its statistics checked ([`RunningMeanStd::check`]).
 fn load_norm(f: &TensorFile, prefix: &str, dim: usize, eps: f64, clip: f64) -> Result<RunningMeanStd, String> {
-    read_normalizer(f, prefix, dim, eps, clip).map_err(|e| e.to_string())
+    let n = read_normalizer(f, prefix, dim, eps, clip).map_err(|e| e.to_string())?;
+    n.check(prefix).map_err(|detail| format!("{}: {detail}", f.path().display()))?;
+    Ok(n)
+}
+
+/// The training configuration stored in checkpoint `path` (metadata `config`, TOML over the
+/// defaults), every number checked against its documented range
+/// ([`TrainConfig::validate_ranges`](crate::config::TrainConfig::validate_ranges)).
+pub fn stored_config(path: &Path, text: &str) -> Result<crate::config::TrainConfig, crate::error::LearnError> {
+    use crate::config::TrainConfig;
+    let cfg = TrainConfig::from_toml_over(&TrainConfig::default(), text, path)?;
+    check_stored(path, &cfg).map_err(crate::error::bad_checkpoint(path))?;
+    Ok(cfg)
+}
+
+fn check_stored(path: &Path, cfg: &crate::config::TrainConfig) -> Result<(), String> {
+    cfg.validate_ranges().map_err(|e| format!("{}: metadata 'config' (the stored training configuration): {e}", path.display()))
 }
 
 /// A checkpoint and the training configuration stored in it (the defaults when it has none).
 pub fn load_with_config(path: &Path) -> Result<(Checkpoint, crate::config::TrainConfig), crate::error::LearnError> {
     use crate::config::TrainConfig;
     let c = load(path, None)?;
-    let cfg = if c.config.is_empty() { TrainConfig::default() } else { TrainConfig::from_toml_over(&TrainConfig::default(), &c.config, path)? };
+    let cfg = if c.config.is_empty() { TrainConfig::default() } else { stored_config(path, &c.config)? };
     Ok((c, cfg))
 }
 
@@ -204,6 +227,20 @@ fn load_raw(path: &Path, expect: Option<(usize, usize)>) -> Result<Checkpoint, S
     let fmt = f.meta("format").map_err(e)?;
     if fmt != FORMAT {
         return Err(format!("{}: format '{fmt}', expected '{FORMAT}' (a skillmimic checkpoint)", path.display()));
+    }
+    let version: u32 = f.meta_parse("format_version", "an integer").map_err(e)?;
+    if version != VERSION {
+        return Err(format!(
+            "{}: metadata field 'format_version' is {version}, this build reads version {VERSION} only{}",
+            path.display(),
+            if version > VERSION { " (the file was written by a newer skillmimic)" } else { "" }
+        ));
+    }
+    // the stored configuration: a value outside its range is refused; a text this build cannot
+    // parse (keys of another version) is left to the readers of the configuration
+    let config = f.metadata().get("config").cloned().unwrap_or_default();
+    if let Ok(cfg) = crate::config::TrainConfig::from_toml_over(&Default::default(), &config, path) {
+        check_stored(path, &cfg)?;
     }
     let obs_dim: usize = f.meta_parse("obs_dim", "an integer").map_err(e)?;
     let act_dim: usize = f.meta_parse("act_dim", "an integer").map_err(e)?;
@@ -269,7 +306,7 @@ fn load_raw(path: &Path, expect: Option<(usize, usize)>) -> Result<Checkpoint, S
             iteration: f.meta_parse("iteration", "an integer").map_err(e)?,
             samples: f.meta_parse("samples", "an integer").map_err(e)?,
         },
-        config: f.metadata().get("config").cloned().unwrap_or_default(),
+        config,
     })
 }
 

@@ -31,36 +31,51 @@ pub struct PpoConfig {
     /// actions). It must support the task's action space.
     pub policy: String,
     /// Hidden layer widths of the actor and of the critic (separate networks), ReLU.
+    #[schemars(inner(range(min = 1)))]
     pub hidden: Vec<usize>,
     /// Fixed log standard deviation of the Gaussian policy (σ = e^−2.9 ≈ 0.055).
+    #[schemars(range(min = -20, max = 2))]
     pub log_std: f64,
     /// Rollout length per environment per iteration.
+    #[schemars(range(min = 1))]
     pub horizon: usize,
     /// Minibatch size (samples).
+    #[schemars(range(min = 1))]
     pub minibatch: usize,
     /// Passes over the rollout per iteration.
+    #[schemars(range(min = 1))]
     pub mini_epochs: usize,
     /// Adam learning rate (constant).
+    #[schemars(range(max = 1000), extend("exclusiveMinimum" = 0))]
     pub lr: f64,
     /// Adam epsilon.
+    #[schemars(range(max = 1), extend("exclusiveMinimum" = 0))]
     pub adam_eps: f64,
     /// Discount γ.
+    #[schemars(range(max = 1), extend("exclusiveMinimum" = 0))]
     pub gamma: f64,
     /// GAE λ.
+    #[schemars(range(max = 1), extend("exclusiveMinimum" = 0))]
     pub lam: f64,
     /// PPO clip ε.
+    #[schemars(range(max = 1), extend("exclusiveMinimum" = 0))]
     pub clip: f64,
     /// Critic loss coefficient.
+    #[schemars(range(min = 0))]
     pub critic_coef: f64,
     /// Bounds loss coefficient.
+    #[schemars(range(min = 0))]
     pub bounds_coef: f64,
     /// Soft bound of the action mean: the bounds loss penalises |μ| beyond it.
+    #[schemars(range(min = 0))]
     pub bound: f64,
     /// Entropy bonus coefficient c_e (families that compute an entropy: `categorical_mlp`; the
     /// papers' PPO settings use 0).
+    #[schemars(range(min = 0))]
     pub entropy_coef: f64,
     /// Global gradient-norm limit, applied only when `truncate_grads` is true (the paper's
     /// rl_games config sets 1.0 with `truncate_grads: False`, i.e. never applied).
+    #[schemars(extend("exclusiveMinimum" = 0))]
     pub grad_norm: f64,
     /// Clip the global gradient norm to `grad_norm` (off in the paper's config).
     pub truncate_grads: bool,
@@ -71,8 +86,10 @@ pub struct PpoConfig {
     /// Batch advantage normalisation.
     pub normalize_advantage: bool,
     /// Normaliser epsilon.
+    #[schemars(range(max = 1), extend("exclusiveMinimum" = 0))]
     pub norm_eps: f64,
     /// Normaliser clamp: normalised values are clamped to ±norm_clip.
+    #[schemars(extend("exclusiveMinimum" = 0))]
     pub norm_clip: f64,
     /// Gradient implementation (results agree to float rounding).
     pub backend: Backend,
@@ -127,16 +144,20 @@ pub struct ModularConfig {
     /// Body split: "five" (ModSkill's: legs, torso, arms with hands) or "seven" (hands separate).
     pub parts: String,
     /// Width of each part embedding z_k (ModSkill: 64).
+    #[schemars(range(min = 1))]
     pub embed: usize,
     /// Hidden width of the Q/K/V projections (ModSkill: 256).
+    #[schemars(range(min = 1))]
     pub proj_hidden: usize,
     /// Attention heads (ModSkill: 1); `embed` must be a multiple.
+    #[schemars(range(min = 1))]
     pub heads: usize,
     /// Scale the attention scores by 1/sqrt(embed/heads): the paper's Eq. 5 does, the released
     /// code does not (default).
     pub scaled: bool,
     /// Hidden widths of every part controller. Default [512, 256] for CPUs; the released code
     /// uses [2048, 1536, 1024, 512] (preset `modskill`).
+    #[schemars(inner(range(min = 1)))]
     pub controller: Vec<usize>,
 }
 
@@ -164,26 +185,36 @@ pub struct AmpConfig {
     /// Add the style reward: r = task_weight · r_task + style_weight · r_style.
     pub enabled: bool,
     /// Frames per window (10 in ModSkill and TokenHSI).
+    #[schemars(range(min = 1))]
     pub window: usize,
     /// Hidden widths of the discriminator MLP ([1024, 512]).
+    #[schemars(inner(range(min = 1)))]
     pub hidden: Vec<usize>,
     /// Adversarial loss.
     pub loss: AmpLoss,
     /// Gradient-penalty weight on reference windows (5, the AMP code).
+    #[schemars(range(min = 0))]
     pub grad_penalty: f64,
     /// Weight of the squared output-layer weights (0.05, the AMP code).
+    #[schemars(range(min = 0))]
     pub logit_reg: f64,
     /// Discriminator Adam learning rate.
+    #[schemars(range(min = 0, max = 1000))]
     pub lr: f64,
     /// Style-reward scale (2, the AMP code).
+    #[schemars(range(min = 0))]
     pub reward_scale: f64,
     /// Weight of the task reward (0.5 in ModSkill and TokenHSI).
+    #[schemars(range(min = 0))]
     pub task_weight: f64,
     /// Weight of the style reward (0.5).
+    #[schemars(range(min = 0))]
     pub style_weight: f64,
     /// Simulated windows kept for the discriminator (a ring buffer filled during rollouts).
+    #[schemars(range(min = 1))]
     pub buffer: usize,
     /// Windows per discriminator minibatch (as many reference windows are drawn).
+    #[schemars(range(min = 1))]
     pub batch: usize,
     /// Discriminator steps per iteration.
     pub updates: usize,
@@ -221,8 +252,11 @@ pub struct RunConfig {
     #[schemars(extend("format" = "path"))]
     pub out_dir: PathBuf,
     /// Save a checkpoint every this many iterations (and at the end).
+    #[schemars(range(min = 1))]
     pub save_every: usize,
-    /// Threads of the learner's matrix products (0 = all cores).
+    /// Threads of the learner's matrix products (0 = all cores; a count above four per core is
+    /// capped to that).
+    #[schemars(range(max = skillmimic_env::config_range::MAX_THREADS))]
     pub learner_threads: usize,
     /// Evaluate and render a short video at the end of training.
     pub final_video: bool,
@@ -380,29 +414,24 @@ impl TrainConfig {
         toml::to_string_pretty(self).expect("serialisable config")
     }
 
-    /// Check value ranges of the PPO and run settings (the env checks its own).
+    /// Check the documented range of every number ([`Self::validate_ranges`]), then the
+    /// environment's and the cross-field rules.
     pub fn validate(&self) -> Result<(), LearnError> {
+        self.validate_ranges()?;
         self.env.validate().map_err(|e| LearnError::Config(e.to_string()))?;
         self.run.active.validate(&self.env.task).map_err(LearnError::Config)?;
         if self.run.active.enabled && self.run.active.disc_score_min > 0.0 && !self.ppo.amp.enabled {
             return Err(LearnError::Config("config field 'run.active.disc_score_min': the discriminator filter needs the motion prior (--set ppo.amp.enabled=true)".into()));
         }
         let p = &self.ppo;
-        if p.hidden.is_empty() || p.hidden.contains(&0) {
+        if p.hidden.is_empty() {
             return Err(LearnError::Config("config field 'ppo.hidden': needs at least one non-zero layer width".into()));
         }
         let a = &p.amp;
         if a.enabled {
-            if a.window == 0 || a.batch == 0 || a.buffer < a.batch || a.hidden.is_empty() || a.hidden.contains(&0) {
-                return Err(LearnError::Config("config fields 'ppo.amp.*': window and batch must be >= 1, buffer >= batch, hidden non-empty without zeros".into()));
+            if a.buffer < a.batch || a.hidden.is_empty() {
+                return Err(LearnError::Config("config fields 'ppo.amp.buffer', 'ppo.amp.hidden': buffer must be >= batch, hidden non-empty".into()));
             }
-            let weights = [a.grad_penalty, a.logit_reg, a.lr, a.reward_scale, a.task_weight, a.style_weight];
-            if weights.iter().any(|w| !(w.is_finite() && *w >= 0.0)) {
-                return Err(LearnError::Config("config fields 'ppo.amp.*': grad_penalty, logit_reg, lr, reward_scale, task_weight and style_weight must be finite and >= 0".into()));
-            }
-        }
-        if p.horizon == 0 || p.minibatch == 0 || p.mini_epochs == 0 {
-            return Err(LearnError::Config("config fields 'ppo.horizon', 'ppo.minibatch', 'ppo.mini_epochs' must be >= 1".into()));
         }
         if p.minibatch > self.batch_size() {
             return Err(LearnError::Config(format!(
@@ -413,11 +442,6 @@ impl TrainConfig {
                 self.batch_size()
             )));
         }
-        for (name, v) in [("ppo.lr", p.lr), ("ppo.gamma", p.gamma), ("ppo.lam", p.lam), ("ppo.clip", p.clip)] {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(LearnError::Config(format!("config field '{name}': {v} must be a positive number")));
-            }
-        }
         match (p.device.as_str(), p.backend) {
             ("cpu", _) => {}
             ("cuda", Backend::Candle) if cfg!(feature = "cuda") => {}
@@ -427,10 +451,15 @@ impl TrainConfig {
             ("cuda", Backend::Fast) => return Err(LearnError::Config("config field 'ppo.device': \"cuda\" runs on the candle backend; set ppo.backend = \"candle\"".into())),
             (other, _) => return Err(LearnError::Config(format!("config field 'ppo.device': '{other}' is not a device, expected \"cpu\" or \"cuda\""))),
         }
-        if self.run.save_every == 0 {
-            return Err(LearnError::Config("config field 'run.save_every' must be >= 1".into()));
-        }
         Ok(())
+    }
+
+    /// Check every number of the configuration against its documented range (the schemars
+    /// attributes on the fields, shown in `docs/config.md`) and finiteness; the error names the
+    /// key (`ppo.gamma`), the value and the range. Also the check of configurations stored in
+    /// checkpoints.
+    pub fn validate_ranges(&self) -> Result<(), LearnError> {
+        skillmimic_env::config_range::check_ranges(self, "").map_err(|e| LearnError::Config(e.to_string()))
     }
 }
 

@@ -12,6 +12,7 @@ pub struct ActiveConfig {
     /// iterations (`env.task = "tracking"`, one process).
     pub enabled: bool,
     /// Iterations between rounds (ModSkill: after each convergence phase, ≈ 2e8 steps).
+    #[schemars(range(min = 1))]
     pub every: usize,
     /// "model_free" (part recombination, mirroring, time warping — not a learned model),
     /// "command" (an external program, `command`) or the name of a generator registered in this
@@ -21,14 +22,18 @@ pub struct ActiveConfig {
     /// failed clip (project format) and an empty folder to write new clips into.
     pub command: Vec<String>,
     /// Multiplier of a failed clip's sampling weight per failed round.
+    #[schemars(extend("exclusiveMinimum" = 0))]
     pub failure_weight: f64,
     /// Validity filter: tolerated depth of a body frame below the floor (m).
+    #[schemars(extend("exclusiveMinimum" = 0))]
     pub floor_tol: f64,
     /// Validity filter: fastest joint rotation (rad/s).
+    #[schemars(extend("exclusiveMinimum" = 0))]
     pub max_joint_speed: f64,
     /// Optional filter by the motion prior (needs `ppo.amp.enabled`): a generated clip is kept
     /// only when the mean of sigmoid(D) over its 10-frame windows is at least this (0 = off; the
     /// released ModSkill code keeps samples with a score of 0.5 — not in the paper).
+    #[schemars(range(min = 0), extend("exclusiveMaximum" = 1))]
     pub disc_score_min: f64,
 }
 
@@ -39,16 +44,14 @@ impl Default for ActiveConfig {
 }
 
 impl ActiveConfig {
-    /// Check the values for the task `task` (errors name the key).
+    /// Check the values for the task `task` (errors name the key; each number's own range is
+    /// checked by `TrainConfig::validate_ranges`).
     pub fn validate(&self, task: &str) -> Result<(), String> {
         if !self.enabled {
             return Ok(());
         }
         if task != "tracking" {
             return Err(format!("config field 'run.active.enabled': active skill learning runs on the tracking task, not '{task}'"));
-        }
-        if self.every == 0 {
-            return Err("config field 'run.active.every': must be at least 1".into());
         }
         match self.generator.as_str() {
             "model_free" => {}
@@ -59,13 +62,6 @@ impl ActiveConfig {
                 let known: Vec<String> = skillmimic_motion::generate::BUILT_IN.iter().map(|s| s.to_string()).chain(skillmimic_motion::generate::registered_names()).collect();
                 return Err(format!("config field 'run.active.generator': '{other}', expected one of {known:?} (a Python generator must be registered with skillmimic_rs.register_generator first)"));
             }
-        }
-        if !(0.0..1.0).contains(&self.disc_score_min) {
-            return Err(format!("config field 'run.active.disc_score_min': {} is outside [0, 1)", self.disc_score_min));
-        }
-        let v = [self.failure_weight, self.floor_tol, self.max_joint_speed];
-        if v.iter().any(|x| !(x.is_finite() && *x > 0.0)) {
-            return Err("config fields 'run.active.failure_weight', 'floor_tol', 'max_joint_speed' must be positive".into());
         }
         Ok(())
     }

@@ -3,17 +3,19 @@
 //! Every configuration struct and enum derives [`schemars::JsonSchema`], so its `///` doc
 //! comments become descriptions of a JSON schema. This module walks that schema (following
 //! `$ref`s into `$defs`): every struct-valued field is a TOML sub-table, every other field a key
-//! with its type in plain words, its default (serialised from the `Default` value, in TOML
+//! with its type in plain words, its valid range (the one [`skillmimic_env::config_range`]
+//! checks), its default (serialised from the `Default` value, in TOML
 //! syntax) and the first sentence of its doc comment. Keys appear in declaration order, which is
 //! taken from the serialised value (the schema's property maps are sorted).
 //!
 //! A new field or table needs nothing here: derive `JsonSchema` on new structs/enums, write a
 //! `///` doc comment on every field, and regenerate with [`REGENERATE`].
 
-use schemars::{JsonSchema, SchemaGenerator};
+use schemars::JsonSchema;
 use serde::de::{Deserializer, MapAccess, Visitor};
 use serde::{Deserialize, Serialize};
-use serde_json::{Map, Value};
+use serde_json::Value;
+use skillmimic_env::config_range::{SchemaDefs, range_text, root_schema};
 
 use crate::config::{PRESETS, TrainConfig};
 
@@ -44,7 +46,10 @@ pub fn train_config_reference() -> ConfigReference {
          chosen by `--preset` (see [Presets](#presets)); keys left out keep the preset's value and unknown keys \
          are errors. Any key can also be set on the command line with `--set table.key=value` (TOML value \
          syntax, bare words are strings), e.g. `--set env.reward.variant=additive`. The configuration of a run \
-         is saved next to its checkpoints. The *Default* column shows `TrainConfig::default()`.\n\n\
+         is saved next to its checkpoints. The *Default* column shows `TrainConfig::default()`. The *Range* \
+         column gives the valid values of every number (of each element for lists and tables; every number \
+         must be finite): a value outside it is refused with an error naming the key, by `train` and when a \
+         checkpoint's stored configuration is loaded.\n\n\
          The history-encoder pre-training (`skillmimic history pretrain`) is configured by its command-line \
          flags only (`skillmimic history pretrain --help`), not by this file.\n"
     );
@@ -55,27 +60,22 @@ pub fn train_config_reference() -> ConfigReference {
 
 /// One Markdown section per TOML table of `value`'s type (`value` gives the defaults).
 pub fn reference_tables<T: JsonSchema + Serialize>(value: &T) -> ConfigReference {
-    let schema = SchemaGenerator::default().into_root_schema_for::<T>();
-    let root = schema.as_value();
-    let defs = root.get("$defs").and_then(Value::as_object).cloned().unwrap_or_default();
-    let mut w = Walker { defs, markdown: String::new(), undocumented: Vec::new() };
-    w.table("", "", root, &ordered(value));
+    let root = root_schema::<T>();
+    let mut w = Walker { defs: SchemaDefs::of(&root), markdown: String::new(), undocumented: Vec::new() };
+    w.table("", "", &root, &ordered(value));
     ConfigReference { markdown: w.markdown, undocumented: w.undocumented }
 }
 
 struct Walker {
-    defs: Map<String, Value>,
+    defs: SchemaDefs,
     markdown: String,
     undocumented: Vec<String>,
 }
 
 impl Walker {
-    /// Follow a `$ref` into `$defs` (one level is all schemars emits).
+    /// Follow a `$ref` into `$defs`.
     fn resolve<'a>(&'a self, s: &'a Value) -> &'a Value {
-        match s.get("$ref").and_then(Value::as_str).and_then(|r| r.strip_prefix("#/$defs/")) {
-            Some(name) => self.defs.get(name).unwrap_or(s),
-            None => s,
-        }
+        self.defs.resolve(s)
     }
 
     fn table(&mut self, path: &str, field_doc: &str, schema: &Value, defaults: &Node) {
@@ -106,7 +106,8 @@ impl Walker {
             }
             let default = default.map(|d| format!("`{}`", toml_text(&d.to_value()))).unwrap_or_else(|| "*unset*".into());
             let summary = if doc.is_empty() { "**undocumented**".into() } else { cell(&first_sentence(&doc)) };
-            rows.push_str(&format!("| `{key}` | {} | {default} | {summary} |\n", cell(&self.type_name(prop))));
+            let range = range_text(&target).unwrap_or_default();
+            rows.push_str(&format!("| `{key}` | {} | {} | {default} | {summary} |\n", cell(&self.type_name(prop)), cell(&range)));
             let variants = self.variants(&target);
             if variants.iter().any(|(_, d)| !d.is_empty()) {
                 values.push_str(&format!("\nValues of `{key}`:\n\n"));
@@ -116,7 +117,7 @@ impl Walker {
             }
         }
         if !rows.is_empty() {
-            self.markdown.push_str(&format!("\n| Key | Type | Default | Description |\n|---|---|---|---|\n{rows}{values}"));
+            self.markdown.push_str(&format!("\n| Key | Type | Range | Default | Description |\n|---|---|---|---|---|\n{rows}{values}"));
         }
         for (full, doc, target, default) in subtables {
             self.table(&full, &doc, &target, &default);
@@ -143,7 +144,6 @@ impl Walker {
             _ => format!("({t})"),
         };
         let name = |t: &str| match t {
-            "integer" if s.get("minimum").and_then(Value::as_f64) == Some(0.0) => "integer ≥ 0".to_string(),
             "number" => "float".into(),
             "boolean" => "bool".into(),
             "string" if s.get("format").and_then(Value::as_str) == Some("path") => "path".into(),

@@ -10,16 +10,22 @@ use serde::{Deserialize, Serialize};
 #[serde(deny_unknown_fields, default)]
 pub struct TokenConfig {
     /// Hidden widths of every tokenizer MLP (TokenHSI: [256, 128]).
+    #[schemars(inner(range(min = 1)))]
     pub tokenizer: Vec<usize>,
     /// Token width d_model (TokenHSI: 64).
+    #[schemars(range(min = 1))]
     pub embed: usize,
     /// Transformer encoder layers (TokenHSI: 4).
+    #[schemars(range(min = 1))]
     pub layers: usize,
     /// Attention heads (TokenHSI: 2); `embed` must be a multiple.
+    #[schemars(range(min = 1))]
     pub heads: usize,
     /// Feed-forward width of every encoder layer (TokenHSI: 512).
+    #[schemars(range(min = 1))]
     pub feedforward: usize,
     /// Hidden widths of the action head after the output token (TokenHSI: [1024, 512]).
+    #[schemars(inner(range(min = 1)))]
     pub head: Vec<usize>,
     /// Observation groups as "name:width" in column order, group 0 the proprioception, then
     /// "mask:K" when the observation ends with a token mask. Empty (default): taken from the

@@ -87,10 +87,12 @@ fn reference_shows_types_defaults_enums_and_presets() {
     for needle in [
         "## `[env.reward.deepmimic]`",
         "## `[env.v2.history]`",
-        "| `hidden` | list of integers ≥ 0 | `[1024, 512, 512]` |",
-        "| `lr` | float | `2e-5` | Adam learning rate (constant). |",
-        "| `out_dir` | path | `\"runs/skillmimic\"` |",
-        "| `backend` | one of `\"fast\"` \\| `\"candle\"` | `\"fast\"` |",
+        "| `hidden` | list of integers | each in [1, ∞) | `[1024, 512, 512]` |",
+        "| `lr` | float | (0, 1000] | `2e-5` | Adam learning rate (constant). |",
+        "| `gamma` | float | (0, 1] | `0.99` |",
+        "| `termination_height` | float | finite | `0.3` |",
+        "| `out_dir` | path |  | `\"runs/skillmimic\"` |",
+        "| `backend` | one of `\"fast\"` \\| `\"candle\"` |  | `\"fast\"` |",
         "- `\"candle\"`: candle's generic autograd",
         "| `env.num_envs` | `64` | `2048` | `256` | `16` |",
     ] {
@@ -117,5 +119,5 @@ fn undocumented_fields_are_reported() {
     }
     let r = reference_tables(&Demo::default());
     assert_eq!(r.undocumented, vec!["b".to_string(), "inner".into(), "inner.flag".into()]);
-    assert!(r.markdown.contains("| `b` | float | `0.0` | **undocumented** |"), "{}", r.markdown);
+    assert!(r.markdown.contains("| `b` | float | finite | `0.0` | **undocumented** |"), "{}", r.markdown);
 }

@@ -94,6 +94,9 @@ impl FrozenActor {
         dims.push(act_dim);
         let actor = read_mlp(&f, "actor", dims)?;
         let obs_norm = if normalize { Some(read_normalizer(&f, "obs_norm", obs_dim, eps, clip)?) } else { None };
+        if let Some(n) = &obs_norm {
+            n.check("obs_norm").map_err(invalid)?;
+        }
         let config = f.metadata().get("config").cloned().unwrap_or_default();
         Ok(Self { actor, obs_norm, source: path.to_path_buf(), config, ws: Workspace::default(), obs_n: Vec::new() })
     }

@@ -28,6 +28,29 @@ impl RunningMeanStd {
         Self { mean: vec![0.0; dim], var: vec![1.0; dim], count: 1.0, eps, clip }
     }
 
+    /// Check statistics read from a file: every mean finite, every variance finite and ≥ 0, the
+    /// count finite and > 0, `eps` finite and > 0 (with a negative variance or ε, √(v + ε) is NaN)
+    /// and `clip` > 0 (the clamp to ±clip needs it). The error names the field (`var[3]`, `eps`)
+    /// and the value; `prefix` (e.g. `obs_norm`) is put before tensor names.
+    pub fn check(&self, prefix: &str) -> Result<(), String> {
+        if let Some((j, m)) = self.mean.iter().enumerate().find(|(_, m)| !m.is_finite()) {
+            return Err(format!("tensor '{prefix}.mean' entry {j} is {m}, expected a finite number"));
+        }
+        if let Some((j, v)) = self.var.iter().enumerate().find(|(_, v)| !(v.is_finite() && **v >= 0.0)) {
+            return Err(format!("tensor '{prefix}.var' entry {j} is {v}, expected a finite variance >= 0"));
+        }
+        if !(self.count.is_finite() && self.count > 0.0) {
+            return Err(format!("tensor '{prefix}.count' is {}, expected a finite count > 0", self.count));
+        }
+        if !(self.eps.is_finite() && self.eps > 0.0) {
+            return Err(format!("metadata field 'norm_eps' is {}, expected a finite number > 0", self.eps));
+        }
+        if !(self.clip > 0.0) {
+            return Err(format!("metadata field 'norm_clip' is {}, expected a number > 0", self.clip));
+        }
+        Ok(())
+    }
+
     /// Feature count.
     pub fn dim(&self) -> usize {
         self.mean.len()
@@ -145,6 +168,24 @@ mod tests {
         assert!((y - 2.0 / (r.var[0] + 1e-5).sqrt()).abs() < 1e-12);
         assert!((r.denormalize_scalar(y) - 4.0).abs() < 1e-9);
         assert_eq!(r.normalize_scalar(1e9), 5.0);
+    }
+
+    #[test]
+    fn check_refuses_statistics_that_would_give_nan() {
+        let good = RunningMeanStd::new(3, 1e-5, 5.0);
+        good.check("obs_norm").unwrap();
+        let with = |f: &dyn Fn(&mut RunningMeanStd)| {
+            let mut r = good.clone();
+            f(&mut r);
+            r.check("obs_norm").unwrap_err()
+        };
+        assert_eq!(with(&|r| r.var[1] = -1.0), "tensor 'obs_norm.var' entry 1 is -1, expected a finite variance >= 0");
+        assert!(with(&|r| r.mean[2] = f64::NAN).contains("'obs_norm.mean' entry 2 is NaN"));
+        assert!(with(&|r| r.eps = -1e-5).contains("'norm_eps' is -0.00001"));
+        assert!(with(&|r| r.eps = 0.0).contains("'norm_eps' is 0"));
+        assert!(with(&|r| r.clip = f64::NAN).contains("'norm_clip' is NaN"));
+        assert!(with(&|r| r.clip = -1.0).contains("'norm_clip' is -1"));
+        assert!(with(&|r| r.count = 0.0).contains("'obs_norm.count' is 0"));
     }
 
     #[test]

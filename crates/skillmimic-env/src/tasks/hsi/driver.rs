@@ -46,7 +46,7 @@ impl<T: HsiTask> HsiVecEnv<T> {
     pub fn new(task: T, variants: usize, object_seed: u64, num_envs: usize, threads: usize, seed: u64, episode_length: usize, termination_height: f64) -> Result<Self, EnvError> {
         let mut orng = ChaCha8Rng::seed_from_u64(object_seed);
         let scenes = (0..variants.clamp(1, num_envs.max(1))).map(|_| HsiScene::new(task.objects(&mut orng)).map(Arc::new)).collect::<Result<Vec<_>, _>>()?;
-        let sim = HsiBatch::new(scenes, num_envs, threads)?;
+        let sim = HsiBatch::new(scenes, num_envs, crate::config_range::capped_threads(threads, "env.threads"))?;
         let spec = task.spec().clone();
         let n = num_envs;
         let buf = StepBuffers::for_spec(n, &spec);

@@ -82,7 +82,7 @@ impl VecEnv<Imitation> {
     pub fn new(cfg: EnvConfig, lib: Arc<MotionLibrary>) -> Result<Self, EnvError> {
         cfg.validate()?;
         let scene = Arc::new(Scene::new(cfg.scene_options()?)?);
-        let (n, threads, seed) = (cfg.num_envs, cfg.threads, cfg.start_seed(0));
+        let (n, threads, seed) = (cfg.num_envs, crate::config_range::capped_threads(cfg.threads, "env.threads"), cfg.start_seed(0));
         let task = Imitation::new(cfg, lib, &scene, threads)?;
         VecEnv::with_task(task, scene, n, threads, seed)
     }
