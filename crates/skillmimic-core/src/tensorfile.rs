@@ -13,8 +13,9 @@ use safetensors::tensor::Dtype;
 /// Error reading a tensor file.
 #[derive(Debug, thiserror::Error)]
 pub enum TensorFileError {
-    #[error("{path}: cannot read file: {source}")]
-    Io { path: PathBuf, source: std::io::Error },
+    /// (The I/O error is part of the message, not a `source`, so error chains do not repeat it.)
+    #[error("{path}: cannot read file: {error}")]
+    Io { path: PathBuf, error: std::io::Error },
     #[error("{path}: not a safetensors file: {detail}")]
     Format { path: PathBuf, detail: String },
     #[error("{path}: tensor '{name}' is missing")]
@@ -120,6 +121,39 @@ pub fn write_bytes_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     })
 }
 
+/// Largest JSON header [`TensorFile::open`] accepts (the `safetensors` crate's own limit).
+pub const MAX_HEADER: u64 = 100_000_000;
+
+/// The first tensor entry of the header whose shape, dtype and data offsets disagree (or overflow),
+/// named, for errors the `safetensors` crate reports without a tensor name.
+fn explain(bytes: &[u8], header_len: u64) -> Option<String> {
+    let head = bytes.get(8..8usize.checked_add(usize::try_from(header_len).ok()?)?)?;
+    let data_len = (bytes.len() - 8 - head.len()) as u64;
+    let serde_json::Value::Object(map) = serde_json::from_slice(head).ok()? else { return None };
+    for (name, info) in map.iter().filter(|(k, _)| *k != "__metadata__") {
+        let shape: Vec<u64> = info.get("shape")?.as_array()?.iter().map(serde_json::Value::as_u64).collect::<Option<_>>()?;
+        let bits = match info.get("dtype")?.as_str()? {
+            "F64" | "I64" | "U64" => 64,
+            "F32" | "I32" | "U32" => 32,
+            "F16" | "BF16" | "I16" | "U16" => 16,
+            "I8" | "U8" | "BOOL" => 8,
+            _ => return None,
+        };
+        let offsets: Vec<u64> = info.get("data_offsets")?.as_array()?.iter().map(serde_json::Value::as_u64).collect::<Option<_>>()?;
+        let Some(bytes_needed) = shape.iter().try_fold(bits / 8, |a: u64, &s| a.checked_mul(s)) else {
+            return Some(format!("tensor '{name}': shape {shape:?} has more elements than 64 bits can count"));
+        };
+        let [start, end] = offsets[..] else { return Some(format!("tensor '{name}': data_offsets {offsets:?} are not [start, end]")) };
+        if end > data_len || start > end {
+            return Some(format!("tensor '{name}': data_offsets [{start}, {end}] lie outside the {data_len} data bytes of the file"));
+        }
+        if end - start != bytes_needed {
+            return Some(format!("tensor '{name}': data_offsets [{start}, {end}] hold {} bytes, its shape {shape:?} needs {bytes_needed}", end - start));
+        }
+    }
+    None
+}
+
 /// A safetensors file read into memory.
 pub struct TensorFile {
     path: PathBuf,
@@ -134,14 +168,32 @@ impl std::fmt::Debug for TensorFile {
 }
 
 impl TensorFile {
-    /// Read and parse the header of `path`.
+    /// Read and parse the header of `path`. The 8-byte header length is checked against the
+    /// file's size and [`MAX_HEADER`] before the file is read; the `safetensors` crate then checks
+    /// every tensor's dtype, shape product (overflow-checked) and data offsets against the data.
     pub fn open(path: &Path) -> Result<Self, TensorFileError> {
-        let bytes = std::fs::read(path).map_err(|source| TensorFileError::Io { path: path.into(), source })?;
-        let (_, meta) = safetensors::SafeTensors::read_metadata(&bytes)
-            .map_err(|e| TensorFileError::Format { path: path.into(), detail: e.to_string() })?;
+        use std::io::Read;
+        let io = |error| TensorFileError::Io { path: path.into(), error };
+        let format = |detail: String| TensorFileError::Format { path: path.into(), detail };
+        let mut file = std::fs::File::open(path).map_err(io)?;
+        let meta = file.metadata().map_err(io)?;
+        let len = meta.len();
+        if !meta.is_file() || len < 8 {
+            return Err(format(format!("{len} bytes; a safetensors file is a regular file starting with an 8-byte header length")));
+        }
+        let mut head = [0u8; 8];
+        file.read_exact(&mut head).map_err(io)?;
+        let n = u64::from_le_bytes(head);
+        if n > MAX_HEADER || n > len - 8 {
+            return Err(format(format!("header length field is {n} bytes, the file has {} after it (limit {MAX_HEADER})", len - 8)));
+        }
+        let mut bytes = Vec::with_capacity(len as usize);
+        bytes.extend_from_slice(&head);
+        file.read_to_end(&mut bytes).map_err(io)?;
+        // the file may have changed size since; the crate checks the header length again
+        let (_, meta) = safetensors::SafeTensors::read_metadata(&bytes).map_err(|e| format(explain(&bytes, n).unwrap_or_else(|| e.to_string())))?;
         let metadata = meta.metadata().clone().unwrap_or_default().into_iter().collect();
-        safetensors::SafeTensors::deserialize(&bytes)
-            .map_err(|e| TensorFileError::Format { path: path.into(), detail: e.to_string() })?;
+        safetensors::SafeTensors::deserialize(&bytes).map_err(|e| format(e.to_string()))?;
         Ok(Self { path: path.into(), bytes, metadata })
     }
 

@@ -15,8 +15,9 @@ pub enum LearnError {
     /// A checkpoint file that cannot be used (the message names the file).
     #[error("{message}")]
     Checkpoint { path: PathBuf, message: String },
-    #[error("{}: {source}", path.display())]
-    Io { path: PathBuf, source: std::io::Error },
+    /// (The I/O error is part of the message, not a `source`, so error chains do not repeat it.)
+    #[error("{}: {error}", path.display())]
+    Io { path: PathBuf, error: std::io::Error },
     /// A tensor operation failed (device, shapes).
     #[error("candle: {0}")]
     Candle(#[from] candle_core::Error),
@@ -33,7 +34,7 @@ pub enum LearnError {
 
 /// `map_err` helper: an I/O error on `path`.
 pub fn io(path: &Path) -> impl FnOnce(std::io::Error) -> LearnError + '_ {
-    move |source| LearnError::Io { path: path.to_path_buf(), source }
+    move |error| LearnError::Io { path: path.to_path_buf(), error }
 }
 
 /// `map_err` helper: an unusable checkpoint `path`.

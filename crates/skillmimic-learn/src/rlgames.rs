@@ -1,11 +1,13 @@
 //! Import of rl_games `torch.save` checkpoints (the SkillMimic authors' `.pth` files) into this
 //! project's policy checkpoints, without running pickle code.
 //!
-//! The archive's pickle program is first interpreted by candle's restricted pickle machine, which
-//! builds a tree of plain values and never imports or calls anything; every class the program
-//! names must be one a torch/numpy checkpoint uses ([`ALLOWED`]), otherwise the file is rejected
-//! (a `.pth` whose pickle would run code names e.g. `posix.system`). The tensors are then read by
-//! candle's `.pth` reader, one top-level key at a time.
+//! The archive's pickle program is first interpreted by the bounded, restricted pickle machine of
+//! `skillmimic_motion::pickle`, which builds a graph of plain values and never imports or calls
+//! anything; every class the program names must be one a torch/numpy checkpoint uses
+//! ([`ALLOWED`]), otherwise the file is rejected (a `.pth` whose pickle would run code names e.g.
+//! `posix.system`). The tensors of the entries used are then read with
+//! `skillmimic_motion::torch_zip` (every size checked against the archive before allocating;
+//! float32, float64, int64 and int32 storages; other dtypes are refused naming the tensor).
 //!
 //! Layout (reference-facts §7.5, §8.3): `model` = state_dict with prefix `a2c_network.`:
 //! skill policy `actor_mlp.{0,2,4}` (the depth is read from the file), `mu` (156 outputs), `critic_mlp.{0,2,4}`, `value`, `sigma`
@@ -15,10 +17,10 @@
 //! normalisers are applied as (x − mean)/√(var + 1e-5), clamped to ±5, ReLU between layers —
 //! exactly this project's `gaussian_mlp` / `categorical_mlp` families.
 
-use std::io::Read;
 use std::path::Path;
 
-use candle_core::pickle::Object;
+use skillmimic_motion::pickle::Pickle;
+use skillmimic_motion::torch_zip::{self, TensorRef, TorchError, TorchZip};
 use skillmimic_nn::mlp::Mlp;
 use skillmimic_nn::normalizer::RunningMeanStd;
 
@@ -73,76 +75,53 @@ pub struct Imported {
     pub ppo: PpoConfig,
 }
 
-fn walk<'a>(o: &'a Object, out: &mut Vec<&'a Object>) {
-    out.push(o);
-    match o {
-        Object::Tuple(v) | Object::List(v) => v.iter().for_each(|x| walk(x, out)),
-        Object::Dict(kv) => kv.iter().for_each(|(k, v)| {
-            walk(k, out);
-            walk(v, out);
-        }),
-        Object::Reduce { callable, args } | Object::Build { callable, args } => {
-            walk(callable, out);
-            walk(args, out);
-        }
-        Object::PersistentLoad(x) => walk(x, out),
-        _ => {}
-    }
-}
+type Archive = TorchZip<std::io::BufReader<std::fs::File>>;
 
-/// The parsed pickle of `path` after the class check; its top-level keys.
-fn checked_keys(path: &Path) -> Result<(Vec<String>, Object), String> {
-    let file = std::fs::File::open(path).map_err(|e| e.to_string())?;
-    let mut zip = zip::ZipArchive::new(std::io::BufReader::new(file)).map_err(|e| format!("not a torch.save zip archive: {e}"))?;
-    let name = zip
-        .file_names()
-        .filter_map(Result::ok)
-        .find(|n| n.ends_with("/data.pkl") || n == "data.pkl")
-        .map(|n| n.into_owned())
-        .ok_or("the archive has no data.pkl; expected a torch.save file")?;
-    let mut pkl = Vec::new();
-    let entry = zip.by_name(&name).map_err(|e| e.to_string())?;
-    entry.take(64 << 20).read_to_end(&mut pkl).map_err(|e| e.to_string())?;
-    let root = skillmimic_motion::pt::parse_pickle(&pkl).map_err(|e| format!("{name}: {e}"))?;
-    let mut all = Vec::new();
-    walk(&root, &mut all);
-    for o in all {
-        if let Object::Class { module_name, class_name } = o
-            && !ALLOWED.iter().any(|(m, c)| m == module_name && c == class_name)
-        {
+/// Largest pickle accepted (a real rl_games checkpoint's is tens of kilobytes).
+const MAX_PICKLE: u64 = 64 << 20;
+
+/// The archive at `path` with its pickle after the class check; its top-level keys.
+fn checked_keys(path: &Path) -> Result<(Vec<String>, Archive), String> {
+    let tz = torch_zip::open(path, MAX_PICKLE).map_err(|e| match e {
+        TorchError::Io(e) => format!("cannot read file: {e}"),
+        TorchError::NotZip(e) => format!("not a torch.save zip archive: {e}"),
+        TorchError::Format(e) => e,
+    })?;
+    let p = &tz.pickle;
+    for (module, class) in p.globals() {
+        if !ALLOWED.iter().any(|(m, c)| *m == module && *c == class) {
             return Err(format!(
-                "the pickle names '{module_name}.{class_name}', which a checkpoint does not need (a .pth that would run code when loaded by torch.load); refused, nothing was executed"
+                "the pickle names '{module}.{class}', which a checkpoint does not need (a .pth that would run code when loaded by torch.load); refused, nothing was executed"
             ));
         }
     }
-    let Object::Dict(items) = &root else { return Err("the top level is not a dict; expected an rl_games checkpoint".into()) };
-    let keys = items.iter().filter_map(|(k, _)| if let Object::Unicode(s) = k { Some(s.clone()) } else { None }).collect();
-    Ok((keys, root))
+    let items = p.dict(p.root).ok_or("the top level is not a dict; expected an rl_games checkpoint")?;
+    let keys = items.iter().filter_map(|(k, _)| p.str(*k).map(str::to_owned)).collect();
+    Ok((keys, tz))
 }
 
-fn scalar_u64(root: &Object, key: &str) -> u64 {
-    let Object::Dict(items) = root else { return 0 };
-    items
+fn scalar_u64(p: &Pickle, key: &str) -> u64 {
+    p.dict_get(p.root, key).and_then(|v| p.int(v)).and_then(|i| u64::try_from(i).ok()).unwrap_or(0)
+}
+
+/// Tensors of top-level entry `key` (a dict of name → tensor) as f64 vectors with their shapes;
+/// entries that are not tensors are skipped, as torch's `load_state_dict` would ignore them.
+fn tensors(tz: &mut Archive, key: &str) -> Result<Vec<Named>, String> {
+    let p = &tz.pickle;
+    let dict = p.dict_get(p.root, key).ok_or_else(|| format!("entry '{key}' is missing"))?;
+    let items = p.dict(dict).ok_or_else(|| format!("entry '{key}' is {}, expected a dict of tensors", torch_zip::kind(p.get(dict))))?;
+    let refs: Vec<(String, Result<TensorRef, String>)> = items
         .iter()
-        .find(|(k, _)| matches!(k, Object::Unicode(s) if s == key))
-        .and_then(|(_, v)| match v {
-            Object::Int(i) if *i >= 0 => Some(*i as u64),
-            Object::Long(i) if *i >= 0 => Some(*i as u64),
-            _ => None,
-        })
-        .unwrap_or(0)
-}
-
-/// Tensors of top-level entry `key` as f64 vectors with their shapes.
-fn tensors(path: &Path, key: &str) -> Result<Vec<Named>, String> {
-    let ts = candle_core::pickle::read_all_with_key(path, Some(key)).map_err(|e| format!("entry '{key}': {e}"))?;
-    ts.into_iter()
-        .map(|(n, t)| {
-            let shape = t.dims().to_vec();
-            let v = t.to_dtype(candle_core::DType::F64).and_then(|t| t.flatten_all()).and_then(|t| t.to_vec1::<f64>()).map_err(|e| format!("{key}.{n}: {e}"))?;
-            Ok((n, shape, v))
-        })
-        .collect()
+        .filter(|(_, v)| torch_zip::is_tensor(p, *v))
+        .filter_map(|(k, v)| p.str(*k).map(|n| (n.to_owned(), torch_zip::tensor_ref(p, *v))))
+        .collect();
+    let mut out = Vec::new();
+    for (name, t) in refs {
+        let t = t.map_err(|d| format!("{key}.{name}: {d}"))?;
+        let v = tz.read_f64(&t).map_err(|d| format!("{key}.{name}: {d}"))?;
+        out.push((name, t.shape(), v));
+    }
+    Ok(out)
 }
 
 fn get<'a>(ts: &'a [Named], name: &str, what: &str) -> Result<&'a Named, String> {
@@ -154,8 +133,8 @@ fn f32s(v: &[f64]) -> Vec<f32> {
 }
 
 /// A normaliser from entry `key` (`running_mean`, `running_var`, `count`) of width `dim`.
-fn normalizer(path: &Path, key: &str, dim: usize) -> Result<RunningMeanStd, String> {
-    let ts = tensors(path, key)?;
+fn normalizer(tz: &mut Archive, key: &str, dim: usize) -> Result<RunningMeanStd, String> {
+    let ts = tensors(tz, key)?;
     let mean = get(&ts, "running_mean", key)?;
     let var = get(&ts, "running_var", key)?;
     let count = get(&ts, "count", key)?;
@@ -175,13 +154,13 @@ fn normalizer(path: &Path, key: &str, dim: usize) -> Result<RunningMeanStd, Stri
 /// Read the rl_games checkpoint at `path` as a policy of `kind`.
 pub fn import(path: &Path, kind: Kind) -> Result<Imported, LearnError> {
     let fail = |m: String| bad_checkpoint(path)(format!("{}: {m}", path.display()));
-    let (keys, root) = checked_keys(path).map_err(fail)?;
+    let (keys, mut tz) = checked_keys(path).map_err(fail)?;
     for k in ["model", "running_mean_std"] {
         if !keys.iter().any(|x| x == k) {
             return Err(fail(format!("no '{k}' entry (top-level keys: {keys:?}); expected an rl_games checkpoint")));
         }
     }
-    let model = tensors(path, "model").map_err(fail)?;
+    let model = tensors(&mut tz, "model").map_err(fail)?;
     let head = match kind {
         Kind::Skill => "mu",
         Kind::Hlc => "logits",
@@ -246,8 +225,8 @@ pub fn import(path: &Path, kind: Kind) -> Result<Imported, LearnError> {
             (policies::family("categorical_mlp")?, Vec::new())
         }
     };
-    let obs_norm = normalizer(path, "running_mean_std", obs).map_err(fail)?;
-    let value_norm = if keys.iter().any(|k| k == "reward_mean_std") { Some(normalizer(path, "reward_mean_std", 1).map_err(fail)?) } else { None };
+    let obs_norm = normalizer(&mut tz, "running_mean_std", obs).map_err(fail)?;
+    let value_norm = if keys.iter().any(|k| k == "reward_mean_std") { Some(normalizer(&mut tz, "reward_mean_std", 1).map_err(fail)?) } else { None };
     let space = match kind {
         Kind::Skill => skillmimic_env::ActionSpace::Box { dim: outputs },
         Kind::Hlc => skillmimic_env::ActionSpace::Discrete { n: outputs },
@@ -265,5 +244,5 @@ pub fn import(path: &Path, kind: Kind) -> Result<Imported, LearnError> {
         value_norm: value_norm.unwrap_or_else(|| RunningMeanStd::new(1, 1e-5, 5.0)),
         normalize_input: true,
     };
-    Ok(Imported { policy, epoch: scalar_u64(&root, "epoch"), frame: scalar_u64(&root, "frame"), ppo })
+    Ok(Imported { policy, epoch: scalar_u64(&tz.pickle, "epoch"), frame: scalar_u64(&tz.pickle, "frame"), ppo })
 }

@@ -5,8 +5,9 @@ use std::path::PathBuf;
 /// Error while reading or validating a motion clip.
 #[derive(Debug, thiserror::Error)]
 pub enum ClipError {
-    #[error("{path}: cannot read file: {source}")]
-    Io { path: PathBuf, source: std::io::Error },
+    /// (The I/O error is part of the message, not a `source`, so error chains do not repeat it.)
+    #[error("{path}: cannot read file: {error}")]
+    Io { path: PathBuf, error: std::io::Error },
     #[error("{path}: no such clip file or folder (give .pt/.safetensors files or folders holding them; `builtin:demo` selects the built-in demo clips)")]
     NotFound { path: PathBuf },
     #[error("{path}: not a PyTorch zip archive ({detail}); expected a file written by torch.save holding one float32 tensor of shape (T, 337)")]

@@ -36,7 +36,7 @@ pub const FORMAT_VERSION: u32 = 1;
 
 fn tf_err(path: &Path, e: TensorFileError) -> ClipError {
     match e {
-        TensorFileError::Io { source, .. } => ClipError::Io { path: path.to_path_buf(), source },
+        TensorFileError::Io { error, .. } => ClipError::Io { path: path.to_path_buf(), error },
         other => ClipError::Format { path: path.to_path_buf(), detail: strip_path(path, &other.to_string()) },
     }
 }

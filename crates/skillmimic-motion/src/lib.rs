@@ -1,5 +1,7 @@
 //! Motion data of skillmimic-rs.
 //!
+//! * [`pickle`], [`torch_zip`]: a bounded, restricted pickle interpreter and `torch.save`
+//!   archive reader (sizes checked before allocating, no code runs);
 //! * [`pt`]: a restricted reader (and a writer) for `torch.save` archives holding one float32
 //!   matrix (BallPlay-M clips) — no pickle code is executed;
 //! * [`layout`]: the BallPlay-M 337-column row layout (widths, frame rate, column names);
@@ -18,9 +20,11 @@ pub mod generate;
 pub mod hsi_clip;
 pub mod layout;
 pub mod library;
+pub mod pickle;
 pub mod pt;
 pub mod reference;
 pub mod retarget_hsi;
+pub mod torch_zip;
 pub mod validate;
 
 pub use clip::{Clip, SKILL_WIDTH};

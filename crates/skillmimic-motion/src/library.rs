@@ -45,9 +45,9 @@ pub fn find_clip_files(path: &Path) -> Result<Vec<PathBuf>, ClipError> {
     let mut out = Vec::new();
     let mut stack = vec![path.to_path_buf()];
     while let Some(dir) = stack.pop() {
-        let rd = std::fs::read_dir(&dir).map_err(|source| ClipError::Io { path: dir.clone(), source })?;
+        let rd = std::fs::read_dir(&dir).map_err(|error| ClipError::Io { path: dir.clone(), error })?;
         for entry in rd {
-            let p = entry.map_err(|source| ClipError::Io { path: dir.clone(), source })?.path();
+            let p = entry.map_err(|error| ClipError::Io { path: dir.clone(), error })?.path();
             if p.is_dir() {
                 stack.push(p);
             } else if matches!(p.extension().and_then(|e| e.to_str()), Some("pt" | "safetensors")) {

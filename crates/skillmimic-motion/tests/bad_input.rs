@@ -175,3 +175,183 @@ fn truncated_storage_and_garbage_pickle_are_rejected() {
     assert!(err_text(&d.join("001_trunc.pt")).contains("truncated"));
     assert!(err_text(&d.join("001_dict.pt")).contains("dict"));
 }
+
+// ---- crafted hostile inputs (issue 19): each is refused quickly with an error naming the file
+// and the field, never an abort, a huge allocation, a stack overflow or a wrapped offset ----
+
+/// A zip with `archive/data.pkl` = `pickle` and `archive/data/0` = `storage` (stored entries).
+fn write_archive(p: &Path, pickle: &[u8], storage: &[u8]) {
+    use std::io::Write;
+    let mut z = zip::ZipWriter::new(std::fs::File::create(p).unwrap());
+    let o = zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Stored);
+    z.start_file("archive/data.pkl", o).unwrap();
+    z.write_all(pickle).unwrap();
+    z.start_file("archive/data/0", o).unwrap();
+    z.write_all(storage).unwrap();
+    z.finish().unwrap();
+}
+
+/// LONG1 with 8 bytes: any u64 bit pattern as a (signed) pickle integer.
+fn long(p: &mut Vec<u8>, v: u64) {
+    p.extend_from_slice(&[0x8a, 8]);
+    p.extend_from_slice(&v.to_le_bytes());
+}
+
+/// The pickle of `_rebuild_tensor_v2(storage(numel), offset, size, stride)` with 64-bit integers.
+fn tensor_pickle(numel: u64, offset: u64, size: [u64; 2], stride: [u64; 2]) -> Vec<u8> {
+    let mut p = vec![0x80, 2];
+    p.extend_from_slice(b"ctorch._utils\n_rebuild_tensor_v2\n((X\x07\x00\x00\x00storagectorch\nFloatStorage\nX\x01\x00\x00\x000X\x03\x00\x00\x00cpu");
+    long(&mut p, numel);
+    p.extend_from_slice(b"tQ");
+    long(&mut p, offset);
+    long(&mut p, size[0]);
+    long(&mut p, size[1]);
+    p.push(0x86);
+    long(&mut p, stride[0]);
+    long(&mut p, stride[1]);
+    p.extend_from_slice(&[0x86, 0x89, b't', b'R', b'.']);
+    p
+}
+
+/// Loads `pickle` + `storage` as a clip and returns the error text after checking that it names
+/// the file and that loading took well under a second (no huge allocation or long loop).
+fn crafted(name: &str, pickle: &[u8], storage: &[u8]) -> String {
+    let d = tmpdir("crafted");
+    let p = d.join(name);
+    write_archive(&p, pickle, storage);
+    let t = std::time::Instant::now();
+    let s = err_text(&p);
+    assert!(t.elapsed().as_secs_f64() < 1.0, "{name} took {:?}", t.elapsed());
+    s
+}
+
+#[test]
+fn crafted_tensor_header_claiming_more_rows_than_the_file_holds() {
+    let storage = vec![0u8; 2 * PT_WIDTH * 4];
+    // consistent claim (storage numel too) of 10^9 rows: terabytes if allocated from the header
+    let rows = 1_000_000_000u64;
+    let s = crafted("001_rows.pt", &tensor_pickle(rows * PT_WIDTH as u64, 0, [rows, PT_WIDTH as u64], [PT_WIDTH as u64, 1]), &storage);
+    assert!(s.contains("storage entry archive/data/0 is truncated") && s.contains(&format!("needs {} bytes", rows * PT_WIDTH as u64 * 4)), "{s}");
+    // the storage declares fewer elements than the tensor reads
+    let s = crafted("001_numel.pt", &tensor_pickle(674, 0, [3, PT_WIDTH as u64], [PT_WIDTH as u64, 1]), &storage);
+    assert!(s.contains("the storage declares 674") && s.contains("size [3, 337]"), "{s}");
+    // the well-formed version of the same archive reads
+    let d = tmpdir("crafted");
+    write_archive(&d.join("001_fine.pt"), &tensor_pickle(674, 0, [2, PT_WIDTH as u64], [PT_WIDTH as u64, 1]), &storage);
+    assert_eq!(read_pt_matrix(&d.join("001_fine.pt")).unwrap().data.len(), 674);
+}
+
+#[test]
+fn crafted_deep_pickle_nesting() {
+    let p: Vec<u8> = [&[0x80, 2, b')'][..], &vec![0x85u8; 1 << 19], b"."].concat();
+    let s = crafted("001_deep.pt", &p, &[]);
+    assert!(s.contains("archive/data.pkl") && s.contains("TUPLE1") && s.contains("nest deeper than 200 levels"), "{s}");
+    // nesting by marks is bounded too
+    let p: Vec<u8> = [&[0x80, 2][..], &vec![b'(', b']'].repeat(1 << 18), b"."].concat();
+    let s = crafted("001_marks.pt", &p, &[]);
+    assert!(s.contains("archive/data.pkl"), "{s}");
+}
+
+#[test]
+fn crafted_memo_blow_up() {
+    // x = (); then 100 times x = (x, x) through the memo: 2^100 values if copied
+    let mut p = vec![0x80, 2, b')', b'q', 0];
+    for _ in 0..100 {
+        p.extend_from_slice(&[b'h', 0, b'h', 0, 0x86, b'q', 0]);
+    }
+    p.push(b'.');
+    let s = crafted("001_memo.pt", &p, &[]);
+    assert!(s.contains("archive/data.pkl") && s.contains("expands to more than") && s.contains("memo references"), "{s}");
+}
+
+#[test]
+fn crafted_storage_offset_near_2_pow_62() {
+    let storage = vec![0u8; 2 * PT_WIDTH * 4];
+    let w = PT_WIDTH as u64;
+    for (offset, numel) in [(1u64 << 62, (1u64 << 62) + 674), (1 << 62, 674), (u64::MAX >> 1, u64::MAX >> 1)] {
+        let s = crafted("001_offset.pt", &tensor_pickle(numel, offset, [2, w], [w, 1]), &storage);
+        assert!(s.contains(&format!("storage offset {offset}")) || s.contains(&format!("offset {offset}")), "{s}");
+        assert!(s.contains("overflows 64 bits") || s.contains("the storage declares"), "{s}");
+    }
+    // a negative offset is refused as such
+    let s = crafted("001_neg.pt", &tensor_pickle(674, u64::MAX, [2, w], [w, 1]), &storage);
+    assert!(s.contains("storage offset is -1, expected a non-negative integer"), "{s}");
+}
+
+#[test]
+fn crafted_shape_product_overflow() {
+    let storage = vec![0u8; 2 * PT_WIDTH * 4];
+    let s = crafted("001_shape.pt", &tensor_pickle(674, 0, [1 << 40, 1 << 40], [1 << 40, 1]), &storage);
+    assert!(s.contains("size [1099511627776, 1099511627776]") && s.contains("overflows 64 bits"), "{s}");
+    // stride 0 (an expanded view) cannot make a small storage yield many elements
+    let s = crafted("001_stride0.pt", &tensor_pickle(674, 0, [1 << 40, PT_WIDTH as u64], [0, 1]), &storage);
+    assert!(s.contains("stride [0, 1]") && s.contains("overlapping strides"), "{s}");
+}
+
+/// A project clip file (`.safetensors`) whose 8-byte header length or tensor entries lie.
+#[test]
+fn crafted_safetensors_headers() {
+    let d = tmpdir("st");
+    let p = d.join("huge_header.safetensors");
+    let mut bytes = u64::MAX.to_le_bytes().to_vec();
+    bytes.extend_from_slice(b"{}      ");
+    std::fs::write(&p, &bytes).unwrap();
+    let s = Clip::load(&p).unwrap_err().to_string();
+    assert!(s.contains(&p.display().to_string()) && s.contains(&format!("header length field is {}", u64::MAX)), "{s}");
+    for (name, info, msg) in [
+        ("overflow", r#"{"root_pos":{"dtype":"F32","shape":[4294967296,4294967296,4],"data_offsets":[0,8]}}"#, "tensor 'root_pos': shape [4294967296, 4294967296, 4] has more elements"),
+        ("beyond", r#"{"root_pos":{"dtype":"F32","shape":[1000000,3],"data_offsets":[0,12000000]}}"#, "tensor 'root_pos': data_offsets [0, 12000000] lie outside the 8 data bytes"),
+        ("mismatch", r#"{"root_pos":{"dtype":"F32","shape":[5,3],"data_offsets":[0,8]}}"#, "tensor 'root_pos': data_offsets [0, 8] hold 8 bytes, its shape [5, 3] needs 60"),
+    ] {
+        let p = d.join(format!("{name}.safetensors"));
+        let mut head = info.as_bytes().to_vec();
+        while head.len() % 8 != 0 {
+            head.push(b' ');
+        }
+        let mut bytes = (head.len() as u64).to_le_bytes().to_vec();
+        bytes.extend_from_slice(&head);
+        bytes.extend_from_slice(&[0u8; 8]);
+        std::fs::write(&p, &bytes).unwrap();
+        let s = Clip::load(&p).unwrap_err().to_string();
+        assert!(s.contains(&p.display().to_string()) && s.contains(msg), "{name}: {s}");
+    }
+}
+
+/// `error: {e:#}` (the CLI) prints the error's source chain; no part may repeat itself (the issue
+/// saw "Invalid checksum: Invalid checksum").
+#[test]
+fn error_chains_do_not_repeat_themselves() {
+    fn chain(e: &dyn std::error::Error) -> Vec<String> {
+        let mut v = vec![e.to_string()];
+        let mut s = e.source();
+        while let Some(x) = s {
+            v.push(x.to_string());
+            s = x.source();
+        }
+        v
+    }
+    let d = tmpdir("chain");
+    // a stored entry whose CRC does not match its bytes
+    let p = d.join("001_crc.pt");
+    write_pt_matrix(&p, 2, PT_WIDTH, &synthetic_rows(2), "FloatStorage").unwrap();
+    let mut bytes = std::fs::read(&p).unwrap();
+    let at = bytes.windows(4).position(|w| w == 1.0f32.to_le_bytes()).unwrap();
+    bytes[at] ^= 1;
+    std::fs::write(&p, &bytes).unwrap();
+    let errors: Vec<ClipError> = vec![
+        Clip::from_pt(&p).unwrap_err(),
+        Clip::from_pt(Path::new("/nonexistent/001_x.pt")).unwrap_err(),
+        Clip::load(Path::new("/nonexistent/x.safetensors")).unwrap_err(),
+    ];
+    for e in &errors {
+        let parts = chain(e);
+        let text = parts.join(": ");
+        for (i, a) in parts.iter().enumerate() {
+            for b in &parts[i + 1..] {
+                assert!(!a.contains(b.as_str()), "the chain repeats '{b}': {text}");
+            }
+        }
+        println!("{text}");
+    }
+    assert!(errors[0].to_string().contains("checksum"), "{}", errors[0]);
+}

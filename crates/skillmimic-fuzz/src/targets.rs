@@ -1,0 +1,135 @@
+//! The fuzz targets: each has seed inputs generated in code from valid files and runs one
+//! reader on an input written to a file (the readers take paths, as users' files are).
+
+use std::path::Path;
+
+use rand::SeedableRng;
+use skillmimic_learn::checkpoint::{self, Progress};
+use skillmimic_learn::config::{PpoConfig, TrainConfig};
+use skillmimic_motion::pt::write_pt_matrix;
+use skillmimic_motion::{Clip, PT_WIDTH};
+
+/// A fuzz target.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Target {
+    /// `Clip::from_pt` on a BallPlay-M `.pt` archive.
+    Pt,
+    /// `Clip::load` on a project clip (`.safetensors`).
+    Clip,
+    /// `checkpoint::load` + the stored config on a policy checkpoint.
+    Checkpoint,
+    /// `TrainConfig` from TOML over the defaults, then `validate()`.
+    Config,
+}
+
+/// All targets, in the order `--target all` runs them.
+pub const ALL: [Target; 4] = [Target::Pt, Target::Clip, Target::Checkpoint, Target::Config];
+
+impl Target {
+    /// The target's command-line name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Target::Pt => "pt",
+            Target::Clip => "clip",
+            Target::Checkpoint => "checkpoint",
+            Target::Config => "config",
+        }
+    }
+
+    /// The target named `name`.
+    pub fn from_name(name: &str) -> Option<Target> {
+        ALL.into_iter().find(|t| t.name() == name)
+    }
+
+    /// File name the input is written to (the `.pt` reader reads the skill label from it).
+    pub fn file_name(self) -> &'static str {
+        match self {
+            Target::Pt => "001_fuzz.pt",
+            Target::Clip => "fuzz.safetensors",
+            Target::Checkpoint => "fuzz_ckpt.safetensors",
+            Target::Config => "fuzz.toml",
+        }
+    }
+
+    /// Seed inputs, generated from valid files in `dir`.
+    pub fn seeds(self, dir: &Path) -> Vec<Vec<u8>> {
+        let p = dir.join(format!("seed-{}", self.file_name()));
+        let file = |p: &Path| std::fs::read(p).expect("seed file");
+        match self {
+            Target::Pt => {
+                let mut out = Vec::new();
+                for t in [1usize, 3] {
+                    let rows = synthetic_rows(t);
+                    write_pt_matrix(&p, t, PT_WIDTH, &rows, "FloatStorage").expect("seed .pt");
+                    out.push(file(&p));
+                }
+                out
+            }
+            Target::Clip => {
+                let mut clip = skillmimic_env::synth::demo_clips().expect("demo clips").remove(0);
+                trim(&mut clip, 4);
+                clip.save(&p).expect("seed clip");
+                vec![file(&p)]
+            }
+            Target::Checkpoint => {
+                let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0);
+                let cfg = PpoConfig { hidden: vec![4], ..Default::default() };
+                let mut out = Vec::new();
+                for (obs, act) in [(6, 2), (3, 1)] {
+                    let policy = skillmimic_learn::policy::Policy::new(obs, act, &cfg, &mut rng);
+                    let sizes: Vec<usize> = policy.actor.params().iter().chain(policy.critic.params().iter()).map(|x| x.len()).collect();
+                    let adam = skillmimic_learn::adam::Adam::new(&sizes, 1e-3, 1e-8);
+                    let config = TrainConfig::preset("tiny").expect("preset").to_toml();
+                    checkpoint::save(&p, &policy, Some(&adam), &Progress { iteration: 2, samples: 64 }, &config).expect("seed checkpoint");
+                    out.push(file(&p));
+                    checkpoint::save(&p, &policy, None, &Progress::default(), "").expect("seed checkpoint");
+                    out.push(file(&p));
+                }
+                out
+            }
+            Target::Config => skillmimic_learn::config::PRESETS
+                .iter()
+                .map(|name| TrainConfig::preset(name).expect("preset").to_toml().into_bytes())
+                .collect(),
+        }
+    }
+
+    /// Run the target on the file `path`; the error text when it refuses the input.
+    pub fn run(self, path: &Path) -> Result<(), String> {
+        match self {
+            Target::Pt => Clip::from_pt(path).map(drop).map_err(|e| e.to_string()),
+            Target::Clip => Clip::load(path).map(drop).map_err(|e| e.to_string()),
+            Target::Checkpoint => checkpoint::load_with_config(path).map(drop).map_err(|e| e.to_string()),
+            Target::Config => {
+                let text = std::fs::read_to_string(path).map_err(|e| e.to_string())?;
+                let cfg = TrainConfig::from_toml_over(&TrainConfig::default(), &text, path).map_err(|e| e.to_string())?;
+                cfg.validate().map_err(|e| e.to_string())
+            }
+        }
+    }
+}
+
+/// Keep the first `t` frames of `c`.
+fn trim(c: &mut Clip, t: usize) {
+    let n = c.num_frames.max(1);
+    let cut = |v: &mut Vec<f32>| v.truncate(v.len() / n * t);
+    for v in [&mut c.root_pos, &mut c.root_rot, &mut c.dof_rot, &mut c.body_pos, &mut c.ball_pos, &mut c.ball_rot, &mut c.contact] {
+        cut(v);
+    }
+    c.num_frames = t;
+}
+
+/// `t` plausible BallPlay-M rows (337 columns).
+fn synthetic_rows(t: usize) -> Vec<f32> {
+    let mut rows = vec![0.0f32; t * PT_WIDTH];
+    for f in 0..t {
+        let r = &mut rows[f * PT_WIDTH..(f + 1) * PT_WIDTH];
+        r[0..3].copy_from_slice(&[0.1 * f as f32, 1.0, 0.95]);
+        r[3..6].copy_from_slice(&[1.5, 0.05, 0.1]);
+        for (k, x) in r.iter_mut().enumerate().take(165).skip(9) {
+            *x = ((k * 7 + f) % 13) as f32 * 0.01;
+        }
+        r[336] = (f % 2) as f32;
+    }
+    rows
+}
