@@ -78,3 +78,17 @@ def test_closed_env_raises_runtime_error():
     env.close()
     with pytest.raises(RuntimeError, match="closed"):
         env.step(np.zeros((2, env.single_action_space.shape[0]), dtype=np.float32))
+
+
+def test_simulation_instability_is_flagged_per_environment():
+    env = VecEnv(3)
+    env.reset(seed=0)
+    actions = np.zeros((3, env.single_action_space.shape[0]), dtype=np.float32)
+    _, _, term, _, info = env.step(actions)
+    assert info["unstable"].dtype == np.bool_ and not info["unstable"].any()
+    qpos, qvel = env.get_state(1)
+    env.set_state(1, qpos, np.full_like(qvel, 1e11))  # beyond MuJoCo's mjMAXVAL (1e10): it resets that physics
+    _, _, term, _, info = env.step(actions)
+    assert info["unstable"].tolist() == [False, True, False], info["unstable"]
+    assert term[1], "an unstable step ends the episode"
+    env.close()

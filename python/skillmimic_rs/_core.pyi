@@ -109,6 +109,8 @@ class CoreEnv:
         final_mask_out: npt.NDArray[np.bool_],
     ) -> None:
         """One policy step; outputs are written into the given buffers (GIL released while stepping)."""
+    def unstable(self) -> npt.NDArray[np.bool_]:
+        """(N,) MuJoCo reported a numerical instability during the last step (physics reset, episode terminated)."""
     def reward_terms(self) -> npt.NDArray[np.float32]:
         """(N, 12) sub-rewards of the last step."""
     def contact_graph(self) -> npt.NDArray[np.float32]:

@@ -486,6 +486,8 @@ class VecEnv(gym.vector.VectorEnv):
             elif self._core.cg_names:
                 res["task_info"] = self.task_info()
             res["frame_metrics"] = self._core.frame_metrics()
+            # MuJoCo's instability warnings (physics reset, episode terminated) per environment
+            res["unstable"] = self._core.unstable()
             for k, v in res.items():
                 if any_reset:
                     v[self._reset_rows] = 0

@@ -231,6 +231,13 @@ impl CoreEnv {
         Ok(())
     }
 
+    /// `(N,)` bool: MuJoCo reported a numerical instability in that environment during the last
+    /// step (its physics was reset and the episode terminated).
+    fn unstable<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<bool>>> {
+        let b = self.env()?.buffers();
+        Ok(PyArray1::from_iter(py, b.unstable.iter().map(|&u| u != 0)))
+    }
+
     /// `(N, terms)` sub-rewards of the last step (columns: `term_names`).
     fn reward_terms<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f32>>> {
         let env = self.env()?;
