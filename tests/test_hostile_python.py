@@ -92,3 +92,22 @@ def test_simulation_instability_is_flagged_per_environment():
     assert info["unstable"].tolist() == [False, True, False], info["unstable"]
     assert term[1], "an unstable step ends the episode"
     env.close()
+
+
+def test_non_finite_settings_and_normaliser_arguments_are_value_errors():
+    from skillmimic_rs import _core
+
+    with pytest.raises(ValueError, match=r"env\.termination_height.*not a finite number"):
+        VecEnv(2, termination_height=float("nan"))
+    with pytest.raises(ValueError, match=r"env\.reward\.w_p"):
+        VecEnv(2, reward={"w_p": float("inf")})
+    with pytest.raises(ValueError, match="eps is -1"):
+        _core.RunningMeanStd(3, -1.0, 5.0)
+    with pytest.raises(ValueError, match="clip is NaN"):
+        _core.RunningMeanStd(3, 1e-5, float("nan"))
+    rms = _core.RunningMeanStd(3)
+    x = np.ones((4, 3), np.float32)
+    x[2, 1] = np.nan
+    with pytest.raises(ValueError, match="row 2, column 1"):
+        rms.update(x)
+    assert np.isfinite(rms.mean).all() and np.isfinite(rms.var).all()

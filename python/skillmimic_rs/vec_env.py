@@ -91,6 +91,19 @@ def _observation_space(task: str, dim: int) -> gym.spaces.Box:
     return gym.spaces.Box(low, high, (dim,), np.float32)
 
 
+def _check_finite(value: Any, key: str) -> None:
+    """Refuse NaN / infinite numbers in a config before it becomes JSON (which has no such
+    values): a ``ValueError`` naming the key, like the Rust range check's messages."""
+    if isinstance(value, float) and not np.isfinite(value):
+        raise ValueError(f"config field '{key}': is not a finite number ({value})")
+    if isinstance(value, Mapping):
+        for k, v in value.items():
+            _check_finite(v, f"{key}.{k}")
+    elif isinstance(value, (list, tuple)):
+        for i, v in enumerate(value):
+            _check_finite(v, f"{key}[{i}]")
+
+
 class _Exclusive:
     """Non-blocking hold of a ``VecEnv`` for one call (see ``VecEnv._exclusive``)."""
 
@@ -161,6 +174,7 @@ class VecEnv(gym.vector.VectorEnv):
         if llc is not None:
             cfg["hlc"] = dict(cfg.get("hlc", {}), llc=str(llc))
         cfg["num_envs"] = num_envs
+        _check_finite(cfg, "env")
         cfg.setdefault("motion", [BUILTIN_DEMO])
         cfg["motion"] = [str(m) for m in cfg["motion"]]
         self._core = _core.CoreEnv(json.dumps(cfg), mode == AutoresetMode.SAME_STEP)

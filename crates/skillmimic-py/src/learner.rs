@@ -102,6 +102,12 @@ impl RunningMeanStd {
         if dim == 0 {
             return Err(PyValueError::new_err("dim must be at least 1"));
         }
+        if !(eps.is_finite() && eps > 0.0) {
+            return Err(PyValueError::new_err(format!("eps is {eps}, expected a finite number > 0 (it is added to the variance under the square root)")));
+        }
+        if !(clip > 0.0) {
+            return Err(PyValueError::new_err(format!("clip is {clip}, expected a number > 0 (normalised values are clamped to ±clip)")));
+        }
         Ok(Self { inner: skillmimic_nn::normalizer::RunningMeanStd::new(dim, eps, clip) })
     }
     /// Merge a batch `(N, dim)` (N >= 2) into the statistics.
@@ -110,7 +116,12 @@ impl RunningMeanStd {
         if x.shape()[0] < 2 {
             return Err(PyValueError::new_err("a batch needs at least 2 rows"));
         }
-        self.inner.update(x.as_slice().map_err(value_error)?);
+        let x = x.as_slice().map_err(value_error)?;
+        if let Some(k) = x.iter().position(|v| !v.is_finite()) {
+            let d = self.inner.dim();
+            return Err(PyValueError::new_err(format!("batch: non-finite value {} at row {}, column {}; the statistics were left unchanged", x[k], k / d, k % d)));
+        }
+        self.inner.update(x);
         Ok(())
     }
     /// Normalised copy of `x` `(N, dim)`.
