@@ -117,7 +117,7 @@ mod tests {
 
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0);
         let mut p = Policy::new(6, 2, &PpoConfig { hidden: vec![4], ..Default::default() }, &mut rng);
-        let sizes = crate::ppo::update::param_sizes(&p);
+        let sizes: Vec<usize> = p.actor.params().iter().chain(p.critic.params().iter()).map(|x| x.len()).collect();
         let mut adam = Adam::new(&sizes, 1e-3, 1e-8);
         assert!(check_state(&p, &adam).is_ok());
         p.critic.params_mut()[1][0] = 2e6;

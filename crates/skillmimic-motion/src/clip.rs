@@ -8,8 +8,6 @@ use skillmimic_core::math::Quat;
 use skillmimic_core::skeleton::{NUM_BODIES, NUM_DOFS};
 
 use crate::error::ClipError;
-use crate::pt::read_pt_matrix;
-use crate::validate::{Naming, check_pt_rows, validate_clip};
 
 // The layout items keep their historical paths `clip::PT_WIDTH`, `clip::BALLPLAY_FPS` and
 // `clip::pt_column_field`.
@@ -102,23 +100,8 @@ fn rotvec_to_wxyz(v: [f32; 3]) -> [f32; 4] {
 }
 
 impl Clip {
-    /// Load a BallPlay-M `.pt` clip (label from the file name, 60 fps), validated by
-    /// [`crate::validate`] (errors name `.pt` columns).
-    pub fn from_pt(path: &Path) -> Result<Clip, ClipError> {
-        let skill = skill_label_from_name(path)?;
-        let m = read_pt_matrix(path)?;
-        if m.cols != PT_WIDTH || m.rows == 0 {
-            return Err(ClipError::Shape { path: path.to_path_buf(), shape: vec![m.rows, m.cols], expected_width: PT_WIDTH });
-        }
-        check_pt_rows(&m.data, path)?;
-        let name = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
-        let clip = Self::from_rows(name, path.display().to_string(), skill, BALLPLAY_FPS, m.rows, &m.data);
-        validate_clip(&clip, path, Naming::PtColumns)?;
-        Ok(clip)
-    }
-
     /// Decode `t` rows of the 337-column layout (values must be finite). Nothing is validated or
-    /// rounded: the contact label is column 336 as stored; see [`crate::validate::validate_clip`].
+    /// rounded: the contact label is column 336 as stored; see `crate::validate::validate_clip`.
     pub fn from_rows(name: String, source: String, skill: u32, fps: f64, t: usize, rows: &[f32]) -> Clip {
         assert_eq!(rows.len(), t * PT_WIDTH);
         let mut clip = Clip {

@@ -1,4 +1,5 @@
-//! The project's clip file format (`.safetensors`), version 1.
+//! The project's clip file format (`.safetensors`), version 1, and the clip loaders (`Clip::from_pt`,
+//! `Clip::load`, `Clip::load_any`), each running the one validation of [`crate::validate`].
 //!
 //! | tensor | dtype | shape | content |
 //! |---|---|---|---|
@@ -25,9 +26,10 @@ use std::path::Path;
 use skillmimic_core::skeleton::{NUM_BODIES, NUM_JOINTS};
 use skillmimic_core::tensorfile::{OwnedTensor, TensorFile, TensorFileError, write_atomic};
 
-use crate::clip::{Clip, SKILL_WIDTH};
+use crate::clip::{BALLPLAY_FPS, Clip, PT_WIDTH, SKILL_WIDTH, skill_label_from_name};
 use crate::error::ClipError;
-use crate::validate::{Naming, validate_clip};
+use crate::pt::read_pt_matrix;
+use crate::validate::{Naming, check_pt_rows, validate_clip};
 
 /// Value of the `format` metadata field.
 pub const FORMAT_NAME: &str = "skillmimic-clip";
@@ -66,6 +68,21 @@ impl Clip {
             OwnedTensor::f32("contact", &[t], &self.contact),
         ];
         write_atomic(path, &tensors, &meta)
+    }
+
+    /// Load a BallPlay-M `.pt` clip (label from the file name, 60 fps), validated by
+    /// [`crate::validate`] (errors name `.pt` columns).
+    pub fn from_pt(path: &Path) -> Result<Clip, ClipError> {
+        let skill = skill_label_from_name(path)?;
+        let m = read_pt_matrix(path)?;
+        if m.cols != PT_WIDTH || m.rows == 0 {
+            return Err(ClipError::Shape { path: path.to_path_buf(), shape: vec![m.rows, m.cols], expected_width: PT_WIDTH });
+        }
+        check_pt_rows(&m.data, path)?;
+        let name = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+        let clip = Clip::from_rows(name, path.display().to_string(), skill, BALLPLAY_FPS, m.rows, &m.data);
+        validate_clip(&clip, path, Naming::PtColumns)?;
+        Ok(clip)
     }
 
     /// Load a clip in the project format, validating every field ([`crate::validate`]; errors name
