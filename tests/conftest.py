@@ -50,6 +50,17 @@ def shared_dir() -> pathlib.Path:
     return d
 
 
+def require_module(name: str):
+    """Import an optional test dependency: skip the test (or module) where it is missing, but fail
+    when ``CI`` is set, where every test dependency is installed and a skip would hide a broken
+    install (``pytest.importorskip`` alone skips silently even on CI)."""
+    if os.environ.get("CI"):
+        import importlib
+
+        return importlib.import_module(name)
+    return pytest.importorskip(name)
+
+
 def run_cli(exe: pathlib.Path, *args: str) -> subprocess.CompletedProcess:
     """Run the CLI, failing the test with its stderr on a non-zero exit."""
     r = subprocess.run([str(exe), *args], capture_output=True, text=True)

@@ -5,13 +5,13 @@ from __future__ import annotations
 import warnings
 
 import numpy as np
-import pytest
 
 import skillmimic_rs
+from conftest import require_module
 
 
 def test_stable_baselines3_ppo_runs_a_few_updates(tmp_path):
-    sb3 = pytest.importorskip("stable_baselines3")
+    sb3 = require_module("stable_baselines3")
     from stable_baselines3.common.vec_env import VecCheckNan
 
     from skillmimic_rs.sb3 import Sb3VecEnv
@@ -36,8 +36,8 @@ def test_stable_baselines3_ppo_runs_a_few_updates(tmp_path):
 
 
 def test_rsl_rl_runner_runs_a_few_iterations(tmp_path):
-    pytest.importorskip("rsl_rl")
-    pytest.importorskip("tensordict")
+    require_module("rsl_rl")
+    require_module("tensordict")
     import torch
     from rsl_rl.runners import OnPolicyRunner
 
@@ -65,7 +65,7 @@ def test_rsl_rl_runner_runs_a_few_iterations(tmp_path):
 def test_adapters_warn_about_exploration_too_wide_for_the_reward():
     """SB3's / rsl_rl's default action noise (σ ≈ 1) gets ~0 reward here and learns nothing: the
     adapters warn after 64 steps; the paper's σ = 0.055 around zero actions does not warn."""
-    pytest.importorskip("stable_baselines3")
+    require_module("stable_baselines3")
     from skillmimic_rs.sb3 import Sb3VecEnv, ppo_recipe
 
     assert ppo_recipe()["policy_kwargs"]["log_std_init"] == -2.9

@@ -7,6 +7,7 @@ import pytest
 
 import skillmimic_rs
 from skillmimic_rs import _core
+from conftest import require_module
 
 
 @pytest.fixture(scope="module")
@@ -47,7 +48,7 @@ def test_independent_reference_uses_the_same_term_names():
 
 
 def test_history_feature_dim_comes_from_the_core():
-    pytest.importorskip("torch")
+    require_module("torch")
     from skillmimic_rs import history
 
     assert history.FEATURE_DIM == _core.HISTORY_FEATURE_DIM == 316

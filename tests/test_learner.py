@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 import skillmimic_rs
-from conftest import run_cli
+from conftest import require_module, run_cli
 
-torch = pytest.importorskip("torch")
+torch = require_module("torch")
 from skillmimic_rs.policy import SkillMimicPolicy, load_checkpoint  # noqa: E402
 
 
@@ -105,7 +105,7 @@ def test_normaliser_statistics_follow_numpy():
 
 
 def test_tensorboard_reads_the_event_files(tiny_run):
-    ea_mod = pytest.importorskip("tensorboard.backend.event_processing.event_accumulator")
+    ea_mod = require_module("tensorboard.backend.event_processing.event_accumulator")
     acc = ea_mod.EventAccumulator(str(tiny_run / "tb"))
     acc.Reload()
     tags = acc.Tags()["scalars"]

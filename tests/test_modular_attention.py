@@ -12,8 +12,9 @@ import math
 
 import numpy as np
 import pytest
+from conftest import require_module
 
-torch = pytest.importorskip("torch")
+torch = require_module("torch")
 
 from skillmimic_rs import _core  # noqa: E402
 from skillmimic_rs.policy import ModularAttentionPolicy, checkpoint_metadata, load_checkpoint  # noqa: E402

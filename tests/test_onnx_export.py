@@ -14,9 +14,10 @@ import onnx
 import onnxruntime as ort
 import pytest
 
-torch = pytest.importorskip("torch")
+from conftest import require_module, run_cli
 
-from conftest import run_cli  # noqa: E402
+torch = require_module("torch")
+
 from test_rlgames_import import _observations, rlgames_forward, write_rlgames  # noqa: E402
 
 

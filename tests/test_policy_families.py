@@ -6,8 +6,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import require_module
 
-torch = pytest.importorskip("torch")
+torch = require_module("torch")
 
 import skillmimic_rs  # noqa: E402
 from skillmimic_rs import _core  # noqa: E402

@@ -16,12 +16,13 @@ import pytest
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import reference_env as R  # noqa: E402
+from conftest import find_shared  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 FULL_XML = REPO / "mjcf" / "skillmimic_full.xml"
 BOXHAND_XML = REPO / "mjcf" / "skillmimic_boxhand.xml"
 MOTIONS = REPO / "motions"
-SHARED_CLIPS = Path("/work/shared/data/ballplay_m")
+SHARED_CLIPS = (find_shared() or Path("<shared folder not found>")) / "data" / "ballplay_m"
 PASS_CLIP = SHARED_CLIPS / "pass" / "004_016pickle_pass_001.pt"
 
 

@@ -10,11 +10,11 @@ import math
 import os
 
 import numpy as np
-import pytest
 
-torch = pytest.importorskip("torch")
+from conftest import require_module, run_cli
 
-from conftest import run_cli  # noqa: E402
+torch = require_module("torch")
+
 
 
 def _mlp(g, dims):

@@ -12,10 +12,10 @@ import json
 import math
 
 import numpy as np
-import pytest
+from conftest import require_module
 
-torch = pytest.importorskip("torch")
-safetensors_torch = pytest.importorskip("safetensors.torch")
+torch = require_module("torch")
+safetensors_torch = require_module("safetensors.torch")
 
 from skillmimic_rs import _core  # noqa: E402
 from skillmimic_rs.policy import TokenTransformerPolicy, checkpoint_metadata, load_checkpoint  # noqa: E402
