@@ -96,7 +96,7 @@ pub fn tune_allocator() {
 
 /// Run the tool on `args` (the program name first, as in `std::env::args_os`) and return the exit
 /// code: 0 on success (also for `--help` / `--version`), 1 with an `error:` line on stderr for a
-/// failed command, 2 for a usage error (clap's message on stderr). Never exits the process itself,
+/// failed command (also after an internal panic, reported as one `error: internal error` line), 2 for a usage error (clap's message on stderr). Never exits the process itself,
 /// so a Python caller keeps control.
 pub fn run<I, T>(args: I) -> i32
 where
@@ -125,7 +125,7 @@ where
             1
         }
         Err(payload) => {
-            let what = LAST_PANIC.lock().unwrap_or_else(|e| e.into_inner()).take().unwrap_or_else(|| panic_text(&*payload));
+            let what = LAST_PANIC.lock().unwrap_or_else(|e| e.into_inner()).take().unwrap_or_else(|| skillmimic_core::panic_message(&*payload));
             eprintln!("error: internal error: {what} (a bug of skillmimic-rs, not of your input; please report it with the command line)");
             1
         }
@@ -135,10 +135,6 @@ where
 /// The last panic's message and location, recorded by the hook of [`quiet_panics`].
 static LAST_PANIC: std::sync::Mutex<Option<String>> = std::sync::Mutex::new(None);
 
-fn panic_text(payload: &(dyn std::any::Any + Send)) -> String {
-    payload.downcast_ref::<&str>().map(|s| s.to_string()).or_else(|| payload.downcast_ref::<String>().cloned()).unwrap_or_else(|| "unknown panic".into())
-}
-
 /// For the `skillmimic` binary: a panic prints nothing where it happens (no multi-line
 /// "thread panicked" report, no backtrace); [`run`] reports it as one `error:` line with its
 /// location and exits with code 1. Not installed for the Python module, whose host process keeps
@@ -146,7 +142,7 @@ fn panic_text(payload: &(dyn std::any::Any + Send)) -> String {
 pub fn quiet_panics() {
     std::panic::set_hook(Box::new(|info| {
         let loc = info.location().map(|l| format!(" (at {}:{})", l.file(), l.line())).unwrap_or_default();
-        let text = format!("{}{loc}", panic_text(info.payload()));
+        let text = format!("{}{loc}", skillmimic_core::panic_message(info.payload()));
         *LAST_PANIC.lock().unwrap_or_else(|e| e.into_inner()) = Some(text);
     }));
 }

@@ -167,7 +167,7 @@ pub fn run(opts: &Options) -> Report {
         let largest = LARGEST.load(Ordering::Relaxed);
         report.executions += 1;
         let problem = match &outcome {
-            Err(p) => Some(format!("panic: {}", p.downcast_ref::<String>().map(String::as_str).or_else(|| p.downcast_ref::<&str>().copied()).unwrap_or("(no message)"))),
+            Err(p) => Some(format!("panic: {}", skillmimic_core::panic_message(&**p))),
             Ok(_) if took > opts.time_limit => Some(format!("slow: {took:?} (limit {:?})", opts.time_limit)),
             Ok(_) if largest > ALLOC_LIMIT => Some(format!("allocation of {largest} bytes")),
             Ok(_) => None,

@@ -7,6 +7,7 @@ use rand::SeedableRng;
 use skillmimic_learn::checkpoint::{self, Progress};
 use skillmimic_learn::config::{PpoConfig, TrainConfig};
 use skillmimic_motion::pt::write_pt_matrix;
+use skillmimic_motion::testing::synthetic_rows;
 use skillmimic_motion::{Clip, PT_WIDTH};
 
 /// A fuzz target.
@@ -117,19 +118,4 @@ fn trim(c: &mut Clip, t: usize) {
         cut(v);
     }
     c.num_frames = t;
-}
-
-/// `t` plausible BallPlay-M rows (337 columns).
-fn synthetic_rows(t: usize) -> Vec<f32> {
-    let mut rows = vec![0.0f32; t * PT_WIDTH];
-    for f in 0..t {
-        let r = &mut rows[f * PT_WIDTH..(f + 1) * PT_WIDTH];
-        r[0..3].copy_from_slice(&[0.1 * f as f32, 1.0, 0.95]);
-        r[3..6].copy_from_slice(&[1.5, 0.05, 0.1]);
-        for (k, x) in r.iter_mut().enumerate().take(165).skip(9) {
-            *x = ((k * 7 + f) % 13) as f32 * 0.01;
-        }
-        r[336] = (f % 2) as f32;
-    }
-    rows
 }

@@ -11,7 +11,8 @@
 //! * [`hsi_clip`], [`retarget_hsi`]: clips of the TokenHSI character (file format, forward
 //!   kinematics) and retargeting SkillMimic-skeleton clips onto it;
 //! * [`validate`]: the one validation of clips (bounds, minimum length, fps) every loader runs;
-//! * [`library`]: many clips, class-balanced clip sampling and random start frames.
+//! * [`library`]: many clips, class-balanced clip sampling and random start frames;
+//! * [`testing`]: synthetic clip rows for tests and the fuzzer's seeds.
 
 pub mod clip;
 pub mod error;
@@ -24,6 +25,7 @@ pub mod pickle;
 pub mod pt;
 pub mod reference;
 pub mod retarget_hsi;
+pub mod testing;
 pub mod torch_zip;
 pub mod validate;
 

@@ -4,30 +4,13 @@
 use std::path::{Path, PathBuf};
 
 use skillmimic_motion::pt::{read_pt_matrix, write_pt_matrix};
+use skillmimic_motion::testing::synthetic_rows;
 use skillmimic_motion::{Clip, ClipError, PT_WIDTH};
 
 fn tmpdir(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("skillmimic-motion-{}-{name}", std::process::id()));
     std::fs::create_dir_all(&d).unwrap();
     d
-}
-
-fn synthetic_rows(t: usize) -> Vec<f32> {
-    let mut rows = vec![0.0f32; t * PT_WIDTH];
-    for f in 0..t {
-        let r = &mut rows[f * PT_WIDTH..(f + 1) * PT_WIDTH];
-        r[0..3].copy_from_slice(&[0.1 * f as f32, 1.0, 0.95]);
-        r[3..6].copy_from_slice(&[1.5, 0.05, 0.1]);
-        r[6..9].copy_from_slice(&[1.5, 0.05, 0.1]);
-        for k in 9..165 {
-            r[k] = ((k * 7 + f) % 13) as f32 * 0.01;
-        }
-        for k in 165..327 {
-            r[k] = (k % 5) as f32 * 0.1;
-        }
-        r[336] = (f % 2) as f32;
-    }
-    rows
 }
 
 fn err_text(path: &Path) -> String {

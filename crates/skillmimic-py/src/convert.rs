@@ -22,20 +22,11 @@ pub(crate) fn to_2d<'py>(py: Python<'py>, data: &[f32], rows: usize, cols: usize
     PyArray1::from_slice(py, data).reshape([rows, cols])
 }
 
-/// The message of a caught panic payload.
-pub(crate) fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
-    payload
-        .downcast_ref::<&str>()
-        .map(|s| s.to_string())
-        .or_else(|| payload.downcast_ref::<String>().cloned())
-        .unwrap_or_else(|| "unknown panic".into())
-}
-
 /// Run `f` with the GIL released and turn a panic inside it into an ordinary `RuntimeError`
 /// naming `what` (pyo3 would raise `PanicException`, a `BaseException` that `except Exception`
 /// does not catch). A panic is a bug of this package, never a user mistake: user mistakes are
 /// `ValueError`s returned by `f`.
 pub(crate) fn detach_guarded<T: Send>(py: Python<'_>, what: &str, f: impl FnOnce() -> T + Send) -> PyResult<T> {
     py.detach(|| std::panic::catch_unwind(std::panic::AssertUnwindSafe(f)))
-        .map_err(|p| pyo3::exceptions::PyRuntimeError::new_err(format!("internal error in {what}: {} (a bug of skillmimic-rs; please report it)", panic_message(&*p))))
+        .map_err(|p| pyo3::exceptions::PyRuntimeError::new_err(format!("internal error in {what}: {} (a bug of skillmimic-rs; please report it)", skillmimic_core::panic_message(&*p))))
 }

@@ -26,15 +26,6 @@ impl CoreEnv {
     fn env_mut(&mut self) -> PyResult<&mut Box<dyn Env>> {
         self.env.as_mut().ok_or_else(|| PyRuntimeError::new_err("the environment is closed"))
     }
-    /// Borrow the environment for a call that releases the GIL; a second thread using the same
-    /// environment meanwhile gets a clear `RuntimeError` instead of pyo3's "Already borrowed".
-    fn exclusive<'a, 'py>(slf: &'a Bound<'py, Self>, what: &str) -> PyResult<PyRefMut<'py, Self>> {
-        slf.try_borrow_mut().map_err(|_| {
-            PyRuntimeError::new_err(format!(
-                "VecEnv.{what}: the environment is in use by another thread; one VecEnv must be used from one thread at a time (make one VecEnv per thread)"
-            ))
-        })
-    }
     /// Run `f` on the environment with the GIL released; after a panic inside the core the
     /// environment's state is unknown, so it is closed and the error says so.
     fn run_core<T: Send>(&mut self, py: Python<'_>, what: &str, f: impl FnOnce(&mut dyn Env) -> T + Send) -> PyResult<T> {
@@ -160,22 +151,20 @@ impl CoreEnv {
 
     /// Reset every environment (reseeding when `seed` is given); writes the observations.
     #[pyo3(signature = (seed, obs_out))]
-    fn reset_all(slf: &Bound<'_, Self>, py: Python<'_>, seed: Option<u64>, obs_out: PyReadwriteArray2<'_, f32>) -> PyResult<()> {
-        let mut this = Self::exclusive(slf, "reset")?;
-        this.run_core(py, "VecEnv.reset", |env| env.reset_all(seed))?;
-        copy_obs(this.env()?, obs_out)
+    fn reset_all(&mut self, py: Python<'_>, seed: Option<u64>, obs_out: PyReadwriteArray2<'_, f32>) -> PyResult<()> {
+        self.run_core(py, "VecEnv.reset", |env| env.reset_all(seed))?;
+        copy_obs(self.env()?, obs_out)
     }
 
     /// Reset the environments where `mask` is true; writes all observations.
-    fn reset_mask(slf: &Bound<'_, Self>, py: Python<'_>, mask: PyReadonlyArray1<'_, bool>, obs_out: PyReadwriteArray2<'_, f32>) -> PyResult<()> {
-        let mut this = Self::exclusive(slf, "reset")?;
-        check_shape("reset_mask", mask.shape(), &[this.env()?.num_envs()])?;
+    fn reset_mask(&mut self, py: Python<'_>, mask: PyReadonlyArray1<'_, bool>, obs_out: PyReadwriteArray2<'_, f32>) -> PyResult<()> {
+        check_shape("reset_mask", mask.shape(), &[self.env()?.num_envs()])?;
         let m: Vec<bool> = mask.as_slice().map_err(value_error)?.to_vec();
         if !m.iter().any(|&x| x) {
             return Err(PyValueError::new_err("reset_mask selects no environment"));
         }
-        this.run_core(py, "VecEnv.reset", |env| env.reset_envs(&m))?;
-        copy_obs(this.env()?, obs_out)
+        self.run_core(py, "VecEnv.reset", |env| env.reset_envs(&m))?;
+        copy_obs(self.env()?, obs_out)
     }
 
     /// Close the episodes of the environments where `mask` is true (the task's end-of-episode
@@ -190,7 +179,7 @@ impl CoreEnv {
     /// One policy step for all environments. Outputs are written into the given buffers.
     #[allow(clippy::too_many_arguments)]
     fn step(
-        slf: &Bound<'_, Self>,
+        &mut self,
         py: Python<'_>,
         actions: PyReadonlyArray2<'_, f32>,
         obs_out: PyReadwriteArray2<'_, f32>,
@@ -200,18 +189,17 @@ impl CoreEnv {
         mut final_obs_out: PyReadwriteArray2<'_, f32>,
         mut final_mask_out: PyReadwriteArray1<'_, bool>,
     ) -> PyResult<()> {
-        let mut this = Self::exclusive(slf, "step")?;
         let (n, a, d) = {
-            let env = this.env()?;
+            let env = self.env()?;
             (env.num_envs(), env.act_dim(), env.obs_dim())
         };
         check_shape("actions", actions.shape(), &[n, a])?;
-        let mut abuf = std::mem::take(&mut this.actions);
+        let mut abuf = std::mem::take(&mut self.actions);
         abuf.copy_from_slice(actions.as_slice().map_err(value_error)?);
-        let stepped = this.run_core(py, "VecEnv.step", |env| env.step(&abuf));
-        this.actions = abuf;
+        let stepped = self.run_core(py, "VecEnv.step", |env| env.step(&abuf));
+        self.actions = abuf;
         stepped?.map_err(value_error)?;
-        let env = this.env()?;
+        let env = self.env()?;
         let b = env.buffers();
         copy_obs(env, obs_out)?;
         check_shape("reward buffer", reward_out.shape(), &[n])?;

@@ -27,11 +27,8 @@ mod train;
 #[pyfunction]
 fn cli_main(py: Python<'_>, argv: Vec<String>) -> i32 {
     let args: Vec<String> = std::iter::once("skillmimic".to_string()).chain(argv).collect();
-    // the command catches panics itself (one-line message, exit code 1); this guard is the last line
-    convert::detach_guarded(py, "skillmimic", || skillmimic_cli::run(args)).unwrap_or_else(|e| {
-        eprintln!("error: {e}");
-        1
-    })
+    // `run` catches panics itself (one `error:` line, exit code 1)
+    py.detach(|| skillmimic_cli::run(args))
 }
 
 /// Version of the Rust core.
