@@ -206,11 +206,55 @@ def skeleton_joint(m, j):
 
 
 def free_joint_of_body(m, body):
-    """Free joint id of a body (root or ball)."""
+    """Id of the joint whose ``qpos``/``qvel`` block is the body's free-body state (position,
+    quaternion wxyz / world linear velocity, local angular velocity): a single free joint (the
+    root), or, for the ball, three world-axis slide joints (absolute positions through their
+    ``ref``) followed by a ball joint — the layout of a free joint, with separate linear and
+    angular damping (MuJoCo's free joint has one damping for all six dofs)."""
     jid = int(m.body_jntadr[body])
-    if m.body_jntnum[body] != 1 or m.jnt_type[jid] != mujoco.mjtJoint.mjJNT_FREE:
-        raise ValueError(f"body {body} has no single free joint")
-    return jid
+    n = int(m.body_jntnum[body])
+    J = mujoco.mjtJoint
+    if n == 1 and m.jnt_type[jid] == J.mjJNT_FREE:
+        return jid
+    slides_then_ball = n == 4 and all(m.jnt_type[jid + k] == J.mjJNT_SLIDE for k in range(3)) and m.jnt_type[jid + 3] == J.mjJNT_BALL
+    if slides_then_ball and all(np.array_equal(m.jnt_axis[jid + k], np.eye(3)[k]) for k in range(3)):
+        return jid
+    raise ValueError(f"body {body} has neither a free joint nor x/y/z slides + a ball joint")
+
+
+class FloorBounce:
+    """The floor bounce threshold the Rust core applies after every physics sub-step (PhysX's 0.2
+    m/s: a floor contact that starts slower than this does not rebound), written from its
+    definition: a contact starts on the first sub-step ending with the ball centre below its
+    radius, its impact speed is −v_z then; while such a slow contact lasts (centre below the
+    radius) an upward v_z is set to 0. Use one instance per ``MjData``; ``reset()`` after setting
+    a state."""
+
+    def __init__(self, m, threshold=0.2):
+        ball = ball_body_id(m)
+        jid = free_joint_of_body(m, ball)
+        self.qa, self.va = int(m.jnt_qposadr[jid]), int(m.jnt_dofadr[jid])
+        geom = int(m.body_geomadr[ball])
+        self.radius = float(m.geom_size[geom][0])
+        self.threshold = threshold
+        self.reset()
+
+    def reset(self):
+        self.touching = False
+        self.inelastic = False
+
+    def after_substep(self, d):
+        if self.threshold <= 0.0:
+            return
+        z, vz = d.qpos[self.qa + 2], d.qvel[self.va + 2]
+        touching = z < self.radius
+        if touching and not self.touching:
+            self.inelastic = -vz < self.threshold
+        if not touching:
+            self.inelastic = False
+        if touching and self.inelastic and vz > 0.0:
+            d.qvel[self.va + 2] = 0.0
+        self.touching = touching
 
 
 def geom_part(m, g, ball_body):

@@ -33,6 +33,7 @@ class Shadow:
         self.datas = [mujoco.MjData(self.model) for _ in range(env.num_envs)]
         self.idx = skeleton_dof_index(self.model)
         self.substeps = 2
+        self.bounce = [ref.FloorBounce(self.model) for _ in range(env.num_envs)]
 
     def copy_state(self, i: int) -> None:
         """Take environment i's state after a (re)set: same clearing as the core's reset."""
@@ -44,12 +45,14 @@ class Shadow:
         d.ctrl[:] = 0.0
         d.qacc_warmstart[:] = 0.0
         mujoco.mj_forward(self.model, d)
+        self.bounce[i].reset()
 
     def step(self, i: int, action: np.ndarray) -> None:
         d = self.datas[i]
         d.ctrl[:] = np.clip(action.astype(np.float64), -1.0, 1.0)[self.idx] * np.pi
         for _ in range(self.substeps):
             mujoco.mj_step(self.model, d)
+            self.bounce[i].after_substep(d)
         # kinematics of the new state; contacts stay those of the last sub-step
         mujoco.mj_kinematics(self.model, d)
         mujoco.mj_comPos(self.model, d)

@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 from safetensors import safe_open
 
+import reference_env as ref
 from conftest import find_shared, run_cli, skeleton_dof_index
 
 BODY_ORDER_FILE_HINT = "the skeleton order is the depth-first body order of the MJCF"
@@ -26,6 +27,7 @@ BODY_ORDER_FILE_HINT = "the skeleton order is the depth-first body order of the 
 def replay(model: mujoco.MjModel, qpos0, qvel0, actions, substeps: int):
     n = qpos0.shape[0]
     datas = [mujoco.MjData(model) for _ in range(n)]
+    bounce = [ref.FloorBounce(model) for _ in range(n)]
     for i, d in enumerate(datas):
         d.time = 0.0
         d.qpos[:] = qpos0[i]
@@ -41,6 +43,7 @@ def replay(model: mujoco.MjModel, qpos0, qvel0, actions, substeps: int):
             d.ctrl[:] = np.clip(actions[k, i].astype(np.float64), -1.0, 1.0)[idx] * np.pi
             for _ in range(substeps):
                 mujoco.mj_step(model, d)
+                bounce[i].after_substep(d)
             qpos[k, i] = d.qpos
             qvel[k, i] = d.qvel
     return qpos, qvel

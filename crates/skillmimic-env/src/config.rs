@@ -28,7 +28,8 @@ pub enum RewardVariant {
     /// The paper gives no weights for this sum; equal weights are our choice.
     Additive,
     /// DeepMimic-style baseline: exp terms with the weights of `[reward.deepmimic]`
-    /// (seed 003 Tab. 9: p 40, r 2, rv 0.1, op 40) summed with equal weights, no contact term.
+    /// (seed 003 Tab. 9: p 40, r 2, rv 0.1, op 40) combined additively with equal weights, no
+    /// contact term: their mean (`env.compat = "paper"`) or their sum (`"code"`).
     Deepmimic,
 }
 
@@ -38,12 +39,14 @@ pub enum RewardVariant {
 pub enum ContactGraphMode {
     /// Exact MuJoCo contact pairs: edges hand–ball (target: the clip label), body–ball,
     /// hand–body and body–floor (targets 0). Body = every humanoid body that is not a hand;
-    /// for body–floor, feet are excluded.
-    #[default]
+    /// for body–floor, feet are excluded. Our option (the papers' edges, measurable in MuJoCo).
     Exact,
-    /// Reproduce the reference labels: body node = any |force component| ≥ threshold on a
-    /// reference body-node body (target 0); ball node = |F_x| or |F_y| of the ball's net
-    /// contact force > threshold (target: the clip label).
+    /// The papers' graph as the released code measures it (the default): body node = any
+    /// |component| ≥ threshold (N) of the net contact force (world frame, every source: floor,
+    /// ball and self-contact) on one of the 17 reference body-node bodies (target 0); ball node =
+    /// |F_x| or |F_y| of the ball's net contact force > threshold, from any source including
+    /// floor bounces (target: the clip's hand–ball label).
+    #[default]
     ForceThreshold,
 }
 
@@ -152,7 +155,7 @@ impl Default for RewardConfig {
             w_opv: 0.0,
             w_orv: 0.0,
             w_ig: 20.0,
-            contact_graph: ContactGraphMode::Exact,
+            contact_graph: ContactGraphMode::ForceThreshold,
             w_cg_hand_ball: 5.0,
             w_cg_body_ball: 5.0,
             w_cg_hand_body: 5.0,
@@ -165,7 +168,20 @@ impl Default for RewardConfig {
     }
 }
 
-/// Scale factors of the ball's physical properties (robustness tests, seed 000 Tab. 2).
+/// How the ball's contacts with the humanoid behave.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum BallBodyContact {
+    /// PhysX's combined restitution of the reference's materials: (ball 0.81 + body 0)/2 = 0.405.
+    #[default]
+    Combined,
+    /// MuJoCo's default soft, non-bouncy contact.
+    Soft,
+}
+
+/// The ball's physical properties: scale factors (robustness tests, seed 000 Tab. 2) and the
+/// reference's PhysX behaviours (damping, bounce threshold, combined restitution; see
+/// `skillmimic_sim::mjcf` for how each is modelled in MuJoCo).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct BallOverrides {
@@ -178,11 +194,19 @@ pub struct BallOverrides {
     /// Factor on the ball restitution (the result must stay ≤ 1).
     #[schemars(extend("exclusiveMinimum" = 0))]
     pub restitution_scale: f64,
+    /// Linear and angular velocity damping (1/s): dv/dt = −damping·v (PhysX's 0.01).
+    #[schemars(range(min = 0, max = 100))]
+    pub damping: f64,
+    /// Floor impacts slower than this normal speed (m/s) do not bounce (PhysX's 0.2); 0 = off.
+    #[schemars(range(min = 0, max = 10))]
+    pub bounce_threshold: f64,
+    /// Ball–humanoid contact model.
+    pub body_contact: BallBodyContact,
 }
 
 impl Default for BallOverrides {
     fn default() -> Self {
-        Self { radius_scale: 1.0, density_scale: 1.0, restitution_scale: 1.0 }
+        Self { radius_scale: 1.0, density_scale: 1.0, restitution_scale: 1.0, damping: 0.01, bounce_threshold: 0.2, body_contact: BallBodyContact::Combined }
     }
 }
 
@@ -233,6 +257,9 @@ pub struct EnvConfig {
     /// reference frames past the clip end hold the last frame (SkillMimic-V2 success rates are
     /// measured over 10 s = 600 steps). 0 = training behaviour (episodes end with the clip).
     pub fixed_horizon: usize,
+    /// Paper or released-code behaviour where the two differ (`compat` module docs and
+    /// docs/fidelity.md list every behaviour this switch changes).
+    pub compat: crate::compat::Compat,
     /// Seed of the stream of episode starts (clip/frame sampling, V2 start variants). Unset
     /// (the default) = derived: training uses `run.seed`, a standalone environment 0 (see
     /// [`EnvConfig::start_seed`]). Set it to decouple episode starts from the run seed.
@@ -279,6 +306,7 @@ impl Default for EnvConfig {
             termination_height: 0.3,
             state_init: StateInit::Random,
             fixed_horizon: 0,
+            compat: Default::default(),
             seed: None,
             reward: RewardConfig::default(),
             ball: BallOverrides::default(),
@@ -353,6 +381,12 @@ impl EnvConfig {
             density: base.density * b.density_scale,
             restitution: base.restitution * b.restitution_scale,
             friction: base.friction,
+            damping: b.damping,
+            bounce_threshold: b.bounce_threshold,
+            body_contact: match b.body_contact {
+                BallBodyContact::Combined => skillmimic_sim::BodyContact::Combined,
+                BallBodyContact::Soft => skillmimic_sim::BodyContact::Soft,
+            },
         };
         Ok(SceneOptions { hands: self.hand_model()?, ball, ..Default::default() })
     }

@@ -186,13 +186,22 @@ pub struct BridgeConfig {
     /// gets N_max steps.
     #[schemars(extend("exclusiveMinimum" = 0, "exclusiveMaximum" = 1))]
     pub tau: f64,
-    /// How the masked bridging steps enter the reward.
-    pub masked_reward: MaskedReward,
+    /// How the masked bridging steps enter the reward; unset (the default) = follow `env.compat`
+    /// (`paper` → "exclude", `code` → "replace_with_clip_mean").
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub masked_reward: Option<MaskedReward>,
+}
+
+impl BridgeConfig {
+    /// The masked-reward rule in effect under `compat`.
+    pub fn masked_reward(&self, compat: crate::compat::Compat) -> MaskedReward {
+        self.masked_reward.unwrap_or(if compat.is_code() { MaskedReward::ReplaceWithClipMean } else { MaskedReward::Exclude })
+    }
 }
 
 impl Default for BridgeConfig {
     fn default() -> Self {
-        Self { max_masked_steps: 10, tau: 1e-10, masked_reward: MaskedReward::Exclude }
+        Self { max_masked_steps: 10, tau: 1e-10, masked_reward: None }
     }
 }
 

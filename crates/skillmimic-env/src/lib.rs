@@ -7,6 +7,7 @@
 //! * [`tasks`]: `imitation` (SkillMimic + V2), `stand` (the worked example) and the high-level
 //!   tasks of skill reuse over a frozen skill policy (`heading`, `circling`, `throwing`, `scoring`);
 //! * [`config`], [`config_v2`], [`config_hlc`]: typed configuration with the papers' defaults;
+//! * [`compat`]: the `env.compat` profile (paper vs released code where they differ);
 //! * [`obs`]: the 902-wide skill-policy observation and its index table;
 //! * [`hoi`]: HOI states (simulated and reference) and contact-graph states;
 //! * [`reward`]: the unified HOI imitation reward, every sub-term and the ablation variants;
@@ -18,6 +19,7 @@
 //!   Adaptive Trajectory Sampling (the history encoder network is `skillmimic_nn::history`).
 
 pub mod amp;
+pub mod compat;
 pub mod config;
 pub mod config_hlc;
 pub mod config_hsi;
@@ -39,6 +41,7 @@ pub mod tasks;
 pub mod v2;
 pub mod vec_env;
 
+pub use compat::Compat;
 pub use config::{ContactGraphMode, EnvConfig, RewardConfig, RewardVariant, StateInit};
 pub use error::EnvError;
 pub use task::{ActionSpace, Task, TaskSpec};

@@ -1,7 +1,9 @@
 //! Kinematic replay: put the simulator into every frame of a clip and score it against the same
 //! clip. This measures what the data itself allows — the stored key-body positions differ from
-//! forward kinematics of the stored joints by ≈3 cm — and how MuJoCo's exact contact pairs compare
-//! with the clip's hand–ball labels.
+//! forward kinematics of the stored joints by ≈3 cm — and how the simulated contact graphs (MuJoCo's
+//! exact pairs and the papers' force-threshold nodes) compare with the clip's hand–ball labels.
+//! Each frame is set with `mj_forward` (positions and the clip's finite-difference velocities),
+//! so the contact forces are those of that instant.
 
 use std::sync::Arc;
 
@@ -32,6 +34,11 @@ pub struct ReplayReport {
     pub label0_detected: usize,
     /// Per label-1 frame: distance (m) from the ball surface to the nearest hand body origin.
     pub label1_hand_gap: Vec<f64>,
+    /// Force-threshold graph (threshold of `reward_cfg`): label-1 / label-0 frames whose ball
+    /// node is 1, and frames whose body node is 1 (its target is always 0).
+    pub force_ball_label1: usize,
+    pub force_ball_label0: usize,
+    pub force_body_on: usize,
 }
 
 impl ReplayReport {
@@ -44,6 +51,15 @@ impl ReplayReport {
     pub fn contact_agreement(&self) -> f64 {
         let agree = self.label1_detected + (self.label0_frames - self.label0_detected);
         agree as f64 / (self.label1_frames + self.label0_frames).max(1) as f64
+    }
+    /// Fraction of frames where the force-threshold ball node equals the label.
+    pub fn force_ball_agreement(&self) -> f64 {
+        let agree = self.force_ball_label1 + (self.label0_frames - self.force_ball_label0);
+        agree as f64 / (self.label1_frames + self.label0_frames).max(1) as f64
+    }
+    /// Fraction of frames where the force-threshold body node is 0 (its target).
+    pub fn force_body_agreement(&self) -> f64 {
+        1.0 - self.force_body_on as f64 / self.frames.max(1) as f64
     }
 }
 
@@ -73,8 +89,11 @@ pub fn kinematic_replay(scene: Arc<Scene>, lib: &MotionLibrary, clips: &[usize],
                 let label = m.clip.contact[t] as f64;
                 let cg_ref = ContactGraph::reference(label, ContactGraphMode::Exact);
                 let cg_sim = ContactGraph::from_sim(&st, ContactGraphMode::Exact, reward_cfg.force_threshold);
+                let cg_force = ContactGraph::from_sim(&st, ContactGraphMode::ForceThreshold, reward_cfg.force_threshold);
+                let (ball_node, body_node) = (cg_force.values[0] != 0.0, cg_force.values[1] != 0.0);
+                rep.force_body_on += usize::from(body_node);
                 let prev: [f64; NUM_DOFS] = std::array::from_fn(|j| m.reference.dof_vel[(t - 1) * NUM_DOFS + j] as f64);
-                let terms = reward::compute(&s, &prev, &r, &cg_ref, &cg_ref, reward_cfg, ball_free);
+                let terms = reward::compute(&s, &prev, &r, &cg_ref, &cg_ref, reward_cfg, crate::compat::Compat::Paper, ball_free);
                 for (acc, v) in rep.term_sums.iter_mut().zip(terms.as_array()) {
                     *acc += v;
                 }
@@ -91,12 +110,14 @@ pub fn kinematic_replay(scene: Arc<Scene>, lib: &MotionLibrary, clips: &[usize],
                 if label != 0.0 {
                     rep.label1_frames += 1;
                     rep.label1_detected += usize::from(detected);
+                    rep.force_ball_label1 += usize::from(ball_node);
                     let radius = sim.scene().options().ball.radius;
                     let gap = hands.iter().map(|&b| dist(st.pos(b), s.ball_pos)).fold(f64::INFINITY, f64::min) - radius;
                     rep.label1_hand_gap.push(gap);
                 } else {
                     rep.label0_frames += 1;
                     rep.label0_detected += usize::from(detected);
+                    rep.force_ball_label0 += usize::from(ball_node);
                 }
                 rep.frames += 1;
             }

@@ -23,6 +23,7 @@
 use skillmimic_core::skeleton::NUM_DOFS;
 use skillmimic_motion::NUM_KEY;
 
+use crate::compat::Compat;
 use crate::config::{ContactGraphMode, RewardConfig, RewardVariant};
 use crate::hoi::{ContactGraph, HoiState};
 
@@ -138,7 +139,9 @@ pub fn contact_graph_reward(sim: &ContactGraph, reference: &ContactGraph, cfg: &
 /// Compute every term and the combined reward.
 ///
 /// `prev_dof_vel` are the simulated joint velocities of the previous step (or of the reset
-/// state); `ball_free` marks clips without a ball (skill labels 0 and 10).
+/// state); `ball_free` marks clips without a ball (skill labels 0 and 10); `compat` decides how
+/// the DeepMimic baseline combines its terms (mean: `paper`, sum: `code`).
+#[allow(clippy::too_many_arguments)]
 pub fn compute(
     sim: &HoiState,
     prev_dof_vel: &[f64; NUM_DOFS],
@@ -146,6 +149,7 @@ pub fn compute(
     cg_sim: &ContactGraph,
     cg_ref: &ContactGraph,
     cfg: &RewardConfig,
+    compat: Compat,
     ball_free: bool,
 ) -> RewardTerms {
     let ex = |w: f64, e: f64| (-w * e).exp();
@@ -155,7 +159,8 @@ pub fn compute(
         let r = ex(d.w_r, err_body_rot(sim, reference));
         let rv = ex(d.w_rv, err_dof_vel(sim, reference));
         let op = if ball_free { 1.0 } else { ex(d.w_op, err_ball_pos(sim, reference)) };
-        let total = (p + r + rv + op) / 4.0;
+        let sum = p + r + rv + op;
+        let total = if compat.is_code() { sum } else { sum / 4.0 };
         return RewardTerms { p, r, pv: 1.0, rv, reg: 1.0, op, or: 1.0, opv: 1.0, orv: 1.0, ig: 1.0, cg: 1.0, total };
     }
     let p = ex(cfg.w_p, err_body_pos(sim, reference));

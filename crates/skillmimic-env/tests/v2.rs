@@ -98,7 +98,7 @@ fn stf_connects_to_the_most_similar_frame_and_masks_the_bridge() {
     assert!(masked_seen > 0, "noise of 0.3 rad per joint component should need bridging steps");
     // compatibility mode: no insertion, the reference advances and masked rewards are the
     // mean over the environments on the same clip
-    c.v2.bridge.masked_reward = MaskedReward::ReplaceWithClipMean;
+    c.v2.bridge.masked_reward = Some(MaskedReward::ReplaceWithClipMean);
     let mut env = SkillEnv::new(c, demo_library()).unwrap();
     env.reset_all(Some(1));
     let zero = vec![0.0f32; 6 * 156];

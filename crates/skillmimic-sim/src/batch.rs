@@ -15,6 +15,7 @@ use rayon::prelude::*;
 use skillmimic_core::math::Quat;
 use skillmimic_core::skeleton::{NUM_DOFS, NUM_JOINTS};
 
+use crate::bounce::BounceState;
 use crate::contacts::ContactPair;
 use crate::error::SimError;
 use crate::scene::{GeomOwner, NUM_STATE_BODIES, Scene};
@@ -27,6 +28,8 @@ type Data = MjData<Arc<MjModel>>;
 
 struct EnvSlot {
     data: Data,
+    /// The floor bounce-threshold rule's state (`crate::bounce`).
+    bounce: BounceState,
 }
 
 /// Mutable rows of one environment in every output buffer.
@@ -65,7 +68,7 @@ impl BatchSim {
             .map_err(|e| SimError::Config(format!("cannot start {num_threads} simulation threads: {e}")))?;
         let make = || {
             MjData::try_new(Arc::clone(scene.model()))
-                .map(|data| EnvSlot { data })
+                .map(|data| EnvSlot { data, bounce: BounceState::default() })
                 .map_err(|e| SimError::Config(format!("cannot allocate MuJoCo data: {e}")))
         };
         let first = make()?;
@@ -149,13 +152,16 @@ impl BatchSim {
                 *c = (row[k] as f64).clamp(-1.0, 1.0) * std::f64::consts::PI;
             }
             clear_bad_state(d);
+            let bounce = &mut slot.bounce;
             // The data always holds the position/velocity stages of its current state (computed
             // by the previous step's mj_step1 or by the reset's mj_forward), so the first sub-step
             // only needs mj_step2. The same MuJoCo stages run in the same order as in mj_step,
             // hence the trajectory is bit-identical to a plain mj_step loop.
             d.step2();
+            apply_bounce(scene, d, bounce);
             for _ in 1..substeps {
                 d.step();
+                apply_bounce(scene, d, bounce);
             }
             // contacts and forces of the last sub-step are still in place: read them, then
             // compute the position/velocity stages of the new state (mj_step1) for the read-out
@@ -188,6 +194,7 @@ impl BatchSim {
             if !mask[i] {
                 return;
             }
+            slot.bounce = BounceState::default();
             let d = &mut slot.data;
             write_reset_state(scene, d, &states[i]);
             clear_bad_state(d);
@@ -216,6 +223,7 @@ impl BatchSim {
             if j != i {
                 return;
             }
+            slot.bounce = BounceState::default();
             let d = &mut slot.data;
             clear_for_reset(d);
             d.qpos_mut().copy_from_slice(qpos);
@@ -319,6 +327,18 @@ fn clear_for_reset(d: &mut Data) {
     unsafe { d.ffi_mut().time = 0.0 };
     d.ctrl_mut().fill(0.0);
     d.qacc_warmstart_mut().fill(0.0);
+}
+
+/// The floor bounce-threshold rule after one sub-step (`crate::bounce`).
+#[inline]
+fn apply_bounce(scene: &Scene, d: &mut Data, b: &mut BounceState) {
+    let ball = &scene.options().ball;
+    if ball.bounce_threshold <= 0.0 {
+        return;
+    }
+    let z = d.qpos()[scene.ball_qpos + 2];
+    let vz = &mut d.qvel_mut()[scene.ball_dof + 2];
+    b.apply(z, vz, ball.radius, ball.bounce_threshold);
 }
 
 fn write_reset_state(scene: &Scene, d: &mut Data, s: &ResetState) {

@@ -11,6 +11,7 @@
 //! * [`state`], [`contacts`]: the read-out layout and the contact-pair kinds.
 
 pub mod batch;
+pub mod bounce;
 pub mod contacts;
 pub mod error;
 pub mod hsi_batch;
@@ -29,6 +30,6 @@ pub use hsi_batch::{HsiBatch, HsiEnvState, HsiReset, HsiState, ObjectState};
 pub use hsi_mjcf::{HsiObject, ObjectBox};
 pub use hsi_scene::{HsiScene, MAX_OBJECTS};
 pub use mj_batch::MjBatch;
-pub use mjcf::{BallParams, HandModel, RootJoint, SceneOptions};
+pub use mjcf::{BallParams, BodyContact, HandModel, RootJoint, SceneOptions};
 pub use scene::{BALL, NUM_STATE_BODIES, Scene};
 pub use state::{BatchState, EnvState, ResetState};

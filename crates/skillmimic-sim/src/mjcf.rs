@@ -24,11 +24,23 @@
 //!   default `solref`/`solimp` (the reference values are not PhysX parameters); the two
 //!   permanently overlapping Thumb1–Thumb3 pairs are excluded;
 //! * floor: plane, friction 1.0, `condim = 3`; contacts take the larger friction of the pair;
-//! * ball: sphere r = 0.12 m, density 1000 kg/m³ (7.24 kg), friction 1.0, `condim = 3`. Its floor
-//!   contact is an explicit `<pair>` with a direct (−stiffness, −damping) `solref` calibrated for
-//!   the requested restitution ([`ball_floor_solref`]); ball–humanoid contacts keep MuJoCo's
-//!   default, non-bouncy contact. PhysX's 0.01 s⁻¹ linear/angular damping is not modelled
-//!   (its effect over a 1 s episode is < 1 %).
+//! * ball: sphere r = 0.12 m, density 1000 kg/m³ (7.24 kg), friction 1.0, `condim = 3`.
+//!   - Restitution as PhysX combines materials (average of the two shapes' coefficients): the
+//!     floor contact (an explicit `<pair>`) gets (e_ball + 0.8)/2 = 0.805, contacts with the
+//!     humanoid (Isaac Gym's default shape restitution 0) (e_ball + 0)/2 = 0.405. Both use a
+//!     direct (−stiffness, −damping) `solref` calibrated for the coefficient
+//!     ([`ball_floor_solref`]); the ball geom has `priority = 1` so that its `solref` (and its
+//!     friction) decides every ball–humanoid contact. [`BodyContact::Soft`] keeps MuJoCo's
+//!     default, non-bouncy ball–humanoid contact instead.
+//!   - PhysX's linear and angular damping 0.01 s⁻¹ (dv/dt = −0.01·v, independent of the mass):
+//!     MuJoCo's free joint takes one damping for its six dofs, so the ball is attached by three
+//!     world-axis `slide` joints (`ball_x`, `ball_y`, `ball_z`, damping 0.01·m N·s/m; their
+//!     `ref` makes `qpos` the absolute position) and a `ball` joint (`ball_rot`, damping
+//!     0.01·I N·m·s/rad). `qpos`/`qvel` keep the free joint's layout: position (world),
+//!     quaternion (wxyz), linear velocity (world), angular velocity (ball frame).
+//!   - PhysX's bounce threshold (0.2 m/s: slower impacts do not bounce) has no MuJoCo element;
+//!     [`crate::BatchSim`] applies it to the floor contact after every sub-step
+//!     ([`crate::bounce`]).
 //! * box hands ([`HandModel::Box`]): the 30 finger bodies keep their geoms and frames but have no
 //!   joint, so they are welded to the wrist in the rest pose (nv 168 → 78, nu 156 → 66).
 
@@ -66,6 +78,22 @@ pub enum RootJoint {
     Fixed { pos: [f64; 3], quat: Quat },
 }
 
+/// Restitution of the floor material (the reference's ground plane).
+pub const FLOOR_RESTITUTION: f64 = 0.8;
+/// Restitution of the humanoid's shapes (Isaac Gym's default; the reference sets none).
+pub const BODY_RESTITUTION: f64 = 0.0;
+
+/// How the ball's contacts with the humanoid behave.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum BodyContact {
+    /// PhysX's combined restitution (ball 0.81 and body 0 average to 0.405).
+    #[default]
+    Combined,
+    /// MuJoCo's default soft, non-bouncy contact (the behaviour before the ball physics followed
+    /// the reference's materials).
+    Soft,
+}
+
 /// Ball parameters.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BallParams {
@@ -73,15 +101,38 @@ pub struct BallParams {
     pub radius: f64,
     /// Density (kg/m³).
     pub density: f64,
-    /// Coefficient of restitution of a ball–floor impact.
+    /// Restitution of the ball's material; a contact uses the average with the other material
+    /// ([`FLOOR_RESTITUTION`], [`BODY_RESTITUTION`]).
     pub restitution: f64,
     /// Sliding friction coefficient.
     pub friction: f64,
+    /// Linear and angular velocity damping (1/s): dv/dt = −damping·v (PhysX's rigid-body damping).
+    pub damping: f64,
+    /// Floor impacts slower than this (m/s, normal speed) do not bounce (PhysX's bounce
+    /// threshold); 0 switches the rule off.
+    pub bounce_threshold: f64,
+    /// Ball–humanoid contact model.
+    pub body_contact: BodyContact,
+}
+
+impl BallParams {
+    /// Restitution of a ball–floor impact.
+    pub fn floor_restitution(&self) -> f64 {
+        0.5 * (self.restitution + FLOOR_RESTITUTION)
+    }
+    /// Restitution of a ball–humanoid impact ([`BodyContact::Combined`]).
+    pub fn body_restitution(&self) -> f64 {
+        0.5 * (self.restitution + BODY_RESTITUTION)
+    }
+    /// Mass (kg) of the solid sphere.
+    pub fn mass(&self) -> f64 {
+        self.density * 4.0 / 3.0 * std::f64::consts::PI * self.radius.powi(3)
+    }
 }
 
 impl Default for BallParams {
     fn default() -> Self {
-        Self { radius: 0.12, density: 1000.0, restitution: 0.81, friction: 1.0 }
+        Self { radius: 0.12, density: 1000.0, restitution: 0.81, friction: 1.0, damping: 0.01, bounce_threshold: 0.2, body_contact: BodyContact::Combined }
     }
 }
 
@@ -283,11 +334,26 @@ pub fn scene_xml(opts: &SceneOptions) -> String {
 
     // ball, resting on the floor in front of the character
     let ball = opts.ball;
-    let _ = writeln!(x, "    <body name=\"Ball\" pos=\"0 0.6 {}\">", ball.radius);
-    let _ = writeln!(x, "      <freejoint name=\"ball\"/>");
+    let start = [0.0, 0.6, ball.radius];
+    let _ = writeln!(x, "    <body name=\"Ball\" pos=\"{}\">", v3(start));
+    // three world-axis slides + a ball joint = a free joint with separate linear and angular
+    // damping; `ref` = the body position makes each slide's qpos the absolute coordinate
+    let lin = ball.damping * ball.mass();
+    let ang = ball.damping * 0.4 * ball.mass() * ball.radius * ball.radius;
+    for (k, (axis, dir)) in [("x", "1 0 0"), ("y", "0 1 0"), ("z", "0 0 1")].iter().enumerate() {
+        let _ = writeln!(x, "      <joint name=\"ball_{axis}\" type=\"slide\" axis=\"{dir}\" ref=\"{}\" damping=\"{lin}\"/>", start[k]);
+    }
+    let _ = writeln!(x, "      <joint name=\"ball_rot\" type=\"ball\" damping=\"{ang}\"/>");
+    let contact = match ball.body_contact {
+        BodyContact::Combined => {
+            let [k, b] = ball_floor_solref(ball.body_restitution());
+            format!(" priority=\"1\" solref=\"{k} {b}\"")
+        }
+        BodyContact::Soft => String::new(),
+    };
     let _ = writeln!(
         x,
-        "      <geom name=\"ball\" type=\"sphere\" size=\"{}\" density=\"{}\" condim=\"3\" friction=\"{} 0.005 0.0001\" material=\"ball\"/>",
+        "      <geom name=\"ball\" type=\"sphere\" size=\"{}\" density=\"{}\" condim=\"3\" friction=\"{} 0.005 0.0001\"{contact} material=\"ball\"/>",
         ball.radius, ball.density, ball.friction
     );
     let _ = writeln!(x, "    </body>");
@@ -299,7 +365,7 @@ pub fn scene_xml(opts: &SceneOptions) -> String {
             let _ = writeln!(x, "    <exclude body1=\"{side}_Thumb1\" body2=\"{side}_Thumb3\"/>");
         }
     }
-    let [k, b] = ball_floor_solref(ball.restitution);
+    let [k, b] = ball_floor_solref(ball.floor_restitution());
     let _ = writeln!(x, "    <exclude body1=\"world\" body2=\"Ball\"/>");
     let _ = writeln!(
         x,

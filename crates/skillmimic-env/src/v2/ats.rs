@@ -55,14 +55,21 @@ fn draw<R: Rng>(cdf: &[f64], rng: &mut R) -> usize {
 }
 
 impl AdaptiveSampler {
-    /// A sampler for `lib` with all table entries 0 (uniform frames, uniform classes).
-    pub fn new(lib: &MotionLibrary, cfg: &AtsConfig) -> Self {
+    /// A sampler for `lib` with all table entries 0: uniform frames, and until the first update
+    /// uniform classes, or the clip probabilities `initial` when given (the released code starts
+    /// from the library's class-balanced weights, pickup counted twice; `env.compat = "code"`).
+    pub fn new(lib: &MotionLibrary, cfg: &AtsConfig, initial: Option<&[f64]>) -> Self {
         let total: usize = (0..lib.len()).map(|c| lib.get(c).clip.num_frames).sum();
         let interval = if cfg.update_interval > 0 { cfg.update_interval } else { 5 * total };
         let table = (0..lib.len()).map(|c| vec![0.0; lib.get(c).clip.num_frames - 3]).collect();
         let classes = (0..lib.len()).map(|c| lib.get(c).clip.skill).collect();
         let mut s = Self { cfg: cfg.clone(), interval, steps: 0, classes, table, clip_cdf: vec![], frame_cdf: vec![], clip_p: vec![], frame_p: vec![] };
         s.recompute();
+        if let Some(w) = initial.filter(|w| w.len() == s.clip_p.len()) {
+            let z: f64 = w.iter().sum();
+            s.clip_p = w.iter().map(|x| x / z).collect();
+            s.clip_cdf = cdf(&s.clip_p);
+        }
         s
     }
 
@@ -160,7 +167,7 @@ mod tests {
         // class 1: clips 0 (6 frames -> 3 starts) and 1 (5 frames -> 2 starts); class 2: clip 2
         let lib = MotionLibrary::from_clips(vec![clip(1, 6), clip(1, 5), clip(2, 5)]).unwrap();
         let cfg = AtsConfig { enabled: true, lambda_s: 10.0, lambda_c: 5.0, alpha: 1.0, update_interval: 3 };
-        let mut s = AdaptiveSampler::new(&lib, &cfg);
+        let mut s = AdaptiveSampler::new(&lib, &cfg, None);
         // all zero: uniform frames, classes equally likely, clips equal within the class
         assert_eq!(s.frame_probs(0), &[1.0 / 3.0; 3]);
         let cp = s.clip_probs();
@@ -195,7 +202,7 @@ mod tests {
             assert!((p - w).abs() < 1e-12, "{p} vs {w}");
         }
         // alpha mixes with uniform
-        let mut half = AdaptiveSampler::new(&lib, &AtsConfig { alpha: 0.5, ..cfg.clone() });
+        let mut half = AdaptiveSampler::new(&lib, &AtsConfig { alpha: 0.5, ..cfg.clone() }, None);
         half.record(0, 2, 0.4);
         half.recompute();
         let sm = softmax_neg(&[0.2, 0.0, 0.0], 10.0);

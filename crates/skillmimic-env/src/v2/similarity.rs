@@ -6,7 +6,15 @@
 //! r_b = r_p·r_r·r_pv·r_rv (the velocity regulariser needs a previous step and is left out),
 //! r_o = r_op·r_or·r_opv·r_orv, r_rel = r_ig. For clips without a ball (skill labels 0 and 10)
 //! S = r_b.
+//!
+//! With `env.compat = "code"` the connection uses the released code's similarity instead
+//! ([`code_similarity`]) and its step count ([`masked_steps_code`]).
 
+use skillmimic_core::math::Quat;
+use skillmimic_core::skeleton::NUM_JOINTS;
+use skillmimic_motion::NUM_KEY;
+
+use crate::compat::Compat;
 use crate::config::RewardConfig;
 use crate::hoi::HoiState;
 use crate::reward::{
@@ -22,6 +30,82 @@ pub fn similarity(s: &HoiState, r: &HoiState, cfg: &RewardConfig, ball_free: boo
     }
     let ro = ex(cfg.w_op, err_ball_pos(s, r)) * ex(cfg.w_or, err_ball_rot(s, r)) * ex(cfg.w_opv, err_ball_linvel(s, r)) * ex(cfg.w_orv, err_ball_angvel(s, r));
     rb * ro * ex(cfg.w_ig, err_relative(s, r))
+}
+
+/// The similarity the STF connection uses under `compat` ([`similarity`] or [`code_similarity`]).
+pub fn connection_similarity(s: &HoiState, r: &HoiState, cfg: &RewardConfig, ball_free: bool, compat: Compat) -> f64 {
+    if compat.is_code() { code_similarity(s, r, ball_free) } else { similarity(s, r, cfg, ball_free) }
+}
+
+/// Squared rotation angle (rad²) between two rotations given as rotation vectors.
+fn sq_angle(a: [f64; 3], b: [f64; 3]) -> f64 {
+    Quat::from_rotvec(a).conj().mul(Quat::from_rotvec(b)).angle().powi(2)
+}
+
+/// The released code's STF similarity (reference-facts §9.5 step 2), sim_pose·sim_obj·sim_rel:
+/// * sim_pose = exp(−2·d_pos)·exp(−0.1·d_posvel)·exp(−2·d_rootrot)·exp(−2·d_rot) with d_pos the
+///   Euclidean norm (m) of the 51 key-body coordinate differences, d_posvel their velocities'
+///   mean squared difference, d_rootrot the squared root rotation angle (rad²) and d_rot the mean
+///   over the 52 joints of the squared joint rotation angle difference;
+/// * sim_obj = exp(−mean squared ball-position difference)·exp(−0.1·mean squared ball-velocity
+///   difference); sim_rel = exp(−2·mean squared difference of the 51 key-body − ball vectors);
+/// * clips without a ball: sim_pose only, with weights 1, 0.1, 1, 1 and a factor
+///   exp(−(root height difference)²).
+///
+/// Two defects of the released code are not reproduced (our choice): it squares the clip's
+/// key-body positions before subtracting (operator precedence) and reads the "perturbed" key
+/// bodies from the previous episode's last state; here both states are the real ones (the
+/// perturbed start after forward kinematics).
+pub fn code_similarity(s: &HoiState, r: &HoiState, ball_free: bool) -> f64 {
+    let mut d_pos = 0.0;
+    let mut d_vel = 0.0;
+    for k in 0..NUM_KEY {
+        for a in 0..3 {
+            d_pos += (s.key_pos[k][a] - r.key_pos[k][a]).powi(2);
+            d_vel += (s.key_vel[k][a] - r.key_vel[k][a]).powi(2);
+        }
+    }
+    let d_pos = d_pos.sqrt();
+    let d_vel = d_vel / (3 * NUM_KEY) as f64;
+    let d_root = sq_angle(s.root_rotvec, r.root_rotvec);
+    let d_rot = (0..NUM_JOINTS)
+        .map(|j| {
+            let v = |x: &[f64]| [x[3 * j], x[3 * j + 1], x[3 * j + 2]];
+            sq_angle(v(&s.dof_pos), v(&r.dof_pos))
+        })
+        .sum::<f64>()
+        / NUM_JOINTS as f64;
+    if ball_free {
+        let dz = s.root_pos[2] - r.root_pos[2];
+        return (-d_pos - 0.1 * d_vel - d_root - d_rot - dz * dz).exp();
+    }
+    let pose = (-2.0 * d_pos - 0.1 * d_vel - 2.0 * d_root - 2.0 * d_rot).exp();
+    let obj = (-err_ball_pos(s, r) - 0.1 * err_ball_linvel(s, r)).exp();
+    let mut d_rel = 0.0;
+    for k in 0..NUM_KEY {
+        for a in 0..3 {
+            d_rel += ((s.key_pos[k][a] - s.ball_pos[a]) - (r.key_pos[k][a] - r.ball_pos[a])).powi(2);
+        }
+    }
+    pose * obj * (-2.0 * d_rel / (3 * NUM_KEY) as f64).exp()
+}
+
+/// Masked bridging steps under `compat`: [`masked_steps`] (paper) or [`masked_steps_code`].
+pub fn bridge_steps(beta: f64, n_max: usize, tau: f64, compat: Compat) -> usize {
+    if compat.is_code() { masked_steps_code(beta, n_max) } else { masked_steps(beta, n_max, tau) }
+}
+
+/// The released code's count: N = 0 for β > 0.5, else min(−⌊log10 β⌋, N_max); N_max for β ≤ 0
+/// or NaN.
+pub fn masked_steps_code(beta: f64, n_max: usize) -> usize {
+    if !(beta > 0.0) {
+        return n_max;
+    }
+    if beta > 0.5 {
+        return 0;
+    }
+    let n = -beta.log10().floor();
+    if n >= n_max as f64 { n_max } else { n.max(0.0) as usize }
 }
 
 /// Masked bridging steps after a connection of similarity `beta`:

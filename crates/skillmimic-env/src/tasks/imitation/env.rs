@@ -56,7 +56,12 @@ impl Imitation {
         } else {
             None
         };
-        let ats = cfg.v2.ats.enabled.then(|| AdaptiveSampler::new(&lib, &cfg.v2.ats));
+        let ats = cfg.v2.ats.enabled.then(|| {
+            // before its first update: class-uniform clips (paper) or the library's
+            // class-balanced weights with pickup counted twice (released code)
+            let initial = cfg.compat.is_code().then(|| lib.weights());
+            AdaptiveSampler::new(&lib, &cfg.v2.ats, initial)
+        });
         let spec = TaskSpec {
             name: "imitation",
             obs_dim: layout::OBS_DIM + encoder.as_ref().map_or(0, |e| e.embed_dim()),

@@ -29,7 +29,7 @@ use crate::task::{StepOut, Task, TaskSpec};
 use crate::v2::ats::AdaptiveSampler;
 use crate::v2::graph::StitchGraph;
 use crate::v2::history::{HistoryBuffer, HistoryEncoder, observe};
-use crate::v2::similarity::masked_steps;
+use crate::v2::similarity::bridge_steps;
 use crate::v2::transition::{connect, perturb};
 use crate::vec_env::VecEnv;
 
@@ -70,8 +70,8 @@ fn new_episode(cfg: &EnvConfig, lib: &MotionLibrary, clip: usize, start: usize) 
 /// Set the masked bridging steps of a connection with similarity `beta`.
 fn set_bridge(ep: &mut Episode, cfg: &EnvConfig, beta: f64) {
     let b = &cfg.v2.bridge;
-    ep.masked_steps = masked_steps(beta, b.max_masked_steps, b.tau);
-    ep.inserted = match b.masked_reward {
+    ep.masked_steps = bridge_steps(beta, b.max_masked_steps, b.tau, cfg.compat);
+    ep.inserted = match b.masked_reward(cfg.compat) {
         MaskedReward::Exclude => ep.masked_steps,
         MaskedReward::ReplaceWithClipMean => 0,
     };
@@ -85,8 +85,9 @@ pub struct ImitationSlot {
     pub history: Option<HistoryBuffer>,
     /// The pending or last reset plan.
     pub plan: ResetPlan,
-    /// (clip, frame) the physical start state came from (its reference rows fill the history at
-    /// the reset; with an STG switch the imitated clip differs).
+    /// (clip, frame) the physical start state came from (with `env.compat = "paper"` its
+    /// reference rows fill the history at the reset; with an STG switch the imitated clip
+    /// differs).
     pub source: (usize, usize),
 }
 
@@ -143,6 +144,7 @@ impl Task for Imitation {
             }
         };
         let m = lib.get(clip);
+        let after_getup = slot.episode.skill == 0;
         let mut ep = new_episode(&self.cfg, &lib, clip, start);
         *state = reset_state_from_clip(m, start);
         if ep.ball_free {
@@ -151,7 +153,7 @@ impl Task for Imitation {
         let v2 = &self.cfg.v2;
         let mut plan = ResetPlan::Plain;
         if v2.stf.enabled && rng.random::<f64>() < v2.stf.prob {
-            perturb(state, &v2.stf.eps, !ep.ball_free, rng);
+            perturb(state, &v2.stf.eps, !ep.ball_free, self.cfg.compat, after_getup, rng);
             plan = ResetPlan::Connect;
         } else if v2.stg.enabled && rng.random::<f64>() < v2.stg.prob {
             let conns = self.graph.as_ref().map_or(&[][..], |g| g.connections(clip, start));
@@ -180,21 +182,30 @@ impl Task for Imitation {
     }
 
     /// Connect perturbed starts to their clip, fill the history buffer, write the observation.
+    ///
+    /// `env.compat` decides two details: the history rows come from the physical start state's
+    /// (clip, frame) (`paper`) or from the imitated (clip, frame) after the STF/STG resampling
+    /// (`code`); the velocity regulariser's "previous" joint velocity for the first step is the
+    /// reset state's (`paper`) or zero (`code`).
     fn after_reset(&self, _i: usize, slot: &mut ImitationSlot, st: &EnvState<'_>, obs: &mut [f32]) {
         let ImitationSlot { episode: ep, history, plan, source } = slot;
         let (lib, cfg, enc): (&MotionLibrary, &EnvConfig, _) = (&self.lib, &self.cfg, self.encoder.as_deref());
         if *plan == ResetPlan::Connect {
             let m = lib.get(ep.clip);
-            let (j, beta) = connect(&HoiState::from_sim(st), m, &cfg.reward, ep.ball_free);
+            let (j, beta) = connect(&HoiState::from_sim(st), m, &cfg.reward, ep.ball_free, cfg.compat);
             let skill = ep.skill;
             *ep = new_episode(cfg, lib, ep.clip, j);
             ep.skill = skill;
             set_bridge(ep, cfg, beta);
         }
-        ep.prev_dof_vel.copy_from_slice(st.dof_vel);
+        if cfg.compat.is_code() {
+            ep.prev_dof_vel.fill(0.0);
+        } else {
+            ep.prev_dof_vel.copy_from_slice(st.dof_vel);
+        }
         write_observation(st, ep.skill, &mut obs[..layout::OBS_DIM]);
         if let (Some(enc), Some(h)) = (enc, history.as_mut()) {
-            let (clip, frame) = *source;
+            let (clip, frame) = if cfg.compat.is_code() { (ep.clip, ep.ref_start) } else { *source };
             h.fill_from_reference(enc, &self.ref_features[clip], frame);
             observe(h, enc, obs, st.dof_pos, !ep.ball_free);
         }
@@ -211,7 +222,7 @@ impl Task for Imitation {
         let mode = cfg.reward.contact_graph;
         let cg_sim = ContactGraph::from_sim(st, mode, cfg.reward.force_threshold);
         let cg_ref = ContactGraph::reference(m.clip.contact[frame] as f64, mode);
-        let t = reward::compute(&sim_hoi, &ep.prev_dof_vel, &ref_hoi, &cg_sim, &cg_ref, &cfg.reward, ep.ball_free);
+        let t = reward::compute(&sim_hoi, &ep.prev_dof_vel, &ref_hoi, &cg_sim, &cg_ref, &cfg.reward, cfg.compat, ep.ball_free);
         ep.prev_dof_vel = sim_hoi.dof_vel;
         for (o, v) in out.terms.iter_mut().zip(t.as_array()) {
             *o = v as f32;
@@ -240,8 +251,10 @@ impl Task for Imitation {
             // h_t from frames t−k … t−1, then the current frame joins the history
             observe(h, enc, out.obs, st.dof_pos, !ep.ball_free);
         }
-        // the get-up skill (label 0) never terminates early (SkillMimic-V2)
-        let fell = st.pos(0)[2] < cfg.termination_height && ep.progress > 1 && ep.skill != 0;
+        // the get-up skill (label 0) never terminates early in SkillMimic-V2 runs (its released
+        // code); SkillMimic's code has no such exemption
+        let exempt = ep.skill == 0 && cfg.v2.any();
+        let fell = st.pos(0)[2] < cfg.termination_height && ep.progress > 1 && !exempt;
         *out.terminated = u8::from(fell || st.unstable);
         *out.truncated = u8::from(*out.terminated == 0 && ep.progress >= ep.horizon());
     }
@@ -254,7 +267,7 @@ impl Task for Imitation {
     /// Reference-code compatibility of the masked steps (their reward becomes the mean reward of
     /// all environments currently on the same clip), then the sampler's update clock.
     fn after_step(&mut self, slots: &[ImitationSlot], reward: &mut [f32], terms: &[f32]) {
-        if self.cfg.v2.bridge.masked_reward == MaskedReward::ReplaceWithClipMean && slots.iter().any(|s| s.episode.masked_steps > 0 && s.episode.is_masked()) {
+        if self.cfg.v2.bridge.masked_reward(self.cfg.compat) == MaskedReward::ReplaceWithClipMean && slots.iter().any(|s| s.episode.masked_steps > 0 && s.episode.is_masked()) {
             let total = TERM_NAMES.len() - 1;
             let sums = &mut self.clip_sums;
             sums.clear();
