@@ -464,6 +464,24 @@ def reset_qpos_qvel(m, clip, ref, t):
     qvel = dof-velocity triple (welded joints skipped).  Ball: position, the
     clip quaternion, the reference linear velocity and zero angular velocity.
     Entries of the model not covered here keep ``m.qpos0`` / zero.
+
+    Conventions (reference-facts §1.5, §6.1; where the facts leave a choice,
+    the one named here):
+
+    * every velocity is the *backward* difference of frames t-1 and t times
+      the clip's fps, and 0 at frame 0 (``derive_reference``);
+    * the root angular velocity is rotvec(conj(q[t-1]) ⊗ q[t]) · fps, a
+      body-frame vector, which is exactly what MuJoCo's free-joint qvel[3:6]
+      holds (the original writes this body-frame value into Isaac Gym's
+      world-frame slot; in MuJoCo no frame change is needed);
+    * the root quaternion of a ``.pt`` clip is exp(root exp map) after the
+      sign-continuity pass of ``load_clip``; joint quaternions are
+      exp(dof triple) with w >= 0, unnormalised beyond float64 rounding;
+    * derived velocities are stored as float32 (like the project) before use;
+    * the ball keeps the clip's orientation (identity in every shipped clip,
+      where the facts say "identity rotation").  For clips without a ball
+      (labels 0 and 10) the environment places the ball at random: only the
+      humanoid part of the result applies there.
     """
     qpos = np.array(m.qpos0, dtype=np.float64)
     qvel = np.zeros(m.nv)

@@ -4,8 +4,14 @@ and the independent numpy reference of ``tests/reference_env.py``.
 * physics: a PyPI-mujoco shadow of each environment, started from the VecEnv's state and driven
   by the same actions, stays bit-identical for 1000 physics steps;
 * observations and rewards: the numpy reference, fed from the shadow's MuJoCo state, reproduces
-  the VecEnv's observations, reward terms, contact graph and frame metrics to 1e-5 over a few
-  hundred random steps with automatic resets (terminal observations included).
+  the VecEnv's observations, contact graph and frame metrics to 1e-5 and the reward terms to 1e-5
+  *relative* over a few hundred random steps with automatic resets (terminal observations
+  included), for every reward variant, both contact-graph modes and, once, with every reward
+  weight non-zero (the terms whose default weight is 0 are otherwise identically 1).
+
+Reward terms are products of exponentials: contact-graph factors are e^-5k and totals after a fall
+are far below 1e-5, so an absolute tolerance would accept almost any wrong tiny term; they are
+compared relatively (``assert_terms_close``).
 """
 
 from __future__ import annotations
@@ -22,6 +28,23 @@ from conftest import find_shared, skeleton_dof_index
 
 REPO = pathlib.Path(__file__).resolve().parent.parent
 TOL = dict(rtol=1e-5, atol=1e-5)
+# reward terms: relative; the absolute floor only covers float32 subnormals (below 1.2e-38 a
+# float32 keeps fewer than 24 significant bits)
+TERM_TOL = dict(rtol=1e-5, atol=1e-37)
+
+# every reward weight non-zero, keys of `env.reward` (RewardConfig) and of the numpy reference
+ALL_WEIGHTS = {"w_pv": 0.5, "w_rv": 0.1, "w_or": 0.3, "w_opv": 0.2, "w_orv": 0.05}
+
+
+def reference_weights(reward_cfg: dict) -> dict:
+    """The numpy reference's weight overrides for an `env.reward` table (`w_x` -> `x`)."""
+    return {k[2:]: v for k, v in reward_cfg.items() if k.startswith("w_")}
+
+
+def assert_terms_close(got, want, msg: str = "") -> None:
+    """Reward terms (or a total) equal to 1e-5 relative, also where they are e^-20 or 1e-30."""
+    got, want = np.asarray(got, np.float64), np.asarray(want, np.float64)
+    np.testing.assert_allclose(got, want, err_msg=msg, **TERM_TOL)
 
 
 class Shadow:
@@ -89,7 +112,9 @@ def test_physics_bit_identical_for_1000_steps_across_environments():
     env.close()
 
 
-def run_parity(env: skillmimic_rs.VecEnv, files: list[pathlib.Path], steps: int, seed: int, mode: str, variant: str) -> int:
+def run_parity(env: skillmimic_rs.VecEnv, files: list[pathlib.Path], steps: int, seed: int, mode: str, variant: str, weights: dict | None = None) -> int:
+    """Drive `env` and a shadow for `steps` random steps, checking everything against the numpy
+    reference (`weights`: the reference's overrides of its default reward weights)."""
     clips = clip_table(env, files)
     sh = Shadow(env)
     obs, info = env.reset(seed=seed)
@@ -115,9 +140,9 @@ def run_parity(env: skillmimic_rs.VecEnv, files: list[pathlib.Path], steps: int,
             sim_h, ref_h = ref.hoi_sim(st), ref.hoi_ref(clip, dref, t)
             cg_sim = ref.contact_graph(st, mode)
             cg_ref = ref.reference_graph(float(clip["contact"][t]), mode)
-            want = ref.reward_terms(sim_h, prev[i], ref_h, cg_sim, cg_ref, skill, variant=variant, mode=mode)
-            np.testing.assert_allclose(terms[i], want, err_msg=f"step {k} env {i} reward terms", **TOL)
-            np.testing.assert_allclose(rew[i], want[-1], **TOL)
+            want = ref.reward_terms(sim_h, prev[i], ref_h, cg_sim, cg_ref, skill, variant=variant, mode=mode, weights=weights)
+            assert_terms_close(terms[i], want, f"step {k} env {i} reward terms")
+            assert_terms_close(rew[i], want[-1], f"step {k} env {i} reward")
             np.testing.assert_allclose(info["contact_graph"][i], cg_sim, **TOL)
             np.testing.assert_allclose(info["frame_metrics"][i], ref.frame_metrics(sim_h, ref_h, cg_sim, cg_ref), **TOL)
             o = ref.observation(st, skill)
@@ -137,24 +162,36 @@ def run_parity(env: skillmimic_rs.VecEnv, files: list[pathlib.Path], steps: int,
 
 
 @pytest.mark.parametrize(
-    "variant,mode,hands",
-    [("skillmimic", "exact", "full"), ("additive", "force_threshold", "box"), ("deepmimic", "exact", "full"), ("no_contact_graph", "force_threshold", "full")],
+    "variant,mode,hands,weights",
+    [
+        ("skillmimic", "exact", "full", {}),
+        ("additive", "force_threshold", "box", {}),
+        ("deepmimic", "exact", "full", {}),
+        ("no_contact_graph", "force_threshold", "full", {}),
+        # every term active: body / dof velocity, ball rotation / velocity / angular velocity
+        ("skillmimic", "force_threshold", "full", ALL_WEIGHTS),
+        ("skillmimic", "exact", "box", ALL_WEIGHTS),
+    ],
+    ids=["skillmimic-exact", "additive-force", "deepmimic-exact", "no_cg-force", "all_weights-force", "all_weights-exact"],
 )
-def test_observations_and_rewards_match_numpy_reference_on_demo_clips(variant, mode, hands):
+def test_observations_and_rewards_match_numpy_reference_on_demo_clips(variant, mode, hands, weights):
     files = sorted((REPO / "motions").glob("*.safetensors"))
-    cfg = {"episode_length": 25, "hands": hands, "threads": 2, "reward": {"variant": variant, "contact_graph": mode}}
+    reward = {"variant": variant, "contact_graph": mode, **weights}
+    cfg = {"episode_length": 25, "hands": hands, "threads": 2, "reward": reward}
     env = skillmimic_rs.VecEnv(num_envs=3, config=cfg)
-    resets = run_parity(env, files, steps=120, seed=1, mode=mode, variant=variant)
+    resets = run_parity(env, files, steps=120, seed=1, mode=mode, variant=variant, weights=reference_weights(reward))
     assert resets >= 6, "the run must include automatic resets"
     env.close()
 
 
-def test_observations_and_rewards_match_numpy_reference_on_real_clips(shared_dir):
+@pytest.mark.parametrize("mode,steps,min_resets", [("exact", 300, 10), ("force_threshold", 300, 10)])
+def test_observations_and_rewards_match_numpy_reference_on_real_clips(shared_dir, mode, steps, min_resets):
     files = sorted((shared_dir / "data/ballplay_m").rglob("*.pt"))
     files = [f for f in files if f.parent.name in ("run", "layup", "pick_40", "shot_style1")][:8]
-    cfg = {"motion": [str(f) for f in files], "episode_length": 40, "threads": 2}
+    # the contact-graph mode is named: the default is not this test's business
+    cfg = {"motion": [str(f) for f in files], "episode_length": 40, "threads": 2, "reward": {"variant": "skillmimic", "contact_graph": mode}}
     env = skillmimic_rs.VecEnv(num_envs=4, config=cfg)
-    resets = run_parity(env, files, steps=300, seed=2, mode="exact", variant="skillmimic")
-    print(f"300 steps x 4 envs on {len(files)} real clips, {resets} resets: obs and rewards match to 1e-5")
-    assert resets >= 10
+    resets = run_parity(env, files, steps=steps, seed=2, mode=mode, variant="skillmimic")
+    print(f"{steps} steps x 4 envs on {len(files)} real clips ({mode}), {resets} resets: obs match to 1e-5, rewards to 1e-5 relative")
+    assert resets >= min_resets
     env.close()
