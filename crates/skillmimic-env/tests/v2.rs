@@ -1,6 +1,7 @@
 //! SkillMimic-V2 parts wired into the environment, on the shipped demo clips (skills 50 and 51):
 //! STF connections and masked steps, STG alignment and threshold, ATS bookkeeping, the history
-//! buffer against the plain encoder, and every on/off combination stepping without NaN.
+//! buffer against a hand-written encoder forward, and every on/off combination stepping without
+//! NaN while taking the STF / STG reset paths it enables.
 
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -12,7 +13,7 @@ use skillmimic_env::config::{MaskedReward, NoiseEps, V2Config};
 use skillmimic_env::hoi::HoiState;
 use skillmimic_env::obs::layout;
 use skillmimic_env::v2::graph::{StitchGraph, aligned_similarity};
-use skillmimic_env::v2::history::{FEATURE_DIM, random_encoder};
+use skillmimic_env::v2::history::{FEATURE_DIM, HistoryEncoder, random_encoder};
 use skillmimic_env::v2::similarity::{masked_steps, similarity};
 use skillmimic_env::{EnvConfig, ResetPlan, RewardConfig, SkillEnv, StateInit};
 use skillmimic_motion::{Clip, MotionLibrary};
@@ -104,6 +105,7 @@ fn stf_connects_to_the_most_similar_frame_and_masks_the_bridge() {
     let zero = vec![0.0f32; 6 * 156];
     env.step(&zero).unwrap();
     let total = skillmimic_env::reward::NUM_TERMS - 1;
+    let mut replaced = 0;
     for i in 0..6 {
         let ep = env.episode(i);
         assert_eq!(ep.inserted, 0);
@@ -112,8 +114,13 @@ fn stf_connects_to_the_most_similar_frame_and_masks_the_bridge() {
             let same: Vec<usize> = (0..6).filter(|&k| env.episode(k).clip == ep.clip).collect();
             let mean = same.iter().map(|&k| env.buffers().terms[k * skillmimic_env::reward::NUM_TERMS + total] as f64).sum::<f64>() / same.len() as f64;
             assert!((env.buffers().reward[i] as f64 - mean).abs() < 1e-6);
+            // the replacement is visible: the environment's own reward differs from the mean
+            if (env.buffers().terms[i * skillmimic_env::reward::NUM_TERMS + total] as f64 - mean).abs() > 1e-6 {
+                replaced += 1;
+            }
         }
     }
+    assert!(replaced > 0, "some masked first step must have its reward replaced by a different clip mean");
 }
 
 /// A copy of `c` turned by `yaw` about +z and moved by `shift` on the ground (a different
@@ -254,11 +261,54 @@ fn ats_records_episodes_and_shifts_sampling_to_hard_starts() {
     assert!(tried > 0, "finished episodes must be recorded");
     let after = ats.frame_probs(0);
     assert_ne!(before, after, "the distribution is recomputed every 10 steps");
-    // tried starts (positive r̄) get less probability than untried ones (r̄ = 0)
+    // tried starts (positive r̄) get less probability than untried ones (r̄ = 0); 40 steps of
+    // 8 environments with 8-step episodes try some but not all start frames of clip 0
     let t0 = ats.table(0);
-    if let (Some(hi), Some(lo)) = (t0.iter().position(|&r| r > 0.0), t0.iter().position(|&r| r == 0.0)) {
-        assert!(after[hi] < after[lo]);
+    let hi = t0.iter().position(|&r| r > 0.0).expect("a start frame of clip 0 was tried");
+    let lo = t0.iter().position(|&r| r == 0.0).expect("a start frame of clip 0 was never tried");
+    assert!(after[hi] < after[lo], "tried frame {hi}: p {} vs untried frame {lo}: p {}", after[hi], after[lo]);
+}
+
+/// The history encoder written out from its PyTorch-layout tensors (`torch_tensors`), in f64:
+/// x `[316][k]` (channels × time) → three Conv1d (kernel 3, zero padding 1, ReLU) → flatten
+/// channel-major (c·k + τ) → Linear to μ. `window` is k × 316, oldest frame first.
+fn torch_reference_embedding(enc: &HistoryEncoder, window: &[f32]) -> Vec<f32> {
+    let t = enc.torch_tensors();
+    let k = enc.length();
+    let mut x: Vec<Vec<f64>> = (0..FEATURE_DIM).map(|c| (0..k).map(|tau| window[tau * FEATURE_DIM + c] as f64).collect()).collect();
+    for l in 0..3 {
+        let (w, b) = (&t[2 * l].2, &t[2 * l + 1].2);
+        let (cout, cin, kw) = (t[2 * l].1[0], t[2 * l].1[1], t[2 * l].1[2]);
+        assert_eq!((cin, kw), (x.len(), 3));
+        let mut y = vec![vec![0.0f64; k]; cout];
+        for (o, yo) in y.iter_mut().enumerate() {
+            for (tau, out) in yo.iter_mut().enumerate() {
+                let mut s = b[o] as f64;
+                for (c, xc) in x.iter().enumerate() {
+                    for j in 0..kw {
+                        // output τ sees inputs τ − 1, τ, τ + 1 (zero outside the window)
+                        if let Some(p) = (tau + j).checked_sub(1).filter(|&p| p < k) {
+                            s += w[(o * cin + c) * kw + j] as f64 * xc[p];
+                        }
+                    }
+                }
+                *out = s.max(0.0);
+            }
+        }
+        x = y;
     }
+    let (fw, fb, c3) = (&t[6].2, &t[7].2, x.len());
+    (0..enc.embed_dim())
+        .map(|o| {
+            let mut s = fb[o] as f64;
+            for (c, xc) in x.iter().enumerate() {
+                for (tau, &v) in xc.iter().enumerate() {
+                    s += fw[o * c3 * k + c * k + tau] as f64 * v;
+                }
+            }
+            s as f32
+        })
+        .collect()
 }
 
 #[test]
@@ -288,10 +338,11 @@ fn history_buffer_feeds_the_observation_with_the_embedding_of_past_frames() {
         let windows: Vec<Vec<f32>> = (0..3).map(|i| env.history_window(i).unwrap()).collect();
         env.step(&zero).unwrap();
         for i in 0..3 {
-            let mut h = [0.0f32; 3];
-            enc.embed(&windows[i], &mut h);
+            let h = torch_reference_embedding(&enc, &windows[i]);
             let obs = &env.buffers().obs[i * 905..(i + 1) * 905];
-            assert_eq!(&obs[902..], &h, "the embedding summarises the frames before the step");
+            for (k, (&x, &y)) in obs[902..].iter().zip(&h).enumerate() {
+                assert!((x - y).abs() <= 1e-4 * (1.0 + y.abs()), "env {i} embedding {k}: {x} vs hand-written {y}: the embedding summarises the frames before the step");
+            }
             let w = env.history_window(i).unwrap();
             assert_eq!(&w[..59 * FEATURE_DIM], &windows[i][FEATURE_DIM..], "the window slides by one");
         }
@@ -321,6 +372,14 @@ fn every_v2_combination_builds_and_steps_without_nan() {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(bits as u64);
         let mut actions = vec![0.0f32; 4 * 156];
         let mut ends = 0;
+        // reset plans taken by the episodes: [plain, connect (STF), switch (STG)]
+        let mut plans = [0usize; 3];
+        let mut count_plans = |env: &SkillEnv, which: &[bool]| {
+            for i in (0..4).filter(|&i| which[i]) {
+                plans[env.reset_plan(i) as usize] += 1;
+            }
+        };
+        count_plans(&env, &[true; 4]);
         for _ in 0..30 {
             actions.iter_mut().for_each(|a| *a = 0.3 * rng.random_range(-1.0f32..1.0));
             env.step(&actions).unwrap();
@@ -328,9 +387,14 @@ fn every_v2_combination_builds_and_steps_without_nan() {
             assert!(b.obs.iter().all(|x| x.is_finite()), "combination {bits:04b}: non-finite observation");
             assert!(b.reward.iter().all(|r| r.is_finite() && (0.0..=1.0).contains(r)), "combination {bits:04b}: reward {:?}", b.reward);
             ends += b.terminated.iter().chain(&b.truncated).filter(|&&x| x != 0).count();
+            let done: Vec<bool> = (0..4).map(|i| b.terminated[i] != 0 || b.truncated[i] != 0).collect();
             env.reset_done();
+            count_plans(&env, &done);
         }
         assert!(ends > 0, "combination {bits:04b}: no episode ended");
+        // each enabled reset path was taken, and a disabled one never
+        assert_eq!(plans[ResetPlan::Connect as usize] > 0, bits & 2 != 0, "combination {bits:04b}: plans {plans:?}");
+        assert_eq!(plans[ResetPlan::Switch as usize] > 0, bits & 4 != 0, "combination {bits:04b}: plans {plans:?}");
     }
     let _ = std::fs::remove_file(path);
 }

@@ -54,11 +54,123 @@ pub struct EvalReport {
     pub per_skill: BTreeMap<String, SkillReport>,
 }
 
-struct Tracker {
+/// One environment's running episode: the success trackers of its skill (none when the skill
+/// has no rule) and its reward and step sums.
+#[derive(Clone, Debug)]
+pub struct EpisodeTracker {
     v1: Option<V1Success>,
     v2: Option<V2Success>,
     steps: usize,
     reward: f64,
+}
+
+impl EpisodeTracker {
+    /// A fresh episode scored with the rules of `skill` (the condition's skill: the target skill
+    /// of a transition run); `target_height` (m) is the shot/layup target ball height.
+    pub fn new(skill: u32, target_height: f64) -> Self {
+        let kind = skill_kind(skill);
+        Self { v1: kind.map(|k| V1Success::new(k, target_height)), v2: kind.map(|k| V2Success::new(k, target_height)), steps: 0, reward: 0.0 }
+    }
+
+    /// Feed the state after the episode's next step and that step's reward.
+    pub fn step(&mut self, fs: &FrameState, reward: f32) {
+        if let Some(v) = self.v1.as_mut() {
+            v.update(fs);
+        }
+        if let Some(v) = self.v2.as_mut() {
+            v.update(self.steps, fs);
+        }
+        self.steps += 1;
+        self.reward += reward as f64;
+    }
+
+    /// Steps fed so far.
+    pub fn steps(&self) -> usize {
+        self.steps
+    }
+
+    /// SkillMimic-V2 success of the episode ending now (`fell`: it ended by termination); `None`
+    /// when the skill has no rule. A fall ends the attempt: success must be sustained to the end
+    /// (P2: "the skill sustained for 10 s"), not latched before the fall.
+    pub fn v2_success(&self, fell: bool) -> Option<bool> {
+        self.v2.as_ref().map(|v| v.success() && !fell)
+    }
+}
+
+/// Per-skill sums of finished episodes.
+#[derive(Clone, Debug, Default)]
+struct SkillSums {
+    episodes: usize,
+    len: f64,
+    reward: f64,
+    steps: f64,
+    falls: usize,
+    v1: Vec<f64>,
+    v2: Vec<f64>,
+}
+
+/// Finished episodes, per skill and in total; [`EpisodeTally::write_into`] turns them into the
+/// report's NR (Σ rewards / Σ steps of the finished episodes, i.e. step-weighted), mean lengths,
+/// fall rates and success rates.
+#[derive(Clone, Debug, Default)]
+pub struct EpisodeTally {
+    per: BTreeMap<u32, SkillSums>,
+    episodes: usize,
+    total_reward: f64,
+    total_steps: f64,
+    total_len: f64,
+    falls: usize,
+}
+
+impl EpisodeTally {
+    /// Count the finished episode `tr` under `skill` (`fell`: it ended by termination).
+    pub fn finish(&mut self, skill: u32, tr: &EpisodeTracker, fell: bool) {
+        let e = self.per.entry(skill).or_default();
+        e.episodes += 1;
+        e.len += tr.steps as f64;
+        e.reward += tr.reward;
+        e.steps += tr.steps as f64;
+        e.falls += usize::from(fell);
+        if let Some(v) = &tr.v1 {
+            e.v1.push(v.score());
+        }
+        if let Some(ok) = tr.v2_success(fell) {
+            e.v2.push(f64::from(u8::from(ok)));
+        }
+        self.episodes += 1;
+        self.total_reward += tr.reward;
+        self.total_steps += tr.steps as f64;
+        self.total_len += tr.steps as f64;
+        self.falls += usize::from(fell);
+    }
+
+    /// Write `episodes`, `nr`, `mean_episode_length`, `fall_rate` and `per_skill` of `rep`.
+    pub fn write_into(self, rep: &mut EvalReport) {
+        let mean = |v: &[f64]| (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64);
+        rep.episodes = self.episodes;
+        rep.nr = self.total_reward / self.total_steps.max(1.0);
+        rep.mean_episode_length = self.total_len / self.episodes.max(1) as f64;
+        rep.fall_rate = self.falls as f64 / self.episodes.max(1) as f64;
+        for (skill, e) in self.per {
+            rep.per_skill.insert(
+                format!("{skill:03}"),
+                SkillReport {
+                    episodes: e.episodes,
+                    mean_length: e.len / e.episodes as f64,
+                    nr: e.reward / e.steps.max(1.0),
+                    fall_rate: e.falls as f64 / e.episodes as f64,
+                    v1_score: mean(&e.v1),
+                    v2_success_rate: mean(&e.v2),
+                },
+            );
+        }
+    }
+}
+
+/// The SkillMimic-V2 success rate of `skill` in `r` (0 when the report has no episode of it or
+/// the skill has no rule): SR, TSR and εNSR of [`evaluate_v2`].
+pub fn v2_rate(r: &EvalReport, skill: u32) -> f64 {
+    r.per_skill.get(&format!("{skill:03}")).and_then(|k| k.v2_success_rate).unwrap_or(0.0)
 }
 
 /// Highest ball height of a clip (the shot/layup target height).
@@ -77,11 +189,10 @@ pub fn target_heights(lib: &MotionLibrary) -> BTreeMap<u32, f64> {
     m
 }
 
-fn tracker(env: &SkillEnv, i: usize, heights: &BTreeMap<u32, f64>) -> Tracker {
+fn tracker(env: &SkillEnv, i: usize, heights: &BTreeMap<u32, f64>) -> EpisodeTracker {
     let ep = env.episode(i);
     let target = heights.get(&ep.skill).copied().unwrap_or_else(|| max_ball_height(&env.library().get(ep.clip).clip));
-    let kind = skill_kind(ep.skill);
-    Tracker { v1: kind.map(|k| V1Success::new(k, target)), v2: kind.map(|k| V2Success::new(k, target)), steps: 0, reward: 0.0 }
+    EpisodeTracker::new(ep.skill, target)
 }
 
 /// Evaluate `policy` on `env` for `episodes` finished episodes.
@@ -107,25 +218,15 @@ pub fn evaluate_with(
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5eed);
     let mut buf = InferenceBuffers::default();
     let (mut mu, mut values, mut actions, mut neglogp) = (vec![0.0; n * a], vec![0.0; n], vec![0.0; n * a], vec![0.0; n]);
-    let mut trackers: Vec<Tracker> = (0..n).map(|i| tracker(env, i, heights)).collect();
+    let mut trackers: Vec<EpisodeTracker> = (0..n).map(|i| tracker(env, i, heights)).collect();
     let mut imitation = ImitationMetrics::default();
     let mut rep = EvalReport { seed, deterministic: !stochastic, ..Default::default() };
-    struct Acc {
-        episodes: usize,
-        len: f64,
-        reward: f64,
-        steps: f64,
-        falls: usize,
-        v1: Vec<f64>,
-        v2: Vec<f64>,
-    }
-    let mut per: BTreeMap<u32, Acc> = BTreeMap::new();
-    let (mut total_reward, mut total_steps, mut total_len, mut falls) = (0.0, 0.0, 0.0, 0usize);
+    let mut tally = EpisodeTally::default();
     // every environment contributes a fixed number of episodes (its first ones): counting the
     // first `episodes` to finish would favour short episodes (late start frames, early falls)
     let quota: Vec<usize> = (0..n).map(|i| episodes / n + usize::from(i < episodes % n)).collect();
     let mut finished = vec![0usize; n];
-    while rep.episodes < episodes {
+    while tally.episodes < episodes {
         env.reset_done();
         for i in 0..n {
             if env.episode(i).progress == 0 && trackers[i].steps > 0 {
@@ -144,15 +245,7 @@ pub fn evaluate_with(
             let st = env.sim().state().env(i);
             let fs = FrameState { root_pos: st.pos(0), ball_pos: st.pos(BALL), ball_vel: st.linvel(BALL) };
             let tr = &mut trackers[i];
-            let t = tr.steps;
-            if let Some(v) = tr.v1.as_mut() {
-                v.update(&fs);
-            }
-            if let Some(v) = tr.v2.as_mut() {
-                v.update(t, &fs);
-            }
-            tr.steps += 1;
-            tr.reward += b.reward[i] as f64;
+            tr.step(&fs, b.reward[i]);
             let counted = finished[i] < quota[i];
             if counted {
                 imitation.add(&b.metrics[i * 4..(i + 1) * 4]);
@@ -162,50 +255,15 @@ pub fn evaluate_with(
                 finished[i] += 1;
             }
             if done && counted {
-                rep.episodes += 1;
-                let skill = env.episode(i).skill;
-                let e = per.entry(skill).or_insert(Acc { episodes: 0, len: 0.0, reward: 0.0, steps: 0.0, falls: 0, v1: vec![], v2: vec![] });
-                e.episodes += 1;
-                e.len += tr.steps as f64;
-                e.reward += tr.reward;
-                e.steps += tr.steps as f64;
-                e.falls += usize::from(b.terminated[i] != 0);
-                if let Some(v) = &tr.v1 {
-                    e.v1.push(v.score());
-                }
-                if let Some(v) = &tr.v2 {
-                    // a fall ends the attempt: success must be sustained to the end (P2: "the
-                    // skill sustained for 10 s"), not latched before the fall
-                    e.v2.push(f64::from(u8::from(v.success() && b.terminated[i] == 0)));
-                }
-                total_reward += tr.reward;
-                total_steps += tr.steps as f64;
-                total_len += tr.steps as f64;
-                falls += usize::from(b.terminated[i] != 0);
+                tally.finish(env.episode(i).skill, tr, b.terminated[i] != 0);
             }
         }
     }
-    let mean = |v: &[f64]| (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64);
     rep.acc_percent = imitation.acc_percent();
     rep.e_b_mpjpe_mm = imitation.body_mpjpe_mm();
     rep.e_o_mpjpe_mm = imitation.ball_mpjpe_mm();
     rep.e_cg = imitation.cg_error();
-    rep.nr = total_reward / total_steps.max(1.0);
-    rep.mean_episode_length = total_len / rep.episodes.max(1) as f64;
-    rep.fall_rate = falls as f64 / rep.episodes.max(1) as f64;
-    for (skill, e) in per {
-        rep.per_skill.insert(
-            format!("{skill:03}"),
-            SkillReport {
-                episodes: e.episodes,
-                mean_length: e.len / e.episodes as f64,
-                nr: e.reward / e.steps.max(1.0),
-                fall_rate: e.falls as f64 / e.episodes as f64,
-                v1_score: mean(&e.v1),
-                v2_success_rate: mean(&e.v2),
-            },
-        );
-    }
+    tally.write_into(&mut rep);
     rep
 }
 
@@ -287,7 +345,6 @@ pub fn evaluate_v2(policy: &Policy, base: &EnvConfig, lib: &Arc<MotionLibrary>, 
         env.set_skill_override(over);
         Ok(evaluate_with(policy, &mut env, cfg.episodes, cfg.seed, false, threads, &heights))
     };
-    let rate = |r: &EvalReport, s: u32| r.per_skill.get(&format!("{s:03}")).and_then(|k| k.v2_success_rate).unwrap_or(0.0);
     let mut rep = V2Report { config: Some(cfg.clone()), ..Default::default() };
     for &s in &skills {
         let own = subset(s)?;
@@ -296,11 +353,11 @@ pub fn evaluate_v2(policy: &Policy, base: &EnvConfig, lib: &Arc<MotionLibrary>, 
             rep.skills_without_rule.push(s);
             continue;
         }
-        rep.sr.insert(format!("{s:03}"), rate(&run(env_cfg(cfg.horizon, false), own.clone(), None)?, s));
-        rep.eps_nsr.insert(format!("{s:03}"), rate(&run(env_cfg(cfg.horizon, true), own, None)?, s));
+        rep.sr.insert(format!("{s:03}"), v2_rate(&run(env_cfg(cfg.horizon, false), own.clone(), None)?, s));
+        rep.eps_nsr.insert(format!("{s:03}"), v2_rate(&run(env_cfg(cfg.horizon, true), own, None)?, s));
         for &src in skills.iter().filter(|&&x| x != s) {
             let r = run(env_cfg(cfg.horizon, false), subset(src)?, Some(s))?;
-            rep.tsr.insert(format!("{src:03}->{s:03}"), rate(&r, s));
+            rep.tsr.insert(format!("{src:03}->{s:03}"), v2_rate(&r, s));
         }
     }
     rep.sr_mean = mean_of(&rep.sr);

@@ -1,5 +1,6 @@
 //! SkillMimic-V2 end to end: pre-train the history encoder on clips (the prediction loss falls
-//! well below its start), save and reload it (identical embeddings), train a tiny policy with the
+//! well below its start), save and reload it (identical embeddings, equal to a hand-written
+//! forward of the saved tensors), train a tiny policy with the
 //! full V2 stack (obs 905) and evaluate SR / TSR / εNSR / NR.
 
 use std::sync::Arc;
@@ -27,6 +28,48 @@ fn pretrain_on(paths: &[std::path::PathBuf], epochs: usize) -> (HistoryEncoder, 
     pretrain(&data, &cfg, |e, l, lr| println!("epoch {e}: loss {l:.6} lr {lr:.1e}")).unwrap()
 }
 
+/// The history encoder written out from its PyTorch-layout tensors (`torch_tensors`), in f64:
+/// x `[316][k]` (channels × time) → three Conv1d (kernel 3, zero padding 1, ReLU) → flatten
+/// channel-major (c·k + τ) → Linear to μ. `window` is k × 316, oldest frame first.
+fn torch_reference_embedding(enc: &HistoryEncoder, window: &[f32]) -> Vec<f32> {
+    let t = enc.torch_tensors();
+    let k = enc.length();
+    let mut x: Vec<Vec<f64>> = (0..FEATURE_DIM).map(|c| (0..k).map(|tau| window[tau * FEATURE_DIM + c] as f64).collect()).collect();
+    for l in 0..3 {
+        let (w, b) = (&t[2 * l].2, &t[2 * l + 1].2);
+        let (cout, cin, kw) = (t[2 * l].1[0], t[2 * l].1[1], t[2 * l].1[2]);
+        assert_eq!((cin, kw), (x.len(), 3));
+        let mut y = vec![vec![0.0f64; k]; cout];
+        for (o, yo) in y.iter_mut().enumerate() {
+            for (tau, out) in yo.iter_mut().enumerate() {
+                let mut s = b[o] as f64;
+                for (c, xc) in x.iter().enumerate() {
+                    for j in 0..kw {
+                        // output τ sees inputs τ − 1, τ, τ + 1 (zero outside the window)
+                        if let Some(p) = (tau + j).checked_sub(1).filter(|&p| p < k) {
+                            s += w[(o * cin + c) * kw + j] as f64 * xc[p];
+                        }
+                    }
+                }
+                *out = s.max(0.0);
+            }
+        }
+        x = y;
+    }
+    let (fw, fb, c3) = (&t[6].2, &t[7].2, x.len());
+    (0..enc.embed_dim())
+        .map(|o| {
+            let mut s = fb[o] as f64;
+            for (c, xc) in x.iter().enumerate() {
+                for (tau, &v) in xc.iter().enumerate() {
+                    s += fw[o * c3 * k + c * k + tau] as f64 * v;
+                }
+            }
+            s as f32
+        })
+        .collect()
+}
+
 #[test]
 fn pretraining_lowers_the_prediction_loss_and_the_encoder_round_trips() {
     let (enc, rep) = pretrain_on(&[workspace_root().join("motions")], 8);
@@ -41,12 +84,17 @@ fn pretraining_lowers_the_prediction_loss_and_the_encoder_round_trips() {
     let back = HistoryEncoder::load(&path).unwrap();
     assert_eq!(back, enc);
     let window: Vec<f32> = (0..60 * FEATURE_DIM).map(|i| ((i % 97) as f32 - 48.0) * 0.01).collect();
-    let (mut a, mut b, mut c) = ([0.0f32; 3], [0.0f32; 3], [0.0f32; 3]);
+    let (mut a, mut b) = ([0.0f32; 3], [0.0f32; 3]);
     enc.embed(&window, &mut a);
     back.embed(&window, &mut b);
-    enc.embed(&window, &mut c);
-    assert_eq!(a, b);
-    assert_eq!(a, c, "the frozen encoder is deterministic");
+    assert_eq!(a, b, "the reloaded encoder gives the same embedding");
+    // the pre-trained weights compute what the PyTorch module would: a forward written out from
+    // the saved tensors (independent of the encoder's own passes)
+    let want = torch_reference_embedding(&back, &window);
+    for (k, (&x, &y)) in a.iter().zip(&want).enumerate() {
+        assert!((x - y).abs() <= 1e-4 * (1.0 + y.abs()), "embedding {k}: {x} vs hand-written {y}");
+    }
+    assert!(want.iter().any(|y| y.abs() > 1e-3), "a non-trivial embedding {want:?}");
     // a file that is not an encoder is refused with its name
     let bad = tmp("not_enc.safetensors");
     skillmimic_core::tensorfile::write_atomic(&bad, &[], &Default::default()).unwrap();
