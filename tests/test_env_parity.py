@@ -23,6 +23,7 @@ import numpy as np
 import pytest
 
 import reference_env as ref
+from reference_bounce import FloorBounce
 import skillmimic_rs
 from conftest import find_shared, skeleton_dof_index
 
@@ -56,7 +57,7 @@ class Shadow:
         self.datas = [mujoco.MjData(self.model) for _ in range(env.num_envs)]
         self.idx = skeleton_dof_index(self.model)
         self.substeps = 2
-        self.bounce = [ref.FloorBounce(self.model) for _ in range(env.num_envs)]
+        self.bounce = [FloorBounce(self.model) for _ in range(env.num_envs)]
 
     def copy_state(self, i: int) -> None:
         """Take environment i's state after a (re)set: same clearing as the core's reset."""

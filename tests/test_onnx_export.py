@@ -110,7 +110,9 @@ def test_metadata_matches_the_simulated_model(tmp_path, repo_root, skillmimic_bi
     run_cli(skillmimic_bin, "import-rlgames", str(tmp_path / "p.pth"), "--kind", "skill", "--out", str(tmp_path / "p.safetensors"))
     _, side = export(skillmimic_bin, tmp_path / "p.safetensors", tmp_path / "p.onnx")
     model = mujoco.MjModel.from_xml_path(str(repo_root / "mjcf" / "skillmimic_full.xml"))
-    balls = [model.joint(j).name for j in range(model.njnt) if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_BALL]
+    # the humanoid's ball joints (the ball's own rotation joint belongs to the Ball body)
+    ball_body = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "Ball")
+    balls = [model.joint(j).name for j in range(model.njnt) if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_BALL and model.jnt_bodyid[j] != ball_body]
     assert side["joint_order"] == balls
     for g in side["pd_gains"]:
         dof = model.jnt_dofadr[model.joint(g["joint"]).id]

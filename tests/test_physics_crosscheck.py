@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 from safetensors import safe_open
 
-import reference_env as ref
+from reference_bounce import FloorBounce
 from conftest import find_shared, run_cli, skeleton_dof_index
 
 BODY_ORDER_FILE_HINT = "the skeleton order is the depth-first body order of the MJCF"
@@ -27,7 +27,7 @@ BODY_ORDER_FILE_HINT = "the skeleton order is the depth-first body order of the 
 def replay(model: mujoco.MjModel, qpos0, qvel0, actions, substeps: int):
     n = qpos0.shape[0]
     datas = [mujoco.MjData(model) for _ in range(n)]
-    bounce = [ref.FloorBounce(model) for _ in range(n)]
+    bounce = [FloorBounce(model) for _ in range(n)]
     for i, d in enumerate(datas):
         d.time = 0.0
         d.qpos[:] = qpos0[i]

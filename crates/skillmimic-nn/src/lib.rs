@@ -17,6 +17,7 @@ pub mod attention;
 pub mod frozen;
 pub mod frozen_parts;
 pub mod history;
+pub mod history_reference;
 pub mod kernel;
 pub mod mlp;
 pub mod modular;

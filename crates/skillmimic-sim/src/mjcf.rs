@@ -420,9 +420,11 @@ mod tests {
         let a = scene_xml(&SceneOptions::default());
         assert_eq!(a, scene_xml(&SceneOptions::default()));
         assert_eq!(a.matches("<position ").count(), 156);
-        assert_eq!(a.matches("type=\"ball\"").count(), 52);
+        // 52 skeleton joints + the ball's rotation joint (plus its three slides)
+        assert_eq!(a.matches("type=\"ball\"").count(), 53);
+        assert_eq!(a.matches("type=\"slide\"").count(), 3);
         let boxed = scene_xml(&SceneOptions { hands: HandModel::Box, ..Default::default() });
         assert_eq!(boxed.matches("<position ").count(), 66);
-        assert_eq!(boxed.matches("type=\"ball\"").count(), 22);
+        assert_eq!(boxed.matches("type=\"ball\"").count(), 23);
     }
 }
