@@ -336,8 +336,11 @@ pub fn evaluate_v2(policy: &Policy, base: &EnvConfig, lib: &Arc<MotionLibrary>, 
         }
         c.v2.stg.enabled = false;
         c.v2.ats.enabled = false;
-        c.v2.stf.enabled = noise;
-        c.v2.stf.prob = 1.0;
+        // the STF stays on (with p_n = 0 for noise-free starts) so that every case is a
+        // SkillMimic-V2 run: get-up episodes are then exempt from early termination, as in
+        // training (`tasks::imitation`), whichever V2 parts the policy was trained with
+        c.v2.stf.enabled = true;
+        c.v2.stf.prob = if noise { 1.0 } else { 0.0 };
         c
     };
     let run = |c: EnvConfig, l: Arc<MotionLibrary>, over: Option<u32>| -> Result<EvalReport, EnvError> {
