@@ -53,32 +53,35 @@ pub fn run(cmd: BenchCommand) -> anyhow::Result<()> {
 }
 
 /// The workload: every environment starts upright at rest and follows the same random targets.
-struct Workload {
+pub(crate) struct Workload {
     actions: Vec<f32>, // steps × envs × 156
     envs: usize,
     steps: usize,
 }
 
 impl Workload {
-    fn new(envs: usize, steps: usize) -> Self {
+    pub(crate) fn new(envs: usize, steps: usize) -> Self {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);
         let actions = (0..steps * envs * NUM_DOFS).map(|_| 0.15 * rng.random_range(-1.0f32..=1.0)).collect();
         Self { actions, envs, steps }
     }
-    fn step_actions(&self, k: usize) -> &[f32] {
+    pub(crate) fn steps(&self) -> usize {
+        self.steps
+    }
+    pub(crate) fn step_actions(&self, k: usize) -> &[f32] {
         &self.actions[k * self.envs * NUM_DOFS..(k + 1) * self.envs * NUM_DOFS]
     }
 }
 
 /// (a) the anchor: plain `MjData`s, set `ctrl`, `mj_step` twice per policy step, no read-out.
 /// With a pool the environments are spread over its threads (to show MuJoCo's own scaling).
-struct RawLoop {
+pub(crate) struct RawLoop {
     datas: Vec<MjData<Arc<MjModel>>>,
     pool: Option<rayon::ThreadPool>,
 }
 
 impl RawLoop {
-    fn new(scene: &Scene, envs: usize, threads: Option<usize>) -> anyhow::Result<Self> {
+    pub(crate) fn new(scene: &Scene, envs: usize, threads: Option<usize>) -> anyhow::Result<Self> {
         let datas = (0..envs).map(|_| MjData::new(Arc::clone(scene.model()))).collect();
         let pool = match threads {
             Some(n) => Some(rayon::ThreadPoolBuilder::new().num_threads(n).build()?),
@@ -87,8 +90,13 @@ impl RawLoop {
         Ok(Self { datas, pool })
     }
 
+    /// MuJoCo data bytes of one environment.
+    pub(crate) fn data_bytes(&self) -> u64 {
+        self.datas.first().map_or(0, |d| skillmimic_sim::memory::data_bytes(d.ffi()))
+    }
+
     /// Start from exactly the state of a freshly reset batch.
-    fn reset_from(&mut self, init: &BatchSim) {
+    pub(crate) fn reset_from(&mut self, init: &BatchSim) {
         for (i, d) in self.datas.iter_mut().enumerate() {
             d.qpos_mut().copy_from_slice(init.qpos(i));
             d.qvel_mut().copy_from_slice(init.qvel(i));
@@ -98,7 +106,7 @@ impl RawLoop {
         }
     }
 
-    fn step(&mut self, scene: &Scene, a: &[f32]) {
+    pub(crate) fn step(&mut self, scene: &Scene, a: &[f32]) {
         use rayon::prelude::*;
         let step_env = |i: usize, d: &mut MjData<Arc<MjModel>>| {
             let row = &a[i * NUM_DOFS..(i + 1) * NUM_DOFS];
