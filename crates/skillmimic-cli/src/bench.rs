@@ -22,6 +22,9 @@ pub enum BenchCommand {
     Update(crate::bench_learner::NetArgs),
     /// End-to-end training throughput vs. simulation-only throughput of the same environments.
     Train(crate::bench_train::TrainArgs),
+    /// Raw mj_step throughput of each constraint solver (Newton, PGS, CG) on the same workload,
+    /// interleaved, and how far each trajectory drifts from Newton's.
+    Solver(SimArgs),
 }
 
 #[derive(clap::Args)]
@@ -49,6 +52,7 @@ pub fn run(cmd: BenchCommand) -> anyhow::Result<()> {
         BenchCommand::Infer(a) => crate::bench_learner::run("infer", a),
         BenchCommand::Update(a) => crate::bench_learner::run("update", a),
         BenchCommand::Train(a) => crate::bench_train::run(a),
+        BenchCommand::Solver(a) => crate::bench_solver::run(a),
     }
 }
 
@@ -76,7 +80,7 @@ impl Workload {
 /// (a) the anchor: plain `MjData`s, set `ctrl`, `mj_step` twice per policy step, no read-out.
 /// With a pool the environments are spread over its threads (to show MuJoCo's own scaling).
 pub(crate) struct RawLoop {
-    datas: Vec<MjData<Arc<MjModel>>>,
+    pub(crate) datas: Vec<MjData<Arc<MjModel>>>,
     pool: Option<rayon::ThreadPool>,
 }
 

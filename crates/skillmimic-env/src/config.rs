@@ -269,6 +269,8 @@ pub struct EnvConfig {
     pub reward: RewardConfig,
     /// Scale factors of the ball's physical properties (robustness tests, seed 000 Tab. 2).
     pub ball: BallOverrides,
+    /// Constraint-solver settings (MuJoCo's defaults; the others are speed options).
+    pub physics: crate::config_physics::PhysicsConfig,
     /// SkillMimic-V2 options (all off by default = SkillMimic).
     pub v2: V2Config,
     /// Options of the `stand` task (the worked example of adding a task).
@@ -310,6 +312,7 @@ impl Default for EnvConfig {
             seed: None,
             reward: RewardConfig::default(),
             ball: BallOverrides::default(),
+            physics: Default::default(),
             v2: V2Config::default(),
             task: "imitation".into(),
             stand: Default::default(),
@@ -388,7 +391,7 @@ impl EnvConfig {
                 BallBodyContact::Soft => skillmimic_sim::BodyContact::Soft,
             },
         };
-        Ok(SceneOptions { hands: self.hand_model()?, ball, ..Default::default() })
+        Ok(SceneOptions { hands: self.hand_model()?, ball, solver: self.physics.solver_options(), ..Default::default() })
     }
 
     /// Check the driver's keys (every task): the documented range of every number of `[env]`

@@ -24,6 +24,7 @@ pub mod config;
 pub mod config_hlc;
 pub mod config_hsi;
 pub mod config_multi;
+pub mod config_physics;
 pub mod config_range;
 pub mod config_tracking;
 pub mod config_v2;

@@ -158,6 +158,46 @@ pub enum PropKind {
     Box { half: [f64; 3] },
 }
 
+/// MuJoCo's constraint solver (`<option solver>`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Solver {
+    /// Newton (MuJoCo's default; the shipped scenes).
+    #[default]
+    Newton,
+    /// Projected Gauss–Seidel.
+    Pgs,
+    /// Conjugate gradient.
+    Cg,
+}
+
+impl Solver {
+    /// The MJCF attribute value.
+    pub fn mjcf_name(self) -> &'static str {
+        match self {
+            Solver::Newton => "Newton",
+            Solver::Pgs => "PGS",
+            Solver::Cg => "CG",
+        }
+    }
+}
+
+/// Constraint-solver settings (`<option solver iterations tolerance>`); the defaults are
+/// MuJoCo's and leave the MJCF text unchanged.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SolverOptions {
+    pub solver: Solver,
+    /// Maximum solver iterations per step.
+    pub iterations: usize,
+    /// Early-termination tolerance of the solver.
+    pub tolerance: f64,
+}
+
+impl Default for SolverOptions {
+    fn default() -> Self {
+        Self { solver: Solver::Newton, iterations: 100, tolerance: 1e-8 }
+    }
+}
+
 /// Everything that selects a scene variant.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SceneOptions {
@@ -168,6 +208,8 @@ pub struct SceneOptions {
     pub timestep: f64,
     /// Symmetric actuator force limit (N·m).
     pub force_limit: f64,
+    /// Constraint solver (issue 21's speed option; Newton by default).
+    pub solver: SolverOptions,
     /// Static task props, written after the floor in this order (none: the plain scene, byte for
     /// byte as before props existed).
     pub props: Vec<Prop>,
@@ -181,6 +223,7 @@ impl Default for SceneOptions {
             ball: BallParams::default(),
             timestep: 1.0 / 120.0,
             force_limit: 500.0,
+            solver: SolverOptions::default(),
             props: Vec::new(),
         }
     }
@@ -226,7 +269,13 @@ pub fn scene_xml(opts: &SceneOptions) -> String {
     );
     let _ = writeln!(x, "<mujoco model=\"skillmimic_humanoid_ball_{}\">", hands.name());
     let _ = writeln!(x, "  <compiler angle=\"radian\" autolimits=\"true\"/>");
-    let _ = writeln!(x, "  <option timestep=\"{}\" integrator=\"implicitfast\"/>", opts.timestep);
+    let sv = &opts.solver;
+    let solver = if *sv == SolverOptions::default() {
+        String::new()
+    } else {
+        format!(" solver=\"{}\" iterations=\"{}\" tolerance=\"{}\"", sv.solver.mjcf_name(), sv.iterations, sv.tolerance)
+    };
+    let _ = writeln!(x, "  <option timestep=\"{}\" integrator=\"implicitfast\"{solver}/>", opts.timestep);
     let _ = writeln!(x, "  <size memory=\"4M\"/>");
     // Rendering only (no effect on physics): the `side` camera tracks the centre of mass from 5.5 m
     // at 1.7 m, pitched 5 degrees down, so a ball up to ~3.4 m (a layup at the rim) stays in frame;
