@@ -12,7 +12,7 @@ use std::time::Instant;
 
 use skillmimic_sim::{BatchSim, HandModel, Scene, SceneOptions, Solver, SolverOptions};
 
-use crate::bench::{RawLoop, SimArgs, Workload};
+use crate::bench_raw::{RawLoop, SimArgs, Workload};
 
 const SOLVERS: [Solver; 3] = [Solver::Newton, Solver::Pgs, Solver::Cg];
 

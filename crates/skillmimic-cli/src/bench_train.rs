@@ -18,7 +18,7 @@ use std::time::Instant;
 use skillmimic_learn::trainer::Trainer;
 use skillmimic_sim::{BatchSim, Scene};
 
-use crate::bench::{RawLoop, Workload};
+use crate::bench_raw::{RawLoop, Workload};
 use crate::common::{PresetArgs, init_learner_threads};
 
 #[derive(clap::Args)]

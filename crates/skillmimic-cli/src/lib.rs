@@ -13,6 +13,7 @@ use clap::{Parser, Subcommand};
 
 mod bench;
 mod bench_learner;
+mod bench_raw;
 mod bench_solver;
 mod bench_train;
 mod cmd_config;
