@@ -21,19 +21,11 @@ import pytest
 import reference_env as ref
 import skillmimic_rs
 from synthetic_clips import demo_variants
+from test_env_parity import clip_table
 
 REPO = pathlib.Path(__file__).resolve().parent.parent
 # float32 clip storage promoted to float64 on both sides: the states agree to rounding
 ATOL = 1e-7
-
-
-def reference_clips(env: skillmimic_rs.VecEnv, files: list[pathlib.Path]) -> list[tuple[dict, dict]]:
-    """(clip, derived reference) of the numpy side in the VecEnv's library order (matched by name)."""
-    by_name = {}
-    for f in files:
-        c = ref.load_clip(f)
-        by_name[f.stem] = (c, ref.derive_reference(c))
-    return [by_name[name] for name, _, _ in env.clips]
 
 
 def humanoid_mask(m: mujoco.MjModel) -> tuple[np.ndarray, np.ndarray]:
@@ -76,7 +68,7 @@ def run_resets(files: list[pathlib.Path], frame: int, num_envs: int, steps: int,
     }
     env = skillmimic_rs.VecEnv(num_envs=num_envs, config=cfg)
     m = mujoco.MjModel.from_xml_string(env.mjcf_xml)
-    clips = reference_clips(env, files)
+    clips = clip_table(env, files)
     assert all(frame <= c["num_frames"] - 2 for c, _ in clips), "the fixed frame must not be clamped"
     env.reset(seed=seed)
     skills = {check_reset_state(env, m, clips, i, frame, "reset") for i in range(num_envs)}

@@ -7,7 +7,7 @@
 use std::sync::Arc;
 use std::time::Instant;
 
-use skillmimic_sim::{BatchSim, HandModel, ResetState, Scene};
+use skillmimic_sim::{BatchSim, ResetState, Scene};
 
 pub use crate::bench_raw::SimArgs;
 use crate::bench_raw::{RawLoop, Workload};
@@ -38,10 +38,7 @@ pub fn run(cmd: BenchCommand) -> anyhow::Result<()> {
 }
 
 fn bench_sim(a: SimArgs) -> anyhow::Result<()> {
-    let hands: Vec<HandModel> = match a.hands.as_str() {
-        "both" => vec![HandModel::Full, HandModel::Box],
-        h => vec![crate::cmd_trace::parse_hands(h)?],
-    };
+    let hands = a.hand_models()?;
     let w = Workload::new(a.envs, a.steps);
     println!(
         "bench sim: {} envs, {} policy steps (2 x mj_step each) x {} rounds, variants interleaved every {} steps; unit: policy steps/s",

@@ -7,7 +7,7 @@ use std::sync::Arc;
 use mujoco_rs::prelude::*;
 use rand::{Rng, SeedableRng};
 use skillmimic_core::skeleton::NUM_DOFS;
-use skillmimic_sim::{BatchSim, Scene};
+use skillmimic_sim::{BatchSim, HandModel, Scene};
 
 #[derive(clap::Args)]
 pub struct SimArgs {
@@ -26,6 +26,16 @@ pub struct SimArgs {
     /// Hand models to measure: full, box or both.
     #[arg(long, default_value = "both")]
     pub hands: String,
+}
+
+impl SimArgs {
+    /// The hand models named by `--hands`.
+    pub fn hand_models(&self) -> anyhow::Result<Vec<HandModel>> {
+        Ok(match self.hands.as_str() {
+            "both" => vec![HandModel::Full, HandModel::Box],
+            h => vec![crate::cmd_trace::parse_hands(h)?],
+        })
+    }
 }
 
 /// The workload: every environment starts upright at rest and follows the same random targets.

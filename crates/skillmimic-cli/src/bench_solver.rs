@@ -10,17 +10,14 @@
 use std::sync::Arc;
 use std::time::Instant;
 
-use skillmimic_sim::{BatchSim, HandModel, Scene, SceneOptions, Solver, SolverOptions};
+use skillmimic_sim::{BatchSim, Scene, SceneOptions, Solver, SolverOptions};
 
 use crate::bench_raw::{RawLoop, SimArgs, Workload};
 
 const SOLVERS: [Solver; 3] = [Solver::Newton, Solver::Pgs, Solver::Cg];
 
 pub fn run(a: SimArgs) -> anyhow::Result<()> {
-    let hands: Vec<HandModel> = match a.hands.as_str() {
-        "both" => vec![HandModel::Full, HandModel::Box],
-        h => vec![crate::cmd_trace::parse_hands(h)?],
-    };
+    let hands = a.hand_models()?;
     let w = Workload::new(a.envs, a.steps);
     println!(
         "bench solver: {} envs on 2 threads, {} policy steps (2 x mj_step each) x {} rounds, solvers interleaved every {} steps; unit: policy steps/s",
