@@ -4,6 +4,7 @@
 //!
 //! * [`network`]: the [`Network`] trait — PyTorch `state_dict` names/shapes and a candle forward;
 //! * [`mlp`]: Linear+ReLU MLPs with fast batched CPU inference ([`kernel`]: small-batch kernels);
+//! * [`bf16`]: bf16 × bf16 → float32 matrix products (AVX512-BF16) for the reduced-precision update;
 //! * [`normalizer`]: running mean/std normalisers (observations, values);
 //! * [`frozen`]: a frozen skill policy's deterministic actor with its normaliser (high-level tasks);
 //! * [`frozen_parts`]: the frozen part controllers of a modular checkpoint (ModSkill skill reuse);
@@ -14,6 +15,7 @@
 //! * [`token`]: TokenHSI's token transformer actor (tokenizers, masked encoder, adapters).
 
 pub mod attention;
+pub mod bf16;
 pub mod frozen;
 pub mod frozen_parts;
 pub mod history;
