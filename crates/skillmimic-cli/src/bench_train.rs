@@ -67,7 +67,7 @@ pub fn run(a: TrainArgs) -> anyhow::Result<()> {
         batch / t0.elapsed().as_secs_f64()
     };
     println!(
-        "bench train: preset '{}', {} envs x horizon {} = {} samples/iteration, network {:?}, minibatch {}, {} mini-epochs, backend {:?}, {} hands",
+        "bench train: preset '{}', {} envs x horizon {} = {} samples/iteration, network {:?}, minibatch {}, {} mini-epochs, backend {:?}, precision {:?}{}, {} hands",
         a.base.preset,
         cfg.env.num_envs,
         cfg.ppo.horizon,
@@ -76,6 +76,8 @@ pub fn run(a: TrainArgs) -> anyhow::Result<()> {
         cfg.ppo.minibatch,
         cfg.ppo.mini_epochs,
         cfg.ppo.backend,
+        cfg.ppo.precision,
+        if cfg.ppo.precision == skillmimic_learn::config::Precision::Bf16 && !skillmimic_nn::bf16::available() { " (no AVX512-BF16 here: runs in f32)" } else { "" },
         cfg.env.hands
     );
     for _ in 0..a.warmup {

@@ -20,6 +20,24 @@ pub enum Backend {
     Candle,
 }
 
+/// Precision of the matrix products of the fast PPO update (`ppo.precision`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum Precision {
+    /// float32 throughout (the papers' setting).
+    #[default]
+    F32,
+    /// The backward matrix products of the update (weight and input gradients) take bf16 inputs
+    /// (round to nearest even) with float32 accumulation ([`skillmimic_nn::bf16`]); the forward,
+    /// weights, Adam state, normalisers, loss terms and the gradients leaving each product stay
+    /// float32. The forward stays float32 because the PPO ratio compares its log-probability with
+    /// the rollout's: over 156 action dimensions with σ = e^−2.9 a bf16 forward moves the log-ratio
+    /// by a standard deviation of 0.04–1.0 (tests/bf16_update.rs). Needs AVX512-BF16 (detected at
+    /// run time; without it the update runs in float32 and a warning says so). Only the `fast`
+    /// backend uses it.
+    Bf16,
+}
+
 /// The policy family of configs and checkpoint files that name none (SkillMimic's policy).
 pub const DEFAULT_FAMILY: &str = "gaussian_mlp";
 
@@ -93,6 +111,8 @@ pub struct PpoConfig {
     pub norm_clip: f64,
     /// Gradient implementation (results agree to float rounding).
     pub backend: Backend,
+    /// Matrix-product precision of the `fast` update (`f32` or the opt-in `bf16`).
+    pub precision: Precision,
     /// Device of the candle backend: "cpu", or "cuda" (needs the `cuda` cargo feature).
     pub device: String,
     /// The modular attention network (`policy = "modular_attention"`; ModSkill).
@@ -129,6 +149,7 @@ impl Default for PpoConfig {
             norm_eps: 1e-5,
             norm_clip: 5.0,
             backend: Backend::Fast,
+            precision: Precision::F32,
             device: "cpu".into(),
             modular: Default::default(),
             token: Default::default(),

@@ -140,6 +140,9 @@ pub struct Summary {
     pub world_size: usize,
     /// Mean seconds per iteration that rank 0 spent in collective operations.
     pub mean_allreduce_s: f64,
+    /// Precision the update's backward products ran in: `"bf16"` only where `ppo.precision`
+    /// asked for it, the fast backend computed the loss and the CPU has AVX512-BF16.
+    pub update_precision: &'static str,
     /// Mean reward per step of the first iteration of this run (biased: every episode is fresh).
     pub first_mean_reward: f64,
     pub last_mean_reward: f64,
@@ -231,6 +234,7 @@ impl Runner {
             samples_per_s: (rewards.len() * t.cfg.batch_size()) as f64 / wall,
             world_size: t.shard.world,
             mean_allreduce_s: allreduce / rewards.len().max(1) as f64,
+            update_precision: t.update_precision(),
             first_mean_reward: rewards.first().copied().unwrap_or(f64::NAN),
             last_mean_reward: rewards.last().copied().unwrap_or(f64::NAN),
             best_mean_reward: rewards.iter().copied().fold(f64::NEG_INFINITY, f64::max),

@@ -88,6 +88,15 @@ pub struct Trainer {
 
 impl Trainer {
     /// A new trainer (fresh policy), or one resumed from `resume` (a training checkpoint).
+    /// Precision of the update's backward products in this run (`"bf16"` or `"f32"`, see
+    /// [`crate::config::Precision`]).
+    pub fn update_precision(&self) -> &'static str {
+        let bf16 = self.cfg.ppo.backend == crate::config::Backend::Fast
+            && crate::ppo::fast::applies_to(&self.policy)
+            && crate::ppo::mlp_grad::Mm::new(1, self.cfg.ppo.precision).bf16;
+        if bf16 { "bf16" } else { "f32" }
+    }
+
     pub fn new(cfg: TrainConfig, resume: Option<&Path>) -> Result<Self, LearnError> {
         Self::with_collective(cfg, resume, Box::new(Single))
     }
@@ -106,6 +115,13 @@ impl Trainer {
                 "config field 'ppo.minibatch': {} must divide the samples per iteration ({batch})",
                 cfg.ppo.minibatch
             )));
+        }
+        if cfg.ppo.precision == crate::config::Precision::Bf16 {
+            if !skillmimic_nn::bf16::available() {
+                tracing::warn!("ppo.precision = \"bf16\": this CPU has no AVX512-BF16; the update runs in float32");
+            } else if cfg.ppo.backend != crate::config::Backend::Fast {
+                tracing::warn!("ppo.precision = \"bf16\" applies to the fast backend only; the candle backend runs in float32");
+            }
         }
         // derived value, made explicit in the effective config: episode starts follow the run seed
         // unless `env.seed` is set

@@ -15,13 +15,14 @@
 //!   gradient with respect to the (normalised) observations is never formed.
 //!
 //! Matrix products go through [`skillmimic_nn::mlp::gemm_raw`], split over the current rayon pool by
-//! output blocks; reductions use fixed row blocks combined in order, so results do not depend on
+//! output blocks; with `ppo.precision = "bf16"` the backward products take bf16 inputs
+//! ([`super::mlp_grad::Mm`]; the forward stays float32, see the loss function); reductions use fixed row blocks combined in order, so results do not depend on
 //! scheduling.
 
 use rayon::prelude::*;
 
 use crate::config::PpoConfig;
-use super::mlp_grad::{backward, forward_keep};
+use super::mlp_grad::{Mm, backward, forward_keep};
 
 use super::batch::{LossStats, Minibatch};
 use crate::actor::ActorNet;
@@ -55,13 +56,19 @@ pub fn applies_to(policy: &Policy) -> bool {
 
 /// Losses and gradients of one minibatch (see the module docs); gradients land in `ws.grads`.
 pub fn loss_and_grads_fast(policy: &Policy, mb: &Minibatch<'_>, cfg: &PpoConfig, ws: &mut UpdateWorkspace, threads: usize) -> LossStats {
+    // `ppo.precision = "bf16"` applies to the backward products only: the forward recomputes the
+    // log-probability the PPO ratio compares with the rollout's, and with σ = e^−2.9 over 156
+    // action dimensions a bf16 forward would put noise of std ≈ 0.04 (at initialisation) to ≈ 0.3
+    // (|μ| ≈ 1) into the log-ratio against a clip range of ±0.2 (measured: tests/bf16_update.rs)
+    let mm = Mm::new(threads, cfg.precision);
+    let fwd = Mm::f32(threads);
     let (n, a_dim) = (mb.n, policy.act_dim());
     match &policy.actor {
-        ActorNet::Mlp(actor) => forward_keep(actor, mb.obs_n, n, &mut ws.actor_h, threads),
-        ActorNet::Modular(m) => ws.modular.forward(m, mb.obs_n, n, threads),
+        ActorNet::Mlp(actor) => forward_keep(actor, mb.obs_n, n, &mut ws.actor_h, fwd),
+        ActorNet::Modular(m) => ws.modular.forward(m, mb.obs_n, n, fwd),
         ActorNet::Token(_) => unreachable!("the token transformer takes the canonical loss (applies_to)"),
     }
-    forward_keep(&policy.critic, mb.obs_n, n, &mut ws.critic_h, threads);
+    forward_keep(&policy.critic, mb.obs_n, n, &mut ws.critic_h, fwd);
     let mu: &[f32] = match &policy.actor {
         ActorNet::Mlp(_) => ws.actor_h.last().expect("actor layers"),
         ActorNet::Modular(_) => &ws.modular.out,
@@ -140,10 +147,10 @@ pub fn loss_and_grads_fast(policy: &Policy, mb: &Minibatch<'_>, cfg: &PpoConfig,
     let UpdateWorkspace { actor_h, critic_h, g_a, g_b, scratch, grads, modular } = ws;
     let (ga_grads, gc_grads) = grads.split_at_mut(na);
     match &policy.actor {
-        ActorNet::Mlp(actor) => backward(actor, mb.obs_n, n, actor_h, g_a, scratch, ga_grads, threads),
-        ActorNet::Modular(m) => modular.backward(m, g_a, n, ga_grads, threads),
+        ActorNet::Mlp(actor) => backward(actor, mb.obs_n, n, actor_h, g_a, scratch, ga_grads, mm),
+        ActorNet::Modular(m) => modular.backward(m, g_a, n, ga_grads, mm),
         ActorNet::Token(_) => unreachable!("the token transformer takes the canonical loss (applies_to)"),
     }
-    backward(&policy.critic, mb.obs_n, n, critic_h, g_b, scratch, gc_grads, threads);
+    backward(&policy.critic, mb.obs_n, n, critic_h, g_b, scratch, gc_grads, mm);
     stats
 }

@@ -21,7 +21,7 @@ use rayon::prelude::*;
 use skillmimic_nn::mlp::Mlp;
 use skillmimic_nn::modular::{ModularAttention, attend_row, scatter_columns, unit_sphere};
 
-use super::mlp_grad::{backward, bias_grad, forward_keep, input_grad_plain, weight_grad};
+use super::mlp_grad::{Mm, backward, bias_grad, forward_keep, input_grad_plain, linear, weight_grad};
 
 /// Most parts a network may have on this path (ModSkill: 5 or 7).
 pub const MAX_PARTS: usize = 16;
@@ -52,15 +52,15 @@ pub struct ModularCache {
     g_qkv: Vec<Vec<f32>>,
 }
 
-fn linear_keep(m: &Mlp, x: &[f32], n: usize, out: &mut Vec<f32>, threads: usize) {
+fn linear_keep(m: &Mlp, x: &[f32], n: usize, out: &mut Vec<f32>, mm: Mm) {
     out.resize(n * m.dims[1], 0.0);
-    skillmimic_nn::mlp::linear_into(x, n, &m.weights[0], &m.biases[0], m.dims[0], out, threads);
+    linear(x, n, &m.weights[0], &m.biases[0], m.dims[0], out, mm);
 }
 
 impl ModularCache {
     /// Forward of `m` on `x` (n × obs_dim, normalised), keeping what the backward needs; the
     /// means are in [`ModularCache::out`].
-    pub fn forward(&mut self, m: &ModularAttention, x: &[f32], n: usize, threads: usize) {
+    pub fn forward(&mut self, m: &ModularAttention, x: &[f32], n: usize, mm: Mm) {
         let (np, e, heads, scale) = (m.parts.len(), m.shape.embed, m.shape.heads, m.score_scale());
         self.tokens.resize_with(np, Vec::new);
         self.hidden.resize_with(3 * np, Vec::new);
@@ -74,8 +74,8 @@ impl ModularCache {
                 }
             }
             for (j, pair) in [&p.q, &p.k, &p.v].into_iter().enumerate() {
-                linear_keep(&pair[0], &self.tokens[k], n, &mut self.hidden[3 * k + j], threads);
-                linear_keep(&pair[1], &self.hidden[3 * k + j], n, &mut self.qkv[3 * k + j], threads);
+                linear_keep(&pair[0], &self.tokens[k], n, &mut self.hidden[3 * k + j], mm);
+                linear_keep(&pair[1], &self.hidden[3 * k + j], n, &mut self.qkv[3 * k + j], mm);
             }
         }
         self.attn.resize(n * heads * np * np, 0.0);
@@ -105,14 +105,14 @@ impl ModularCache {
             for (dst, src) in zk.chunks_exact_mut(e).zip(self.z.chunks_exact(np * e)) {
                 dst.copy_from_slice(&src[k * e..(k + 1) * e]);
             }
-            forward_keep(&p.controller, &self.zk[k], n, &mut self.ctrl_h[k], threads);
+            forward_keep(&p.controller, &self.zk[k], n, &mut self.ctrl_h[k], mm);
             scatter_columns(self.ctrl_h[k].last().expect("controller layers"), &p.outputs, &mut self.out, m.act_dim);
         }
     }
 
     /// Parameter gradients for the mean gradient `g` (n × act_dim) into `grads`
     /// ([`ModularAttention::params`] order), after [`ModularCache::forward`] on the same rows.
-    pub fn backward(&mut self, m: &ModularAttention, g: &[f32], n: usize, grads: &mut [Vec<f32>], threads: usize) {
+    pub fn backward(&mut self, m: &ModularAttention, g: &[f32], n: usize, grads: &mut [Vec<f32>], mm: Mm) {
         let (np, e, heads, scale) = (m.parts.len(), m.shape.embed, m.shape.heads, m.score_scale());
         let dh = e / heads;
         // per part: 12 projection tensors, then the controller's
@@ -134,10 +134,10 @@ impl ModularCache {
             }
             let c = &p.controller;
             // leaves the gradient at the first layer's output in g_part
-            backward(c, &self.zk[k], n, &self.ctrl_h[k], &mut self.g_part, &mut self.scratch, &mut grads[offsets[k] + 12..], threads);
+            backward(c, &self.zk[k], n, &self.ctrl_h[k], &mut self.g_part, &mut self.scratch, &mut grads[offsets[k] + 12..], mm);
             // g_z = g0 · W0 (n × E)
             self.scratch.resize(n * e, 0.0);
-            input_grad_plain(&self.g_part, &c.weights[0], n, e, c.dims[1], &mut self.scratch, threads);
+            input_grad_plain(&self.g_part, &c.weights[0], n, e, c.dims[1], &mut self.scratch, mm);
             for (r, gz) in self.scratch.chunks_exact(e).enumerate() {
                 self.g_u[(r * np + k) * e..(r * np + k + 1) * e].copy_from_slice(gz);
             }
@@ -200,11 +200,11 @@ impl ModularCache {
                 let (d0, d1, d2) = (pair[0].dims[0], pair[0].dims[1], pair[1].dims[1]);
                 let (gy, h, x) = (&self.g_qkv[3 * k + j], &self.hidden[3 * k + j], &self.tokens[k]);
                 let (g0, g1) = grads[base..base + 4].split_at_mut(2);
-                weight_grad(gy, h, n, d1, d2, &mut g1[0], threads);
+                weight_grad(gy, h, n, d1, d2, &mut g1[0], mm);
                 bias_grad(gy, n, d2, &mut g1[1]);
                 self.scratch.resize(n * d1, 0.0);
-                input_grad_plain(gy, &pair[1].weights[0], n, d1, d2, &mut self.scratch, threads);
-                weight_grad(&self.scratch, x, n, d0, d1, &mut g0[0], threads);
+                input_grad_plain(gy, &pair[1].weights[0], n, d1, d2, &mut self.scratch, mm);
+                weight_grad(&self.scratch, x, n, d0, d1, &mut g0[0], mm);
                 bias_grad(&self.scratch, n, d1, &mut g0[1]);
             }
         }
