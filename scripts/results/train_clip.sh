@@ -1,0 +1,43 @@
+#!/usr/bin/env bash
+# Results protocol (issue 22, docs/results.md): train the clip of configs/results/NAME.toml, resuming
+# from OUT/NAME/latest.safetensors when it exists, then evaluate the latest checkpoint:
+#   - eval-start.json: 64 deterministic episodes from the clip's first usable frame (2: frames 0 and
+#     1 have no velocity), i.e. completion of the whole clip and falls;
+#   - eval.json: 64 deterministic episodes from random frames (the paper's Acc, E_b/E_o-mpjpe,
+#     E_cg, NR) plus the SkillMimic-V2 metrics (SR over 10 s from frame 2, TSR, εNSR);
+#   - curve.png and a GIF of one deterministic episode.
+#   scripts/results/train_clip.sh run            # to the config's run.iterations
+#   ITERS=400 scripts/results/train_clip.sh run  # a chunk: stop at iteration 400 (resume later)
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+NAME=${1:?usage: train_clip.sh NAME (configs/results/NAME.toml)}
+BIN=${BIN:-target/release/skillmimic}
+OUT=${OUT:-runs/results}/$NAME
+[ -x "$BIN" ] || cargo build --release -p skillmimic-cli
+mkdir -p "$OUT"
+args=(train --preset small --config "configs/results/$NAME.toml" --out "$OUT" --no-video --set run.eval_episodes=0)
+[ -n "${ITERS:-}" ] && args+=(--iterations "$ITERS")
+[ -f "$OUT/latest.safetensors" ] && args+=(--resume "$OUT/latest.safetensors")
+target=${ITERS:-$(sed -n 's/^iterations = //p' "configs/results/$NAME.toml")}
+done_iters=$( [ -f "$OUT/log.jsonl" ] && tail -n 1 "$OUT/log.jsonl" | python3 -c 'import json, sys; print(json.loads(sys.stdin.read())["iteration"])' || echo 0)
+if [ "$done_iters" -lt "$target" ]; then
+  "$BIN" "${args[@]}" >> "$OUT/train.log" 2>&1
+fi
+# the whole clip: the episode ends at the clip's last frame or a fall (not after env.episode_length)
+"$BIN" eval --checkpoint "$OUT/latest.safetensors" --episodes 64 --seed 7 --start-frame 2 --set env.episode_length=100000 \
+  --out "$OUT/eval-start.json" >> "$OUT/train.log" 2>&1
+"$BIN" eval --checkpoint "$OUT/latest.safetensors" --episodes 64 --seed 7 --v2 --out "$OUT/eval.json" >> "$OUT/train.log" 2>&1
+"$BIN" plot --log "$OUT/log.jsonl" --out "$OUT/curve.png" >> "$OUT/train.log" 2>&1
+"$BIN" play --checkpoint "$OUT/latest.safetensors" --steps 240 --video "$OUT/episode.gif" >> "$OUT/train.log" 2>&1 || echo "no video (renderer unavailable)" >> "$OUT/train.log"
+python3 - "$OUT" <<'PY'
+import json, pathlib, sys
+out = pathlib.Path(sys.argv[1])
+rows = [json.loads(l) for l in (out / "log.jsonl").read_text().splitlines() if l.strip()]
+start = json.loads((out / "eval-start.json").read_text())["nominal"]
+ev = json.loads((out / "eval.json").read_text())
+n = ev["nominal"]
+print(f"{out.name}: {rows[-1]['iteration']} iterations, {rows[-1]['samples']} samples; reward/step last 25 it. "
+      f"{sum(r['mean_reward'] for r in rows[-25:]) / len(rows[-25:]):.4f}; from frame 2: falls {100 * start['fall_rate']:.1f} %, "
+      f"mean length {start['mean_episode_length']:.1f}; random frames: Acc {n['acc_percent']:.1f} %, E_b {n['e_b_mpjpe_mm']:.0f} mm, "
+      f"E_o {n['e_o_mpjpe_mm']:.0f} mm, E_cg {n['e_cg']:.3f}, NR {n['nr']:.4f}, falls {100 * n['fall_rate']:.1f} %")
+PY
