@@ -25,14 +25,5 @@ logs=(); labels=()
 for s in $SEEDS; do for p in f32 bf16; do logs+=(--log "$OUT/$p-s$s/log.jsonl"); labels+=(--label "$p s$s"); done; done
 "$BIN" plot "${logs[@]}" "${labels[@]}" --smooth 5 --out "$OUT/precision-run.png"
 for s in $SEEDS; do for p in f32 bf16; do echo "$OUT/$p-s$s"; done; done | while read -r run; do
-  python3 - "$run" <<'PY'
-import json, pathlib, sys
-run = pathlib.Path(sys.argv[1])
-rows = [json.loads(l) for l in (run / "log.jsonl").read_text().splitlines() if l.strip()]
-tail = rows[-max(1, len(rows) // 10):]
-ev = json.loads((run / "eval.json").read_text())["nominal"]
-sps = sum(r["samples_per_s"] for r in rows) / len(rows)
-print(f"{run.name}: reward/step last 10 % {sum(r['mean_reward'] for r in tail) / len(tail):.4f}, NR {ev['nr']:.4f}, "
-      f"Acc {ev['acc_percent']:.1f} %, E_cg {ev['e_cg']:.3f}, falls {100 * ev['fall_rate']:.1f} %, mean {sps:.0f} samples/s")
-PY
+  python3 scripts/experiments/run_summary.py "$run"
 done | tee "$OUT/summary.txt"

@@ -24,14 +24,6 @@ one newton 1 & one pgs 1 & wait
 "$BIN" plot --log "$OUT/newton-s0/log.jsonl" --log "$OUT/pgs-s0/log.jsonl" --log "$OUT/newton-s1/log.jsonl" --log "$OUT/pgs-s1/log.jsonl" \
   --label "newton s0" --label "pgs s0" --label "newton s1" --label "pgs s1" --smooth 5 --out "$OUT/solver-run.png"
 for r in newton-s0 pgs-s0 newton-s1 pgs-s1; do
-  python3 - "$OUT/$r" <<'PY'
-import json, pathlib, sys
-run = pathlib.Path(sys.argv[1])
-rows = [json.loads(l) for l in (run / "log.jsonl").read_text().splitlines() if l.strip()]
-tail = rows[-max(1, len(rows) // 10):]
-ev = json.loads((run / "eval.json").read_text())["nominal"]
-sps = sum(r["samples_per_s"] for r in rows) / len(rows)
-print(f"{run.name}: reward/step last 10 % {sum(r['mean_reward'] for r in tail) / len(tail):.4f}, NR {ev['nr']:.4f}, "
-      f"Acc {ev['acc_percent']:.1f} %, E_cg {ev['e_cg']:.3f}, falls {100 * ev['fall_rate']:.1f} %, mean {sps:.0f} samples/s")
-PY
+  run=$OUT/$r
+  python3 scripts/experiments/run_summary.py "$run"
 done | tee "$OUT/summary.txt"
