@@ -11,6 +11,8 @@
 //! * [`reference`]: reference quantities derived once per clip (velocities, key bodies);
 //! * [`hsi_clip`], [`retarget_hsi`]: clips of the TokenHSI character (file format, forward
 //!   kinematics) and retargeting SkillMimic-skeleton clips onto it;
+//! * [`retarget_bvh`]: retargeting BVH motions onto the SkillMimic humanoid (rest-pose alignment of
+//!   mapped bones, scaling, resampling, ground alignment);
 //! * [`validate`]: the one validation of clips (bounds, minimum length, fps) every loader runs;
 //! * [`library`]: many clips, class-balanced clip sampling and random start frames;
 //! * [`testing`]: synthetic clip rows for tests and the fuzzer's seeds.
@@ -26,6 +28,7 @@ pub mod library;
 pub mod pickle;
 pub mod pt;
 pub mod reference;
+pub mod retarget_bvh;
 pub mod retarget_hsi;
 pub mod testing;
 pub mod torch_zip;

@@ -1,0 +1,278 @@
+//! Retargeting a BVH motion onto the SkillMimic humanoid (issue 23, first version: body motion).
+//!
+//! Frames: the humanoid's skeleton is Y-up with no rest rotations (T-pose, facing +z, left = +x;
+//! [`skillmimic_core::skeleton`]); clips put the Y-up → Z-up turn `T` = Rx(+90°) into the root
+//! rotation. Retargeting works in the skeleton's Y-up frame and applies `T` at the end.
+//!
+//! Method, per source frame:
+//! 1. Source global rotations `R_s(j)` from the BVH ([`crate::bvh`]), turned into the Y-up frame:
+//!    `R'_s = U · R_s · U⁻¹`, with `U` the map's up-axis conversion and yaw.
+//! 2. Rest alignment of each mapped bone: `D(b)` is the smallest rotation taking the humanoid's rest
+//!    direction of bone b (towards its next mapped body, or its first child for a leaf) onto the
+//!    source's rest direction of the mapped joint (BVH rest = all channels zero). The pelvis keeps
+//!    `D = I` (both skeletons face +z with the left side at +x; a map's `yaw_deg` fixes sources
+//!    that face elsewhere).
+//! 3. Global rotations `G(b) = R'_s(j) · D(b)`; an unmapped body (fingers, Spine2, toes …) keeps
+//!    the rest pose relative to its parent, `G(b) = G(parent)`.
+//! 4. Local rotations `G(parent)⁻¹ · G(b)` as rotation vectors; root rotation `T · G(pelvis)`.
+//! 5. Root position: the source root joint's position × `scale` (source units → humanoid size:
+//!    the leg-length ratio when both legs' hip, knee and ankle are mapped, else the map's `scale`),
+//!    turned by `U` and `T`.
+//! 6. Resampling to the output rate (linear positions, slerp rotations) and, optionally, ground
+//!    alignment: the 10th percentile over frames of the lowest sole point goes to z = 0 (sole =
+//!    ankle frame − 0.1164 m or toe frame − 0.02 m, the foot boxes' bottoms in the rest pose).
+
+use std::collections::BTreeMap;
+
+use serde::{Deserialize, Serialize};
+use skillmimic_core::math::{Quat, Vec3, add, cross, dot, norm, scale};
+use skillmimic_core::skeleton::{self, BODIES, NUM_BODIES, NUM_JOINTS};
+
+use crate::bvh::Bvh;
+use crate::error::ClipError;
+
+/// A joint map: humanoid body name → source joint name, plus the source's conventions.
+#[derive(Clone, Debug, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct JointMap {
+    /// Up axis of the source: "y" (the BVH convention) or "z".
+    #[serde(default = "default_up")]
+    pub up: String,
+    /// Turn of the source about its up axis (degrees) so that it faces +z with its left at +x.
+    #[serde(default)]
+    pub yaw_deg: f64,
+    /// Source units → metres when the legs are not mapped (e.g. 0.01 for centimetres).
+    #[serde(default)]
+    pub scale: Option<f64>,
+    /// Humanoid body → source joint.
+    pub bodies: BTreeMap<String, String>,
+}
+
+fn default_up() -> String {
+    "y".into()
+}
+
+/// Options of one retargeting run.
+#[derive(Clone, Debug)]
+pub struct Options {
+    /// Output frame rate (the clips' 60 fps).
+    pub fps: f64,
+    /// Move the feet onto the floor (step 6).
+    pub ground: bool,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Self { fps: 60.0, ground: true }
+    }
+}
+
+/// The retargeted body motion at the output rate (world frame, Z-up, metres).
+#[derive(Clone, Debug)]
+pub struct Motion {
+    pub fps: f64,
+    pub frames: usize,
+    /// `(T, 3)` root position.
+    pub root_pos: Vec<Vec3>,
+    /// `(T)` root rotation (w, x, y, z).
+    pub root_rot: Vec<Quat>,
+    /// `(T, 52)` joint rotation vectors in skeleton order.
+    pub dof_rot: Vec<[Vec3; NUM_JOINTS]>,
+    /// Source units → metres factor used.
+    pub scale: f64,
+    /// Height added to the root by the ground alignment (m).
+    pub ground_shift: f64,
+}
+
+fn err(bvh: &Bvh, what: String) -> ClipError {
+    ClipError::Format { path: bvh.path.clone(), detail: format!("retargeting: {what}") }
+}
+
+/// Smallest rotation taking direction `a` onto direction `b`.
+fn between(a: Vec3, b: Vec3) -> Quat {
+    let (na, nb) = (norm(a), norm(b));
+    if na < 1e-12 || nb < 1e-12 {
+        return Quat::IDENTITY;
+    }
+    let (a, b) = (scale(a, 1.0 / na), scale(b, 1.0 / nb));
+    let c = dot(a, b);
+    if c < -1.0 + 1e-12 {
+        // opposite: half a turn about any axis perpendicular to a
+        let axis = if a[0].abs() < 0.9 { cross(a, [1.0, 0.0, 0.0]) } else { cross(a, [0.0, 1.0, 0.0]) };
+        return Quat::from_axis_angle(scale(axis, 1.0 / norm(axis)), std::f64::consts::PI);
+    }
+    let v = cross(a, b);
+    Quat { w: 1.0 + c, x: v[0], y: v[1], z: v[2] }.normalized()
+}
+
+fn slerp(a: Quat, b: Quat, t: f64) -> Quat {
+    let b = if a.dot(b) < 0.0 { b.neg() } else { b };
+    let rel = a.conj().mul(b);
+    a.mul(Quat::from_rotvec(scale(rel.to_rotvec(), t))).normalized()
+}
+
+/// Rest vector of the source from joint `j` down to its descendant `d` (file frame).
+fn source_chain(bvh: &Bvh, j: usize, d: usize) -> Option<Vec3> {
+    let mut v = [0.0; 3];
+    let mut k = d;
+    while k != j {
+        v = add(v, bvh.joints[k].offset);
+        k = bvh.joints[k].parent?;
+    }
+    Some(v)
+}
+
+/// Rest vector of the humanoid from body `b` down to its descendant `d` (skeleton frame).
+fn target_chain(b: usize, d: usize) -> Option<Vec3> {
+    let mut v = [0.0; 3];
+    let mut k = d;
+    while k != b {
+        v = add(v, BODIES[k].offset);
+        k = BODIES[k].parent?;
+    }
+    Some(v)
+}
+
+/// Retarget `bvh` with `map` (see the module docs).
+pub fn retarget(bvh: &Bvh, map: &JointMap, opts: &Options) -> Result<Motion, ClipError> {
+    let u = match map.up.as_str() {
+        "y" => Quat::IDENTITY,
+        "z" => Quat::from_axis_angle([1.0, 0.0, 0.0], -std::f64::consts::FRAC_PI_2),
+        other => return Err(err(bvh, format!("joint map 'up' must be \"y\" or \"z\", found \"{other}\""))),
+    };
+    let u = Quat::from_axis_angle([0.0, 1.0, 0.0], map.yaw_deg.to_radians()).mul(u);
+    // body → source joint
+    let mut src: [Option<usize>; NUM_BODIES] = [None; NUM_BODIES];
+    for (body, joint) in &map.bodies {
+        let b = skeleton::body_index(body).ok_or_else(|| err(bvh, format!("joint map names body '{body}', which the humanoid does not have (e.g. Pelvis, L_Hip, L_Knee, L_Ankle, Chest, Head, L_Shoulder, L_Elbow, L_Wrist)")))?;
+        let j = bvh.joint(joint).ok_or_else(|| err(bvh, format!("joint map sends body '{body}' to joint '{joint}', which the BVH file does not have")))?;
+        src[b] = Some(j);
+    }
+    let Some(root_joint) = src[0] else { return Err(err(bvh, "the joint map must map the Pelvis".into())) };
+    if bvh.frames < 2 {
+        return Err(err(bvh, format!("{} frame(s): at least 2 are needed", bvh.frames)));
+    }
+    // rest alignment D(b)
+    let is_desc = |j: usize, d: usize| -> bool {
+        let mut k = Some(d);
+        while let Some(x) = k {
+            if x == j {
+                return true;
+            }
+            k = bvh.joints[x].parent;
+        }
+        false
+    };
+    let mut align = [Quat::IDENTITY; NUM_BODIES];
+    for b in 1..NUM_BODIES {
+        let Some(j) = src[b] else { continue };
+        // the next mapped body down the humanoid's chain whose source joint lies below j
+        let next = (b + 1..NUM_BODIES).find(|&c| src[c].is_some_and(|sc| sc != j && is_desc(j, sc)) && target_chain(b, c).is_some());
+        let (dt, ds) = match next {
+            Some(c) => (target_chain(b, c).unwrap(), source_chain(bvh, j, src[c].unwrap()).unwrap()),
+            None => {
+                let child = (b + 1..NUM_BODIES).find(|&c| BODIES[c].parent == Some(b));
+                match (child, bvh.joints[j].end_site) {
+                    (Some(c), Some(e)) => (BODIES[c].offset, e),
+                    _ => continue,
+                }
+            }
+        };
+        align[b] = between(dt, u.rotate(ds));
+    }
+    // scale: leg lengths (hip → knee → ankle) of both skeletons, else the map's factor
+    let leg = |h: &str, k: &str, a: &str| -> Option<(f64, f64)> {
+        let (hb, kb, ab) = (skeleton::body_index(h)?, skeleton::body_index(k)?, skeleton::body_index(a)?);
+        let (hj, kj, aj) = (src[hb]?, src[kb]?, src[ab]?);
+        let t = norm(BODIES[kb].offset) + norm(BODIES[ab].offset);
+        let s = norm(source_chain(bvh, hj, kj)?) + norm(source_chain(bvh, kj, aj)?);
+        (s > 1e-9).then_some((t, s))
+    };
+    let scale_f = match (leg("L_Hip", "L_Knee", "L_Ankle"), leg("R_Hip", "R_Knee", "R_Ankle")) {
+        (Some((t1, s1)), Some((t2, s2))) => (t1 + t2) / (s1 + s2),
+        _ => map.scale.ok_or_else(|| err(bvh, "map both legs (L/R_Hip, _Knee, _Ankle) or give 'scale' (source units to metres)".into()))?,
+    };
+    let tilt = Quat::from_axis_angle([1.0, 0.0, 0.0], std::f64::consts::FRAC_PI_2);
+    // per source frame: root position (Y-up frame, metres), global rotations → locals
+    let mut root_p = Vec::with_capacity(bvh.frames);
+    let mut locals: Vec<[Quat; NUM_BODIES]> = Vec::with_capacity(bvh.frames);
+    for f in 0..bvh.frames {
+        let pose = bvh.pose(f);
+        let mut g = [Quat::IDENTITY; NUM_BODIES];
+        let mut l = [Quat::IDENTITY; NUM_BODIES];
+        for b in 0..NUM_BODIES {
+            g[b] = match (src[b], BODIES[b].parent) {
+                (Some(j), _) => u.mul(pose.rotations[j]).mul(u.conj()).mul(align[b]).normalized(),
+                (None, Some(p)) => g[p],
+                (None, None) => unreachable!("the pelvis is mapped"),
+            };
+            l[b] = match BODIES[b].parent {
+                Some(p) => g[p].conj().mul(g[b]).normalized(),
+                None => tilt.mul(g[b]).normalized(),
+            };
+        }
+        root_p.push(scale(u.rotate(pose.positions[root_joint]), scale_f));
+        locals.push(l);
+    }
+    // resample to the output rate
+    let duration = (bvh.frames - 1) as f64 * bvh.frame_time;
+    let frames = (duration * opts.fps).floor() as usize + 1;
+    let mut m = Motion { fps: opts.fps, frames, root_pos: Vec::with_capacity(frames), root_rot: Vec::with_capacity(frames), dof_rot: Vec::with_capacity(frames), scale: scale_f, ground_shift: 0.0 };
+    let mut prev_root = Quat::IDENTITY;
+    for k in 0..frames {
+        let x = (k as f64 / opts.fps / bvh.frame_time).min((bvh.frames - 1) as f64);
+        let (i, t) = (x.floor() as usize, x - x.floor());
+        let i1 = (i + 1).min(bvh.frames - 1);
+        let p = add(scale(root_p[i], 1.0 - t), scale(root_p[i1], t));
+        m.root_pos.push(tilt.rotate(p));
+        let mut r = slerp(locals[i][0], locals[i1][0], t);
+        if k > 0 && r.dot(prev_root) < 0.0 {
+            r = r.neg(); // sign-continuous, as clips are
+        }
+        prev_root = r;
+        m.root_rot.push(r);
+        m.dof_rot.push(std::array::from_fn(|jt| slerp(locals[i][jt + 1], locals[i1][jt + 1], t).to_rotvec()));
+    }
+    if opts.ground {
+        let mut soles: Vec<f64> = (0..frames).map(|k| lowest_sole(&m, k)).collect();
+        soles.sort_by(f64::total_cmp);
+        let shift = -soles[(frames - 1) / 10];
+        for p in m.root_pos.iter_mut() {
+            p[2] += shift;
+        }
+        m.ground_shift = shift;
+    }
+    Ok(m)
+}
+
+/// The 156 joint rotation-vector components of frame `k` (skeleton order).
+pub fn dof_row(m: &Motion, k: usize) -> Vec<f32> {
+    m.dof_rot[k].iter().flat_map(|v| v.iter().map(|&x| x as f32)).collect()
+}
+
+/// World positions of the 53 bodies at frame `k`.
+pub fn body_positions(m: &Motion, k: usize) -> [Vec3; NUM_BODIES] {
+    skeleton::forward_kinematics(m.root_pos[k], m.root_rot[k], &dof_row(m, k))
+}
+
+/// Lowest sole point (m) of frame `k`: ankle frames − 0.1164 m, toe frames − 0.02 m.
+pub fn lowest_sole(m: &Motion, k: usize) -> f64 {
+    let p = body_positions(m, k);
+    let (la, ra, lt, rt) = (skeleton::body_index("L_Ankle").unwrap(), skeleton::body_index("R_Ankle").unwrap(), skeleton::body_index("L_Toe").unwrap(), skeleton::body_index("R_Toe").unwrap());
+    (p[la][2] - 0.1164).min(p[ra][2] - 0.1164).min(p[lt][2] - 0.02).min(p[rt][2] - 0.02)
+}
+
+/// Largest joint speed (rad/s) between consecutive output frames, and where.
+pub fn max_joint_speed(m: &Motion) -> (f64, usize, usize) {
+    let mut worst = (0.0, 0, 0);
+    for k in 1..m.frames {
+        for j in 0..NUM_JOINTS {
+            let (a, b) = (Quat::from_rotvec(m.dof_rot[k - 1][j]), Quat::from_rotvec(m.dof_rot[k][j]));
+            let w = a.conj().mul(b).angle() * m.fps;
+            if w > worst.0 {
+                worst = (w, k, j);
+            }
+        }
+    }
+    worst
+}
