@@ -77,3 +77,14 @@ PY
     echo "setup: linked .mujoco/lib/libmujoco.so -> $lib"
   fi
 fi
+
+# test data shipped inside crates.io packages (tests/data-crates/Cargo.toml: sources only, never
+# built), fetched into the cargo registry once per manifest version
+if [ "$tests" = 1 ]; then
+  want=$(cat tests/data-crates/Cargo.toml tests/data-crates/Cargo.lock | sha1sum | cut -d' ' -f1)
+  if [ "$(cat .venv/.skillmimic-data-crates.sha1 2>/dev/null || true)" != "$want" ]; then
+    echo "setup: fetching the test-data crates (tests/data-crates)"
+    cargo fetch --locked --manifest-path tests/data-crates/Cargo.toml
+    echo "$want" > .venv/.skillmimic-data-crates.sha1
+  fi
+fi

@@ -1,4 +1,8 @@
-//! `skillmimic retarget`: SkillMimic-skeleton clips (BallPlay-M `.pt` or the project format) →
+//! `skillmimic retarget`, two directions:
+//! * `--bvh FILE --map MAP --skill N`: a BVH motion → a clip of the SkillMimic humanoid in the
+//!   project format (`skillmimic_motion::retarget_bvh`, `retarget_clip`) with a JSON report
+//!   (foot penetration and sliding, joint-speed spikes, scale);
+//! * `--to tokenhsi --motion …`: SkillMimic-skeleton clips (BallPlay-M `.pt` or the project format) →
 //! clips of the TokenHSI character (`tokenhsi-clip` format, `skillmimic_motion::hsi_clip`), by
 //! shared joints (`skillmimic_motion::retarget_hsi`), with a JSON report per clip: foot height
 //! error over the source's stance frames and joint-limit violations.
@@ -21,14 +25,39 @@ pub struct Args {
     #[arg(long, default_value = "tokenhsi")]
     pub to: String,
     /// Source clip files or folders (repeatable).
-    #[arg(long, required = true)]
+    #[arg(long, required_unless_present = "bvh")]
     pub motion: Vec<PathBuf>,
-    /// Output folder (one `<name>.safetensors` per clip and `retarget_report.json`).
+    /// Output folder (one `<name>.safetensors` per clip and `retarget_report.json`; for `--bvh`:
+    /// `<name>.safetensors` and `<name>.retarget.json`).
     #[arg(long)]
     pub out: PathBuf,
+    /// A BVH motion to retarget onto the SkillMimic humanoid (instead of `--motion`).
+    #[arg(long, conflicts_with = "motion")]
+    pub bvh: Option<PathBuf>,
+    /// Joint map of the BVH: a shipped map (`humanoid`, `mocapbank`, `cmu`) or a TOML file.
+    #[arg(long, default_value = "cmu")]
+    pub map: String,
+    /// Skill label of the output clip (0 … 63; 0 and 10 are ball-free skills).
+    #[arg(long, requires = "bvh")]
+    pub skill: Option<u32>,
+    /// Clip name (default: the BVH file's stem).
+    #[arg(long)]
+    pub name: Option<String>,
+    /// Ball track: a CSV of x,y,z per BVH frame in the BVH's axes and units.
+    #[arg(long, conflicts_with = "ball_joint")]
+    pub ball_csv: Option<PathBuf>,
+    /// Ball track: a joint (marker) of the BVH whose position is the ball's centre.
+    #[arg(long)]
+    pub ball_joint: Option<String>,
+    /// Keep the source's heights (no ground alignment).
+    #[arg(long)]
+    pub no_ground: bool,
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
+    if let Some(bvh) = a.bvh.clone() {
+        return run_bvh(&a, &bvh);
+    }
     if a.to != "tokenhsi" {
         bail!("--to '{}': the only target character is 'tokenhsi'", a.to);
     }
@@ -63,5 +92,71 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let path = a.out.join("retarget_report.json");
     skillmimic_core::tensorfile::write_bytes_atomic(&path, serde_json::to_string_pretty(&reports)?.as_bytes()).with_context(|| format!("cannot write {}", path.display()))?;
     println!("wrote {} clips and {}", reports.len(), path.display());
+    Ok(())
+}
+
+/// Ball positions per line `x,y,z` (a header line is skipped); errors name the file and the line.
+fn read_ball_csv(path: &std::path::Path) -> anyhow::Result<Vec<[f64; 3]>> {
+    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let mut out = Vec::new();
+    for (i, line) in text.lines().enumerate() {
+        let cells: Vec<&str> = line.split(',').map(str::trim).filter(|c| !c.is_empty()).collect();
+        if cells.is_empty() || (i == 0 && cells.iter().any(|c| c.parse::<f64>().is_err())) {
+            continue;
+        }
+        let v: Vec<f64> = cells.iter().map(|c| c.parse::<f64>()).collect::<Result<_, _>>().map_err(|_| anyhow::anyhow!("{} line {}: expected three numbers x,y,z, found '{line}'", path.display(), i + 1))?;
+        if v.len() != 3 || v.iter().any(|x| !x.is_finite()) {
+            bail!("{} line {}: expected three finite numbers x,y,z, found '{line}'", path.display(), i + 1);
+        }
+        out.push([v[0], v[1], v[2]]);
+    }
+    Ok(out)
+}
+
+fn run_bvh(a: &Args, path: &std::path::Path) -> anyhow::Result<()> {
+    use skillmimic_motion::retarget_bvh::{JointMap, Options, retarget};
+    use skillmimic_motion::retarget_clip::{Ball, to_clip};
+    let Some(skill) = a.skill else { bail!("--bvh needs --skill N (the clip's skill label, 0 … 63)") };
+    let b = skillmimic_motion::bvh::read(path)?;
+    let map = JointMap::load(&a.map)?;
+    let m = retarget(&b, &map, &Options { fps: 60.0, ground: !a.no_ground })?;
+    let ball = match (&a.ball_csv, &a.ball_joint) {
+        (Some(csv), _) => {
+            let p = read_ball_csv(csv)?;
+            if p.len() != b.frames {
+                bail!("{}: {} ball positions, expected one per BVH frame ({})", csv.display(), p.len(), b.frames);
+            }
+            Ball::Points(p)
+        }
+        (None, Some(j)) => {
+            let ji = b.joint(j).with_context(|| format!("--ball-joint '{j}': {} has no such joint", path.display()))?;
+            Ball::Points((0..b.frames).map(|f| b.pose(f).positions[ji]).collect())
+        }
+        (None, None) => Ball::None,
+    };
+    let name = a.name.clone().unwrap_or_else(|| path.file_stem().map_or("clip".into(), |s| s.to_string_lossy().into_owned()));
+    let (clip, rep) = to_clip(&m, &name, &path.display().to_string(), skill, &ball, b.frame_time, path)?;
+    std::fs::create_dir_all(&a.out).with_context(|| format!("cannot create {}", a.out.display()))?;
+    let out = a.out.join(format!("{name}.safetensors"));
+    clip.save(&out).with_context(|| format!("cannot write {}", out.display()))?;
+    let rpath = a.out.join(format!("{name}.retarget.json"));
+    skillmimic_core::tensorfile::write_bytes_atomic(&rpath, serde_json::to_string_pretty(&rep)?.as_bytes()).with_context(|| format!("cannot write {}", rpath.display()))?;
+    println!(
+        "{name}: {} frames at 60 fps (from {} at {:.1} fps), scale {:.4}, ground shift {:.3} m; feet: deepest {:.1} mm below the floor, {} frames > 1 cm, sliding {:.3} m/s; fastest joint {:.1} rad/s ({} at frame {}), {} frames with spikes > 20 rad/s; {} contact frames",
+        rep.frames,
+        b.frames,
+        b.fps(),
+        rep.scale,
+        rep.ground_shift_m,
+        1000.0 * rep.foot_penetration_max_m,
+        rep.frames_penetrating,
+        rep.foot_sliding_mean_m_s,
+        rep.max_joint_speed_rad_s,
+        rep.max_joint_speed_body,
+        rep.max_joint_speed_frame,
+        rep.frames_with_speed_spike,
+        rep.contact_frames
+    );
+    println!("wrote {} and {} (check it kinematically: skillmimic play --reference {})", out.display(), rpath.display(), out.display());
     Ok(())
 }

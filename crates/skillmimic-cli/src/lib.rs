@@ -73,7 +73,7 @@ enum Command {
     /// SkillMimic-V2 history encoder tools (pre-training).
     #[command(subcommand)]
     History(cmd_history::HistoryCommand),
-    /// Retarget SkillMimic-skeleton clips onto the TokenHSI character (clips + a JSON report).
+    /// Retarget a BVH motion onto the SkillMimic humanoid (`--bvh`), or SkillMimic-skeleton clips onto the TokenHSI character (`--to tokenhsi`); clips + a JSON report.
     Retarget(cmd_retarget::Args),
     /// Record a physics trace (initial state, actions, final state) for cross-checks with PyPI mujoco.
     Trace(cmd_trace::Args),

@@ -46,6 +46,26 @@ pub fn shared_dir_or_skip(test: &str) -> Option<PathBuf> {
     }
 }
 
+/// `rel` inside the sources of the crates.io package `crate_dir` (e.g. `bvh_anim-0.4.0`) in the
+/// local cargo registry: test data shipped by a registry package, fetched by
+/// `scripts/setup.sh --tests` (tests/data-crates/Cargo.toml). `None` after a skip notice when it is
+/// missing.
+///
+/// # Panics
+/// When the file is missing and the `CI` environment variable is set.
+pub fn registry_file_or_skip(test: &str, crate_dir: &str, rel: &str) -> Option<PathBuf> {
+    let home = std::env::var_os("CARGO_HOME").map(PathBuf::from).or_else(|| std::env::var_os("HOME").map(|h| Path::new(&h).join(".cargo")));
+    let found = home.and_then(|h| std::fs::read_dir(h.join("registry/src")).ok()).and_then(|d| d.flatten().map(|e| e.path().join(crate_dir).join(rel)).find(|p| p.is_file()));
+    match found {
+        Some(p) => Some(p),
+        None if std::env::var_os("CI").is_some() => panic!("{test}: {crate_dir}/{rel} is not in the cargo registry and CI is set (scripts/setup.sh --tests fetches it)"),
+        None => {
+            eprintln!("SKIPPED {test}: {crate_dir}/{rel} is not in the cargo registry (run scripts/setup.sh --tests)");
+            None
+        }
+    }
+}
+
 /// All `.pt` clips under `<shared>/data/ballplay_m`, sorted by path.
 pub fn ballplay_clips(shared: &Path) -> Vec<PathBuf> {
     let mut out = Vec::new();

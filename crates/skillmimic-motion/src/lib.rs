@@ -13,6 +13,8 @@
 //!   kinematics) and retargeting SkillMimic-skeleton clips onto it;
 //! * [`retarget_bvh`]: retargeting BVH motions onto the SkillMimic humanoid (rest-pose alignment of
 //!   mapped bones, scaling, resampling, ground alignment);
+//! * [`retarget_clip`]: a retargeted motion as a project clip (ball track, contact label) with
+//!   its diagnostics (foot penetration and sliding, joint-speed spikes);
 //! * [`validate`]: the one validation of clips (bounds, minimum length, fps) every loader runs;
 //! * [`library`]: many clips, class-balanced clip sampling and random start frames;
 //! * [`testing`]: synthetic clip rows for tests and the fuzzer's seeds.
@@ -29,6 +31,7 @@ pub mod pickle;
 pub mod pt;
 pub mod reference;
 pub mod retarget_bvh;
+pub mod retarget_clip;
 pub mod retarget_hsi;
 pub mod testing;
 pub mod torch_zip;

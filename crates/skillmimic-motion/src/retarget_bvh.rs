@@ -52,6 +52,32 @@ fn default_up() -> String {
     "y".into()
 }
 
+/// The joint maps shipped with the project (`crates/skillmimic-motion/maps/`), by name.
+pub const BUILTIN_MAPS: [(&str, &str); 3] = [
+    ("humanoid", include_str!("../maps/humanoid.toml")),
+    ("mocapbank", include_str!("../maps/mocapbank.toml")),
+    ("cmu", include_str!("../maps/cmu.toml")),
+];
+
+impl JointMap {
+    /// A shipped map by name, or a TOML file (errors name the file and the field).
+    pub fn load(name_or_path: &str) -> Result<Self, ClipError> {
+        let path = std::path::Path::new(name_or_path);
+        let (text, path) = match BUILTIN_MAPS.iter().find(|(n, _)| *n == name_or_path) {
+            Some((_, t)) => (t.to_string(), path.to_path_buf()),
+            None => {
+                if !path.is_file() {
+                    let names: Vec<&str> = BUILTIN_MAPS.iter().map(|m| m.0).collect();
+                    return Err(ClipError::Format { path: path.to_path_buf(), detail: format!("joint map: neither a shipped map ({}) nor a TOML file", names.join(", ")) });
+                }
+                let t = std::fs::read_to_string(path).map_err(|error| ClipError::Io { path: path.to_path_buf(), error })?;
+                (t, path.to_path_buf())
+            }
+        };
+        toml::from_str(&text).map_err(|e| ClipError::Format { path, detail: format!("joint map: {e} (expected `up`, `yaw_deg`, `scale` and a [bodies] table of humanoid body = source joint; shipped maps: humanoid, mocapbank, cmu)") })
+    }
+}
+
 /// Options of one retargeting run.
 #[derive(Clone, Debug)]
 pub struct Options {
@@ -82,6 +108,16 @@ pub struct Motion {
     pub scale: f64,
     /// Height added to the root by the ground alignment (m).
     pub ground_shift: f64,
+    /// Turn from the source's axes to the world (Z-up): `T · U`.
+    pub source_turn: Quat,
+}
+
+impl Motion {
+    /// A point in the source's axes and units (a marker, a ball) in the world frame, before the
+    /// ground shift (the transform the root position takes).
+    pub fn source_to_world(&self, p: Vec3) -> Vec3 {
+        self.source_turn.rotate(scale(p, self.scale))
+    }
 }
 
 fn err(bvh: &Bvh, what: String) -> ClipError {
@@ -217,7 +253,7 @@ pub fn retarget(bvh: &Bvh, map: &JointMap, opts: &Options) -> Result<Motion, Cli
     // resample to the output rate
     let duration = (bvh.frames - 1) as f64 * bvh.frame_time;
     let frames = (duration * opts.fps).floor() as usize + 1;
-    let mut m = Motion { fps: opts.fps, frames, root_pos: Vec::with_capacity(frames), root_rot: Vec::with_capacity(frames), dof_rot: Vec::with_capacity(frames), scale: scale_f, ground_shift: 0.0 };
+    let mut m = Motion { fps: opts.fps, frames, root_pos: Vec::with_capacity(frames), root_rot: Vec::with_capacity(frames), dof_rot: Vec::with_capacity(frames), scale: scale_f, ground_shift: 0.0, source_turn: tilt.mul(u) };
     let mut prev_root = Quat::IDENTITY;
     for k in 0..frames {
         let x = (k as f64 / opts.fps / bvh.frame_time).min((bvh.frames - 1) as f64);

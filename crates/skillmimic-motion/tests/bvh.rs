@@ -90,17 +90,12 @@ fn every_channel_order_matches_matrix_composition() {
 /// `data/test_mocapbank.bvh` of the crates.io package `bvh_anim` 0.4.0 (MIT): a real MocapBank
 /// capture, 455 frames at 30 fps, Y-up, centimetres. Found in the local cargo registry.
 fn mocapbank() -> Option<std::path::PathBuf> {
-    let home = std::env::var_os("CARGO_HOME").map(std::path::PathBuf::from).or_else(|| std::env::var_os("HOME").map(|h| Path::new(&h).join(".cargo")))?;
-    let src = home.join("registry/src");
-    std::fs::read_dir(src).ok()?.flatten().map(|d| d.path().join("bvh_anim-0.4.0/data/test_mocapbank.bvh")).find(|p| p.is_file())
+    skillmimic_core::shared_data::registry_file_or_skip("mocapbank BVH", "bvh_anim-0.4.0", "data/test_mocapbank.bvh")
 }
 
 #[test]
 fn real_mocap_file_parses_and_keeps_bone_lengths() {
-    let Some(path) = mocapbank() else {
-        eprintln!("SKIPPED: bvh_anim-0.4.0/data/test_mocapbank.bvh is not in the cargo registry (fetch the crate bvh_anim 0.4.0)");
-        return;
-    };
+    let Some(path) = mocapbank() else { return };
     let b = bvh::read(&path).unwrap();
     assert_eq!(b.frames, 455);
     assert!((b.fps() - 30.0).abs() < 1e-2);

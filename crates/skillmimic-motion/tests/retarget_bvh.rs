@@ -70,7 +70,8 @@ fn humanoid_clip_round_trips_through_bvh() {
     let clip = Clip::load(&path).unwrap();
     let text = clip_to_bvh(&clip);
     let b = bvh::parse(Path::new("roundtrip.bvh"), &text).unwrap();
-    let map = JointMap { up: "y".into(), yaw_deg: 0.0, scale: None, bodies: BODIES.iter().map(|x| (x.name.to_string(), x.name.to_string())).collect() };
+    let map = JointMap::load("humanoid").unwrap();
+    assert_eq!(map.bodies.len(), NUM_BODIES, "the shipped identity map names every body");
     let m = retarget_bvh::retarget(&b, &map, &Options { fps: clip.fps, ground: false }).unwrap();
     assert_eq!(m.frames, clip.num_frames);
     assert!((m.scale - 0.01).abs() < 1e-9, "scale {}", m.scale);
@@ -95,24 +96,14 @@ fn humanoid_clip_round_trips_through_bvh() {
 }
 
 fn mocapbank() -> Option<std::path::PathBuf> {
-    let home = std::env::var_os("CARGO_HOME").map(std::path::PathBuf::from).or_else(|| std::env::var_os("HOME").map(|h| Path::new(&h).join(".cargo")))?;
-    std::fs::read_dir(home.join("registry/src")).ok()?.flatten().map(|d| d.path().join("bvh_anim-0.4.0/data/test_mocapbank.bvh")).find(|p| p.is_file())
+    skillmimic_core::shared_data::registry_file_or_skip("mocapbank BVH", "bvh_anim-0.4.0", "data/test_mocapbank.bvh")
 }
 
 #[test]
 fn real_mocap_retargets_with_feet_on_the_floor() {
-    let Some(path) = mocapbank() else {
-        eprintln!("SKIPPED: bvh_anim-0.4.0/data/test_mocapbank.bvh is not in the cargo registry");
-        return;
-    };
+    let Some(path) = mocapbank() else { return };
     let b = bvh::read(&path).unwrap();
-    let pairs = [
-        ("Pelvis", "Hips"), ("Torso", "Chest"), ("Chest", "Chest2"), ("Neck", "Neck"), ("Head", "Head"),
-        ("L_Thorax", "LeftCollar"), ("L_Shoulder", "LeftShoulder"), ("L_Elbow", "LeftElbow"), ("L_Wrist", "LeftWrist"),
-        ("R_Thorax", "RightCollar"), ("R_Shoulder", "RightShoulder"), ("R_Elbow", "RightElbow"), ("R_Wrist", "RightWrist"),
-        ("L_Hip", "LeftHip"), ("L_Knee", "LeftKnee"), ("L_Ankle", "LeftAnkle"), ("R_Hip", "RightHip"), ("R_Knee", "RightKnee"), ("R_Ankle", "RightAnkle"),
-    ];
-    let map = JointMap { up: "y".into(), yaw_deg: 0.0, scale: None, bodies: pairs.iter().map(|(a, b)| (a.to_string(), b.to_string())).collect() };
+    let map = JointMap::load("mocapbank").unwrap();
     let m = retarget_bvh::retarget(&b, &map, &Options::default()).unwrap();
     let soles: Vec<f64> = (0..m.frames).map(|k| retarget_bvh::lowest_sole(&m, k)).collect();
     let deepest = soles.iter().cloned().fold(f64::INFINITY, f64::min);

@@ -1,0 +1,72 @@
+//! `skillmimic retarget --bvh`: the real MocapBank capture shipped in the crates.io package
+//! bvh_anim 0.4.0 becomes a clip with its feet on the floor (≤ 2 cm), no joint-speed spikes, a
+//! written report, and trains for a few iterations without a non-finite value; bad maps and
+//! missing labels are refused by name.
+
+use std::process::Command;
+
+use serde_json::Value;
+use skillmimic_core::shared_data::registry_file_or_skip;
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_skillmimic"))
+}
+
+#[test]
+fn mocap_bvh_retargets_and_trains() {
+    let Some(bvh) = registry_file_or_skip("retarget --bvh", "bvh_anim-0.4.0", "data/test_mocapbank.bvh") else { return };
+    let out = std::env::temp_dir().join(format!("sm-retarget-bvh-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out);
+    let r = bin().args(["retarget", "--map", "mocapbank", "--skill", "10", "--name", "010_mocapbank", "--bvh"]).arg(&bvh).arg("--out").arg(&out).output().unwrap();
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let rep: Value = serde_json::from_str(&std::fs::read_to_string(out.join("010_mocapbank.retarget.json")).unwrap()).unwrap();
+    println!("{rep}");
+    assert_eq!(rep["frames"], 908);
+    assert!(rep["foot_penetration_max_m"].as_f64().unwrap() <= 0.02);
+    assert_eq!(rep["frames_with_speed_spike"], 0);
+    assert!(rep["max_joint_speed_rad_s"].as_f64().unwrap() < 20.0);
+    let clip = out.join("010_mocapbank.safetensors");
+    let train = out.join("train");
+    let t = bin()
+        .args(["train", "--preset", "tiny", "--iterations", "3", "--no-video", "--set", "run.eval_episodes=0", "--set", "env.num_envs=8", "--motion"])
+        .arg(&clip)
+        .arg("--out")
+        .arg(&train)
+        .output()
+        .unwrap();
+    assert!(t.status.success(), "{}", String::from_utf8_lossy(&t.stderr));
+    let log = std::fs::read_to_string(train.join("log.jsonl")).unwrap();
+    let rows: Vec<Value> = log.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    assert_eq!(rows.len(), 3);
+    for r in &rows {
+        for k in ["mean_reward", "actor_loss", "critic_loss", "value_mean"] {
+            assert!(r[k].as_f64().is_some_and(f64::is_finite), "{k} in {r}");
+        }
+    }
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+#[test]
+fn bad_maps_and_missing_labels_are_refused() {
+    let dir = std::env::temp_dir().join(format!("sm-retarget-bad-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let bvh = dir.join("a.bvh");
+    std::fs::write(&bvh, "HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n End Site\n {\n  OFFSET 0 1 0\n }\n}\nMOTION\nFrames: 2\nFrame Time: 0.0333\n0 90 0 0 0 0\n0 90 0 0 0 0\n").unwrap();
+    let run = |extra: &[&str]| {
+        let r = bin().args(["retarget", "--bvh"]).arg(&bvh).arg("--out").arg(&dir).args(extra).output().unwrap();
+        assert!(!r.status.success());
+        String::from_utf8_lossy(&r.stderr).into_owned()
+    };
+    assert!(run(&["--map", "cmu"]).contains("--skill"));
+    assert!(run(&["--map", "nosuch", "--skill", "1"]).contains("neither a shipped map"));
+    let e = run(&["--map", "cmu", "--skill", "1"]);
+    assert!(e.contains("a.bvh") && e.contains("which the BVH file does not have"), "a map naming joints the file lacks: {e}");
+    let map = dir.join("m.toml");
+    std::fs::write(&map, "[bodies]\nPelvis = \"Hips\"\nNose = \"Hips\"\n").unwrap();
+    let e = run(&["--map", map.to_str().unwrap(), "--skill", "1"]);
+    assert!(e.contains("Nose"), "{e}");
+    std::fs::write(&map, "[bodies]\nPelvis = \"Hips\"\n").unwrap();
+    let e = run(&["--map", map.to_str().unwrap(), "--skill", "1"]);
+    assert!(e.contains("scale"), "no legs and no scale: {e}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
