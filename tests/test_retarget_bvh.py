@@ -2,7 +2,7 @@
 files by ``bvhio`` (PyPI; its own Euler conversion and number formatting, not our code), with the
 humanoid's hierarchy taken from the MuJoCo model of the scene (PyPI ``mujoco``: body offsets,
 centimetres, Y-up skeleton frame), then retargeted back with ``skillmimic retarget --bvh --map
-humanoid``. Body positions must come back within 1 cm of PyPI mujoco's forward kinematics of the
+humanoid`` (and ``skillmimic_rs.retarget_bvh``). Body positions must come back within 1 cm of PyPI mujoco's forward kinematics of the
 original clip, and every joint rotation within 0.02 rad.
 """
 
@@ -80,7 +80,11 @@ def test_ballplay_clip_round_trips_through_a_third_party_bvh_writer(rel, shared_
     clip = ref.load_clip(shared_dir / "data" / "ballplay_m" / rel)
     bvh = tmp_path / "clip.bvh"
     write_with_bvhio(clip, model, bvh)
-    run_cli(skillmimic_bin, "retarget", "--bvh", str(bvh), "--map", "humanoid", "--skill", str(clip["skill"]), "--no-ground", "--name", "back", "--out", str(tmp_path))
+    if rel == CLIPS[0]:  # the Python API (the same Rust code, in this process)
+        rep = skillmimic_rs.retarget_bvh(bvh, out=tmp_path, skill=int(clip["skill"]), map="humanoid", no_ground=True, name="back")
+        assert rep["frames"] == clip["num_frames"] and rep["clip"].exists()
+    else:
+        run_cli(skillmimic_bin, "retarget", "--bvh", str(bvh), "--map", "humanoid", "--skill", str(clip["skill"]), "--no-ground", "--name", "back", "--out", str(tmp_path))
     back = ref.load_clip(tmp_path / "back.safetensors")
     assert back["num_frames"] == clip["num_frames"]
     # PyPI mujoco's forward kinematics of both clips (qpos from the clip, ball-free columns kept)

@@ -150,3 +150,16 @@ def play(checkpoint: str | os.PathLike | None = None, *, video: str | os.PathLik
         raise ValueError("skillmimic_rs.play: give video= and/or states= (where to write the result)")
     _run("play", _argv(config, dict(options, checkpoint=checkpoint, video=video, states=states)))
     return {k: pathlib.Path(v) for k, v in (("video", video), ("states", states)) if v is not None}
+
+
+def retarget_bvh(bvh: str | os.PathLike, *, out: str | os.PathLike, skill: int, map: str | os.PathLike = "cmu",
+                 **options: Any) -> dict[str, Any]:
+    """Retarget a BVH motion onto the SkillMimic humanoid as ``skillmimic retarget --bvh`` (joint
+    ``map``: ``humanoid``, ``mocapbank``, ``cmu`` or a TOML file; ``ball_csv=``, ``ball_joint=``,
+    ``name=``, ``no_ground=True``) and return its report (foot penetration and sliding, joint-speed
+    spikes, scale) with ``clip``: the written clip's path."""
+    _run("retarget", _argv(None, dict(options, bvh=bvh, out=out, skill=skill, map=map)))
+    name = options.get("name") or pathlib.Path(bvh).stem
+    report = json.loads((pathlib.Path(out) / f"{name}.retarget.json").read_text())
+    report["clip"] = pathlib.Path(out) / f"{name}.safetensors"
+    return report
