@@ -3,9 +3,9 @@
 //!   project format (`skillmimic_motion::retarget_bvh`, `retarget_clip`) with a JSON report
 //!   (foot penetration and sliding, joint-speed spikes, scale);
 //! * `--to tokenhsi --motion …`: SkillMimic-skeleton clips (BallPlay-M `.pt` or the project format) →
-//! clips of the TokenHSI character (`tokenhsi-clip` format, `skillmimic_motion::hsi_clip`), by
-//! shared joints (`skillmimic_motion::retarget_hsi`), with a JSON report per clip: foot height
-//! error over the source's stance frames and joint-limit violations.
+//!   clips of the TokenHSI character (`tokenhsi-clip` format, `skillmimic_motion::hsi_clip`), by
+//!   shared joints (`skillmimic_motion::retarget_hsi`), with a JSON report per clip: foot height
+//!   error over the source's stance frames and joint-limit violations.
 //!
 //! Users who bring AMASS / SAMP / OMOMO motions for the sit, climb and carry styles (not
 //! redistributable here) write the `tokenhsi-clip` arrays directly from their SMPL retargets: the

@@ -126,15 +126,15 @@ pub fn to_clip(m: &Motion, name: &str, source: &str, skill: u32, ball: &Ball, sr
     let feet = ["L_Ankle", "R_Ankle", "L_Toe", "R_Toe"].map(|n| skeleton::body_index(n).expect("foot bodies"));
     let (mut slide_sum, mut slide_n) = (0.0, 0usize);
     let mut prev: Option<[Vec3; NUM_BODIES]> = None;
-    for k in 0..t {
+    for (k, ball_k) in balls.iter().enumerate() {
         let p = body_positions(m, k);
         clip.root_pos.extend(m.root_pos[k].map(|x| x as f32));
         clip.root_rot.extend(m.root_rot[k].to_wxyz().map(|x| x as f32));
         clip.dof_rot.extend(m.dof_rot[k].iter().flat_map(|v| v.map(|x| x as f32)));
         clip.body_pos.extend(p.iter().flat_map(|v| v.map(|x| x as f32)));
-        clip.ball_pos.extend(balls[k].map(|x| x as f32));
+        clip.ball_pos.extend(ball_k.map(|x| x as f32));
         clip.ball_rot.extend(Quat::IDENTITY.to_wxyz().map(|x| x as f32));
-        let touching = !matches!(ball, Ball::None) && hands.iter().any(|&h| norm(sub(p[h], balls[k])) < BALL_RADIUS + 0.05);
+        let touching = !matches!(ball, Ball::None) && hands.iter().any(|&h| norm(sub(p[h], *ball_k)) < BALL_RADIUS + 0.05);
         clip.contact.push(touching as u8 as f32);
         rep.contact_frames += touching as usize;
         let sole = lowest_sole(m, k);
