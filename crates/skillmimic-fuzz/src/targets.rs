@@ -21,10 +21,13 @@ pub enum Target {
     Checkpoint,
     /// `TrainConfig` from TOML over the defaults, then `validate()`.
     Config,
+    /// The BVH reader, forward kinematics of every frame, and retargeting with a small joint map
+    /// (`Hips` → Pelvis) into a validated clip.
+    Bvh,
 }
 
 /// All targets, in the order `--target all` runs them.
-pub const ALL: [Target; 4] = [Target::Pt, Target::Clip, Target::Checkpoint, Target::Config];
+pub const ALL: [Target; 5] = [Target::Pt, Target::Clip, Target::Checkpoint, Target::Config, Target::Bvh];
 
 impl Target {
     /// The target's command-line name.
@@ -34,6 +37,7 @@ impl Target {
             Target::Clip => "clip",
             Target::Checkpoint => "checkpoint",
             Target::Config => "config",
+            Target::Bvh => "bvh",
         }
     }
 
@@ -49,6 +53,7 @@ impl Target {
             Target::Clip => "fuzz.safetensors",
             Target::Checkpoint => "fuzz_ckpt.safetensors",
             Target::Config => "fuzz.toml",
+            Target::Bvh => "fuzz.bvh",
         }
     }
 
@@ -88,6 +93,7 @@ impl Target {
                 }
                 out
             }
+            Target::Bvh => vec![BVH_SEED.as_bytes().to_vec()],
             Target::Config => skillmimic_learn::config::PRESETS
                 .iter()
                 .map(|name| TrainConfig::preset(name).expect("preset").to_toml().into_bytes())
@@ -106,9 +112,22 @@ impl Target {
                 let cfg = TrainConfig::from_toml_over(&TrainConfig::default(), &text, path).map_err(|e| e.to_string())?;
                 cfg.validate().map_err(|e| e.to_string())
             }
+            Target::Bvh => {
+                use skillmimic_motion::{bvh, retarget_bvh, retarget_clip};
+                let b = bvh::read(path).map_err(|e| e.to_string())?;
+                for f in 0..b.frames {
+                    let _ = b.pose(f);
+                }
+                let map = retarget_bvh::JointMap { up: "y".into(), yaw_deg: 0.0, scale: Some(0.01), bodies: [("Pelvis".to_string(), "Hips".to_string())].into() };
+                let m = retarget_bvh::retarget(&b, &map, &retarget_bvh::Options::default()).map_err(|e| e.to_string())?;
+                retarget_clip::to_clip(&m, "fuzz", "fuzz", 10, &retarget_clip::Ball::None, b.frame_time, path).map(drop).map_err(|e| e.to_string())
+            }
         }
     }
 }
+
+/// A small valid BVH: a root with a position, two chained joints, an End Site, three frames.
+const BVH_SEED: &str = "HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n  JOINT Spine\n  {\n    OFFSET 0 10 0\n    CHANNELS 3 Zrotation Xrotation Yrotation\n    JOINT Head\n    {\n      OFFSET 0 20 0\n      CHANNELS 3 Zrotation Xrotation Yrotation\n      End Site\n      {\n        OFFSET 0 5 0\n      }\n    }\n  }\n}\nMOTION\nFrames: 3\nFrame Time: 0.0333333\n0 90 0 0 0 0 0 0 0 0 0 0\n1 90 0 10 0 0 5 0 0 0 0 0\n2 90 0 20 0 0 10 0 0 0 0 5\n";
 
 /// Keep the first `t` frames of `c`.
 fn trim(c: &mut Clip, t: usize) {

@@ -40,3 +40,8 @@ fn checkpoint_loader() {
 fn config_parser() {
     fuzz(Target::Config);
 }
+
+#[test]
+fn bvh_reader_and_retargeting() {
+    fuzz(Target::Bvh);
+}

@@ -78,6 +78,9 @@ impl JointMap {
     }
 }
 
+/// Most output frames of one retargeting run (4.6 hours at 60 fps).
+pub const MAX_OUTPUT_FRAMES: usize = 1_000_000;
+
 /// Options of one retargeting run.
 #[derive(Clone, Debug)]
 pub struct Options {
@@ -252,7 +255,11 @@ pub fn retarget(bvh: &Bvh, map: &JointMap, opts: &Options) -> Result<Motion, Cli
     }
     // resample to the output rate
     let duration = (bvh.frames - 1) as f64 * bvh.frame_time;
-    let frames = (duration * opts.fps).floor() as usize + 1;
+    let out_frames = (duration * opts.fps).floor() + 1.0;
+    if !(out_frames.is_finite() && out_frames <= MAX_OUTPUT_FRAMES as f64) {
+        return Err(err(bvh, format!("{} frames of {} s last {duration} s: more than {MAX_OUTPUT_FRAMES} output frames at {} fps", bvh.frames, bvh.frame_time, opts.fps)));
+    }
+    let frames = out_frames as usize;
     let mut m = Motion { fps: opts.fps, frames, root_pos: Vec::with_capacity(frames), root_rot: Vec::with_capacity(frames), dof_rot: Vec::with_capacity(frames), scale: scale_f, ground_shift: 0.0, source_turn: tilt.mul(u) };
     let mut prev_root = Quat::IDENTITY;
     for k in 0..frames {
@@ -268,6 +275,10 @@ pub fn retarget(bvh: &Bvh, map: &JointMap, opts: &Options) -> Result<Motion, Cli
         prev_root = r;
         m.root_rot.push(r);
         m.dof_rot.push(std::array::from_fn(|jt| slerp(locals[i][jt + 1], locals[i1][jt + 1], t).to_rotvec()));
+    }
+    let finite = m.root_pos.iter().flatten().chain(m.dof_rot.iter().flatten().flatten()).all(|x| x.is_finite()) && m.root_rot.iter().all(|q| q.w.is_finite() && q.x.is_finite() && q.y.is_finite() && q.z.is_finite());
+    if !finite {
+        return Err(err(bvh, "the retargeted motion has non-finite values (offsets or channel values too large?)".into()));
     }
     if opts.ground {
         let mut soles: Vec<f64> = (0..frames).map(|k| lowest_sole(&m, k)).collect();

@@ -138,3 +138,20 @@ fn real_mocap_retargets_with_feet_on_the_floor() {
     assert!(deepest > -0.02, "feet {deepest} m below the floor");
     assert!(w < 30.0, "joint speed spike {w} rad/s");
 }
+
+#[test]
+fn hostile_timing_and_values_are_refused() {
+    let text = |frame_time: &str, offset: &str| {
+        format!("HIERARCHY\nROOT Hips\n{{\n OFFSET 0 0 0\n CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n JOINT Spine\n {{\n  OFFSET 0 {offset} 0\n  End Site\n  {{\n   OFFSET 0 1 0\n  }}\n }}\n}}\nMOTION\nFrames: 2\nFrame Time: {frame_time}\n0 90 0 0 0 0\n0 90 0 0 0 0\n")
+    };
+    let map = JointMap { up: "y".into(), yaw_deg: 0.0, scale: Some(0.01), bodies: [("Pelvis".to_string(), "Hips".to_string())].into() };
+    let run = |t: String| retarget_bvh::retarget(&bvh::parse(Path::new("h.bvh"), &t).unwrap(), &map, &Options::default()).map(drop).map_err(|e| e.to_string());
+    // two frames a billion seconds apart would be 6e10 output frames
+    let e = run(text("1e9", "10")).unwrap_err();
+    assert!(e.contains("h.bvh") && e.contains("output frames"), "{e}");
+    assert!(run(text("0.0333", "10")).is_ok());
+    // an unknown up axis is named
+    let bad_up = JointMap { up: "x".into(), ..map.clone() };
+    let e = retarget_bvh::retarget(&bvh::parse(Path::new("h.bvh"), &text("0.0333", "10")).unwrap(), &bad_up, &Options::default()).unwrap_err().to_string();
+    assert!(e.contains("\"y\" or \"z\""), "{e}");
+}
