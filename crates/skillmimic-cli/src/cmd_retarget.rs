@@ -25,20 +25,25 @@ pub struct Args {
     #[arg(long, default_value = "tokenhsi")]
     pub to: String,
     /// Source clip files or folders (repeatable).
-    #[arg(long, required_unless_present = "bvh")]
+    #[arg(long, required_unless_present_any = ["bvh", "amass"])]
     pub motion: Vec<PathBuf>,
     /// Output folder (one `<name>.safetensors` per clip and `retarget_report.json`; for `--bvh`:
     /// `<name>.safetensors` and `<name>.retarget.json`).
     #[arg(long)]
     pub out: PathBuf,
     /// A BVH motion to retarget onto the SkillMimic humanoid (instead of `--motion`).
-    #[arg(long, conflicts_with = "motion")]
+    #[arg(long, conflicts_with_all = ["motion", "amass"])]
     pub bvh: Option<PathBuf>,
-    /// Joint map of the BVH: a shipped map (`humanoid`, `mocapbank`, `cmu`) or a TOML file.
-    #[arg(long, default_value = "cmu")]
-    pub map: String,
+    /// An SMPL / SMPL-H / SMPL-X sequence in the AMASS `.npz` layout (`poses`, `trans`,
+    /// `mocap_framerate`) to retarget onto the SkillMimic humanoid (map `smplh` by default).
+    #[arg(long, conflicts_with = "motion")]
+    pub amass: Option<PathBuf>,
+    /// Joint map: a shipped map (`humanoid`, `mocapbank`, `cmu`, `smplh`) or a TOML file
+    /// (default `cmu` for `--bvh`, `smplh` for `--amass`).
+    #[arg(long)]
+    pub map: Option<String>,
     /// Skill label of the output clip (0 … 63; 0 and 10 are ball-free skills).
-    #[arg(long, requires = "bvh")]
+    #[arg(long)]
     pub skill: Option<u32>,
     /// Clip name (default: the BVH file's stem).
     #[arg(long)]
@@ -56,7 +61,10 @@ pub struct Args {
 
 pub fn run(a: Args) -> anyhow::Result<()> {
     if let Some(bvh) = a.bvh.clone() {
-        return run_bvh(&a, &bvh);
+        return run_bvh(&a, &bvh, false);
+    }
+    if let Some(npz) = a.amass.clone() {
+        return run_bvh(&a, &npz, true);
     }
     if a.to != "tokenhsi" {
         bail!("--to '{}': the only target character is 'tokenhsi'", a.to);
@@ -113,12 +121,14 @@ fn read_ball_csv(path: &std::path::Path) -> anyhow::Result<Vec<[f64; 3]>> {
     Ok(out)
 }
 
-fn run_bvh(a: &Args, path: &std::path::Path) -> anyhow::Result<()> {
+/// `--bvh` (or `--amass`, read as a source skeleton motion by `skillmimic_motion::amass`).
+fn run_bvh(a: &Args, path: &std::path::Path, amass: bool) -> anyhow::Result<()> {
     use skillmimic_motion::retarget_bvh::{JointMap, Options, retarget};
     use skillmimic_motion::retarget_clip::{Ball, to_clip};
-    let Some(skill) = a.skill else { bail!("--bvh needs --skill N (the clip's skill label, 0 … 63)") };
-    let b = skillmimic_motion::bvh::read(path)?;
-    let map = JointMap::load(&a.map)?;
+    let flag = if amass { "--amass" } else { "--bvh" };
+    let Some(skill) = a.skill else { bail!("{flag} needs --skill N (the clip's skill label, 0 … 63)") };
+    let b = if amass { skillmimic_motion::amass::read(path)? } else { skillmimic_motion::bvh::read(path)? };
+    let map = JointMap::load(a.map.as_deref().unwrap_or(if amass { "smplh" } else { "cmu" }))?;
     let m = retarget(&b, &map, &Options { fps: 60.0, ground: !a.no_ground })?;
     let ball = match (&a.ball_csv, &a.ball_joint) {
         (Some(csv), _) => {

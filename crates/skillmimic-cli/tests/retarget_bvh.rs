@@ -1,4 +1,5 @@
-//! `skillmimic retarget --bvh`: the real MocapBank capture shipped in the crates.io package
+//! `skillmimic retarget --bvh` / `--amass`: a synthetic SMPL-H walk in the AMASS layout and the real
+//! MocapBank capture shipped in the crates.io package
 //! bvh_anim 0.4.0 becomes a clip with its feet on the floor (≤ 2 cm), no joint-speed spikes, a
 //! written report, and trains for a few iterations without a non-finite value; bad maps and
 //! missing labels are refused by name.
@@ -10,6 +11,43 @@ use skillmimic_core::shared_data::registry_file_or_skip;
 
 fn bin() -> Command {
     Command::new(env!("CARGO_BIN_EXE_skillmimic"))
+}
+
+/// Train 3 tiny iterations on `clip`; every logged loss and reward is finite.
+fn trains_finite(clip: &std::path::Path, out: &std::path::Path) {
+    let t = bin()
+        .args(["train", "--preset", "tiny", "--iterations", "3", "--no-video", "--set", "run.eval_episodes=0", "--set", "env.num_envs=8", "--motion"])
+        .arg(clip)
+        .arg("--out")
+        .arg(out)
+        .output()
+        .unwrap();
+    assert!(t.status.success(), "{}", String::from_utf8_lossy(&t.stderr));
+    let log = std::fs::read_to_string(out.join("log.jsonl")).unwrap();
+    let rows: Vec<Value> = log.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    assert_eq!(rows.len(), 3);
+    for r in &rows {
+        for k in ["mean_reward", "actor_loss", "critic_loss", "value_mean"] {
+            assert!(r[k].as_f64().is_some_and(f64::is_finite), "{k} in {r}");
+        }
+    }
+}
+
+#[test]
+fn synthetic_amass_sequence_retargets_and_trains() {
+    let out = std::env::temp_dir().join(format!("sm-retarget-amass-{}", std::process::id()));
+    std::fs::create_dir_all(&out).unwrap();
+    let npz = out.join("walk.npz");
+    skillmimic_motion::testing::write_synthetic_amass(&npz, 240, 120.0).unwrap();
+    let r = bin().args(["retarget", "--skill", "10", "--name", "010_walk", "--amass"]).arg(&npz).arg("--out").arg(&out).output().unwrap();
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let rep: Value = serde_json::from_str(&std::fs::read_to_string(out.join("010_walk.retarget.json")).unwrap()).unwrap();
+    println!("{rep}");
+    assert_eq!(rep["frames"], 120, "2 s at 120 fps resampled to 60 fps");
+    assert!(rep["foot_penetration_max_m"].as_f64().unwrap() <= 0.02);
+    assert_eq!(rep["frames_with_speed_spike"], 0);
+    trains_finite(&out.join("010_walk.safetensors"), &out.join("train"));
+    let _ = std::fs::remove_dir_all(&out);
 }
 
 #[test]
@@ -25,24 +63,7 @@ fn mocap_bvh_retargets_and_trains() {
     assert!(rep["foot_penetration_max_m"].as_f64().unwrap() <= 0.02);
     assert_eq!(rep["frames_with_speed_spike"], 0);
     assert!(rep["max_joint_speed_rad_s"].as_f64().unwrap() < 20.0);
-    let clip = out.join("010_mocapbank.safetensors");
-    let train = out.join("train");
-    let t = bin()
-        .args(["train", "--preset", "tiny", "--iterations", "3", "--no-video", "--set", "run.eval_episodes=0", "--set", "env.num_envs=8", "--motion"])
-        .arg(&clip)
-        .arg("--out")
-        .arg(&train)
-        .output()
-        .unwrap();
-    assert!(t.status.success(), "{}", String::from_utf8_lossy(&t.stderr));
-    let log = std::fs::read_to_string(train.join("log.jsonl")).unwrap();
-    let rows: Vec<Value> = log.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
-    assert_eq!(rows.len(), 3);
-    for r in &rows {
-        for k in ["mean_reward", "actor_loss", "critic_loss", "value_mean"] {
-            assert!(r[k].as_f64().is_some_and(f64::is_finite), "{k} in {r}");
-        }
-    }
+    trains_finite(&out.join("010_mocapbank.safetensors"), &out.join("train"));
     let _ = std::fs::remove_dir_all(&out);
 }
 

@@ -5,6 +5,7 @@
 //! * [`pt`]: a restricted reader (and a writer) for `torch.save` archives holding one float32
 //!   matrix (BallPlay-M clips) — no pickle code is executed;
 //! * [`layout`]: the BallPlay-M 337-column row layout (widths, frame rate, column names);
+//! * [`amass`]: SMPL-family sequences in the AMASS `.npz` layout as a source skeleton motion;
 //! * [`bvh`]: BVH motion files (bounded parser, forward kinematics) for retargeting users' motions;
 //! * [`clip`]: the project's clip representation and its decoding from the 337-column layout;
 //! * [`format`]: the project's clip file format (safetensors, documented field by field);
@@ -19,6 +20,7 @@
 //! * [`library`]: many clips, class-balanced clip sampling and random start frames;
 //! * [`testing`]: synthetic clip rows for tests and the fuzzer's seeds.
 
+pub mod amass;
 pub mod bvh;
 pub mod clip;
 pub mod error;

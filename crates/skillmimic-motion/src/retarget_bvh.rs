@@ -53,10 +53,11 @@ fn default_up() -> String {
 }
 
 /// The joint maps shipped with the project (`crates/skillmimic-motion/maps/`), by name.
-pub const BUILTIN_MAPS: [(&str, &str); 3] = [
+pub const BUILTIN_MAPS: [(&str, &str); 4] = [
     ("humanoid", include_str!("../maps/humanoid.toml")),
     ("mocapbank", include_str!("../maps/mocapbank.toml")),
     ("cmu", include_str!("../maps/cmu.toml")),
+    ("smplh", include_str!("../maps/smplh.toml")),
 ];
 
 impl JointMap {
@@ -74,7 +75,7 @@ impl JointMap {
                 (t, path.to_path_buf())
             }
         };
-        toml::from_str(&text).map_err(|e| ClipError::Format { path, detail: format!("joint map: {e} (expected `up`, `yaw_deg`, `scale` and a [bodies] table of humanoid body = source joint; shipped maps: humanoid, mocapbank, cmu)") })
+        toml::from_str(&text).map_err(|e| ClipError::Format { path, detail: format!("joint map: {e} (expected `up`, `yaw_deg`, `scale` and a [bodies] table of humanoid body = source joint; shipped maps: humanoid, mocapbank, cmu, smplh)") })
     }
 }
 

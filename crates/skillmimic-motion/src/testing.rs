@@ -22,3 +22,66 @@ pub fn synthetic_rows(t: usize) -> Vec<f32> {
     }
     rows
 }
+
+/// A synthetic walking-like SMPL-H sequence in the AMASS `.npz` layout (`poses` (T, 156), `trans`
+/// (T, 3), `mocap_framerate`, all float64; `numpy.savez` layout): upright (root Rx(90°) in the Z-up
+/// world) turning slowly about z, walking along the world's facing at 1 m/s at pelvis height
+/// 0.95 m, hips and knees swinging (±0.5 rad, 0–0.9 rad at 1 Hz), arms counter-swinging, fingers
+/// curled a little. Returns `poses` for checks.
+pub fn write_synthetic_amass(path: &std::path::Path, frames: usize, fps: f64) -> std::io::Result<Vec<f64>> {
+    use skillmimic_core::math::Quat;
+    let mut poses = vec![0.0f64; frames * 156];
+    let mut trans = vec![0.0f64; frames * 3];
+    for f in 0..frames {
+        let t = f as f64 / fps;
+        let yaw = 0.3 * t;
+        let root = Quat::about_z(yaw).mul(Quat::from_axis_angle([1.0, 0.0, 0.0], std::f64::consts::FRAC_PI_2));
+        let row = &mut poses[f * 156..(f + 1) * 156];
+        row[0..3].copy_from_slice(&root.to_rotvec());
+        let s = (2.0 * std::f64::consts::PI * t).sin();
+        let set = |row: &mut [f64], j: usize, v: [f64; 3]| row[3 * j..3 * j + 3].copy_from_slice(&v);
+        set(row, 1, [0.5 * s, 0.0, 0.0]); // left hip
+        set(row, 2, [-0.5 * s, 0.0, 0.0]); // right hip
+        set(row, 4, [0.45 * (1.0 + s), 0.0, 0.0]); // left knee
+        set(row, 5, [0.45 * (1.0 - s), 0.0, 0.0]); // right knee
+        set(row, 16, [0.0, 0.0, -1.2]); // shoulders down from the T-pose
+        set(row, 17, [0.0, 0.0, 1.2]);
+        set(row, 18, [0.0, -0.3 - 0.2 * s, 0.0]); // elbows
+        set(row, 19, [0.0, 0.3 - 0.2 * s, 0.0]);
+        for j in 22..52 {
+            set(row, j, [0.0, 0.0, 0.2]);
+        }
+        // facing: the body's +z turned by the root; walk along its horizontal part
+        let fwd = root.rotate([0.0, 0.0, 1.0]);
+        let p = [fwd[0] * t, fwd[1] * t, 0.95];
+        trans[3 * f..3 * f + 3].copy_from_slice(&p);
+    }
+    fn npy(shape: &[usize], v: &[f64]) -> Vec<u8> {
+        let dims: Vec<String> = shape.iter().map(|d| d.to_string()).collect();
+        let shape_txt = match dims.len() {
+            0 => "()".to_string(),
+            1 => format!("({},)", dims[0]),
+            _ => format!("({})", dims.join(", ")),
+        };
+        let mut header = format!("{{'descr': '<f8', 'fortran_order': False, 'shape': {shape_txt}, }}");
+        while (10 + header.len() + 1) % 64 != 0 {
+            header.push(' ');
+        }
+        header.push('\n');
+        let mut out = b"\x93NUMPY\x01\x00".to_vec();
+        out.extend_from_slice(&(header.len() as u16).to_le_bytes());
+        out.extend_from_slice(header.as_bytes());
+        for x in v {
+            out.extend_from_slice(&x.to_le_bytes());
+        }
+        out
+    }
+    let mut zip = zip::ZipWriter::new(std::fs::File::create(path)?);
+    let opts = zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Stored);
+    for (name, bytes) in [("poses.npy", npy(&[frames, 156], &poses)), ("trans.npy", npy(&[frames, 3], &trans)), ("mocap_framerate.npy", npy(&[], &[fps]))] {
+        zip.start_file(name, opts).map_err(std::io::Error::other)?;
+        std::io::Write::write_all(&mut zip, &bytes)?;
+    }
+    zip.finish().map_err(std::io::Error::other)?;
+    Ok(poses)
+}

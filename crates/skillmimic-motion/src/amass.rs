@@ -1,0 +1,236 @@
+//! SMPL-family parameter sequences in the AMASS `.npz` layout (issue 23), turned into a source
+//! skeleton motion that [`crate::retarget_bvh`] retargets like a BVH file.
+//!
+//! Read arrays (`numpy.savez` archive: a zip of `.npy` files, float32 or float64, C order):
+//! * `poses` (T, 3·J): per-joint axis-angle (radians) in SMPL-H joint order, J = 52 (SMPL-H) or
+//!   55 (SMPL-X: jaw and eyes are dropped, the hands follow at 25…54) or 24 (SMPL: no fingers;
+//!   joints 22 and 23 are the hands, dropped);
+//! * `trans` (T, 3): root translation (metres, Z-up world, as AMASS stores it);
+//! * `mocap_framerate` or `mocap_frame_rate` (scalar): frames per second.
+//!
+//! Skeleton: the SMPL-H kinematic tree with joint names `pelvis`, `left_hip`, …, `right_thumb3`.
+//! Rest joint positions default to the SkillMimic humanoid's own rest skeleton (its 52 joints
+//! correspond one to one with SMPL-H's; SMPL-H `spine3` sits where the humanoid's Chest is), so
+//! rotations transfer with an identity rest alignment. This is an approximation of a given body
+//! shape: the pelvis is placed at `trans` (SMPL puts it at `trans + J_pelvis(β)`, a constant
+//! offset of about 0.2 m that the ground alignment removes vertically).
+//!
+//! Frames: AMASS's `root_orient` (joint 0) and `trans` live in a Z-up world while the body's rest
+//! frame is Y-up, exactly like BallPlay-M's root. The sequence is therefore expressed in the
+//! Y-up frame (root rotation and translation turned by Rx(−90°)) and retargeted with `up = "y"`;
+//! the humanoid's root comes out as AMASS's.
+
+use std::io::Read;
+use std::path::Path;
+
+use skillmimic_core::math::{Quat, Vec3};
+use skillmimic_core::skeleton::{self, BODIES};
+
+use crate::bvh::{Bvh, BvhJoint, Channel};
+use crate::error::ClipError;
+
+/// Most frames a sequence may hold.
+pub const MAX_FRAMES: usize = 1_000_000;
+
+/// SMPL-H joints: (name, parent index, humanoid body whose rest skeleton supplies the position).
+pub const SMPLH_JOINTS: [(&str, Option<usize>, &str); 52] = [
+    ("pelvis", None, "Pelvis"),
+    ("left_hip", Some(0), "L_Hip"),
+    ("right_hip", Some(0), "R_Hip"),
+    ("spine1", Some(0), "Torso"),
+    ("left_knee", Some(1), "L_Knee"),
+    ("right_knee", Some(2), "R_Knee"),
+    ("spine2", Some(3), "Spine"),
+    ("left_ankle", Some(4), "L_Ankle"),
+    ("right_ankle", Some(5), "R_Ankle"),
+    ("spine3", Some(6), "Chest"),
+    ("left_foot", Some(7), "L_Toe"),
+    ("right_foot", Some(8), "R_Toe"),
+    ("neck", Some(9), "Neck"),
+    ("left_collar", Some(9), "L_Thorax"),
+    ("right_collar", Some(9), "R_Thorax"),
+    ("head", Some(12), "Head"),
+    ("left_shoulder", Some(13), "L_Shoulder"),
+    ("right_shoulder", Some(14), "R_Shoulder"),
+    ("left_elbow", Some(16), "L_Elbow"),
+    ("right_elbow", Some(17), "R_Elbow"),
+    ("left_wrist", Some(18), "L_Wrist"),
+    ("right_wrist", Some(19), "R_Wrist"),
+    ("left_index1", Some(20), "L_Index1"),
+    ("left_index2", Some(22), "L_Index2"),
+    ("left_index3", Some(23), "L_Index3"),
+    ("left_middle1", Some(20), "L_Middle1"),
+    ("left_middle2", Some(25), "L_Middle2"),
+    ("left_middle3", Some(26), "L_Middle3"),
+    ("left_pinky1", Some(20), "L_Pinky1"),
+    ("left_pinky2", Some(28), "L_Pinky2"),
+    ("left_pinky3", Some(29), "L_Pinky3"),
+    ("left_ring1", Some(20), "L_Ring1"),
+    ("left_ring2", Some(31), "L_Ring2"),
+    ("left_ring3", Some(32), "L_Ring3"),
+    ("left_thumb1", Some(20), "L_Thumb1"),
+    ("left_thumb2", Some(34), "L_Thumb2"),
+    ("left_thumb3", Some(35), "L_Thumb3"),
+    ("right_index1", Some(21), "R_Index1"),
+    ("right_index2", Some(37), "R_Index2"),
+    ("right_index3", Some(38), "R_Index3"),
+    ("right_middle1", Some(21), "R_Middle1"),
+    ("right_middle2", Some(40), "R_Middle2"),
+    ("right_middle3", Some(41), "R_Middle3"),
+    ("right_pinky1", Some(21), "R_Pinky1"),
+    ("right_pinky2", Some(43), "R_Pinky2"),
+    ("right_pinky3", Some(44), "R_Pinky3"),
+    ("right_ring1", Some(21), "R_Ring1"),
+    ("right_ring2", Some(46), "R_Ring2"),
+    ("right_ring3", Some(47), "R_Ring3"),
+    ("right_thumb1", Some(21), "R_Thumb1"),
+    ("right_thumb2", Some(49), "R_Thumb2"),
+    ("right_thumb3", Some(50), "R_Thumb3"),
+];
+
+fn fmt_err(path: &Path, detail: String) -> ClipError {
+    ClipError::Format { path: path.to_path_buf(), detail: format!("AMASS npz: {detail}") }
+}
+
+/// One `.npy` array: shape and values as f64.
+fn parse_npy(path: &Path, name: &str, bytes: &[u8]) -> Result<(Vec<usize>, Vec<f64>), ClipError> {
+    let e = |d: String| fmt_err(path, format!("array '{name}': {d}"));
+    if bytes.len() < 10 || &bytes[..6] != b"\x93NUMPY" {
+        return Err(e("not a .npy array (no \\x93NUMPY magic)".into()));
+    }
+    let (hlen, start) = match bytes[6] {
+        1 => (u16::from_le_bytes([bytes[8], bytes[9]]) as usize, 10),
+        2 | 3 if bytes.len() >= 12 => (u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]) as usize, 12),
+        v => return Err(e(format!("unsupported .npy version {v}"))),
+    };
+    let header = bytes.get(start..start + hlen).ok_or_else(|| e("header longer than the file".into()))?;
+    let header = std::str::from_utf8(header).map_err(|_| e("header is not text".into()))?;
+    let field = |key: &str| -> Option<&str> {
+        let i = header.find(&format!("'{key}'"))? + key.len() + 2;
+        Some(header[i..].trim_start().trim_start_matches(':').trim_start())
+    };
+    let descr = field("descr").and_then(|s| s.strip_prefix('\'')).and_then(|s| s.split('\'').next()).ok_or_else(|| e("no 'descr' in the header".into()))?;
+    let width = match descr {
+        "<f4" => 4,
+        "<f8" => 8,
+        other => return Err(e(format!("dtype '{other}', expected little-endian float32 '<f4' or float64 '<f8'"))),
+    };
+    if field("fortran_order").is_some_and(|s| s.starts_with("True")) {
+        return Err(e("Fortran order is not supported (save C-ordered arrays)".into()));
+    }
+    let shape_txt = field("shape").and_then(|s| s.strip_prefix('(')).and_then(|s| s.split(')').next()).ok_or_else(|| e("no 'shape' in the header".into()))?;
+    let shape: Vec<usize> = shape_txt.split(',').map(str::trim).filter(|s| !s.is_empty()).map(|s| s.parse::<usize>()).collect::<Result<_, _>>().map_err(|_| e(format!("shape ({shape_txt}) is not a tuple of whole numbers")))?;
+    let n = shape.iter().try_fold(1usize, |a, &d| a.checked_mul(d)).filter(|&n| n <= 3 * 165 * MAX_FRAMES).ok_or_else(|| e(format!("shape {shape:?} is too large")))?;
+    let data = &bytes[start + hlen..];
+    if data.len() != n * width {
+        return Err(e(format!("{} data bytes, expected {} for shape {shape:?} of {descr}", data.len(), n * width)));
+    }
+    let values: Vec<f64> = if width == 4 {
+        data.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]) as f64).collect()
+    } else {
+        data.chunks_exact(8).map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes"))).collect()
+    };
+    if let Some(i) = values.iter().position(|v| !v.is_finite()) {
+        return Err(e(format!("non-finite value {} at flat index {i}", values[i])));
+    }
+    Ok((shape, values))
+}
+
+/// Read an AMASS-layout `.npz` sequence as a source skeleton motion ([`Bvh`] with ZXY channels;
+/// see the module docs for frames and the rest skeleton).
+pub fn read(path: &Path) -> Result<Bvh, ClipError> {
+    let file = std::fs::File::open(path).map_err(|error| ClipError::Io { path: path.to_path_buf(), error })?;
+    let mut zip = zip::ZipArchive::new(file).map_err(|e| fmt_err(path, format!("not a zip archive ({e}); expected numpy.savez output")))?;
+    let mut get = |name: &str| -> Result<Option<(Vec<usize>, Vec<f64>)>, ClipError> {
+        let Ok(mut f) = zip.by_name(&format!("{name}.npy")) else { return Ok(None) };
+        if f.size() > 8 * 165 * MAX_FRAMES as u64 {
+            return Err(fmt_err(path, format!("array '{name}' of {} bytes is too large", f.size())));
+        }
+        let mut bytes = Vec::with_capacity(f.size() as usize);
+        f.read_to_end(&mut bytes).map_err(|e| fmt_err(path, format!("array '{name}': {e}")))?;
+        parse_npy(path, name, &bytes).map(Some)
+    };
+    let (pshape, poses) = get("poses")?.ok_or_else(|| fmt_err(path, "no 'poses' array (T, 156) of per-joint axis-angles".into()))?;
+    let (tshape, trans) = get("trans")?.ok_or_else(|| fmt_err(path, "no 'trans' array (T, 3) of root translations".into()))?;
+    let fps = match get("mocap_framerate")? {
+        Some(x) => x,
+        None => get("mocap_frame_rate")?.ok_or_else(|| fmt_err(path, "no 'mocap_framerate' (or 'mocap_frame_rate') scalar".into()))?,
+    };
+    let fps = *fps.1.first().ok_or_else(|| fmt_err(path, "empty frame rate".into()))?;
+    if !(fps > 0.0 && fps <= 1000.0) {
+        return Err(fmt_err(path, format!("frame rate {fps}, expected 0 < fps <= 1000")));
+    }
+    let (t, width) = match pshape[..] {
+        [t, w] => (t, w),
+        _ => return Err(fmt_err(path, format!("'poses' has shape {pshape:?}, expected (T, 72), (T, 156) or (T, 165)"))),
+    };
+    // source column of each SMPL-H joint (None: not in the file)
+    let hands_at = match width {
+        156 => Some(22),
+        165 => Some(25),
+        72 => None,
+        w => return Err(fmt_err(path, format!("'poses' has {w} columns, expected 72 (SMPL), 156 (SMPL-H) or 165 (SMPL-X)"))),
+    };
+    if tshape[..] != [t, 3] {
+        return Err(fmt_err(path, format!("'trans' has shape {tshape:?}, expected ({t}, 3) like 'poses'")));
+    }
+    if !(2..=MAX_FRAMES).contains(&t) {
+        return Err(fmt_err(path, format!("{t} frames, expected 2 to {MAX_FRAMES}")));
+    }
+    let col = |j: usize| -> Option<usize> {
+        match (j, hands_at) {
+            (0..=21, _) => Some(3 * j),
+            (22.., Some(h)) => Some(3 * (h + j - 22)),
+            (22.., None) => None,
+        }
+    };
+    // rest skeleton: the humanoid's rest positions of the corresponding bodies
+    let rest = |j: usize| -> Vec3 {
+        let b = skeleton::body_index(SMPLH_JOINTS[j].2).expect("humanoid body");
+        let mut p = [0.0; 3];
+        let mut k = Some(b);
+        while let Some(x) = k {
+            p = skillmimic_core::math::add(p, BODIES[x].offset);
+            k = BODIES[x].parent;
+        }
+        p
+    };
+    let mut joints = Vec::with_capacity(52);
+    for (j, (name, parent, _)) in SMPLH_JOINTS.iter().enumerate() {
+        let offset = match parent {
+            Some(p) => skillmimic_core::math::sub(rest(j), rest(*p)),
+            None => [0.0; 3],
+        };
+        let mut channels = vec![Channel::Zrotation, Channel::Xrotation, Channel::Yrotation];
+        if parent.is_none() {
+            channels.splice(0..0, [Channel::Xposition, Channel::Yposition, Channel::Zposition]);
+        }
+        let first_value = if j == 0 { 0 } else { 6 + 3 * (j - 1) };
+        joints.push(BvhJoint { name: name.to_string(), parent: *parent, offset, channels, first_value, end_site: None });
+    }
+    let width_out = 6 + 3 * 51;
+    let untilt = Quat::from_axis_angle([1.0, 0.0, 0.0], -std::f64::consts::FRAC_PI_2);
+    let mut values = Vec::with_capacity(t * width_out);
+    for f in 0..t {
+        let row = &poses[f * width..(f + 1) * width];
+        let aa = |j: usize| -> Quat { col(j).map_or(Quat::IDENTITY, |c| Quat::from_rotvec([row[c], row[c + 1], row[c + 2]])) };
+        let p = untilt.rotate([trans[3 * f], trans[3 * f + 1], trans[3 * f + 2]]);
+        values.extend_from_slice(&p);
+        values.extend_from_slice(&zxy_degrees(untilt.mul(aa(0))));
+        for j in 1..52 {
+            values.extend_from_slice(&zxy_degrees(aa(j)));
+        }
+    }
+    Ok(Bvh { path: path.to_path_buf(), joints, frame_time: 1.0 / fps, frames: t, width: width_out, values })
+}
+
+/// Euler angles (degrees) of R = Rz(a) · Rx(b) · Ry(c), the channel order of [`read`]'s joints.
+pub fn zxy_degrees(q: Quat) -> [f64; 3] {
+    let (w, x, y, z) = (q.w, q.x, q.y, q.z);
+    let m01 = 2.0 * (x * y - w * z);
+    let m11 = 1.0 - 2.0 * (x * x + z * z);
+    let m20 = 2.0 * (x * z - w * y);
+    let m21 = 2.0 * (y * z + w * x);
+    let m22 = 1.0 - 2.0 * (x * x + y * y);
+    [(-m01).atan2(m11).to_degrees(), m21.clamp(-1.0, 1.0).asin().to_degrees(), (-m20).atan2(m22).to_degrees()]
+}

@@ -1,0 +1,102 @@
+//! SMPL-H sequences in the AMASS `.npz` layout: a synthetic walking sequence (written in the
+//! `numpy.savez` layout) retargets with the identity rest alignment — every joint rotation and the
+//! root orientation come through unchanged — with its feet on the floor (≤ 2 cm) and no joint-speed
+//! spikes; broken archives are refused by name.
+
+use skillmimic_core::math::Quat;
+use skillmimic_core::skeleton;
+use skillmimic_motion::amass::{self, SMPLH_JOINTS};
+use skillmimic_motion::retarget_bvh::{self, JointMap, Options};
+use skillmimic_motion::testing::write_synthetic_amass;
+
+#[test]
+fn synthetic_smplh_walk_transfers_exactly_and_stands_on_the_floor() {
+    let dir = std::env::temp_dir().join(format!("sm-amass-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("walk.npz");
+    let (frames, fps) = (121, 60.0);
+    let poses = write_synthetic_amass(&path, frames, fps).unwrap();
+    let src = amass::read(&path).unwrap();
+    assert_eq!((src.frames, src.joints.len()), (frames, 52));
+    let map = JointMap::load("smplh").unwrap();
+    assert_eq!(map.bodies.len(), 52);
+    let m = retarget_bvh::retarget(&src, &map, &Options::default()).unwrap();
+    assert_eq!(m.frames, frames);
+    assert!((m.scale - 1.0).abs() < 1e-9, "metres and the humanoid's own rest skeleton: scale {}", m.scale);
+    let mut worst = 0.0f64;
+    for f in 0..frames {
+        let row = &poses[f * 156..(f + 1) * 156];
+        let q = |j: usize| Quat::from_rotvec([row[3 * j], row[3 * j + 1], row[3 * j + 2]]);
+        worst = worst.max(q(0).conj().mul(m.root_rot[f]).angle());
+        for (j, (_, _, body)) in SMPLH_JOINTS.iter().enumerate().skip(1) {
+            let b = skeleton::body_index(body).unwrap();
+            worst = worst.max(q(j).conj().mul(Quat::from_rotvec(m.dof_rot[f][b - 1])).angle());
+        }
+        let spine2 = skeleton::body_index("Spine2").unwrap();
+        assert!(Quat::from_rotvec(m.dof_rot[f][spine2 - 1]).angle() < 1e-9, "Spine2 keeps the rest pose");
+    }
+    println!("rotations through the AMASS path within {worst:.2e} rad");
+    assert!(worst < 1e-6);
+    let deepest = (0..frames).map(|k| retarget_bvh::lowest_sole(&m, k)).fold(f64::INFINITY, f64::min);
+    let (w, _, _) = retarget_bvh::max_joint_speed(&m);
+    println!("deepest sole {deepest:.4} m, fastest joint {w:.2} rad/s, ground shift {:.3} m", m.ground_shift);
+    assert!(deepest > -0.02 && w < 20.0);
+    // the root travels as `trans` does: 1 m/s while turning at 0.3 rad/s, a 1.97 m chord in 2 s
+    let p0 = retarget_bvh::body_positions(&m, 0)[0];
+    let p1 = retarget_bvh::body_positions(&m, frames - 1)[0];
+    let d = ((p1[0] - p0[0]).powi(2) + (p1[1] - p0[1]).powi(2)).sqrt();
+    assert!((1.9..2.01).contains(&d), "walked {d} m in 2 s");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn broken_archives_are_refused_by_name() {
+    let dir = std::env::temp_dir().join(format!("sm-amass-bad-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = dir.join("x.npz");
+    std::fs::write(&p, b"not a zip").unwrap();
+    let e = amass::read(&p).unwrap_err().to_string();
+    assert!(e.contains("x.npz") && e.contains("zip"), "{e}");
+    // a valid archive, then with one array corrupted or missing
+    write_synthetic_amass(&p, 4, 30.0).unwrap();
+    assert!(amass::read(&p).is_ok());
+    let rewrite = |drop: &str, replace: Option<(&str, Vec<u8>)>| {
+        let mut zin = zip::ZipArchive::new(std::fs::File::open(&p).unwrap()).unwrap();
+        let q = dir.join("y.npz");
+        let mut zout = zip::ZipWriter::new(std::fs::File::create(&q).unwrap());
+        for i in 0..zin.len() {
+            let mut f = zin.by_index(i).unwrap();
+            let name = f.name().unwrap().to_string();
+            if name == drop {
+                continue;
+            }
+            let mut bytes = Vec::new();
+            std::io::Read::read_to_end(&mut f, &mut bytes).unwrap();
+            if let Some((n, b)) = &replace {
+                if *n == name {
+                    bytes = b.clone();
+                }
+            }
+            zout.start_file(name, zip::write::SimpleFileOptions::default()).unwrap();
+            std::io::Write::write_all(&mut zout, &bytes).unwrap();
+        }
+        zout.finish().unwrap();
+        amass::read(&q).unwrap_err().to_string()
+    };
+    assert!(rewrite("poses.npy", None).contains("no 'poses'"));
+    assert!(rewrite("mocap_framerate.npy", None).contains("mocap_framerate"));
+    let int_npy = {
+        let mut b = b"\x93NUMPY\x01\x00".to_vec();
+        let h = "{'descr': '<i8', 'fortran_order': False, 'shape': (4, 3), }\n";
+        b.extend_from_slice(&(h.len() as u16).to_le_bytes());
+        b.extend_from_slice(h.as_bytes());
+        b.extend_from_slice(&[0u8; 96]);
+        b
+    };
+    let e = rewrite("", Some(("trans.npy", int_npy)));
+    assert!(e.contains("'trans'") && e.contains("<i8"), "{e}");
+    let short = b"\x93NUMPY\x01\x00\x40\x00{'descr': '<f8', 'fortran_order': False, 'shape': (4, 3), }          \n".to_vec();
+    let e = rewrite("", Some(("trans.npy", short)));
+    assert!(e.contains("data bytes"), "{e}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
