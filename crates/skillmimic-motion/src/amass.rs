@@ -29,6 +29,9 @@ use skillmimic_core::skeleton::{self, BODIES};
 use crate::bvh::{Bvh, BvhJoint, Channel};
 use crate::error::ClipError;
 
+/// One `.npy` array: its shape and values.
+type Array = (Vec<usize>, Vec<f64>);
+
 /// Most frames a sequence may hold.
 pub const MAX_FRAMES: usize = 1_000_000;
 
@@ -93,7 +96,7 @@ fn fmt_err(path: &Path, detail: String) -> ClipError {
 }
 
 /// One `.npy` array: shape and values as f64.
-fn parse_npy(path: &Path, name: &str, bytes: &[u8]) -> Result<(Vec<usize>, Vec<f64>), ClipError> {
+fn parse_npy(path: &Path, name: &str, bytes: &[u8]) -> Result<Array, ClipError> {
     let e = |d: String| fmt_err(path, format!("array '{name}': {d}"));
     if bytes.len() < 10 || &bytes[..6] != b"\x93NUMPY" {
         return Err(e("not a .npy array (no \\x93NUMPY magic)".into()));
@@ -141,7 +144,7 @@ fn parse_npy(path: &Path, name: &str, bytes: &[u8]) -> Result<(Vec<usize>, Vec<f
 pub fn read(path: &Path) -> Result<Bvh, ClipError> {
     let file = std::fs::File::open(path).map_err(|error| ClipError::Io { path: path.to_path_buf(), error })?;
     let mut zip = zip::ZipArchive::new(file).map_err(|e| fmt_err(path, format!("not a zip archive ({e}); expected numpy.savez output")))?;
-    let mut get = |name: &str| -> Result<Option<(Vec<usize>, Vec<f64>)>, ClipError> {
+    let mut get = |name: &str| -> Result<Option<Array>, ClipError> {
         let Ok(mut f) = zip.by_name(&format!("{name}.npy")) else { return Ok(None) };
         if f.size() > 8 * 165 * MAX_FRAMES as u64 {
             return Err(fmt_err(path, format!("array '{name}' of {} bytes is too large", f.size())));

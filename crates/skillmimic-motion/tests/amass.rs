@@ -72,10 +72,8 @@ fn broken_archives_are_refused_by_name() {
             }
             let mut bytes = Vec::new();
             std::io::Read::read_to_end(&mut f, &mut bytes).unwrap();
-            if let Some((n, b)) = &replace {
-                if *n == name {
-                    bytes = b.clone();
-                }
+            if let Some((_, b)) = replace.as_ref().filter(|(n, _)| *n == name) {
+                bytes = b.clone();
             }
             zout.start_file(name, zip::write::SimpleFileOptions::default()).unwrap();
             std::io::Write::write_all(&mut zout, &bytes).unwrap();
