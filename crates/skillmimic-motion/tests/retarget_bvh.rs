@@ -1,5 +1,6 @@
 //! Retargeting BVH onto the humanoid, first checks: a clip written as a BVH of the humanoid's own
-//! hierarchy (centimetres, ZXY Euler channels; written here, independently of the reader) comes
+//! hierarchy (centimetres, ZXY Euler channels from `amass::zxy_degrees`; the reader composes them
+//! with its own code) comes
 //! back with the same body positions and joint rotations; a real mocap file (MocapBank, from the
 //! crates.io package bvh_anim 0.4.0) retargets with its feet on the floor and no joint-speed spikes.
 
@@ -10,19 +11,9 @@ use skillmimic_core::math::Quat;
 use skillmimic_core::shared_data::workspace_root;
 use skillmimic_core::skeleton::{self, BODIES, NUM_BODIES};
 use skillmimic_motion::Clip;
+use skillmimic_motion::amass::zxy_degrees;
 use skillmimic_motion::bvh;
 use skillmimic_motion::retarget_bvh::{self, JointMap, Options};
-
-/// Euler angles (degrees) of R = Rz(a)·Rx(b)·Ry(c) for a quaternion.
-fn zxy(q: Quat) -> [f64; 3] {
-    let (w, x, y, z) = (q.w, q.x, q.y, q.z);
-    let m01 = 2.0 * (x * y - w * z);
-    let m11 = 1.0 - 2.0 * (x * x + z * z);
-    let m20 = 2.0 * (x * z - w * y);
-    let m21 = 2.0 * (y * z + w * x);
-    let m22 = 1.0 - 2.0 * (x * x + y * y);
-    [(-m01).atan2(m11).to_degrees(), m21.clamp(-1.0, 1.0).asin().to_degrees(), (-m20).atan2(m22).to_degrees()]
-}
 
 /// The clip as a BVH of the humanoid's hierarchy, Y-up, centimetres.
 fn clip_to_bvh(c: &Clip) -> String {
@@ -50,12 +41,12 @@ fn clip_to_bvh(c: &Clip) -> String {
         let rp: Vec<f64> = (0..3).map(|k| c.root_pos[t * 3 + k] as f64).collect();
         let p = tilt_inv.rotate([rp[0], rp[1], rp[2]]);
         let rq = Quat::from_wxyz(std::array::from_fn(|k| c.root_rot[t * 4 + k] as f64));
-        let e = zxy(tilt_inv.mul(rq));
+        let e = zxy_degrees(tilt_inv.mul(rq));
         let mut row = format!("{:.9} {:.9} {:.9} {:.9} {:.9} {:.9}", p[0] * 100.0, p[1] * 100.0, p[2] * 100.0, e[0], e[1], e[2]);
         for b in 1..NUM_BODIES {
             let d = skeleton::dof_range(b);
             let v = &c.dof_rot[t * 156 + d.start..t * 156 + d.end];
-            let e = zxy(Quat::from_rotvec([v[0] as f64, v[1] as f64, v[2] as f64]));
+            let e = zxy_degrees(Quat::from_rotvec([v[0] as f64, v[1] as f64, v[2] as f64]));
             write!(row, " {:.9} {:.9} {:.9}", e[0], e[1], e[2]).unwrap();
         }
         s.push_str(&row);
