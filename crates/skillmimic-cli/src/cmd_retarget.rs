@@ -38,6 +38,11 @@ pub struct Args {
     /// `mocap_framerate`) to retarget onto the SkillMimic humanoid (map `smplh` by default).
     #[arg(long, conflicts_with = "motion")]
     pub amass: Option<PathBuf>,
+    /// With `--amass`: an SMPL / SMPL-H body model `.npz` (`v_template`, `J_regressor`,
+    /// `shapedirs`; never shipped) giving the rest joints for the sequence's `betas`; default: the
+    /// humanoid's own rest skeleton.
+    #[arg(long, requires = "amass")]
+    pub body_model: Option<PathBuf>,
     /// Joint map: a shipped map (`humanoid`, `mocapbank`, `cmu`, `smplh`) or a TOML file
     /// (default `cmu` for `--bvh`, `smplh` for `--amass`).
     #[arg(long)]
@@ -127,7 +132,7 @@ fn run_bvh(a: &Args, path: &std::path::Path, amass: bool) -> anyhow::Result<()> 
     use skillmimic_motion::retarget_clip::{Ball, to_clip};
     let flag = if amass { "--amass" } else { "--bvh" };
     let Some(skill) = a.skill else { bail!("{flag} needs --skill N (the clip's skill label, 0 … 63)") };
-    let b = if amass { skillmimic_motion::amass::read(path)? } else { skillmimic_motion::bvh::read(path)? };
+    let b = if amass { skillmimic_motion::amass::read_with_model(path, a.body_model.as_deref())? } else { skillmimic_motion::bvh::read(path)? };
     let map = JointMap::load(a.map.as_deref().unwrap_or(if amass { "smplh" } else { "cmu" }))?;
     let m = retarget(&b, &map, &Options { fps: 60.0, ground: !a.no_ground })?;
     let ball = match (&a.ball_csv, &a.ball_joint) {

@@ -38,7 +38,7 @@ fn synthetic_amass_sequence_retargets_and_trains() {
     let out = std::env::temp_dir().join(format!("sm-retarget-amass-{}", std::process::id()));
     std::fs::create_dir_all(&out).unwrap();
     let npz = out.join("walk.npz");
-    skillmimic_motion::testing::write_synthetic_amass(&npz, 240, 120.0).unwrap();
+    skillmimic_motion::testing::write_synthetic_amass(&npz, 240, 120.0, &[]).unwrap();
     let r = bin().args(["retarget", "--skill", "10", "--name", "010_walk", "--amass"]).arg(&npz).arg("--out").arg(&out).output().unwrap();
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
     let rep: Value = serde_json::from_str(&std::fs::read_to_string(out.join("010_walk.retarget.json")).unwrap()).unwrap();

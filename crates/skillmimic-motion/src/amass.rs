@@ -13,7 +13,8 @@
 //! correspond one to one with SMPL-H's; SMPL-H `spine3` sits where the humanoid's Chest is), so
 //! rotations transfer with an identity rest alignment. This is an approximation of a given body
 //! shape: the pelvis is placed at `trans` (SMPL puts it at `trans + J_pelvis(β)`, a constant
-//! offset of about 0.2 m that the ground alignment removes vertically).
+//! offset of about 0.2 m that the ground alignment removes vertically). A user's body model file
+//! ([`read_with_model`], [`model_joints`]) gives the exact rest joints and pelvis for the `betas`.
 //!
 //! Frames: AMASS's `root_orient` (joint 0) and `trans` live in a Z-up world while the body's rest
 //! frame is Y-up, exactly like BallPlay-M's root. The sequence is therefore expressed in the
@@ -139,26 +140,97 @@ fn parse_npy(path: &Path, name: &str, bytes: &[u8]) -> Result<Array, ClipError> 
     Ok((shape, values))
 }
 
-/// Read an AMASS-layout `.npz` sequence as a source skeleton motion ([`Bvh`] with ZXY channels;
-/// see the module docs for frames and the rest skeleton).
-pub fn read(path: &Path) -> Result<Bvh, ClipError> {
+/// Largest single array read from an archive (bytes): a 1 M-frame SMPL-X `poses` in float64.
+const MAX_ARRAY_BYTES: u64 = 8 * 165 * MAX_FRAMES as u64;
+
+/// The named arrays of a `numpy.savez` archive that exist in it (others are never read).
+fn read_arrays(path: &Path, names: &[&str]) -> Result<Vec<Option<Array>>, ClipError> {
     let file = std::fs::File::open(path).map_err(|error| ClipError::Io { path: path.to_path_buf(), error })?;
     let mut zip = zip::ZipArchive::new(file).map_err(|e| fmt_err(path, format!("not a zip archive ({e}); expected numpy.savez output")))?;
-    let mut get = |name: &str| -> Result<Option<Array>, ClipError> {
-        let Ok(mut f) = zip.by_name(&format!("{name}.npy")) else { return Ok(None) };
-        if f.size() > 8 * 165 * MAX_FRAMES as u64 {
-            return Err(fmt_err(path, format!("array '{name}' of {} bytes is too large", f.size())));
+    names
+        .iter()
+        .map(|name| {
+            let Ok(mut f) = zip.by_name(&format!("{name}.npy")) else { return Ok(None) };
+            if f.size() > MAX_ARRAY_BYTES {
+                return Err(fmt_err(path, format!("array '{name}' of {} bytes is too large", f.size())));
+            }
+            let mut bytes = Vec::with_capacity(f.size() as usize);
+            f.read_to_end(&mut bytes).map_err(|e| fmt_err(path, format!("array '{name}': {e}")))?;
+            parse_npy(path, name, &bytes).map(Some)
+        })
+        .collect()
+}
+
+/// Rest joint positions (model frame, Y-up, metres) of the SMPL-H joints from a body model file
+/// (`v_template` (V, 3), `J_regressor` (J, V) with J = 52 (SMPL-H) or 24 (SMPL: the hands then
+/// come from the humanoid's rest skeleton, attached at the wrists), optional `shapedirs`
+/// (V, 3, B)) for the shape `betas`: J = J_regressor · (v_template + shapedirs · β). The project
+/// never ships such a file (SMPL's licence); users point `--body-model` at theirs.
+pub fn model_joints(model: &Path, betas: &[f64]) -> Result<Vec<Vec3>, ClipError> {
+    let e = |d: String| fmt_err(model, format!("body model: {d}"));
+    let mut a = read_arrays(model, &["v_template", "J_regressor", "shapedirs"])?.into_iter();
+    let (vs, v) = a.next().flatten().ok_or_else(|| e("no 'v_template' array (V, 3)".into()))?;
+    let (rs, r) = a.next().flatten().ok_or_else(|| e("no dense 'J_regressor' array (J, V)".into()))?;
+    let shape = a.next().flatten();
+    let nv = match vs[..] {
+        [n, 3] => n,
+        _ => return Err(e(format!("'v_template' has shape {vs:?}, expected (V, 3)"))),
+    };
+    let nj = match rs[..] {
+        [j, n] if n == nv && (j == 52 || j == 24) => j,
+        _ => return Err(e(format!("'J_regressor' has shape {rs:?}, expected (52, {nv}) for SMPL-H or (24, {nv}) for SMPL"))),
+    };
+    let mut verts = v;
+    if let Some((ss, sd)) = shape {
+        let nb = match ss[..] {
+            [n, 3, b] if n == nv => b,
+            _ => return Err(e(format!("'shapedirs' has shape {ss:?}, expected ({nv}, 3, B)"))),
+        };
+        for (k, &beta) in betas.iter().take(nb).enumerate() {
+            for (i, x) in verts.iter_mut().enumerate() {
+                *x += sd[i * nb + k] * beta;
+            }
         }
-        let mut bytes = Vec::with_capacity(f.size() as usize);
-        f.read_to_end(&mut bytes).map_err(|e| fmt_err(path, format!("array '{name}': {e}")))?;
-        parse_npy(path, name, &bytes).map(Some)
-    };
-    let (pshape, poses) = get("poses")?.ok_or_else(|| fmt_err(path, "no 'poses' array (T, 156) of per-joint axis-angles".into()))?;
-    let (tshape, trans) = get("trans")?.ok_or_else(|| fmt_err(path, "no 'trans' array (T, 3) of root translations".into()))?;
-    let fps = match get("mocap_framerate")? {
-        Some(x) => x,
-        None => get("mocap_frame_rate")?.ok_or_else(|| fmt_err(path, "no 'mocap_framerate' (or 'mocap_frame_rate') scalar".into()))?,
-    };
+    }
+    let mut joints: Vec<Vec3> = (0..nj).map(|j| std::array::from_fn(|c| (0..nv).map(|i| r[j * nv + i] * verts[3 * i + c]).sum())).collect();
+    if nj == 24 {
+        // SMPL: fingers from the humanoid's rest skeleton, relative to each wrist
+        for (j, (name, _, _)) in SMPLH_JOINTS.iter().enumerate().skip(22) {
+            let wrist = if name.starts_with("left") { 20 } else { 21 };
+            let off = skillmimic_core::math::sub(humanoid_rest(j), humanoid_rest(wrist));
+            joints.push(skillmimic_core::math::add(joints[wrist], off));
+        }
+    }
+    Ok(joints)
+}
+
+/// Rest position of SMPL-H joint `j` on the humanoid's own rest skeleton (Y-up, metres).
+fn humanoid_rest(j: usize) -> Vec3 {
+    let b = skeleton::body_index(SMPLH_JOINTS[j].2).expect("humanoid body");
+    let mut p = [0.0; 3];
+    let mut k = Some(b);
+    while let Some(x) = k {
+        p = skillmimic_core::math::add(p, BODIES[x].offset);
+        k = BODIES[x].parent;
+    }
+    p
+}
+
+/// Read an AMASS-layout `.npz` sequence as a source skeleton motion ([`Bvh`] with ZXY channels;
+/// see the module docs for frames and the rest skeleton) on the humanoid's rest skeleton.
+pub fn read(path: &Path) -> Result<Bvh, ClipError> {
+    read_with_model(path, None)
+}
+
+/// [`read`], with the rest joints of a body model file for the sequence's `betas` when `model` is
+/// given ([`model_joints`]); the pelvis is then placed at `trans + J_pelvis`, as SMPL does.
+pub fn read_with_model(path: &Path, model: Option<&Path>) -> Result<Bvh, ClipError> {
+    let [poses, trans, fps_a, fps_b, betas]: [Option<Array>; 5] =
+        read_arrays(path, &["poses", "trans", "mocap_framerate", "mocap_frame_rate", "betas"])?.try_into().expect("five names");
+    let (pshape, poses) = poses.ok_or_else(|| fmt_err(path, "no 'poses' array (T, 156) of per-joint axis-angles".into()))?;
+    let (tshape, trans) = trans.ok_or_else(|| fmt_err(path, "no 'trans' array (T, 3) of root translations".into()))?;
+    let betas = betas.map(|b| b.1).unwrap_or_default();
+    let fps = fps_a.or(fps_b).ok_or_else(|| fmt_err(path, "no 'mocap_framerate' (or 'mocap_frame_rate') scalar".into()))?;
     let fps = *fps.1.first().ok_or_else(|| fmt_err(path, "empty frame rate".into()))?;
     if !(fps > 0.0 && fps <= 1000.0) {
         return Err(fmt_err(path, format!("frame rate {fps}, expected 0 < fps <= 1000")));
@@ -187,17 +259,16 @@ pub fn read(path: &Path) -> Result<Bvh, ClipError> {
             (22.., None) => None,
         }
     };
-    // rest skeleton: the humanoid's rest positions of the corresponding bodies
-    let rest = |j: usize| -> Vec3 {
-        let b = skeleton::body_index(SMPLH_JOINTS[j].2).expect("humanoid body");
-        let mut p = [0.0; 3];
-        let mut k = Some(b);
-        while let Some(x) = k {
-            p = skillmimic_core::math::add(p, BODIES[x].offset);
-            k = BODIES[x].parent;
+    // rest skeleton: a body model's joints for these betas, or the humanoid's own
+    let (rest_j, pelvis): (Vec<Vec3>, Vec3) = match model {
+        Some(m) => {
+            let j = model_joints(m, &betas)?;
+            let p = j[0];
+            (j, p)
         }
-        p
+        None => ((0..52).map(humanoid_rest).collect(), [0.0; 3]),
     };
+    let rest = |j: usize| rest_j[j];
     let mut joints = Vec::with_capacity(52);
     for (j, (name, parent, _)) in SMPLH_JOINTS.iter().enumerate() {
         let offset = match parent {
@@ -217,7 +288,7 @@ pub fn read(path: &Path) -> Result<Bvh, ClipError> {
     for f in 0..t {
         let row = &poses[f * width..(f + 1) * width];
         let aa = |j: usize| -> Quat { col(j).map_or(Quat::IDENTITY, |c| Quat::from_rotvec([row[c], row[c + 1], row[c + 2]])) };
-        let p = untilt.rotate([trans[3 * f], trans[3 * f + 1], trans[3 * f + 2]]);
+        let p = untilt.rotate([trans[3 * f] + pelvis[0], trans[3 * f + 1] + pelvis[1], trans[3 * f + 2] + pelvis[2]]);
         values.extend_from_slice(&p);
         values.extend_from_slice(&zxy_degrees(untilt.mul(aa(0))));
         for j in 1..52 {

@@ -27,8 +27,8 @@ pub fn synthetic_rows(t: usize) -> Vec<f32> {
 /// (T, 3), `mocap_framerate`, all float64; `numpy.savez` layout): upright (root Rx(90°) in the Z-up
 /// world) turning slowly about z, walking along the world's facing at 1 m/s at pelvis height
 /// 0.95 m, hips and knees swinging (±0.5 rad, 0–0.9 rad at 1 Hz), arms counter-swinging, fingers
-/// curled a little. Returns `poses` for checks.
-pub fn write_synthetic_amass(path: &std::path::Path, frames: usize, fps: f64) -> std::io::Result<Vec<f64>> {
+/// curled a little; `betas` stored as given. Returns `poses` for checks.
+pub fn write_synthetic_amass(path: &std::path::Path, frames: usize, fps: f64, betas: &[f64]) -> std::io::Result<Vec<f64>> {
     use skillmimic_core::math::Quat;
     let mut poses = vec![0.0f64; frames * 156];
     let mut trans = vec![0.0f64; frames * 3];
@@ -56,6 +56,12 @@ pub fn write_synthetic_amass(path: &std::path::Path, frames: usize, fps: f64) ->
         let p = [fwd[0] * t, fwd[1] * t, 0.95];
         trans[3 * f..3 * f + 3].copy_from_slice(&p);
     }
+    write_npz(path, &[("poses", &[frames, 156], &poses), ("trans", &[frames, 3], &trans), ("mocap_framerate", &[], &[fps]), ("betas", &[betas.len()], betas)])?;
+    Ok(poses)
+}
+
+/// Write float64 arrays as a `numpy.savez` archive (`name.npy` entries, C order, stored).
+pub fn write_npz(path: &std::path::Path, arrays: &[(&str, &[usize], &[f64])]) -> std::io::Result<()> {
     fn npy(shape: &[usize], v: &[f64]) -> Vec<u8> {
         let dims: Vec<String> = shape.iter().map(|d| d.to_string()).collect();
         let shape_txt = match dims.len() {
@@ -78,10 +84,10 @@ pub fn write_synthetic_amass(path: &std::path::Path, frames: usize, fps: f64) ->
     }
     let mut zip = zip::ZipWriter::new(std::fs::File::create(path)?);
     let opts = zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Stored);
-    for (name, bytes) in [("poses.npy", npy(&[frames, 156], &poses)), ("trans.npy", npy(&[frames, 3], &trans)), ("mocap_framerate.npy", npy(&[], &[fps]))] {
-        zip.start_file(name, opts).map_err(std::io::Error::other)?;
-        std::io::Write::write_all(&mut zip, &bytes)?;
+    for (name, shape, v) in arrays {
+        zip.start_file(format!("{name}.npy"), opts).map_err(std::io::Error::other)?;
+        std::io::Write::write_all(&mut zip, &npy(shape, v))?;
     }
     zip.finish().map_err(std::io::Error::other)?;
-    Ok(poses)
+    Ok(())
 }

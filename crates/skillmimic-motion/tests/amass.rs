@@ -15,7 +15,7 @@ fn synthetic_smplh_walk_transfers_exactly_and_stands_on_the_floor() {
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("walk.npz");
     let (frames, fps) = (121, 60.0);
-    let poses = write_synthetic_amass(&path, frames, fps).unwrap();
+    let poses = write_synthetic_amass(&path, frames, fps, &[]).unwrap();
     let src = amass::read(&path).unwrap();
     assert_eq!((src.frames, src.joints.len()), (frames, 52));
     let map = JointMap::load("smplh").unwrap();
@@ -58,7 +58,7 @@ fn broken_archives_are_refused_by_name() {
     let e = amass::read(&p).unwrap_err().to_string();
     assert!(e.contains("x.npz") && e.contains("zip"), "{e}");
     // a valid archive, then with one array corrupted or missing
-    write_synthetic_amass(&p, 4, 30.0).unwrap();
+    write_synthetic_amass(&p, 4, 30.0, &[]).unwrap();
     assert!(amass::read(&p).is_ok());
     let rewrite = |drop: &str, replace: Option<(&str, Vec<u8>)>| {
         let mut zin = zip::ZipArchive::new(std::fs::File::open(&p).unwrap()).unwrap();
@@ -96,5 +96,56 @@ fn broken_archives_are_refused_by_name() {
     let short = b"\x93NUMPY\x01\x00\x40\x00{'descr': '<f8', 'fortran_order': False, 'shape': (4, 3), }          \n".to_vec();
     let e = rewrite("", Some(("trans.npy", short)));
     assert!(e.contains("data bytes"), "{e}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A body model file (here a synthetic one: 52 vertices at the joints, an identity regressor and
+/// one shape direction that scales the body by 10 % per unit β, with a pelvis 0.22 m below the
+/// model origin as in SMPL) gives the rest skeleton for the sequence's β: rotations still transfer
+/// exactly, the height ratio becomes 1 / 1.1, and the pelvis sits at `trans + J_pelvis(β)`.
+#[test]
+fn body_model_file_sets_the_skeleton_and_the_pelvis() {
+    use skillmimic_motion::testing::write_npz;
+    let dir = std::env::temp_dir().join(format!("sm-amass-model-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let (seq, model) = (dir.join("walk.npz"), dir.join("model.npz"));
+    let poses = write_synthetic_amass(&seq, 61, 60.0, &[1.0]).unwrap();
+    // the synthetic model: vertex j = the humanoid's rest joint j, moved by the SMPL-like pelvis offset
+    let src = amass::read(&seq).unwrap();
+    let mut rest = vec![[0.0f64; 3]; 52];
+    for j in 0..52 {
+        rest[j] = match src.joints[j].parent {
+            Some(p) => std::array::from_fn(|c| rest[p][c] + src.joints[j].offset[c]),
+            None => [0.0; 3],
+        };
+    }
+    let j0 = [0.003, -0.22, 0.03];
+    let v: Vec<f64> = rest.iter().flat_map(|r| [r[0] + j0[0], r[1] + j0[1], r[2] + j0[2]]).collect();
+    let reg: Vec<f64> = (0..52 * 52).map(|k| if k / 52 == k % 52 { 1.0 } else { 0.0 }).collect();
+    let dirs: Vec<f64> = v.iter().map(|x| 0.1 * x).collect(); // (52, 3, 1): +10 % size per unit β
+    write_npz(&model, &[("v_template", &[52, 3], &v), ("J_regressor", &[52, 52], &reg), ("shapedirs", &[52, 3, 1], &dirs)]).unwrap();
+    let joints = amass::model_joints(&model, &[1.0]).unwrap();
+    assert!((joints[0][1] - 1.1 * j0[1]).abs() < 1e-12);
+    let b = amass::read_with_model(&seq, Some(&model)).unwrap();
+    let m = retarget_bvh::retarget(&b, &JointMap::load("smplh").unwrap(), &Options { fps: 60.0, ground: false }).unwrap();
+    assert!((m.scale - 1.0 / 1.1).abs() < 1e-9, "height ratio {}", m.scale);
+    let mut worst = 0.0f64;
+    for f in 0..61 {
+        let row = &poses[f * 156..(f + 1) * 156];
+        for (j, (_, _, body)) in SMPLH_JOINTS.iter().enumerate().skip(1) {
+            let q = Quat::from_rotvec([row[3 * j], row[3 * j + 1], row[3 * j + 2]]);
+            worst = worst.max(q.conj().mul(Quat::from_rotvec(m.dof_rot[f][skeleton::body_index(body).unwrap() - 1])).angle());
+        }
+    }
+    assert!(worst < 1e-6, "{worst}");
+    // frame 0: trans = (0, 0, 0.95); the pelvis at s · (trans + J_pelvis(β)), J_pelvis added in the world
+    let want = [1.1 * j0[0] / 1.1, 1.1 * j0[1] / 1.1, (0.95 + 1.1 * j0[2]) / 1.1];
+    for c in 0..3 {
+        assert!((m.root_pos[0][c] - want[c]).abs() < 1e-9, "root {:?} vs {want:?}", m.root_pos[0]);
+    }
+    // a model without J_regressor is refused by name
+    write_npz(&model, &[("v_template", &[52, 3], &v)]).unwrap();
+    let e = amass::read_with_model(&seq, Some(&model)).unwrap_err().to_string();
+    assert!(e.contains("model.npz") && e.contains("J_regressor"), "{e}");
     let _ = std::fs::remove_dir_all(&dir);
 }
