@@ -77,7 +77,7 @@ pub fn run(a: TrainArgs) -> anyhow::Result<()> {
         cfg.ppo.mini_epochs,
         cfg.ppo.backend,
         cfg.ppo.precision,
-        if cfg.ppo.precision == skillmimic_learn::config::Precision::Bf16 && !skillmimic_nn::bf16::available() { " (no AVX512-BF16 here: runs in f32)" } else { "" },
+        format!(" (runs in {})", trainer.update_precision()),
         cfg.env.hands
     );
     for _ in 0..a.warmup {

@@ -25,7 +25,7 @@ use std::io::Read;
 use std::path::Path;
 
 use skillmimic_core::math::{Quat, Vec3};
-use skillmimic_core::skeleton::{self, BODIES};
+use skillmimic_core::skeleton;
 
 use crate::bvh::{Bvh, BvhJoint, Channel};
 use crate::error::ClipError;
@@ -195,25 +195,21 @@ pub fn model_joints(model: &Path, betas: &[f64]) -> Result<Vec<Vec3>, ClipError>
     let mut joints: Vec<Vec3> = (0..nj).map(|j| std::array::from_fn(|c| (0..nv).map(|i| r[j * nv + i] * verts[3 * i + c]).sum())).collect();
     if nj == 24 {
         // SMPL: fingers from the humanoid's rest skeleton, relative to each wrist
+        let humanoid = humanoid_rest();
         for (j, (name, _, _)) in SMPLH_JOINTS.iter().enumerate().skip(22) {
             let wrist = if name.starts_with("left") { 20 } else { 21 };
-            let off = skillmimic_core::math::sub(humanoid_rest(j), humanoid_rest(wrist));
+            let off = skillmimic_core::math::sub(humanoid[j], humanoid[wrist]);
             joints.push(skillmimic_core::math::add(joints[wrist], off));
         }
     }
     Ok(joints)
 }
 
-/// Rest position of SMPL-H joint `j` on the humanoid's own rest skeleton (Y-up, metres).
-fn humanoid_rest(j: usize) -> Vec3 {
-    let b = skeleton::body_index(SMPLH_JOINTS[j].2).expect("humanoid body");
-    let mut p = [0.0; 3];
-    let mut k = Some(b);
-    while let Some(x) = k {
-        p = skillmimic_core::math::add(p, BODIES[x].offset);
-        k = BODIES[x].parent;
-    }
-    p
+/// Rest positions of the SMPL-H joints on the humanoid's own rest skeleton (Y-up, metres): the
+/// skeleton's forward kinematics with the root at the origin and every joint at zero.
+fn humanoid_rest() -> Vec<Vec3> {
+    let rest = skeleton::forward_kinematics([0.0; 3], Quat::IDENTITY, &[0.0; skeleton::NUM_DOFS]);
+    SMPLH_JOINTS.iter().map(|j| rest[skeleton::body_index(j.2).expect("humanoid body")]).collect()
 }
 
 /// Read an AMASS-layout `.npz` sequence as a source skeleton motion ([`Bvh`] with ZXY channels;
@@ -266,7 +262,7 @@ pub fn read_with_model(path: &Path, model: Option<&Path>) -> Result<Bvh, ClipErr
             let p = j[0];
             (j, p)
         }
-        None => ((0..52).map(humanoid_rest).collect(), [0.0; 3]),
+        None => (humanoid_rest(), [0.0; 3]),
     };
     let rest = |j: usize| rest_j[j];
     let mut joints = Vec::with_capacity(52);

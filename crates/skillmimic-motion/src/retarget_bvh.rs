@@ -303,24 +303,48 @@ pub fn body_positions(m: &Motion, k: usize) -> [Vec3; NUM_BODIES] {
     skeleton::forward_kinematics(m.root_pos[k], m.root_rot[k], &dof_row(m, k))
 }
 
-/// Lowest sole point (m) of frame `k`: ankle frames − 0.1164 m, toe frames − 0.02 m.
-pub fn lowest_sole(m: &Motion, k: usize) -> f64 {
-    let p = body_positions(m, k);
-    let (la, ra, lt, rt) = (skeleton::body_index("L_Ankle").unwrap(), skeleton::body_index("R_Ankle").unwrap(), skeleton::body_index("L_Toe").unwrap(), skeleton::body_index("R_Toe").unwrap());
-    (p[la][2] - 0.1164).min(p[ra][2] - 0.1164).min(p[lt][2] - 0.02).min(p[rt][2] - 0.02)
+/// Feet of the sole rule: (body, height of its sole below the body frame in the rest pose, m):
+/// the ankle and toe boxes' bottoms.
+const SOLES: [(&str, f64); 4] = [("L_Ankle", 0.1164), ("R_Ankle", 0.1164), ("L_Toe", 0.02), ("R_Toe", 0.02)];
+
+/// The lowest sole point (m) of a frame's body positions, and the foot body it belongs to.
+pub fn lowest_sole_of(p: &[Vec3; NUM_BODIES]) -> (f64, usize) {
+    SOLES
+        .iter()
+        .map(|&(name, below)| {
+            let b = skeleton::body_index(name).expect("foot bodies");
+            (p[b][2] - below, b)
+        })
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+        .expect("four feet")
 }
 
-/// Largest joint speed (rad/s) between consecutive output frames, and where.
-pub fn max_joint_speed(m: &Motion) -> (f64, usize, usize) {
+/// Lowest sole point (m) of frame `k` ([`lowest_sole_of`]).
+pub fn lowest_sole(m: &Motion, k: usize) -> f64 {
+    lowest_sole_of(&body_positions(m, k)).0
+}
+
+/// Joint speeds in one pass: the largest (rad/s) with its frame and joint, and how many frames
+/// have some joint faster than `spike` rad/s.
+pub fn joint_speeds(m: &Motion, spike: f64) -> ((f64, usize, usize), usize) {
     let mut worst = (0.0, 0, 0);
+    let mut spikes = 0;
     for k in 1..m.frames {
+        let mut frame_max = 0.0f64;
         for j in 0..NUM_JOINTS {
             let (a, b) = (Quat::from_rotvec(m.dof_rot[k - 1][j]), Quat::from_rotvec(m.dof_rot[k][j]));
             let w = a.conj().mul(b).angle() * m.fps;
+            frame_max = frame_max.max(w);
             if w > worst.0 {
                 worst = (w, k, j);
             }
         }
+        spikes += (frame_max > spike) as usize;
     }
-    worst
+    (worst, spikes)
+}
+
+/// Largest joint speed (rad/s) between consecutive output frames, and where ([`joint_speeds`]).
+pub fn max_joint_speed(m: &Motion) -> (f64, usize, usize) {
+    joint_speeds(m, f64::INFINITY).0
 }

@@ -20,7 +20,7 @@ use skillmimic_core::skeleton::{self, FINGERTIPS, L_WRIST, NUM_BODIES, R_WRIST};
 
 use crate::clip::Clip;
 use crate::error::ClipError;
-use crate::retarget_bvh::{Motion, body_positions, lowest_sole, max_joint_speed};
+use crate::retarget_bvh::{Motion, body_positions, joint_speeds, lowest_sole_of};
 
 /// Ball radius of the scene (m).
 pub const BALL_RADIUS: f64 = 0.12;
@@ -123,7 +123,6 @@ pub fn to_clip(m: &Motion, name: &str, source: &str, skill: u32, ball: &Ball, sr
         frames_with_speed_spike: 0,
         contact_frames: 0,
     };
-    let feet = ["L_Ankle", "R_Ankle", "L_Toe", "R_Toe"].map(|n| skeleton::body_index(n).expect("foot bodies"));
     let (mut slide_sum, mut slide_n) = (0.0, 0usize);
     let mut prev: Option<[Vec3; NUM_BODIES]> = None;
     for (k, ball_k) in balls.iter().enumerate() {
@@ -137,29 +136,24 @@ pub fn to_clip(m: &Motion, name: &str, source: &str, skill: u32, ball: &Ball, sr
         let touching = !matches!(ball, Ball::None) && hands.iter().any(|&h| norm(sub(p[h], *ball_k)) < BALL_RADIUS + 0.05);
         clip.contact.push(touching as u8 as f32);
         rep.contact_frames += touching as usize;
-        let sole = lowest_sole(m, k);
+        let (sole, foot) = lowest_sole_of(&p);
         rep.foot_penetration_max_m = rep.foot_penetration_max_m.max(-sole);
         rep.frames_penetrating += (sole < -0.01) as usize;
         if let Some(q) = prev {
             // the lowest foot body, if its sole is on the floor
-            let (f, z) = feet.iter().map(|&f| (f, p[f][2] - if f == feet[0] || f == feet[1] { 0.1164 } else { 0.02 })).min_by(|a, b| a.1.total_cmp(&b.1)).unwrap();
-            if z < 0.02 {
-                slide_sum += norm([p[f][0] - q[f][0], p[f][1] - q[f][1], 0.0]) * m.fps;
+            if sole < 0.02 {
+                slide_sum += norm([p[foot][0] - q[foot][0], p[foot][1] - q[foot][1], 0.0]) * m.fps;
                 slide_n += 1;
             }
         }
         prev = Some(p);
     }
     rep.foot_sliding_mean_m_s = if slide_n > 0 { slide_sum / slide_n as f64 } else { 0.0 };
-    let (w, k, j) = max_joint_speed(m);
+    let ((w, k, j), spikes) = joint_speeds(m, 20.0);
     rep.max_joint_speed_rad_s = w;
     rep.max_joint_speed_frame = k;
     rep.max_joint_speed_body = skeleton::BODIES[j + 1].name.into();
-    rep.frames_with_speed_spike = (1..t)
-        .filter(|&k| {
-            (0..52).any(|j| Quat::from_rotvec(m.dof_rot[k - 1][j]).conj().mul(Quat::from_rotvec(m.dof_rot[k][j])).angle() * m.fps > 20.0)
-        })
-        .count();
+    rep.frames_with_speed_spike = spikes;
     crate::validate::validate_clip(&clip, path, crate::validate::Naming::Project)?;
     Ok((clip, rep))
 }
