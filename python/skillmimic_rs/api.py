@@ -152,14 +152,26 @@ def play(checkpoint: str | os.PathLike | None = None, *, video: str | os.PathLik
     return {k: pathlib.Path(v) for k, v in (("video", video), ("states", states)) if v is not None}
 
 
+def _retarget(source: str | os.PathLike, kind: str, out: str | os.PathLike, options: dict[str, Any]) -> dict[str, Any]:
+    _run("retarget", _argv(None, dict(options, **{kind: source}, out=out)))
+    name = options.get("name") or pathlib.Path(source).stem
+    report = json.loads((pathlib.Path(out) / f"{name}.retarget.json").read_text())
+    report["clip"] = pathlib.Path(out) / f"{name}.safetensors"
+    return report
+
+
 def retarget_bvh(bvh: str | os.PathLike, *, out: str | os.PathLike, skill: int, map: str | os.PathLike = "cmu",
                  **options: Any) -> dict[str, Any]:
     """Retarget a BVH motion onto the SkillMimic humanoid as ``skillmimic retarget --bvh`` (joint
     ``map``: ``humanoid``, ``mocapbank``, ``cmu`` or a TOML file; ``ball_csv=``, ``ball_joint=``,
-    ``name=``, ``no_ground=True``) and return its report (foot penetration and sliding, joint-speed
-    spikes, scale) with ``clip``: the written clip's path."""
-    _run("retarget", _argv(None, dict(options, bvh=bvh, out=out, skill=skill, map=map)))
-    name = options.get("name") or pathlib.Path(bvh).stem
-    report = json.loads((pathlib.Path(out) / f"{name}.retarget.json").read_text())
-    report["clip"] = pathlib.Path(out) / f"{name}.safetensors"
-    return report
+    ``name=``, ``no_ground=True``, ``ik=True``) and return its report (foot penetration and sliding,
+    joint-speed spikes, scale, IK residuals) with ``clip``: the written clip's path."""
+    return _retarget(bvh, "bvh", out, dict(options, skill=skill, map=map))
+
+
+def retarget_positions(csv: str | os.PathLike, *, out: str | os.PathLike, skill: int, fps: float,
+                       map: str | os.PathLike = "humanoid", **options: Any) -> dict[str, Any]:
+    """Retarget joint positions (a CSV with ``<joint>_x,<joint>_y,<joint>_z`` columns, one row per
+    frame at ``fps``) onto the SkillMimic humanoid as ``skillmimic retarget --positions``; the
+    options and the returned report are those of :func:`retarget_bvh`."""
+    return _retarget(csv, "positions", out, dict(options, skill=skill, fps=fps, map=map))

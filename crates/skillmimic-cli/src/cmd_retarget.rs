@@ -1,7 +1,8 @@
 //! `skillmimic retarget`, two directions:
-//! * `--bvh FILE --map MAP --skill N`: a BVH motion → a clip of the SkillMimic humanoid in the
-//!   project format (`skillmimic_motion::retarget_bvh`, `retarget_clip`) with a JSON report
-//!   (foot penetration and sliding, joint-speed spikes, scale);
+//! * `--bvh FILE` / `--amass FILE.npz` / `--positions FILE.csv --fps F`, with `--map MAP --skill N`
+//!   and optionally `--ik`: a motion → a clip of the SkillMimic humanoid in the project format
+//!   (`skillmimic_motion::retarget_bvh`, `retarget_positions`, `retarget_clip`) with a JSON report
+//!   (foot penetration and sliding, joint-speed spikes, scale, IK residuals);
 //! * `--to tokenhsi --motion …`: SkillMimic-skeleton clips (BallPlay-M `.pt` or the project format) →
 //!   clips of the TokenHSI character (`tokenhsi-clip` format, `skillmimic_motion::hsi_clip`), by
 //!   shared joints (`skillmimic_motion::retarget_hsi`), with a JSON report per clip: foot height
@@ -25,7 +26,7 @@ pub struct Args {
     #[arg(long, default_value = "tokenhsi")]
     pub to: String,
     /// Source clip files or folders (repeatable).
-    #[arg(long, required_unless_present_any = ["bvh", "amass"])]
+    #[arg(long, required_unless_present_any = ["bvh", "amass", "positions"])]
     pub motion: Vec<PathBuf>,
     /// Output folder (one `<name>.safetensors` per clip and `retarget_report.json`; for `--bvh`:
     /// `<name>.safetensors` and `<name>.retarget.json`).
@@ -38,6 +39,18 @@ pub struct Args {
     /// `mocap_framerate`) to retarget onto the SkillMimic humanoid (map `smplh` by default).
     #[arg(long, conflicts_with = "motion")]
     pub amass: Option<PathBuf>,
+    /// Joint positions only: a CSV with a header of `<joint>_x,<joint>_y,<joint>_z` columns and
+    /// one row per frame (the map's axes and units; needs `--fps`; map `humanoid` by default).
+    /// Rotations are solved from bone directions; twists about a bone are not in positions.
+    #[arg(long, conflicts_with_all = ["motion", "bvh", "amass"], requires = "fps")]
+    pub positions: Option<PathBuf>,
+    /// Frame rate of the `--positions` file (frames per second).
+    #[arg(long, requires = "positions")]
+    pub fps: Option<f64>,
+    /// Light IK: bend legs and arms so the ankles and wrists reach the source's positions × scale
+    /// (planted feet stay planted, hands stay on the ball, whatever the limb proportions).
+    #[arg(long)]
+    pub ik: bool,
     /// With `--amass`: an SMPL / SMPL-H body model `.npz` (`v_template`, `J_regressor`,
     /// `shapedirs`; never shipped) giving the rest joints for the sequence's `betas`; default: the
     /// humanoid's own rest skeleton.
@@ -70,6 +83,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     }
     if let Some(npz) = a.amass.clone() {
         return run_bvh(&a, &npz, true);
+    }
+    if let Some(csv) = a.positions.clone() {
+        return run_positions(&a, &csv);
     }
     if a.to != "tokenhsi" {
         bail!("--to '{}': the only target character is 'tokenhsi'", a.to);
@@ -128,39 +144,63 @@ fn read_ball_csv(path: &std::path::Path) -> anyhow::Result<Vec<[f64; 3]>> {
 
 /// `--bvh` (or `--amass`, read as a source skeleton motion by `skillmimic_motion::amass`).
 fn run_bvh(a: &Args, path: &std::path::Path, amass: bool) -> anyhow::Result<()> {
-    use skillmimic_motion::retarget_bvh::{JointMap, Options, retarget};
-    use skillmimic_motion::retarget_clip::{Ball, to_clip};
+    use skillmimic_motion::retarget_bvh::{JointMap, retarget};
     let flag = if amass { "--amass" } else { "--bvh" };
-    let Some(skill) = a.skill else { bail!("{flag} needs --skill N (the clip's skill label, 0 … 63)") };
+    let skill = skill_of(a, flag)?;
     let b = if amass { skillmimic_motion::amass::read_with_model(path, a.body_model.as_deref())? } else { skillmimic_motion::bvh::read(path)? };
     let map = JointMap::load(a.map.as_deref().unwrap_or(if amass { "smplh" } else { "cmu" }))?;
-    let m = retarget(&b, &map, &Options { fps: 60.0, ground: !a.no_ground })?;
+    let m = retarget(&b, &map, &options(a))?;
+    let marker = |name: &str| b.joint(name).map(|j| (0..b.frames).map(|f| b.pose(f).positions[j]).collect());
+    write_clip(a, path, &m, skill, b.frames, b.frame_time, marker)
+}
+
+/// `--positions`: joint positions per frame (`skillmimic_motion::retarget_positions`).
+fn run_positions(a: &Args, path: &std::path::Path) -> anyhow::Result<()> {
+    use skillmimic_motion::retarget_bvh::JointMap;
+    use skillmimic_motion::retarget_positions::{JointPositions, retarget_positions};
+    let skill = skill_of(a, "--positions")?;
+    let src = JointPositions::read_csv(path, a.fps.context("--positions needs --fps")?)?;
+    let map = JointMap::load(a.map.as_deref().unwrap_or("humanoid"))?;
+    let m = retarget_positions(&src, &map, &options(a))?;
+    let marker = |name: &str| src.joint(name).map(|j| (0..src.frames).map(|f| src.at(f, j)).collect());
+    write_clip(a, path, &m, skill, src.frames, 1.0 / src.fps, marker)
+}
+
+fn skill_of(a: &Args, flag: &str) -> anyhow::Result<u32> {
+    a.skill.with_context(|| format!("{flag} needs --skill N (the clip's skill label, 0 … 63)"))
+}
+
+fn options(a: &Args) -> skillmimic_motion::retarget_bvh::Options {
+    skillmimic_motion::retarget_bvh::Options { fps: 60.0, ground: !a.no_ground, ik: a.ik }
+}
+
+/// The ball track, the clip, its report and the summary line, for every retargeting path
+/// (`frames`, `frame_time`: the source's; `marker(name)`: a source joint's positions per frame).
+fn write_clip(a: &Args, path: &std::path::Path, m: &skillmimic_motion::retarget_bvh::Motion, skill: u32, frames: usize, frame_time: f64, marker: impl Fn(&str) -> Option<Vec<[f64; 3]>>) -> anyhow::Result<()> {
+    use skillmimic_motion::retarget_clip::{Ball, to_clip};
     let ball = match (&a.ball_csv, &a.ball_joint) {
         (Some(csv), _) => {
             let p = read_ball_csv(csv)?;
-            if p.len() != b.frames {
-                bail!("{}: {} ball positions, expected one per BVH frame ({})", csv.display(), p.len(), b.frames);
+            if p.len() != frames {
+                bail!("{}: {} ball positions, expected one per source frame ({frames})", csv.display(), p.len());
             }
             Ball::Points(p)
         }
-        (None, Some(j)) => {
-            let ji = b.joint(j).with_context(|| format!("--ball-joint '{j}': {} has no such joint", path.display()))?;
-            Ball::Points((0..b.frames).map(|f| b.pose(f).positions[ji]).collect())
-        }
+        (None, Some(j)) => Ball::Points(marker(j).with_context(|| format!("--ball-joint '{j}': {} has no such joint", path.display()))?),
         (None, None) => Ball::None,
     };
     let name = a.name.clone().unwrap_or_else(|| path.file_stem().map_or("clip".into(), |s| s.to_string_lossy().into_owned()));
-    let (clip, rep) = to_clip(&m, &name, &path.display().to_string(), skill, &ball, b.frame_time, path)?;
+    let (clip, rep) = to_clip(m, &name, &path.display().to_string(), skill, &ball, frame_time, path)?;
     std::fs::create_dir_all(&a.out).with_context(|| format!("cannot create {}", a.out.display()))?;
     let out = a.out.join(format!("{name}.safetensors"));
     clip.save(&out).with_context(|| format!("cannot write {}", out.display()))?;
     let rpath = a.out.join(format!("{name}.retarget.json"));
     skillmimic_core::tensorfile::write_bytes_atomic(&rpath, serde_json::to_string_pretty(&rep)?.as_bytes()).with_context(|| format!("cannot write {}", rpath.display()))?;
+    let ik = if a.ik { format!(", IK ends within {:.1} mm mean / {:.1} mm max of their targets", 1000.0 * rep.ik_residual_mean_m, 1000.0 * rep.ik_residual_max_m) } else { String::new() };
     println!(
-        "{name}: {} frames at 60 fps (from {} at {:.1} fps), scale {:.4}, ground shift {:.3} m; feet: deepest {:.1} mm below the floor, {} frames > 1 cm, sliding {:.3} m/s; fastest joint {:.1} rad/s ({} at frame {}), {} frames with spikes > 20 rad/s; {} contact frames",
+        "{name}: {} frames at 60 fps (from {frames} at {:.1} fps), scale {:.4}, ground shift {:.3} m; feet: deepest {:.1} mm below the floor, {} frames > 1 cm, sliding {:.3} m/s; fastest joint {:.1} rad/s ({} at frame {}), {} frames with spikes > 20 rad/s; {} contact frames{ik}",
         rep.frames,
-        b.frames,
-        b.fps(),
+        1.0 / frame_time,
         rep.scale,
         rep.ground_shift_m,
         1000.0 * rep.foot_penetration_max_m,

@@ -1,4 +1,4 @@
-//! `skillmimic retarget --bvh` / `--amass`: a synthetic SMPL-H walk in the AMASS layout and the real
+//! `skillmimic retarget --bvh` / `--amass` / `--positions`: a synthetic SMPL-H walk in the AMASS layout and the real
 //! MocapBank capture shipped in the crates.io package
 //! bvh_anim 0.4.0 becomes a clip with its feet on the floor (≤ 2 cm), no joint-speed spikes, a
 //! written report, and trains for a few iterations without a non-finite value; bad maps and
@@ -47,6 +47,51 @@ fn synthetic_amass_sequence_retargets_and_trains() {
     assert!(rep["foot_penetration_max_m"].as_f64().unwrap() <= 0.02);
     assert_eq!(rep["frames_with_speed_spike"], 0);
     trains_finite(&out.join("010_walk.safetensors"), &out.join("train"));
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+/// `--positions` with `--ik` and `--ball-joint`: the shipped synthetic dribble clip's body positions
+/// plus a `Ball` column, written as a CSV at 30 fps, come back as a 60 fps clip whose ball follows
+/// the column and whose wrists and ankles meet the positions; it trains finite.
+#[test]
+fn joint_positions_csv_retargets_with_ik_and_trains() {
+    use std::fmt::Write;
+    let out = std::env::temp_dir().join(format!("sm-retarget-positions-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out);
+    std::fs::create_dir_all(&out).unwrap();
+    let clip = skillmimic_motion::Clip::load(&skillmimic_core::shared_data::workspace_root().join("motions/050_synth_stand_dribble_right.safetensors")).unwrap();
+    let names: Vec<&str> = skillmimic_core::skeleton::BODIES.iter().map(|b| b.name).chain(["Ball"]).collect();
+    let mut csv = names.iter().flat_map(|n| ["x", "y", "z"].map(|a| format!("{n}_{a}"))).collect::<Vec<_>>().join(",") + "\n";
+    let frames: Vec<usize> = (0..clip.num_frames).step_by(2).collect(); // 60 → 30 fps
+    for &t in &frames {
+        let row: Vec<f32> = clip.body_pos[t * 159..(t + 1) * 159].iter().chain(&clip.ball_pos[t * 3..t * 3 + 3]).copied().collect();
+        writeln!(csv, "{}", row.iter().map(|x| x.to_string()).collect::<Vec<_>>().join(",")).unwrap();
+    }
+    std::fs::write(out.join("dribble.csv"), csv).unwrap();
+    std::fs::write(out.join("zup.toml"), format!("up = \"z\"\n[bodies]\n{}", names[..53].iter().map(|n| format!("{n} = \"{n}\"\n")).collect::<String>())).unwrap();
+    let r = bin()
+        .args(["retarget", "--skill", "50", "--name", "050_back", "--fps", "30", "--ik", "--no-ground", "--ball-joint", "Ball", "--map"])
+        .arg(out.join("zup.toml"))
+        .arg("--positions")
+        .arg(out.join("dribble.csv"))
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let rep: Value = serde_json::from_str(&std::fs::read_to_string(out.join("050_back.retarget.json")).unwrap()).unwrap();
+    println!("{rep}");
+    assert_eq!(rep["frames"].as_u64().unwrap() as usize, 2 * (frames.len() - 1) + 1, "30 → 60 fps");
+    assert!(rep["ik_residual_max_m"].as_f64().unwrap() < 1e-4, "the same skeleton: every target within reach");
+    assert!(rep["contact_frames"].as_u64().unwrap() > 0, "a dribble touches the ball");
+    let back = skillmimic_motion::Clip::load(&out.join("050_back.safetensors")).unwrap();
+    // even output frames are source frames: body and ball positions come back (f32 CSV, 1e-4 m)
+    for (k, &t) in frames.iter().enumerate() {
+        let d = (0..159).map(|i| (back.body_pos[2 * k * 159 + i] - clip.body_pos[t * 159 + i]).abs()).fold(0.0f32, f32::max);
+        let db = (0..3).map(|i| (back.ball_pos[2 * k * 3 + i] - clip.ball_pos[t * 3 + i]).abs()).fold(0.0f32, f32::max);
+        assert!(d < 1e-4 && db < 1e-5, "frame {t}: bodies {d} m, ball {db} m");
+    }
+    trains_finite(&out.join("050_back.safetensors"), &out.join("train"));
     let _ = std::fs::remove_dir_all(&out);
 }
 

@@ -167,6 +167,25 @@ impl Quat {
         add(add(v, scale(t, self.w)), cross(u, t))
     }
 
+    /// The smallest rotation taking direction `a` onto direction `b` (any frame; lengths are
+    /// ignored; the identity when either is zero; half a turn about an axis perpendicular to `a`
+    /// when they are opposite).
+    pub fn between(a: Vec3, b: Vec3) -> Quat {
+        let (na, nb) = (norm(a), norm(b));
+        if na < 1e-12 || nb < 1e-12 {
+            return Quat::IDENTITY;
+        }
+        let (a, b) = (scale(a, 1.0 / na), scale(b, 1.0 / nb));
+        let c = dot(a, b);
+        if c < -1.0 + 1e-12 {
+            // opposite: half a turn about any axis perpendicular to a
+            let axis = if a[0].abs() < 0.9 { cross(a, [1.0, 0.0, 0.0]) } else { cross(a, [0.0, 1.0, 0.0]) };
+            return Quat::from_axis_angle(scale(axis, 1.0 / norm(axis)), std::f64::consts::PI);
+        }
+        let v = cross(a, b);
+        Quat { w: 1.0 + c, x: v[0], y: v[1], z: v[2] }.normalized()
+    }
+
     /// Rotation angle in [0, π] of this rotation.
     pub fn angle(self) -> f64 {
         let s = norm([self.x, self.y, self.z]);

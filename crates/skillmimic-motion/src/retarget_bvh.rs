@@ -25,7 +25,7 @@
 use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
-use skillmimic_core::math::{Quat, Vec3, add, cross, dot, norm, scale};
+use skillmimic_core::math::{Quat, Vec3, add, norm, scale};
 use skillmimic_core::skeleton::{self, BODIES, NUM_BODIES, NUM_JOINTS};
 
 use crate::bvh::Bvh;
@@ -89,11 +89,15 @@ pub struct Options {
     pub fps: f64,
     /// Move the feet onto the floor (step 6).
     pub ground: bool,
+    /// Light IK ([`crate::limb_ik`]): bend the legs and arms so that the ankles and wrists reach
+    /// the source's ankle and wrist positions × scale (kills the foot sliding and the hand–ball
+    /// misses that different limb proportions cause). Off by default: rotations only.
+    pub ik: bool,
 }
 
 impl Default for Options {
     fn default() -> Self {
-        Self { fps: 60.0, ground: true }
+        Self { fps: 60.0, ground: true, ik: false }
     }
 }
 
@@ -114,6 +118,10 @@ pub struct Motion {
     pub ground_shift: f64,
     /// Turn from the source's axes to the world (Z-up): `T · U`.
     pub source_turn: Quat,
+    /// With [`Options::ik`]: the largest and the mean distance (m) left between an IK end body
+    /// (ankle, wrist) and its target over the source frames (targets out of reach), else 0.
+    pub ik_residual_max_m: f64,
+    pub ik_residual_mean_m: f64,
 }
 
 impl Motion {
@@ -125,24 +133,35 @@ impl Motion {
 }
 
 fn err(bvh: &Bvh, what: String) -> ClipError {
-    ClipError::Format { path: bvh.path.clone(), detail: format!("retargeting: {what}") }
+    err_at(&bvh.path, what)
 }
 
-/// Smallest rotation taking direction `a` onto direction `b`.
-fn between(a: Vec3, b: Vec3) -> Quat {
-    let (na, nb) = (norm(a), norm(b));
-    if na < 1e-12 || nb < 1e-12 {
-        return Quat::IDENTITY;
-    }
-    let (a, b) = (scale(a, 1.0 / na), scale(b, 1.0 / nb));
-    let c = dot(a, b);
-    if c < -1.0 + 1e-12 {
-        // opposite: half a turn about any axis perpendicular to a
-        let axis = if a[0].abs() < 0.9 { cross(a, [1.0, 0.0, 0.0]) } else { cross(a, [0.0, 1.0, 0.0]) };
-        return Quat::from_axis_angle(scale(axis, 1.0 / norm(axis)), std::f64::consts::PI);
-    }
-    let v = cross(a, b);
-    Quat { w: 1.0 + c, x: v[0], y: v[1], z: v[2] }.normalized()
+pub(crate) fn err_at(path: &std::path::Path, what: String) -> ClipError {
+    ClipError::Format { path: path.to_path_buf(), detail: format!("retargeting: {what}") }
+}
+
+/// The up-axis and yaw conversion `U` of a map (source axes → the skeleton's Y-up frame).
+pub(crate) fn up_turn(map: &JointMap, path: &std::path::Path) -> Result<Quat, ClipError> {
+    let u = match map.up.as_str() {
+        "y" => Quat::IDENTITY,
+        "z" => Quat::from_axis_angle([1.0, 0.0, 0.0], -std::f64::consts::FRAC_PI_2),
+        other => return Err(err_at(path, format!("joint map 'up' must be \"y\" or \"z\", found \"{other}\""))),
+    };
+    Ok(Quat::from_axis_angle([0.0, 1.0, 0.0], map.yaw_deg.to_radians()).mul(u))
+}
+
+/// The Y-up → Z-up turn `T` = Rx(+90°) the clips' root rotations contain.
+pub(crate) fn tilt() -> Quat {
+    Quat::from_axis_angle([1.0, 0.0, 0.0], std::f64::consts::FRAC_PI_2)
+}
+
+/// Local rotations from global ones (Y-up skeleton frame): `G(parent)⁻¹ · G(b)`, and `T · G(pelvis)`
+/// for the root.
+pub(crate) fn locals_of(g: &[Quat; NUM_BODIES]) -> [Quat; NUM_BODIES] {
+    std::array::from_fn(|b| match BODIES[b].parent {
+        Some(p) => g[p].conj().mul(g[b]).normalized(),
+        None => tilt().mul(g[b]).normalized(),
+    })
 }
 
 fn slerp(a: Quat, b: Quat, t: f64) -> Quat {
@@ -163,7 +182,7 @@ fn source_chain(bvh: &Bvh, j: usize, d: usize) -> Option<Vec3> {
 }
 
 /// Rest vector of the humanoid from body `b` down to its descendant `d` (skeleton frame).
-fn target_chain(b: usize, d: usize) -> Option<Vec3> {
+pub(crate) fn target_chain(b: usize, d: usize) -> Option<Vec3> {
     let mut v = [0.0; 3];
     let mut k = d;
     while k != b {
@@ -175,12 +194,7 @@ fn target_chain(b: usize, d: usize) -> Option<Vec3> {
 
 /// Retarget `bvh` with `map` (see the module docs).
 pub fn retarget(bvh: &Bvh, map: &JointMap, opts: &Options) -> Result<Motion, ClipError> {
-    let u = match map.up.as_str() {
-        "y" => Quat::IDENTITY,
-        "z" => Quat::from_axis_angle([1.0, 0.0, 0.0], -std::f64::consts::FRAC_PI_2),
-        other => return Err(err(bvh, format!("joint map 'up' must be \"y\" or \"z\", found \"{other}\""))),
-    };
-    let u = Quat::from_axis_angle([0.0, 1.0, 0.0], map.yaw_deg.to_radians()).mul(u);
+    let u = up_turn(map, &bvh.path)?;
     // body → source joint
     let mut src: [Option<usize>; NUM_BODIES] = [None; NUM_BODIES];
     for (body, joint) in &map.bodies {
@@ -218,7 +232,7 @@ pub fn retarget(bvh: &Bvh, map: &JointMap, opts: &Options) -> Result<Motion, Cli
                 }
             }
         };
-        align[b] = between(dt, u.rotate(ds));
+        align[b] = Quat::between(dt, u.rotate(ds));
     }
     // scale: leg lengths (hip → knee → ankle) of both skeletons, else the map's factor
     let leg = |h: &str, k: &str, a: &str| -> Option<(f64, f64)> {
@@ -232,41 +246,51 @@ pub fn retarget(bvh: &Bvh, map: &JointMap, opts: &Options) -> Result<Motion, Cli
         (Some((t1, s1)), Some((t2, s2))) => (t1 + t2) / (s1 + s2),
         _ => map.scale.ok_or_else(|| err(bvh, "map both legs (L/R_Hip, _Knee, _Ankle) or give 'scale' (source units to metres)".into()))?,
     };
-    let tilt = Quat::from_axis_angle([1.0, 0.0, 0.0], std::f64::consts::FRAC_PI_2);
     // per source frame: root position (Y-up frame, metres), global rotations → locals
     let mut root_p = Vec::with_capacity(bvh.frames);
     let mut locals: Vec<[Quat; NUM_BODIES]> = Vec::with_capacity(bvh.frames);
+    let mut ik = crate::limb_ik::Limbs::new(&src);
     for f in 0..bvh.frames {
         let pose = bvh.pose(f);
         let mut g = [Quat::IDENTITY; NUM_BODIES];
-        let mut l = [Quat::IDENTITY; NUM_BODIES];
         for b in 0..NUM_BODIES {
             g[b] = match (src[b], BODIES[b].parent) {
                 (Some(j), _) => u.mul(pose.rotations[j]).mul(u.conj()).mul(align[b]).normalized(),
                 (None, Some(p)) => g[p],
                 (None, None) => unreachable!("the pelvis is mapped"),
             };
-            l[b] = match BODIES[b].parent {
-                Some(p) => g[p].conj().mul(g[b]).normalized(),
-                None => tilt.mul(g[b]).normalized(),
-            };
         }
-        root_p.push(scale(u.rotate(pose.positions[root_joint]), scale_f));
-        locals.push(l);
+        let root = scale(u.rotate(pose.positions[root_joint]), scale_f);
+        if opts.ik {
+            ik.solve(&mut g, root, |j| scale(u.rotate(pose.positions[j]), scale_f));
+        }
+        root_p.push(root);
+        locals.push(locals_of(&g));
     }
-    // resample to the output rate
-    let duration = (bvh.frames - 1) as f64 * bvh.frame_time;
-    let out_frames = (duration * opts.fps).floor() + 1.0;
+    finish(&bvh.path, bvh.frame_time, root_p, locals, scale_f, u, &ik, opts)
+}
+
+/// The shared tail of every retargeting path: resampling of the per-source-frame root positions
+/// (Y-up skeleton frame, metres) and local rotations to `opts.fps`, the finiteness check and the
+/// ground alignment (module docs, steps 5–6).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn finish(path: &std::path::Path, frame_time: f64, root_p: Vec<Vec3>, locals: Vec<[Quat; NUM_BODIES]>, scale_f: f64, u: Quat, ik: &crate::limb_ik::Limbs, opts: &Options) -> Result<Motion, ClipError> {
+    let n = locals.len();
+    let tilt = tilt();
+    let duration = (n - 1) as f64 * frame_time;
+    // (a 1e-6-frame allowance: 245 frames at 1/60 s make 244.99999… frames of 1/60 s in floats)
+    let out_frames = (duration * opts.fps + 1e-6).floor() + 1.0;
     if !(out_frames.is_finite() && out_frames <= MAX_OUTPUT_FRAMES as f64) {
-        return Err(err(bvh, format!("{} frames of {} s last {duration} s: more than {MAX_OUTPUT_FRAMES} output frames at {} fps", bvh.frames, bvh.frame_time, opts.fps)));
+        return Err(err_at(path, format!("{n} frames of {frame_time} s last {duration} s: more than {MAX_OUTPUT_FRAMES} output frames at {} fps", opts.fps)));
     }
     let frames = out_frames as usize;
-    let mut m = Motion { fps: opts.fps, frames, root_pos: Vec::with_capacity(frames), root_rot: Vec::with_capacity(frames), dof_rot: Vec::with_capacity(frames), scale: scale_f, ground_shift: 0.0, source_turn: tilt.mul(u) };
+    let (ik_residual_max_m, ik_residual_mean_m) = ik.residuals();
+    let mut m = Motion { fps: opts.fps, frames, root_pos: Vec::with_capacity(frames), root_rot: Vec::with_capacity(frames), dof_rot: Vec::with_capacity(frames), scale: scale_f, ground_shift: 0.0, source_turn: tilt.mul(u), ik_residual_max_m, ik_residual_mean_m };
     let mut prev_root = Quat::IDENTITY;
     for k in 0..frames {
-        let x = (k as f64 / opts.fps / bvh.frame_time).min((bvh.frames - 1) as f64);
+        let x = (k as f64 / opts.fps / frame_time).min((n - 1) as f64);
         let (i, t) = (x.floor() as usize, x - x.floor());
-        let i1 = (i + 1).min(bvh.frames - 1);
+        let i1 = (i + 1).min(n - 1);
         let p = add(scale(root_p[i], 1.0 - t), scale(root_p[i1], t));
         m.root_pos.push(tilt.rotate(p));
         let mut r = slerp(locals[i][0], locals[i1][0], t);
@@ -279,7 +303,7 @@ pub fn retarget(bvh: &Bvh, map: &JointMap, opts: &Options) -> Result<Motion, Cli
     }
     let finite = m.root_pos.iter().flatten().chain(m.dof_rot.iter().flatten().flatten()).all(|x| x.is_finite()) && m.root_rot.iter().all(|q| q.w.is_finite() && q.x.is_finite() && q.y.is_finite() && q.z.is_finite());
     if !finite {
-        return Err(err(bvh, "the retargeted motion has non-finite values (offsets or channel values too large?)".into()));
+        return Err(err_at(path, "the retargeted motion has non-finite values (offsets, positions or channel values too large?)".into()));
     }
     if opts.ground {
         let mut soles: Vec<f64> = (0..frames).map(|k| lowest_sole(&m, k)).collect();

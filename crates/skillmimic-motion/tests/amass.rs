@@ -127,7 +127,7 @@ fn body_model_file_sets_the_skeleton_and_the_pelvis() {
     let joints = amass::model_joints(&model, &[1.0]).unwrap();
     assert!((joints[0][1] - 1.1 * j0[1]).abs() < 1e-12);
     let b = amass::read_with_model(&seq, Some(&model)).unwrap();
-    let m = retarget_bvh::retarget(&b, &JointMap::load("smplh").unwrap(), &Options { fps: 60.0, ground: false }).unwrap();
+    let m = retarget_bvh::retarget(&b, &JointMap::load("smplh").unwrap(), &Options { fps: 60.0, ground: false, ik: false }).unwrap();
     assert!((m.scale - 1.0 / 1.1).abs() < 1e-9, "height ratio {}", m.scale);
     let mut worst = 0.0f64;
     for f in 0..61 {
