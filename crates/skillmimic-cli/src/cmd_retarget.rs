@@ -52,10 +52,15 @@ pub struct Args {
     #[arg(long)]
     pub ik: bool,
     /// With `--amass`: an SMPL / SMPL-H body model `.npz` (`v_template`, `J_regressor`,
-    /// `shapedirs`; never shipped) giving the rest joints for the sequence's `betas`; default: the
-    /// humanoid's own rest skeleton.
-    #[arg(long, requires = "amass")]
+    /// `shapedirs`; never shipped) giving the rest joints for the sequence's `betas` (instead of
+    /// `--rest`).
+    #[arg(long, requires = "amass", conflicts_with = "rest")]
     pub body_model: Option<PathBuf>,
+    /// With `--amass`: the rest skeleton without a body model: `smpl` (SMPL's neutral mean shape,
+    /// pelvis at trans + J_pelvis) or `humanoid` (the humanoid's own: rotations transfer unchanged,
+    /// pelvis at trans).
+    #[arg(long, requires = "amass", value_parser = ["smpl", "humanoid"])]
+    pub rest: Option<String>,
     /// Joint map: a shipped map (`humanoid`, `mocapbank`, `cmu`, `smplh`) or a TOML file
     /// (default `cmu` for `--bvh`, `smplh` for `--amass`).
     #[arg(long)]
@@ -147,7 +152,17 @@ fn run_bvh(a: &Args, path: &std::path::Path, amass: bool) -> anyhow::Result<()> 
     use skillmimic_motion::retarget_bvh::{JointMap, retarget};
     let flag = if amass { "--amass" } else { "--bvh" };
     let skill = skill_of(a, flag)?;
-    let b = if amass { skillmimic_motion::amass::read_with_model(path, a.body_model.as_deref())? } else { skillmimic_motion::bvh::read(path)? };
+    let b = if amass {
+        use skillmimic_motion::amass::{Rest, read_with_rest};
+        let rest = match (a.body_model.as_deref(), a.rest.as_deref()) {
+            (Some(m), _) => Rest::BodyModel(m),
+            (None, Some("humanoid")) => Rest::Humanoid,
+            (None, _) => Rest::SmplNeutral,
+        };
+        read_with_rest(path, rest)?
+    } else {
+        skillmimic_motion::bvh::read(path)?
+    };
     let map = JointMap::load(a.map.as_deref().unwrap_or(if amass { "smplh" } else { "cmu" }))?;
     let m = retarget(&b, &map, &options(a))?;
     let marker = |name: &str| b.joint(name).map(|j| (0..b.frames).map(|f| b.pose(f).positions[j]).collect());
@@ -196,7 +211,12 @@ fn write_clip(a: &Args, path: &std::path::Path, m: &skillmimic_motion::retarget_
     clip.save(&out).with_context(|| format!("cannot write {}", out.display()))?;
     let rpath = a.out.join(format!("{name}.retarget.json"));
     skillmimic_core::tensorfile::write_bytes_atomic(&rpath, serde_json::to_string_pretty(&rep)?.as_bytes()).with_context(|| format!("cannot write {}", rpath.display()))?;
-    let ik = if a.ik { format!(", IK ends within {:.1} mm mean / {:.1} mm max of their targets", 1000.0 * rep.ik_residual_mean_m, 1000.0 * rep.ik_residual_max_m) } else { String::new() };
+    let ik = if a.ik {
+        let r = rep.ik;
+        format!(", IK: ankles within {:.1} mm mean / {:.1} mm max of their targets, wrists {:.1} / {:.1} mm (targets beyond the straight limb)", 1000.0 * r.feet_mean_m, 1000.0 * r.feet_max_m, 1000.0 * r.hands_mean_m, 1000.0 * r.hands_max_m)
+    } else {
+        String::new()
+    };
     println!(
         "{name}: {} frames at 60 fps (from {frames} at {:.1} fps), scale {:.4}, ground shift {:.3} m; feet: deepest {:.1} mm below the floor, {} frames > 1 cm, sliding {:.3} m/s; fastest joint {:.1} rad/s ({} at frame {}), {} frames with spikes > 20 rad/s; {} contact frames{ik}",
         rep.frames,

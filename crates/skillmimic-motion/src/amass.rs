@@ -9,12 +9,14 @@
 //! * `mocap_framerate` or `mocap_frame_rate` (scalar): frames per second.
 //!
 //! Skeleton: the SMPL-H kinematic tree with joint names `pelvis`, `left_hip`, …, `right_thumb3`.
-//! Rest joint positions default to the SkillMimic humanoid's own rest skeleton (its 52 joints
-//! correspond one to one with SMPL-H's; SMPL-H `spine3` sits where the humanoid's Chest is), so
-//! rotations transfer with an identity rest alignment. This is an approximation of a given body
-//! shape: the pelvis is placed at `trans` (SMPL puts it at `trans + J_pelvis(β)`, a constant
-//! offset of about 0.2 m that the ground alignment removes vertically). A user's body model file
-//! ([`read_with_model`], [`model_joints`]) gives the exact rest joints and pelvis for the `betas`.
+//! Its rest joint positions ([`Rest`]) are, by default, SMPL's neutral mean shape (β = 0) given as
+//! numbers here ([`SMPL_NEUTRAL_OFFSETS`]; the fingers, which SMPL lacks, from the humanoid's
+//! rest hand attached at each wrist), with the pelvis at `trans + J_pelvis` as SMPL places it. A
+//! user's body model file gives the exact rest joints and pelvis for the sequence's `betas`
+//! ([`model_joints`]). `Rest::Humanoid` reads the sequence on the SkillMimic humanoid's own rest
+//! skeleton instead (its 52 joints correspond one to one with SMPL-H's; SMPL-H `spine3` sits where
+//! the humanoid's Chest is): every joint rotation then transfers unchanged (identity rest
+//! alignment) and the pelvis is placed at `trans`.
 //!
 //! Frames: AMASS's `root_orient` (joint 0) and `trans` live in a Z-up world while the body's rest
 //! frame is Y-up, exactly like BallPlay-M's root. The sequence is therefore expressed in the
@@ -195,14 +197,75 @@ pub fn model_joints(model: &Path, betas: &[f64]) -> Result<Vec<Vec3>, ClipError>
     let mut joints: Vec<Vec3> = (0..nj).map(|j| std::array::from_fn(|c| (0..nv).map(|i| r[j * nv + i] * verts[3 * i + c]).sum())).collect();
     if nj == 24 {
         // SMPL: fingers from the humanoid's rest skeleton, relative to each wrist
-        let humanoid = humanoid_rest();
-        for (j, (name, _, _)) in SMPLH_JOINTS.iter().enumerate().skip(22) {
-            let wrist = if name.starts_with("left") { 20 } else { 21 };
-            let off = skillmimic_core::math::sub(humanoid[j], humanoid[wrist]);
-            joints.push(skillmimic_core::math::add(joints[wrist], off));
-        }
+        joints.truncate(22);
+        attach_humanoid_hands(&mut joints);
     }
     Ok(joints)
+}
+
+/// SMPL's neutral mean-shape (β = 0) skeleton for the 22 body joints of [`SMPLH_JOINTS`]: each
+/// joint's offset from its parent (metres, SMPL's model frame: Y-up, facing +z, left = +x, the
+/// humanoid skeleton's frame too); for the pelvis, its rest position `J_pelvis`. Numbers of the
+/// SMPL neutral model's joint regressor applied to its template, to 0.1 mm, as SMPL-based humanoids
+/// (PHC / ProtoMotions `smpl_humanoid.xml`, TokenHSI's lower body) carry them (their Z-up x-forward
+/// frame turned into SMPL's: (x, y, z) → (y, z, x)).
+pub const SMPL_NEUTRAL_OFFSETS: [Vec3; 22] = [
+    [-0.0018, -0.2233, 0.0282], // pelvis (J_pelvis, absolute)
+    [0.0695, -0.0914, -0.0068], // left_hip
+    [-0.0677, -0.0905, -0.0043], // right_hip
+    [-0.0025, 0.1090, -0.0267], // spine1
+    [0.0343, -0.3752, -0.0045], // left_knee
+    [-0.0383, -0.3826, -0.0089], // right_knee
+    [0.0055, 0.1352, 0.0011], // spine2
+    [-0.0136, -0.3980, -0.0437], // left_ankle
+    [0.0158, -0.3984, -0.0423], // right_ankle
+    [0.0015, 0.0529, 0.0254], // spine3
+    [0.0264, -0.0558, 0.1193], // left_foot
+    [-0.0254, -0.0481, 0.1233], // right_foot
+    [-0.0028, 0.2139, -0.0429], // neck
+    [0.0788, 0.1217, -0.0341], // left_collar
+    [-0.0818, 0.1188, -0.0386], // right_collar
+    [0.0052, 0.0650, 0.0513], // head
+    [0.0910, 0.0305, -0.0089], // left_shoulder
+    [-0.0960, 0.0326, -0.0091], // right_shoulder
+    [0.2596, -0.0128, -0.0275], // left_elbow
+    [-0.2537, -0.0133, -0.0214], // right_elbow
+    [0.2492, 0.0090, -0.0012], // left_wrist
+    [-0.2553, 0.0078, -0.0056], // right_wrist
+];
+
+/// The rest skeleton an AMASS sequence is read on (module docs).
+#[derive(Clone, Copy, Debug)]
+pub enum Rest<'a> {
+    /// SMPL's neutral mean shape ([`SMPL_NEUTRAL_OFFSETS`]), pelvis at `trans + J_pelvis`.
+    SmplNeutral,
+    /// The humanoid's own rest skeleton, pelvis at `trans` (rotations transfer unchanged).
+    Humanoid,
+    /// A user's SMPL-H / SMPL body model file for the sequence's `betas` ([`model_joints`]).
+    BodyModel(&'a Path),
+}
+
+/// Rest positions (Y-up, metres) of the 52 SMPL-H joints for SMPL's neutral mean shape; the
+/// fingers from the humanoid's rest hands.
+pub fn smpl_neutral_joints() -> Vec<Vec3> {
+    let mut joints: Vec<Vec3> = Vec::with_capacity(52);
+    for (j, (_, parent, _)) in SMPLH_JOINTS.iter().enumerate().take(22) {
+        let o = SMPL_NEUTRAL_OFFSETS[j];
+        joints.push(parent.map_or(o, |p| skillmimic_core::math::add(joints[p], o)));
+    }
+    attach_humanoid_hands(&mut joints);
+    joints
+}
+
+/// Append the 30 finger joints (SMPL-H 22…51) of the humanoid's rest hands to 22 body joints, each
+/// hand placed by its offsets from the wrist.
+fn attach_humanoid_hands(joints: &mut Vec<Vec3>) {
+    let humanoid = humanoid_rest();
+    for (j, (name, _, _)) in SMPLH_JOINTS.iter().enumerate().skip(22) {
+        let wrist = if name.starts_with("left") { 20 } else { 21 };
+        let off = skillmimic_core::math::sub(humanoid[j], humanoid[wrist]);
+        joints.push(skillmimic_core::math::add(joints[wrist], off));
+    }
 }
 
 /// Rest positions of the SMPL-H joints on the humanoid's own rest skeleton (Y-up, metres): the
@@ -213,14 +276,14 @@ fn humanoid_rest() -> Vec<Vec3> {
 }
 
 /// Read an AMASS-layout `.npz` sequence as a source skeleton motion ([`Bvh`] with ZXY channels;
-/// see the module docs for frames and the rest skeleton) on the humanoid's rest skeleton.
+/// see the module docs for frames) on SMPL's neutral mean-shape skeleton.
 pub fn read(path: &Path) -> Result<Bvh, ClipError> {
-    read_with_model(path, None)
+    read_with_rest(path, Rest::SmplNeutral)
 }
 
-/// [`read`], with the rest joints of a body model file for the sequence's `betas` when `model` is
-/// given ([`model_joints`]); the pelvis is then placed at `trans + J_pelvis`, as SMPL does.
-pub fn read_with_model(path: &Path, model: Option<&Path>) -> Result<Bvh, ClipError> {
+/// [`read`] on the given rest skeleton ([`Rest`]); with SMPL's skeletons the pelvis is placed at
+/// `trans + J_pelvis`, as SMPL does.
+pub fn read_with_rest(path: &Path, rest: Rest) -> Result<Bvh, ClipError> {
     let [poses, trans, fps_a, fps_b, betas]: [Option<Array>; 5] =
         read_arrays(path, &["poses", "trans", "mocap_framerate", "mocap_frame_rate", "betas"])?.try_into().expect("five names");
     let (pshape, poses) = poses.ok_or_else(|| fmt_err(path, "no 'poses' array (T, 156) of per-joint axis-angles".into()))?;
@@ -255,14 +318,15 @@ pub fn read_with_model(path: &Path, model: Option<&Path>) -> Result<Bvh, ClipErr
             (22.., None) => None,
         }
     };
-    // rest skeleton: a body model's joints for these betas, or the humanoid's own
-    let (rest_j, pelvis): (Vec<Vec3>, Vec3) = match model {
-        Some(m) => {
+    // rest skeleton: SMPL's neutral one, a body model's joints for these betas, or the humanoid's
+    let (rest_j, pelvis): (Vec<Vec3>, Vec3) = match rest {
+        Rest::SmplNeutral => (smpl_neutral_joints(), SMPL_NEUTRAL_OFFSETS[0]),
+        Rest::BodyModel(m) => {
             let j = model_joints(m, &betas)?;
             let p = j[0];
             (j, p)
         }
-        None => (humanoid_rest(), [0.0; 3]),
+        Rest::Humanoid => (humanoid_rest(), [0.0; 3]),
     };
     let rest = |j: usize| rest_j[j];
     let mut joints = Vec::with_capacity(52);

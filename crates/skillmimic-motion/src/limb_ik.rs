@@ -18,6 +18,12 @@
 //!
 //! The end body keeps its global rotation (a foot keeps the source's foot orientation) and so do
 //! its descendants (toes, fingers). Only limbs whose three bodies are all mapped take part.
+//!
+//! Before the limbs, the root moves so that the midpoint of the humanoid's hips lands on the
+//! midpoint of the source's hips × scale (when both hips are mapped): skeletons place their hips
+//! differently below the pelvis (the humanoid's sit 3.7 cm below its pelvis, SMPL's 9.1 cm × scale),
+//! and without the shift a standing source's ankles would lie beyond the humanoid's straight legs.
+//! The body's shape is unchanged by the shift; only its position is.
 
 use skillmimic_core::math::{Quat, Vec3, add, cross, dot, norm, scale, sub};
 use skillmimic_core::skeleton::{self, BODIES, NUM_BODIES};
@@ -94,9 +100,20 @@ fn two_bone_pass(g: &mut [Quat; NUM_BODIES], root: Vec3, chain: [usize; 3], flex
 pub struct Limbs {
     /// (chain bodies, flexion axis, the end body's source joint).
     chains: Vec<([usize; 3], Vec3, usize)>,
-    max: f64,
-    sum: f64,
-    count: usize,
+    /// Hip bodies and their source joints, when both are mapped (root placement).
+    hips: Option<([usize; 2], [usize; 2])>,
+    /// Per kind (0 legs, 1 arms): largest residual, residual sum, chains solved.
+    stats: [(f64, f64, usize); 2],
+}
+
+/// Distances (m) left between the IK end bodies and their targets over the source frames: non-zero
+/// only where a target lies beyond the straight limb (zeros without IK).
+#[derive(Clone, Copy, Debug, Default, serde::Serialize)]
+pub struct IkResiduals {
+    pub feet_mean_m: f64,
+    pub feet_max_m: f64,
+    pub hands_mean_m: f64,
+    pub hands_max_m: f64,
 }
 
 impl Limbs {
@@ -109,23 +126,37 @@ impl Limbs {
                 chain.iter().all(|&b| src[b].is_some()).then(|| (chain, *axis, src[chain[2]].expect("mapped")))
             })
             .collect();
-        Self { chains, ..Self::default() }
+        let hip = |n: &str| skeleton::body_index(n).expect("hip bodies exist");
+        let (l, r) = (hip("L_Hip"), hip("R_Hip"));
+        let hips = src[l].zip(src[r]).map(|(jl, jr)| ([l, r], [jl, jr]));
+        Self { chains, hips, ..Self::default() }
     }
 
-    /// Solve every chain of one frame; `target(j)`: the target position of source joint `j` (Y-up
-    /// skeleton frame, metres).
-    pub fn solve(&mut self, g: &mut [Quat; NUM_BODIES], root: Vec3, target: impl Fn(usize) -> Vec3) {
+    /// Solve one frame: move the root so the hips' midpoint meets the source's (module docs), then
+    /// bend every chain; `target(j)`: the target position of source joint `j` (Y-up skeleton frame,
+    /// metres). Returns the root position used.
+    pub fn solve(&mut self, g: &mut [Quat; NUM_BODIES], root: Vec3, target: impl Fn(usize) -> Vec3) -> Vec3 {
+        let root = match self.hips {
+            Some(([l, r], [jl, jr])) => {
+                let p = positions_of(root, g);
+                let mid = scale(add(p[l], p[r]), 0.5);
+                let want = scale(add(target(jl), target(jr)), 0.5);
+                add(root, sub(want, mid))
+            }
+            None => root,
+        };
         for &(chain, axis, j) in &self.chains {
             let r = two_bone(g, root, chain, axis, target(j));
-            self.max = self.max.max(r);
-            self.sum += r;
-            self.count += 1;
+            let kind = &mut self.stats[(BODIES[chain[2]].name.ends_with("Wrist")) as usize];
+            *kind = (kind.0.max(r), kind.1 + r, kind.2 + 1);
         }
+        root
     }
 
-    /// Largest and mean distance left (m) over the chains solved; zeros when none was.
-    pub fn residuals(&self) -> (f64, f64) {
-        if self.count == 0 { (0.0, 0.0) } else { (self.max, self.sum / self.count as f64) }
+    /// Mean and largest distance left (m) per kind over the chains solved; zeros where none was.
+    pub fn residuals(&self) -> IkResiduals {
+        let mean = |(_, sum, n): (f64, f64, usize)| if n == 0 { 0.0 } else { sum / n as f64 };
+        IkResiduals { feet_mean_m: mean(self.stats[0]), feet_max_m: self.stats[0].0, hands_mean_m: mean(self.stats[1]), hands_max_m: self.stats[1].0 }
     }
 }
 

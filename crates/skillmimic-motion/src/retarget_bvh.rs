@@ -89,9 +89,10 @@ pub struct Options {
     pub fps: f64,
     /// Move the feet onto the floor (step 6).
     pub ground: bool,
-    /// Light IK ([`crate::limb_ik`]): bend the legs and arms so that the ankles and wrists reach
-    /// the source's ankle and wrist positions × scale (kills the foot sliding and the hand–ball
-    /// misses that different limb proportions cause). Off by default: rotations only.
+    /// Light IK ([`crate::limb_ik`]): put the hips' midpoint on the source's and bend the legs
+    /// and arms so that the ankles and wrists reach the source's ankle and wrist positions × scale
+    /// (kills the foot sliding and the hand–ball misses that different proportions cause). Off by
+    /// default: rotations only.
     pub ik: bool,
 }
 
@@ -118,10 +119,8 @@ pub struct Motion {
     pub ground_shift: f64,
     /// Turn from the source's axes to the world (Z-up): `T · U`.
     pub source_turn: Quat,
-    /// With [`Options::ik`]: the largest and the mean distance (m) left between an IK end body
-    /// (ankle, wrist) and its target over the source frames (targets out of reach), else 0.
-    pub ik_residual_max_m: f64,
-    pub ik_residual_mean_m: f64,
+    /// With [`Options::ik`]: the distances left between the ankles / wrists and their targets.
+    pub ik: crate::limb_ik::IkResiduals,
 }
 
 impl Motion {
@@ -260,9 +259,9 @@ pub fn retarget(bvh: &Bvh, map: &JointMap, opts: &Options) -> Result<Motion, Cli
                 (None, None) => unreachable!("the pelvis is mapped"),
             };
         }
-        let root = scale(u.rotate(pose.positions[root_joint]), scale_f);
+        let mut root = scale(u.rotate(pose.positions[root_joint]), scale_f);
         if opts.ik {
-            ik.solve(&mut g, root, |j| scale(u.rotate(pose.positions[j]), scale_f));
+            root = ik.solve(&mut g, root, |j| scale(u.rotate(pose.positions[j]), scale_f));
         }
         root_p.push(root);
         locals.push(locals_of(&g));
@@ -284,8 +283,7 @@ pub(crate) fn finish(path: &std::path::Path, frame_time: f64, root_p: Vec<Vec3>,
         return Err(err_at(path, format!("{n} frames of {frame_time} s last {duration} s: more than {MAX_OUTPUT_FRAMES} output frames at {} fps", opts.fps)));
     }
     let frames = out_frames as usize;
-    let (ik_residual_max_m, ik_residual_mean_m) = ik.residuals();
-    let mut m = Motion { fps: opts.fps, frames, root_pos: Vec::with_capacity(frames), root_rot: Vec::with_capacity(frames), dof_rot: Vec::with_capacity(frames), scale: scale_f, ground_shift: 0.0, source_turn: tilt.mul(u), ik_residual_max_m, ik_residual_mean_m };
+    let mut m = Motion { fps: opts.fps, frames, root_pos: Vec::with_capacity(frames), root_rot: Vec::with_capacity(frames), dof_rot: Vec::with_capacity(frames), scale: scale_f, ground_shift: 0.0, source_turn: tilt.mul(u), ik: ik.residuals() };
     let mut prev_root = Quat::IDENTITY;
     for k in 0..frames {
         let x = (k as f64 / opts.fps / frame_time).min((n - 1) as f64);

@@ -57,10 +57,9 @@ pub struct Report {
     pub frames_with_speed_spike: usize,
     /// Frames labelled as hand–ball contact.
     pub contact_frames: usize,
-    /// With the light IK: the largest and mean distance (m) left between an ankle or wrist and its
-    /// target over the source frames (0 without IK).
-    pub ik_residual_max_m: f64,
-    pub ik_residual_mean_m: f64,
+    /// With the light IK: the distances (m) left between the ankles / wrists and their targets
+    /// over the source frames (targets beyond the straight limb; zeros without IK).
+    pub ik: crate::limb_ik::IkResiduals,
 }
 
 /// Resample per-source-frame points to the motion's frames.
@@ -126,8 +125,7 @@ pub fn to_clip(m: &Motion, name: &str, source: &str, skill: u32, ball: &Ball, sr
         max_joint_speed_body: String::new(),
         frames_with_speed_spike: 0,
         contact_frames: 0,
-        ik_residual_max_m: m.ik_residual_max_m,
-        ik_residual_mean_m: m.ik_residual_mean_m,
+        ik: m.ik,
     };
     let (mut slide_sum, mut slide_n) = (0.0, 0usize);
     let mut prev: Option<[Vec3; NUM_BODIES]> = None;

@@ -225,9 +225,9 @@ pub fn retarget_positions(src: &JointPositions, map: &JointMap, opts: &Options) 
                 }
             };
         }
-        let root = scale(o(f, 0), scale_f);
+        let mut root = scale(o(f, 0), scale_f);
         if opts.ik {
-            ik.solve(&mut g, root, |j| scale(u.rotate(src.at(f, j)), scale_f));
+            root = ik.solve(&mut g, root, |j| scale(u.rotate(src.at(f, j)), scale_f));
         }
         root_p.push(root);
         locals.push(locals_of(&g));

@@ -5,7 +5,7 @@
 
 use skillmimic_core::math::Quat;
 use skillmimic_core::skeleton;
-use skillmimic_motion::amass::{self, SMPLH_JOINTS};
+use skillmimic_motion::amass::{self, Rest, SMPLH_JOINTS};
 use skillmimic_motion::retarget_bvh::{self, JointMap, Options};
 use skillmimic_motion::testing::write_synthetic_amass;
 
@@ -16,7 +16,7 @@ fn synthetic_smplh_walk_transfers_exactly_and_stands_on_the_floor() {
     let path = dir.join("walk.npz");
     let (frames, fps) = (121, 60.0);
     let poses = write_synthetic_amass(&path, frames, fps, &[]).unwrap();
-    let src = amass::read(&path).unwrap();
+    let src = amass::read_with_rest(&path, Rest::Humanoid).unwrap();
     assert_eq!((src.frames, src.joints.len()), (frames, 52));
     let map = JointMap::load("smplh").unwrap();
     assert_eq!(map.bodies.len(), 52);
@@ -111,7 +111,7 @@ fn body_model_file_sets_the_skeleton_and_the_pelvis() {
     let (seq, model) = (dir.join("walk.npz"), dir.join("model.npz"));
     let poses = write_synthetic_amass(&seq, 61, 60.0, &[1.0]).unwrap();
     // the synthetic model: vertex j = the humanoid's rest joint j, moved by the SMPL-like pelvis offset
-    let src = amass::read(&seq).unwrap();
+    let src = amass::read_with_rest(&seq, Rest::Humanoid).unwrap();
     let mut rest = vec![[0.0f64; 3]; 52];
     for j in 0..52 {
         rest[j] = match src.joints[j].parent {
@@ -126,7 +126,7 @@ fn body_model_file_sets_the_skeleton_and_the_pelvis() {
     write_npz(&model, &[("v_template", &[52, 3], &v), ("J_regressor", &[52, 52], &reg), ("shapedirs", &[52, 3, 1], &dirs)]).unwrap();
     let joints = amass::model_joints(&model, &[1.0]).unwrap();
     assert!((joints[0][1] - 1.1 * j0[1]).abs() < 1e-12);
-    let b = amass::read_with_model(&seq, Some(&model)).unwrap();
+    let b = amass::read_with_rest(&seq, Rest::BodyModel(&model)).unwrap();
     let m = retarget_bvh::retarget(&b, &JointMap::load("smplh").unwrap(), &Options { fps: 60.0, ground: false, ik: false }).unwrap();
     assert!((m.scale - 1.0 / 1.1).abs() < 1e-9, "height ratio {}", m.scale);
     let mut worst = 0.0f64;
@@ -145,7 +145,55 @@ fn body_model_file_sets_the_skeleton_and_the_pelvis() {
     }
     // a model without J_regressor is refused by name
     write_npz(&model, &[("v_template", &[52, 3], &v)]).unwrap();
-    let e = amass::read_with_model(&seq, Some(&model)).unwrap_err().to_string();
+    let e = amass::read_with_rest(&seq, Rest::BodyModel(&model)).unwrap_err().to_string();
     assert!(e.contains("model.npz") && e.contains("J_regressor"), "{e}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The default rest skeleton is SMPL's neutral mean shape: in the zero pose every mapped limb bone
+/// of the retargeted humanoid points along SMPL's rest bone (turned into the Z-up world), the size
+/// follows SMPL's leg length, and the pelvis sits at `trans + J_pelvis` × scale.
+#[test]
+fn smpl_neutral_rest_skeleton_is_the_default() {
+    use skillmimic_core::math::{norm, sub};
+    use skillmimic_motion::testing::write_npz;
+    let joints = amass::smpl_neutral_joints();
+    assert_eq!(joints.len(), 52);
+    // SMPL's neutral body: pelvis 22.3 cm below the model origin, near-symmetric hips, legs of
+    // 0.777 m (hip → knee → ankle), arms of 0.51 m (shoulder → elbow → wrist)
+    assert!((joints[0][1] + 0.2233).abs() < 1e-12);
+    assert!((joints[1][0] + joints[2][0] - 2.0 * joints[0][0]).abs() < 0.005, "hips {:?} {:?}", joints[1], joints[2]);
+    let leg = norm(sub(joints[4], joints[1])) + norm(sub(joints[7], joints[4]));
+    let arm = norm(sub(joints[18], joints[16])) + norm(sub(joints[20], joints[18]));
+    assert!((leg - 0.7776).abs() < 1e-3 && (arm - 0.5109).abs() < 2e-3, "leg {leg}, arm {arm}");
+    // the zero pose, stood up in AMASS's Z-up world
+    let dir = std::env::temp_dir().join(format!("sm-amass-neutral-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let seq = dir.join("zero.npz");
+    let t = 4;
+    let poses: Vec<f64> = (0..t * 156).map(|k| if k % 156 == 0 { std::f64::consts::FRAC_PI_2 } else { 0.0 }).collect();
+    let trans: Vec<f64> = (0..t).flat_map(|_| [0.1, 0.2, 0.95]).collect();
+    write_npz(&seq, &[("poses", &[t, 156], &poses), ("trans", &[t, 3], &trans), ("mocap_framerate", &[], &[30.0])]).unwrap();
+    let b = amass::read(&seq).unwrap();
+    let m = retarget_bvh::retarget(&b, &JointMap::load("smplh").unwrap(), &Options { fps: 30.0, ground: false, ik: false }).unwrap();
+    let humanoid_leg = norm(skeleton::BODIES[skeleton::body_index("L_Knee").unwrap()].offset) + norm(skeleton::BODIES[skeleton::body_index("L_Ankle").unwrap()].offset);
+    let smpl_legs = leg + norm(sub(joints[5], joints[2])) + norm(sub(joints[8], joints[5]));
+    assert!((m.scale - 2.0 * humanoid_leg / smpl_legs).abs() < 1e-3, "scale {}", m.scale);
+    let tilt = Quat::from_axis_angle([1.0, 0.0, 0.0], std::f64::consts::FRAC_PI_2);
+    let p = retarget_bvh::body_positions(&m, 0);
+    let mut worst = 0.0f64;
+    for (from, to, jf, jt) in [("L_Hip", "L_Knee", 1, 4), ("L_Knee", "L_Ankle", 4, 7), ("R_Hip", "R_Knee", 2, 5), ("R_Knee", "R_Ankle", 5, 8), ("L_Shoulder", "L_Elbow", 16, 18), ("L_Elbow", "L_Wrist", 18, 20), ("R_Shoulder", "R_Elbow", 17, 19), ("R_Elbow", "R_Wrist", 19, 21), ("Neck", "Head", 12, 15)] {
+        let (bf, bt) = (skeleton::body_index(from).unwrap(), skeleton::body_index(to).unwrap());
+        let want = tilt.rotate(sub(joints[jt], joints[jf]));
+        let got = sub(p[bt], p[bf]);
+        let cos = (0..3).map(|i| want[i] * got[i]).sum::<f64>() / (norm(want) * norm(got));
+        worst = worst.max(cos.clamp(-1.0, 1.0).acos());
+    }
+    println!("zero pose on SMPL's neutral skeleton: limb bones within {worst:.2e} rad of SMPL's rest directions; scale {:.4}", m.scale);
+    assert!(worst < 1e-6, "{worst} rad");
+    // pelvis: (trans + J_pelvis) in the world, × scale
+    let j0 = amass::SMPL_NEUTRAL_OFFSETS[0];
+    let want = [(0.1 + j0[0]) * m.scale, (0.2 + j0[1]) * m.scale, (0.95 + j0[2]) * m.scale];
+    assert!((0..3).all(|c| (m.root_pos[0][c] - want[c]).abs() < 1e-9), "pelvis {:?} vs {want:?}", m.root_pos[0]);
     let _ = std::fs::remove_dir_all(&dir);
 }
