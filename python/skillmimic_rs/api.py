@@ -169,6 +169,15 @@ def retarget_bvh(bvh: str | os.PathLike, *, out: str | os.PathLike, skill: int, 
     return _retarget(bvh, "bvh", out, dict(options, skill=skill, map=map))
 
 
+def retarget_amass(npz: str | os.PathLike, *, out: str | os.PathLike, skill: int, map: str | os.PathLike = "smplh",
+                   **options: Any) -> dict[str, Any]:
+    """Retarget an SMPL / SMPL-H / SMPL-X sequence in the AMASS ``.npz`` layout onto the SkillMimic
+    humanoid as ``skillmimic retarget --amass`` (``rest="smpl"`` (default) or ``"humanoid"``,
+    ``body_model=`` a user's model file, and the options of :func:`retarget_bvh`); returns the
+    report with ``clip``."""
+    return _retarget(npz, "amass", out, dict(options, skill=skill, map=map))
+
+
 def retarget_positions(csv: str | os.PathLike, *, out: str | os.PathLike, skill: int, fps: float,
                        map: str | os.PathLike = "humanoid", **options: Any) -> dict[str, Any]:
     """Retarget joint positions (a CSV with ``<joint>_x,<joint>_y,<joint>_z`` columns, one row per

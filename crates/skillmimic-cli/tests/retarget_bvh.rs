@@ -114,11 +114,20 @@ fn mocap_bvh_retargets_and_trains() {
     let r = bin().args(["retarget", "--map", "mocapbank", "--skill", "10", "--name", "010_mocapbank", "--bvh"]).arg(&bvh).arg("--out").arg(&out).output().unwrap();
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
     let rep: Value = serde_json::from_str(&std::fs::read_to_string(out.join("010_mocapbank.retarget.json")).unwrap()).unwrap();
-    println!("{rep}");
+    println!("{}", rep.as_object().unwrap().iter().filter(|(k, _)| *k != "per_frame").map(|(k, v)| format!("{k}: {v}")).collect::<Vec<_>>().join(", "));
     assert_eq!(rep["frames"], 908);
     assert!(rep["foot_penetration_max_m"].as_f64().unwrap() <= 0.02);
     assert_eq!(rep["frames_with_speed_spike"], 0);
     assert!(rep["max_joint_speed_rad_s"].as_f64().unwrap() < 20.0);
+    // the per-frame checks agree with the summaries
+    let col = |k: &str| -> Vec<f64> { rep["per_frame"][k].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect() };
+    let (sole, slide, speed) = (col("lowest_sole_m"), col("foot_sliding_m_s"), col("max_joint_speed_rad_s"));
+    assert!(sole.len() == 908 && slide.len() == 908 && speed.len() == 908);
+    let deepest = sole.iter().cloned().fold(f64::INFINITY, f64::min);
+    assert!((deepest + rep["foot_penetration_max_m"].as_f64().unwrap()).abs() < 1e-12, "{deepest}");
+    assert!((speed.iter().cloned().fold(0.0, f64::max) - rep["max_joint_speed_rad_s"].as_f64().unwrap()).abs() < 1e-12);
+    let on_floor: Vec<f64> = (1..908).filter(|&k| sole[k] < 0.02).map(|k| slide[k]).collect();
+    assert!((on_floor.iter().sum::<f64>() / on_floor.len() as f64 - rep["foot_sliding_mean_m_s"].as_f64().unwrap()).abs() < 1e-9);
     trains_finite(&out.join("010_mocapbank.safetensors"), &out.join("train"));
     let _ = std::fs::remove_dir_all(&out);
 }

@@ -346,24 +346,23 @@ pub fn lowest_sole(m: &Motion, k: usize) -> f64 {
     lowest_sole_of(&body_positions(m, k)).0
 }
 
-/// Joint speeds in one pass: the largest (rad/s) with its frame and joint, and how many frames
-/// have some joint faster than `spike` rad/s.
-pub fn joint_speeds(m: &Motion, spike: f64) -> ((f64, usize, usize), usize) {
+/// Joint speeds in one pass: the largest (rad/s) with its frame and joint, how many frames have
+/// some joint faster than `spike` rad/s, and each frame's fastest joint speed (frame 0: 0).
+pub fn joint_speeds(m: &Motion, spike: f64) -> ((f64, usize, usize), usize, Vec<f64>) {
     let mut worst = (0.0, 0, 0);
-    let mut spikes = 0;
+    let mut per_frame = vec![0.0; m.frames];
     for k in 1..m.frames {
-        let mut frame_max = 0.0f64;
         for j in 0..NUM_JOINTS {
             let (a, b) = (Quat::from_rotvec(m.dof_rot[k - 1][j]), Quat::from_rotvec(m.dof_rot[k][j]));
             let w = a.conj().mul(b).angle() * m.fps;
-            frame_max = frame_max.max(w);
+            per_frame[k] = f64::max(per_frame[k], w);
             if w > worst.0 {
                 worst = (w, k, j);
             }
         }
-        spikes += (frame_max > spike) as usize;
     }
-    (worst, spikes)
+    let spikes = per_frame.iter().filter(|&&w| w > spike).count();
+    (worst, spikes, per_frame)
 }
 
 /// Largest joint speed (rad/s) between consecutive output frames, and where ([`joint_speeds`]).

@@ -60,6 +60,21 @@ pub struct Report {
     /// With the light IK: the distances (m) left between the ankles / wrists and their targets
     /// over the source frames (targets beyond the straight limb; zeros without IK).
     pub ik: crate::limb_ik::IkResiduals,
+    /// The same checks frame by frame (output frames), for plotting or finding a glitch.
+    pub per_frame: PerFrame,
+}
+
+/// Per-frame diagnostics of a retargeted clip (one value per output frame). The humanoid's joints
+/// have no limits (every axis spans ±180°), so joint speed is the check on joints.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct PerFrame {
+    /// Height of the lowest sole point above the floor (m; negative: penetration).
+    pub lowest_sole_m: Vec<f64>,
+    /// Horizontal speed of the lowest foot body while its sole is within 2 cm of the floor (m/s;
+    /// 0 in the air and at frame 0): foot sliding.
+    pub foot_sliding_m_s: Vec<f64>,
+    /// Fastest joint rotation from the previous frame (rad/s; frame 0: 0).
+    pub max_joint_speed_rad_s: Vec<f64>,
 }
 
 /// Resample per-source-frame points to the motion's frames.
@@ -126,6 +141,7 @@ pub fn to_clip(m: &Motion, name: &str, source: &str, skill: u32, ball: &Ball, sr
         frames_with_speed_spike: 0,
         contact_frames: 0,
         ik: m.ik,
+        per_frame: PerFrame::default(),
     };
     let (mut slide_sum, mut slide_n) = (0.0, 0usize);
     let mut prev: Option<[Vec3; NUM_BODIES]> = None;
@@ -143,17 +159,22 @@ pub fn to_clip(m: &Motion, name: &str, source: &str, skill: u32, ball: &Ball, sr
         let (sole, foot) = lowest_sole_of(&p);
         rep.foot_penetration_max_m = rep.foot_penetration_max_m.max(-sole);
         rep.frames_penetrating += (sole < -0.01) as usize;
+        rep.per_frame.lowest_sole_m.push(sole);
+        let mut slide = 0.0;
         if let Some(q) = prev {
             // the lowest foot body, if its sole is on the floor
             if sole < 0.02 {
-                slide_sum += norm([p[foot][0] - q[foot][0], p[foot][1] - q[foot][1], 0.0]) * m.fps;
+                slide = norm([p[foot][0] - q[foot][0], p[foot][1] - q[foot][1], 0.0]) * m.fps;
+                slide_sum += slide;
                 slide_n += 1;
             }
         }
+        rep.per_frame.foot_sliding_m_s.push(slide);
         prev = Some(p);
     }
     rep.foot_sliding_mean_m_s = if slide_n > 0 { slide_sum / slide_n as f64 } else { 0.0 };
-    let ((w, k, j), spikes) = joint_speeds(m, 20.0);
+    let ((w, k, j), spikes, per_frame) = joint_speeds(m, 20.0);
+    rep.per_frame.max_joint_speed_rad_s = per_frame;
     rep.max_joint_speed_rad_s = w;
     rep.max_joint_speed_frame = k;
     rep.max_joint_speed_body = skeleton::BODIES[j + 1].name.into();
