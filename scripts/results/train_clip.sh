@@ -1,11 +1,15 @@
 #!/usr/bin/env bash
 # Results protocol (issue 22, docs/results.md): train the clip of configs/results/NAME.toml, resuming
 # from OUT/NAME/latest.safetensors when it exists, then evaluate the latest checkpoint:
-#   - eval-start.json: 64 deterministic episodes from the clip's first usable frame (2: frames 0 and
-#     1 have no velocity), i.e. completion of the whole clip and falls;
+#   - eval-start.json: the deterministic (mean-action) episode from the clip's first usable frame
+#     (2: frames 0 and 1 have no velocity) to its end: completion and falls. Physics and policy are
+#     deterministic, so its 64 episodes are one trajectory (falls 0 % or 100 %);
+#   - eval-start-sampled.json: 64 episodes from frame 2 with sampled actions (the policy's σ): the
+#     completion rate of the issue's criterion;
 #   - eval.json: 64 deterministic episodes from random frames (the paper's Acc, E_b/E_o-mpjpe,
 #     E_cg, NR) plus the SkillMimic-V2 metrics (SR over 10 s from frame 2, TSR, εNSR);
-#   - curve.png and a GIF of one deterministic episode.
+#   - curve.png, the metrics of every 25th checkpoint (checkpoint_evals.jsonl, metrics.png) and a
+#     GIF of one deterministic episode.
 #   scripts/results/train_clip.sh run            # to the config's run.iterations
 #   ITERS=400 scripts/results/train_clip.sh run  # a chunk: stop at iteration 400 (resume later)
 set -euo pipefail
@@ -26,18 +30,25 @@ fi
 # the whole clip: the episode ends at the clip's last frame or a fall (not after env.episode_length)
 "$BIN" eval --checkpoint "$OUT/latest.safetensors" --episodes 64 --seed 7 --start-frame 2 --set env.episode_length=100000 \
   --out "$OUT/eval-start.json" >> "$OUT/train.log" 2>&1
+"$BIN" eval --checkpoint "$OUT/latest.safetensors" --episodes 64 --seed 7 --start-frame 2 --stochastic --set env.episode_length=100000 \
+  --out "$OUT/eval-start-sampled.json" >> "$OUT/train.log" 2>&1
 "$BIN" eval --checkpoint "$OUT/latest.safetensors" --episodes 64 --seed 7 --v2 --out "$OUT/eval.json" >> "$OUT/train.log" 2>&1
 "$BIN" plot --log "$OUT/log.jsonl" --out "$OUT/curve.png" >> "$OUT/train.log" 2>&1
+# the metrics along the run: every 25th checkpoint (scripts/results/eval_checkpoints.sh), plotted
+BIN="$BIN" OUT="$(dirname "$OUT")" scripts/results/eval_checkpoints.sh "$NAME" >> "$OUT/train.log" 2>&1
+"$BIN" plot --evals "$OUT/checkpoint_evals.jsonl" --label "$NAME" --out "$OUT/metrics.png" >> "$OUT/train.log" 2>&1
 "$BIN" play --checkpoint "$OUT/latest.safetensors" --steps 240 --video "$OUT/episode.gif" >> "$OUT/train.log" 2>&1 || echo "no video (renderer unavailable)" >> "$OUT/train.log"
 python3 - "$OUT" <<'PY'
 import json, pathlib, sys
 out = pathlib.Path(sys.argv[1])
 rows = [json.loads(l) for l in (out / "log.jsonl").read_text().splitlines() if l.strip()]
 start = json.loads((out / "eval-start.json").read_text())["nominal"]
+sampled = json.loads((out / "eval-start-sampled.json").read_text())["nominal"]
 ev = json.loads((out / "eval.json").read_text())
 n = ev["nominal"]
 print(f"{out.name}: {rows[-1]['iteration']} iterations, {rows[-1]['samples']} samples; reward/step last 25 it. "
-      f"{sum(r['mean_reward'] for r in rows[-25:]) / len(rows[-25:]):.4f}; from frame 2: falls {100 * start['fall_rate']:.1f} %, "
-      f"mean length {start['mean_episode_length']:.1f}; random frames: Acc {n['acc_percent']:.1f} %, E_b {n['e_b_mpjpe_mm']:.0f} mm, "
+      f"{sum(r['mean_reward'] for r in rows[-25:]) / len(rows[-25:]):.4f}; from frame 2: mean action falls {100 * start['fall_rate']:.0f} %, "
+      f"length {start['mean_episode_length']:.1f}, E_b {start['e_b_mpjpe_mm']:.0f} mm; sampled actions: completed {100 * (1 - sampled['fall_rate']):.1f} %, "
+      f"E_b {sampled['e_b_mpjpe_mm']:.0f} mm; random frames: Acc {n['acc_percent']:.1f} %, E_b {n['e_b_mpjpe_mm']:.0f} mm, "
       f"E_o {n['e_o_mpjpe_mm']:.0f} mm, E_cg {n['e_cg']:.3f}, NR {n['nr']:.4f}, falls {100 * n['fall_rate']:.1f} %")
 PY

@@ -18,8 +18,13 @@ use plotters::prelude::*;
 #[derive(clap::Args)]
 pub struct Args {
     /// Training log (one JSON object per iteration); repeat to overlay runs.
-    #[arg(long, required = true)]
+    #[arg(long, required_unless_present = "evals", conflicts_with = "evals")]
     pub log: Vec<PathBuf>,
+    /// Checkpoint metrics (`checkpoint_evals.jsonl` of `scripts/results/eval_checkpoints.sh`):
+    /// completion from the clip's start, falls, Acc and E_b-mpjpe against samples; repeat to
+    /// overlay runs.
+    #[arg(long)]
+    pub evals: Vec<PathBuf>,
     /// Legend label of each `--log` (default: the log's folder name).
     #[arg(long)]
     pub label: Vec<String>,
@@ -339,16 +344,42 @@ pub fn plot_compare(logs: &[(String, PathBuf)], out: &Path, k: usize) -> anyhow:
     write_png(out, &rgb, w, h)
 }
 
-pub fn run(a: Args) -> anyhow::Result<()> {
-    if !a.label.is_empty() && a.label.len() != a.log.len() {
-        bail!("--label: {} labels for {} logs; give one per --log or none", a.label.len(), a.log.len());
+/// Overlay checkpoint metrics of runs (label, `checkpoint_evals.jsonl`) into `out`: four panels
+/// against samples, one curve per run.
+pub fn plot_evals(files: &[(String, PathBuf)], out: &Path) -> anyhow::Result<()> {
+    if files.len() > COLORS.len() {
+        bail!("--evals: {} files given, a plot holds at most {}", files.len(), COLORS.len());
     }
-    if a.log.len() == 1 {
+    let runs: Vec<(String, Vec<serde_json::Value>)> = files.iter().map(|(l, p)| Ok((l.clone(), read_log(p)?))).collect::<anyhow::Result<_>>()?;
+    let panel = |title: &'static str, y_desc: &'static str, key: &str| Panel {
+        title,
+        y_desc,
+        series: runs.iter().enumerate().map(|(c, (label, rows))| Series { name: label.clone(), color: COLORS[c], points: field(rows, key) }).collect(),
+    };
+    let panels = [
+        panel("Completed from the clip's start (sampled actions)", "% of 64 episodes", "start_sampled_completed_pct"),
+        panel("Falls from random frames", "% of 64 episodes", "falls_pct"),
+        panel("Acc (random frames)", "%", "acc_pct"),
+        panel("E_b-mpjpe (random frames)", "mm", "e_b_mm"),
+    ];
+    let (w, h) = SIZE;
+    let rgb = render(&panels, w, h)?;
+    write_png(out, &rgb, w, h)
+}
+
+pub fn run(a: Args) -> anyhow::Result<()> {
+    let n = a.log.len().max(a.evals.len());
+    if !a.label.is_empty() && a.label.len() != n {
+        bail!("--label: {} labels for {n} --log/--evals files; give one per file or none", a.label.len());
+    }
+    let name = |p: &Path| p.parent().and_then(|d| d.file_name()).map_or_else(|| p.display().to_string(), |n| n.to_string_lossy().into_owned());
+    let labelled = |files: &[PathBuf]| -> Vec<(String, PathBuf)> { files.iter().enumerate().map(|(k, p)| (a.label.get(k).cloned().unwrap_or_else(|| name(p)), p.clone())).collect() };
+    if !a.evals.is_empty() {
+        plot_evals(&labelled(&a.evals), &a.out)?;
+    } else if a.log.len() == 1 {
         plot_log(&a.log[0], &a.out)?;
     } else {
-        let name = |p: &Path| p.parent().and_then(|d| d.file_name()).map_or_else(|| p.display().to_string(), |n| n.to_string_lossy().into_owned());
-        let logs: Vec<(String, PathBuf)> = a.log.iter().enumerate().map(|(k, p)| (a.label.get(k).cloned().unwrap_or_else(|| name(p)), p.clone())).collect();
-        plot_compare(&logs, &a.out, a.smooth)?;
+        plot_compare(&labelled(&a.log), &a.out, a.smooth)?;
     }
     tracing::info!("wrote {}", a.out.display());
     Ok(())
@@ -382,6 +413,27 @@ mod tests {
         let p = dir.join("log.jsonl");
         std::fs::write(&p, text).unwrap();
         p
+    }
+
+    /// Checkpoint metrics of two runs plot, one colour each, at the plot's size.
+    #[test]
+    fn checkpoint_metrics_overlay() {
+        let dir = temp_dir("evals");
+        let files: Vec<(String, PathBuf)> = (0..2)
+            .map(|r| {
+                let text: String = (1..=6).map(|k| format!("{}\n", serde_json::json!({"iteration": 25 * k, "samples": 204800 * k, "start_sampled_completed_pct": 10.0 * (k + r) as f64, "falls_pct": 40.0 - 5.0 * k as f64, "acc_pct": 5.0 + k as f64, "e_b_mm": 500.0 - 20.0 * k as f64}))).collect();
+                let p = dir.join(format!("run{r}.jsonl"));
+                std::fs::write(&p, text).unwrap();
+                (format!("run {r}"), p)
+            })
+            .collect();
+        let out = dir.join("metrics.png");
+        plot_evals(&files, &out).unwrap();
+        let (info, rgb) = decode(&out);
+        assert_eq!((info.width, info.height), SIZE);
+        let has = |c: RGBColor| rgb.chunks(3).any(|p| p == [c.0, c.1, c.2]);
+        assert!(has(COLORS[0]) && has(COLORS[1]) && !has(COLORS[2]), "one colour per run");
+        std::fs::remove_dir_all(&dir).ok();
     }
 
     fn decode(path: &Path) -> (png::OutputInfo, Vec<u8>) {
