@@ -61,6 +61,19 @@ def require_module(name: str):
     return pytest.importorskip(name)
 
 
+def scene_model():
+    """PyPI mujoco and an ``MjModel`` of our default scene (humanoid + ball), built by PyPI mujoco
+    from the MJCF the environment itself loads."""
+    mujoco = require_module("mujoco")
+    import skillmimic_rs
+
+    env = skillmimic_rs.VecEnv(num_envs=1, autoreset_mode="disabled", threads=1)
+    try:
+        return mujoco, mujoco.MjModel.from_xml_string(env.mjcf_xml)
+    finally:
+        env.close()
+
+
 def run_cli(exe: pathlib.Path, *args: str) -> subprocess.CompletedProcess:
     """Run the CLI, failing the test with its stderr on a non-zero exit."""
     r = subprocess.run([str(exe), *args], capture_output=True, text=True)

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 import reference_env as ref
-from conftest import require_module
+from conftest import scene_model
 
 # SMPL neutral (beta = 0) joint offsets from the parent, metres, in the Z-up, x-forward, y-left
 # frame of SMPL-based humanoid MJCF files
@@ -27,7 +27,6 @@ BONES = [("L_Hip", "L_Knee"), ("L_Knee", "L_Ankle"), ("R_Hip", "R_Knee"), ("R_Kn
 
 
 def test_amass_zero_pose_follows_smpl_neutral_skeleton(skillmimic_bin, tmp_path):
-    mujoco = require_module("mujoco")
     import skillmimic_rs
 
     T = 6
@@ -40,9 +39,7 @@ def test_amass_zero_pose_follows_smpl_neutral_skeleton(skillmimic_bin, tmp_path)
     assert rep["frames"] == 2 * (T - 1) + 1 and rep["clip"].exists()
     scale = rep["scale"]
     clip = ref.load_clip(rep["clip"])
-    env = skillmimic_rs.VecEnv(num_envs=1, autoreset_mode="disabled", threads=1)
-    model = mujoco.MjModel.from_xml_string(env.mjcf_xml)
-    env.close()
+    mujoco, model = scene_model()
     data = mujoco.MjData(model)
     data.qpos[:] = ref.reset_qpos_qvel(model, clip, ref.derive_reference(clip), 0)[0]
     mujoco.mj_kinematics(model, data)

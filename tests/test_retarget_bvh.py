@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 import reference_env as ref
-from conftest import require_module, run_cli
+from conftest import require_module, run_cli, scene_model
 
 CLIPS = ["run/013_018pickle_run_3.pt", "layup/031_015pickle_layup_001_001.pt", "pick_40/001_007pickle_pick_000.pt"]
 
@@ -71,12 +71,9 @@ def write_with_bvhio(clip, model, path: pathlib.Path):
 
 @pytest.mark.parametrize("rel", CLIPS)
 def test_ballplay_clip_round_trips_through_a_third_party_bvh_writer(rel, shared_dir, skillmimic_bin, tmp_path):
-    mujoco = require_module("mujoco")
     import skillmimic_rs
 
-    env = skillmimic_rs.VecEnv(num_envs=1, autoreset_mode="disabled", threads=1)
-    model = mujoco.MjModel.from_xml_string(env.mjcf_xml)
-    env.close()
+    mujoco, model = scene_model()
     clip = ref.load_clip(shared_dir / "data" / "ballplay_m" / rel)
     bvh = tmp_path / "clip.bvh"
     write_with_bvhio(clip, model, bvh)

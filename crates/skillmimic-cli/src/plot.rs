@@ -321,50 +321,47 @@ pub fn smooth(points: &[(f64, f64)], k: usize) -> Vec<(f64, f64)> {
         .collect()
 }
 
-/// Overlay the runs `logs` (label, log) into `out`: one curve per run in each panel, each
-/// smoothed over `k` iterations ([`smooth`]).
-pub fn plot_compare(logs: &[(String, PathBuf)], out: &Path, k: usize) -> anyhow::Result<()> {
-    if logs.len() > COLORS.len() {
-        bail!("--log: {} runs given, a comparison plot holds at most {}", logs.len(), COLORS.len());
+/// Overlay runs (label, JSON-lines file given by `flag`) into `out`: one panel per (title, y-axis
+/// description, key), one curve per run, smoothed over `k` points ([`smooth`]).
+fn plot_overlay(files: &[(String, PathBuf)], out: &Path, flag: &str, k: usize, panels: &[(&'static str, &'static str, &str)]) -> anyhow::Result<()> {
+    if files.len() > COLORS.len() {
+        bail!("{flag}: {} runs given, a comparison plot holds at most {}", files.len(), COLORS.len());
     }
-    let runs: Vec<(String, Vec<serde_json::Value>)> = logs.iter().map(|(l, p)| Ok((l.clone(), read_log(p)?))).collect::<anyhow::Result<_>>()?;
-    let panel = |title: &'static str, y_desc: &'static str, key: &str| Panel {
-        title,
-        y_desc,
-        series: runs.iter().enumerate().map(|(c, (label, rows))| Series { name: label.clone(), color: COLORS[c], points: smooth(&field(rows, key), k) }).collect(),
-    };
-    let panels = [
-        panel("Mean reward per step", "reward", "mean_reward"),
-        panel("Episode length", "steps", "episode_length"),
-        panel("Actor loss", "loss", "actor_loss"),
-        panel("Critic loss", "loss", "critic_loss"),
-    ];
+    let runs: Vec<(String, Vec<serde_json::Value>)> = files.iter().map(|(l, p)| Ok((l.clone(), read_log(p)?))).collect::<anyhow::Result<_>>()?;
+    let panels: Vec<Panel> = panels
+        .iter()
+        .map(|&(title, y_desc, key)| Panel {
+            title,
+            y_desc,
+            series: runs.iter().enumerate().map(|(c, (label, rows))| Series { name: label.clone(), color: COLORS[c], points: smooth(&field(rows, key), k) }).collect(),
+        })
+        .collect();
     let (w, h) = SIZE;
     let rgb = render(&panels, w, h)?;
     write_png(out, &rgb, w, h)
 }
 
-/// Overlay checkpoint metrics of runs (label, `checkpoint_evals.jsonl`) into `out`: four panels
-/// against samples, one curve per run.
+/// Overlay the runs `logs` (label, log) into `out`: reward, episode length and the losses, one
+/// curve per run in each panel, each smoothed over `k` iterations ([`smooth`]).
+pub fn plot_compare(logs: &[(String, PathBuf)], out: &Path, k: usize) -> anyhow::Result<()> {
+    plot_overlay(logs, out, "--log", k, &[("Mean reward per step", "reward", "mean_reward"), ("Episode length", "steps", "episode_length"), ("Actor loss", "loss", "actor_loss"), ("Critic loss", "loss", "critic_loss")])
+}
+
+/// Overlay checkpoint metrics of runs (label, `checkpoint_evals.jsonl`) into `out`: completion from
+/// the clip's start, falls, Acc and E_b-mpjpe against samples, one curve per run.
 pub fn plot_evals(files: &[(String, PathBuf)], out: &Path) -> anyhow::Result<()> {
-    if files.len() > COLORS.len() {
-        bail!("--evals: {} files given, a plot holds at most {}", files.len(), COLORS.len());
-    }
-    let runs: Vec<(String, Vec<serde_json::Value>)> = files.iter().map(|(l, p)| Ok((l.clone(), read_log(p)?))).collect::<anyhow::Result<_>>()?;
-    let panel = |title: &'static str, y_desc: &'static str, key: &str| Panel {
-        title,
-        y_desc,
-        series: runs.iter().enumerate().map(|(c, (label, rows))| Series { name: label.clone(), color: COLORS[c], points: field(rows, key) }).collect(),
-    };
-    let panels = [
-        panel("Completed from the clip's start (sampled actions)", "% of 64 episodes", "start_sampled_completed_pct"),
-        panel("Falls from random frames", "% of 64 episodes", "falls_pct"),
-        panel("Acc (random frames)", "%", "acc_pct"),
-        panel("E_b-mpjpe (random frames)", "mm", "e_b_mm"),
-    ];
-    let (w, h) = SIZE;
-    let rgb = render(&panels, w, h)?;
-    write_png(out, &rgb, w, h)
+    plot_overlay(
+        files,
+        out,
+        "--evals",
+        1,
+        &[
+            ("Completed from the clip's start (sampled actions)", "% of 64 episodes", "start_sampled_completed_pct"),
+            ("Falls from random frames", "% of 64 episodes", "falls_pct"),
+            ("Acc (random frames)", "%", "acc_pct"),
+            ("E_b-mpjpe (random frames)", "mm", "e_b_mm"),
+        ],
+    )
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {

@@ -24,10 +24,13 @@ pub enum Target {
     /// The BVH reader, forward kinematics of every frame, and retargeting with a small joint map
     /// (`Hips` → Pelvis) into a validated clip.
     Bvh,
+    /// The joint-positions CSV reader and retargeting from positions with light IK (a legs map)
+    /// into a validated clip.
+    Positions,
 }
 
 /// All targets, in the order `--target all` runs them.
-pub const ALL: [Target; 5] = [Target::Pt, Target::Clip, Target::Checkpoint, Target::Config, Target::Bvh];
+pub const ALL: [Target; 6] = [Target::Pt, Target::Clip, Target::Checkpoint, Target::Config, Target::Bvh, Target::Positions];
 
 impl Target {
     /// The target's command-line name.
@@ -38,6 +41,7 @@ impl Target {
             Target::Checkpoint => "checkpoint",
             Target::Config => "config",
             Target::Bvh => "bvh",
+            Target::Positions => "positions",
         }
     }
 
@@ -54,6 +58,7 @@ impl Target {
             Target::Checkpoint => "fuzz_ckpt.safetensors",
             Target::Config => "fuzz.toml",
             Target::Bvh => "fuzz.bvh",
+            Target::Positions => "fuzz.csv",
         }
     }
 
@@ -94,6 +99,7 @@ impl Target {
                 out
             }
             Target::Bvh => vec![BVH_SEED.as_bytes().to_vec()],
+            Target::Positions => vec![positions_seed().into_bytes()],
             Target::Config => skillmimic_learn::config::PRESETS
                 .iter()
                 .map(|name| TrainConfig::preset(name).expect("preset").to_toml().into_bytes())
@@ -122,8 +128,37 @@ impl Target {
                 let m = retarget_bvh::retarget(&b, &map, &retarget_bvh::Options::default()).map_err(|e| e.to_string())?;
                 retarget_clip::to_clip(&m, "fuzz", "fuzz", 10, &retarget_clip::Ball::None, b.frame_time, path).map(drop).map_err(|e| e.to_string())
             }
+            Target::Positions => {
+                use skillmimic_motion::{retarget_bvh, retarget_clip, retarget_positions};
+                let src = retarget_positions::JointPositions::read_csv(path, 30.0).map_err(|e| e.to_string())?;
+                let map = retarget_bvh::JointMap { up: "y".into(), yaw_deg: 0.0, scale: Some(0.01), bodies: LEGS.iter().map(|n| (n.to_string(), n.to_string())).collect() };
+                let m = retarget_positions::retarget_positions(&src, &map, &retarget_bvh::Options { ik: true, ..Default::default() }).map_err(|e| e.to_string())?;
+                retarget_clip::to_clip(&m, "fuzz", "fuzz", 10, &retarget_clip::Ball::None, 1.0 / 30.0, path).map(drop).map_err(|e| e.to_string())
+            }
         }
     }
+}
+
+/// The joints of the positions seed and map.
+const LEGS: [&str; 7] = ["Pelvis", "L_Hip", "L_Knee", "L_Ankle", "R_Hip", "R_Knee", "R_Ankle"];
+
+/// A small valid positions CSV: the humanoid's rest legs (centimetres), three frames walking +z.
+fn positions_seed() -> String {
+    use skillmimic_core::skeleton;
+    let rest = skeleton::forward_kinematics([0.0, 95.0, 0.0], skillmimic_core::math::Quat::IDENTITY, &[0.0; skeleton::NUM_DOFS]);
+    let mut text: String = LEGS.iter().flat_map(|n| ["x", "y", "z"].map(|a| format!("{n}_{a}"))).collect::<Vec<_>>().join(",");
+    for f in 0..3 {
+        let row: Vec<String> = LEGS
+            .iter()
+            .flat_map(|n| {
+                let p = rest[skeleton::body_index(n).expect("leg body")];
+                [100.0 * p[0], p[1] + 99.0 * (p[1] - 95.0), 100.0 * p[2] + 5.0 * f as f64].map(|x| format!("{x:.3}"))
+            })
+            .collect();
+        text.push('\n');
+        text.push_str(&row.join(","));
+    }
+    text + "\n"
 }
 
 /// A small valid BVH: a root with a position, two chained joints, an End Site, three frames.

@@ -45,3 +45,8 @@ fn config_parser() {
 fn bvh_reader_and_retargeting() {
     fuzz(Target::Bvh);
 }
+
+#[test]
+fn positions_reader_and_retargeting() {
+    fuzz(Target::Positions);
+}

@@ -173,5 +173,13 @@ fn csv_reader_names_the_line_and_the_expectation() {
     let j = JointPositions::read_csv(&p, 30.0).unwrap();
     let e = retarget_positions(&j, &JointMap::load("humanoid").unwrap(), &Options::default()).unwrap_err().to_string();
     assert!(e.contains("which the positions file does not have (it has a)") && e.contains("m.csv"), "{e}");
+    // hostile values: legs of 1e308 overflow the bone vectors; refused as non-finite, never written
+    let legs = ["Pelvis", "L_Hip", "L_Knee", "L_Ankle", "R_Hip", "R_Knee", "R_Ankle"];
+    let header: Vec<String> = legs.iter().flat_map(|n| ["x", "y", "z"].map(|a| format!("{n}_{a}"))).collect();
+    let row: Vec<&str> = (0..21).map(|i| if i % 2 == 0 { "1.7e308" } else { "-1.7e308" }).collect();
+    std::fs::write(&p, format!("{}\n{}\n{}\n", header.join(","), row.join(","), row.join(","))).unwrap();
+    let map = JointMap { up: "y".into(), yaw_deg: 0.0, scale: None, bodies: legs.iter().map(|n| (n.to_string(), n.to_string())).collect() };
+    let e = retarget_positions(&JointPositions::read_csv(&p, 30.0).unwrap(), &map, &Options { ik: true, ..Options::default() }).unwrap_err().to_string();
+    assert!(e.contains("non-finite") && e.contains("m.csv"), "{e}");
     std::fs::remove_dir_all(&dir).ok();
 }
