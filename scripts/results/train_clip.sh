@@ -9,7 +9,7 @@
 #   - eval.json: 64 deterministic episodes from random frames (the paper's Acc, E_b/E_o-mpjpe,
 #     E_cg, NR) plus the SkillMimic-V2 metrics (SR over 10 s from frame 2, TSR, εNSR);
 #   - curve.png, the metrics of every 25th checkpoint (checkpoint_evals.jsonl, metrics.png) and a
-#     GIF of one deterministic episode.
+#     GIF of 5 s from the clip's start (mean action).
 #   scripts/results/train_clip.sh run            # to the config's run.iterations
 #   ITERS=400 scripts/results/train_clip.sh run  # a chunk: stop at iteration 400 (resume later)
 set -euo pipefail
@@ -37,7 +37,9 @@ fi
 # the metrics along the run: every 25th checkpoint (scripts/results/eval_checkpoints.sh), plotted
 BIN="$BIN" OUT="$(dirname "$OUT")" scripts/results/eval_checkpoints.sh "$NAME" >> "$OUT/train.log" 2>&1
 "$BIN" plot --evals "$OUT/checkpoint_evals.jsonl" --label "$NAME" --out "$OUT/metrics.png" >> "$OUT/train.log" 2>&1
-"$BIN" play --checkpoint "$OUT/latest.safetensors" --steps 240 --video "$OUT/episode.gif" >> "$OUT/train.log" 2>&1 || echo "no video (renderer unavailable)" >> "$OUT/train.log"
+# 5 s from the clip's start with the mean action (episodes restart at frame 2 when the clip ends)
+"$BIN" play --checkpoint "$OUT/latest.safetensors" --steps 300 --set 'env.state_init={frame=2}' --set env.episode_length=100000 \
+  --video "$OUT/episode.gif" >> "$OUT/train.log" 2>&1 || echo "no video (renderer unavailable)" >> "$OUT/train.log"
 python3 - "$OUT" <<'PY'
 import json, pathlib, sys
 out = pathlib.Path(sys.argv[1])
