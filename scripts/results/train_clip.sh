@@ -53,4 +53,10 @@ print(f"{out.name}: {rows[-1]['iteration']} iterations, {rows[-1]['samples']} sa
       f"length {start['mean_episode_length']:.1f}, E_b {start['e_b_mpjpe_mm']:.0f} mm; sampled actions: completed {100 * (1 - sampled['fall_rate']):.1f} %, "
       f"E_b {sampled['e_b_mpjpe_mm']:.0f} mm; random frames: Acc {n['acc_percent']:.1f} %, E_b {n['e_b_mpjpe_mm']:.0f} mm, "
       f"E_o {n['e_o_mpjpe_mm']:.0f} mm, E_cg {n['e_cg']:.3f}, NR {n['nr']:.4f}, falls {100 * n['fall_rate']:.1f} %")
+# plateau rule of docs/results.md: the mean reward of the last 200 iterations within 2 % of the 200 before
+if len(rows) >= 400:
+    last, before = (sum(r["mean_reward"] for r in rows[a:b]) / 200 for a, b in ((-200, None), (-400, -200)))
+    change = (last - before) / before
+    print(f"plateau: reward/step {before:.4f} -> {last:.4f} over the last 2 x 200 iterations ({100 * change:+.1f} %): "
+          + ("plateaued (within 2 %)" if abs(change) <= 0.02 else "still changing"))
 PY

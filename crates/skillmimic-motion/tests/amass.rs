@@ -197,3 +197,46 @@ fn smpl_neutral_rest_skeleton_is_the_default() {
     assert!((0..3).all(|c| (m.root_pos[0][c] - want[c]).abs() < 1e-9), "pelvis {:?} vs {want:?}", m.root_pos[0]);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The three `poses` widths: an SMPL-X row (165: jaw and eyes between the body and the hands, here
+/// with non-zero values that must be ignored) retargets exactly like the SMPL-H row it was made
+/// from; an SMPL row (72: two hand joints, no fingers) gives the same body and rest fingers.
+#[test]
+fn smplx_and_smpl_layouts_match_smplh() {
+    use skillmimic_motion::testing::write_npz;
+    let dir = std::env::temp_dir().join(format!("sm-amass-widths-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let (t, fps) = (31, 30.0);
+    let h = dir.join("h.npz");
+    let poses = write_synthetic_amass(&h, t, fps, &[]).unwrap();
+    let trans: Vec<f64> = (0..t).flat_map(|f| [0.01 * f as f64, 0.0, 0.95]).collect();
+    write_npz(&h, &[("poses", &[t, 156], &poses), ("trans", &[t, 3], &trans), ("mocap_framerate", &[], &[fps])]).unwrap();
+    let x: Vec<f64> = (0..t).flat_map(|f| {
+        let row = &poses[f * 156..(f + 1) * 156];
+        row[..66].iter().copied().chain([0.3, -0.2, 0.1, 0.5, 0.5, 0.5, -0.4, 0.2, 0.9]).chain(row[66..].iter().copied()).collect::<Vec<_>>()
+    }).collect();
+    let s: Vec<f64> = (0..t).flat_map(|f| poses[f * 156..f * 156 + 66].iter().copied().chain([0.7, 0.0, 0.0, 0.0, -0.7, 0.0]).collect::<Vec<_>>()).collect();
+    let (xp, sp) = (dir.join("x.npz"), dir.join("s.npz"));
+    write_npz(&xp, &[("poses", &[t, 165], &x), ("trans", &[t, 3], &trans), ("mocap_framerate", &[], &[fps])]).unwrap();
+    write_npz(&sp, &[("poses", &[t, 72], &s), ("trans", &[t, 3], &trans), ("mocap_framerate", &[], &[fps])]).unwrap();
+    let map = JointMap::load("smplh").unwrap();
+    let go = |p: &std::path::Path| retarget_bvh::retarget(&amass::read(p).unwrap(), &map, &Options::default()).unwrap();
+    let (mh, mx, ms) = (go(&h), go(&xp), go(&sp));
+    let is_finger = |b: usize| ["Index", "Middle", "Pinky", "Ring", "Thumb"].iter().any(|f| skeleton::BODIES[b].name.contains(f));
+    let mut worst_body = 0.0f64;
+    for k in 0..mh.frames {
+        assert_eq!(mh.root_rot[k], mx.root_rot[k]);
+        assert_eq!(mh.dof_rot[k], mx.dof_rot[k], "SMPL-X frame {k}");
+        assert_eq!(mh.root_pos[k], mx.root_pos[k]);
+        for b in 1..skeleton::NUM_BODIES {
+            let (qh, qs) = (Quat::from_rotvec(mh.dof_rot[k][b - 1]), Quat::from_rotvec(ms.dof_rot[k][b - 1]));
+            if is_finger(b) {
+                assert!(qs.angle() < 1e-9, "SMPL finger {} keeps the rest pose", skeleton::BODIES[b].name);
+            } else {
+                worst_body = worst_body.max(qh.conj().mul(qs).angle());
+            }
+        }
+    }
+    assert!(worst_body < 1e-9, "SMPL body rotations {worst_body} rad from SMPL-H's");
+    let _ = std::fs::remove_dir_all(&dir);
+}
