@@ -17,9 +17,13 @@
 //!   by Jacobi sweeps, written here because the workspace has no linear-algebra crate for one 4 × 4
 //!   eigenproblem);
 //! * one branch: the smallest rotation that turns the bone, carried by the parent's rotation, onto
-//!   the observed direction, `G(b) = between(G(p)·r, o) · G(p)`: the twist about the bone is the
-//!   parent's (positions cannot show a twist);
-//! * no branch (a leaf: head, toes, fingertips) or an unmapped body: `G(b) = G(parent)`.
+//!   the observed direction, `G(b) = between(G(p)·r, o) · G(p)`;
+//! * no branch (a leaf: head, toes, fingertips) or an unmapped body: `G(b) = G(parent)`;
+//! * then the twists, which positions do not show: a one-branch bone whose direct child is solved
+//!   from spanning branches turns about itself so that the child's local rotation is smallest (a
+//!   hand solved from its fingers sets the forearm's twist). Other bones keep their parent's twist;
+//!   letting the twist climb further (upper arm, collar) measured worse on a clip whose true
+//!   rotations are known (0.78 rad mean at the collar instead of 0.08).
 //!
 //! Root position: the source pelvis joint × scale, scale = ratio of the humanoid's leg length
 //! (hip → knee → ankle) to the source's median leg length over frames, else the map's `scale`.
@@ -162,6 +166,28 @@ fn jacobi4(a: &mut [[f64; 4]; 4]) -> ([f64; 4], [[f64; 4]; 4]) {
     ([a[0][0], a[1][1], a[2][2], a[3][3]], v)
 }
 
+/// How a body's global rotation is found (module docs).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Kind {
+    /// Two or more branches spanning a plane: Horn's fit.
+    Spanning,
+    /// One branch (or collinear ones): the bone's direction, then the twist pass.
+    Bone,
+    /// Unmapped or a leaf: the parent's rotation.
+    Inherit,
+}
+
+/// `parent` turned about the unit world axis `u` by the angle ψ that makes the local rotation
+/// `parent(ψ)⁻¹ · child` smallest: with q(ψ) = P⁻¹·R_u(−ψ)·C, its scalar part is
+/// cos(ψ/2)·w₁ − sin(ψ/2)·w₂ (w₁ = w(P⁻¹C), w₂ = w(P⁻¹·(0, u)·C)), largest at ψ = 2·atan2(−w₂, w₁).
+fn least_turn(parent: Quat, child: Quat, u: Vec3) -> Quat {
+    let pinv = parent.conj();
+    let w1 = pinv.mul(child).w;
+    let w2 = pinv.mul(Quat { w: 0.0, x: u[0], y: u[1], z: u[2] }).mul(child).w;
+    let psi = 2.0 * (-w2).atan2(w1);
+    Quat::from_axis_angle(u, psi).mul(parent).normalized()
+}
+
 /// For each body: its branches (the nearest mapped bodies down each child's subtree).
 fn branches(mapped: &[bool; NUM_BODIES]) -> Vec<Vec<usize>> {
     let children = |b: usize| (b + 1..NUM_BODIES).filter(move |&c| BODIES[c].parent == Some(b));
@@ -208,22 +234,51 @@ pub fn retarget_positions(src: &JointPositions, map: &JointMap, opts: &Options) 
     let mut ik = crate::limb_ik::Limbs::new(&joint);
     let mut root_p = Vec::with_capacity(src.frames);
     let mut locals = Vec::with_capacity(src.frames);
+    // how each body's rotation is found: from ≥ 2 spanning branches, from one bone, or inherited
+    let kind: [Kind; NUM_BODIES] = std::array::from_fn(|b| {
+        if !mapped[b] || branch[b].is_empty() {
+            return Kind::Inherit;
+        }
+        let unit = |c: usize| {
+            let r = target_chain(b, c).expect("a descendant");
+            scale(r, 1.0 / norm(r))
+        };
+        let spans = branch[b].len() >= 2 && branch[b][1..].iter().any(|&c| norm(cross(unit(branch[b][0]), unit(c))) > 0.05);
+        if spans { Kind::Spanning } else { Kind::Bone }
+    });
     for f in 0..src.frames {
         let mut g = [Quat::IDENTITY; NUM_BODIES];
         for b in 0..NUM_BODIES {
             let parent = BODIES[b].parent.map_or(Quat::IDENTITY, |p| g[p]);
-            g[b] = if !mapped[b] || branch[b].is_empty() {
-                parent
-            } else {
-                let rest: Vec<Vec3> = branch[b].iter().map(|&c| target_chain(b, c).expect("a descendant")).collect();
-                let obs: Vec<Vec3> = branch[b].iter().map(|&c| sub(o(f, c), o(f, b))).collect();
-                let spans = rest.len() >= 2 && (1..rest.len()).any(|i| norm(cross(scale(rest[0], 1.0 / norm(rest[0])), scale(rest[i], 1.0 / norm(rest[i])))) > 0.05);
-                if spans && obs.iter().all(|v| norm(*v) > 0.0) {
+            let obs: Vec<Vec3> = branch[b].iter().map(|&c| sub(o(f, c), o(f, b))).collect();
+            g[b] = match kind[b] {
+                Kind::Spanning if obs.iter().all(|v| norm(*v) > 0.0) => {
+                    let rest: Vec<Vec3> = branch[b].iter().map(|&c| target_chain(b, c).expect("a descendant")).collect();
                     best_rotation(&rest, &obs)
-                } else {
-                    Quat::between(parent.rotate(rest[0]), obs[0]).mul(parent).normalized()
                 }
+                Kind::Spanning | Kind::Bone => Quat::between(parent.rotate(target_chain(b, branch[b][0]).expect("a descendant")), obs[0]).mul(parent).normalized(),
+                Kind::Inherit => parent,
             };
+        }
+        // twists: a bone whose direct child is solved from spanning branches (a forearm above a
+        // hand with fingers) turns about itself so that the child's local rotation is smallest;
+        // inherited bodies follow
+        for b in (0..NUM_BODIES).rev() {
+            let c = branch[b].first().copied();
+            if let (Kind::Bone, Some(c)) = (kind[b], c)
+                && BODIES[c].parent == Some(b)
+                && kind[c] == Kind::Spanning
+            {
+                let axis = sub(o(f, c), o(f, b));
+                if norm(axis) > 0.0 {
+                    g[b] = least_turn(g[b], g[c], scale(axis, 1.0 / norm(axis)));
+                }
+            }
+        }
+        for b in 1..NUM_BODIES {
+            if kind[b] == Kind::Inherit {
+                g[b] = g[BODIES[b].parent.expect("non-root")];
+            }
         }
         let mut root = scale(o(f, 0), scale_f);
         if opts.ik {
