@@ -203,6 +203,9 @@ fn branches(mapped: &[bool; NUM_BODIES]) -> Vec<Vec<usize>> {
 /// Retarget joint positions with `map` (see the module docs).
 pub fn retarget_positions(src: &JointPositions, map: &JointMap, opts: &Options) -> Result<Motion, ClipError> {
     let path = &src.path;
+    if src.positions.len() != src.frames * src.names.len() || !(src.fps.is_finite() && src.fps > 0.0) {
+        return Err(err_at(path, format!("{} positions for {} frames × {} joints at {} fps: expected frames × joints points and a positive frame rate", src.positions.len(), src.frames, src.names.len(), src.fps)));
+    }
     let u = up_turn(map, path)?;
     let mut joint: [Option<usize>; NUM_BODIES] = [None; NUM_BODIES];
     for (body, name) in &map.bodies {
