@@ -318,16 +318,15 @@ pub fn read_with_rest(path: &Path, rest: Rest) -> Result<Bvh, ClipError> {
             (22.., None) => None,
         }
     };
-    // rest skeleton: SMPL's neutral one, a body model's joints for these betas, or the humanoid's
-    let (rest_j, pelvis): (Vec<Vec3>, Vec3) = match rest {
-        Rest::SmplNeutral => (smpl_neutral_joints(), SMPL_NEUTRAL_OFFSETS[0]),
-        Rest::BodyModel(m) => {
-            let j = model_joints(m, &betas)?;
-            let p = j[0];
-            (j, p)
-        }
-        Rest::Humanoid => (humanoid_rest(), [0.0; 3]),
+    // rest skeleton: SMPL's neutral one, a body model's joints for these betas, or the humanoid's;
+    // the pelvis goes to trans + its rest position (J_pelvis for SMPL's; the origin for the
+    // humanoid's, whose forward kinematics start there)
+    let rest_j = match rest {
+        Rest::SmplNeutral => smpl_neutral_joints(),
+        Rest::BodyModel(m) => model_joints(m, &betas)?,
+        Rest::Humanoid => humanoid_rest(),
     };
+    let pelvis = rest_j[0];
     let rest = |j: usize| rest_j[j];
     let mut joints = Vec::with_capacity(52);
     for (j, (name, parent, _)) in SMPLH_JOINTS.iter().enumerate() {

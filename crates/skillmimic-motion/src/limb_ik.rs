@@ -37,14 +37,14 @@ pub const LIMBS: [([&str; 3], Vec3); 4] = [
     (["R_Shoulder", "R_Elbow", "R_Wrist"], [0.0, 1.0, 0.0]),
 ];
 
-/// Body positions (Y-up skeleton frame) from the root position and global rotations.
-pub fn positions_of(root: Vec3, g: &[Quat; NUM_BODIES]) -> [Vec3; NUM_BODIES] {
-    let mut p = [root; NUM_BODIES];
-    for b in 1..NUM_BODIES {
-        let pa = BODIES[b].parent.expect("non-root bodies have a parent");
-        p[b] = add(p[pa], g[pa].rotate(BODIES[b].offset));
+/// Position of body `b` (Y-up skeleton frame) from the root position and global rotations: the
+/// walk up its chain (the IK needs a handful of bodies, not the whole skeleton).
+pub fn position_of(root: Vec3, g: &[Quat; NUM_BODIES], b: usize) -> Vec3 {
+    // root first, as forward kinematics sums (the chains are at most 8 deep)
+    match BODIES[b].parent {
+        Some(pa) => add(position_of(root, g, pa), g[pa].rotate(BODIES[b].offset)),
+        None => root,
     }
-    p
 }
 
 /// Bend one chain `[a, b, c]` so that body `c` reaches `target` (see the module docs); returns the
@@ -66,8 +66,9 @@ pub fn two_bone(g: &mut [Quat; NUM_BODIES], root: Vec3, chain: [usize; 3], flex_
 
 fn two_bone_pass(g: &mut [Quat; NUM_BODIES], root: Vec3, chain: [usize; 3], flex_axis: Vec3, target: Vec3) -> f64 {
     let [a, b, c] = chain;
-    let p = positions_of(root, g);
-    let (pa, pb, pc) = (p[a], p[b], p[c]);
+    let pa = position_of(root, g, a);
+    let pb = add(pa, g[a].rotate(BODIES[b].offset));
+    let pc = add(pb, g[b].rotate(BODIES[c].offset));
     let (l1, l2) = (norm(BODIES[b].offset), norm(BODIES[c].offset));
     let d = norm(sub(target, pa)).clamp((l1 - l2).abs() + 1e-3, l1 + l2 - 1e-3);
     // 1. the middle joint: interior angle at b from the law of cosines, turned about the plane
@@ -138,8 +139,7 @@ impl Limbs {
     pub fn solve(&mut self, g: &mut [Quat; NUM_BODIES], root: Vec3, target: impl Fn(usize) -> Vec3) -> Vec3 {
         let root = match self.hips {
             Some(([l, r], [jl, jr])) => {
-                let p = positions_of(root, g);
-                let mid = scale(add(p[l], p[r]), 0.5);
+                let mid = scale(add(position_of(root, g, l), position_of(root, g, r)), 0.5);
                 let want = scale(add(target(jl), target(jr)), 0.5);
                 add(root, sub(want, mid))
             }
@@ -175,11 +175,12 @@ mod tests {
         g[ankle] = Quat::from_axis_angle([1.0, 0.0, 0.0], 0.2);
         let before = g;
         let root = [0.1, 0.9, -0.2];
-        let p0 = positions_of(root, &g);
+        let positions = |g: &[Quat; NUM_BODIES]| -> [Vec3; NUM_BODIES] { std::array::from_fn(|b| position_of(root, g, b)) };
+        let p0 = positions(&g);
         // a target 10 cm up and 5 cm forward of the straight rest leg's ankle: the knee must bend
         let target = add(p0[ankle], [0.0, 0.1, 0.05]);
         let r = two_bone(&mut g, root, [hip, knee, ankle], [1.0, 0.0, 0.0], target);
-        let p = positions_of(root, &g);
+        let p = positions(&g);
         assert!(r < 1e-9 && norm(sub(p[ankle], target)) < 1e-9, "residual {r}");
         assert_eq!(g[ankle], before[ankle]);
         assert_eq!(g[idx("L_Toe")], before[idx("L_Toe")]);

@@ -237,30 +237,32 @@ pub fn retarget_positions(src: &JointPositions, map: &JointMap, opts: &Options) 
     let mut ik = crate::limb_ik::Limbs::new(&joint);
     let mut root_p = Vec::with_capacity(src.frames);
     let mut locals = Vec::with_capacity(src.frames);
-    // how each body's rotation is found: from ≥ 2 spanning branches, from one bone, or inherited
+    // each body's rest vectors towards its branches (skeleton frame), and how its rotation is
+    // found: from ≥ 2 spanning branches, from one bone, or inherited
+    let rest: Vec<Vec<Vec3>> = (0..NUM_BODIES).map(|b| branch[b].iter().map(|&c| target_chain(b, c).expect("a descendant")).collect()).collect();
     let kind: [Kind; NUM_BODIES] = std::array::from_fn(|b| {
         if !mapped[b] || branch[b].is_empty() {
             return Kind::Inherit;
         }
-        let unit = |c: usize| {
-            let r = target_chain(b, c).expect("a descendant");
-            scale(r, 1.0 / norm(r))
-        };
-        let spans = branch[b].len() >= 2 && branch[b][1..].iter().any(|&c| norm(cross(unit(branch[b][0]), unit(c))) > 0.05);
+        let unit = |r: Vec3| scale(r, 1.0 / norm(r));
+        let spans = rest[b][1..].iter().any(|&r| norm(cross(unit(rest[b][0]), unit(r))) > 0.05);
         if spans { Kind::Spanning } else { Kind::Bone }
     });
+    let mut obs: Vec<Vec3> = Vec::new();
     for f in 0..src.frames {
         let mut g = [Quat::IDENTITY; NUM_BODIES];
         for b in 0..NUM_BODIES {
             let parent = BODIES[b].parent.map_or(Quat::IDENTITY, |p| g[p]);
-            let obs: Vec<Vec3> = branch[b].iter().map(|&c| sub(o(f, c), o(f, b))).collect();
-            g[b] = match kind[b] {
-                Kind::Spanning if obs.iter().all(|v| norm(*v) > 0.0) => {
-                    let rest: Vec<Vec3> = branch[b].iter().map(|&c| target_chain(b, c).expect("a descendant")).collect();
-                    best_rotation(&rest, &obs)
-                }
-                Kind::Spanning | Kind::Bone => Quat::between(parent.rotate(target_chain(b, branch[b][0]).expect("a descendant")), obs[0]).mul(parent).normalized(),
-                Kind::Inherit => parent,
+            if kind[b] == Kind::Inherit {
+                g[b] = parent;
+                continue;
+            }
+            obs.clear();
+            obs.extend(branch[b].iter().map(|&c| sub(o(f, c), o(f, b))));
+            g[b] = if kind[b] == Kind::Spanning && obs.iter().all(|v| norm(*v) > 0.0) {
+                best_rotation(&rest[b], &obs)
+            } else {
+                Quat::between(parent.rotate(rest[b][0]), obs[0]).mul(parent).normalized()
             };
         }
         // twists: a bone whose direct child is solved from spanning branches (a forearm above a
