@@ -4,6 +4,13 @@
 # reference, PyTorch, SB3/rsl_rl adapters). Idempotent set-up included.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
+# Every temporary file of the run (Rust tests' run folders, pytest's tmp_path, pip's builds) goes
+# to one fresh folder that is removed when the run ends, pass or fail, so that repeated runs never
+# fill the system's temporary disk. A short path under the system's temporary root, not under
+# target/, keeps Unix-socket paths (multiprocessing, torch.distributed) within their 107 bytes.
+TMPDIR="$(mktemp -d -t skillmimic-test.XXXXXX)"
+export TMPDIR
+trap 'rm -rf "$TMPDIR"' EXIT
 ./scripts/setup.sh --tests  # runtime + test packages (python/requirements-test.txt)
 cargo build --release --workspace --bins
 cargo test --release --workspace
