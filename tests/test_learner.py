@@ -143,6 +143,20 @@ def test_cli_trains_resumes_evaluates_and_plays_on_a_real_clip(shared_dir, tmp_p
     assert m["nominal"]["episodes"] == 4 and "013" in m["nominal"]["per_skill"]
     assert len(m["sweep"]) == 6
     assert 0.0 <= m["nominal"]["nr"] <= 1.0
+    # --init-noise: deterministic episodes from one start frame, their start states perturbed by
+    # the State Transition Field's noise; ε = 0 is the unperturbed evaluation, number for number
+    def from_frame_2(*flags: str) -> dict:
+        run_cli(skillmimic_bin, "eval", "--checkpoint", str(out / "latest.safetensors"), "--episodes", "4", "--num-envs", "4", "--start-frame", "2", *flags, "--out", str(metrics))
+        return json.loads(metrics.read_text())
+
+    plain, zero, noisy = from_frame_2(), from_frame_2("--init-noise", "0"), from_frame_2("--init-noise", "0.05")
+    assert plain["init_noise"] is None and zero["init_noise"] == 0.0 and noisy["init_noise"] == 0.05
+    assert zero["nominal"] == plain["nominal"]
+    assert noisy["nominal"]["e_b_mpjpe_mm"] != plain["nominal"]["e_b_mpjpe_mm"]
+    import subprocess
+
+    r = subprocess.run([str(skillmimic_bin), "eval", "--checkpoint", str(out / "latest.safetensors"), "--init-noise", "inf", "--out", str(metrics)], capture_output=True, text=True)
+    assert r.returncode == 1 and "--init-noise inf: expected a finite half-width" in r.stderr, r.stderr
     video, states = tmp_path / "play.gif", tmp_path / "states.safetensors"
     run_cli(skillmimic_bin, "play", "--checkpoint", str(out / "latest.safetensors"), "--steps", "20", "--video", str(video), "--states", str(states), "--width", "160", "--height", "120")
     assert video.read_bytes()[:6] == b"GIF89a"

@@ -4,8 +4,10 @@
 #   - eval-start.json: the deterministic (mean-action) episode from the clip's first usable frame
 #     (2: frames 0 and 1 have no velocity) to its end: completion and falls. Physics and policy are
 #     deterministic, so its 64 episodes are one trajectory (falls 0 % or 100 %);
-#   - eval-start-sampled.json: 64 episodes from frame 2 with sampled actions (the policy's σ): the
-#     completion rate of the issue's criterion;
+#   - eval-start-sampled.json: 64 episodes from frame 2 with sampled actions (the policy's σ);
+#   - eval-start-eps{0.01,0.02,0.05,0.1}.json: 64 mean-action episodes from frame 2 whose start
+#     states are perturbed by ε per component (`--init-noise`; 0.1 = SkillMimic-V2's εNSR setting):
+#     the completion rate over episodes that differ;
 #   - eval.json: 64 deterministic episodes from random frames (the paper's Acc, E_b/E_o-mpjpe,
 #     E_cg, NR) plus the SkillMimic-V2 metrics (SR over 10 s from frame 2, TSR, εNSR);
 #   - curve.png, the metrics of every 25th checkpoint (checkpoint_evals.jsonl, metrics.png) and a
@@ -32,10 +34,14 @@ fi
   --out "$OUT/eval-start.json" >> "$OUT/train.log" 2>&1
 "$BIN" eval --checkpoint "$OUT/latest.safetensors" --episodes 64 --seed 7 --start-frame 2 --stochastic --set env.episode_length=100000 \
   --out "$OUT/eval-start-sampled.json" >> "$OUT/train.log" 2>&1
+for eps in 0.01 0.02 0.05 0.1; do
+  "$BIN" eval --checkpoint "$OUT/latest.safetensors" --episodes 64 --seed 7 --start-frame 2 --init-noise "$eps" --set env.episode_length=100000 \
+    --out "$OUT/eval-start-eps$eps.json" >> "$OUT/train.log" 2>&1
+done
 "$BIN" eval --checkpoint "$OUT/latest.safetensors" --episodes 64 --seed 7 --v2 --out "$OUT/eval.json" >> "$OUT/train.log" 2>&1
 "$BIN" plot --log "$OUT/log.jsonl" --out "$OUT/curve.png" >> "$OUT/train.log" 2>&1
-# the metrics along the run: every 25th checkpoint (scripts/results/eval_checkpoints.sh), plotted
-BIN="$BIN" OUT="$(dirname "$OUT")" scripts/results/eval_checkpoints.sh "$NAME" >> "$OUT/train.log" 2>&1
+# the metrics along the run: every 25th checkpoint (scripts/results/eval_checkpoints.py), plotted
+BIN="$BIN" OUT="$(dirname "$OUT")" python3 scripts/results/eval_checkpoints.py "$NAME" >> "$OUT/train.log" 2>&1
 "$BIN" plot --evals "$OUT/checkpoint_evals.jsonl" --label "$NAME" --out "$OUT/metrics.png" >> "$OUT/train.log" 2>&1
 # 5 s from the clip's start with the mean action (episodes restart at frame 2 when the clip ends)
 "$BIN" play --checkpoint "$OUT/latest.safetensors" --steps 300 --set 'env.state_init={frame=2}' --set env.episode_length=100000 \
@@ -53,6 +59,8 @@ print(f"{out.name}: {rows[-1]['iteration']} iterations, {rows[-1]['samples']} sa
       f"length {start['mean_episode_length']:.1f}, E_b {start['e_b_mpjpe_mm']:.0f} mm; sampled actions: completed {100 * (1 - sampled['fall_rate']):.1f} %, "
       f"E_b {sampled['e_b_mpjpe_mm']:.0f} mm; random frames: Acc {n['acc_percent']:.1f} %, E_b {n['e_b_mpjpe_mm']:.0f} mm, "
       f"E_o {n['e_o_mpjpe_mm']:.0f} mm, E_cg {n['e_cg']:.3f}, NR {n['nr']:.4f}, falls {100 * n['fall_rate']:.1f} %")
+eps = {e: json.loads((out / f"eval-start-eps{e}.json").read_text())["nominal"] for e in ("0.01", "0.02", "0.05", "0.1")}
+print("mean action from frame 2, start perturbed by eps: " + ", ".join(f"eps {e}: completed {100 * (1 - r['fall_rate']):.1f} %" for e, r in eps.items()))
 # plateau rule of docs/results.md: the mean reward of the last 200 iterations within 2 % of the 200 before
 if len(rows) >= 400:
     last, before = (sum(r["mean_reward"] for r in rows[a:b]) / 200 for a, b in ((-200, None), (-400, -200)))

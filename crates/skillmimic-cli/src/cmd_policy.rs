@@ -118,6 +118,13 @@ pub struct EvalArgs {
     /// Sample actions instead of using the mean.
     #[arg(long)]
     pub stochastic: bool,
+    /// Imitation: start every episode from the reference state perturbed by the State Transition
+    /// Field's noise with every half-width ε = this value (m, rad, m/s, rad/s by component;
+    /// heights upward only), so that deterministic episodes from one start frame differ (the
+    /// physics is deterministic). 0.1 is SkillMimic-V2's BallPlay setting (εNSR). Applies to the
+    /// nominal evaluation and `--sweep`, not to `--v2`, whose εNSR uses the run's own ε.
+    #[arg(long, value_name = "EPS")]
+    pub init_noise: Option<f64>,
     /// Also evaluate with the ball's radius, density and restitution scaled (robustness sweep).
     #[arg(long)]
     pub sweep: bool,
@@ -141,6 +148,8 @@ struct SweepEntry {
 #[derive(Serialize)]
 struct EvalOutput {
     checkpoint: PathBuf,
+    /// `--init-noise`: the start-state half-width ε of the nominal and sweep evaluations.
+    init_noise: Option<f64>,
     nominal: EvalReport,
     sweep: Vec<SweepEntry>,
     v2: Option<skillmimic_learn::eval::V2Report>,
@@ -177,6 +186,14 @@ pub fn eval(a: EvalArgs) -> anyhow::Result<()> {
     if a.episodes == 0 {
         bail!("--episodes must be at least 1");
     }
+    if let Some(e) = a.init_noise {
+        if !(e.is_finite() && e >= 0.0) {
+            bail!("--init-noise {e}: expected a finite half-width ≥ 0 (m, rad, m/s, rad/s)");
+        }
+        if cfg.env.task != "imitation" || a.baselines {
+            bail!("--init-noise perturbs imitation episodes' starts; this evaluation's task is '{}'", cfg.env.task);
+        }
+    }
     // more environments than episodes would only burn time (each env contributes its first ones)
     cfg.env.num_envs = cfg.env.num_envs.min(a.episodes);
     if cfg.env.task != "imitation" || a.baselines {
@@ -195,11 +212,17 @@ pub fn eval(a: EvalArgs) -> anyhow::Result<()> {
         }
         Ok(evaluate(&c.policy, &mut env, a.episodes, a.seed, a.stochastic, 0))
     };
-    let nominal = run_one(cfg.env.clone())?;
+    let mut eval_env = cfg.env.clone();
+    if let Some(e) = a.init_noise {
+        eval_env.v2.stf.enabled = true;
+        eval_env.v2.stf.prob = 1.0;
+        eval_env.v2.stf.eps = skillmimic_env::config_v2::NoiseEps::uniform(e);
+    }
+    let nominal = run_one(eval_env.clone())?;
     let mut sweep = Vec::new();
     if a.sweep {
         for (r, d, e) in SWEEP {
-            let mut ec = cfg.env.clone();
+            let mut ec = eval_env.clone();
             ec.ball.radius_scale = r;
             ec.ball.density_scale = d;
             ec.ball.restitution_scale = e;
@@ -245,7 +268,7 @@ pub fn eval(a: EvalArgs) -> anyhow::Result<()> {
         }
         v2 = Some(r);
     }
-    let out = EvalOutput { checkpoint, nominal, sweep, v2 };
+    let out = EvalOutput { checkpoint, init_noise: a.init_noise, nominal, sweep, v2 };
     skillmimic_core::tensorfile::write_bytes_atomic(&a.out, serde_json::to_string_pretty(&out)?.as_bytes())
         .with_context(|| format!("cannot write {}", a.out.display()))?;
     println!("wrote {}", a.out.display());

@@ -20,7 +20,7 @@ pub struct Args {
     /// Training log (one JSON object per iteration); repeat to overlay runs.
     #[arg(long, required_unless_present = "evals", conflicts_with = "evals")]
     pub log: Vec<PathBuf>,
-    /// Checkpoint metrics (`checkpoint_evals.jsonl` of `scripts/results/eval_checkpoints.sh`):
+    /// Checkpoint metrics (`checkpoint_evals.jsonl` of `scripts/results/eval_checkpoints.py`):
     /// completion from the clip's start, falls, Acc and E_b-mpjpe against samples; repeat to
     /// overlay runs.
     #[arg(long)]
@@ -257,7 +257,7 @@ fn render(panels: &[Panel], width: u32, height: u32) -> anyhow::Result<Vec<u8>> 
     {
         let root = BitMapBackend::with_buffer(&mut buf, (width, height)).into_drawing_area();
         root.fill(&WHITE).map_err(plot_err)?;
-        for (area, p) in root.split_evenly((2, 2)).iter().zip(panels) {
+        for (area, p) in root.split_evenly((panels.len().div_ceil(2), 2)).iter().zip(panels) {
             draw_panel(area, p)?;
         }
         root.present().map_err(plot_err)?;
@@ -336,7 +336,8 @@ fn plot_overlay(files: &[(String, PathBuf)], out: &Path, flag: &str, k: usize, p
             series: runs.iter().enumerate().map(|(c, (label, rows))| Series { name: label.clone(), color: COLORS[c], points: smooth(&field(rows, key), k) }).collect(),
         })
         .collect();
-    let (w, h) = SIZE;
+    // two panels per row, each row [`SIZE`]'s half height
+    let (w, h) = (SIZE.0, SIZE.1 / 2 * panels.len().div_ceil(2) as u32);
     let rgb = render(&panels, w, h)?;
     write_png(out, &rgb, w, h)
 }
@@ -348,7 +349,9 @@ pub fn plot_compare(logs: &[(String, PathBuf)], out: &Path, k: usize) -> anyhow:
 }
 
 /// Overlay checkpoint metrics of runs (label, `checkpoint_evals.jsonl`) into `out`: completion from
-/// the clip's start, falls, Acc and E_b-mpjpe against samples, one curve per run.
+/// the clip's start (mean action with ε = 0.01 start noise; sampled actions), the SkillMimic
+/// success score, falls, Acc and E_b-mpjpe against samples, one curve per run (rows without a
+/// key are left out of its panel).
 pub fn plot_evals(files: &[(String, PathBuf)], out: &Path) -> anyhow::Result<()> {
     plot_overlay(
         files,
@@ -356,7 +359,9 @@ pub fn plot_evals(files: &[(String, PathBuf)], out: &Path) -> anyhow::Result<()>
         "--evals",
         1,
         &[
+            ("Completed from the clip's start (mean action, start noise 0.01)", "% of 64 episodes", "start_eps001_completed_pct"),
             ("Completed from the clip's start (sampled actions)", "% of 64 episodes", "start_sampled_completed_pct"),
+            ("SkillMimic success score from the start (mean action, noise 0.01)", "score", "start_eps001_v1_score"),
             ("Falls from random frames", "% of 64 episodes", "falls_pct"),
             ("Acc (random frames)", "%", "acc_pct"),
             ("E_b-mpjpe (random frames)", "mm", "e_b_mm"),
@@ -427,7 +432,7 @@ mod tests {
         let out = dir.join("metrics.png");
         plot_evals(&files, &out).unwrap();
         let (info, rgb) = decode(&out);
-        assert_eq!((info.width, info.height), SIZE);
+        assert_eq!((info.width, info.height), (SIZE.0, SIZE.1 / 2 * 3), "three rows of two panels");
         let has = |c: RGBColor| rgb.chunks(3).any(|p| p == [c.0, c.1, c.2]);
         assert!(has(COLORS[0]) && has(COLORS[1]) && !has(COLORS[2]), "one colour per run");
         std::fs::remove_dir_all(&dir).ok();

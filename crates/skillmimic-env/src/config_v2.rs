@@ -87,41 +87,34 @@ pub struct NoiseEps {
 }
 
 impl NoiseEps {
+    /// Every half-width equal to `eps` (m, rad, m/s, rad/s by component).
+    pub fn uniform(eps: f64) -> Self {
+        Self {
+            root_pos: eps,
+            root_height: eps,
+            root_rot: eps,
+            root_linvel: eps,
+            root_angvel: eps,
+            dof_pos: eps,
+            dof_vel: eps,
+            ball_pos: eps,
+            ball_height: eps,
+            ball_rot: eps,
+            ball_linvel: eps,
+            ball_angvel: eps,
+        }
+    }
+
     /// Every width zero (no perturbation).
     pub fn zero() -> Self {
-        Self {
-            root_pos: 0.0,
-            root_height: 0.0,
-            root_rot: 0.0,
-            root_linvel: 0.0,
-            root_angvel: 0.0,
-            dof_pos: 0.0,
-            dof_vel: 0.0,
-            ball_pos: 0.0,
-            ball_height: 0.0,
-            ball_rot: 0.0,
-            ball_linvel: 0.0,
-            ball_angvel: 0.0,
-        }
+        Self::uniform(0.0)
     }
 }
 
+/// ε = 0.1 for every component, the BallPlay setting of SkillMimic-V2 (P2 Tab. 7).
 impl Default for NoiseEps {
     fn default() -> Self {
-        Self {
-            root_pos: 0.1,
-            root_height: 0.1,
-            root_rot: 0.1,
-            root_linvel: 0.1,
-            root_angvel: 0.1,
-            dof_pos: 0.1,
-            dof_vel: 0.1,
-            ball_pos: 0.1,
-            ball_height: 0.1,
-            ball_rot: 0.1,
-            ball_linvel: 0.1,
-            ball_angvel: 0.1,
-        }
+        Self::uniform(0.1)
     }
 }
 

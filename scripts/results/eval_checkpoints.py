@@ -1,0 +1,100 @@
+"""Metrics along a results run (issue 22, docs/results.md): evaluate every EVERY-th checkpoint of
+OUT/NAME/checkpoints and keep one JSON line per checkpoint in OUT/NAME/checkpoint_evals.jsonl.
+
+Evaluations per checkpoint (64 episodes each, seed 7):
+  - "sampled": from the clip's first usable frame (2) to its end with sampled actions (the
+    policy's σ): completion rate (no fall), E_b-mpjpe;
+  - "mean": the same with the mean action. Physics and policy are deterministic, so its episodes
+    are one trajectory;
+  - "eps": the mean action from frame 2 with the start state perturbed by ε = 0.01 per component
+    (`--init-noise`: 1 cm, 0.01 rad, 0.01 m/s, 0.01 rad/s), so that deterministic episodes
+    differ: completion rate and the skill's SkillMimic success score;
+  - "random": from random frames as in training: Acc, E_b/E_o-mpjpe, E_cg, NR, falls.
+A row that lacks an evaluation added later gets only that one run and is completed in place.
+
+    python3 scripts/results/eval_checkpoints.py run                 # every 25th checkpoint
+    EVERY=100 BIN=target/release/skillmimic python3 scripts/results/eval_checkpoints.py pickup
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import pathlib
+import subprocess
+import sys
+import tempfile
+
+FROM_START = ["--start-frame", "2", "--set", "env.episode_length=100000"]
+EVALS = {
+    "sampled": [*FROM_START, "--stochastic"],
+    "mean": FROM_START,
+    "eps": [*FROM_START, "--init-noise", "0.01"],
+    "random": [],
+}
+
+
+def v1_score(nominal: dict) -> float | None:
+    """The SkillMimic success score of the clip's (single) skill, None if it has no rule."""
+    scores = [s["v1_score"] for s in nominal["per_skill"].values() if s["v1_score"] is not None]
+    return round(sum(scores) / len(scores), 4) if scores else None
+
+
+def fields(kind: str, n: dict) -> dict:
+    """The row's fields of one evaluation's nominal report."""
+    if kind == "sampled":
+        return {"start_sampled_completed_pct": round(100 * (1 - n["fall_rate"]), 2), "start_sampled_e_b_mm": round(n["e_b_mpjpe_mm"], 1),
+                "start_sampled_mean_length": round(n["mean_episode_length"], 1)}
+    if kind == "mean":
+        return {"start_mean_action_fell": n["fall_rate"] > 0.5, "start_mean_action_length": n["mean_episode_length"],
+                "start_mean_action_e_b_mm": round(n["e_b_mpjpe_mm"], 1), "start_mean_action_v1_score": v1_score(n)}
+    if kind == "eps":
+        return {"start_eps001_completed_pct": round(100 * (1 - n["fall_rate"]), 2), "start_eps001_e_b_mm": round(n["e_b_mpjpe_mm"], 1),
+                "start_eps001_v1_score": v1_score(n)}
+    return {"acc_pct": round(n["acc_percent"], 2), "e_b_mm": round(n["e_b_mpjpe_mm"], 1), "e_o_mm": round(n["e_o_mpjpe_mm"], 1),
+            "e_cg": round(n["e_cg"], 4), "nr": round(n["nr"], 4), "falls_pct": round(100 * n["fall_rate"], 2)}
+
+
+KEY = {"sampled": "start_sampled_completed_pct", "mean": "start_mean_action_v1_score", "eps": "start_eps001_completed_pct", "random": "acc_pct"}
+
+
+def evaluate(binary: str, ck: pathlib.Path, flags: list[str], tmp: pathlib.Path) -> dict:
+    out = tmp / "eval.json"
+    subprocess.run([binary, "eval", "--checkpoint", str(ck), "--episodes", "64", "--seed", "7", *flags, "--out", str(out)],
+                   check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    return json.loads(out.read_text())["nominal"]
+
+
+def main() -> None:
+    name = sys.argv[1] if len(sys.argv) == 2 else sys.exit("usage: eval_checkpoints.py NAME")
+    root = pathlib.Path(__file__).resolve().parents[2]
+    binary = os.environ.get("BIN", str(root / "target/release/skillmimic"))
+    run = pathlib.Path(os.environ.get("OUT", root / "runs/results")) / name
+    every = int(os.environ.get("EVERY", "25"))
+    table = run / "checkpoint_evals.jsonl"
+    rows = {r["iteration"]: r for r in (json.loads(line) for line in (table.read_text().splitlines() if table.exists() else []) if line.strip())}
+    log = [json.loads(line) for line in (run / "log.jsonl").read_text().splitlines() if line.strip()]
+    per_it = log[0]["samples"] // log[0]["iteration"]
+    with tempfile.TemporaryDirectory() as tmp:
+        for ck in sorted((run / "checkpoints").glob("iter_*.safetensors")):
+            it = int(ck.stem.removeprefix("iter_"))
+            if it % every:
+                continue
+            row = rows.get(it) or {"iteration": it, "samples": it * per_it}
+            missing = [k for k in EVALS if KEY[k] not in row]
+            if not missing:
+                continue
+            near = [r["mean_reward"] for r in log if it - 25 < r["iteration"] <= it]
+            row["reward_per_step"] = round(sum(near) / max(1, len(near)), 5)
+            for kind in missing:
+                row.update(fields(kind, evaluate(binary, ck, EVALS[kind], pathlib.Path(tmp))))
+            rows[it] = row
+            # rewritten whole after each checkpoint (a new file replaces the old: never half written)
+            part = table.with_suffix(".jsonl.part")
+            part.write_text("".join(json.dumps(rows[k]) + "\n" for k in sorted(rows)))
+            part.replace(table)
+            print(json.dumps(row), flush=True)
+
+
+if __name__ == "__main__":
+    main()
