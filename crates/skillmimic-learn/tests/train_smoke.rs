@@ -46,6 +46,7 @@ fn tiny_run_writes_checkpoints_and_resumes() {
     let c = checkpoint::load(&out.join("latest.safetensors"), Some((902, 156))).unwrap();
     assert_eq!(c.progress.iteration, 5);
     assert_eq!(c.progress.samples, 5 * 8 * 16);
+    std::fs::remove_dir_all(&out).ok(); // 32 MB of checkpoints (kept when an assertion fails)
 }
 
 #[test]
@@ -60,6 +61,9 @@ fn same_seed_gives_bit_identical_runs() {
     let (rb, pb) = run("s2");
     assert_eq!(ra, rb);
     assert_eq!(pa, pb);
+    for tag in ["s1", "s2"] {
+        std::fs::remove_dir_all(tiny(tag, 0).run.out_dir).ok();
+    }
 }
 
 /// All trained parameters (actor, then critic; optimiser order) as one flat vector.
