@@ -361,7 +361,7 @@ pub fn plot_evals(files: &[(String, PathBuf)], out: &Path) -> anyhow::Result<()>
         &[
             ("Completed from the clip's start (mean action, start noise 0.01)", "% of 64 episodes", "start_eps001_completed_pct"),
             ("Completed from the clip's start (sampled actions)", "% of 64 episodes", "start_sampled_completed_pct"),
-            ("SkillMimic success score from the start (mean action, noise 0.01)", "score", "start_eps001_v1_score"),
+            ("Success score from the start (mean action, noise 0.01)", "SkillMimic score", "start_eps001_v1_score"),
             ("Falls from random frames", "% of 64 episodes", "falls_pct"),
             ("Acc (random frames)", "%", "acc_pct"),
             ("E_b-mpjpe (random frames)", "mm", "e_b_mm"),
