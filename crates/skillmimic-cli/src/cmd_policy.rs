@@ -121,8 +121,11 @@ pub struct EvalArgs {
     /// Imitation: start every episode from the reference state perturbed by the State Transition
     /// Field's noise with every half-width ε = this value (m, rad, m/s, rad/s by component;
     /// heights upward only), so that deterministic episodes from one start frame differ (the
-    /// physics is deterministic). 0.1 is SkillMimic-V2's BallPlay setting (εNSR). Applies to the
-    /// nominal evaluation and `--sweep`, not to `--v2`, whose εNSR uses the run's own ε.
+    /// physics is deterministic). 0.1 is SkillMimic-V2's BallPlay setting (εNSR); with
+    /// `env.compat = "code"` the noise has the released code's shape. It switches the State
+    /// Transition Field on for the evaluation, so V2's rules apply (the get-up skill, label 0, is
+    /// exempt from the fall rule). Applies to the nominal evaluation and `--sweep`, not to `--v2`,
+    /// whose εNSR uses the run's own ε.
     #[arg(long, value_name = "EPS")]
     pub init_noise: Option<f64>,
     /// Also evaluate with the ball's radius, density and restitution scaled (robustness sweep).

@@ -21,8 +21,8 @@ pub struct Args {
     #[arg(long, required_unless_present = "evals", conflicts_with = "evals")]
     pub log: Vec<PathBuf>,
     /// Checkpoint metrics (`checkpoint_evals.jsonl` of `scripts/results/eval_checkpoints.py`):
-    /// completion from the clip's start, falls, Acc and E_b-mpjpe against samples; repeat to
-    /// overlay runs.
+    /// completion from the clip's start (two test modes), success score, falls, Acc and
+    /// E_b-mpjpe against samples; repeat to overlay runs.
     #[arg(long)]
     pub evals: Vec<PathBuf>,
     /// Legend label of each `--log` (default: the log's folder name).
