@@ -189,20 +189,15 @@ pub fn eval(a: EvalArgs) -> anyhow::Result<()> {
     if a.episodes == 0 {
         bail!("--episodes must be at least 1");
     }
-    if let Some(e) = a.init_noise {
-        if !(e.is_finite() && e >= 0.0) {
-            bail!("--init-noise {e}: expected a finite half-width ≥ 0 (m, rad, m/s, rad/s)");
-        }
-        if cfg.env.task != "imitation" || a.baselines {
-            bail!("--init-noise perturbs imitation episodes' starts; this evaluation's task is '{}'", cfg.env.task);
-        }
+    if let Some(e) = a.init_noise.filter(|e| !(e.is_finite() && *e >= 0.0)) {
+        bail!("--init-noise {e}: expected a finite half-width ≥ 0 (m, rad, m/s, rad/s)");
     }
     // more environments than episodes would only burn time (each env contributes its first ones)
     cfg.env.num_envs = cfg.env.num_envs.min(a.episodes);
     if cfg.env.task != "imitation" || a.baselines {
         // tasks other than imitation: the task-independent episode report (and baselines)
-        if a.sweep || a.v2 {
-            bail!("--sweep and --v2 are SkillMimic evaluations of the imitation task; this run's task is '{}'", cfg.env.task);
+        if a.sweep || a.v2 || a.init_noise.is_some() {
+            bail!("--sweep, --v2 and --init-noise are SkillMimic evaluations of the imitation task; this run's task is '{}'", cfg.env.task);
         }
         let opts = crate::cmd_eval_tasks::Options { episodes: a.episodes, seed: a.seed, stochastic: a.stochastic, baselines: a.baselines, out: a.out.clone() };
         return crate::cmd_eval_tasks::run(&opts, c.as_ref().map(|c| &c.policy), &cfg);
