@@ -49,7 +49,9 @@ BIN="$BIN" OUT="$(dirname "$OUT")" python3 scripts/results/eval_checkpoints.py "
 python3 - "$OUT" <<'PY'
 import json, pathlib, sys
 out = pathlib.Path(sys.argv[1])
-rows = [json.loads(l) for l in (out / "log.jsonl").read_text().splitlines() if l.strip()]
+# the log may run past the newest checkpoint (a run killed between saves): keep its rows up to it
+last_ck = max(int(p.stem.removeprefix("iter_")) for p in (out / "checkpoints").glob("iter_*.safetensors"))
+rows = [r for r in (json.loads(l) for l in (out / "log.jsonl").read_text().splitlines() if l.strip()) if r["iteration"] <= last_ck]
 start = json.loads((out / "eval-start.json").read_text())["nominal"]
 sampled = json.loads((out / "eval-start-sampled.json").read_text())["nominal"]
 ev = json.loads((out / "eval.json").read_text())
