@@ -12,6 +12,9 @@ TMPDIR="$(mktemp -d -t skillmimic-test.XXXXXX)"
 export TMPDIR
 trap 'rm -rf "$TMPDIR"' EXIT
 ./scripts/setup.sh --tests  # runtime + test packages (python/requirements-test.txt)
+# formatting (rustfmt.toml) and lints (the workspace's [workspace.lints]), warnings as errors
+cargo fmt --all --check
+cargo clippy --release --workspace --all-targets -- -D warnings
 cargo build --release --workspace --bins
 cargo test --release --workspace
 .venv/bin/python -m pip install --disable-pip-version-check --no-build-isolation -q .

@@ -46,7 +46,14 @@ fn bench_sim(a: SimArgs) -> anyhow::Result<()> {
     );
     println!(
         "{:<8} {:>12} {:>12} {:>12} {:>12} {:>12} {:>14} {:>14}",
-        "hands", "(a) raw 1T", "(a) raw 2T", "(b) core 1T", "(b) core 2T", "(b)/(a) 1T", "(b) 2T/1T", "(a) 2T/1T"
+        "hands",
+        "(a) raw 1T",
+        "(a) raw 2T",
+        "(b) core 1T",
+        "(b) core 2T",
+        "(b)/(a) 1T",
+        "(b) 2T/1T",
+        "(a) 2T/1T"
     );
     for h in hands {
         let scene = Arc::new(Scene::default_for(h)?);

@@ -63,16 +63,27 @@ impl TorchWorker {
     /// Start a worker if a Python with PyTorch is found.
     pub fn start(hidden: &[usize], threads: usize) -> Option<Self> {
         for py in python_candidates() {
-            let ok = Command::new(&py).args(["-c", "import torch"]).stdout(Stdio::null()).stderr(Stdio::null()).status().is_ok_and(|s| s.success());
+            let ok = Command::new(&py)
+                .args(["-c", "import torch"])
+                .stdout(Stdio::null())
+                .stderr(Stdio::null())
+                .status()
+                .is_ok_and(|s| s.success());
             if !ok {
                 continue;
             }
-            let mut child = Command::new(&py).args(["-c", TORCH_SCRIPT]).stdin(Stdio::piped()).stdout(Stdio::piped()).spawn().ok()?;
+            let mut child = Command::new(&py)
+                .args(["-c", TORCH_SCRIPT])
+                .stdin(Stdio::piped())
+                .stdout(Stdio::piped())
+                .spawn()
+                .ok()?;
             let stdin = child.stdin.take()?;
             let stdout = BufReader::new(child.stdout.take()?);
             let mut w = Self { child, stdin, stdout, version: String::new() };
             let r = w.ask(&serde_json::json!({"op": "setup", "obs_dim": OBS, "act_dim": ACT, "hidden": hidden, "threads": threads}))?;
-            w.version = format!("torch {} ({} threads)", r["torch"].as_str().unwrap_or("?"), r["threads"]);
+            w.version =
+                format!("torch {} ({} threads)", r["torch"].as_str().unwrap_or("?"), r["threads"]);
             return Some(w);
         }
         None
@@ -117,8 +128,19 @@ impl Ours {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0);
         let cfg = PpoConfig { hidden: hidden.to_vec(), ..Default::default() };
         let policy = Policy::new(OBS, ACT, &cfg, &mut rng);
-        let sizes: Vec<usize> = policy.actor.params().iter().chain(policy.critic.params().iter()).map(|p| p.len()).collect();
-        Self { adam: Adam::new(&sizes, cfg.lr, cfg.adam_eps), policy, buf: InferenceBuffers::default(), cfg }
+        let sizes: Vec<usize> = policy
+            .actor
+            .params()
+            .iter()
+            .chain(policy.critic.params().iter())
+            .map(|p| p.len())
+            .collect();
+        Self {
+            adam: Adam::new(&sizes, cfg.lr, cfg.adam_eps),
+            policy,
+            buf: InferenceBuffers::default(),
+            cfg,
+        }
     }
 
     /// Median seconds of batched inference (normalisation, actor, critic).
@@ -138,7 +160,14 @@ impl Ours {
     /// Median seconds of one PPO minibatch update.
     pub fn update(&mut self, batch: usize, reps: usize, threads: usize) -> f64 {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(2);
-        let mut normal = |n: usize, s: f32| -> Vec<f32> { (0..n).map(|_| { let z: f32 = StandardNormal.sample(&mut rng); s * z }).collect() };
+        let mut normal = |n: usize, s: f32| -> Vec<f32> {
+            (0..n)
+                .map(|_| {
+                    let z: f32 = StandardNormal.sample(&mut rng);
+                    s * z
+                })
+                .collect()
+        };
         let obs = normal(batch * OBS, 1.0);
         let act = normal(batch * ACT, 0.1);
         let konst = 0.5 * ACT as f32 * (2.0 * std::f32::consts::PI).ln();
@@ -148,9 +177,26 @@ impl Ours {
         let mut buf = UpdateBuffers::default();
         let mut times = Vec::new();
         for _ in 0..=reps {
-            let mb = RawMinibatch { n: batch, obs: &obs, actions: &act, old_neglogp: &old, advantages: &adv, returns_n: &ret };
+            let mb = RawMinibatch {
+                n: batch,
+                obs: &obs,
+                actions: &act,
+                old_neglogp: &old,
+                advantages: &adv,
+                returns_n: &ret,
+            };
             let t = Instant::now();
-            update_minibatch(&mut self.policy, &mut self.adam, &mb, mb.n, &mut buf, &self.cfg, threads, &mut skillmimic_learn::collective::Single).expect("update");
+            update_minibatch(
+                &mut self.policy,
+                &mut self.adam,
+                &mb,
+                mb.n,
+                &mut buf,
+                &self.cfg,
+                threads,
+                &mut skillmimic_learn::collective::Single,
+            )
+            .expect("update");
             times.push(t.elapsed().as_secs_f64());
         }
         median(times[1..].to_vec())
@@ -159,7 +205,11 @@ impl Ours {
 
 /// Run `op` ("infer" or "update") for the given batches and print ours vs PyTorch.
 pub fn run(op: &str, a: NetArgs) -> anyhow::Result<()> {
-    let threads = if a.threads == 0 { std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1) } else { a.threads };
+    let threads = if a.threads == 0 {
+        std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1)
+    } else {
+        a.threads
+    };
     init_learner_threads(threads);
     let batches = if a.batch.is_empty() {
         if op == "infer" { vec![64, 2048] } else { vec![4096, 16384] }
@@ -173,7 +223,9 @@ pub fn run(op: &str, a: NetArgs) -> anyhow::Result<()> {
     );
     match &torch {
         Some(t) => println!("PyTorch: {}", t.version),
-        None => println!("PyTorch: not importable (set SKILLMIMIC_PYTHON to a Python with torch) - ours only"),
+        None => println!(
+            "PyTorch: not importable (set SKILLMIMIC_PYTHON to a Python with torch) - ours only"
+        ),
     }
     println!("{:>8} {:>14} {:>14} {:>22}", "batch", "ours [ms]", "torch [ms]", "ratio torch/ours");
     let mut ours = Ours::new(&a.hidden);
@@ -181,11 +233,15 @@ pub fn run(op: &str, a: NetArgs) -> anyhow::Result<()> {
         let reps = if op == "infer" { 10 } else { 1 };
         let (mut o, mut t) = (Vec::new(), Vec::new());
         for _ in 0..a.rounds {
-            o.push(if op == "infer" { ours.infer(b, reps, threads) } else { ours.update(b, reps, threads) });
-            if let Some(w) = torch.as_mut() {
-                if let Some(s) = w.time(op, b, reps) {
-                    t.push(s);
-                }
+            o.push(if op == "infer" {
+                ours.infer(b, reps, threads)
+            } else {
+                ours.update(b, reps, threads)
+            });
+            if let Some(w) = torch.as_mut()
+                && let Some(s) = w.time(op, b, reps)
+            {
+                t.push(s);
             }
         }
         let mo = median(o) * 1e3;

@@ -48,7 +48,8 @@ pub(crate) struct Workload {
 impl Workload {
     pub(crate) fn new(envs: usize, steps: usize) -> Self {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);
-        let actions = (0..steps * envs * NUM_DOFS).map(|_| 0.15 * rng.random_range(-1.0f32..=1.0)).collect();
+        let actions =
+            (0..steps * envs * NUM_DOFS).map(|_| 0.15 * rng.random_range(-1.0f32..=1.0)).collect();
         Self { actions, envs, steps }
     }
     pub(crate) fn steps(&self) -> usize {
@@ -111,4 +112,3 @@ impl RawLoop {
         }
     }
 }
-

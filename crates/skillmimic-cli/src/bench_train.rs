@@ -51,7 +51,8 @@ pub fn run(a: TrainArgs) -> anyhow::Result<()> {
     // the raw mj_step anchor: the same scene, environments and simulation threads
     let scene = Arc::new(Scene::new(cfg.env.scene_options()?)?);
     let n = cfg.env.num_envs;
-    let threads = match skillmimic_env::config_range::capped_threads(cfg.env.threads, "env.threads") {
+    let threads = match skillmimic_env::config_range::capped_threads(cfg.env.threads, "env.threads")
+    {
         0 => std::thread::available_parallelism().map_or(1, |c| c.get()),
         t => t,
     };
@@ -67,7 +68,7 @@ pub fn run(a: TrainArgs) -> anyhow::Result<()> {
         batch / t0.elapsed().as_secs_f64()
     };
     println!(
-        "bench train: preset '{}', {} envs x horizon {} = {} samples/iteration, network {:?}, minibatch {}, {} mini-epochs, backend {:?}, precision {:?}{}, {} hands",
+        "bench train: preset '{}', {} envs x horizon {} = {} samples/iteration, network {:?}, minibatch {}, {} mini-epochs, backend {:?}, precision {:?} (runs in {}), {} hands",
         a.base.preset,
         cfg.env.num_envs,
         cfg.ppo.horizon,
@@ -77,7 +78,7 @@ pub fn run(a: TrainArgs) -> anyhow::Result<()> {
         cfg.ppo.mini_epochs,
         cfg.ppo.backend,
         cfg.ppo.precision,
-        format!(" (runs in {})", trainer.update_precision()),
+        trainer.update_precision(),
         cfg.env.hands
     );
     for _ in 0..a.warmup {
@@ -87,7 +88,16 @@ pub fn run(a: TrainArgs) -> anyhow::Result<()> {
     }
     println!(
         "{:>5} {:>12} {:>12} {:>7} {:>12} {:>9} | per sample (ms): {:>7} {:>7} {:>7} {:>7}",
-        "round", "e2e smp/s", "sim smp/s", "ratio", "raw steps/s", "e2e/raw", "env", "infer", "update", "total"
+        "round",
+        "e2e smp/s",
+        "sim smp/s",
+        "ratio",
+        "raw steps/s",
+        "e2e/raw",
+        "env",
+        "infer",
+        "update",
+        "total"
     );
     let (mut e2e, mut sim, mut ratio) = (Vec::new(), Vec::new(), Vec::new());
     let (mut raw_rate, mut raw_ratio) = (Vec::new(), Vec::new());
@@ -134,9 +144,11 @@ pub fn run(a: TrainArgs) -> anyhow::Result<()> {
         median(&mut raw_rate),
         median(&mut raw_ratio)
     );
-    let rss = std::fs::read_to_string("/proc/self/status")
-        .ok()
-        .and_then(|s| s.lines().find(|l| l.starts_with("VmRSS:")).and_then(|l| l.split_whitespace().nth(1)?.parse::<f64>().ok()));
+    let rss = std::fs::read_to_string("/proc/self/status").ok().and_then(|s| {
+        s.lines()
+            .find(|l| l.starts_with("VmRSS:"))
+            .and_then(|l| l.split_whitespace().nth(1)?.parse::<f64>().ok())
+    });
     println!(
         "memory per environment: MjData {:.0} KB allocated (mostly the `<size memory>` arena, resident only where touched); process resident {} (learner, rollout storage and the anchor's second set of MjData included)",
         raw.data_bytes() as f64 / 1e3,

@@ -29,14 +29,19 @@ pub fn run(cmd: ConfigCommand) -> anyhow::Result<()> {
 fn reference(a: ReferenceArgs) -> anyhow::Result<()> {
     let r = train_config_reference();
     if !r.undocumented.is_empty() {
-        anyhow::bail!("config keys without a /// doc comment: {} (document the fields, then regenerate)", r.undocumented.join(", "));
+        anyhow::bail!(
+            "config keys without a /// doc comment: {} (document the fields, then regenerate)",
+            r.undocumented.join(", ")
+        );
     }
     match a.out {
         Some(path) => {
             if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-                std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+                std::fs::create_dir_all(dir)
+                    .with_context(|| format!("cannot create {}", dir.display()))?;
             }
-            std::fs::write(&path, &r.markdown).with_context(|| format!("cannot write {}", path.display()))?;
+            std::fs::write(&path, &r.markdown)
+                .with_context(|| format!("cannot write {}", path.display()))?;
             println!("wrote {}", path.display());
         }
         None => print!("{}", r.markdown),

@@ -31,14 +31,18 @@ pub fn run(a: &Options, policy: Option<&Policy>, cfg: &TrainConfig) -> anyhow::R
     if a.baselines {
         let n = match env.spec().action_space {
             ActionSpace::Discrete { n } => n,
-            ActionSpace::Box { .. } => bail!("--baselines needs a task with discrete choices (a high-level task over a skill policy); '{}' has continuous actions here", cfg.env.task),
+            ActionSpace::Box { .. } => bail!(
+                "--baselines needs a task with discrete choices (a high-level task over a skill policy); '{}' has continuous actions here",
+                cfg.env.task
+            ),
         };
         actors.push(Actor::Random);
         actors.extend((0..n).map(Actor::Fixed));
     }
     let mut reports: BTreeMap<String, EpisodeReport> = BTreeMap::new();
     for actor in actors {
-        let r = evaluate_actor(actor, env.as_mut(), a.episodes, a.seed, 0).with_context(|| format!("evaluating {}", actor.label()))?;
+        let r = evaluate_actor(actor, env.as_mut(), a.episodes, a.seed, 0)
+            .with_context(|| format!("evaluating {}", actor.label()))?;
         // a multi-task environment names its metrics `<task>/success`: one entry per task
         let fin = |k: &str| {
             let hits: Vec<String> = r
@@ -46,7 +50,9 @@ pub fn run(a: &Options, policy: Option<&Policy>, cfg: &TrainConfig) -> anyhow::R
                 .iter()
                 .filter_map(|(name, v)| match name.strip_suffix(k) {
                     Some("") => Some(format!("{:.1} %", 100.0 * v)),
-                    Some(prefix) => prefix.strip_suffix('/').map(|task| format!("{task} {:.1} %", 100.0 * v)),
+                    Some(prefix) => {
+                        prefix.strip_suffix('/').map(|task| format!("{task} {:.1} %", 100.0 * v))
+                    }
                     _ => None,
                 })
                 .collect();
@@ -66,8 +72,13 @@ pub fn run(a: &Options, policy: Option<&Policy>, cfg: &TrainConfig) -> anyhow::R
         );
         reports.insert(actor.label(), r);
     }
-    let text = if a.baselines { serde_json::to_string_pretty(&reports)? } else { serde_json::to_string_pretty(reports.values().next().expect("one report"))? };
-    skillmimic_core::tensorfile::write_bytes_atomic(&a.out, text.as_bytes()).with_context(|| format!("cannot write {}", a.out.display()))?;
+    let text = if a.baselines {
+        serde_json::to_string_pretty(&reports)?
+    } else {
+        serde_json::to_string_pretty(reports.values().next().expect("one report"))?
+    };
+    skillmimic_core::tensorfile::write_bytes_atomic(&a.out, text.as_bytes())
+        .with_context(|| format!("cannot write {}", a.out.display()))?;
     println!("wrote {}", a.out.display());
     Ok(())
 }

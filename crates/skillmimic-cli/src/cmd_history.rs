@@ -82,10 +82,21 @@ fn run_pretrain(a: PretrainArgs) -> anyhow::Result<()> {
         seed: a.seed,
         ..Default::default()
     };
-    tracing::info!("history pre-training: {} clips, {} samples, {} epochs, batch {}", lib.len(), data.samples.len(), cfg.epochs, cfg.batch);
+    tracing::info!(
+        "history pre-training: {} clips, {} samples, {} epochs, batch {}",
+        lib.len(),
+        data.samples.len(),
+        cfg.epochs,
+        cfg.batch
+    );
     let pb = std::io::stderr().is_terminal().then(|| {
         let pb = ProgressBar::new(cfg.epochs as u64);
-        pb.set_style(ProgressStyle::with_template("{spinner} [{elapsed_precise}] {bar:30} {pos}/{len} epochs  {msg}").expect("valid template"));
+        pb.set_style(
+            ProgressStyle::with_template(
+                "{spinner} [{elapsed_precise}] {bar:30} {pos}/{len} epochs  {msg}",
+            )
+            .expect("valid template"),
+        );
         pb
     });
     let every = (cfg.epochs / 10).max(1);
@@ -94,7 +105,9 @@ fn run_pretrain(a: PretrainArgs) -> anyhow::Result<()> {
             pb.set_position(epoch as u64);
             pb.set_message(format!("loss {loss:.5}  lr {lr:.1e}"));
         }
-        None if epoch % every == 0 || epoch == 1 => tracing::info!("epoch {epoch}: loss {loss:.5}, lr {lr:.1e}"),
+        None if epoch % every == 0 || epoch == 1 => {
+            tracing::info!("epoch {epoch}: loss {loss:.5}, lr {lr:.1e}")
+        }
         None => {}
     })
     .map_err(anyhow::Error::msg)?;
@@ -102,7 +115,10 @@ fn run_pretrain(a: PretrainArgs) -> anyhow::Result<()> {
         pb.finish();
     }
     let mut meta = BTreeMap::new();
-    meta.insert("clips".into(), (0..lib.len()).map(|c| lib.get(c).clip.name.clone()).collect::<Vec<_>>().join(","));
+    meta.insert(
+        "clips".into(),
+        (0..lib.len()).map(|c| lib.get(c).clip.name.clone()).collect::<Vec<_>>().join(","),
+    );
     meta.insert("epochs".into(), rep.epochs.to_string());
     meta.insert("initial_prediction_mse".into(), rep.initial_prediction_mse.to_string());
     meta.insert("final_prediction_mse".into(), rep.final_prediction_mse.to_string());
@@ -117,8 +133,11 @@ fn run_pretrain(a: PretrainArgs) -> anyhow::Result<()> {
         config: &'a PretrainConfig,
         report: &'a skillmimic_learn::history_pretrain::PretrainReport,
     }
-    skillmimic_core::tensorfile::write_bytes_atomic(&report_path, serde_json::to_string_pretty(&Out { config: &cfg, report: &rep })?.as_bytes())
-        .with_context(|| format!("cannot write {}", report_path.display()))?;
+    skillmimic_core::tensorfile::write_bytes_atomic(
+        &report_path,
+        serde_json::to_string_pretty(&Out { config: &cfg, report: &rep })?.as_bytes(),
+    )
+    .with_context(|| format!("cannot write {}", report_path.display()))?;
     println!(
         "pre-trained on {} samples, {} epochs in {:.1} s: next-state MSE {:.6} -> {:.6} ({:.1}x lower); epoch loss {:.6} -> {:.6}",
         rep.samples,

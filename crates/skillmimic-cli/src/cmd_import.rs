@@ -43,7 +43,16 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     if kind == Kind::Hlc {
         cfg.use_high_level_defaults();
         if let Some(t) = &a.task {
-            anyhow::ensure!(skillmimic_env::registry::is_high_level(t), "--task: '{t}' is not a high-level task ({})", skillmimic_env::registry::TASKS.iter().filter(|e| e.high_level).map(|e| e.name).collect::<Vec<_>>().join(", "));
+            anyhow::ensure!(
+                skillmimic_env::registry::is_high_level(t),
+                "--task: '{t}' is not a high-level task ({})",
+                skillmimic_env::registry::TASKS
+                    .iter()
+                    .filter(|e| e.high_level)
+                    .map(|e| e.name)
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            );
             cfg.env.task = t.clone();
         }
     }
@@ -55,9 +64,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     }
     let out = a.out.unwrap_or_else(|| a.file.with_extension("safetensors"));
     let progress = Progress { iteration: imp.epoch, samples: imp.frame };
-    checkpoint::save(&out, &imp.policy, None, &progress, &cfg.to_toml()).with_context(|| format!("cannot write {}", out.display()))?;
+    checkpoint::save(&out, &imp.policy, None, &progress, &cfg.to_toml())
+        .with_context(|| format!("cannot write {}", out.display()))?;
     let toml = out.with_extension("toml");
-    skillmimic_core::tensorfile::write_bytes_atomic(&toml, cfg.to_toml().as_bytes()).with_context(|| format!("cannot write {}", toml.display()))?;
+    skillmimic_core::tensorfile::write_bytes_atomic(&toml, cfg.to_toml().as_bytes())
+        .with_context(|| format!("cannot write {}", toml.display()))?;
     println!(
         "imported {} -> {} ({}, observations {}, {} {}, hidden {:?}, epoch {}, frame {})",
         a.file.display(),
@@ -71,7 +82,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         imp.frame
     );
     if imp.policy.obs_dim() == 905 {
-        println!("note: 905 observations = a SkillMimic-V2 policy; evaluate it with env.v2.history.enabled = true and the history encoder it was trained with");
+        println!(
+            "note: 905 observations = a SkillMimic-V2 policy; evaluate it with env.v2.history.enabled = true and the history encoder it was trained with"
+        );
     }
     Ok(())
 }

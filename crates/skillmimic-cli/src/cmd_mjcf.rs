@@ -14,7 +14,8 @@ pub struct Args {
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
-    std::fs::create_dir_all(&a.out_dir).with_context(|| format!("cannot create {}", a.out_dir.display()))?;
+    std::fs::create_dir_all(&a.out_dir)
+        .with_context(|| format!("cannot create {}", a.out_dir.display()))?;
     for hands in [HandModel::Full, HandModel::Box] {
         let path = a.out_dir.join(default_scene_file(hands));
         let xml = scene_xml(&SceneOptions { hands, ..Default::default() });

@@ -28,12 +28,24 @@ pub fn convert(a: ConvertArgs) -> anyhow::Result<()> {
         InputFiles::new(std::slice::from_ref(&a.input)).refuse_as_output(&a.output)?;
         let clip = Clip::load_any(&a.input)?;
         clip.save(&a.output).with_context(|| format!("cannot write {}", a.output.display()))?;
-        tracing::info!("{} -> {} ({} frames, skill {})", a.input.display(), a.output.display(), clip.num_frames, clip.skill);
+        tracing::info!(
+            "{} -> {} ({} frames, skill {})",
+            a.input.display(),
+            a.output.display(),
+            clip.num_frames,
+            clip.skill
+        );
         return Ok(());
     }
-    let files: Vec<PathBuf> = find_clip_files(&a.input)?.into_iter().filter(|p| p.extension().is_some_and(|e| e == "pt")).collect();
+    let files: Vec<PathBuf> = find_clip_files(&a.input)?
+        .into_iter()
+        .filter(|p| p.extension().is_some_and(|e| e == "pt"))
+        .collect();
     anyhow::ensure!(!files.is_empty(), "no .pt clips found under {}", a.input.display());
-    let outs: Vec<PathBuf> = files.iter().map(|f| a.output.join(f.strip_prefix(&a.input).unwrap_or(f)).with_extension("safetensors")).collect();
+    let outs: Vec<PathBuf> = files
+        .iter()
+        .map(|f| a.output.join(f.strip_prefix(&a.input).unwrap_or(f)).with_extension("safetensors"))
+        .collect();
     let inputs = InputFiles::new(&files);
     for out in &outs {
         inputs.refuse_as_output(out)?;
@@ -42,7 +54,12 @@ pub fn convert(a: ConvertArgs) -> anyhow::Result<()> {
     for (clip, out) in clips.iter().zip(&outs) {
         clip.save(out).with_context(|| format!("cannot write {}", out.display()))?;
     }
-    tracing::info!("converted {} clips from {} into {}", files.len(), a.input.display(), a.output.display());
+    tracing::info!(
+        "converted {} clips from {} into {}",
+        files.len(),
+        a.input.display(),
+        a.output.display()
+    );
     Ok(())
 }
 
@@ -136,7 +153,12 @@ pub fn synth(a: SynthArgs) -> anyhow::Result<()> {
     for clip in synth::demo_clips()? {
         let path: PathBuf = Path::new(&a.out_dir).join(synth_file_name(&clip));
         clip.save(&path).with_context(|| format!("cannot write {}", path.display()))?;
-        tracing::info!("wrote {} ({} frames, skill {})", path.display(), clip.num_frames, clip.skill);
+        tracing::info!(
+            "wrote {} ({} frames, skill {})",
+            path.display(),
+            clip.num_frames,
+            clip.skill
+        );
     }
     Ok(())
 }

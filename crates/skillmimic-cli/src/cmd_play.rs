@@ -62,16 +62,35 @@ fn interactive(ckpt: &Path, flags: &ConfigFlags) -> anyhow::Result<()> {
     let (_, mut cfg) = load_checkpoint(ckpt)?;
     flags.apply(&mut cfg)?;
     if !skillmimic_env::registry::is_high_level(&cfg.env.task) {
-        let high: Vec<&str> = skillmimic_env::registry::TASKS.iter().filter(|t| t.high_level).map(|t| t.name).collect();
-        bail!("--interactive plays the high-level tasks ({}); this checkpoint's task is '{}'", high.join(", "), cfg.env.task);
+        let high: Vec<&str> = skillmimic_env::registry::TASKS
+            .iter()
+            .filter(|t| t.high_level)
+            .map(|t| t.name)
+            .collect();
+        bail!(
+            "--interactive plays the high-level tasks ({}); this checkpoint's task is '{}'",
+            high.join(", "),
+            cfg.env.task
+        );
     }
-    let python = crate::video::python_candidates().into_iter().find(|p| p.exists()).unwrap_or_else(|| PathBuf::from("python3"));
+    let python = crate::video::python_candidates()
+        .into_iter()
+        .find(|p| p.exists())
+        .unwrap_or_else(|| PathBuf::from("python3"));
     let mut cmd = std::process::Command::new(&python);
-    cmd.args(["-m", "skillmimic_rs.interactive", "--task", &cfg.env.task, "--llc"]).arg(&cfg.env.hlc.llc).arg("--checkpoint").arg(ckpt);
+    cmd.args(["-m", "skillmimic_rs.interactive", "--task", &cfg.env.task, "--llc"])
+        .arg(&cfg.env.hlc.llc)
+        .arg("--checkpoint")
+        .arg(ckpt);
     for m in &cfg.env.motion {
         cmd.arg("--motion").arg(m);
     }
-    let status = cmd.status().with_context(|| format!("cannot start {} (the interactive viewer is part of the Python package: pip install .)", python.display()))?;
+    let status = cmd.status().with_context(|| {
+        format!(
+            "cannot start {} (the interactive viewer is part of the Python package: pip install .)",
+            python.display()
+        )
+    })?;
     if !status.success() {
         bail!("the interactive viewer exited with {status}");
     }
@@ -93,13 +112,23 @@ fn snapshot(env: &dyn Env, r: &mut Rollout) {
 }
 
 /// Rollout of `policy` in one environment (auto-reset on episode end).
-pub fn rollout_states(policy: &Policy, env: &mut dyn Env, steps: usize, stochastic: bool, seed: u64) -> anyhow::Result<Rollout> {
+pub fn rollout_states(
+    policy: &Policy,
+    env: &mut dyn Env,
+    steps: usize,
+    stochastic: bool,
+    seed: u64,
+) -> anyhow::Result<Rollout> {
     use rand::SeedableRng;
     if (env.obs_dim(), env.act_dim()) != (policy.obs_dim(), policy.act_dim()) {
         let base = skillmimic_env::obs::layout::OBS_DIM;
         let hint = match (policy.obs_dim(), env.obs_dim()) {
-            (p, e) if p == e + 3 && e == base => " (the policy was trained with SkillMimic-V2's history embedding, 902 + 3: enable env.v2.history with its encoder file, or play with the checkpoint's own configuration)",
-            (p, e) if e == p + 3 && p == base => " (the environment appends SkillMimic-V2's history embedding, 902 + 3, but the policy was trained without it: set env.v2.history.enabled = false)",
+            (p, e) if p == e + 3 && e == base => {
+                " (the policy was trained with SkillMimic-V2's history embedding, 902 + 3: enable env.v2.history with its encoder file, or play with the checkpoint's own configuration)"
+            }
+            (p, e) if e == p + 3 && p == base => {
+                " (the environment appends SkillMimic-V2's history embedding, 902 + 3, but the policy was trained without it: set env.v2.history.enabled = false)"
+            }
             _ => "",
         };
         bail!(
@@ -116,7 +145,8 @@ pub fn rollout_states(policy: &Policy, env: &mut dyn Env, steps: usize, stochast
     env.reset_all(Some(seed));
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     let mut buf = InferenceBuffers::default();
-    let (mut mu, mut v, mut act, mut nl) = (vec![0.0; n * o], vec![0.0; n], vec![0.0; n * a], vec![0.0; n]);
+    let (mut mu, mut v, mut act, mut nl) =
+        (vec![0.0; n * o], vec![0.0; n], vec![0.0; n * a], vec![0.0; n]);
     let mut states = Rollout { qpos: Vec::new(), info: Vec::new() };
     snapshot(env, &mut states);
     for _ in 0..steps {
@@ -135,7 +165,15 @@ pub fn rollout_states(policy: &Policy, env: &mut dyn Env, steps: usize, stochast
 /// Render `states` (every `stride`-th) into frames, with the markers of `markers[k]` on frame k's
 /// state when given.
 #[allow(clippy::too_many_arguments)]
-pub fn render_states(model: &Arc<mujoco_rs::prelude::MjModel>, states: &[Vec<f64>], markers: Option<&[Vec<Marker>]>, stride: usize, w: usize, h: usize, fps: u32) -> anyhow::Result<Frames> {
+pub fn render_states(
+    model: &Arc<mujoco_rs::prelude::MjModel>,
+    states: &[Vec<f64>],
+    markers: Option<&[Vec<Marker>]>,
+    stride: usize,
+    w: usize,
+    h: usize,
+    fps: u32,
+) -> anyhow::Result<Frames> {
     let mut r = SceneRenderer::new(model, w, h)?;
     let mut rgb = Vec::new();
     for (k, q) in states.iter().enumerate().step_by(stride.max(1)) {
@@ -153,16 +191,32 @@ pub fn video_rate(steps_per_action: usize, fps: u32) -> (usize, u32) {
 }
 
 /// Render a rollout of a task's environment: its markers from the information rows.
-fn render_rollout(env: &dyn Env, cfg: &skillmimic_env::EnvConfig, r: &Rollout, fps: u32, w: usize, h: usize) -> anyhow::Result<Frames> {
+fn render_rollout(
+    env: &dyn Env,
+    cfg: &skillmimic_env::EnvConfig,
+    r: &Rollout,
+    fps: u32,
+    w: usize,
+    h: usize,
+) -> anyhow::Result<Frames> {
     let names = &env.spec().info_names;
-    let markers: Vec<Vec<Marker>> = r.info.iter().map(|row| task_markers(cfg, names, row)).collect();
+    let markers: Vec<Vec<Marker>> =
+        r.info.iter().map(|row| task_markers(cfg, names, row)).collect();
     let (stride, fps) = video_rate(env.spec().steps_per_action, fps);
     render_states(env.mujoco().env_model(0), &r.qpos, Some(&markers), stride, w, h, fps)
 }
 
 /// Roll out `policy` deterministically in `env` (its first environment is filmed) for `steps`
 /// steps from seed `seed` and write a video.
-pub fn render_policy_video(policy: &Policy, mut env: Box<dyn Env>, cfg: &skillmimic_env::EnvConfig, seed: u64, steps: usize, path: &Path, (w, h): (usize, usize)) -> anyhow::Result<()> {
+pub fn render_policy_video(
+    policy: &Policy,
+    mut env: Box<dyn Env>,
+    cfg: &skillmimic_env::EnvConfig,
+    seed: u64,
+    steps: usize,
+    path: &Path,
+    (w, h): (usize, usize),
+) -> anyhow::Result<()> {
     let states = rollout_states(policy, env.as_mut(), steps, false, seed)?;
     let frames = render_rollout(env.as_ref(), cfg, &states, 30, w, h)?;
     write_video(path, &frames)
@@ -175,12 +229,16 @@ fn save_states(path: &Path, states: &[Vec<f64>], xml: &str, source: &str) -> any
     meta.insert("mjcf".to_string(), xml.to_string());
     meta.insert("source".to_string(), source.to_string());
     meta.insert("fps".to_string(), "60".to_string());
-    write_atomic(path, &[OwnedTensor::f64("qpos", &[states.len(), nq], &flat)], &meta).with_context(|| format!("cannot write {}", path.display()))
+    write_atomic(path, &[OwnedTensor::f64("qpos", &[states.len(), nq], &flat)], &meta)
+        .with_context(|| format!("cannot write {}", path.display()))
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
     if a.interactive {
-        let ckpt = a.checkpoint.as_deref().context("--interactive needs --checkpoint (a high-level policy)")?;
+        let ckpt = a
+            .checkpoint
+            .as_deref()
+            .context("--interactive needs --checkpoint (a high-level policy)")?;
         return interactive(ckpt, &a.flags);
     }
     if a.video.is_none() && a.states.is_none() {
@@ -194,15 +252,26 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             cfg.env.num_envs = 1;
             cfg.env.threads = 1;
             let mut env = skillmimic_env::registry::make(&cfg.env)?;
-            let r = rollout_states(&c.policy, env.as_mut(), a.steps, a.stochastic, a.seed).with_context(|| format!("{}", ckpt.display()))?;
+            let r = rollout_states(&c.policy, env.as_mut(), a.steps, a.stochastic, a.seed)
+                .with_context(|| format!("{}", ckpt.display()))?;
             if let Some(p) = &a.states {
-                save_states(p, &r.qpos, env.mujoco().env_xml(0), &format!("policy {}", ckpt.display()))?;
+                save_states(
+                    p,
+                    &r.qpos,
+                    env.mujoco().env_xml(0),
+                    &format!("policy {}", ckpt.display()),
+                )?;
                 println!("states {} ({} steps)", p.display(), r.qpos.len());
             }
             if let Some(p) = &a.video {
                 let frames = render_rollout(env.as_ref(), &cfg.env, &r, a.fps, a.width, a.height)?;
                 write_video(p, &frames)?;
-                println!("video  {} ({} frames at {} fps)", p.display(), frames.rgb.len(), frames.fps);
+                println!(
+                    "video  {} ({} frames at {} fps)",
+                    p.display(),
+                    frames.rgb.len(),
+                    frames.fps
+                );
             }
             return Ok(());
         }

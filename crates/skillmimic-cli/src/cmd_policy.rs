@@ -47,7 +47,8 @@ pub struct ExportArgs {
 /// Write the policy part of a checkpoint (no optimizer state), or its ONNX graph.
 pub fn export(a: ExportArgs) -> anyhow::Result<()> {
     let onnx_ext = a.out.extension().is_some_and(|e| e.eq_ignore_ascii_case("onnx"));
-    let format = a.format.unwrap_or(if onnx_ext { ExportFormat::Onnx } else { ExportFormat::Safetensors });
+    let format =
+        a.format.unwrap_or(if onnx_ext { ExportFormat::Onnx } else { ExportFormat::Safetensors });
     if format == ExportFormat::Safetensors && (a.fused || a.llc.is_some()) {
         bail!("--fused and --llc build an ONNX graph: add --format onnx");
     }
@@ -58,8 +59,15 @@ pub fn export(a: ExportArgs) -> anyhow::Result<()> {
         return crate::cmd_onnx::export(&a.checkpoint, &a.out, a.fused, a.llc.as_deref());
     }
     let c = checkpoint::load(&a.checkpoint, None).map_err(anyhow::Error::msg)?;
-    checkpoint::save(&a.out, &c.policy, None, &c.progress, &c.config).with_context(|| format!("cannot write {}", a.out.display()))?;
-    println!("exported {} -> {} (obs {}, actions {})", a.checkpoint.display(), a.out.display(), c.policy.obs_dim(), c.policy.act_dim());
+    checkpoint::save(&a.out, &c.policy, None, &c.progress, &c.config)
+        .with_context(|| format!("cannot write {}", a.out.display()))?;
+    println!(
+        "exported {} -> {} (obs {}, actions {})",
+        a.checkpoint.display(),
+        a.out.display(),
+        c.policy.obs_dim(),
+        c.policy.act_dim()
+    );
     Ok(())
 }
 
@@ -84,8 +92,12 @@ pub fn infer(a: InferArgs) -> anyhow::Result<()> {
     let n = shape[0];
     let (mut mu, mut value) = (vec![0.0f32; n * c.policy.act_dim()], vec![0.0f32; n]);
     c.policy.infer(&obs, n, &mut InferenceBuffers::default(), &mut mu, &mut value, 0);
-    let tensors = [OwnedTensor::f32("mu", &[n, c.policy.act_dim()], &mu), OwnedTensor::f32("value", &[n], &value)];
-    write_atomic(&a.out, &tensors, &BTreeMap::new()).with_context(|| format!("cannot write {}", a.out.display()))?;
+    let tensors = [
+        OwnedTensor::f32("mu", &[n, c.policy.act_dim()], &mu),
+        OwnedTensor::f32("value", &[n], &value),
+    ];
+    write_atomic(&a.out, &tensors, &BTreeMap::new())
+        .with_context(|| format!("cannot write {}", a.out.display()))?;
     Ok(())
 }
 
@@ -159,7 +171,14 @@ struct EvalOutput {
 }
 
 /// Ball factors of the robustness sweep: (radius, density, restitution) scale factors.
-pub const SWEEP: [(f64, f64, f64); 6] = [(0.8, 1.0, 1.0), (1.2, 1.0, 1.0), (1.0, 0.5, 1.0), (1.0, 2.0, 1.0), (1.0, 1.0, 0.8), (1.0, 1.0, 1.2)];
+pub const SWEEP: [(f64, f64, f64); 6] = [
+    (0.8, 1.0, 1.0),
+    (1.2, 1.0, 1.0),
+    (1.0, 0.5, 1.0),
+    (1.0, 2.0, 1.0),
+    (1.0, 1.0, 0.8),
+    (1.0, 1.0, 1.2),
+];
 
 pub fn eval(a: EvalArgs) -> anyhow::Result<()> {
     init_learner_threads(0);
@@ -168,7 +187,10 @@ pub fn eval(a: EvalArgs) -> anyhow::Result<()> {
             let (c, cfg) = load_checkpoint(p)?;
             (Some(c), cfg)
         }
-        None => (None, skillmimic_learn::config::TrainConfig::preset("small").map_err(anyhow::Error::msg)?),
+        None => (
+            None,
+            skillmimic_learn::config::TrainConfig::preset("small").map_err(anyhow::Error::msg)?,
+        ),
     };
     a.flags.apply(&mut cfg)?;
     match (cfg.env.task.as_str(), a.horizon, a.start_frame) {
@@ -182,8 +204,12 @@ pub fn eval(a: EvalArgs) -> anyhow::Result<()> {
         }
         // tracking episodes run to the clip's end from frame 0 or from random frames
         ("tracking", None, Some(0)) => cfg.env.tracking.random_start = false,
-        ("tracking", None, Some(f)) => bail!("--start-frame {f}: the tracking task evaluates from frame 0 (--start-frame 0, whole clips) or from random frames (no flag)"),
-        (task, Some(_), _) | (task, _, Some(_)) => bail!("--horizon and --start-frame set up imitation episodes (and --start-frame 0 tracking ones); task '{task}' starts and ends its episodes by its own rules"),
+        ("tracking", None, Some(f)) => bail!(
+            "--start-frame {f}: the tracking task evaluates from frame 0 (--start-frame 0, whole clips) or from random frames (no flag)"
+        ),
+        (task, Some(_), _) | (task, _, Some(_)) => bail!(
+            "--horizon and --start-frame set up imitation episodes (and --start-frame 0 tracking ones); task '{task}' starts and ends its episodes by its own rules"
+        ),
         _ => {}
     }
     if a.episodes == 0 {
@@ -197,16 +223,33 @@ pub fn eval(a: EvalArgs) -> anyhow::Result<()> {
     if cfg.env.task != "imitation" || a.baselines {
         // tasks other than imitation: the task-independent episode report (and baselines)
         if a.sweep || a.v2 || a.init_noise.is_some() {
-            bail!("--sweep, --v2 and --init-noise are SkillMimic evaluations of the imitation task; this run's task is '{}'", cfg.env.task);
+            bail!(
+                "--sweep, --v2 and --init-noise are SkillMimic evaluations of the imitation task; this run's task is '{}'",
+                cfg.env.task
+            );
         }
-        let opts = crate::cmd_eval_tasks::Options { episodes: a.episodes, seed: a.seed, stochastic: a.stochastic, baselines: a.baselines, out: a.out.clone() };
+        let opts = crate::cmd_eval_tasks::Options {
+            episodes: a.episodes,
+            seed: a.seed,
+            stochastic: a.stochastic,
+            baselines: a.baselines,
+            out: a.out.clone(),
+        };
         return crate::cmd_eval_tasks::run(&opts, c.as_ref().map(|c| &c.policy), &cfg);
     }
-    let (c, checkpoint) = (c.expect("imitation evaluation has a checkpoint"), a.checkpoint.clone().unwrap_or_default());
+    let (c, checkpoint) = (
+        c.expect("imitation evaluation has a checkpoint"),
+        a.checkpoint.clone().unwrap_or_default(),
+    );
     let run_one = |env_cfg: skillmimic_env::EnvConfig| -> anyhow::Result<EvalReport> {
         let mut env = SkillEnv::from_config(env_cfg)?;
         if (env.obs_dim(), env.act_dim()) != (c.policy.obs_dim(), c.policy.act_dim()) {
-            bail!("{}: the policy expects observations of {} and actions of {}", checkpoint.display(), c.policy.obs_dim(), c.policy.act_dim());
+            bail!(
+                "{}: the policy expects observations of {} and actions of {}",
+                checkpoint.display(),
+                c.policy.obs_dim(),
+                c.policy.act_dim()
+            );
         }
         Ok(evaluate(&c.policy, &mut env, a.episodes, a.seed, a.stochastic, 0))
     };
@@ -224,7 +267,12 @@ pub fn eval(a: EvalArgs) -> anyhow::Result<()> {
             ec.ball.radius_scale = r;
             ec.ball.density_scale = d;
             ec.ball.restitution_scale = e;
-            sweep.push(SweepEntry { radius_scale: r, density_scale: d, restitution_scale: e, report: run_one(ec)? });
+            sweep.push(SweepEntry {
+                radius_scale: r,
+                density_scale: d,
+                restitution_scale: e,
+                report: run_one(ec)?,
+            });
         }
     }
     println!(
@@ -238,7 +286,10 @@ pub fn eval(a: EvalArgs) -> anyhow::Result<()> {
         100.0 * nominal.fall_rate
     );
     for s in &sweep {
-        println!("  ball radius x{} density x{} restitution x{}: NR {:.4}, Acc {:.1} %", s.radius_scale, s.density_scale, s.restitution_scale, s.report.nr, s.report.acc_percent);
+        println!(
+            "  ball radius x{} density x{} restitution x{}: NR {:.4}, Acc {:.1} %",
+            s.radius_scale, s.density_scale, s.restitution_scale, s.report.nr, s.report.acc_percent
+        );
     }
     let mut v2 = None;
     if a.v2 {
@@ -253,7 +304,13 @@ pub fn eval(a: EvalArgs) -> anyhow::Result<()> {
         let r = skillmimic_learn::eval::evaluate_v2(&c.policy, &cfg.env, &lib, &vcfg, 0)?;
         println!(
             "SkillMimic-V2 ({} episodes per case, {} steps from frame {}): SR {:.3}, TSR {:.3}, eps-NSR {:.3}, NR {:.4}",
-            vcfg.episodes, vcfg.horizon, vcfg.start_frame, r.sr_mean, r.tsr_mean, r.eps_nsr_mean, r.nr_mean
+            vcfg.episodes,
+            vcfg.horizon,
+            vcfg.start_frame,
+            r.sr_mean,
+            r.tsr_mean,
+            r.eps_nsr_mean,
+            r.nr_mean
         );
         for (k, v) in &r.sr {
             println!("  skill {k}: SR {v:.3}  eps-NSR {:.3}  NR {:.4}", r.eps_nsr[k], r.nr[k]);
@@ -267,8 +324,11 @@ pub fn eval(a: EvalArgs) -> anyhow::Result<()> {
         v2 = Some(r);
     }
     let out = EvalOutput { checkpoint, init_noise: a.init_noise, nominal, sweep, v2 };
-    skillmimic_core::tensorfile::write_bytes_atomic(&a.out, serde_json::to_string_pretty(&out)?.as_bytes())
-        .with_context(|| format!("cannot write {}", a.out.display()))?;
+    skillmimic_core::tensorfile::write_bytes_atomic(
+        &a.out,
+        serde_json::to_string_pretty(&out)?.as_bytes(),
+    )
+    .with_context(|| format!("cannot write {}", a.out.display()))?;
     println!("wrote {}", a.out.display());
     Ok(())
 }

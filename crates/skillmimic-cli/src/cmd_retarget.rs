@@ -3,8 +3,8 @@
 //!   and optionally `--ik`: a motion → a clip of the SkillMimic humanoid in the project format
 //!   (`skillmimic_motion::retarget_bvh`, `retarget_positions`, `retarget_clip`) with a JSON report
 //!   (foot penetration and sliding, joint-speed spikes, scale, IK residuals);
-//! * `--to tokenhsi --motion …`: SkillMimic-skeleton clips (BallPlay-M `.pt` or the project format) →
-//!   clips of the TokenHSI character (`tokenhsi-clip` format, `skillmimic_motion::hsi_clip`), by
+//! * `--to tokenhsi --motion …`: SkillMimic-skeleton clips (BallPlay-M `.pt` or the project format)
+//!   → clips of the TokenHSI character (`tokenhsi-clip` format, `skillmimic_motion::hsi_clip`), by
 //!   shared joints (`skillmimic_motion::retarget_hsi`), with a JSON report per clip: foot height
 //!   error over the source's stance frames and joint-limit violations.
 //!
@@ -102,7 +102,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     if files.is_empty() {
         bail!("no .pt or .safetensors clips under {:?}", a.motion);
     }
-    std::fs::create_dir_all(&a.out).with_context(|| format!("cannot create {}", a.out.display()))?;
+    std::fs::create_dir_all(&a.out)
+        .with_context(|| format!("cannot create {}", a.out.display()))?;
     let mut reports = Vec::new();
     for f in &files {
         let clip = Clip::load_any(f)?;
@@ -124,23 +125,39 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         reports.push(rep);
     }
     let path = a.out.join("retarget_report.json");
-    skillmimic_core::tensorfile::write_bytes_atomic(&path, serde_json::to_string_pretty(&reports)?.as_bytes()).with_context(|| format!("cannot write {}", path.display()))?;
+    skillmimic_core::tensorfile::write_bytes_atomic(
+        &path,
+        serde_json::to_string_pretty(&reports)?.as_bytes(),
+    )
+    .with_context(|| format!("cannot write {}", path.display()))?;
     println!("wrote {} clips and {}", reports.len(), path.display());
     Ok(())
 }
 
 /// Ball positions per line `x,y,z` (a header line is skipped); errors name the file and the line.
 fn read_ball_csv(path: &std::path::Path) -> anyhow::Result<Vec<[f64; 3]>> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
     let mut out = Vec::new();
     for (i, line) in text.lines().enumerate() {
         let cells: Vec<&str> = line.split(',').map(str::trim).filter(|c| !c.is_empty()).collect();
         if cells.is_empty() || (i == 0 && cells.iter().any(|c| c.parse::<f64>().is_err())) {
             continue;
         }
-        let v: Vec<f64> = cells.iter().map(|c| c.parse::<f64>()).collect::<Result<_, _>>().map_err(|_| anyhow::anyhow!("{} line {}: expected three numbers x,y,z, found '{line}'", path.display(), i + 1))?;
+        let v: Vec<f64> =
+            cells.iter().map(|c| c.parse::<f64>()).collect::<Result<_, _>>().map_err(|_| {
+                anyhow::anyhow!(
+                    "{} line {}: expected three numbers x,y,z, found '{line}'",
+                    path.display(),
+                    i + 1
+                )
+            })?;
         if v.len() != 3 || v.iter().any(|x| !x.is_finite()) {
-            bail!("{} line {}: expected three finite numbers x,y,z, found '{line}'", path.display(), i + 1);
+            bail!(
+                "{} line {}: expected three finite numbers x,y,z, found '{line}'",
+                path.display(),
+                i + 1
+            );
         }
         out.push([v[0], v[1], v[2]]);
     }
@@ -165,7 +182,8 @@ fn run_bvh(a: &Args, path: &std::path::Path, amass: bool) -> anyhow::Result<()> 
     };
     let map = JointMap::load(a.map.as_deref().unwrap_or(if amass { "smplh" } else { "cmu" }))?;
     let m = retarget(&b, &map, &options(a))?;
-    let marker = |name: &str| b.joint(name).map(|j| (0..b.frames).map(|f| b.pose(f).positions[j]).collect());
+    let marker =
+        |name: &str| b.joint(name).map(|j| (0..b.frames).map(|f| b.pose(f).positions[j]).collect());
     write_clip(a, path, &m, skill, b.frames, b.frame_time, marker)
 }
 
@@ -177,7 +195,8 @@ fn run_positions(a: &Args, path: &std::path::Path) -> anyhow::Result<()> {
     let src = JointPositions::read_csv(path, a.fps.context("--positions needs --fps")?)?;
     let map = JointMap::load(a.map.as_deref().unwrap_or("humanoid"))?;
     let m = retarget_positions(&src, &map, &options(a))?;
-    let marker = |name: &str| src.joint(name).map(|j| (0..src.frames).map(|f| src.at(f, j)).collect());
+    let marker =
+        |name: &str| src.joint(name).map(|j| (0..src.frames).map(|f| src.at(f, j)).collect());
     write_clip(a, path, &m, skill, src.frames, 1.0 / src.fps, marker)
 }
 
@@ -191,29 +210,57 @@ fn options(a: &Args) -> skillmimic_motion::retarget_bvh::Options {
 
 /// The ball track, the clip, its report and the summary line, for every retargeting path
 /// (`frames`, `frame_time`: the source's; `marker(name)`: a source joint's positions per frame).
-fn write_clip(a: &Args, path: &std::path::Path, m: &skillmimic_motion::retarget_bvh::Motion, skill: u32, frames: usize, frame_time: f64, marker: impl Fn(&str) -> Option<Vec<[f64; 3]>>) -> anyhow::Result<()> {
+fn write_clip(
+    a: &Args,
+    path: &std::path::Path,
+    m: &skillmimic_motion::retarget_bvh::Motion,
+    skill: u32,
+    frames: usize,
+    frame_time: f64,
+    marker: impl Fn(&str) -> Option<Vec<[f64; 3]>>,
+) -> anyhow::Result<()> {
     use skillmimic_motion::retarget_clip::{Ball, to_clip};
     let ball = match (&a.ball_csv, &a.ball_joint) {
         (Some(csv), _) => {
             let p = read_ball_csv(csv)?;
             if p.len() != frames {
-                bail!("{}: {} ball positions, expected one per source frame ({frames})", csv.display(), p.len());
+                bail!(
+                    "{}: {} ball positions, expected one per source frame ({frames})",
+                    csv.display(),
+                    p.len()
+                );
             }
             Ball::Points(p)
         }
-        (None, Some(j)) => Ball::Points(marker(j).with_context(|| format!("--ball-joint '{j}': {} has no such joint", path.display()))?),
+        (None, Some(j)) => Ball::Points(marker(j).with_context(|| {
+            format!("--ball-joint '{j}': {} has no such joint", path.display())
+        })?),
         (None, None) => Ball::None,
     };
-    let name = a.name.clone().unwrap_or_else(|| path.file_stem().map_or("clip".into(), |s| s.to_string_lossy().into_owned()));
-    let (clip, rep) = to_clip(m, &name, &path.display().to_string(), skill, &ball, frame_time, path)?;
-    std::fs::create_dir_all(&a.out).with_context(|| format!("cannot create {}", a.out.display()))?;
+    let name = a.name.clone().unwrap_or_else(|| {
+        path.file_stem().map_or("clip".into(), |s| s.to_string_lossy().into_owned())
+    });
+    let (clip, rep) =
+        to_clip(m, &name, &path.display().to_string(), skill, &ball, frame_time, path)?;
+    std::fs::create_dir_all(&a.out)
+        .with_context(|| format!("cannot create {}", a.out.display()))?;
     let out = a.out.join(format!("{name}.safetensors"));
     clip.save(&out).with_context(|| format!("cannot write {}", out.display()))?;
     let rpath = a.out.join(format!("{name}.retarget.json"));
-    skillmimic_core::tensorfile::write_bytes_atomic(&rpath, serde_json::to_string_pretty(&rep)?.as_bytes()).with_context(|| format!("cannot write {}", rpath.display()))?;
+    skillmimic_core::tensorfile::write_bytes_atomic(
+        &rpath,
+        serde_json::to_string_pretty(&rep)?.as_bytes(),
+    )
+    .with_context(|| format!("cannot write {}", rpath.display()))?;
     let ik = if a.ik {
         let r = rep.ik;
-        format!(", IK: ankles within {:.1} mm mean / {:.1} mm max of their targets, wrists {:.1} / {:.1} mm (targets beyond the straight limb)", 1000.0 * r.feet_mean_m, 1000.0 * r.feet_max_m, 1000.0 * r.hands_mean_m, 1000.0 * r.hands_max_m)
+        format!(
+            ", IK: ankles within {:.1} mm mean / {:.1} mm max of their targets, wrists {:.1} / {:.1} mm (targets beyond the straight limb)",
+            1000.0 * r.feet_mean_m,
+            1000.0 * r.feet_max_m,
+            1000.0 * r.hands_mean_m,
+            1000.0 * r.hands_max_m
+        )
     } else {
         String::new()
     };
@@ -232,6 +279,11 @@ fn write_clip(a: &Args, path: &std::path::Path, m: &skillmimic_motion::retarget_
         rep.frames_with_speed_spike,
         rep.contact_frames
     );
-    println!("wrote {} and {} (check it kinematically: skillmimic play --reference {})", out.display(), rpath.display(), out.display());
+    println!(
+        "wrote {} and {} (check it kinematically: skillmimic play --reference {})",
+        out.display(),
+        rpath.display(),
+        out.display()
+    );
     Ok(())
 }

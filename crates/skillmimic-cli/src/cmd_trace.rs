@@ -60,10 +60,19 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     match a.character.as_str() {
         "skillmimic" => {}
         "tokenhsi" => {
-            let hsi = crate::cmd_trace_hsi::Args { out: &a.out, envs: a.envs, steps: a.steps, seed: a.seed, amplitude: a.amplitude, threads: a.threads };
+            let hsi = crate::cmd_trace_hsi::Args {
+                out: &a.out,
+                envs: a.envs,
+                steps: a.steps,
+                seed: a.seed,
+                amplitude: a.amplitude,
+                threads: a.threads,
+            };
             return crate::cmd_trace_hsi::run(&hsi);
         }
-        other => anyhow::bail!("unknown --character '{other}', expected 'skillmimic' or 'tokenhsi'"),
+        other => {
+            anyhow::bail!("unknown --character '{other}', expected 'skillmimic' or 'tokenhsi'")
+        }
     }
     let hands = parse_hands(&a.hands)?;
     let scene = Arc::new(Scene::default_for(hands)?);
@@ -101,7 +110,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let (mut qpos, mut qvel) = (Vec::new(), Vec::new());
     let mut unstable = 0usize;
     for _ in 0..a.steps {
-        let actions: Vec<f32> = (0..a.envs * NUM_DOFS).map(|_| a.amplitude * rng.random_range(-1.0f32..=1.0)).collect();
+        let actions: Vec<f32> =
+            (0..a.envs * NUM_DOFS).map(|_| a.amplitude * rng.random_range(-1.0f32..=1.0)).collect();
         sim.step(&actions)?;
         unstable += sim.state().unstable.iter().filter(|&&u| u != 0).count();
         all_actions.extend_from_slice(&actions);
@@ -119,7 +129,14 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         OwnedTensor::f64("qpos", &[a.steps, a.envs, nq], &qpos),
         OwnedTensor::f64("qvel", &[a.steps, a.envs, nv], &qvel),
     ];
-    write_atomic(&a.out, &tensors, &meta).with_context(|| format!("cannot write {}", a.out.display()))?;
-    tracing::info!("wrote {} ({} envs x {} policy steps, {} unstable env-steps)", a.out.display(), a.envs, a.steps, unstable);
+    write_atomic(&a.out, &tensors, &meta)
+        .with_context(|| format!("cannot write {}", a.out.display()))?;
+    tracing::info!(
+        "wrote {} ({} envs x {} policy steps, {} unstable env-steps)",
+        a.out.display(),
+        a.envs,
+        a.steps,
+        unstable
+    );
     Ok(())
 }

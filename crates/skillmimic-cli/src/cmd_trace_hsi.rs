@@ -26,9 +26,19 @@ pub struct Args<'a> {
 
 /// A carry scene: a 0.4 × 0.3 × 0.3 m box of 5 kg on a thin support, a second support.
 fn carry_objects() -> Vec<HsiObject> {
-    let slab = |name: &str| HsiObject { name: name.into(), mass: None, boxes: vec![ObjectBox { center: [0.0; 3], half: [0.3, 0.3, 0.01] }], rgba: [0.5, 0.5, 0.5, 1.0] };
+    let slab = |name: &str| HsiObject {
+        name: name.into(),
+        mass: None,
+        boxes: vec![ObjectBox { center: [0.0; 3], half: [0.3, 0.3, 0.01] }],
+        rgba: [0.5, 0.5, 0.5, 1.0],
+    };
     vec![
-        HsiObject { name: "box".into(), mass: Some(5.0), boxes: vec![ObjectBox { center: [0.0; 3], half: [0.2, 0.15, 0.15] }], rgba: [0.7, 0.5, 0.3, 1.0] },
+        HsiObject {
+            name: "box".into(),
+            mass: Some(5.0),
+            boxes: vec![ObjectBox { center: [0.0; 3], half: [0.2, 0.15, 0.15] }],
+            rgba: [0.7, 0.5, 0.3, 1.0],
+        },
         slab("support_start"),
         slab("support_target"),
     ]
@@ -49,9 +59,17 @@ pub fn run(a: &Args<'_>) -> anyhow::Result<()> {
                 *d = rng.random_range(-0.3..0.3);
             }
             let h = 0.4 + 0.1 * i as f64;
-            s.objects[0] = ObjectState { pos: [0.8, 0.0, h + 0.16], quat: Quat::about_z(0.3), ..Default::default() };
+            s.objects[0] = ObjectState {
+                pos: [0.8, 0.0, h + 0.16],
+                quat: Quat::about_z(0.3),
+                ..Default::default()
+            };
             s.objects[1] = ObjectState { pos: [0.8, 0.0, h], ..Default::default() };
-            s.objects[2] = ObjectState { pos: [-1.5, 2.0, 0.6], quat: Quat::about_z(-0.4), ..Default::default() };
+            s.objects[2] = ObjectState {
+                pos: [-1.5, 2.0, 0.6],
+                quat: Quat::about_z(-0.4),
+                ..Default::default()
+            };
             s
         })
         .collect();
@@ -74,7 +92,8 @@ pub fn run(a: &Args<'_>) -> anyhow::Result<()> {
     let (mut qpos, mut qvel) = (Vec::new(), Vec::new());
     let mut unstable = 0usize;
     for _ in 0..a.steps {
-        let actions: Vec<f32> = (0..a.envs * NUM_DOFS).map(|_| a.amplitude * rng.random_range(-1.0f32..=1.0)).collect();
+        let actions: Vec<f32> =
+            (0..a.envs * NUM_DOFS).map(|_| a.amplitude * rng.random_range(-1.0f32..=1.0)).collect();
         sim.step(&actions)?;
         unstable += sim.state().unstable.iter().filter(|&&u| u != 0).count();
         all_actions.extend_from_slice(&actions);
@@ -94,7 +113,14 @@ pub fn run(a: &Args<'_>) -> anyhow::Result<()> {
         OwnedTensor::f64("qpos", &[a.steps, a.envs, nq], &qpos),
         OwnedTensor::f64("qvel", &[a.steps, a.envs, nv], &qvel),
     ];
-    write_atomic(a.out, &tensors, &meta).with_context(|| format!("cannot write {}", a.out.display()))?;
-    tracing::info!("wrote {} ({} envs x {} policy steps, {} unstable env-steps)", a.out.display(), a.envs, a.steps, unstable);
+    write_atomic(a.out, &tensors, &meta)
+        .with_context(|| format!("cannot write {}", a.out.display()))?;
+    tracing::info!(
+        "wrote {} ({} envs x {} policy steps, {} unstable env-steps)",
+        a.out.display(),
+        a.envs,
+        a.steps,
+        unstable
+    );
     Ok(())
 }

@@ -45,13 +45,23 @@ impl RunHook for VideoHook {
             None => skillmimic_env::registry::make(&c)?,
         };
         let path = out.join("video.gif");
-        Ok(match crate::cmd_play::render_policy_video(&t.policy, env, &t.cfg.env, t.cfg.run.seed, 180, &path, (320, 240)) {
-            Ok(()) => HookOutput { path: Some(path), error: None },
-            Err(e) => {
-                tracing::warn!("no video: {e:#}");
-                HookOutput { path: None, error: Some(format!("{e:#}")) }
-            }
-        })
+        Ok(
+            match crate::cmd_play::render_policy_video(
+                &t.policy,
+                env,
+                &t.cfg.env,
+                t.cfg.run.seed,
+                180,
+                &path,
+                (320, 240),
+            ) {
+                Ok(()) => HookOutput { path: Some(path), error: None },
+                Err(e) => {
+                    tracing::warn!("no video: {e:#}");
+                    HookOutput { path: None, error: Some(format!("{e:#}")) }
+                }
+            },
+        )
     }
 }
 
@@ -71,7 +81,10 @@ fn progress_bar(total: u64, done: u64) -> Option<ProgressBar> {
     let pb = ProgressBar::new(total);
     pb.set_position(done);
     pb.set_style(
-        ProgressStyle::with_template("{spinner} [{elapsed_precise}] {bar:30} {pos}/{len} it  {msg}").expect("valid template"),
+        ProgressStyle::with_template(
+            "{spinner} [{elapsed_precise}] {bar:30} {pos}/{len} it  {msg}",
+        )
+        .expect("valid template"),
     );
     Some(pb)
 }
@@ -93,7 +106,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let out = cfg.run.out_dir.clone();
     let resume = a.resume_path(&cfg.run.out_dir);
     if a.resume.is_some() && resume.is_none() {
-        tracing::info!("--resume latest: no checkpoint in {} yet, starting fresh", cfg.run.out_dir.display());
+        tracing::info!(
+            "--resume latest: no checkpoint in {} yet, starting fresh",
+            cfg.run.out_dir.display()
+        );
     }
     let trainer = Trainer::new(cfg.clone(), resume.as_deref())?;
     tracing::info!(
@@ -109,23 +125,32 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let pb = progress_bar(cfg.run.iterations as u64, trainer.progress.iteration);
     let every = (cfg.run.iterations / 20).max(1) as u64;
     let mut runner = with_artefact_hooks(Runner::new(trainer));
-    let summary = runner.run(|s| match &pb {
-        Some(pb) => {
-            pb.set_position(s.iteration);
-            pb.set_message(describe(s));
-        }
-        None if s.iteration % every == 0 || s.iteration == 1 => tracing::info!("iteration {}: {}", s.iteration, describe(s)),
-        None => {}
-    })?
-    .expect("a single-process run is rank 0");
+    let summary = runner
+        .run(|s| match &pb {
+            Some(pb) => {
+                pb.set_position(s.iteration);
+                pb.set_message(describe(s));
+            }
+            None if s.iteration % every == 0 || s.iteration == 1 => {
+                tracing::info!("iteration {}: {}", s.iteration, describe(s))
+            }
+            None => {}
+        })?
+        .expect("a single-process run is rank 0");
     if let Some(pb) = pb {
         pb.finish();
     }
     let eval = match (&summary.eval, &summary.task_eval) {
         (Some(e), _) => format!("; eval NR {:.4}, Acc {:.1} %", e.nr, e.acc_percent),
         (None, Some(e)) => {
-            let success = e.final_metrics.get("success").map_or(String::new(), |s| format!(", success {:.1} %", 100.0 * s));
-            format!("; eval return {:.3}, reward/step {:.4}, length {:.1}{success}", e.mean_return, e.mean_reward_per_step, e.mean_episode_length)
+            let success = e
+                .final_metrics
+                .get("success")
+                .map_or(String::new(), |s| format!(", success {:.1} %", 100.0 * s));
+            format!(
+                "; eval return {:.3}, reward/step {:.4}, length {:.1}{success}",
+                e.mean_return, e.mean_reward_per_step, e.mean_episode_length
+            )
         }
         (None, None) => String::new(),
     };

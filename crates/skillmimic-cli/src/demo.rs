@@ -32,7 +32,12 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let hands: HandModel = crate::cmd_trace::parse_hands(&a.hands)?;
     let scene = Arc::new(Scene::default_for(hands)?);
     let mut sim = BatchSim::new(scene, a.envs, a.threads)?;
-    tracing::info!("{} environments, {} threads, {} hands", a.envs, sim.num_threads(), hands.name());
+    tracing::info!(
+        "{} environments, {} threads, {} hands",
+        a.envs,
+        sim.num_threads(),
+        hands.name()
+    );
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0);
     let mut actions = vec![0.0f32; a.envs * NUM_DOFS];
     let mut seen = [0usize; 7];

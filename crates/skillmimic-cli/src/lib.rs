@@ -21,22 +21,26 @@ mod cmd_eval_tasks;
 mod cmd_history;
 mod cmd_import;
 mod cmd_mjcf;
-mod cmd_onnx;
 mod cmd_motion;
+mod cmd_onnx;
 mod cmd_play;
 mod cmd_policy;
 mod cmd_retarget;
 mod cmd_trace;
 mod cmd_trace_hsi;
-mod markers;
 mod cmd_train;
 mod common;
 mod demo;
+mod markers;
 mod plot;
 mod video;
 
 #[derive(Parser)]
-#[command(name = "skillmimic", version, about = "SkillMimic / SkillMimic-V2 on MuJoCo: train, evaluate, play, export, convert, bench")]
+#[command(
+    name = "skillmimic",
+    version,
+    about = "SkillMimic / SkillMimic-V2 on MuJoCo: train, evaluate, play, export, convert, bench"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -52,7 +56,8 @@ enum Command {
     Play(cmd_play::Args),
     /// Export the policy part of a checkpoint (safetensors, no optimizer state) or an ONNX graph.
     Export(cmd_policy::ExportArgs),
-    /// Import an rl_games `.pth` checkpoint (skill or high-level policy) without running pickle code.
+    /// Import an rl_games `.pth` checkpoint (skill or high-level policy) without running pickle
+    /// code.
     #[command(name = "import-rlgames")]
     ImportRlgames(cmd_import::Args),
     /// Batched inference of a checkpoint on observations from a safetensors file.
@@ -73,9 +78,11 @@ enum Command {
     /// SkillMimic-V2 history encoder tools (pre-training).
     #[command(subcommand)]
     History(cmd_history::HistoryCommand),
-    /// Retarget a BVH motion onto the SkillMimic humanoid (`--bvh`), or SkillMimic-skeleton clips onto the TokenHSI character (`--to tokenhsi`); clips + a JSON report.
+    /// Retarget a BVH motion onto the SkillMimic humanoid (`--bvh`), or SkillMimic-skeleton clips
+    /// onto the TokenHSI character (`--to tokenhsi`); clips + a JSON report.
     Retarget(cmd_retarget::Args),
-    /// Record a physics trace (initial state, actions, final state) for cross-checks with PyPI mujoco.
+    /// Record a physics trace (initial state, actions, final state) for cross-checks with PyPI
+    /// mujoco.
     Trace(cmd_trace::Args),
     /// Configuration tools: the generated reference of every key (docs/config.md).
     #[command(subcommand)]
@@ -98,8 +105,9 @@ pub fn tune_allocator() {
 
 /// Run the tool on `args` (the program name first, as in `std::env::args_os`) and return the exit
 /// code: 0 on success (also for `--help` / `--version`), 1 with an `error:` line on stderr for a
-/// failed command (also after an internal panic, reported as one `error: internal error` line), 2 for a usage error (clap's message on stderr). Never exits the process itself,
-/// so a Python caller keeps control.
+/// failed command (also after an internal panic, reported as one `error: internal error` line), 2
+/// for a usage error (clap's message on stderr). Never exits the process itself, so a Python caller
+/// keeps control.
 pub fn run<I, T>(args: I) -> i32
 where
     I: IntoIterator<Item = T>,
@@ -108,7 +116,8 @@ where
     // a second call in one process (Python) keeps the subscriber of the first
     let _ = tracing_subscriber::fmt()
         .with_env_filter(
-            tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info")),
+            tracing_subscriber::EnvFilter::try_from_default_env()
+                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info")),
         )
         .with_target(false)
         .try_init();
@@ -127,8 +136,14 @@ where
             1
         }
         Err(payload) => {
-            let what = LAST_PANIC.lock().unwrap_or_else(|e| e.into_inner()).take().unwrap_or_else(|| skillmimic_core::panic_message(&*payload));
-            eprintln!("error: internal error: {what} (a bug of skillmimic-rs, not of your input; please report it with the command line)");
+            let what = LAST_PANIC
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .take()
+                .unwrap_or_else(|| skillmimic_core::panic_message(&*payload));
+            eprintln!(
+                "error: internal error: {what} (a bug of skillmimic-rs, not of your input; please report it with the command line)"
+            );
             1
         }
     }
@@ -143,7 +158,8 @@ static LAST_PANIC: std::sync::Mutex<Option<String>> = std::sync::Mutex::new(None
 /// its own hook.
 pub fn quiet_panics() {
     std::panic::set_hook(Box::new(|info| {
-        let loc = info.location().map(|l| format!(" (at {}:{})", l.file(), l.line())).unwrap_or_default();
+        let loc =
+            info.location().map(|l| format!(" (at {}:{})", l.file(), l.line())).unwrap_or_default();
         let text = format!("{}{loc}", skillmimic_core::panic_message(info.payload()));
         *LAST_PANIC.lock().unwrap_or_else(|e| e.into_inner()) = Some(text);
     }));

@@ -25,7 +25,12 @@ fn ring(c: [f64; 3], r: f64, segments: usize, thick: f64, rgba: [f32; 4], out: &
         let a = std::f64::consts::TAU * k as f64 / segments as f64;
         [c[0] + r * a.cos(), c[1] + r * a.sin(), c[2]]
     };
-    out.extend((0..segments).map(|k| Marker::Segment { from: p(k), to: p(k + 1), radius: thick, rgba }));
+    out.extend((0..segments).map(|k| Marker::Segment {
+        from: p(k),
+        to: p(k + 1),
+        radius: thick,
+        rgba,
+    }));
 }
 
 /// The markers of `task` for one environment's information row (`names` = the task's
@@ -36,11 +41,24 @@ pub fn task_markers(cfg: &EnvConfig, names: &[String], info: &[f32]) -> Vec<Mark
     let mut out = Vec::new();
     match cfg.task.as_str() {
         "heading" => {
-            out.push(Marker::Sphere { pos: [x, y, cfg.heading.target_height], radius: 0.12, rgba: [0.9, 0.1, 0.1, 0.8] });
-            out.push(Marker::Segment { from: [x, y, 0.0], to: [x, y, cfg.heading.target_height], radius: 0.01, rgba: [0.9, 0.1, 0.1, 0.6] });
+            out.push(Marker::Sphere {
+                pos: [x, y, cfg.heading.target_height],
+                radius: 0.12,
+                rgba: [0.9, 0.1, 0.1, 0.8],
+            });
+            out.push(Marker::Segment {
+                from: [x, y, 0.0],
+                to: [x, y, cfg.heading.target_height],
+                radius: 0.01,
+                rgba: [0.9, 0.1, 0.1, 0.6],
+            });
         }
         "circling" => {
-            out.push(Marker::Sphere { pos: [x, y, 0.05], radius: 0.08, rgba: [0.1, 0.3, 0.9, 0.8] });
+            out.push(Marker::Sphere {
+                pos: [x, y, 0.05],
+                radius: 0.08,
+                rgba: [0.1, 0.3, 0.9, 0.8],
+            });
             if let Some(r) = get("radius") {
                 ring([x, y, 0.01], r, 40, 0.015, [0.1, 0.3, 0.9, 0.7], &mut out);
             }
@@ -51,8 +69,17 @@ pub fn task_markers(cfg: &EnvConfig, names: &[String], info: &[f32]) -> Vec<Mark
             ring([x, y, h], RIM, 24, 0.012, orange, &mut out);
             // backboard behind the rim (on the far side seen from the origin of the goal's
             // direction is unknown: put it on +x of the rim), and a pole
-            out.push(Marker::Box { pos: [x + RIM + 0.15, y, h + 0.3], half: [0.015, 0.9, 0.55], rgba: [0.95, 0.95, 0.95, 0.6] });
-            out.push(Marker::Segment { from: [x + RIM + 0.2, y, 0.0], to: [x + RIM + 0.2, y, h + 0.3], radius: 0.04, rgba: [0.3, 0.3, 0.3, 1.0] });
+            out.push(Marker::Box {
+                pos: [x + RIM + 0.15, y, h + 0.3],
+                half: [0.015, 0.9, 0.55],
+                rgba: [0.95, 0.95, 0.95, 0.6],
+            });
+            out.push(Marker::Segment {
+                from: [x + RIM + 0.2, y, 0.0],
+                to: [x + RIM + 0.2, y, h + 0.3],
+                radius: 0.04,
+                rgba: [0.3, 0.3, 0.3, 1.0],
+            });
         }
         _ => {}
     }
@@ -66,14 +93,17 @@ mod tests {
 
     #[test]
     fn markers_follow_the_goal_entries() {
-        let names: Vec<String> = ["goal_x", "goal_y", "radius"].iter().map(|s| s.to_string()).collect();
+        let names: Vec<String> =
+            ["goal_x", "goal_y", "radius"].iter().map(|s| s.to_string()).collect();
         let mut cfg = EnvConfig { task: "circling".into(), ..Default::default() };
         let m = task_markers(&cfg, &names, &[1.0, 2.0, 3.0]);
         assert_eq!(m.len(), 41);
         let Marker::Segment { from, .. } = m[1] else { panic!("ring segment") };
         assert!(((from[0] - 1.0).hypot(from[1] - 2.0) - 3.0).abs() < 1e-9);
         cfg.task = "scoring".into();
-        assert!(matches!(task_markers(&cfg, &names, &[1.0, 2.0, 0.0])[0], Marker::Segment { from, .. } if (from[2] - 2.5).abs() < 1e-12));
+        assert!(
+            matches!(task_markers(&cfg, &names, &[1.0, 2.0, 0.0])[0], Marker::Segment { from, .. } if (from[2] - 2.5).abs() < 1e-12)
+        );
         cfg.task = "throwing".into();
         assert!(task_markers(&cfg, &[], &[]).is_empty());
     }

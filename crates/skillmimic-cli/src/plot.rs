@@ -49,7 +49,8 @@ const FAMILY: &str = "sans-serif";
 fn register_font() -> anyhow::Result<()> {
     static DONE: OnceLock<Result<(), String>> = OnceLock::new();
     DONE.get_or_init(|| {
-        plotters::style::register_font(FAMILY, FontStyle::Normal, FONT).map_err(|_| "the embedded DejaVu Sans font does not parse".to_string())
+        plotters::style::register_font(FAMILY, FontStyle::Normal, FONT)
+            .map_err(|_| "the embedded DejaVu Sans font does not parse".to_string())
     })
     .clone()
     .map_err(anyhow::Error::msg)
@@ -79,10 +80,14 @@ const COLORS: [RGBColor; 6] = [
 ];
 
 fn read_log(path: &Path) -> anyhow::Result<Vec<serde_json::Value>> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
     let mut rows = Vec::new();
     for (k, line) in text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty()) {
-        rows.push(serde_json::from_str(line).with_context(|| format!("{}: line {} is not JSON", path.display(), k + 1))?);
+        rows.push(
+            serde_json::from_str(line)
+                .with_context(|| format!("{}: line {} is not JSON", path.display(), k + 1))?,
+        );
     }
     if rows.is_empty() {
         bail!("{}: the log has no iterations yet", path.display());
@@ -128,7 +133,13 @@ fn fmt_num(v: f64) -> String {
     let s = if a < 1e-12 {
         "0".to_string()
     } else if a >= 1e3 {
-        let (div, unit) = if a >= 1e9 { (1e9, "G") } else if a >= 1e6 { (1e6, "M") } else { (1e3, "k") };
+        let (div, unit) = if a >= 1e9 {
+            (1e9, "G")
+        } else if a >= 1e6 {
+            (1e6, "M")
+        } else {
+            (1e3, "k")
+        };
         format!("{}{unit}", trim(format!("{:.2}", v / div)))
     } else if a >= 1.0 {
         trim(format!("{v:.3}"))
@@ -146,9 +157,16 @@ fn plot_err(e: impl std::fmt::Display) -> anyhow::Error {
 
 /// Data range of the finite points of `series` (x, y), padded; a unit range when empty.
 fn ranges(series: &[Series]) -> (std::ops::Range<f64>, std::ops::Range<f64>) {
-    let finite = || series.iter().flat_map(|s| s.points.iter().copied()).filter(|(x, y)| x.is_finite() && y.is_finite());
-    let (mut xmin, mut xmax) = finite().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| (a.min(p.0), b.max(p.0)));
-    let (mut ymin, mut ymax) = finite().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| (a.min(p.1), b.max(p.1)));
+    let finite = || {
+        series
+            .iter()
+            .flat_map(|s| s.points.iter().copied())
+            .filter(|(x, y)| x.is_finite() && y.is_finite())
+    };
+    let (mut xmin, mut xmax) =
+        finite().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| (a.min(p.0), b.max(p.0)));
+    let (mut ymin, mut ymax) =
+        finite().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| (a.min(p.1), b.max(p.1)));
     if !(xmin.is_finite() && ymin.is_finite()) {
         return (0.0..1.0, 0.0..1.0);
     }
@@ -165,7 +183,11 @@ fn ranges(series: &[Series]) -> (std::ops::Range<f64>, std::ops::Range<f64>) {
 }
 
 /// The corner of the plotting area where the legend (one line per series) covers the fewest points.
-fn legend_corner(series: &[Series], xr: &std::ops::Range<f64>, yr: &std::ops::Range<f64>) -> SeriesLabelPosition {
+fn legend_corner(
+    series: &[Series],
+    xr: &std::ops::Range<f64>,
+    yr: &std::ops::Range<f64>,
+) -> SeriesLabelPosition {
     let (bw, bh) = (0.35, (0.06 + 0.065 * series.len() as f64).min(0.6));
     let corners = [
         (SeriesLabelPosition::UpperLeft, 0.0, 1.0 - bh),
@@ -176,7 +198,8 @@ fn legend_corner(series: &[Series], xr: &std::ops::Range<f64>, yr: &std::ops::Ra
     let covered = |x0: f64, y0: f64| {
         let pts = series.iter().flat_map(|s| s.points.iter());
         pts.filter(|(x, y)| {
-            let (u, v) = ((x - xr.start) / (xr.end - xr.start), (y - yr.start) / (yr.end - yr.start));
+            let (u, v) =
+                ((x - xr.start) / (xr.end - xr.start), (y - yr.start) / (yr.end - yr.start));
             (x0..=x0 + bw).contains(&u) && (y0..=y0 + bh).contains(&v)
         })
         .count()
@@ -184,7 +207,10 @@ fn legend_corner(series: &[Series], xr: &std::ops::Range<f64>, yr: &std::ops::Ra
     corners.into_iter().min_by_key(|(_, x0, y0)| covered(*x0, *y0)).expect("four corners").0
 }
 
-fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, plotters::coord::Shift>, p: &Panel) -> anyhow::Result<()>
+fn draw_panel<DB: DrawingBackend>(
+    area: &DrawingArea<DB, plotters::coord::Shift>,
+    p: &Panel,
+) -> anyhow::Result<()>
 where
     DB::ErrorType: 'static,
 {
@@ -213,20 +239,25 @@ where
         .map_err(plot_err)?;
     let mut any = false;
     for s in &p.series {
-        let pts: Vec<(f64, f64)> = s.points.iter().copied().filter(|(x, y)| x.is_finite() && y.is_finite()).collect();
+        let pts: Vec<(f64, f64)> =
+            s.points.iter().copied().filter(|(x, y)| x.is_finite() && y.is_finite()).collect();
         if pts.is_empty() {
             continue;
         }
         any = true;
         let color = s.color;
         if pts.len() == 1 {
-            chart.draw_series(std::iter::once(Circle::new(pts[0], 4, color.filled()))).map_err(plot_err)?;
+            chart
+                .draw_series(std::iter::once(Circle::new(pts[0], 4, color.filled())))
+                .map_err(plot_err)?;
         }
         chart
             .draw_series(LineSeries::new(pts, color.stroke_width(2)))
             .map_err(plot_err)?
             .label(s.name.as_str())
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 22, y)], color.stroke_width(3)));
+            .legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 22, y)], color.stroke_width(3))
+            });
     }
     if any {
         chart
@@ -241,11 +272,14 @@ where
             .map_err(plot_err)?;
     } else {
         let (w, h) = area.dim_in_pixel();
-        let style = (FAMILY, 18).into_font().color(&RGBColor(120, 120, 120)).pos(plotters::style::text_anchor::Pos::new(
-            plotters::style::text_anchor::HPos::Center,
-            plotters::style::text_anchor::VPos::Center,
-        ));
-        area.draw(&Text::new("no data in the log", (w as i32 / 2, h as i32 / 2), style)).map_err(plot_err)?;
+        let style = (FAMILY, 18).into_font().color(&RGBColor(120, 120, 120)).pos(
+            plotters::style::text_anchor::Pos::new(
+                plotters::style::text_anchor::HPos::Center,
+                plotters::style::text_anchor::VPos::Center,
+            ),
+        );
+        area.draw(&Text::new("no data in the log", (w as i32 / 2, h as i32 / 2), style))
+            .map_err(plot_err)?;
     }
     Ok(())
 }
@@ -272,7 +306,8 @@ fn write_png(path: &Path, rgb: &[u8], w: u32, h: u32) -> anyhow::Result<()> {
     }
     let tmp = path.with_extension("png.tmp");
     {
-        let file = std::fs::File::create(&tmp).with_context(|| format!("cannot create {}", tmp.display()))?;
+        let file = std::fs::File::create(&tmp)
+            .with_context(|| format!("cannot create {}", tmp.display()))?;
         let mut enc = png::Encoder::new(std::io::BufWriter::new(file), w, h);
         enc.set_color(png::ColorType::Rgb);
         enc.set_depth(png::BitDepth::Eight);
@@ -286,17 +321,33 @@ pub fn plot_log(log: &Path, out: &Path) -> anyhow::Result<()> {
     let rows = read_log(log)?;
     let s = |name: &str, k: usize, points| Series { name: name.into(), color: COLORS[k], points };
     let panels = [
-        Panel { title: "Mean reward per step", y_desc: "reward", series: vec![s("mean reward", 0, field(&rows, "mean_reward"))] },
-        Panel { title: "Episode length", y_desc: "steps", series: vec![s("episode length", 1, field(&rows, "episode_length"))] },
+        Panel {
+            title: "Mean reward per step",
+            y_desc: "reward",
+            series: vec![s("mean reward", 0, field(&rows, "mean_reward"))],
+        },
+        Panel {
+            title: "Episode length",
+            y_desc: "steps",
+            series: vec![s("episode length", 1, field(&rows, "episode_length"))],
+        },
         Panel {
             title: "Reward terms",
             y_desc: "mean term value",
-            series: term_names(&rows).iter().enumerate().map(|(k, n)| s(&format!("r_{n}"), k, term(&rows, n))).collect(),
+            series: term_names(&rows)
+                .iter()
+                .enumerate()
+                .map(|(k, n)| s(&format!("r_{n}"), k, term(&rows, n)))
+                .collect(),
         },
         Panel {
             title: "Losses",
             y_desc: "loss",
-            series: vec![s("actor", 0, field(&rows, "actor_loss")), s("critic", 1, field(&rows, "critic_loss")), s("bounds", 2, field(&rows, "bounds_loss"))],
+            series: vec![
+                s("actor", 0, field(&rows, "actor_loss")),
+                s("critic", 1, field(&rows, "critic_loss")),
+                s("bounds", 2, field(&rows, "bounds_loss")),
+            ],
         },
     ];
     let (w, h) = SIZE;
@@ -323,17 +374,36 @@ pub fn smooth(points: &[(f64, f64)], k: usize) -> Vec<(f64, f64)> {
 
 /// Overlay runs (label, JSON-lines file given by `flag`) into `out`: one panel per (title, y-axis
 /// description, key), one curve per run, smoothed over `k` points ([`smooth`]).
-fn plot_overlay(files: &[(String, PathBuf)], out: &Path, flag: &str, k: usize, panels: &[(&'static str, &'static str, &str)]) -> anyhow::Result<()> {
+fn plot_overlay(
+    files: &[(String, PathBuf)],
+    out: &Path,
+    flag: &str,
+    k: usize,
+    panels: &[(&'static str, &'static str, &str)],
+) -> anyhow::Result<()> {
     if files.len() > COLORS.len() {
-        bail!("{flag}: {} runs given, a comparison plot holds at most {}", files.len(), COLORS.len());
+        bail!(
+            "{flag}: {} runs given, a comparison plot holds at most {}",
+            files.len(),
+            COLORS.len()
+        );
     }
-    let runs: Vec<(String, Vec<serde_json::Value>)> = files.iter().map(|(l, p)| Ok((l.clone(), read_log(p)?))).collect::<anyhow::Result<_>>()?;
+    let runs: Vec<(String, Vec<serde_json::Value>)> =
+        files.iter().map(|(l, p)| Ok((l.clone(), read_log(p)?))).collect::<anyhow::Result<_>>()?;
     let panels: Vec<Panel> = panels
         .iter()
         .map(|&(title, y_desc, key)| Panel {
             title,
             y_desc,
-            series: runs.iter().enumerate().map(|(c, (label, rows))| Series { name: label.clone(), color: COLORS[c], points: smooth(&field(rows, key), k) }).collect(),
+            series: runs
+                .iter()
+                .enumerate()
+                .map(|(c, (label, rows))| Series {
+                    name: label.clone(),
+                    color: COLORS[c],
+                    points: smooth(&field(rows, key), k),
+                })
+                .collect(),
         })
         .collect();
     // two panels per row, each row [`SIZE`]'s half height
@@ -345,7 +415,18 @@ fn plot_overlay(files: &[(String, PathBuf)], out: &Path, flag: &str, k: usize, p
 /// Overlay the runs `logs` (label, log) into `out`: reward, episode length and the losses, one
 /// curve per run in each panel, each smoothed over `k` iterations ([`smooth`]).
 pub fn plot_compare(logs: &[(String, PathBuf)], out: &Path, k: usize) -> anyhow::Result<()> {
-    plot_overlay(logs, out, "--log", k, &[("Mean reward per step", "reward", "mean_reward"), ("Episode length", "steps", "episode_length"), ("Actor loss", "loss", "actor_loss"), ("Critic loss", "loss", "critic_loss")])
+    plot_overlay(
+        logs,
+        out,
+        "--log",
+        k,
+        &[
+            ("Mean reward per step", "reward", "mean_reward"),
+            ("Episode length", "steps", "episode_length"),
+            ("Actor loss", "loss", "actor_loss"),
+            ("Critic loss", "loss", "critic_loss"),
+        ],
+    )
 }
 
 /// Overlay checkpoint metrics of runs (label, `checkpoint_evals.jsonl`) into `out`: completion from
@@ -359,9 +440,21 @@ pub fn plot_evals(files: &[(String, PathBuf)], out: &Path) -> anyhow::Result<()>
         "--evals",
         1,
         &[
-            ("Completed from the clip's start (mean action, start noise 0.01)", "% of 64 episodes", "start_eps001_completed_pct"),
-            ("Completed from the clip's start (sampled actions)", "% of 64 episodes", "start_sampled_completed_pct"),
-            ("Success score from the start (mean action, noise 0.01)", "SkillMimic score", "start_eps001_v1_score"),
+            (
+                "Completed from the clip's start (mean action, start noise 0.01)",
+                "% of 64 episodes",
+                "start_eps001_completed_pct",
+            ),
+            (
+                "Completed from the clip's start (sampled actions)",
+                "% of 64 episodes",
+                "start_sampled_completed_pct",
+            ),
+            (
+                "Success score from the start (mean action, noise 0.01)",
+                "SkillMimic score",
+                "start_eps001_v1_score",
+            ),
             ("Falls from random frames", "% of 64 episodes", "falls_pct"),
             ("Acc (random frames)", "%", "acc_pct"),
             ("E_b-mpjpe (random frames)", "mm", "e_b_mm"),
@@ -372,10 +465,23 @@ pub fn plot_evals(files: &[(String, PathBuf)], out: &Path) -> anyhow::Result<()>
 pub fn run(a: Args) -> anyhow::Result<()> {
     let n = a.log.len().max(a.evals.len());
     if !a.label.is_empty() && a.label.len() != n {
-        bail!("--label: {} labels for {n} --log/--evals files; give one per file or none", a.label.len());
+        bail!(
+            "--label: {} labels for {n} --log/--evals files; give one per file or none",
+            a.label.len()
+        );
     }
-    let name = |p: &Path| p.parent().and_then(|d| d.file_name()).map_or_else(|| p.display().to_string(), |n| n.to_string_lossy().into_owned());
-    let labelled = |files: &[PathBuf]| -> Vec<(String, PathBuf)> { files.iter().enumerate().map(|(k, p)| (a.label.get(k).cloned().unwrap_or_else(|| name(p)), p.clone())).collect() };
+    let name = |p: &Path| {
+        p.parent()
+            .and_then(|d| d.file_name())
+            .map_or_else(|| p.display().to_string(), |n| n.to_string_lossy().into_owned())
+    };
+    let labelled = |files: &[PathBuf]| -> Vec<(String, PathBuf)> {
+        files
+            .iter()
+            .enumerate()
+            .map(|(k, p)| (a.label.get(k).cloned().unwrap_or_else(|| name(p)), p.clone()))
+            .collect()
+    };
     if !a.evals.is_empty() {
         plot_evals(&labelled(&a.evals), &a.out)?;
     } else if a.log.len() == 1 {
@@ -403,7 +509,11 @@ mod tests {
         let mut text = String::new();
         for i in 0..iterations {
             let t = i as f64 / iterations.max(1) as f64;
-            let terms: Vec<(String, f64)> = skillmimic_env::reward::TERM_NAMES.iter().enumerate().map(|(k, n)| (n.to_string(), 0.2 + 0.5 * t / (1.0 + k as f64))).collect();
+            let terms: Vec<(String, f64)> = skillmimic_env::reward::TERM_NAMES
+                .iter()
+                .enumerate()
+                .map(|(k, n)| (n.to_string(), 0.2 + 0.5 * t / (1.0 + k as f64)))
+                .collect();
             let row = serde_json::json!({
                 "iteration": i + 1, "samples": (i + 1) * 512, "mean_reward": 0.015 + 0.03 * t,
                 "reward_terms": terms, "episode_length": 20.0 + 40.0 * t,
@@ -491,15 +601,22 @@ mod tests {
     #[test]
     fn runs_overlay_with_one_colour_each() {
         let (a, b) = (temp_dir("cmp-a"), temp_dir("cmp-b"));
-        let logs = [("mlp".to_string(), synthetic_log(&a, 30)), ("modular".to_string(), synthetic_log(&b, 20))];
+        let logs = [
+            ("mlp".to_string(), synthetic_log(&a, 30)),
+            ("modular".to_string(), synthetic_log(&b, 20)),
+        ];
         let out = a.join("compare.png");
         plot_compare(&logs, &out, 5).unwrap();
-        assert_eq!(smooth(&[(0.0, 1.0), (1.0, 3.0), (2.0, 5.0), (3.0, 7.0)], 2), vec![(0.0, 1.0), (1.0, 2.0), (2.0, 4.0), (3.0, 6.0)]);
+        assert_eq!(
+            smooth(&[(0.0, 1.0), (1.0, 3.0), (2.0, 5.0), (3.0, 7.0)], 2),
+            vec![(0.0, 1.0), (1.0, 2.0), (2.0, 4.0), (3.0, 6.0)]
+        );
         let (info, rgb) = decode(&out);
         assert_eq!((info.width, info.height), SIZE);
         let has = |c: RGBColor| rgb.chunks_exact(3).any(|p| p == [c.0, c.1, c.2]);
         assert!(has(COLORS[0]) && has(COLORS[1]), "both runs drawn in their colours");
-        let seven: Vec<(String, PathBuf)> = (0..7).map(|k| (k.to_string(), logs[0].1.clone())).collect();
+        let seven: Vec<(String, PathBuf)> =
+            (0..7).map(|k| (k.to_string(), logs[0].1.clone())).collect();
         assert!(plot_compare(&seven, &out, 1).unwrap_err().to_string().contains("at most 6"));
         std::fs::remove_dir_all(&a).ok();
         std::fs::remove_dir_all(&b).ok();
@@ -507,7 +624,16 @@ mod tests {
 
     #[test]
     fn tick_labels_are_short() {
-        for (v, s) in [(0.0, "0"), (0.0146, "0.0146"), (12.5, "12.5"), (150_000.0, "150k"), (2_500_000.0, "2.5M"), (3e-5, "3.0e-5"), (-0.25, "-0.25"), (-1e-15, "0")] {
+        for (v, s) in [
+            (0.0, "0"),
+            (0.0146, "0.0146"),
+            (12.5, "12.5"),
+            (150_000.0, "150k"),
+            (2_500_000.0, "2.5M"),
+            (3e-5, "3.0e-5"),
+            (-0.25, "-0.25"),
+            (-1e-15, "0"),
+        ] {
             assert_eq!(fmt_num(v), s);
         }
     }

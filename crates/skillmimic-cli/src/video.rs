@@ -34,7 +34,10 @@ pub struct SceneRenderer {
 impl SceneRenderer {
     /// A renderer of `width × height` pixels for `model`.
     pub fn new(model: &Arc<MjModel>, width: usize, height: usize) -> anyhow::Result<Self> {
-        let camera = model.name_to_id(MjtObjBase::mjOBJ_CAMERA, "side").map(MjvCamera::new_fixed).unwrap_or_else(|| MjvCamera::new_free(model));
+        let camera = model
+            .name_to_id(MjtObjBase::mjOBJ_CAMERA, "side")
+            .map(MjvCamera::new_fixed)
+            .unwrap_or_else(|| MjvCamera::new_free(model));
         let renderer = MjRenderer::builder()
             .width(width as u32)
             .height(height as u32)
@@ -42,7 +45,11 @@ impl SceneRenderer {
             .num_visual_user_geom(crate::markers::MAX_MARKERS as u32)
             .camera(camera)
             .build(model)
-            .map_err(|e| anyhow::anyhow!("cannot start headless rendering (EGL through Mesa's libEGL is needed): {e}"))?;
+            .map_err(|e| {
+                anyhow::anyhow!(
+                    "cannot start headless rendering (EGL through Mesa's libEGL is needed): {e}"
+                )
+            })?;
         Ok(Self { renderer, data: MjData::new(Arc::clone(model)) })
     }
 
@@ -55,11 +62,26 @@ impl SceneRenderer {
             // SAFETY: the created geoms keep the "none" material, texture and object ids.
             match *m {
                 Marker::Sphere { pos, radius, rgba } => unsafe {
-                    scene.create_geom(MjtGeom::mjGEOM_SPHERE, Some([radius; 3]), Some(pos), None, Some(rgba));
+                    scene.create_geom(
+                        MjtGeom::mjGEOM_SPHERE,
+                        Some([radius; 3]),
+                        Some(pos),
+                        None,
+                        Some(rgba),
+                    );
                 },
-                Marker::Segment { from, to, radius, rgba } => unsafe { scene.create_geom(MjtGeom::mjGEOM_CAPSULE, None, None, None, Some(rgba)) }.connect(radius, from, to),
+                Marker::Segment { from, to, radius, rgba } => unsafe {
+                    scene.create_geom(MjtGeom::mjGEOM_CAPSULE, None, None, None, Some(rgba))
+                }
+                .connect(radius, from, to),
                 Marker::Box { pos, half, rgba } => unsafe {
-                    scene.create_geom(MjtGeom::mjGEOM_BOX, Some(half), Some(pos), Some([1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]), Some(rgba));
+                    scene.create_geom(
+                        MjtGeom::mjGEOM_BOX,
+                        Some(half),
+                        Some(pos),
+                        Some([1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]),
+                        Some(rgba),
+                    );
                 },
             }
         }
@@ -90,8 +112,10 @@ pub fn write_video(path: &Path, f: &Frames) -> anyhow::Result<()> {
 fn write_gif(path: &Path, f: &Frames) -> anyhow::Result<()> {
     let tmp = path.with_extension("gif.tmp");
     {
-        let file = std::fs::File::create(&tmp).with_context(|| format!("cannot create {}", tmp.display()))?;
-        let mut enc = gif::Encoder::new(std::io::BufWriter::new(file), f.width as u16, f.height as u16, &[])?;
+        let file = std::fs::File::create(&tmp)
+            .with_context(|| format!("cannot create {}", tmp.display()))?;
+        let mut enc =
+            gif::Encoder::new(std::io::BufWriter::new(file), f.width as u16, f.height as u16, &[])?;
         enc.set_repeat(gif::Repeat::Infinite)?;
         let delay = (100.0 / f.fps as f64).round() as u16;
         for rgb in &f.rgb {
@@ -106,7 +130,11 @@ fn write_gif(path: &Path, f: &Frames) -> anyhow::Result<()> {
 /// Python interpreters to try, in order: `.venv` of the working directory, of the checkout,
 /// then `python3` on `PATH`.
 pub fn python_candidates() -> [PathBuf; 3] {
-    [PathBuf::from(".venv/bin/python"), skillmimic_core::shared_data::workspace_root().join(".venv/bin/python"), PathBuf::from("python3")]
+    [
+        PathBuf::from(".venv/bin/python"),
+        skillmimic_core::shared_data::workspace_root().join(".venv/bin/python"),
+        PathBuf::from("python3"),
+    ]
 }
 
 /// The ffmpeg executable, if one can be found.
@@ -114,17 +142,25 @@ pub fn find_ffmpeg() -> Option<PathBuf> {
     if let Some(p) = std::env::var_os("SKILLMIMIC_FFMPEG") {
         return Some(PathBuf::from(p));
     }
-    if Command::new("ffmpeg").arg("-version").stdout(Stdio::null()).stderr(Stdio::null()).status().is_ok_and(|s| s.success()) {
+    if Command::new("ffmpeg")
+        .arg("-version")
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success())
+    {
         return Some(PathBuf::from("ffmpeg"));
     }
     for py in python_candidates() {
-        let out = Command::new(&py).args(["-c", "import imageio_ffmpeg; print(imageio_ffmpeg.get_ffmpeg_exe())"]).output();
-        if let Ok(o) = out {
-            if o.status.success() {
-                let p = PathBuf::from(String::from_utf8_lossy(&o.stdout).trim());
-                if p.exists() {
-                    return Some(p);
-                }
+        let out = Command::new(&py)
+            .args(["-c", "import imageio_ffmpeg; print(imageio_ffmpeg.get_ffmpeg_exe())"])
+            .output();
+        if let Ok(o) = out
+            && o.status.success()
+        {
+            let p = PathBuf::from(String::from_utf8_lossy(&o.stdout).trim());
+            if p.exists() {
+                return Some(p);
             }
         }
     }
@@ -139,7 +175,18 @@ fn write_mp4(path: &Path, f: &Frames) -> anyhow::Result<()> {
     let mut child = Command::new(&ffmpeg)
         .args(["-y", "-loglevel", "error", "-f", "rawvideo", "-pix_fmt", "rgb24", "-s"])
         .arg(format!("{}x{}", f.width, f.height))
-        .args(["-r", &f.fps.to_string(), "-i", "-", "-pix_fmt", "yuv420p", "-vcodec", "libx264", "-crf", "23"])
+        .args([
+            "-r",
+            &f.fps.to_string(),
+            "-i",
+            "-",
+            "-pix_fmt",
+            "yuv420p",
+            "-vcodec",
+            "libx264",
+            "-crf",
+            "23",
+        ])
         .arg(&tmp)
         .stdin(Stdio::piped())
         .spawn()

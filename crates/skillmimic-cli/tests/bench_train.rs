@@ -6,18 +6,44 @@ use std::process::Command;
 #[test]
 fn bench_train_reports_the_raw_anchor_and_memory() {
     let out = Command::new(env!("CARGO_BIN_EXE_skillmimic"))
-        .args(["bench", "train", "--preset", "tiny", "--rounds", "1", "--warmup", "0", "--num-envs", "8", "--threads", "1"])
+        .args([
+            "bench",
+            "train",
+            "--preset",
+            "tiny",
+            "--rounds",
+            "1",
+            "--warmup",
+            "0",
+            "--num-envs",
+            "8",
+            "--threads",
+            "1",
+        ])
         .output()
         .unwrap();
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(out.status.success(), "{text}\n{}", String::from_utf8_lossy(&out.stderr));
-    let line = text.lines().find(|l| l.starts_with("raw mj_step anchor")).unwrap_or_else(|| panic!("no anchor line in\n{text}"));
+    let line = text
+        .lines()
+        .find(|l| l.starts_with("raw mj_step anchor"))
+        .unwrap_or_else(|| panic!("no anchor line in\n{text}"));
     // "... {rate} policy steps/s; end-to-end / raw {ratio}"
-    let rate: f64 = line.split(": ").nth(1).and_then(|s| s.split_whitespace().next()).unwrap().parse().unwrap();
+    let rate: f64 =
+        line.split(": ").nth(1).and_then(|s| s.split_whitespace().next()).unwrap().parse().unwrap();
     let ratio: f64 = line.rsplit(' ').next().unwrap().parse().unwrap();
     assert!(rate > 10.0, "{line}");
     assert!(ratio > 0.0 && ratio < 1.5, "end-to-end cannot beat the raw physics by much: {line}");
-    let mem = text.lines().find(|l| l.starts_with("memory per environment")).unwrap_or_else(|| panic!("no memory line in\n{text}"));
-    let kb: f64 = mem.split("MjData ").nth(1).and_then(|s| s.split_whitespace().next()).unwrap().parse().unwrap();
+    let mem = text
+        .lines()
+        .find(|l| l.starts_with("memory per environment"))
+        .unwrap_or_else(|| panic!("no memory line in\n{text}"));
+    let kb: f64 = mem
+        .split("MjData ")
+        .nth(1)
+        .and_then(|s| s.split_whitespace().next())
+        .unwrap()
+        .parse()
+        .unwrap();
     assert!(kb > 100.0, "{mem}");
 }

@@ -32,14 +32,25 @@ fn write_pt(path: &Path, t: usize, contact: f32) {
 
 /// Run `skillmimic convert <args>` in `dir`: (exit code, stderr).
 fn convert(dir: &Path, args: &[&str]) -> (i32, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_skillmimic")).arg("convert").args(args).current_dir(dir).output().unwrap();
-    (out.status.code().expect("killed by a signal"), String::from_utf8_lossy(&out.stderr).into_owned())
+    let out = Command::new(env!("CARGO_BIN_EXE_skillmimic"))
+        .arg("convert")
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .unwrap();
+    (
+        out.status.code().expect("killed by a signal"),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
 }
 
 fn refused(dir: &Path, args: &[&str], parts: &[&str]) {
     let (rc, err) = convert(dir, args);
     assert_eq!(rc, 1, "{args:?}: {err}");
-    let line = err.lines().find(|l| l.starts_with("error: ")).unwrap_or_else(|| panic!("{args:?}: no error line in {err}"));
+    let line = err
+        .lines()
+        .find(|l| l.starts_with("error: "))
+        .unwrap_or_else(|| panic!("{args:?}: no error line in {err}"));
     for p in parts {
         assert!(line.contains(p), "{args:?}: expected '{p}' in: {line}");
     }
@@ -77,13 +88,21 @@ fn output_equal_to_input_is_refused_and_the_source_is_unchanged() {
 fn clips_that_training_refuses_are_not_converted() {
     let d = tmpdir("bad");
     write_pt(&d.join("013_half.pt"), 6, 0.5);
-    refused(&d, &["013_half.pt", "half.safetensors"], &["013_half.pt: column 336 (contact label) at frame 1 is 0.5, expected 0 or 1"]);
+    refused(
+        &d,
+        &["013_half.pt", "half.safetensors"],
+        &["013_half.pt: column 336 (contact label) at frame 1 is 0.5, expected 0 or 1"],
+    );
     write_pt(&d.join("013_seven.pt"), 6, 7.0);
     refused(&d, &["013_seven.pt", "seven.safetensors"], &["is 7, expected 0 or 1"]);
     for t in [1, 3] {
         let name = format!("013_len{t}.pt");
         write_pt(&d.join(&name), t, 1.0);
-        refused(&d, &[&name, "short.safetensors"], &[&format!("{name}: clip has {t} frames, expected at least 4")]);
+        refused(
+            &d,
+            &[&name, "short.safetensors"],
+            &[&format!("{name}: clip has {t} frames, expected at least 4")],
+        );
     }
     for f in ["half.safetensors", "seven.safetensors", "short.safetensors"] {
         assert!(!d.join(f).exists(), "{f} was written");

@@ -15,7 +15,8 @@ use skillmimic_core::shared_data::{shared_dir_or_skip, workspace_root};
 
 const CLIP: &str = "data/ballplay_m/run/013_018pickle_run_3.pt";
 /// Wall-clock fields of a log line: the only ones allowed to differ.
-const TIMING: [&str; 6] = ["rollout_s", "update_s", "env_s", "inference_s", "samples_per_s", "allreduce_s"];
+const TIMING: [&str; 6] =
+    ["rollout_s", "update_s", "env_s", "inference_s", "samples_per_s", "allreduce_s"];
 
 fn machine_class() -> Value {
     #[cfg(target_arch = "x86_64")]
@@ -46,13 +47,26 @@ fn lines(text: &str) -> Vec<Value> {
 fn documented_command_reproduces_the_first_20_iterations() {
     let Some(shared) = shared_dir_or_skip("results_repro") else { return };
     let root = workspace_root();
-    let reference = lines(&std::fs::read_to_string(root.join("configs/results/run.first20.jsonl")).unwrap());
+    let reference =
+        lines(&std::fs::read_to_string(root.join("configs/results/run.first20.jsonl")).unwrap());
     assert_eq!(reference.len(), 20);
-    let meta: Value = serde_json::from_str(&std::fs::read_to_string(root.join("configs/results/run.first20.meta.json")).unwrap()).unwrap();
+    let meta: Value = serde_json::from_str(
+        &std::fs::read_to_string(root.join("configs/results/run.first20.meta.json")).unwrap(),
+    )
+    .unwrap();
     let out = std::env::temp_dir().join(format!("sm-results-repro-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&out);
     let mut cmd = Command::new(env!("CARGO_BIN_EXE_skillmimic"));
-    cmd.current_dir(&root).args(["train", "--preset", "small", "--config", "configs/results/run.toml", "--iterations", "20", "--no-video"]);
+    cmd.current_dir(&root).args([
+        "train",
+        "--preset",
+        "small",
+        "--config",
+        "configs/results/run.toml",
+        "--iterations",
+        "20",
+        "--no-video",
+    ]);
     cmd.args(["--set", "run.eval_episodes=0", "--out"]).arg(&out);
     // the config names ../shared; a shared folder elsewhere ($SKILLMIMIC_SHARED) is passed on
     let default_shared: PathBuf = root.join("../shared");
@@ -67,11 +81,19 @@ fn documented_command_reproduces_the_first_20_iterations() {
     let here = machine_class();
     if here == meta["machine"] {
         for (i, (g, r)) in got.iter().zip(&reference).enumerate() {
-            assert_eq!(g, r, "iteration {}: the logged curve differs from the published run", i + 1);
+            assert_eq!(
+                g,
+                r,
+                "iteration {}: the logged curve differs from the published run",
+                i + 1
+            );
         }
         println!("20 iterations bit-identical to the published run's log");
     } else {
-        println!("this machine ({here}) is not of the reference's class ({}): float results may differ in the last bits, comparing to 2 %", meta["machine"]);
+        println!(
+            "this machine ({here}) is not of the reference's class ({}): float results may differ in the last bits, comparing to 2 %",
+            meta["machine"]
+        );
         for (i, (g, r)) in got.iter().zip(&reference).enumerate() {
             let (a, b) = (g["mean_reward"].as_f64().unwrap(), r["mean_reward"].as_f64().unwrap());
             assert!((a - b).abs() <= 0.02 * b.abs(), "iteration {}: mean reward {a} vs {b}", i + 1);

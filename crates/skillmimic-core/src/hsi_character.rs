@@ -89,7 +89,9 @@ impl JointSpec {
                 let m = range_deg.iter().flat_map(|r| [r[0].abs(), r[1].abs()]).fold(0.0, f64::max);
                 Some((0.0, (1.2 * m * rad).min(std::f64::consts::PI)))
             }
-            JointSpec::HingeY { range_deg: [lo, hi], .. } => Some((0.5 * (lo + hi) * rad, 0.7 * (hi - lo) * rad)),
+            JointSpec::HingeY { range_deg: [lo, hi], .. } => {
+                Some((0.5 * (lo + hi) * rad, 0.7 * (hi - lo) * rad))
+            }
             _ => None,
         }
     }
@@ -112,7 +114,15 @@ pub struct HsiBody {
     pub geoms: &'static [(&'static str, GeomSpec)],
 }
 
-const fn ball(x: [f64; 2], y: [f64; 2], z: [f64; 2], kp: f64, kd: f64, armature: f64, effort: f64) -> JointSpec {
+const fn ball(
+    x: [f64; 2],
+    y: [f64; 2],
+    z: [f64; 2],
+    kp: f64,
+    kd: f64,
+    armature: f64,
+    effort: f64,
+) -> JointSpec {
     JointSpec::Ball { range_deg: [x, y, z], kp, kd, armature, effort }
 }
 
@@ -128,43 +138,197 @@ const fn cuboid(half_extents: [f64; 3], center: [f64; 3]) -> GeomSpec {
     GeomSpec::Box { half_extents, center, density: 1141.0 }
 }
 
-const ABDOMEN: JointSpec = ball([-60.0, 60.0], [-60.0, 90.0], [-50.0, 50.0], 1000.0, 100.0, 0.02, 200.0);
+const ABDOMEN: JointSpec =
+    ball([-60.0, 60.0], [-60.0, 90.0], [-50.0, 50.0], 1000.0, 100.0, 0.02, 200.0);
 const NECK: JointSpec = ball([-50.0, 50.0], [-40.0, 60.0], [-45.0, 45.0], 100.0, 10.0, 0.01, 50.0);
-const R_SHOULDER: JointSpec = ball([-180.0, 45.0], [-180.0, 60.0], [-90.0, 90.0], 400.0, 40.0, 0.02, 100.0);
-const L_SHOULDER: JointSpec = ball([-45.0, 180.0], [-180.0, 60.0], [-90.0, 90.0], 400.0, 40.0, 0.02, 100.0);
-const ELBOW: JointSpec = JointSpec::HingeY { range_deg: [-160.0, 0.0], kp: 300.0, kd: 30.0, armature: 0.01, effort: 70.0 };
-const R_HIP: JointSpec = ball([-60.0, 15.0], [-140.0, 60.0], [-60.0, 35.0], 500.0, 50.0, 0.02, 200.0);
-const L_HIP: JointSpec = ball([-15.0, 60.0], [-140.0, 60.0], [-35.0, 60.0], 500.0, 50.0, 0.02, 200.0);
-const KNEE: JointSpec = ball([-5.625, 5.625], [0.0, 160.0], [-5.625, 5.625], 500.0, 50.0, 0.02, 150.0);
+const R_SHOULDER: JointSpec =
+    ball([-180.0, 45.0], [-180.0, 60.0], [-90.0, 90.0], 400.0, 40.0, 0.02, 100.0);
+const L_SHOULDER: JointSpec =
+    ball([-45.0, 180.0], [-180.0, 60.0], [-90.0, 90.0], 400.0, 40.0, 0.02, 100.0);
+const ELBOW: JointSpec = JointSpec::HingeY {
+    range_deg: [-160.0, 0.0],
+    kp: 300.0,
+    kd: 30.0,
+    armature: 0.01,
+    effort: 70.0,
+};
+const R_HIP: JointSpec =
+    ball([-60.0, 15.0], [-140.0, 60.0], [-60.0, 35.0], 500.0, 50.0, 0.02, 200.0);
+const L_HIP: JointSpec =
+    ball([-15.0, 60.0], [-140.0, 60.0], [-35.0, 60.0], 500.0, 50.0, 0.02, 200.0);
+const KNEE: JointSpec =
+    ball([-5.625, 5.625], [0.0, 160.0], [-5.625, 5.625], 500.0, 50.0, 0.02, 150.0);
 const ANKLE: JointSpec = ball([-30.0, 30.0], [-55.0, 55.0], [-40.0, 40.0], 400.0, 40.0, 0.01, 90.0);
 
 /// The 15 bodies in depth-first order.
 pub const BODIES: [HsiBody; NUM_BODIES] = [
-    HsiBody { name: "pelvis", parent: None, offset: [0.0, 0.0, 0.0], joint: JointSpec::Free, joint_name: "", geoms: &[("pelvis", sphere(0.0942, [0.0, 0.0, 0.0], 2226.0)), ("upper_waist", sphere(0.078, [0.0, 0.0, 0.17], 2226.0))] },
-    HsiBody { name: "torso", parent: Some(0), offset: [0.0, 0.0, 0.236151], joint: ABDOMEN, joint_name: "abdomen", geoms: &[
-        ("torso", sphere(0.11, [0.0, 0.0, 0.12], 1794.0)),
-        ("right_clavicle", capsule(0.045, [-0.0060125, -0.0457775, 0.2287955], [-0.016835, -0.128177, 0.2376182], 1100.0)),
-        ("left_clavicle", capsule(0.045, [-0.0060125, 0.0457775, 0.2287955], [-0.016835, 0.128177, 0.2376182], 1100.0)),
-    ] },
-    HsiBody { name: "head", parent: Some(1), offset: [0.0, 0.0, 0.223894], joint: NECK, joint_name: "neck", geoms: &[("head", sphere(0.095, [0.0, 0.0, 0.175], 1081.0))] },
-    HsiBody { name: "right_upper_arm", parent: Some(1), offset: [-0.02405, -0.18311, 0.2435], joint: R_SHOULDER, joint_name: "right_shoulder", geoms: &[("right_upper_arm", capsule(0.045, [0.0, 0.0, -0.05], [0.0, 0.0, -0.23], 982.0))] },
-    HsiBody { name: "right_lower_arm", parent: Some(3), offset: [0.0, 0.0, -0.274788], joint: ELBOW, joint_name: "right_elbow", geoms: &[("right_lower_arm", capsule(0.04, [0.0, 0.0, -0.0525], [0.0, 0.0, -0.1875], 1056.0))] },
-    HsiBody { name: "right_hand", parent: Some(4), offset: [0.0, 0.0, -0.258947], joint: JointSpec::Welded, joint_name: "", geoms: &[("right_hand", sphere(0.04, [0.0, 0.0, 0.0], 1865.0))] },
-    HsiBody { name: "left_upper_arm", parent: Some(1), offset: [-0.02405, 0.18311, 0.2435], joint: L_SHOULDER, joint_name: "left_shoulder", geoms: &[("left_upper_arm", capsule(0.045, [0.0, 0.0, -0.05], [0.0, 0.0, -0.23], 982.0))] },
-    HsiBody { name: "left_lower_arm", parent: Some(6), offset: [0.0, 0.0, -0.274788], joint: ELBOW, joint_name: "left_elbow", geoms: &[("left_lower_arm", capsule(0.04, [0.0, 0.0, -0.0525], [0.0, 0.0, -0.1875], 1056.0))] },
-    HsiBody { name: "left_hand", parent: Some(7), offset: [0.0, 0.0, -0.258947], joint: JointSpec::Welded, joint_name: "", geoms: &[("left_hand", sphere(0.04, [0.0, 0.0, 0.0], 1865.0))] },
-    HsiBody { name: "right_thigh", parent: Some(0), offset: [-0.0043, -0.0677, -0.0905], joint: R_HIP, joint_name: "right_hip", geoms: &[("right_thigh", capsule(0.055, [-0.0009, -0.0038, -0.0383], [-0.008, -0.0345, -0.3443], 1269.0))] },
-    HsiBody { name: "right_shin", parent: Some(9), offset: [-0.0089, -0.0383, -0.3826], joint: KNEE, joint_name: "right_knee", geoms: &[("right_shin", capsule(0.05, [-0.0085, 0.0032, -0.0797], [-0.0338, 0.0126, -0.3187], 1014.0))] },
-    HsiBody { name: "right_foot", parent: Some(10), offset: [-0.0423, 0.0158, -0.3984], joint: ANKLE, joint_name: "right_ankle", geoms: &[
-        ("right_foot", cuboid([0.0865, 0.0483, 0.0208], [0.0617, -0.0127, -0.0241])),
-        ("right_foot_toe", cuboid([0.0195, 0.0479, 0.0216], [0.186, -0.0127, -0.0232])),
-    ] },
-    HsiBody { name: "left_thigh", parent: Some(0), offset: [-0.0068, 0.0695, -0.0914], joint: L_HIP, joint_name: "left_hip", geoms: &[("left_thigh", capsule(0.055, [-0.0004, 0.0034, -0.0375], [-0.004, 0.0308, -0.3377], 1269.0))] },
-    HsiBody { name: "left_shin", parent: Some(12), offset: [-0.0045, 0.0343, -0.3752], joint: KNEE, joint_name: "left_knee", geoms: &[("left_shin", capsule(0.05, [-0.0087, -0.0027, -0.0796], [-0.035, -0.0109, -0.3184], 1014.0))] },
-    HsiBody { name: "left_foot", parent: Some(13), offset: [-0.0437, -0.0136, -0.398], joint: ANKLE, joint_name: "left_ankle", geoms: &[
-        ("left_foot", cuboid([0.085, 0.0483, 0.0208], [0.0596, 0.0132, -0.0279])),
-        ("left_foot_toe", cuboid([0.0202, 0.0478, 0.02], [0.1799, 0.0132, -0.0288])),
-    ] },
+    HsiBody {
+        name: "pelvis",
+        parent: None,
+        offset: [0.0, 0.0, 0.0],
+        joint: JointSpec::Free,
+        joint_name: "",
+        geoms: &[
+            ("pelvis", sphere(0.0942, [0.0, 0.0, 0.0], 2226.0)),
+            ("upper_waist", sphere(0.078, [0.0, 0.0, 0.17], 2226.0)),
+        ],
+    },
+    HsiBody {
+        name: "torso",
+        parent: Some(0),
+        offset: [0.0, 0.0, 0.236151],
+        joint: ABDOMEN,
+        joint_name: "abdomen",
+        geoms: &[
+            ("torso", sphere(0.11, [0.0, 0.0, 0.12], 1794.0)),
+            (
+                "right_clavicle",
+                capsule(
+                    0.045,
+                    [-0.0060125, -0.0457775, 0.2287955],
+                    [-0.016835, -0.128177, 0.2376182],
+                    1100.0,
+                ),
+            ),
+            (
+                "left_clavicle",
+                capsule(
+                    0.045,
+                    [-0.0060125, 0.0457775, 0.2287955],
+                    [-0.016835, 0.128177, 0.2376182],
+                    1100.0,
+                ),
+            ),
+        ],
+    },
+    HsiBody {
+        name: "head",
+        parent: Some(1),
+        offset: [0.0, 0.0, 0.223894],
+        joint: NECK,
+        joint_name: "neck",
+        geoms: &[("head", sphere(0.095, [0.0, 0.0, 0.175], 1081.0))],
+    },
+    HsiBody {
+        name: "right_upper_arm",
+        parent: Some(1),
+        offset: [-0.02405, -0.18311, 0.2435],
+        joint: R_SHOULDER,
+        joint_name: "right_shoulder",
+        geoms: &[("right_upper_arm", capsule(0.045, [0.0, 0.0, -0.05], [0.0, 0.0, -0.23], 982.0))],
+    },
+    HsiBody {
+        name: "right_lower_arm",
+        parent: Some(3),
+        offset: [0.0, 0.0, -0.274788],
+        joint: ELBOW,
+        joint_name: "right_elbow",
+        geoms: &[(
+            "right_lower_arm",
+            capsule(0.04, [0.0, 0.0, -0.0525], [0.0, 0.0, -0.1875], 1056.0),
+        )],
+    },
+    HsiBody {
+        name: "right_hand",
+        parent: Some(4),
+        offset: [0.0, 0.0, -0.258947],
+        joint: JointSpec::Welded,
+        joint_name: "",
+        geoms: &[("right_hand", sphere(0.04, [0.0, 0.0, 0.0], 1865.0))],
+    },
+    HsiBody {
+        name: "left_upper_arm",
+        parent: Some(1),
+        offset: [-0.02405, 0.18311, 0.2435],
+        joint: L_SHOULDER,
+        joint_name: "left_shoulder",
+        geoms: &[("left_upper_arm", capsule(0.045, [0.0, 0.0, -0.05], [0.0, 0.0, -0.23], 982.0))],
+    },
+    HsiBody {
+        name: "left_lower_arm",
+        parent: Some(6),
+        offset: [0.0, 0.0, -0.274788],
+        joint: ELBOW,
+        joint_name: "left_elbow",
+        geoms: &[(
+            "left_lower_arm",
+            capsule(0.04, [0.0, 0.0, -0.0525], [0.0, 0.0, -0.1875], 1056.0),
+        )],
+    },
+    HsiBody {
+        name: "left_hand",
+        parent: Some(7),
+        offset: [0.0, 0.0, -0.258947],
+        joint: JointSpec::Welded,
+        joint_name: "",
+        geoms: &[("left_hand", sphere(0.04, [0.0, 0.0, 0.0], 1865.0))],
+    },
+    HsiBody {
+        name: "right_thigh",
+        parent: Some(0),
+        offset: [-0.0043, -0.0677, -0.0905],
+        joint: R_HIP,
+        joint_name: "right_hip",
+        geoms: &[(
+            "right_thigh",
+            capsule(0.055, [-0.0009, -0.0038, -0.0383], [-0.008, -0.0345, -0.3443], 1269.0),
+        )],
+    },
+    HsiBody {
+        name: "right_shin",
+        parent: Some(9),
+        offset: [-0.0089, -0.0383, -0.3826],
+        joint: KNEE,
+        joint_name: "right_knee",
+        geoms: &[(
+            "right_shin",
+            capsule(0.05, [-0.0085, 0.0032, -0.0797], [-0.0338, 0.0126, -0.3187], 1014.0),
+        )],
+    },
+    HsiBody {
+        name: "right_foot",
+        parent: Some(10),
+        offset: [-0.0423, 0.0158, -0.3984],
+        joint: ANKLE,
+        joint_name: "right_ankle",
+        geoms: &[
+            ("right_foot", cuboid([0.0865, 0.0483, 0.0208], [0.0617, -0.0127, -0.0241])),
+            ("right_foot_toe", cuboid([0.0195, 0.0479, 0.0216], [0.186, -0.0127, -0.0232])),
+        ],
+    },
+    HsiBody {
+        name: "left_thigh",
+        parent: Some(0),
+        offset: [-0.0068, 0.0695, -0.0914],
+        joint: L_HIP,
+        joint_name: "left_hip",
+        geoms: &[(
+            "left_thigh",
+            capsule(0.055, [-0.0004, 0.0034, -0.0375], [-0.004, 0.0308, -0.3377], 1269.0),
+        )],
+    },
+    HsiBody {
+        name: "left_shin",
+        parent: Some(12),
+        offset: [-0.0045, 0.0343, -0.3752],
+        joint: KNEE,
+        joint_name: "left_knee",
+        geoms: &[(
+            "left_shin",
+            capsule(0.05, [-0.0087, -0.0027, -0.0796], [-0.035, -0.0109, -0.3184], 1014.0),
+        )],
+    },
+    HsiBody {
+        name: "left_foot",
+        parent: Some(13),
+        offset: [-0.0437, -0.0136, -0.398],
+        joint: ANKLE,
+        joint_name: "left_ankle",
+        geoms: &[
+            ("left_foot", cuboid([0.085, 0.0483, 0.0208], [0.0596, 0.0132, -0.0279])),
+            ("left_foot_toe", cuboid([0.0202, 0.0478, 0.02], [0.1799, 0.0132, -0.0288])),
+        ],
+    },
 ];
 
 /// First action index of each body's joint (`None` for bodies without an actuated joint).

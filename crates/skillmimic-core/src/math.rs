@@ -4,8 +4,8 @@
 //! * quaternions are **(w, x, y, z)**, as in MuJoCo (`qpos`, `xquat`); the original SkillMimic
 //!   code stores (x, y, z, w) — convert only at the boundary with [`Quat::from_xyzw`];
 //! * a rotation vector (exponential map) is `axis · angle` in radians;
-//! * `q.rotate(v)` maps a vector from the rotated (child/body) frame to the reference (parent/world)
-//!   frame;
+//! * `q.rotate(v)` maps a vector from the rotated (child/body) frame to the reference
+//!   (parent/world) frame;
 //! * the world is Z-up with gravity along −z.
 
 use std::f64::consts::PI;
@@ -179,7 +179,11 @@ impl Quat {
         let c = dot(a, b);
         if c < -1.0 + 1e-12 {
             // opposite: half a turn about any axis perpendicular to a
-            let axis = if a[0].abs() < 0.9 { cross(a, [1.0, 0.0, 0.0]) } else { cross(a, [0.0, 1.0, 0.0]) };
+            let axis = if a[0].abs() < 0.9 {
+                cross(a, [1.0, 0.0, 0.0])
+            } else {
+                cross(a, [0.0, 1.0, 0.0])
+            };
             return Quat::from_axis_angle(scale(axis, 1.0 / norm(axis)), std::f64::consts::PI);
         }
         let v = cross(a, b);

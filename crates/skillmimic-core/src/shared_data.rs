@@ -11,12 +11,14 @@ pub const SHARED_ENV: &str = "SKILLMIMIC_SHARED";
 
 /// The workspace root (two levels above this crate's manifest).
 pub fn workspace_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..").canonicalize().unwrap_or_else(|_| {
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-    })
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../..")
+        .canonicalize()
+        .unwrap_or_else(|_| Path::new(env!("CARGO_MANIFEST_DIR")).join("../.."))
 }
 
-/// `$SKILLMIMIC_SHARED` if set, else `<workspace>/../shared`; `None` when that folder has no `data/`.
+/// `$SKILLMIMIC_SHARED` if set, else `<workspace>/../shared`; `None` when that folder has no
+/// `data/`.
 pub fn shared_dir() -> Option<PathBuf> {
     let dir = match std::env::var_os(SHARED_ENV) {
         Some(d) => PathBuf::from(d),
@@ -54,13 +56,21 @@ pub fn shared_dir_or_skip(test: &str) -> Option<PathBuf> {
 /// # Panics
 /// When the file is missing and the `CI` environment variable is set.
 pub fn registry_file_or_skip(test: &str, crate_dir: &str, rel: &str) -> Option<PathBuf> {
-    let home = std::env::var_os("CARGO_HOME").map(PathBuf::from).or_else(|| std::env::var_os("HOME").map(|h| Path::new(&h).join(".cargo")));
-    let found = home.and_then(|h| std::fs::read_dir(h.join("registry/src")).ok()).and_then(|d| d.flatten().map(|e| e.path().join(crate_dir).join(rel)).find(|p| p.is_file()));
+    let home = std::env::var_os("CARGO_HOME")
+        .map(PathBuf::from)
+        .or_else(|| std::env::var_os("HOME").map(|h| Path::new(&h).join(".cargo")));
+    let found = home.and_then(|h| std::fs::read_dir(h.join("registry/src")).ok()).and_then(|d| {
+        d.flatten().map(|e| e.path().join(crate_dir).join(rel)).find(|p| p.is_file())
+    });
     match found {
         Some(p) => Some(p),
-        None if std::env::var_os("CI").is_some() => panic!("{test}: {crate_dir}/{rel} is not in the cargo registry and CI is set (scripts/setup.sh --tests fetches it)"),
+        None if std::env::var_os("CI").is_some() => panic!(
+            "{test}: {crate_dir}/{rel} is not in the cargo registry and CI is set (scripts/setup.sh --tests fetches it)"
+        ),
         None => {
-            eprintln!("SKIPPED {test}: {crate_dir}/{rel} is not in the cargo registry (run scripts/setup.sh --tests)");
+            eprintln!(
+                "SKIPPED {test}: {crate_dir}/{rel} is not in the cargo registry (run scripts/setup.sh --tests)"
+            );
             None
         }
     }

@@ -102,64 +102,618 @@ pub struct BodySpec {
 
 /// The 53 bodies in depth-first order.
 pub const BODIES: [BodySpec; NUM_BODIES] = [
-    BodySpec { name: "Pelvis", parent: None, offset: [0.0, 0.0, 0.0], group: JointGroup::Root, geom: GeomSpec::Sphere { radius: 0.0985, center: [0.0, 0.0, 0.0], density: 4629.6296296296305 } },
-    BodySpec { name: "L_Hip", parent: Some(0), offset: [0.109716, -0.0365719, 0.0], group: JointGroup::HipKnee, geom: GeomSpec::Capsule { radius: 0.0605, from: [0.0, -0.1, 0.0], to: [0.0, -0.461208, 0.0256003], density: 2040.816327 } },
-    BodySpec { name: "L_Knee", parent: Some(1), offset: [0.0, -0.461208, 0.0256003], group: JointGroup::HipKnee, geom: GeomSpec::Capsule { radius: 0.0533, from: [0.0, -0.1, 0.0], to: [0.0, -0.364385, -0.0256003], density: 1234.567901 } },
-    BodySpec { name: "L_Ankle", parent: Some(2), offset: [0.0, -0.364385, -0.0256003], group: JointGroup::Ankle, geom: GeomSpec::Box { half_extents: [0.0498, 0.0464, 0.0857], center: [0.0, -0.07, 0.0142], density: 1000.0 } },
-    BodySpec { name: "L_Toe", parent: Some(3), offset: [0.0, -0.0986496, 0.156582], group: JointGroup::Toe, geom: GeomSpec::Box { half_extents: [0.0478, 0.02, 0.0495], center: [0.0, 0.0, 0.0], density: 1000.0 } },
-    BodySpec { name: "R_Hip", parent: Some(0), offset: [-0.109716, -0.0365719, 0.0], group: JointGroup::HipKnee, geom: GeomSpec::Capsule { radius: 0.0598, from: [0.0, -0.1, 0.0], to: [0.0, -0.461208, 0.0256003], density: 2040.816327 } },
-    BodySpec { name: "R_Knee", parent: Some(5), offset: [0.0, -0.461208, 0.0256003], group: JointGroup::HipKnee, geom: GeomSpec::Capsule { radius: 0.0551, from: [0.0, -0.1, 0.0], to: [0.0, -0.364385, -0.0256003], density: 1234.567901 } },
-    BodySpec { name: "R_Ankle", parent: Some(6), offset: [0.0, -0.364385, -0.0256003], group: JointGroup::Ankle, geom: GeomSpec::Box { half_extents: [0.0498, 0.0464, 0.0857], center: [0.0, -0.07, 0.0142], density: 1000.0 } },
-    BodySpec { name: "R_Toe", parent: Some(7), offset: [0.0, -0.0986496, 0.156582], group: JointGroup::Toe, geom: GeomSpec::Box { half_extents: [0.0478, 0.02, 0.0495], center: [0.0, 0.0, 0.0], density: 1000.0 } },
-    BodySpec { name: "Torso", parent: Some(0), offset: [0.0, 0.0877726, -0.0279775], group: JointGroup::Spine, geom: GeomSpec::Sphere { radius: 0.05011, center: [0.0, 0.05, 0.0279775], density: 1000.0 } },
-    BodySpec { name: "Spine", parent: Some(9), offset: [0.0, 0.106124, 0.0], group: JointGroup::Spine, geom: GeomSpec::Sphere { radius: 0.06011, center: [0.0, 0.05, 0.0279775], density: 1000.0 } },
-    BodySpec { name: "Spine2", parent: Some(10), offset: [0.0, 0.106124, 0.0], group: JointGroup::Spine, geom: GeomSpec::Sphere { radius: 0.07011, center: [0.0, 0.05, 0.0279775], density: 1000.0 } },
-    BodySpec { name: "Chest", parent: Some(11), offset: [0.0, 0.166951, 0.0], group: JointGroup::Spine, geom: GeomSpec::Sphere { radius: 0.011, center: [0.0, -0.05, 0.0279775], density: 1000.0 } },
-    BodySpec { name: "Neck", parent: Some(12), offset: [0.0, 0.084247, 0.0146288], group: JointGroup::NeckHead, geom: GeomSpec::Capsule { radius: 0.0419, from: [0.0, 0.0, 0.0], to: [0.0, 0.0509716, 0.0], density: 1000.0 } },
-    BodySpec { name: "Head", parent: Some(13), offset: [0.0, 0.109716, 0.0], group: JointGroup::NeckHead, geom: GeomSpec::Sphere { radius: 0.1011, center: [0.0, 0.03, 0.0279775], density: 1000.0 } },
-    BodySpec { name: "L_Thorax", parent: Some(12), offset: [0.018286, -0.0295385, 0.0365719], group: JointGroup::Arm, geom: GeomSpec::Capsule { radius: 0.0488, from: [0.1, 0.0, 0.0], to: [0.166499, 0.0, 0.0], density: 1000.0 } },
-    BodySpec { name: "L_Shoulder", parent: Some(15), offset: [0.166499, 0.0, 0.0], group: JointGroup::Arm, geom: GeomSpec::Capsule { radius: 0.0522, from: [0.1, 0.0, 0.0], to: [0.252505, 0.0, 0.0], density: 1000.0 } },
-    BodySpec { name: "L_Elbow", parent: Some(16), offset: [0.252505, 0.0, 0.0], group: JointGroup::Elbow, geom: GeomSpec::Capsule { radius: 0.0401, from: [0.1, 0.0, 0.0], to: [0.223894, 0.0, 0.0], density: 1000.0 } },
-    BodySpec { name: "L_Wrist", parent: Some(17), offset: [0.243894, 0.0, 0.0], group: JointGroup::HandFinger, geom: GeomSpec::Capsule { radius: 0.0103, from: [0.0, 0.0, 0.0], to: [0.06, 0.0, 0.0], density: 1000.0 } },
-    BodySpec { name: "L_Index1", parent: Some(18), offset: [0.100362, 0.0, 0.0561204], group: JointGroup::HandFinger, geom: GeomSpec::Capsule { radius: 0.0092, from: [0.0, 0.0, 0.0], to: [0.0343, 0.0, 0.0], density: 1000.0 } },
-    BodySpec { name: "L_Index2", parent: Some(19), offset: [0.0343, 0.0, 0.0], group: JointGroup::HandFinger, geom: GeomSpec::Capsule { radius: 0.0075, from: [0.0, 0.0, 0.0], to: [0.02401, 0.0, 0.0], density: 1000.0 } },
-    BodySpec { name: "L_Index3", parent: Some(20), offset: [0.02401, 0.0, 0.0], group: JointGroup::HandFinger, geom: GeomSpec::Capsule { radius: 0.0068, from: [0.0, 0.0, 0.0], to: [0.0149205, 0.0, 0.0], density: 1000.0 } },
-    BodySpec { name: "L_Middle1", parent: Some(18), offset: [0.0927298, 0.0, 0.029047], group: JointGroup::HandFinger, geom: GeomSpec::Capsule { radius: 0.0094, from: [0.0, 0.0, 0.0], to: [0.04116, 0.0, 0.0], density: 1000.0 } },
-    BodySpec { name: "L_Middle2", parent: Some(22), offset: [0.04116, 0.0, 0.0], group: JointGroup::HandFinger, geom: GeomSpec::Capsule { radius: 0.007, from: [0.0, 0.0, 0.0], to: [0.028812, 0.0, 0.0], density: 1000.0 } },
-    BodySpec { name: "L_Middle3", parent: Some(23), offset: [0.028812, 0.0, 0.0], group: JointGroup::HandFinger, geom: GeomSpec::Capsule { radius: 0.0063, from: [0.0, 0.0, 0.0], to: [0.0179046, 0.0, 0.0], density: 1000.0 } },
-    BodySpec { name: "L_Pinky1", parent: Some(18), offset: [0.0774654, 0.0, -0.0250997], group: JointGroup::HandFinger, geom: GeomSpec::Capsule { radius: 0.007, from: [0.0, 0.0, 0.0], to: [0.0267662, 0.0, 0.0], density: 1000.0 } },
-    BodySpec { name: "L_Pinky2", parent: Some(25), offset: [0.0267662, 0.0, 0.0], group: JointGroup::HandFinger, geom: GeomSpec::Capsule { radius: 0.0063, from: [0.0, 0.0, 0.0], to: [0.0187364, 0.0, 0.0], density: 1000.0 } },
-    BodySpec { name: "L_Pinky3", parent: Some(26), offset: [0.0187364, 0.0, 0.0], group: JointGroup::HandFinger, geom: GeomSpec::Capsule { radius: 0.0051, from: [0.0, 0.0, 0.0], to: [0.0116433, 0.0, 0.0], density: 1000.0 } },
-    BodySpec { name: "L_Ring1", parent: Some(18), offset: [0.0850976, 0.0, 0.00197363], group: JointGroup::HandFinger, geom: GeomSpec::Capsule { radius: 0.0079, from: [0.0, 0.0, 0.0], to: [0.039445, 0.0, 0.0], density: 1000.0 } },
-    BodySpec { name: "L_Ring2", parent: Some(28), offset: [0.039445, 0.0, 0.0], group: JointGroup::HandFinger, geom: GeomSpec::Capsule { radius: 0.0072, from: [0.0, 0.0, 0.0], to: [0.0276115, 0.0, 0.0], density: 1000.0 } },
-    BodySpec { name: "L_Ring3", parent: Some(29), offset: [0.0276115, 0.0, 0.0], group: JointGroup::HandFinger, geom: GeomSpec::Capsule { radius: 0.006, from: [0.0, 0.0, 0.0], to: [0.0171586, 0.0, 0.0], density: 1000.0 } },
-    BodySpec { name: "L_Thumb1", parent: Some(18), offset: [0.0444569, 0.0, 0.0673445], group: JointGroup::HandFinger, geom: GeomSpec::Capsule { radius: 0.0122, from: [0.0, 0.0, 0.0], to: [0.0294, 0.0, 0.01], density: 1000.0 } },
-    BodySpec { name: "L_Thumb2", parent: Some(31), offset: [0.0294, 0.0, 0.01], group: JointGroup::HandFinger, geom: GeomSpec::Capsule { radius: 0.0093, from: [0.0, 0.0, 0.0], to: [0.02058, 0.0, 0.0], density: 1000.0 } },
-    BodySpec { name: "L_Thumb3", parent: Some(32), offset: [0.02058, 0.0, 0.0], group: JointGroup::HandFinger, geom: GeomSpec::Capsule { radius: 0.0087, from: [0.0, 0.0, 0.0], to: [0.012789, 0.0, 0.0], density: 1000.0 } },
-    BodySpec { name: "R_Thorax", parent: Some(12), offset: [-0.018286, -0.0295385, 0.0365719], group: JointGroup::Arm, geom: GeomSpec::Capsule { radius: 0.0536, from: [-0.1, 0.0, 0.0], to: [-0.166499, 0.0, 0.0], density: 1000.0 } },
-    BodySpec { name: "R_Shoulder", parent: Some(34), offset: [-0.166499, 0.0, 0.0], group: JointGroup::Arm, geom: GeomSpec::Capsule { radius: 0.0521, from: [-0.1, 0.0, 0.0], to: [-0.252505, 0.0, 0.0], density: 1000.0 } },
-    BodySpec { name: "R_Elbow", parent: Some(35), offset: [-0.252505, 0.0, 0.0], group: JointGroup::Elbow, geom: GeomSpec::Capsule { radius: 0.0404, from: [-0.1, 0.0, 0.0], to: [-0.223894, 0.0, 0.0], density: 1000.0 } },
-    BodySpec { name: "R_Wrist", parent: Some(36), offset: [-0.243894, 0.0, 0.0], group: JointGroup::HandFinger, geom: GeomSpec::Capsule { radius: 0.01, from: [0.0, 0.0, 0.0], to: [-0.06, 0.0, 0.0], density: 1000.0 } },
-    BodySpec { name: "R_Index1", parent: Some(37), offset: [-0.0953267, 0.0, 0.0454889], group: JointGroup::HandFinger, geom: GeomSpec::Capsule { radius: 0.0092, from: [0.0, 0.0, 0.0], to: [-0.0343, 0.0, 0.0], density: 1000.0 } },
-    BodySpec { name: "R_Index2", parent: Some(38), offset: [-0.0343, 0.0, 0.0], group: JointGroup::HandFinger, geom: GeomSpec::Capsule { radius: 0.0076, from: [0.0, 0.0, 0.0], to: [-0.02401, 0.0, 0.0], density: 1000.0 } },
-    BodySpec { name: "R_Index3", parent: Some(39), offset: [-0.02401, 0.0, 0.0], group: JointGroup::HandFinger, geom: GeomSpec::Capsule { radius: 0.0069, from: [0.0, 0.0, 0.0], to: [-0.0149205, 0.0, 0.0], density: 1000.0 } },
-    BodySpec { name: "R_Middle1", parent: Some(37), offset: [-0.0891353, 0.0, 0.0223232], group: JointGroup::HandFinger, geom: GeomSpec::Capsule { radius: 0.0094, from: [0.0, 0.0, 0.0], to: [-0.04116, 0.0, 0.0], density: 1000.0 } },
-    BodySpec { name: "R_Middle2", parent: Some(41), offset: [-0.04116, 0.0, 0.0], group: JointGroup::HandFinger, geom: GeomSpec::Capsule { radius: 0.0071, from: [0.0, 0.0, 0.0], to: [-0.028812, 0.0, 0.0], density: 1000.0 } },
-    BodySpec { name: "R_Middle3", parent: Some(42), offset: [-0.028812, 0.0, 0.0], group: JointGroup::HandFinger, geom: GeomSpec::Capsule { radius: 0.0064, from: [0.0, 0.0, 0.0], to: [-0.0179046, 0.0, 0.0], density: 1000.0 } },
-    BodySpec { name: "R_Pinky1", parent: Some(37), offset: [-0.0767525, 0.0, -0.0240082], group: JointGroup::HandFinger, geom: GeomSpec::Capsule { radius: 0.007, from: [0.0, 0.0, 0.0], to: [-0.0267662, 0.0, 0.0], density: 1000.0 } },
-    BodySpec { name: "R_Pinky2", parent: Some(44), offset: [-0.0267662, 0.0, 0.0], group: JointGroup::HandFinger, geom: GeomSpec::Capsule { radius: 0.0063, from: [0.0, 0.0, 0.0], to: [-0.0187364, 0.0, 0.0], density: 1000.0 } },
-    BodySpec { name: "R_Pinky3", parent: Some(45), offset: [-0.0187364, 0.0, 0.0], group: JointGroup::HandFinger, geom: GeomSpec::Capsule { radius: 0.0052, from: [0.0, 0.0, 0.0], to: [-0.0116433, 0.0, 0.0], density: 1000.0 } },
-    BodySpec { name: "R_Ring1", parent: Some(37), offset: [-0.0829439, 0.0, -0.000842496], group: JointGroup::HandFinger, geom: GeomSpec::Capsule { radius: 0.0079, from: [0.0, 0.0, 0.0], to: [-0.039445, 0.0, 0.0], density: 1000.0 } },
-    BodySpec { name: "R_Ring2", parent: Some(47), offset: [-0.039445, 0.0, 0.0], group: JointGroup::HandFinger, geom: GeomSpec::Capsule { radius: 0.0072, from: [0.0, 0.0, 0.0], to: [-0.0276115, 0.0, 0.0], density: 1000.0 } },
-    BodySpec { name: "R_Ring3", parent: Some(48), offset: [-0.0276115, 0.0, 0.0], group: JointGroup::HandFinger, geom: GeomSpec::Capsule { radius: 0.006, from: [0.0, 0.0, 0.0], to: [-0.0171586, 0.0, 0.0], density: 1000.0 } },
-    BodySpec { name: "R_Thumb1", parent: Some(37), offset: [-0.0430198, 0.0, 0.0545867], group: JointGroup::HandFinger, geom: GeomSpec::Capsule { radius: 0.0122, from: [0.0, 0.0, 0.0], to: [-0.0294, 0.0, 0.01], density: 1000.0 } },
-    BodySpec { name: "R_Thumb2", parent: Some(50), offset: [-0.0294, 0.0, 0.01], group: JointGroup::HandFinger, geom: GeomSpec::Capsule { radius: 0.0093, from: [0.0, 0.0, 0.0], to: [-0.02058, 0.0, 0.0], density: 1000.0 } },
-    BodySpec { name: "R_Thumb3", parent: Some(51), offset: [-0.02058, 0.0, 0.0], group: JointGroup::HandFinger, geom: GeomSpec::Capsule { radius: 0.009, from: [0.0, 0.0, 0.0], to: [-0.012789, 0.0, 0.0], density: 1000.0 } },
+    BodySpec {
+        name: "Pelvis",
+        parent: None,
+        offset: [0.0, 0.0, 0.0],
+        group: JointGroup::Root,
+        geom: GeomSpec::Sphere {
+            radius: 0.0985,
+            center: [0.0, 0.0, 0.0],
+            density: 4629.6296296296305,
+        },
+    },
+    BodySpec {
+        name: "L_Hip",
+        parent: Some(0),
+        offset: [0.109716, -0.0365719, 0.0],
+        group: JointGroup::HipKnee,
+        geom: GeomSpec::Capsule {
+            radius: 0.0605,
+            from: [0.0, -0.1, 0.0],
+            to: [0.0, -0.461208, 0.0256003],
+            density: 2040.816327,
+        },
+    },
+    BodySpec {
+        name: "L_Knee",
+        parent: Some(1),
+        offset: [0.0, -0.461208, 0.0256003],
+        group: JointGroup::HipKnee,
+        geom: GeomSpec::Capsule {
+            radius: 0.0533,
+            from: [0.0, -0.1, 0.0],
+            to: [0.0, -0.364385, -0.0256003],
+            density: 1234.567901,
+        },
+    },
+    BodySpec {
+        name: "L_Ankle",
+        parent: Some(2),
+        offset: [0.0, -0.364385, -0.0256003],
+        group: JointGroup::Ankle,
+        geom: GeomSpec::Box {
+            half_extents: [0.0498, 0.0464, 0.0857],
+            center: [0.0, -0.07, 0.0142],
+            density: 1000.0,
+        },
+    },
+    BodySpec {
+        name: "L_Toe",
+        parent: Some(3),
+        offset: [0.0, -0.0986496, 0.156582],
+        group: JointGroup::Toe,
+        geom: GeomSpec::Box {
+            half_extents: [0.0478, 0.02, 0.0495],
+            center: [0.0, 0.0, 0.0],
+            density: 1000.0,
+        },
+    },
+    BodySpec {
+        name: "R_Hip",
+        parent: Some(0),
+        offset: [-0.109716, -0.0365719, 0.0],
+        group: JointGroup::HipKnee,
+        geom: GeomSpec::Capsule {
+            radius: 0.0598,
+            from: [0.0, -0.1, 0.0],
+            to: [0.0, -0.461208, 0.0256003],
+            density: 2040.816327,
+        },
+    },
+    BodySpec {
+        name: "R_Knee",
+        parent: Some(5),
+        offset: [0.0, -0.461208, 0.0256003],
+        group: JointGroup::HipKnee,
+        geom: GeomSpec::Capsule {
+            radius: 0.0551,
+            from: [0.0, -0.1, 0.0],
+            to: [0.0, -0.364385, -0.0256003],
+            density: 1234.567901,
+        },
+    },
+    BodySpec {
+        name: "R_Ankle",
+        parent: Some(6),
+        offset: [0.0, -0.364385, -0.0256003],
+        group: JointGroup::Ankle,
+        geom: GeomSpec::Box {
+            half_extents: [0.0498, 0.0464, 0.0857],
+            center: [0.0, -0.07, 0.0142],
+            density: 1000.0,
+        },
+    },
+    BodySpec {
+        name: "R_Toe",
+        parent: Some(7),
+        offset: [0.0, -0.0986496, 0.156582],
+        group: JointGroup::Toe,
+        geom: GeomSpec::Box {
+            half_extents: [0.0478, 0.02, 0.0495],
+            center: [0.0, 0.0, 0.0],
+            density: 1000.0,
+        },
+    },
+    BodySpec {
+        name: "Torso",
+        parent: Some(0),
+        offset: [0.0, 0.0877726, -0.0279775],
+        group: JointGroup::Spine,
+        geom: GeomSpec::Sphere { radius: 0.05011, center: [0.0, 0.05, 0.0279775], density: 1000.0 },
+    },
+    BodySpec {
+        name: "Spine",
+        parent: Some(9),
+        offset: [0.0, 0.106124, 0.0],
+        group: JointGroup::Spine,
+        geom: GeomSpec::Sphere { radius: 0.06011, center: [0.0, 0.05, 0.0279775], density: 1000.0 },
+    },
+    BodySpec {
+        name: "Spine2",
+        parent: Some(10),
+        offset: [0.0, 0.106124, 0.0],
+        group: JointGroup::Spine,
+        geom: GeomSpec::Sphere { radius: 0.07011, center: [0.0, 0.05, 0.0279775], density: 1000.0 },
+    },
+    BodySpec {
+        name: "Chest",
+        parent: Some(11),
+        offset: [0.0, 0.166951, 0.0],
+        group: JointGroup::Spine,
+        geom: GeomSpec::Sphere { radius: 0.011, center: [0.0, -0.05, 0.0279775], density: 1000.0 },
+    },
+    BodySpec {
+        name: "Neck",
+        parent: Some(12),
+        offset: [0.0, 0.084247, 0.0146288],
+        group: JointGroup::NeckHead,
+        geom: GeomSpec::Capsule {
+            radius: 0.0419,
+            from: [0.0, 0.0, 0.0],
+            to: [0.0, 0.0509716, 0.0],
+            density: 1000.0,
+        },
+    },
+    BodySpec {
+        name: "Head",
+        parent: Some(13),
+        offset: [0.0, 0.109716, 0.0],
+        group: JointGroup::NeckHead,
+        geom: GeomSpec::Sphere { radius: 0.1011, center: [0.0, 0.03, 0.0279775], density: 1000.0 },
+    },
+    BodySpec {
+        name: "L_Thorax",
+        parent: Some(12),
+        offset: [0.018286, -0.0295385, 0.0365719],
+        group: JointGroup::Arm,
+        geom: GeomSpec::Capsule {
+            radius: 0.0488,
+            from: [0.1, 0.0, 0.0],
+            to: [0.166499, 0.0, 0.0],
+            density: 1000.0,
+        },
+    },
+    BodySpec {
+        name: "L_Shoulder",
+        parent: Some(15),
+        offset: [0.166499, 0.0, 0.0],
+        group: JointGroup::Arm,
+        geom: GeomSpec::Capsule {
+            radius: 0.0522,
+            from: [0.1, 0.0, 0.0],
+            to: [0.252505, 0.0, 0.0],
+            density: 1000.0,
+        },
+    },
+    BodySpec {
+        name: "L_Elbow",
+        parent: Some(16),
+        offset: [0.252505, 0.0, 0.0],
+        group: JointGroup::Elbow,
+        geom: GeomSpec::Capsule {
+            radius: 0.0401,
+            from: [0.1, 0.0, 0.0],
+            to: [0.223894, 0.0, 0.0],
+            density: 1000.0,
+        },
+    },
+    BodySpec {
+        name: "L_Wrist",
+        parent: Some(17),
+        offset: [0.243894, 0.0, 0.0],
+        group: JointGroup::HandFinger,
+        geom: GeomSpec::Capsule {
+            radius: 0.0103,
+            from: [0.0, 0.0, 0.0],
+            to: [0.06, 0.0, 0.0],
+            density: 1000.0,
+        },
+    },
+    BodySpec {
+        name: "L_Index1",
+        parent: Some(18),
+        offset: [0.100362, 0.0, 0.0561204],
+        group: JointGroup::HandFinger,
+        geom: GeomSpec::Capsule {
+            radius: 0.0092,
+            from: [0.0, 0.0, 0.0],
+            to: [0.0343, 0.0, 0.0],
+            density: 1000.0,
+        },
+    },
+    BodySpec {
+        name: "L_Index2",
+        parent: Some(19),
+        offset: [0.0343, 0.0, 0.0],
+        group: JointGroup::HandFinger,
+        geom: GeomSpec::Capsule {
+            radius: 0.0075,
+            from: [0.0, 0.0, 0.0],
+            to: [0.02401, 0.0, 0.0],
+            density: 1000.0,
+        },
+    },
+    BodySpec {
+        name: "L_Index3",
+        parent: Some(20),
+        offset: [0.02401, 0.0, 0.0],
+        group: JointGroup::HandFinger,
+        geom: GeomSpec::Capsule {
+            radius: 0.0068,
+            from: [0.0, 0.0, 0.0],
+            to: [0.0149205, 0.0, 0.0],
+            density: 1000.0,
+        },
+    },
+    BodySpec {
+        name: "L_Middle1",
+        parent: Some(18),
+        offset: [0.0927298, 0.0, 0.029047],
+        group: JointGroup::HandFinger,
+        geom: GeomSpec::Capsule {
+            radius: 0.0094,
+            from: [0.0, 0.0, 0.0],
+            to: [0.04116, 0.0, 0.0],
+            density: 1000.0,
+        },
+    },
+    BodySpec {
+        name: "L_Middle2",
+        parent: Some(22),
+        offset: [0.04116, 0.0, 0.0],
+        group: JointGroup::HandFinger,
+        geom: GeomSpec::Capsule {
+            radius: 0.007,
+            from: [0.0, 0.0, 0.0],
+            to: [0.028812, 0.0, 0.0],
+            density: 1000.0,
+        },
+    },
+    BodySpec {
+        name: "L_Middle3",
+        parent: Some(23),
+        offset: [0.028812, 0.0, 0.0],
+        group: JointGroup::HandFinger,
+        geom: GeomSpec::Capsule {
+            radius: 0.0063,
+            from: [0.0, 0.0, 0.0],
+            to: [0.0179046, 0.0, 0.0],
+            density: 1000.0,
+        },
+    },
+    BodySpec {
+        name: "L_Pinky1",
+        parent: Some(18),
+        offset: [0.0774654, 0.0, -0.0250997],
+        group: JointGroup::HandFinger,
+        geom: GeomSpec::Capsule {
+            radius: 0.007,
+            from: [0.0, 0.0, 0.0],
+            to: [0.0267662, 0.0, 0.0],
+            density: 1000.0,
+        },
+    },
+    BodySpec {
+        name: "L_Pinky2",
+        parent: Some(25),
+        offset: [0.0267662, 0.0, 0.0],
+        group: JointGroup::HandFinger,
+        geom: GeomSpec::Capsule {
+            radius: 0.0063,
+            from: [0.0, 0.0, 0.0],
+            to: [0.0187364, 0.0, 0.0],
+            density: 1000.0,
+        },
+    },
+    BodySpec {
+        name: "L_Pinky3",
+        parent: Some(26),
+        offset: [0.0187364, 0.0, 0.0],
+        group: JointGroup::HandFinger,
+        geom: GeomSpec::Capsule {
+            radius: 0.0051,
+            from: [0.0, 0.0, 0.0],
+            to: [0.0116433, 0.0, 0.0],
+            density: 1000.0,
+        },
+    },
+    BodySpec {
+        name: "L_Ring1",
+        parent: Some(18),
+        offset: [0.0850976, 0.0, 0.00197363],
+        group: JointGroup::HandFinger,
+        geom: GeomSpec::Capsule {
+            radius: 0.0079,
+            from: [0.0, 0.0, 0.0],
+            to: [0.039445, 0.0, 0.0],
+            density: 1000.0,
+        },
+    },
+    BodySpec {
+        name: "L_Ring2",
+        parent: Some(28),
+        offset: [0.039445, 0.0, 0.0],
+        group: JointGroup::HandFinger,
+        geom: GeomSpec::Capsule {
+            radius: 0.0072,
+            from: [0.0, 0.0, 0.0],
+            to: [0.0276115, 0.0, 0.0],
+            density: 1000.0,
+        },
+    },
+    BodySpec {
+        name: "L_Ring3",
+        parent: Some(29),
+        offset: [0.0276115, 0.0, 0.0],
+        group: JointGroup::HandFinger,
+        geom: GeomSpec::Capsule {
+            radius: 0.006,
+            from: [0.0, 0.0, 0.0],
+            to: [0.0171586, 0.0, 0.0],
+            density: 1000.0,
+        },
+    },
+    BodySpec {
+        name: "L_Thumb1",
+        parent: Some(18),
+        offset: [0.0444569, 0.0, 0.0673445],
+        group: JointGroup::HandFinger,
+        geom: GeomSpec::Capsule {
+            radius: 0.0122,
+            from: [0.0, 0.0, 0.0],
+            to: [0.0294, 0.0, 0.01],
+            density: 1000.0,
+        },
+    },
+    BodySpec {
+        name: "L_Thumb2",
+        parent: Some(31),
+        offset: [0.0294, 0.0, 0.01],
+        group: JointGroup::HandFinger,
+        geom: GeomSpec::Capsule {
+            radius: 0.0093,
+            from: [0.0, 0.0, 0.0],
+            to: [0.02058, 0.0, 0.0],
+            density: 1000.0,
+        },
+    },
+    BodySpec {
+        name: "L_Thumb3",
+        parent: Some(32),
+        offset: [0.02058, 0.0, 0.0],
+        group: JointGroup::HandFinger,
+        geom: GeomSpec::Capsule {
+            radius: 0.0087,
+            from: [0.0, 0.0, 0.0],
+            to: [0.012789, 0.0, 0.0],
+            density: 1000.0,
+        },
+    },
+    BodySpec {
+        name: "R_Thorax",
+        parent: Some(12),
+        offset: [-0.018286, -0.0295385, 0.0365719],
+        group: JointGroup::Arm,
+        geom: GeomSpec::Capsule {
+            radius: 0.0536,
+            from: [-0.1, 0.0, 0.0],
+            to: [-0.166499, 0.0, 0.0],
+            density: 1000.0,
+        },
+    },
+    BodySpec {
+        name: "R_Shoulder",
+        parent: Some(34),
+        offset: [-0.166499, 0.0, 0.0],
+        group: JointGroup::Arm,
+        geom: GeomSpec::Capsule {
+            radius: 0.0521,
+            from: [-0.1, 0.0, 0.0],
+            to: [-0.252505, 0.0, 0.0],
+            density: 1000.0,
+        },
+    },
+    BodySpec {
+        name: "R_Elbow",
+        parent: Some(35),
+        offset: [-0.252505, 0.0, 0.0],
+        group: JointGroup::Elbow,
+        geom: GeomSpec::Capsule {
+            radius: 0.0404,
+            from: [-0.1, 0.0, 0.0],
+            to: [-0.223894, 0.0, 0.0],
+            density: 1000.0,
+        },
+    },
+    BodySpec {
+        name: "R_Wrist",
+        parent: Some(36),
+        offset: [-0.243894, 0.0, 0.0],
+        group: JointGroup::HandFinger,
+        geom: GeomSpec::Capsule {
+            radius: 0.01,
+            from: [0.0, 0.0, 0.0],
+            to: [-0.06, 0.0, 0.0],
+            density: 1000.0,
+        },
+    },
+    BodySpec {
+        name: "R_Index1",
+        parent: Some(37),
+        offset: [-0.0953267, 0.0, 0.0454889],
+        group: JointGroup::HandFinger,
+        geom: GeomSpec::Capsule {
+            radius: 0.0092,
+            from: [0.0, 0.0, 0.0],
+            to: [-0.0343, 0.0, 0.0],
+            density: 1000.0,
+        },
+    },
+    BodySpec {
+        name: "R_Index2",
+        parent: Some(38),
+        offset: [-0.0343, 0.0, 0.0],
+        group: JointGroup::HandFinger,
+        geom: GeomSpec::Capsule {
+            radius: 0.0076,
+            from: [0.0, 0.0, 0.0],
+            to: [-0.02401, 0.0, 0.0],
+            density: 1000.0,
+        },
+    },
+    BodySpec {
+        name: "R_Index3",
+        parent: Some(39),
+        offset: [-0.02401, 0.0, 0.0],
+        group: JointGroup::HandFinger,
+        geom: GeomSpec::Capsule {
+            radius: 0.0069,
+            from: [0.0, 0.0, 0.0],
+            to: [-0.0149205, 0.0, 0.0],
+            density: 1000.0,
+        },
+    },
+    BodySpec {
+        name: "R_Middle1",
+        parent: Some(37),
+        offset: [-0.0891353, 0.0, 0.0223232],
+        group: JointGroup::HandFinger,
+        geom: GeomSpec::Capsule {
+            radius: 0.0094,
+            from: [0.0, 0.0, 0.0],
+            to: [-0.04116, 0.0, 0.0],
+            density: 1000.0,
+        },
+    },
+    BodySpec {
+        name: "R_Middle2",
+        parent: Some(41),
+        offset: [-0.04116, 0.0, 0.0],
+        group: JointGroup::HandFinger,
+        geom: GeomSpec::Capsule {
+            radius: 0.0071,
+            from: [0.0, 0.0, 0.0],
+            to: [-0.028812, 0.0, 0.0],
+            density: 1000.0,
+        },
+    },
+    BodySpec {
+        name: "R_Middle3",
+        parent: Some(42),
+        offset: [-0.028812, 0.0, 0.0],
+        group: JointGroup::HandFinger,
+        geom: GeomSpec::Capsule {
+            radius: 0.0064,
+            from: [0.0, 0.0, 0.0],
+            to: [-0.0179046, 0.0, 0.0],
+            density: 1000.0,
+        },
+    },
+    BodySpec {
+        name: "R_Pinky1",
+        parent: Some(37),
+        offset: [-0.0767525, 0.0, -0.0240082],
+        group: JointGroup::HandFinger,
+        geom: GeomSpec::Capsule {
+            radius: 0.007,
+            from: [0.0, 0.0, 0.0],
+            to: [-0.0267662, 0.0, 0.0],
+            density: 1000.0,
+        },
+    },
+    BodySpec {
+        name: "R_Pinky2",
+        parent: Some(44),
+        offset: [-0.0267662, 0.0, 0.0],
+        group: JointGroup::HandFinger,
+        geom: GeomSpec::Capsule {
+            radius: 0.0063,
+            from: [0.0, 0.0, 0.0],
+            to: [-0.0187364, 0.0, 0.0],
+            density: 1000.0,
+        },
+    },
+    BodySpec {
+        name: "R_Pinky3",
+        parent: Some(45),
+        offset: [-0.0187364, 0.0, 0.0],
+        group: JointGroup::HandFinger,
+        geom: GeomSpec::Capsule {
+            radius: 0.0052,
+            from: [0.0, 0.0, 0.0],
+            to: [-0.0116433, 0.0, 0.0],
+            density: 1000.0,
+        },
+    },
+    BodySpec {
+        name: "R_Ring1",
+        parent: Some(37),
+        offset: [-0.0829439, 0.0, -0.000842496],
+        group: JointGroup::HandFinger,
+        geom: GeomSpec::Capsule {
+            radius: 0.0079,
+            from: [0.0, 0.0, 0.0],
+            to: [-0.039445, 0.0, 0.0],
+            density: 1000.0,
+        },
+    },
+    BodySpec {
+        name: "R_Ring2",
+        parent: Some(47),
+        offset: [-0.039445, 0.0, 0.0],
+        group: JointGroup::HandFinger,
+        geom: GeomSpec::Capsule {
+            radius: 0.0072,
+            from: [0.0, 0.0, 0.0],
+            to: [-0.0276115, 0.0, 0.0],
+            density: 1000.0,
+        },
+    },
+    BodySpec {
+        name: "R_Ring3",
+        parent: Some(48),
+        offset: [-0.0276115, 0.0, 0.0],
+        group: JointGroup::HandFinger,
+        geom: GeomSpec::Capsule {
+            radius: 0.006,
+            from: [0.0, 0.0, 0.0],
+            to: [-0.0171586, 0.0, 0.0],
+            density: 1000.0,
+        },
+    },
+    BodySpec {
+        name: "R_Thumb1",
+        parent: Some(37),
+        offset: [-0.0430198, 0.0, 0.0545867],
+        group: JointGroup::HandFinger,
+        geom: GeomSpec::Capsule {
+            radius: 0.0122,
+            from: [0.0, 0.0, 0.0],
+            to: [-0.0294, 0.0, 0.01],
+            density: 1000.0,
+        },
+    },
+    BodySpec {
+        name: "R_Thumb2",
+        parent: Some(50),
+        offset: [-0.0294, 0.0, 0.01],
+        group: JointGroup::HandFinger,
+        geom: GeomSpec::Capsule {
+            radius: 0.0093,
+            from: [0.0, 0.0, 0.0],
+            to: [-0.02058, 0.0, 0.0],
+            density: 1000.0,
+        },
+    },
+    BodySpec {
+        name: "R_Thumb3",
+        parent: Some(51),
+        offset: [-0.02058, 0.0, 0.0],
+        group: JointGroup::HandFinger,
+        geom: GeomSpec::Capsule {
+            radius: 0.009,
+            from: [0.0, 0.0, 0.0],
+            to: [-0.012789, 0.0, 0.0],
+            density: 1000.0,
+        },
+    },
 ];
 
 /// The 17 key bodies of the position and interaction-graph rewards and of the HOI vector, in the
 /// reference order: Head, knees, elbows, ankles, then the ten fingertips.
-pub const KEY_BODIES: [usize; 17] = [14, 2, 6, 17, 36, 3, 7, 21, 24, 27, 30, 33, 40, 43, 46, 49, 52];
+pub const KEY_BODIES: [usize; 17] =
+    [14, 2, 6, 17, 36, 3, 7, 21, 24, 27, 30, 33, 40, 43, 46, 49, 52];
 
 /// The ten fingertip bodies whose net contact force enters the policy observation
 /// (left Index3, Middle3, Pinky3, Ring3, Thumb3, then the right hand in the same order).
@@ -168,7 +722,8 @@ pub const FINGERTIPS: [usize; 10] = [21, 24, 27, 30, 33, 40, 43, 46, 49, 52];
 /// The bodies of the reference "body" contact node (force-threshold compatibility mode): pelvis,
 /// hips, knees, spine chain, neck, head, thoraxes, shoulders, elbows. Feet, wrists and fingers
 /// are not members, so foot–floor and hand–ball contacts never count as body contact there.
-pub const REFERENCE_BODY_NODE: [usize; 17] = [0, 1, 2, 5, 6, 9, 10, 11, 12, 13, 14, 15, 16, 17, 34, 35, 36];
+pub const REFERENCE_BODY_NODE: [usize; 17] =
+    [0, 1, 2, 5, 6, 9, 10, 11, 12, 13, 14, 15, 16, 17, 34, 35, 36];
 
 /// Left wrist body index; the left hand is bodies `18..=33` (wrist and 15 finger bodies).
 pub const L_WRIST: usize = 18;
@@ -209,14 +764,22 @@ pub fn body_index(name: &str) -> Option<usize> {
 /// (`dof`, skeleton order): body b's frame = its parent's frame moved by `offset` and turned by
 /// exp(dof of b) (bodies have no rest rotation). The same kinematics MuJoCo computes for the
 /// generated scene.
-pub fn forward_kinematics(root_pos: [f64; 3], root_quat: crate::math::Quat, dof: &[f32]) -> [[f64; 3]; NUM_BODIES] {
+pub fn forward_kinematics(
+    root_pos: [f64; 3],
+    root_quat: crate::math::Quat,
+    dof: &[f32],
+) -> [[f64; 3]; NUM_BODIES] {
     let mut pos = [[0.0; 3]; NUM_BODIES];
     let mut rot = [root_quat; NUM_BODIES];
     pos[0] = root_pos;
     for b in 1..NUM_BODIES {
         let p = BODIES[b].parent.expect("non-root bodies have a parent");
         let d = dof_range(b);
-        let local = crate::math::Quat::from_rotvec([dof[d.start] as f64, dof[d.start + 1] as f64, dof[d.start + 2] as f64]);
+        let local = crate::math::Quat::from_rotvec([
+            dof[d.start] as f64,
+            dof[d.start + 1] as f64,
+            dof[d.start + 2] as f64,
+        ]);
         pos[b] = crate::math::add(pos[p], rot[p].rotate(BODIES[b].offset));
         rot[b] = rot[p].mul(local);
     }
@@ -229,7 +792,13 @@ pub fn forward_kinematics(root_pos: [f64; 3], root_quat: crate::math::Quat, dof:
 pub fn body_parts(split: &str) -> Option<Vec<(&'static str, Vec<usize>)>> {
     let torso: Vec<usize> = std::iter::once(0).chain(9..=14).collect();
     match split {
-        "five" => Some(vec![("l_leg", (1..=4).collect()), ("r_leg", (5..=8).collect()), ("torso", torso), ("l_arm", (15..=33).collect()), ("r_arm", (34..=52).collect())]),
+        "five" => Some(vec![
+            ("l_leg", (1..=4).collect()),
+            ("r_leg", (5..=8).collect()),
+            ("torso", torso),
+            ("l_arm", (15..=33).collect()),
+            ("r_arm", (34..=52).collect()),
+        ]),
         "seven" => Some(vec![
             ("l_leg", (1..=4).collect()),
             ("r_leg", (5..=8).collect()),
@@ -282,7 +851,10 @@ mod tests {
     #[test]
     fn named_sets_point_at_the_expected_bodies() {
         let names: Vec<_> = KEY_BODIES.iter().map(|&b| BODIES[b].name).collect();
-        assert_eq!(&names[..7], &["Head", "L_Knee", "R_Knee", "L_Elbow", "R_Elbow", "L_Ankle", "R_Ankle"]);
+        assert_eq!(
+            &names[..7],
+            &["Head", "L_Knee", "R_Knee", "L_Elbow", "R_Elbow", "L_Ankle", "R_Ankle"]
+        );
         assert!(FINGERTIPS.iter().all(|&b| BODIES[b].name.ends_with('3')));
         assert_eq!(BODIES[L_WRIST].name, "L_Wrist");
         assert_eq!(BODIES[R_WRIST].name, "R_Wrist");

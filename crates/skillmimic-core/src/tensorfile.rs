@@ -42,18 +42,45 @@ pub struct OwnedTensor {
 impl OwnedTensor {
     /// A float32 tensor (little endian).
     pub fn f32(name: &str, shape: &[usize], data: &[f32]) -> Self {
-        assert_eq!(shape.iter().product::<usize>(), data.len(), "tensor '{name}': shape/data mismatch");
-        Self { name: name.into(), dtype: Dtype::F32, shape: shape.to_vec(), bytes: data.iter().flat_map(|x| x.to_le_bytes()).collect() }
+        assert_eq!(
+            shape.iter().product::<usize>(),
+            data.len(),
+            "tensor '{name}': shape/data mismatch"
+        );
+        Self {
+            name: name.into(),
+            dtype: Dtype::F32,
+            shape: shape.to_vec(),
+            bytes: data.iter().flat_map(|x| x.to_le_bytes()).collect(),
+        }
     }
     /// A float64 tensor (little endian).
     pub fn f64(name: &str, shape: &[usize], data: &[f64]) -> Self {
-        assert_eq!(shape.iter().product::<usize>(), data.len(), "tensor '{name}': shape/data mismatch");
-        Self { name: name.into(), dtype: Dtype::F64, shape: shape.to_vec(), bytes: data.iter().flat_map(|x| x.to_le_bytes()).collect() }
+        assert_eq!(
+            shape.iter().product::<usize>(),
+            data.len(),
+            "tensor '{name}': shape/data mismatch"
+        );
+        Self {
+            name: name.into(),
+            dtype: Dtype::F64,
+            shape: shape.to_vec(),
+            bytes: data.iter().flat_map(|x| x.to_le_bytes()).collect(),
+        }
     }
     /// An int64 tensor (little endian).
     pub fn i64(name: &str, shape: &[usize], data: &[i64]) -> Self {
-        assert_eq!(shape.iter().product::<usize>(), data.len(), "tensor '{name}': shape/data mismatch");
-        Self { name: name.into(), dtype: Dtype::I64, shape: shape.to_vec(), bytes: data.iter().flat_map(|x| x.to_le_bytes()).collect() }
+        assert_eq!(
+            shape.iter().product::<usize>(),
+            data.len(),
+            "tensor '{name}': shape/data mismatch"
+        );
+        Self {
+            name: name.into(),
+            dtype: Dtype::I64,
+            shape: shape.to_vec(),
+            bytes: data.iter().flat_map(|x| x.to_le_bytes()).collect(),
+        }
     }
 }
 
@@ -66,8 +93,10 @@ pub fn to_bytes(tensors: &[OwnedTensor], metadata: &BTreeMap<String, String>) ->
     sorted.sort_by(|a, b| a.name.cmp(&b.name));
     let mut header = serde_json::Map::new();
     if !metadata.is_empty() {
-        let meta: serde_json::Map<String, serde_json::Value> =
-            metadata.iter().map(|(k, v)| (k.clone(), serde_json::Value::String(v.clone()))).collect();
+        let meta: serde_json::Map<String, serde_json::Value> = metadata
+            .iter()
+            .map(|(k, v)| (k.clone(), serde_json::Value::String(v.clone())))
+            .collect();
         header.insert("__metadata__".into(), serde_json::Value::Object(meta));
     }
     let mut offset = 0usize;
@@ -78,14 +107,19 @@ pub fn to_bytes(tensors: &[OwnedTensor], metadata: &BTreeMap<String, String>) ->
             Dtype::I64 => "I64",
             other => panic!("unsupported dtype {other:?}"),
         };
-        assert_eq!(t.bytes.len(), t.shape.iter().product::<usize>() * t.dtype.bitsize() / 8, "tensor '{}'", t.name);
+        assert_eq!(
+            t.bytes.len(),
+            t.shape.iter().product::<usize>() * t.dtype.bitsize() / 8,
+            "tensor '{}'",
+            t.name
+        );
         let info = serde_json::json!({ "dtype": dtype, "shape": t.shape, "data_offsets": [offset, offset + t.bytes.len()] });
         header.insert(t.name.clone(), info);
         offset += t.bytes.len();
     }
     // serde_json's Map is ordered by key (no preserve_order feature): deterministic
     let mut head = serde_json::to_vec(&serde_json::Value::Object(header)).expect("json header");
-    while head.len() % 8 != 0 {
+    while !head.len().is_multiple_of(8) {
         head.push(b' ');
     }
     let mut out = Vec::with_capacity(8 + head.len() + offset);
@@ -98,7 +132,11 @@ pub fn to_bytes(tensors: &[OwnedTensor], metadata: &BTreeMap<String, String>) ->
 }
 
 /// Write a safetensors file atomically (temp file in the same folder, then rename).
-pub fn write_atomic(path: &Path, tensors: &[OwnedTensor], metadata: &BTreeMap<String, String>) -> std::io::Result<()> {
+pub fn write_atomic(
+    path: &Path,
+    tensors: &[OwnedTensor],
+    metadata: &BTreeMap<String, String>,
+) -> std::io::Result<()> {
     write_bytes_atomic(path, &to_bytes(tensors, metadata))
 }
 
@@ -131,7 +169,12 @@ fn explain(bytes: &[u8], header_len: u64) -> Option<String> {
     let data_len = (bytes.len() - 8 - head.len()) as u64;
     let serde_json::Value::Object(map) = serde_json::from_slice(head).ok()? else { return None };
     for (name, info) in map.iter().filter(|(k, _)| *k != "__metadata__") {
-        let shape: Vec<u64> = info.get("shape")?.as_array()?.iter().map(serde_json::Value::as_u64).collect::<Option<_>>()?;
+        let shape: Vec<u64> = info
+            .get("shape")?
+            .as_array()?
+            .iter()
+            .map(serde_json::Value::as_u64)
+            .collect::<Option<_>>()?;
         let bits = match info.get("dtype")?.as_str()? {
             "F64" | "I64" | "U64" => 64,
             "F32" | "I32" | "U32" => 32,
@@ -139,16 +182,31 @@ fn explain(bytes: &[u8], header_len: u64) -> Option<String> {
             "I8" | "U8" | "BOOL" => 8,
             _ => return None,
         };
-        let offsets: Vec<u64> = info.get("data_offsets")?.as_array()?.iter().map(serde_json::Value::as_u64).collect::<Option<_>>()?;
-        let Some(bytes_needed) = shape.iter().try_fold(bits / 8, |a: u64, &s| a.checked_mul(s)) else {
-            return Some(format!("tensor '{name}': shape {shape:?} has more elements than 64 bits can count"));
+        let offsets: Vec<u64> = info
+            .get("data_offsets")?
+            .as_array()?
+            .iter()
+            .map(serde_json::Value::as_u64)
+            .collect::<Option<_>>()?;
+        let Some(bytes_needed) = shape.iter().try_fold(bits / 8, |a: u64, &s| a.checked_mul(s))
+        else {
+            return Some(format!(
+                "tensor '{name}': shape {shape:?} has more elements than 64 bits can count"
+            ));
         };
-        let [start, end] = offsets[..] else { return Some(format!("tensor '{name}': data_offsets {offsets:?} are not [start, end]")) };
+        let [start, end] = offsets[..] else {
+            return Some(format!("tensor '{name}': data_offsets {offsets:?} are not [start, end]"));
+        };
         if end > data_len || start > end {
-            return Some(format!("tensor '{name}': data_offsets [{start}, {end}] lie outside the {data_len} data bytes of the file"));
+            return Some(format!(
+                "tensor '{name}': data_offsets [{start}, {end}] lie outside the {data_len} data bytes of the file"
+            ));
         }
         if end - start != bytes_needed {
-            return Some(format!("tensor '{name}': data_offsets [{start}, {end}] hold {} bytes, its shape {shape:?} needs {bytes_needed}", end - start));
+            return Some(format!(
+                "tensor '{name}': data_offsets [{start}, {end}] hold {} bytes, its shape {shape:?} needs {bytes_needed}",
+                end - start
+            ));
         }
     }
     None
@@ -179,19 +237,25 @@ impl TensorFile {
         let meta = file.metadata().map_err(io)?;
         let len = meta.len();
         if !meta.is_file() || len < 8 {
-            return Err(format(format!("{len} bytes; a safetensors file is a regular file starting with an 8-byte header length")));
+            return Err(format(format!(
+                "{len} bytes; a safetensors file is a regular file starting with an 8-byte header length"
+            )));
         }
         let mut head = [0u8; 8];
         file.read_exact(&mut head).map_err(io)?;
         let n = u64::from_le_bytes(head);
         if n > MAX_HEADER || n > len - 8 {
-            return Err(format(format!("header length field is {n} bytes, the file has {} after it (limit {MAX_HEADER})", len - 8)));
+            return Err(format(format!(
+                "header length field is {n} bytes, the file has {} after it (limit {MAX_HEADER})",
+                len - 8
+            )));
         }
         let mut bytes = Vec::with_capacity(len as usize);
         bytes.extend_from_slice(&head);
         file.read_to_end(&mut bytes).map_err(io)?;
         // the file may have changed size since; the crate checks the header length again
-        let (_, meta) = safetensors::SafeTensors::read_metadata(&bytes).map_err(|e| format(explain(&bytes, n).unwrap_or_else(|| e.to_string())))?;
+        let (_, meta) = safetensors::SafeTensors::read_metadata(&bytes)
+            .map_err(|e| format(explain(&bytes, n).unwrap_or_else(|| e.to_string())))?;
         let metadata = meta.metadata().clone().unwrap_or_default().into_iter().collect();
         safetensors::SafeTensors::deserialize(&bytes).map_err(|e| format(e.to_string()))?;
         Ok(Self { path: path.into(), bytes, metadata })
@@ -217,7 +281,11 @@ impl TensorFile {
     }
 
     /// Metadata entry parsed as `T`.
-    pub fn meta_parse<T: std::str::FromStr>(&self, key: &str, expected: &str) -> Result<T, TensorFileError> {
+    pub fn meta_parse<T: std::str::FromStr>(
+        &self,
+        key: &str,
+        expected: &str,
+    ) -> Result<T, TensorFileError> {
         let v = self.meta(key)?;
         v.parse().map_err(|_| TensorFileError::Metadata {
             path: self.path.clone(),
@@ -240,43 +308,85 @@ impl TensorFile {
         st.tensor(name).ok().map(|t| t.shape().to_vec())
     }
 
-    fn raw(&self, name: &str, dtype: Dtype, expected: &'static str, shape: &[Option<usize>]) -> Result<(Vec<usize>, Vec<u8>), TensorFileError> {
+    fn raw(
+        &self,
+        name: &str,
+        dtype: Dtype,
+        expected: &'static str,
+        shape: &[Option<usize>],
+    ) -> Result<(Vec<usize>, Vec<u8>), TensorFileError> {
         let st = safetensors::SafeTensors::deserialize(&self.bytes).expect("checked on open");
-        let t = st.tensor(name).map_err(|_| TensorFileError::Missing { path: self.path.clone(), name: name.into() })?;
+        let t = st
+            .tensor(name)
+            .map_err(|_| TensorFileError::Missing { path: self.path.clone(), name: name.into() })?;
         if t.dtype() != dtype {
-            return Err(TensorFileError::Dtype { path: self.path.clone(), name: name.into(), got: format!("{:?}", t.dtype()), expected });
+            return Err(TensorFileError::Dtype {
+                path: self.path.clone(),
+                name: name.into(),
+                got: format!("{:?}", t.dtype()),
+                expected,
+            });
         }
         let got = t.shape().to_vec();
-        let ok = got.len() == shape.len() && got.iter().zip(shape).all(|(g, e)| e.is_none_or(|e| e == *g));
+        let ok = got.len() == shape.len()
+            && got.iter().zip(shape).all(|(g, e)| e.is_none_or(|e| e == *g));
         if !ok {
-            let exp: Vec<String> = shape.iter().map(|e| e.map_or("*".to_string(), |v| v.to_string())).collect();
-            return Err(TensorFileError::Shape { path: self.path.clone(), name: name.into(), got, expected: format!("({})", exp.join(", ")) });
+            let exp: Vec<String> =
+                shape.iter().map(|e| e.map_or("*".to_string(), |v| v.to_string())).collect();
+            return Err(TensorFileError::Shape {
+                path: self.path.clone(),
+                name: name.into(),
+                got,
+                expected: format!("({})", exp.join(", ")),
+            });
         }
         Ok((got, t.data().to_vec()))
     }
 
     /// A float32 tensor whose shape matches `shape` (`None` = any size); values must be finite.
-    pub fn f32(&self, name: &str, shape: &[Option<usize>]) -> Result<(Vec<usize>, Vec<f32>), TensorFileError> {
+    pub fn f32(
+        &self,
+        name: &str,
+        shape: &[Option<usize>],
+    ) -> Result<(Vec<usize>, Vec<f32>), TensorFileError> {
         let (s, b) = self.raw(name, Dtype::F32, "F32", shape)?;
-        let v: Vec<f32> = b.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+        let v: Vec<f32> =
+            b.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
         if let Some(index) = v.iter().position(|x| !x.is_finite()) {
-            return Err(TensorFileError::NonFinite { path: self.path.clone(), name: name.into(), index });
+            return Err(TensorFileError::NonFinite {
+                path: self.path.clone(),
+                name: name.into(),
+                index,
+            });
         }
         Ok((s, v))
     }
 
     /// A float64 tensor whose shape matches `shape`; values must be finite.
-    pub fn f64(&self, name: &str, shape: &[Option<usize>]) -> Result<(Vec<usize>, Vec<f64>), TensorFileError> {
+    pub fn f64(
+        &self,
+        name: &str,
+        shape: &[Option<usize>],
+    ) -> Result<(Vec<usize>, Vec<f64>), TensorFileError> {
         let (s, b) = self.raw(name, Dtype::F64, "F64", shape)?;
-        let v: Vec<f64> = b.chunks_exact(8).map(|c| f64::from_le_bytes(c.try_into().unwrap())).collect();
+        let v: Vec<f64> =
+            b.chunks_exact(8).map(|c| f64::from_le_bytes(c.try_into().unwrap())).collect();
         if let Some(index) = v.iter().position(|x| !x.is_finite()) {
-            return Err(TensorFileError::NonFinite { path: self.path.clone(), name: name.into(), index });
+            return Err(TensorFileError::NonFinite {
+                path: self.path.clone(),
+                name: name.into(),
+                index,
+            });
         }
         Ok((s, v))
     }
 
     /// An int64 tensor whose shape matches `shape`.
-    pub fn i64(&self, name: &str, shape: &[Option<usize>]) -> Result<(Vec<usize>, Vec<i64>), TensorFileError> {
+    pub fn i64(
+        &self,
+        name: &str,
+        shape: &[Option<usize>],
+    ) -> Result<(Vec<usize>, Vec<i64>), TensorFileError> {
         let (s, b) = self.raw(name, Dtype::I64, "I64", shape)?;
         Ok((s, b.chunks_exact(8).map(|c| i64::from_le_bytes(c.try_into().unwrap())).collect()))
     }
@@ -292,12 +402,22 @@ mod tests {
         let p = dir.join("t.safetensors");
         let mut meta = BTreeMap::new();
         meta.insert("fps".to_string(), "60".to_string());
-        write_atomic(&p, &[OwnedTensor::f32("a", &[2, 3], &[1., 2., 3., 4., 5., 6.]), OwnedTensor::f64("b", &[1], &[0.5])], &meta)
-            .unwrap();
+        write_atomic(
+            &p,
+            &[
+                OwnedTensor::f32("a", &[2, 3], &[1., 2., 3., 4., 5., 6.]),
+                OwnedTensor::f64("b", &[1], &[0.5]),
+            ],
+            &meta,
+        )
+        .unwrap();
         let f = TensorFile::open(&p).unwrap();
         assert_eq!(f.meta("fps").unwrap(), "60");
         assert_eq!(f.meta_parse::<f64>("fps", "a number").unwrap(), 60.0);
-        assert_eq!(f.f32("a", &[None, Some(3)]).unwrap(), (vec![2, 3], vec![1., 2., 3., 4., 5., 6.]));
+        assert_eq!(
+            f.f32("a", &[None, Some(3)]).unwrap(),
+            (vec![2, 3], vec![1., 2., 3., 4., 5., 6.])
+        );
         assert_eq!(f.f64("b", &[Some(1)]).unwrap().1, vec![0.5]);
         let e = f.f32("a", &[Some(3), None]).unwrap_err().to_string();
         assert!(e.contains("'a'") && e.contains("[2, 3]") && e.contains("(3, *)"), "{e}");

@@ -39,7 +39,8 @@ pub fn frame_features(obs: &[f32], out: &mut [f32]) {
 /// clip in `scene` (no physics step).
 pub fn clip_features(scene: Arc<Scene>, lib: &MotionLibrary) -> Result<Vec<Vec<f32>>, SimError> {
     let mut obs = vec![0.0f32; layout::STATE_DIM];
-    let mut out: Vec<Vec<f32>> = lib.clips().iter().map(|m| vec![0.0f32; m.clip.num_frames * FEATURE_DIM]).collect();
+    let mut out: Vec<Vec<f32>> =
+        lib.clips().iter().map(|m| vec![0.0f32; m.clip.num_frames * FEATURE_DIM]).collect();
     crate::episode::pose_clips(scene, lib, |c, t, st| {
         write_state_obs(st, &mut obs);
         frame_features(&obs, &mut out[c][t * FEATURE_DIM..(t + 1) * FEATURE_DIM]);

@@ -8,10 +8,15 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 use skillmimic_sim::{BallParams, HandModel, SceneOptions};
 
-pub use crate::config_hlc::{CirclingConfig, Formula, GoalSampling, HeadingConfig, HlcConfig, Prediction, ReachConfig, ScoringConfig, SteeringConfig, ThrowingConfig};
+pub use crate::config_hlc::{
+    CirclingConfig, Formula, GoalSampling, HeadingConfig, HlcConfig, Prediction, ReachConfig,
+    ScoringConfig, SteeringConfig, ThrowingConfig,
+};
 pub use crate::config_hsi::{CarryConfig, ClimbConfig, FollowConfig, HsiConfig, SitConfig};
 pub use crate::config_tracking::TrackingConfig;
-pub use crate::config_v2::{AtsConfig, BridgeConfig, HistoryConfig, MaskedReward, NoiseEps, StfConfig, StgConfig, V2Config};
+pub use crate::config_v2::{
+    AtsConfig, BridgeConfig, HistoryConfig, MaskedReward, NoiseEps, StfConfig, StgConfig, V2Config,
+};
 pub use crate::error::ConfigError;
 use crate::error::bad;
 
@@ -206,7 +211,14 @@ pub struct BallOverrides {
 
 impl Default for BallOverrides {
     fn default() -> Self {
-        Self { radius_scale: 1.0, density_scale: 1.0, restitution_scale: 1.0, damping: 0.01, bounce_threshold: 0.2, body_contact: BallBodyContact::Combined }
+        Self {
+            radius_scale: 1.0,
+            density_scale: 1.0,
+            restitution_scale: 1.0,
+            damping: 0.01,
+            bounce_threshold: 0.2,
+            body_contact: BallBodyContact::Combined,
+        }
     }
 }
 
@@ -275,7 +287,8 @@ pub struct EnvConfig {
     pub v2: V2Config,
     /// Options of the `stand` task (the worked example of adding a task).
     pub stand: StandConfig,
-    /// Options shared by the high-level tasks (heading, circling, throwing, scoring, steering, reach).
+    /// Options shared by the high-level tasks (heading, circling, throwing, scoring, steering,
+    /// reach).
     pub hlc: HlcConfig,
     /// Options of the `heading` task.
     pub heading: HeadingConfig,
@@ -356,7 +369,15 @@ pub struct StandConfig {
 
 impl Default for StandConfig {
     fn default() -> Self {
-        Self { episode_length: 300, start_height: 0.95, target_height: 0.9, termination_height: 0.5, height_weight: 0.5, height_scale: 20.0, heading_scale: 2.0 }
+        Self {
+            episode_length: 300,
+            start_height: 0.95,
+            target_height: 0.9,
+            termination_height: 0.5,
+            height_weight: 0.5,
+            height_scale: 20.0,
+            heading_scale: 2.0,
+        }
     }
 }
 
@@ -371,7 +392,10 @@ impl EnvConfig {
         match self.hands.as_str() {
             "full" => Ok(HandModel::Full),
             "box" | "boxhand" => Ok(HandModel::Box),
-            other => Err(bad("env.hands", format!("'{other}' is not a hand model, expected \"full\" or \"box\""))),
+            other => Err(bad(
+                "env.hands",
+                format!("'{other}' is not a hand model, expected \"full\" or \"box\""),
+            )),
         }
     }
 
@@ -391,7 +415,12 @@ impl EnvConfig {
                 BallBodyContact::Soft => skillmimic_sim::BodyContact::Soft,
             },
         };
-        Ok(SceneOptions { hands: self.hand_model()?, ball, solver: self.physics.solver_options(), ..Default::default() })
+        Ok(SceneOptions {
+            hands: self.hand_model()?,
+            ball,
+            solver: self.physics.solver_options(),
+            ..Default::default()
+        })
     }
 
     /// Check the driver's keys (every task): the documented range of every number of `[env]`
@@ -406,10 +435,13 @@ impl EnvConfig {
     /// Check value ranges of the driver and the imitation task (called by its constructor).
     pub fn validate(&self) -> Result<(), ConfigError> {
         self.validate_driver()?;
-        if let StateInit::Frame(f) = self.state_init {
-            if f < 2 {
-                return Err(bad("env.state_init", format!("start frame {f} is below 2 (frames 0 and 1 have no velocity)")));
-            }
+        if let StateInit::Frame(f) = self.state_init
+            && f < 2
+        {
+            return Err(bad(
+                "env.state_init",
+                format!("start frame {f} is below 2 (frames 0 and 1 have no velocity)"),
+            ));
         }
         if self.motion.is_empty() {
             return Err(bad("env.motion", "no clip file or folder given"));

@@ -55,7 +55,14 @@ pub struct HlcConfig {
 
 impl Default for HlcConfig {
     fn default() -> Self {
-        Self { llc: PathBuf::new(), llc_steps: 3, latent_steps: 1, episode_length: 800, termination_height: 0.25, start_frame: 2 }
+        Self {
+            llc: PathBuf::new(),
+            llc_steps: 3,
+            latent_steps: 1,
+            episode_length: 800,
+            termination_height: 0.25,
+            start_frame: 2,
+        }
     }
 }
 
@@ -93,7 +100,14 @@ pub struct HeadingConfig {
 
 impl Default for HeadingConfig {
     fn default() -> Self {
-        Self { goal_min: 2.0, goal_max: 8.0, goal_sampling: GoalSampling::Quadrant, target_height: 1.0, reward: Formula::Code, success_radius: 0.5 }
+        Self {
+            goal_min: 2.0,
+            goal_max: 8.0,
+            goal_sampling: GoalSampling::Quadrant,
+            target_height: 1.0,
+            reward: Formula::Code,
+            success_radius: 0.5,
+        }
     }
 }
 
@@ -121,7 +135,13 @@ pub struct SteeringConfig {
 
 impl Default for SteeringConfig {
     fn default() -> Self {
-        Self { speed_min: 0.5, speed_max: 3.0, change_steps_min: 200, change_steps_max: 600, error_scale: 0.25 }
+        Self {
+            speed_min: 0.5,
+            speed_max: 3.0,
+            change_steps_min: 200,
+            change_steps_max: 600,
+            error_scale: 0.25,
+        }
     }
 }
 
@@ -157,7 +177,14 @@ pub struct ReachConfig {
 
 impl Default for ReachConfig {
     fn default() -> Self {
-        Self { box_size: 2.0, center_height: 1.0, hand_body: "R_Middle1".into(), scale: 5.0, change_steps_min: 200, change_steps_max: 600 }
+        Self {
+            box_size: 2.0,
+            center_height: 1.0,
+            hand_body: "R_Middle1".into(),
+            scale: 5.0,
+            change_steps_min: 200,
+            change_steps_max: 600,
+        }
     }
 }
 
@@ -198,7 +225,15 @@ pub struct CirclingConfig {
 
 impl Default for CirclingConfig {
     fn default() -> Self {
-        Self { radius_min: 2.0, radius_max: 5.0, speed_threshold: 0.5, slow_factor: 0.1, reward: Formula::Code, success_band: 0.5, code_latch_radius: 0.3 }
+        Self {
+            radius_min: 2.0,
+            radius_max: 5.0,
+            speed_threshold: 0.5,
+            slow_factor: 0.1,
+            reward: Formula::Code,
+            success_band: 0.5,
+            code_latch_radius: 0.3,
+        }
     }
 }
 
@@ -299,14 +334,21 @@ impl Default for ScoringConfig {
 /// A `[min, max]` pair of keys in order (each key's own range is checked by
 /// [`EnvConfig::validate_driver`](crate::EnvConfig::validate_driver)).
 fn range<T: PartialOrd + std::fmt::Display>(field: &str, lo: T, hi: T) -> Result<(), ConfigError> {
-    if lo <= hi { Ok(()) } else { Err(bad(field, format!("[{lo}, {hi}] is not a range min <= max"))) }
+    if lo <= hi {
+        Ok(())
+    } else {
+        Err(bad(field, format!("[{lo}, {hi}] is not a range min <= max")))
+    }
 }
 
 impl HlcConfig {
     /// Check the shared options (each key's own range is checked by `EnvConfig::validate_driver`).
     pub fn validate(&self) -> Result<(), ConfigError> {
         if self.llc.as_os_str().is_empty() {
-            return Err(bad("env.hlc.llc", "no skill policy given: pass the checkpoint of a skill policy with --llc (or set env.hlc.llc)"));
+            return Err(bad(
+                "env.hlc.llc",
+                "no skill policy given: pass the checkpoint of a skill policy with --llc (or set env.hlc.llc)",
+            ));
         }
         Ok(())
     }

@@ -187,7 +187,16 @@ pub struct ClimbConfig {
 
 impl Default for ClimbConfig {
     fn default() -> Self {
-        Self { episode_length: 300, height: [0.2, 0.6], size: [0.6, 1.2], distance: [1.0, 5.0], target_above_top: 0.94, success_distance: 0.2, iet_steps: 60, style_motion: Vec::new() }
+        Self {
+            episode_length: 300,
+            height: [0.2, 0.6],
+            size: [0.6, 1.2],
+            distance: [1.0, 5.0],
+            target_above_top: 0.94,
+            success_distance: 0.2,
+            iet_steps: 60,
+            style_motion: Vec::new(),
+        }
     }
 }
 
@@ -241,7 +250,11 @@ impl Default for CarryConfig {
 /// A `[low, high]` pair in order (the bounds of each value are checked by
 /// `EnvConfig::validate_driver`).
 fn range(key: &str, r: [f64; 2]) -> Result<(), ConfigError> {
-    if r[0] <= r[1] { Ok(()) } else { Err(bad(key, format!("{r:?} must be a [low, high] range with low <= high"))) }
+    if r[0] <= r[1] {
+        Ok(())
+    } else {
+        Err(bad(key, format!("{r:?} must be a [low, high] range with low <= high")))
+    }
 }
 
 impl HsiConfig {
@@ -253,9 +266,15 @@ impl HsiConfig {
             "hsi_sit" => self.sit.style_motion.clone(),
             "hsi_climb" => self.climb.style_motion.clone(),
             "hsi_carry" => self.carry.style_motion.clone(),
-            "hsi_follow_carry" => self.follow.style_motion.iter().chain(&self.carry.style_motion).cloned().collect(),
-            "hsi_sit_carry" => self.sit.style_motion.iter().chain(&self.carry.style_motion).cloned().collect(),
-            "hsi_climb_carry" => self.climb.style_motion.iter().chain(&self.carry.style_motion).cloned().collect(),
+            "hsi_follow_carry" => {
+                self.follow.style_motion.iter().chain(&self.carry.style_motion).cloned().collect()
+            }
+            "hsi_sit_carry" => {
+                self.sit.style_motion.iter().chain(&self.carry.style_motion).cloned().collect()
+            }
+            "hsi_climb_carry" => {
+                self.climb.style_motion.iter().chain(&self.carry.style_motion).cloned().collect()
+            }
             _ => Vec::new(),
         };
         if own.is_empty() { self.style_motion.clone() } else { own }

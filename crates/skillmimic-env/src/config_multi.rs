@@ -51,14 +51,19 @@ pub fn split(n: usize, tasks: usize, mix: &[f64]) -> Result<Vec<usize>, crate::e
         return Err(bad("env.multi.mix", format!("is {w:?}; expected positive finite weights")));
     }
     if n < tasks {
-        return Err(bad("env.num_envs", format!("is {n}; the multi-task environment needs at least one per task ({tasks})")));
+        return Err(bad(
+            "env.num_envs",
+            format!("is {n}; the multi-task environment needs at least one per task ({tasks})"),
+        ));
     }
     let total: f64 = w.iter().sum();
     let spare = n - tasks;
     let exact: Vec<f64> = w.iter().map(|x| x / total * spare as f64).collect();
     let mut counts: Vec<usize> = exact.iter().map(|x| x.floor() as usize).collect();
     let mut order: Vec<usize> = (0..tasks).collect();
-    order.sort_by(|&a, &b| (exact[b] - exact[b].floor()).total_cmp(&(exact[a] - exact[a].floor())).then(a.cmp(&b)));
+    order.sort_by(|&a, &b| {
+        (exact[b] - exact[b].floor()).total_cmp(&(exact[a] - exact[a].floor())).then(a.cmp(&b))
+    });
     let left = spare - counts.iter().sum::<usize>();
     for &k in order.iter().take(left) {
         counts[k] += 1;

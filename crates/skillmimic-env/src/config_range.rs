@@ -47,7 +47,8 @@ impl SchemaDefs {
 /// the `[env]` table); the error names the full key (`ppo.gamma`), the value and the range.
 pub fn check_ranges<T: JsonSchema + Serialize>(value: &T, prefix: &str) -> Result<(), ConfigError> {
     let root = root_schema::<T>();
-    let json = serde_json::to_value(value).map_err(|e| bad(prefix, format!("cannot be serialised: {e}")))?;
+    let json = serde_json::to_value(value)
+        .map_err(|e| bad(prefix, format!("cannot be serialised: {e}")))?;
     let defs = SchemaDefs::of(&root);
     check(&defs, prefix, &root, &json)
 }
@@ -90,12 +91,23 @@ fn check(defs: &SchemaDefs, path: &str, schema: &Value, value: &Value) -> Result
             if in_range(s, x) {
                 Ok(())
             } else {
-                Err(bad(path, format!("{} is outside the valid range {}", number_text(n), range_text(s).unwrap_or_default())))
+                Err(bad(
+                    path,
+                    format!(
+                        "{} is outside the valid range {}",
+                        number_text(n),
+                        range_text(s).unwrap_or_default()
+                    ),
+                ))
             }
         }
-        Value::Null if is_numeric(s) && !types(s).contains(&"null") => {
-            Err(bad(path, format!("is not a finite number (NaN or infinite); valid range {}", range_text(s).unwrap_or_default())))
-        }
+        Value::Null if is_numeric(s) && !types(s).contains(&"null") => Err(bad(
+            path,
+            format!(
+                "is not a finite number (NaN or infinite); valid range {}",
+                range_text(s).unwrap_or_default()
+            ),
+        )),
         _ => Ok(()),
     }
 }
@@ -171,8 +183,10 @@ fn bound_text(x: f64) -> String {
 /// of the values of a list or table (`each in [0, ∞)`); `None` for other schemas.
 pub fn range_text(s: &Value) -> Option<String> {
     if !is_numeric(s) {
-        let inner = s.get("items").or_else(|| s.get("additionalProperties")).filter(|i| i.is_object())?;
-        return range_text(inner).map(|r| format!("each {}", if r == "finite" { r } else { format!("in {r}") }));
+        let inner =
+            s.get("items").or_else(|| s.get("additionalProperties")).filter(|i| i.is_object())?;
+        return range_text(inner)
+            .map(|r| format!("each {}", if r == "finite" { r } else { format!("in {r}") }));
     }
     let (lo, lo_open) = match (bound(s, "minimum"), bound(s, "exclusiveMinimum")) {
         (_, Some(m)) => (Some(m), true),
@@ -203,7 +217,9 @@ pub fn capped_threads(requested: usize, key: &str) -> usize {
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     let cap = 4 * cores;
     if requested > cap {
-        eprintln!("warning: {key} = {requested} is far above the {cores} cores of this machine; using {cap} threads");
+        eprintln!(
+            "warning: {key} = {requested} is far above the {cores} cores of this machine; using {cap} threads"
+        );
         cap
     } else {
         requested
@@ -261,6 +277,9 @@ mod tests {
         assert_eq!(range_text(&serde_json::json!({"type": "number"})).as_deref(), Some("finite"));
         assert_eq!(range_text(&serde_json::json!({"type": "string"})), None);
         assert_eq!(capped_threads(0, "k"), 0);
-        assert!(capped_threads(100_000, "k") <= 4 * std::thread::available_parallelism().map_or(1, |n| n.get()));
+        assert!(
+            capped_threads(100_000, "k")
+                <= 4 * std::thread::available_parallelism().map_or(1, |n| n.get())
+        );
     }
 }

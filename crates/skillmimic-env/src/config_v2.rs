@@ -188,7 +188,11 @@ pub struct BridgeConfig {
 impl BridgeConfig {
     /// The masked-reward rule in effect under `compat`.
     pub fn masked_reward(&self, compat: crate::compat::Compat) -> MaskedReward {
-        self.masked_reward.unwrap_or(if compat.is_code() { MaskedReward::ReplaceWithClipMean } else { MaskedReward::Exclude })
+        self.masked_reward.unwrap_or(if compat.is_code() {
+            MaskedReward::ReplaceWithClipMean
+        } else {
+            MaskedReward::Exclude
+        })
     }
 }
 
@@ -232,7 +236,10 @@ impl V2Config {
 
     pub(crate) fn validate(&self) -> Result<(), ConfigError> {
         if self.history.enabled && self.history.encoder.as_os_str().is_empty() {
-            return Err(bad("env.v2.history.encoder", "history is enabled but no encoder file is given (write one with `skillmimic history pretrain`)"));
+            return Err(bad(
+                "env.v2.history.encoder",
+                "history is enabled but no encoder file is given (write one with `skillmimic history pretrain`)",
+            ));
         }
         Ok(())
     }

@@ -114,8 +114,10 @@ pub fn reset_state_from_clip(m: &MotionClip, t: usize) -> ResetState {
 /// original draws z from [−5, 5], i.e. possibly below the floor; we keep it above), velocity
 /// uniform in [0, 5]³, a uniformly random orientation, angular velocity uniform in [0, 0.1]³.
 pub fn random_ball<R: Rng>(s: &mut ResetState, radius: f64, rng: &mut R) {
-    s.ball_pos = [rng.random_range(-5.0..5.0), rng.random_range(-5.0..5.0), rng.random_range(radius..5.0)];
-    s.ball_linvel = [rng.random_range(0.0..5.0), rng.random_range(0.0..5.0), rng.random_range(0.0..5.0)];
+    s.ball_pos =
+        [rng.random_range(-5.0..5.0), rng.random_range(-5.0..5.0), rng.random_range(radius..5.0)];
+    s.ball_linvel =
+        [rng.random_range(0.0..5.0), rng.random_range(0.0..5.0), rng.random_range(0.0..5.0)];
     // uniform random rotation (Shoemake)
     let (u1, u2, u3): (f64, f64, f64) = (rng.random(), rng.random(), rng.random());
     let tau = std::f64::consts::TAU;
@@ -125,14 +127,19 @@ pub fn random_ball<R: Rng>(s: &mut ResetState, radius: f64, rng: &mut R) {
         y: u1.sqrt() * (tau * u3).sin(),
         z: u1.sqrt() * (tau * u3).cos(),
     };
-    s.ball_angvel_local = [rng.random_range(0.0..0.1), rng.random_range(0.0..0.1), rng.random_range(0.0..0.1)];
+    s.ball_angvel_local =
+        [rng.random_range(0.0..0.1), rng.random_range(0.0..0.1), rng.random_range(0.0..0.1)];
 }
 
 /// Pose every frame of every clip of `lib` in `scene` (batched resets to
 /// [`reset_state_from_clip`], no physics step) and call `f(clip, frame, state)` for each, clips in
 /// library order and frames ascending. The one path by which reference quantities are computed
 /// in the environment's own scene (history features, tracking references, motion-prior frames).
-pub fn pose_clips(scene: std::sync::Arc<skillmimic_sim::Scene>, lib: &skillmimic_motion::MotionLibrary, mut f: impl FnMut(usize, usize, &skillmimic_sim::EnvState<'_>)) -> Result<(), skillmimic_sim::SimError> {
+pub fn pose_clips(
+    scene: std::sync::Arc<skillmimic_sim::Scene>,
+    lib: &skillmimic_motion::MotionLibrary,
+    mut f: impl FnMut(usize, usize, &skillmimic_sim::EnvState<'_>),
+) -> Result<(), skillmimic_sim::SimError> {
     const N: usize = 32;
     let mut sim = skillmimic_sim::BatchSim::new(scene, N, 1)?;
     let mut states = vec![ResetState::default(); N];

@@ -137,7 +137,9 @@ impl ContactGraph {
             ContactGraphMode::ForceThreshold => {
                 let fb = st.contact_force(BALL);
                 let ball = fb[0].abs() > force_threshold || fb[1].abs() > force_threshold;
-                let body = REFERENCE_BODY_NODE.iter().any(|&b| st.contact_force(b).iter().any(|c| c.abs() >= force_threshold));
+                let body = REFERENCE_BODY_NODE
+                    .iter()
+                    .any(|&b| st.contact_force(b).iter().any(|c| c.abs() >= force_threshold));
                 Self { values: [f(ball), f(body), 0.0, 0.0], len: 2 }
             }
         }
@@ -153,7 +155,8 @@ impl ContactGraph {
 
     /// Mean squared difference to another graph (E_cg of one frame).
     pub fn sq_error(&self, other: &ContactGraph) -> f64 {
-        (0..self.len).map(|i| (self.values[i] - other.values[i]).powi(2)).sum::<f64>() / self.len as f64
+        (0..self.len).map(|i| (self.values[i] - other.values[i]).powi(2)).sum::<f64>()
+            / self.len as f64
     }
 
     /// True when every entry matches.

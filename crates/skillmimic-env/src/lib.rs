@@ -46,5 +46,8 @@ pub use compat::Compat;
 pub use config::{ContactGraphMode, EnvConfig, RewardConfig, RewardVariant, StateInit};
 pub use error::EnvError;
 pub use task::{ActionSpace, Task, TaskSpec};
-pub use tasks::imitation::{BUILTIN_DEMO, FRAME_METRIC_NAMES, ImitationSlot, NUM_FRAME_METRICS, ResetPlan, SkillEnv, load_motion_library};
+pub use tasks::imitation::{
+    BUILTIN_DEMO, FRAME_METRIC_NAMES, ImitationSlot, NUM_FRAME_METRICS, ResetPlan, SkillEnv,
+    load_motion_library,
+};
 pub use vec_env::{Env, StepBuffers, VecEnv};

@@ -7,8 +7,8 @@
 //! * Skill success rules of SkillMimic (seed 000 §6.2) and SkillMimic-V2's metric classes
 //!   (reference-facts §9.8), as per-episode trackers fed one frame at a time.
 
-use crate::tasks::imitation::NUM_FRAME_METRICS;
 use crate::hoi::dist;
+use crate::tasks::imitation::NUM_FRAME_METRICS;
 
 /// Accumulates per-frame imitation errors.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -21,7 +21,8 @@ pub struct ImitationMetrics {
 }
 
 impl ImitationMetrics {
-    /// Add one frame (`[body_err m, ball_err m, cg_match 0/1, cg_sq_err]`, see `env::FRAME_METRIC_NAMES`).
+    /// Add one frame (`[body_err m, ball_err m, cg_match 0/1, cg_sq_err]`, see
+    /// `env::FRAME_METRIC_NAMES`).
     pub fn add(&mut self, m: &[f32]) {
         debug_assert_eq!(m.len(), NUM_FRAME_METRICS);
         self.frames += 1;
@@ -183,9 +184,9 @@ impl V1Success {
         match self.kind {
             SkillKind::Run => self.valid as f64 / self.frames as f64,
             SkillKind::Pickup => f64::from(u8::from(last.ball_pos[2] > 1.0)),
-            SkillKind::Layup | SkillKind::Shot => {
-                f64::from(u8::from((self.max_ball_z - self.target_height).abs() < 0.1 && last.root_pos[2] > 0.5))
-            }
+            SkillKind::Layup | SkillKind::Shot => f64::from(u8::from(
+                (self.max_ball_z - self.target_height).abs() < 0.1 && last.root_pos[2] > 0.5,
+            )),
         }
     }
 }

@@ -1,9 +1,9 @@
 //! Kinematic replay: put the simulator into every frame of a clip and score it against the same
 //! clip. This measures what the data itself allows — the stored key-body positions differ from
-//! forward kinematics of the stored joints by ≈3 cm — and how the simulated contact graphs (MuJoCo's
-//! exact pairs and the papers' force-threshold nodes) compare with the clip's hand–ball labels.
-//! Each frame is set with `mj_forward` (positions and the clip's finite-difference velocities),
-//! so the contact forces are those of that instant.
+//! forward kinematics of the stored joints by ≈3 cm — and how the simulated contact graphs
+//! (MuJoCo's exact pairs and the papers' force-threshold nodes) compare with the clip's hand–ball
+//! labels. Each frame is set with `mj_forward` (positions and the clip's finite-difference
+//! velocities), so the contact forces are those of that instant.
 
 use std::sync::Arc;
 
@@ -65,11 +65,23 @@ impl ReplayReport {
 
 /// Replay clips `clips` of `lib` frame by frame (frames 1 … T−1) in `scene` and score each frame
 /// against itself with `reward_cfg` (contact-graph term taken from the labels).
-pub fn kinematic_replay(scene: Arc<Scene>, lib: &MotionLibrary, clips: &[usize], reward_cfg: &RewardConfig) -> Result<ReplayReport, SimError> {
+pub fn kinematic_replay(
+    scene: Arc<Scene>,
+    lib: &MotionLibrary,
+    clips: &[usize],
+    reward_cfg: &RewardConfig,
+) -> Result<ReplayReport, SimError> {
     const N: usize = 32;
     let mut sim = BatchSim::new(scene, N, 0)?;
     let mut rep = ReplayReport::default();
-    let hands = skillmimic_core::skeleton::BODIES.iter().enumerate().filter(|(b, _)| skillmimic_core::skeleton::body_part(*b) == skillmimic_core::skeleton::BodyPart::Hand).map(|(b, _)| b).collect::<Vec<_>>();
+    let hands = skillmimic_core::skeleton::BODIES
+        .iter()
+        .enumerate()
+        .filter(|(b, _)| {
+            skillmimic_core::skeleton::body_part(*b) == skillmimic_core::skeleton::BodyPart::Hand
+        })
+        .map(|(b, _)| b)
+        .collect::<Vec<_>>();
     for &ci in clips {
         let m = lib.get(ci);
         let ball_free = BALL_FREE_SKILLS.contains(&m.clip.skill);
@@ -88,12 +100,30 @@ pub fn kinematic_replay(scene: Arc<Scene>, lib: &MotionLibrary, clips: &[usize],
                 let r = HoiState::from_reference(m, t);
                 let label = m.clip.contact[t] as f64;
                 let cg_ref = ContactGraph::reference(label, ContactGraphMode::Exact);
-                let cg_sim = ContactGraph::from_sim(&st, ContactGraphMode::Exact, reward_cfg.force_threshold);
-                let cg_force = ContactGraph::from_sim(&st, ContactGraphMode::ForceThreshold, reward_cfg.force_threshold);
+                let cg_sim = ContactGraph::from_sim(
+                    &st,
+                    ContactGraphMode::Exact,
+                    reward_cfg.force_threshold,
+                );
+                let cg_force = ContactGraph::from_sim(
+                    &st,
+                    ContactGraphMode::ForceThreshold,
+                    reward_cfg.force_threshold,
+                );
                 let (ball_node, body_node) = (cg_force.values[0] != 0.0, cg_force.values[1] != 0.0);
                 rep.force_body_on += usize::from(body_node);
-                let prev: [f64; NUM_DOFS] = std::array::from_fn(|j| m.reference.dof_vel[(t - 1) * NUM_DOFS + j] as f64);
-                let terms = reward::compute(&s, &prev, &r, &cg_ref, &cg_ref, reward_cfg, crate::compat::Compat::Paper, ball_free);
+                let prev: [f64; NUM_DOFS] =
+                    std::array::from_fn(|j| m.reference.dof_vel[(t - 1) * NUM_DOFS + j] as f64);
+                let terms = reward::compute(
+                    &s,
+                    &prev,
+                    &r,
+                    &cg_ref,
+                    &cg_ref,
+                    reward_cfg,
+                    crate::compat::Compat::Paper,
+                    ball_free,
+                );
                 for (acc, v) in rep.term_sums.iter_mut().zip(terms.as_array()) {
                     *acc += v;
                 }
@@ -105,14 +135,23 @@ pub fn kinematic_replay(scene: Arc<Scene>, lib: &MotionLibrary, clips: &[usize],
                 let ball = dist(s.ball_pos, r.ball_pos);
                 rep.metrics_label_contacts.add(&[body as f32, ball as f32, 1.0, 0.0]);
                 let m_sim = cg_sim.matches(&cg_ref);
-                rep.metrics_sim_contacts.add(&[body as f32, ball as f32, f32::from(u8::from(m_sim)), cg_sim.sq_error(&cg_ref) as f32]);
+                rep.metrics_sim_contacts.add(&[
+                    body as f32,
+                    ball as f32,
+                    f32::from(u8::from(m_sim)),
+                    cg_sim.sq_error(&cg_ref) as f32,
+                ]);
                 let detected = cg_sim.values[0] != 0.0;
                 if label != 0.0 {
                     rep.label1_frames += 1;
                     rep.label1_detected += usize::from(detected);
                     rep.force_ball_label1 += usize::from(ball_node);
                     let radius = sim.scene().options().ball.radius;
-                    let gap = hands.iter().map(|&b| dist(st.pos(b), s.ball_pos)).fold(f64::INFINITY, f64::min) - radius;
+                    let gap = hands
+                        .iter()
+                        .map(|&b| dist(st.pos(b), s.ball_pos))
+                        .fold(f64::INFINITY, f64::min)
+                        - radius;
                     rep.label1_hand_gap.push(gap);
                 } else {
                     rep.label0_frames += 1;

@@ -28,7 +28,8 @@ use crate::config::{ContactGraphMode, RewardConfig, RewardVariant};
 use crate::hoi::{ContactGraph, HoiState};
 
 /// Names of the entries of [`RewardTerms::as_array`].
-pub const TERM_NAMES: [&str; 12] = ["p", "r", "pv", "rv", "reg", "op", "or", "opv", "orv", "ig", "cg", "total"];
+pub const TERM_NAMES: [&str; 12] =
+    ["p", "r", "pv", "rv", "reg", "op", "or", "opv", "orv", "ig", "cg", "total"];
 /// Number of reward entries reported per step.
 pub const NUM_TERMS: usize = TERM_NAMES.len();
 
@@ -52,7 +53,10 @@ pub struct RewardTerms {
 impl RewardTerms {
     /// Entries in [`TERM_NAMES`] order.
     pub fn as_array(&self) -> [f64; NUM_TERMS] {
-        [self.p, self.r, self.pv, self.rv, self.reg, self.op, self.or, self.opv, self.orv, self.ig, self.cg, self.total]
+        [
+            self.p, self.r, self.pv, self.rv, self.reg, self.op, self.or, self.opv, self.orv,
+            self.ig, self.cg, self.total,
+        ]
     }
 }
 
@@ -90,9 +94,16 @@ pub fn err_dof_vel(s: &HoiState, r: &HoiState) -> f64 {
 }
 
 /// Velocity regulariser error: mean of (v_t − v_{t−1})² / (1 + scale·v̂²).
-pub fn err_regulariser(s: &HoiState, prev_dof_vel: &[f64; NUM_DOFS], r: &HoiState, scale: f64) -> f64 {
+pub fn err_regulariser(
+    s: &HoiState,
+    prev_dof_vel: &[f64; NUM_DOFS],
+    r: &HoiState,
+    scale: f64,
+) -> f64 {
     (0..NUM_DOFS)
-        .map(|j| (s.dof_vel[j] - prev_dof_vel[j]).powi(2) / (1.0 + scale * r.dof_vel[j] * r.dof_vel[j]))
+        .map(|j| {
+            (s.dof_vel[j] - prev_dof_vel[j]).powi(2) / (1.0 + scale * r.dof_vel[j] * r.dof_vel[j])
+        })
         .sum::<f64>()
         / NUM_DOFS as f64
 }
@@ -128,9 +139,15 @@ pub fn err_relative(s: &HoiState, r: &HoiState) -> f64 {
 }
 
 /// Contact-graph reward ∏ exp(−w_k |c_k − ĉ_k|) with the weights of the configured mode.
-pub fn contact_graph_reward(sim: &ContactGraph, reference: &ContactGraph, cfg: &RewardConfig) -> f64 {
+pub fn contact_graph_reward(
+    sim: &ContactGraph,
+    reference: &ContactGraph,
+    cfg: &RewardConfig,
+) -> f64 {
     let w: [f64; 4] = match cfg.contact_graph {
-        ContactGraphMode::Exact => [cfg.w_cg_hand_ball, cfg.w_cg_body_ball, cfg.w_cg_hand_body, cfg.w_cg_body_floor],
+        ContactGraphMode::Exact => {
+            [cfg.w_cg_hand_ball, cfg.w_cg_body_ball, cfg.w_cg_hand_body, cfg.w_cg_body_floor]
+        }
         ContactGraphMode::ForceThreshold => [cfg.w_cg2_ball, cfg.w_cg1_body, 0.0, 0.0],
     };
     (0..sim.len).map(|i| (-w[i] * (sim.values[i] - reference.values[i]).abs()).exp()).product()
@@ -161,7 +178,20 @@ pub fn compute(
         let op = if ball_free { 1.0 } else { ex(d.w_op, err_ball_pos(sim, reference)) };
         let sum = p + r + rv + op;
         let total = if compat.is_code() { sum } else { sum / 4.0 };
-        return RewardTerms { p, r, pv: 1.0, rv, reg: 1.0, op, or: 1.0, opv: 1.0, orv: 1.0, ig: 1.0, cg: 1.0, total };
+        return RewardTerms {
+            p,
+            r,
+            pv: 1.0,
+            rv,
+            reg: 1.0,
+            op,
+            or: 1.0,
+            opv: 1.0,
+            orv: 1.0,
+            ig: 1.0,
+            cg: 1.0,
+            total,
+        };
     }
     let p = ex(cfg.w_p, err_body_pos(sim, reference));
     let r = ex(cfg.w_r, err_body_rot(sim, reference));

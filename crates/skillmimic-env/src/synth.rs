@@ -74,7 +74,8 @@ impl Dribble {
             let v_impact = (v * v + 2.0 * GRAVITY * h).sqrt();
             let v_up = RESTITUTION * v_impact;
             let disc = v_up * v_up - 2.0 * GRAVITY * h;
-            (disc > 0.0).then(|| ((v_impact - v) / GRAVITY + (v_up - disc.sqrt()) / GRAVITY, disc.sqrt()))
+            (disc > 0.0)
+                .then(|| ((v_impact - v) / GRAVITY + (v_up - disc.sqrt()) / GRAVITY, disc.sqrt()))
         };
         let (mut lo, mut hi) = (0.0, 20.0);
         for _ in 0..200 {
@@ -116,16 +117,32 @@ impl Dribble {
             return self.ball(t).0 + BALL_R;
         }
         let top = Z_TOP + BALL_R;
-        hermite(top, -HAND_FOLLOW * self.v_push, top, HAND_FOLLOW * self.v_catch, PERIOD - CONTACT, s - CONTACT).0
+        hermite(
+            top,
+            -HAND_FOLLOW * self.v_push,
+            top,
+            HAND_FOLLOW * self.v_catch,
+            PERIOD - CONTACT,
+            s - CONTACT,
+        )
+        .0
     }
 }
 
-/// Cubic Hermite from (p0, v0) to (p1, v1) over duration `d`, evaluated at `t`: (position, velocity).
+/// Cubic Hermite from (p0, v0) to (p1, v1) over duration `d`, evaluated at `t`: (position,
+/// velocity).
 fn hermite(p0: f64, v0: f64, p1: f64, v1: f64, d: f64, t: f64) -> (f64, f64) {
     let s = t / d;
     let (s2, s3) = (s * s, s * s * s);
-    let p = (2.0 * s3 - 3.0 * s2 + 1.0) * p0 + (s3 - 2.0 * s2 + s) * d * v0 + (-2.0 * s3 + 3.0 * s2) * p1 + (s3 - s2) * d * v1;
-    let v = ((6.0 * s2 - 6.0 * s) * p0 + (3.0 * s2 - 4.0 * s + 1.0) * d * v0 + (-6.0 * s2 + 6.0 * s) * p1 + (3.0 * s2 - 2.0 * s) * d * v1) / d;
+    let p = (2.0 * s3 - 3.0 * s2 + 1.0) * p0
+        + (s3 - 2.0 * s2 + s) * d * v0
+        + (-2.0 * s3 + 3.0 * s2) * p1
+        + (s3 - s2) * d * v1;
+    let v = ((6.0 * s2 - 6.0 * s) * p0
+        + (3.0 * s2 - 4.0 * s + 1.0) * d * v0
+        + (-6.0 * s2 + 6.0 * s) * p1
+        + (3.0 * s2 - 2.0 * s) * d * v1)
+        / d;
     (p, v)
 }
 
@@ -195,9 +212,21 @@ const REST_GAIN: f64 = 0.2;
 /// joint's local frame, MuJoCo's ball-joint velocity convention) through the projector
 /// `I − Jᵀ(JJᵀ + λ²I)⁻¹J`, and every joint's step is limited to [`MAX_IK_STEP`] rad.
 #[allow(clippy::too_many_arguments)]
-fn solve_arm(scene: &Scene, d: &mut Data, chain: &[usize], rest: &[Quat], wrist: usize, point_local: Vec3, target: Vec3, target_rot: Quat) -> f64 {
+fn solve_arm(
+    scene: &Scene,
+    d: &mut Data,
+    chain: &[usize],
+    rest: &[Quat],
+    wrist: usize,
+    point_local: Vec3,
+    target: Vec3,
+    target_rot: Quat,
+) -> f64 {
     let wrist_id = scene.body_ids[wrist];
-    let dofs: Vec<usize> = chain.iter().flat_map(|&b| (0..3).map(move |k| scene.joint_dof[b - 1].unwrap() + k)).collect();
+    let dofs: Vec<usize> = chain
+        .iter()
+        .flat_map(|&b| (0..3).map(move |k| scene.joint_dof[b - 1].unwrap() + k))
+        .collect();
     for _ in 0..200 {
         d.kinematics();
         d.com_pos();
@@ -206,7 +235,8 @@ fn solve_arm(scene: &Scene, d: &mut Data, chain: &[usize], rest: &[Quat], wrist:
         let e_pos = sub(target, p);
         let e_rot = target_rot.mul(xq.conj()).to_rotvec();
         const W_ROT: f64 = 0.3;
-        let err = [e_pos[0], e_pos[1], e_pos[2], W_ROT * e_rot[0], W_ROT * e_rot[1], W_ROT * e_rot[2]];
+        let err =
+            [e_pos[0], e_pos[1], e_pos[2], W_ROT * e_rot[0], W_ROT * e_rot[1], W_ROT * e_rot[2]];
         let mut qpos = d.qpos().to_vec();
         // secondary task: rotation from each joint's current value to its rest value
         let z: Vec<f64> = chain
@@ -220,17 +250,21 @@ fn solve_arm(scene: &Scene, d: &mut Data, chain: &[usize], rest: &[Quat], wrist:
         }
         let (jp, jr) = d.jac(true, true, &p, wrist_id);
         let nv = d.qvel().len();
-        let row = |r: usize, c: usize| if r < 3 { jp[r * nv + c] } else { W_ROT * jr[(r - 3) * nv + c] };
+        let row =
+            |r: usize, c: usize| if r < 3 { jp[r * nv + c] } else { W_ROT * jr[(r - 3) * nv + c] };
         // (J Jᵀ + λ² I) y = e − J·k z ;  Δq = k z + Jᵀ y  (primary task + projected rest pull)
         let lambda2 = 1e-3;
         let mut a = [[0.0; 6]; 6];
         for (i, ai) in a.iter_mut().enumerate() {
             for (k, aik) in ai.iter_mut().enumerate() {
-                *aik = dofs.iter().map(|&c| row(i, c) * row(k, c)).sum::<f64>() + if i == k { lambda2 } else { 0.0 };
+                *aik = dofs.iter().map(|&c| row(i, c) * row(k, c)).sum::<f64>()
+                    + if i == k { lambda2 } else { 0.0 };
             }
         }
-        let mut y: [f64; 6] =
-            std::array::from_fn(|r| err[r] - dofs.iter().enumerate().map(|(ci, &c)| row(r, c) * REST_GAIN * z[ci]).sum::<f64>());
+        let mut y: [f64; 6] = std::array::from_fn(|r| {
+            err[r]
+                - dofs.iter().enumerate().map(|(ci, &c)| row(r, c) * REST_GAIN * z[ci]).sum::<f64>()
+        });
         solve_spd(&mut a, &mut y);
         for (ci, &b) in chain.iter().enumerate() {
             let mut dq: Vec3 = std::array::from_fn(|k| {
@@ -324,7 +358,10 @@ fn synthesise(hand: Hand) -> Result<(Clip, f64), SimError> {
     let palm_local: Vec3 = [sign * 0.05, -0.004, 0.012];
     // palm down, fingers forward: the T-pose hand turned a quarter turn about world z
     let target_rot = Quat::about_z(-sign * std::f64::consts::FRAC_PI_2).mul(upright);
-    let chain: Vec<usize> = ["Thorax", "Shoulder", "Elbow", "Wrist"].iter().map(|p| b(&format!("{side}_{p}"))).collect();
+    let chain: Vec<usize> = ["Thorax", "Shoulder", "Elbow", "Wrist"]
+        .iter()
+        .map(|p| b(&format!("{side}_{p}")))
+        .collect();
     let wrist = b(&format!("{side}_Wrist"));
     // rest pose of the chain: the starting arm pose above
     let rest: Vec<Quat> = chain.iter().map(|&j| joint_quat(&scene, d.qpos(), j)).collect();
@@ -336,13 +373,15 @@ fn synthesise(hand: Hand) -> Result<(Clip, f64), SimError> {
         let t = f as f64 / FPS;
         let (bz, _, contact) = dribble.ball(t);
         let target = [ball_xy[0], ball_xy[1], dribble.hand_z(t)];
-        worst_residual = worst_residual.max(solve_arm(&scene, &mut d, &chain, &rest, wrist, palm_local, target, target_rot));
+        worst_residual = worst_residual
+            .max(solve_arm(&scene, &mut d, &chain, &rest, wrist, palm_local, target, target_rot));
         let r = &mut rows[f * PT_WIDTH..(f + 1) * PT_WIDTH];
         let qp = d.qpos();
         for k in 0..3 {
             r[k] = qp[root + k] as f32;
         }
-        let e = Quat::from_wxyz([qp[root + 3], qp[root + 4], qp[root + 5], qp[root + 6]]).to_rotvec();
+        let e =
+            Quat::from_wxyz([qp[root + 3], qp[root + 4], qp[root + 5], qp[root + 6]]).to_rotvec();
         for k in 0..3 {
             r[3 + k] = e[k] as f32;
             r[6 + k] = e[k] as f32;
@@ -366,7 +405,10 @@ fn synthesise(hand: Hand) -> Result<(Clip, f64), SimError> {
     }
     debug_assert_eq!(BODIES.len(), NUM_BODIES);
     debug_assert_eq!(NUM_DOFS, 156);
-    let name = format!("{label:03}_synth_stand_dribble_{}", if hand == Hand::Right { "right" } else { "left" });
+    let name = format!(
+        "{label:03}_synth_stand_dribble_{}",
+        if hand == Hand::Right { "right" } else { "left" }
+    );
     let source = format!(
         "skillmimic synth-motions: IK stand-and-dribble, {} hand, {FRAMES} frames at {FPS} fps, cycle {PERIOD} s, contact {CONTACT} s",
         if hand == Hand::Right { "right" } else { "left" }
@@ -396,7 +438,8 @@ mod tests {
         let (zb, vb, _) = dr.ball(CONTACT + eps);
         assert!((za - zb).abs() < 1e-6 && (va - vb).abs() < 1e-6);
         // the ball touches the floor once per cycle
-        let lowest = (0..600).map(|k| dr.ball(k as f64 * PERIOD / 600.0).0).fold(f64::INFINITY, f64::min);
+        let lowest =
+            (0..600).map(|k| dr.ball(k as f64 * PERIOD / 600.0).0).fold(f64::INFINITY, f64::min);
         assert!((lowest - BALL_R).abs() < 1e-3, "{lowest}");
     }
 
@@ -422,7 +465,9 @@ mod tests {
                     }
                 }
             }
-            println!("{hand:?}: IK residual {residual:.2e} m, largest joint angle {max_angle:.3} rad, largest per-frame joint rotation {max_step:.3} rad");
+            println!(
+                "{hand:?}: IK residual {residual:.2e} m, largest joint angle {max_angle:.3} rad, largest per-frame joint rotation {max_step:.3} rad"
+            );
             assert!(max_angle < 2.5, "{hand:?}: joint angle {max_angle} rad");
             assert!(max_step < 0.35, "{hand:?}: a joint turns {max_step} rad between frames");
         }

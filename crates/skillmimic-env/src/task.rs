@@ -104,7 +104,13 @@ pub trait Task: Send + Sync + 'static {
     fn new_slot(&self) -> Self::Slot;
     /// Choose the start of a new episode of environment `i`: fill `state` (the simulation state
     /// to reset to) and `slot`. Random draws come from `rng`, the driver's seeded stream.
-    fn plan_reset(&mut self, i: usize, slot: &mut Self::Slot, rng: &mut ChaCha8Rng, state: &mut ResetState);
+    fn plan_reset(
+        &mut self,
+        i: usize,
+        slot: &mut Self::Slot,
+        rng: &mut ChaCha8Rng,
+        state: &mut ResetState,
+    );
     /// Bookkeeping of environment `i`'s finished episode, before its next reset is planned.
     fn end_episode(&mut self, _i: usize, _slot: &Self::Slot) {}
     /// After the simulation reset: finish the slot from the actual state and write the first
@@ -127,7 +133,13 @@ pub trait Task: Send + Sync + 'static {
     /// [−1, 1]) before the physics step; `obs` (`N × obs_dim`) are the current observations.
     /// Tasks that run a frozen skill policy inside the step, or take discrete actions, do it here
     /// (and return `true` from `transforms_actions`); invalid actions are an error.
-    fn actions_to_targets(&mut self, _slots: &[Self::Slot], _obs: &[f32], _actions: &[f32], _targets: &mut [f32]) -> Result<(), crate::error::EnvError> {
+    fn actions_to_targets(
+        &mut self,
+        _slots: &[Self::Slot],
+        _obs: &[f32],
+        _actions: &[f32],
+        _targets: &mut [f32],
+    ) -> Result<(), crate::error::EnvError> {
         Ok(())
     }
     /// Batch-level work after every environment stepped.

@@ -72,7 +72,11 @@ impl StepBuffers {
 
 /// Per-environment rows of a `[N][width]` buffer, also for width 0 (N empty rows: a zero-width
 /// buffer must not shorten the zipped per-environment iteration).
-pub(crate) fn rows(buf: &mut [f32], n: usize, width: usize) -> impl IndexedParallelIterator<Item = &mut [f32]> {
+pub(crate) fn rows(
+    buf: &mut [f32],
+    n: usize,
+    width: usize,
+) -> impl IndexedParallelIterator<Item = &mut [f32]> {
     if width == 0 {
         Either::Left((0..n).into_par_iter().map(|_| <&mut [f32]>::default()))
     } else {
@@ -109,9 +113,16 @@ pub struct VecEnv<T: Task> {
 impl<T: Task> VecEnv<T> {
     /// Build the scene and the batch for `task`, then reset every environment. `seed` seeds the
     /// stream of episode starts; `threads` = simulation threads (0 = one per core).
-    pub fn with_task(task: T, scene: Arc<Scene>, num_envs: usize, threads: usize, seed: u64) -> Result<Self, EnvError> {
+    pub fn with_task(
+        task: T,
+        scene: Arc<Scene>,
+        num_envs: usize,
+        threads: usize,
+        seed: u64,
+    ) -> Result<Self, EnvError> {
         let n = num_envs;
-        let sim = BatchSim::new(scene, n, crate::config_range::capped_threads(threads, "env.threads"))?;
+        let sim =
+            BatchSim::new(scene, n, crate::config_range::capped_threads(threads, "env.threads"))?;
         let spec = task.spec().clone();
         let slots = (0..n).map(|_| task.new_slot()).collect();
         let buf = StepBuffers::for_spec(n, &spec);
@@ -181,7 +192,10 @@ impl<T: Task> VecEnv<T> {
         let Self { sim, slots, buf, task, .. } = self;
         let (state, task, d) = (sim.state(), &*task, task.spec().obs_dim);
         sim.install(|| {
-            (slots.par_iter(), buf.obs.par_chunks_mut(d)).into_par_iter().enumerate().for_each(|(i, (slot, obs))| task.observe(slot, &state.env(i), obs));
+            (slots.par_iter(), buf.obs.par_chunks_mut(d))
+                .into_par_iter()
+                .enumerate()
+                .for_each(|(i, (slot, obs))| task.observe(slot, &state.env(i), obs));
         });
     }
 
@@ -200,7 +214,12 @@ impl<T: Task> VecEnv<T> {
         for (i, &m) in mask.iter().enumerate() {
             self.reset_mask[i] = m;
             if m {
-                self.task.plan_reset(i, &mut self.slots[i], &mut self.rngs[i], &mut self.reset_states[i]);
+                self.task.plan_reset(
+                    i,
+                    &mut self.slots[i],
+                    &mut self.rngs[i],
+                    &mut self.reset_states[i],
+                );
             }
         }
         self.apply_resets(true);
@@ -215,7 +234,12 @@ impl<T: Task> VecEnv<T> {
             if done {
                 any = true;
                 self.task.end_episode(i, &self.slots[i]);
-                self.task.plan_reset(i, &mut self.slots[i], &mut self.rngs[i], &mut self.reset_states[i]);
+                self.task.plan_reset(
+                    i,
+                    &mut self.slots[i],
+                    &mut self.rngs[i],
+                    &mut self.reset_states[i],
+                );
             }
         }
         if any {
@@ -226,15 +250,19 @@ impl<T: Task> VecEnv<T> {
     /// Reset the simulation of the environments in `reset_mask` to the planned states, let the
     /// task finish them and write their observations (and clear the done flags if asked).
     fn apply_resets(&mut self, clear_flags: bool) {
-        self.sim.reset(&self.reset_mask, &self.reset_states).expect("reset states are planned by the task from validated data");
+        self.sim
+            .reset(&self.reset_mask, &self.reset_states)
+            .expect("reset states are planned by the task from validated data");
         let Self { sim, slots, buf, reset_mask, task, .. } = self;
         let (state, task, mask, d) = (sim.state(), &*task, &*reset_mask, task.spec().obs_dim);
         sim.install(|| {
-            (slots.par_iter_mut(), buf.obs.par_chunks_mut(d)).into_par_iter().enumerate().for_each(|(i, (slot, obs))| {
-                if mask[i] {
-                    task.after_reset(i, slot, &state.env(i), obs);
-                }
-            });
+            (slots.par_iter_mut(), buf.obs.par_chunks_mut(d)).into_par_iter().enumerate().for_each(
+                |(i, (slot, obs))| {
+                    if mask[i] {
+                        task.after_reset(i, slot, &state.env(i), obs);
+                    }
+                },
+            );
         });
         let ni = task.spec().info_names.len();
         for (i, &m) in mask.iter().enumerate() {
@@ -261,7 +289,10 @@ impl<T: Task> VecEnv<T> {
             self.sim.step(actions)?;
         } else {
             if actions.len() != n * self.act_dim() {
-                return Err(EnvError::ActionShape { expected: n * self.act_dim(), got: actions.len() });
+                return Err(EnvError::ActionShape {
+                    expected: n * self.act_dim(),
+                    got: actions.len(),
+                });
             }
             self.targets.resize(n * NUM_DOFS, 0.0);
             self.task.actions_to_targets(&self.slots, &self.buf.obs, actions, &mut self.targets)?;
@@ -269,7 +300,8 @@ impl<T: Task> VecEnv<T> {
         }
         let Self { sim, slots, buf, task, .. } = self;
         let spec = task.spec();
-        let (d, nt, ni, nm) = (spec.obs_dim, spec.term_names.len(), spec.info_names.len(), spec.metric_names.len());
+        let (d, nt, ni, nm) =
+            (spec.obs_dim, spec.term_names.len(), spec.info_names.len(), spec.metric_names.len());
         let (state, t) = (sim.state(), &*task);
         sim.install(|| {
             (
@@ -284,9 +316,16 @@ impl<T: Task> VecEnv<T> {
             )
                 .into_par_iter()
                 .enumerate()
-                .for_each(|(i, (slot, obs, reward, terms, info, metrics, terminated, truncated))| {
-                    t.step_env(i, slot, &state.env(i), StepOut { obs, reward, terms, info, metrics, terminated, truncated });
-                });
+                .for_each(
+                    |(i, (slot, obs, reward, terms, info, metrics, terminated, truncated))| {
+                        t.step_env(
+                            i,
+                            slot,
+                            &state.env(i),
+                            StepOut { obs, reward, terms, info, metrics, terminated, truncated },
+                        );
+                    },
+                );
         });
         buf.unstable.copy_from_slice(&state.unstable);
         self.task.after_step(&self.slots, &mut self.buf.reward, &self.buf.terms);
@@ -299,14 +338,20 @@ impl<T: Task> VecEnv<T> {
                 self.reset_mask[i] = done;
                 if done {
                     any = true;
-                    self.buf.final_obs[i * d..(i + 1) * d].copy_from_slice(&self.buf.obs[i * d..(i + 1) * d]);
+                    self.buf.final_obs[i * d..(i + 1) * d]
+                        .copy_from_slice(&self.buf.obs[i * d..(i + 1) * d]);
                 }
             }
             if any {
                 for i in 0..n {
                     if self.reset_mask[i] {
                         self.task.end_episode(i, &self.slots[i]);
-                        self.task.plan_reset(i, &mut self.slots[i], &mut self.rngs[i], &mut self.reset_states[i]);
+                        self.task.plan_reset(
+                            i,
+                            &mut self.slots[i],
+                            &mut self.rngs[i],
+                            &mut self.reset_states[i],
+                        );
                     }
                 }
                 // the flags describe the finished step: keep them
@@ -348,7 +393,10 @@ pub trait Env: Send + Sync {
     /// Overwrite environment `i`'s task information entries (`TaskSpec::info_names`; the
     /// high-level tasks: move the goal, e.g. in interactive play) and recompute its observation.
     fn set_task_info(&mut self, _i: usize, _values: &[f32]) -> Result<(), EnvError> {
-        Err(EnvError::Unsupported(format!("task '{}' has no settable task information", self.spec().name)))
+        Err(EnvError::Unsupported(format!(
+            "task '{}' has no settable task information",
+            self.spec().name
+        )))
     }
     /// PD targets (`N × 156`, [−1, 1]) a task's action transform gave in the last simulation
     /// step (high-level tasks: the frozen skill policy's actions); empty when the actions are the

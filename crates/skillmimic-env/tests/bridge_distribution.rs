@@ -10,7 +10,8 @@ use skillmimic_env::{Compat, EnvConfig, ResetPlan, SkillEnv};
 
 fn histogram(clips: &[PathBuf], compat: Compat, rounds: u64) -> [usize; 11] {
     let n = 64;
-    let mut c = EnvConfig { num_envs: n, threads: 2, compat, motion: clips.to_vec(), ..Default::default() };
+    let mut c =
+        EnvConfig { num_envs: n, threads: 2, compat, motion: clips.to_vec(), ..Default::default() };
     c.v2.stf.enabled = true;
     c.v2.stf.prob = 1.0;
     let mut env = SkillEnv::from_config(c).unwrap();
@@ -27,16 +28,24 @@ fn histogram(clips: &[PathBuf], compat: Compat, rounds: u64) -> [usize; 11] {
 
 #[test]
 fn bridging_steps_on_real_clips_under_both_profiles() {
-    let Some(shared) = shared_dir_or_skip("bridging_steps_on_real_clips_under_both_profiles") else { return };
+    let Some(shared) = shared_dir_or_skip("bridging_steps_on_real_clips_under_both_profiles")
+    else {
+        return;
+    };
     let d = shared.join("data/ballplay_m");
-    let clips: Vec<PathBuf> = ["run", "lrun", "rrun", "layup", "shot_style1"].iter().map(|f| d.join(f)).collect();
+    let clips: Vec<PathBuf> =
+        ["run", "lrun", "rrun", "layup", "shot_style1"].iter().map(|f| d.join(f)).collect();
     let mut means = vec![];
     for compat in [Compat::Paper, Compat::Code] {
         let h = histogram(&clips, compat, 16);
         let total: usize = h.iter().sum();
         let mean = h.iter().enumerate().map(|(k, c)| k * c).sum::<usize>() as f64 / total as f64;
-        let pct: Vec<String> = h.iter().map(|&c| format!("{:.1}", 100.0 * c as f64 / total as f64)).collect();
-        println!("{compat:?}: N = 0..10 in % of {total} connections: [{}], mean N {mean:.2}", pct.join(", "));
+        let pct: Vec<String> =
+            h.iter().map(|&c| format!("{:.1}", 100.0 * c as f64 / total as f64)).collect();
+        println!(
+            "{compat:?}: N = 0..10 in % of {total} connections: [{}], mean N {mean:.2}",
+            pct.join(", ")
+        );
         // a broken similarity (e.g. always 0) would put every connection at N_max
         assert!(h[10] < total / 2, "{compat:?}: degenerate histogram {h:?}");
         means.push(mean);

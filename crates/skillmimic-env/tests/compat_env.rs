@@ -8,7 +8,9 @@ use skillmimic_core::skeleton::NUM_DOFS;
 use skillmimic_env::config::NoiseEps;
 use skillmimic_env::obs::layout;
 use skillmimic_env::reward::{NUM_TERMS, TERM_NAMES};
-use skillmimic_env::v2::history::{FEATURE_DIM, random_encoder, reference_features, reference_window};
+use skillmimic_env::v2::history::{
+    FEATURE_DIM, random_encoder, reference_features, reference_window,
+};
 use skillmimic_env::{Compat, ContactGraphMode, EnvConfig, ResetPlan, SkillEnv, StateInit};
 use skillmimic_motion::MotionLibrary;
 
@@ -17,13 +19,22 @@ fn demo_library() -> Arc<MotionLibrary> {
 }
 
 fn config(n: usize, compat: Compat) -> EnvConfig {
-    EnvConfig { num_envs: n, threads: 2, compat, motion: vec![workspace_root().join("motions")], ..Default::default() }
+    EnvConfig {
+        num_envs: n,
+        threads: 2,
+        compat,
+        motion: vec![workspace_root().join("motions")],
+        ..Default::default()
+    }
 }
 
 #[test]
 fn the_papers_force_threshold_graph_is_the_default() {
     let c = EnvConfig::default();
-    assert_eq!((c.reward.contact_graph, c.compat), (ContactGraphMode::ForceThreshold, Compat::Paper));
+    assert_eq!(
+        (c.reward.contact_graph, c.compat),
+        (ContactGraphMode::ForceThreshold, Compat::Paper)
+    );
     let env = SkillEnv::new(config(1, Compat::Paper), demo_library()).unwrap();
     use skillmimic_env::Task;
     assert_eq!(env.task().spec().info_names, ["ball_node", "body_node"]);
@@ -81,7 +92,8 @@ fn history_rows_at_a_reset_follow_the_profile() {
     // with the same state (the demo dribble repeats every 36 frames, so j = s − 36 for late s);
     // the physics and the 902 observation entries are the same in both profiles, only the rows
     // placed in the history buffer differ: frames before s (paper) or before j (code)
-    let enc = std::env::temp_dir().join(format!("skillmimic_compat_encoder_{}.safetensors", std::process::id()));
+    let enc = std::env::temp_dir()
+        .join(format!("skillmimic_compat_encoder_{}.safetensors", std::process::id()));
     random_encoder(60, 3, 11).save(&enc, &Default::default()).unwrap();
     let n = 8;
     let make = |compat| {
@@ -105,7 +117,10 @@ fn history_rows_at_a_reset_follow_the_profile() {
             let (po, co) = (&paper.buffers().obs, &code.buffers().obs);
             let w = layout::OBS_DIM + 3;
             // the code profile's zero noise goes through an Euler-angle round trip (1e-16 rad)
-            let same = po[i * w..i * w + layout::OBS_DIM].iter().zip(&co[i * w..i * w + layout::OBS_DIM]).all(|(a, b)| (a - b).abs() < 1e-6);
+            let same = po[i * w..i * w + layout::OBS_DIM]
+                .iter()
+                .zip(&co[i * w..i * w + layout::OBS_DIM])
+                .all(|(a, b)| (a - b).abs() < 1e-6);
             assert!(same, "same physical start");
             assert_eq!(paper.reset_plan(i), ResetPlan::Connect);
             let (clip, s) = paper.start_source(i);
@@ -116,11 +131,20 @@ fn history_rows_at_a_reset_follow_the_profile() {
                 reference_window(&rows[clip], frame, &mut win);
                 win
             };
-            // after the reset the current frame was pushed: rows 1..k of the filled window come first
+            // after the reset the current frame was pushed: rows 1..k of the filled window come
+            // first
             let (wp, wc) = (paper.history_window(i).unwrap(), code.history_window(i).unwrap());
             let body = (k - 1) * FEATURE_DIM;
-            assert_eq!(wp[..body], expect(s)[FEATURE_DIM..], "paper: rows before the physical start frame {s}");
-            assert_eq!(wc[..body], expect(j)[FEATURE_DIM..], "code: rows before the imitated frame {j}");
+            assert_eq!(
+                wp[..body],
+                expect(s)[FEATURE_DIM..],
+                "paper: rows before the physical start frame {s}"
+            );
+            assert_eq!(
+                wc[..body],
+                expect(j)[FEATURE_DIM..],
+                "code: rows before the imitated frame {j}"
+            );
             if wp[..body] != wc[..body] {
                 differing += 1;
             }
@@ -154,7 +178,11 @@ fn get_up_is_exempt_from_early_termination_only_in_v2_runs() {
             })
             .collect::<Vec<_>>()
     };
-    assert_eq!(run(false), vec![vec![0, 0], vec![1, 1], vec![1, 1]], "SkillMimic never exempts get-up");
+    assert_eq!(
+        run(false),
+        vec![vec![0, 0], vec![1, 1], vec![1, 1]],
+        "SkillMimic never exempts get-up"
+    );
     assert_eq!(run(true), vec![vec![0, 0]; 3], "SkillMimic-V2 exempts get-up");
 }
 

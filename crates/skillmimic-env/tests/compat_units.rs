@@ -10,7 +10,10 @@ use skillmimic_env::config::{AtsConfig, ContactGraphMode, NoiseEps, RewardConfig
 use skillmimic_env::hoi::{ContactGraph, HoiState};
 use skillmimic_env::reward;
 use skillmimic_env::v2::ats::AdaptiveSampler;
-use skillmimic_env::v2::similarity::{bridge_steps, code_similarity, connection_similarity, masked_steps, masked_steps_code, similarity};
+use skillmimic_env::v2::similarity::{
+    bridge_steps, code_similarity, connection_similarity, masked_steps, masked_steps_code,
+    similarity,
+};
 use skillmimic_env::v2::transition::{from_roll_pitch_yaw, perturb, to_roll_pitch_yaw};
 use skillmimic_motion::testing::synthetic_rows;
 use skillmimic_motion::{Clip, MotionLibrary, NUM_KEY};
@@ -53,13 +56,17 @@ fn code_noise_is_the_released_codes_biased_gaussian_without_xy_noise() {
     let eps = NoiseEps::default();
     let base = base_state();
     let mut rng = ChaCha8Rng::seed_from_u64(5);
-    let (mut dof, mut dof_v, mut lin, mut ball_v, mut dz, mut bz) = (vec![], vec![], vec![], vec![], vec![], vec![]);
+    let (mut dof, mut dof_v, mut lin, mut ball_v, mut dz, mut bz) =
+        (vec![], vec![], vec![], vec![], vec![], vec![]);
     let mut max_euler = 0.0f64;
     for _ in 0..4000 {
         let mut s = base.clone();
         perturb(&mut s, &eps, true, Compat::Code, false, &mut rng);
         // no x/y noise on the root or the ball
-        assert_eq!((s.root_pos[0], s.root_pos[1], s.ball_pos[0], s.ball_pos[1]), (base.root_pos[0], base.root_pos[1], base.ball_pos[0], base.ball_pos[1]));
+        assert_eq!(
+            (s.root_pos[0], s.root_pos[1], s.ball_pos[0], s.ball_pos[1]),
+            (base.root_pos[0], base.root_pos[1], base.ball_pos[0], base.ball_pos[1])
+        );
         dz.push(s.root_pos[2] - base.root_pos[2]);
         bz.push(s.ball_pos[2] - base.ball_pos[2]);
         for (q, b) in [(s.root_quat, base.root_quat), (s.ball_quat, base.ball_quat)] {
@@ -81,7 +88,8 @@ fn code_noise_is_the_released_codes_biased_gaussian_without_xy_noise() {
     // Euler angles each within ±0.1 and using the range
     assert!(max_euler <= 0.1 + 1e-9 && max_euler > 0.095, "{max_euler}");
     // 0.1·(2·N(0,1) − 1): mean −0.1, std 0.2
-    for (name, x) in [("dof", &dof), ("dof vel", &dof_v), ("root vel", &lin), ("ball vel", &ball_v)] {
+    for (name, x) in [("dof", &dof), ("dof vel", &dof_v), ("root vel", &lin), ("ball vel", &ball_v)]
+    {
         let (m, sd) = stats(x);
         assert!((m + 0.1).abs() < 0.01 && (sd - 0.2).abs() < 0.01, "{name}: mean {m}, std {sd}");
     }
@@ -107,7 +115,10 @@ fn code_noise_is_the_released_codes_biased_gaussian_without_xy_noise() {
         moved_xy |= s.root_pos[0] != base.root_pos[0];
     }
     let (m, sd) = stats(&p);
-    assert!(m.abs() < 0.005 && (sd - 0.1 / 3f64.sqrt()).abs() < 0.003 && moved_xy, "paper: mean {m}, std {sd}");
+    assert!(
+        m.abs() < 0.005 && (sd - 0.1 / 3f64.sqrt()).abs() < 0.003 && moved_xy,
+        "paper: mean {m}, std {sd}"
+    );
 }
 
 fn hoi() -> HoiState {
@@ -150,14 +161,30 @@ fn code_similarity_matches_a_hand_computation() {
     // the switch picks the similarity, and the two differ on this state
     let cfg = RewardConfig::default();
     assert_eq!(connection_similarity(&s, &r, &cfg, false, Compat::Code), got);
-    assert_eq!(connection_similarity(&s, &r, &cfg, false, Compat::Paper), similarity(&s, &r, &cfg, false));
+    assert_eq!(
+        connection_similarity(&s, &r, &cfg, false, Compat::Paper),
+        similarity(&s, &r, &cfg, false)
+    );
     assert!((similarity(&s, &r, &cfg, false) - got).abs() > 1e-3);
     assert_eq!(code_similarity(&r, &r, false), 1.0);
 }
 
 #[test]
 fn code_bridge_counts_use_floor_and_the_one_half_cut_off() {
-    for (beta, want) in [(0.9, 0), (0.5000001, 0), (0.5, 1), (0.3, 1), (0.1, 1), (0.05, 2), (0.01, 2), (0.0099, 3), (1e-5, 5), (1e-12, 10), (0.0, 10), (f64::NAN, 10)] {
+    for (beta, want) in [
+        (0.9, 0),
+        (0.5000001, 0),
+        (0.5, 1),
+        (0.3, 1),
+        (0.1, 1),
+        (0.05, 2),
+        (0.01, 2),
+        (0.0099, 3),
+        (1e-5, 5),
+        (1e-12, 10),
+        (0.0, 10),
+        (f64::NAN, 10),
+    ] {
         assert_eq!(masked_steps_code(beta, 10), want, "beta {beta}");
         assert_eq!(bridge_steps(beta, 10, 1e-10, Compat::Code), want);
         assert_eq!(bridge_steps(beta, 10, 1e-10, Compat::Paper), masked_steps(beta, 10, 1e-10));
@@ -184,7 +211,14 @@ fn clip(name: &str, skill: u32) -> Clip {
 fn ats_starts_from_the_class_balanced_weights_in_the_code_profile() {
     // pickup (label 1) twice, class 2 three times: class-balanced weights with pickup doubled
     // are 1/2·2 = 1 per pickup clip and 1/3 per class-2 clip → [1/3, 1/3, 1/9, 1/9, 1/9]
-    let lib = MotionLibrary::from_clips(vec![clip("001_a", 1), clip("001_b", 1), clip("002_a", 2), clip("002_b", 2), clip("002_c", 2)]).unwrap();
+    let lib = MotionLibrary::from_clips(vec![
+        clip("001_a", 1),
+        clip("001_b", 1),
+        clip("002_a", 2),
+        clip("002_b", 2),
+        clip("002_c", 2),
+    ])
+    .unwrap();
     let want_code = [1.0 / 3.0, 1.0 / 3.0, 1.0 / 9.0, 1.0 / 9.0, 1.0 / 9.0];
     let want_paper = [0.25, 0.25, 1.0 / 6.0, 1.0 / 6.0, 1.0 / 6.0];
     let cfg = AtsConfig { enabled: true, update_interval: 2, ..Default::default() };
@@ -213,7 +247,11 @@ fn deepmimic_baseline_sums_its_terms_in_the_code_profile() {
     s.key_pos[2][1] += 0.2;
     s.dof_pos[7] = 0.3;
     s.ball_pos[0] += 0.1;
-    let cfg = RewardConfig { variant: RewardVariant::Deepmimic, contact_graph: ContactGraphMode::ForceThreshold, ..Default::default() };
+    let cfg = RewardConfig {
+        variant: RewardVariant::Deepmimic,
+        contact_graph: ContactGraphMode::ForceThreshold,
+        ..Default::default()
+    };
     let cg = ContactGraph::reference(0.0, ContactGraphMode::ForceThreshold);
     let prev = [0.0; NUM_DOFS];
     let paper = reward::compute(&s, &prev, &r, &cg, &cg, &cfg, Compat::Paper, false);

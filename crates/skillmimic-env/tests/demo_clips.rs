@@ -18,9 +18,15 @@ fn shipped_demo_clips_regenerate_byte_identically() {
         let fresh = dir.join(&name);
         clip.save(&fresh).unwrap();
         let shipped = workspace_root().join("motions").join(&name);
-        let a = std::fs::read(&shipped).unwrap_or_else(|e| panic!("{}: {e} (run `skillmimic synth-motions`)", shipped.display()));
+        let a = std::fs::read(&shipped).unwrap_or_else(|e| {
+            panic!("{}: {e} (run `skillmimic synth-motions`)", shipped.display())
+        });
         let b = std::fs::read(&fresh).unwrap();
-        assert!(a == b, "{} differs from a fresh `skillmimic synth-motions` run", shipped.display());
+        assert!(
+            a == b,
+            "{} differs from a fresh `skillmimic synth-motions` run",
+            shipped.display()
+        );
         assert_eq!(Clip::load(&shipped).unwrap(), clip);
     }
 }

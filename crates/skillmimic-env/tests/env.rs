@@ -18,7 +18,12 @@ fn demo_library() -> Arc<MotionLibrary> {
 }
 
 fn config(n: usize) -> EnvConfig {
-    EnvConfig { num_envs: n, threads: 2, motion: vec![workspace_root().join("motions")], ..Default::default() }
+    EnvConfig {
+        num_envs: n,
+        threads: 2,
+        motion: vec![workspace_root().join("motions")],
+        ..Default::default()
+    }
 }
 
 fn run(env: &mut SkillEnv, steps: usize, seed: u64) -> (usize, usize) {
@@ -31,7 +36,11 @@ fn run(env: &mut SkillEnv, steps: usize, seed: u64) -> (usize, usize) {
         env.step(&actions).unwrap();
         let b = env.buffers();
         assert!(b.obs.iter().all(|x| x.is_finite()), "non-finite observation");
-        assert!(b.reward.iter().all(|r| r.is_finite() && (0.0..=1.0).contains(r)), "reward out of (0, 1]: {:?}", b.reward);
+        assert!(
+            b.reward.iter().all(|r| r.is_finite() && (0.0..=1.0).contains(r)),
+            "reward out of (0, 1]: {:?}",
+            b.reward
+        );
         assert!(b.terms.iter().all(|x| x.is_finite()));
         term += b.terminated.iter().filter(|&&t| t != 0).count();
         trunc += b.truncated.iter().filter(|&&t| t != 0).count();
@@ -43,7 +52,12 @@ fn run(env: &mut SkillEnv, steps: usize, seed: u64) -> (usize, usize) {
 #[test]
 fn every_variant_builds_and_steps_without_nan() {
     let lib = demo_library();
-    let variants = [RewardVariant::Skillmimic, RewardVariant::NoContactGraph, RewardVariant::Additive, RewardVariant::Deepmimic];
+    let variants = [
+        RewardVariant::Skillmimic,
+        RewardVariant::NoContactGraph,
+        RewardVariant::Additive,
+        RewardVariant::Deepmimic,
+    ];
     let modes = [ContactGraphMode::Exact, ContactGraphMode::ForceThreshold];
     let mut cases = 0;
     for (k, variant) in variants.iter().enumerate() {
@@ -65,7 +79,8 @@ fn every_variant_builds_and_steps_without_nan() {
         c.ball.density_scale = d;
         c.ball.restitution_scale = e;
         let mut env = SkillEnv::new(c, lib.clone()).unwrap();
-        let mass = env.sim().scene().model().body_mass()[env.sim().scene().body_ids[skillmimic_sim::BALL]];
+        let mass =
+            env.sim().scene().model().body_mass()[env.sim().scene().body_ids[skillmimic_sim::BALL]];
         let want = 1000.0 * d * 4.0 / 3.0 * std::f64::consts::PI * (0.12 * r).powi(3);
         assert!((mass - want).abs() < 1e-9, "ball mass {mass} vs {want}");
         run(&mut env, 20, 1);
@@ -148,7 +163,12 @@ fn observation_sizes_values_and_frames() {
         if layout::FINGERTIP_FORCE.contains(&k) {
             continue;
         }
-        assert!((o[0][k] - o[1][k]).abs() < 2e-5, "entry {k}: {} vs {} (heading frame must remove yaw and xy)", o[0][k], o[1][k]);
+        assert!(
+            (o[0][k] - o[1][k]).abs() < 2e-5,
+            "entry {k}: {} vs {} (heading frame must remove yaw and xy)",
+            o[0][k],
+            o[1][k]
+        );
     }
     // fingertip forces are world-frame: they turn with the yaw
     for f in 0..10 {
@@ -170,12 +190,20 @@ fn observation_sizes_values_and_frames() {
     write_observation(&sim.state().env(0), 3, &mut out);
     assert!((out[0] - 0.95).abs() < 1e-6);
     let hip = &out[layout::BODY_POS.start..layout::BODY_POS.start + 3];
-    assert!((hip[0] - 0.109716).abs() < 1e-6 && hip[1].abs() < 1e-6 && (hip[2] + 0.0365719).abs() < 1e-6, "{hip:?}");
+    assert!(
+        (hip[0] - 0.109716).abs() < 1e-6
+            && hip[1].abs() < 1e-6
+            && (hip[2] + 0.0365719).abs() < 1e-6,
+        "{hip:?}"
+    );
     // root rotation in its heading frame: tan-norm [x axis; z axis] = [(1,0,0); (0,-1,0)]
     let rot = &out[layout::BODY_ROT.start..layout::BODY_ROT.start + 6];
     let want = [1.0, 0.0, 0.0, 0.0, -1.0, 0.0];
     assert!(rot.iter().zip(want).all(|(a, b)| (a - b).abs() < 1e-6), "{rot:?}");
     // ball at (0, 0.6, 0.12): relative xy in the heading frame, absolute height
     let ball = &out[layout::BALL_POS];
-    assert!(ball[0].abs() < 1e-6 && (ball[1] - 0.6).abs() < 1e-6 && (ball[2] - 0.12).abs() < 1e-6, "{ball:?}");
+    assert!(
+        ball[0].abs() < 1e-6 && (ball[1] - 0.6).abs() < 1e-6 && (ball[2] - 0.12).abs() < 1e-6,
+        "{ball:?}"
+    );
 }

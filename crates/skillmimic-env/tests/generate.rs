@@ -7,9 +7,13 @@
 use std::sync::Arc;
 
 use rand::SeedableRng;
-use skillmimic_core::skeleton::{NUM_BODIES, NUM_DOFS, body_parts, dof_range, forward_kinematics, mirror_body};
+use skillmimic_core::skeleton::{
+    NUM_BODIES, NUM_DOFS, body_parts, dof_range, forward_kinematics, mirror_body,
+};
 use skillmimic_env::episode::reset_state_from_clip;
-use skillmimic_motion::generate::{ExternalCommand, Generator, Invalid, ModelFree, check_validity, mirror, recombine, time_warp};
+use skillmimic_motion::generate::{
+    ExternalCommand, Generator, Invalid, ModelFree, check_validity, mirror, recombine, time_warp,
+};
 use skillmimic_motion::{Clip, MotionLibrary};
 use skillmimic_sim::{BatchSim, HandModel, Scene};
 
@@ -26,13 +30,15 @@ fn max_diff(a: &[f32], b: &[f32]) -> f32 {
 #[test]
 fn forward_kinematics_equals_mujoco() {
     let lib = demo();
-    let mut sim = BatchSim::new(Arc::new(Scene::default_for(HandModel::Full).unwrap()), 1, 1).unwrap();
+    let mut sim =
+        BatchSim::new(Arc::new(Scene::default_for(HandModel::Full).unwrap()), 1, 1).unwrap();
     let mut worst: f64 = 0.0;
     for m in lib.clips() {
         for t in (0..m.clip.num_frames).step_by(11) {
             sim.reset(&[true], &[reset_state_from_clip(m, t)]).unwrap();
             let st = sim.state().env(0);
-            let p = forward_kinematics(m.clip.root_pos_at(t), m.clip.root_quat_at(t), m.clip.dof_at(t));
+            let p =
+                forward_kinematics(m.clip.root_pos_at(t), m.clip.root_quat_at(t), m.clip.dof_at(t));
             for (b, pb) in p.iter().enumerate() {
                 let q = st.pos(b);
                 worst = worst.max((0..3).map(|k| (pb[k] - q[k]).abs()).fold(0.0, f64::max));
@@ -66,17 +72,30 @@ fn mirror_time_warp_and_recombination() {
     println!("mirrored fingers: up to {finger_worst:.4} m from the reflected partner positions");
     assert!(finger_worst < 0.03);
     let mm = mirror(&m);
-    assert!(max_diff(&mm.dof_rot, &c.dof_rot) < 1e-6 && max_diff(&mm.body_pos, &c.body_pos) < 1e-5 && max_diff(&mm.root_pos, &c.root_pos) < 1e-6);
-    let dots: Vec<f32> = (0..c.num_frames).map(|t| (0..4).map(|k| mm.root_rot[4 * t + k] * c.root_rot[4 * t + k]).sum::<f32>().abs()).collect();
+    assert!(
+        max_diff(&mm.dof_rot, &c.dof_rot) < 1e-6
+            && max_diff(&mm.body_pos, &c.body_pos) < 1e-5
+            && max_diff(&mm.root_pos, &c.root_pos) < 1e-6
+    );
+    let dots: Vec<f32> = (0..c.num_frames)
+        .map(|t| (0..4).map(|k| mm.root_rot[4 * t + k] * c.root_rot[4 * t + k]).sum::<f32>().abs())
+        .collect();
     assert!(dots.iter().all(|d| (d - 1.0).abs() < 1e-5), "the root rotation comes back");
     assert_eq!(mirror(&Clip { skill: 11, ..c.clone() }).skill, 12);
 
     let same = time_warp(c, 1.0);
     assert_eq!(same.num_frames, c.num_frames);
-    assert!(max_diff(&same.dof_rot, &c.dof_rot) < 1e-5 && max_diff(&same.body_pos, &c.body_pos) < 1e-5);
+    assert!(
+        max_diff(&same.dof_rot, &c.dof_rot) < 1e-5 && max_diff(&same.body_pos, &c.body_pos) < 1e-5
+    );
     let slow = time_warp(c, 0.5);
     assert_eq!(slow.num_frames, 2 * (c.num_frames - 1) + 1);
-    assert!(max_diff(&slow.dof_rot[10 * NUM_DOFS..11 * NUM_DOFS], &c.dof_rot[5 * NUM_DOFS..6 * NUM_DOFS]) < 1e-5);
+    assert!(
+        max_diff(
+            &slow.dof_rot[10 * NUM_DOFS..11 * NUM_DOFS],
+            &c.dof_rot[5 * NUM_DOFS..6 * NUM_DOFS]
+        ) < 1e-5
+    );
 
     let donor = &lib.get(1).clip;
     let parts = body_parts("five").unwrap();
@@ -87,7 +106,10 @@ fn mirror_time_warp_and_recombination() {
         for b in 1..NUM_BODIES {
             let d = dof_range(b);
             let want = if bodies.contains(&b) { donor } else { c };
-            assert_eq!(&r.dof_rot[t * NUM_DOFS + d.start..t * NUM_DOFS + d.end], &want.dof_rot[t * NUM_DOFS + d.start..t * NUM_DOFS + d.end]);
+            assert_eq!(
+                &r.dof_rot[t * NUM_DOFS + d.start..t * NUM_DOFS + d.end],
+                &want.dof_rot[t * NUM_DOFS + d.start..t * NUM_DOFS + d.end]
+            );
         }
     }
     assert_eq!(&r.root_pos[..], &c.root_pos[..3 * r.num_frames]);
@@ -109,7 +131,10 @@ fn validity_filter_names_the_problem() {
     assert!(matches!(e, Invalid::TooFast { joint: "L_Knee", frame: 5, .. }), "{e}");
     let mut nan = c.clone();
     nan.root_pos[3 * 7] = f32::NAN;
-    assert!(matches!(check_validity(&nan, 0.05, 60.0).unwrap_err(), Invalid::NonFinite { field: "root_pos", frame: 7, .. }));
+    assert!(matches!(
+        check_validity(&nan, 0.05, 60.0).unwrap_err(),
+        Invalid::NonFinite { field: "root_pos", frame: 7, .. }
+    ));
 }
 
 #[test]
@@ -123,11 +148,19 @@ fn generators_model_free_and_external_command() {
         check_validity(c, 0.05, 60.0).unwrap_or_else(|e| panic!("{}: {e}", c.name));
     }
     let dir = std::env::temp_dir().join(format!("skillmimic-gen-{}", std::process::id()));
-    let mut copy = ExternalCommand::new("sh".into(), vec!["-c".into(), "cp \"$0\" \"$1/copy.safetensors\"".into()], dir.clone());
+    let mut copy = ExternalCommand::new(
+        "sh".into(),
+        vec!["-c".into(), "cp \"$0\" \"$1/copy.safetensors\"".into()],
+        dir.clone(),
+    );
     let back = copy.generate(&clips[0], &clips, &mut rng).unwrap();
     assert_eq!(back.len(), 1);
-    assert_eq!((back[0].dof_rot.clone(), back[0].root_pos.clone(), back[0].skill), (clips[0].dof_rot.clone(), clips[0].root_pos.clone(), clips[0].skill));
-    let mut broken = ExternalCommand::new("sh".into(), vec!["-c".into(), "exit 3".into()], dir.clone());
+    assert_eq!(
+        (back[0].dof_rot.clone(), back[0].root_pos.clone(), back[0].skill),
+        (clips[0].dof_rot.clone(), clips[0].root_pos.clone(), clips[0].skill)
+    );
+    let mut broken =
+        ExternalCommand::new("sh".into(), vec!["-c".into(), "exit 3".into()], dir.clone());
     let e = broken.generate(&clips[0], &clips, &mut rng).unwrap_err().to_string();
     assert!(e.contains("external command sh") && e.contains("exit"), "{e}");
     std::fs::remove_dir_all(&dir).ok();

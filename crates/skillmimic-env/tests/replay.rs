@@ -13,7 +13,10 @@ use skillmimic_sim::{HandModel, Scene};
 
 #[test]
 fn kinematic_replay_scores_real_clips_against_themselves() {
-    let Some(shared) = shared_dir_or_skip("kinematic_replay_scores_real_clips_against_themselves") else { return };
+    let Some(shared) = shared_dir_or_skip("kinematic_replay_scores_real_clips_against_themselves")
+    else {
+        return;
+    };
     let files = ballplay_clips(&shared);
     let lib = MotionLibrary::load(&files).unwrap();
     let scene = Arc::new(Scene::default_for(HandModel::Full).unwrap());
@@ -31,7 +34,11 @@ fn kinematic_replay_scores_real_clips_against_themselves() {
         l.body_mpjpe_mm(),
         l.ball_mpjpe_mm()
     );
-    println!("  contacts from MuJoCo exact pairs: Acc {:.2} %, E_cg {:.4}", s.acc_percent(), s.cg_error());
+    println!(
+        "  contacts from MuJoCo exact pairs: Acc {:.2} %, E_cg {:.4}",
+        s.acc_percent(),
+        s.cg_error()
+    );
     let mut gaps = rep.label1_hand_gap.clone();
     gaps.sort_by(|a, b| a.total_cmp(b));
     let q = |p: f64| gaps[((gaps.len() - 1) as f64 * p) as usize];
@@ -54,8 +61,14 @@ fn kinematic_replay_scores_real_clips_against_themselves() {
     assert!(rep.term_mean("r") > 0.999, "r_r {}", rep.term_mean("r"));
     assert!(rep.term_mean("op") > 0.999, "r_op {}", rep.term_mean("op"));
     assert!(rep.term_mean("reg") > 0.99, "r_reg {}", rep.term_mean("reg"));
-    // key bodies carry the ~3 cm FK-vs-stored mismatch of the data: exp(-20 * (0.03 m)^2 ...) ~ 0.97
-    assert!(rep.term_mean("p") > 0.95 && rep.term_mean("ig") > 0.95, "r_p {} r_ig {}", rep.term_mean("p"), rep.term_mean("ig"));
+    // key bodies carry the ~3 cm FK-vs-stored mismatch of the data: exp(-20 * (0.03 m)^2 ...) ~
+    // 0.97
+    assert!(
+        rep.term_mean("p") > 0.95 && rep.term_mean("ig") > 0.95,
+        "r_p {} r_ig {}",
+        rep.term_mean("p"),
+        rep.term_mean("ig")
+    );
     assert!(l.acc_percent() >= 95.0, "Acc with label contacts {:.2} %", l.acc_percent());
     // Exact pairs need the replayed hand to touch the ball. The replayed hand is forward
     // kinematics of the stored joints, which misses the captured hand by 2-5 cm on average for
@@ -78,10 +91,21 @@ fn kinematic_replay_scores_real_clips_against_themselves() {
     let detected = rep.label1_detected as f64 / rep.label1_frames as f64;
     let false_pos = rep.label0_detected as f64 / rep.label0_frames as f64;
     assert!(rep.contact_agreement() >= 0.70, "agreement {:.3}", rep.contact_agreement());
-    assert!(detected >= 0.5 && false_pos <= 0.10, "label-1 detection {detected:.3}, label-0 false contacts {false_pos:.3}");
+    assert!(
+        detected >= 0.5 && false_pos <= 0.10,
+        "label-1 detection {detected:.3}, label-0 false contacts {false_pos:.3}"
+    );
     // Force-threshold graph, measured: the ball node equals the label in 69.6 % of frames (60.4 %
     // of label-1 frames, i.e. the replayed hand presses on the ball; 19.8 % of label-0 frames,
     // mostly floor contacts: the node counts every source); the body node is 0 in 98.3 %.
-    assert!(rep.force_ball_agreement() >= 0.6, "force-threshold ball node agreement {:.3}", rep.force_ball_agreement());
-    assert!(rep.force_body_agreement() >= 0.95, "force-threshold body node agreement {:.3}", rep.force_body_agreement());
+    assert!(
+        rep.force_ball_agreement() >= 0.6,
+        "force-threshold ball node agreement {:.3}",
+        rep.force_ball_agreement()
+    );
+    assert!(
+        rep.force_body_agreement() >= 0.95,
+        "force-threshold body node agreement {:.3}",
+        rep.force_body_agreement()
+    );
 }

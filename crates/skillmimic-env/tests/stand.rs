@@ -4,7 +4,7 @@
 use skillmimic_core::math::{heading, wrap_angle};
 use skillmimic_env::registry;
 use skillmimic_env::tasks::stand::OBS_DIM;
-use skillmimic_env::{EnvConfig, Env};
+use skillmimic_env::{Env, EnvConfig};
 
 fn stand_env(n: usize) -> Box<dyn Env> {
     let cfg = EnvConfig { task: "stand".into(), num_envs: n, threads: 1, ..Default::default() };
@@ -18,7 +18,8 @@ fn start_state_observation_and_reward_follow_the_definition() {
     assert_eq!((env.obs_dim(), env.act_dim()), (OBS_DIM, 156));
     env.reset_all(Some(4));
     let c = EnvConfig::default().stand;
-    let headings: Vec<f64> = (0..6).map(|i| heading(env.humanoid_sim().unwrap().state().env(i).quat(0))).collect();
+    let headings: Vec<f64> =
+        (0..6).map(|i| heading(env.humanoid_sim().unwrap().state().env(i).quat(0))).collect();
     // random headings, pelvis at the start height, heading error zero
     assert!(headings.iter().any(|h| h.abs() > 0.3), "{headings:?}");
     for i in 0..6 {
@@ -26,7 +27,11 @@ fn start_state_observation_and_reward_follow_the_definition() {
         assert!((st.pos(0)[2] - c.start_height).abs() < 1e-9);
         let o = &env.buffers().obs[i * OBS_DIM..(i + 1) * OBS_DIM];
         assert!((o[823] as f64 - (c.start_height - c.target_height)).abs() < 1e-6);
-        assert!((o[824] - 1.0).abs() < 1e-6 && o[825].abs() < 1e-6, "cos/sin of a zero heading error: {:?}", &o[823..]);
+        assert!(
+            (o[824] - 1.0).abs() < 1e-6 && o[825].abs() < 1e-6,
+            "cos/sin of a zero heading error: {:?}",
+            &o[823..]
+        );
     }
     // hold the start pose (PD targets 0) for half a second: it stands on its feet
     let zeros = vec![0.0f32; 6 * 156];
@@ -35,33 +40,70 @@ fn start_state_observation_and_reward_follow_the_definition() {
         let b = env.buffers();
         for (i, &psi0) in headings.iter().enumerate() {
             let st = env.humanoid_sim().unwrap().state().env(i);
-            let (dz, dpsi) = (st.pos(0)[2] - c.target_height, wrap_angle(psi0 - heading(st.quat(0))));
+            let (dz, dpsi) =
+                (st.pos(0)[2] - c.target_height, wrap_angle(psi0 - heading(st.quat(0))));
             let rh = (-c.height_scale * dz * dz).exp();
             let rpsi = (-c.heading_scale * dpsi * dpsi).exp();
             let want = c.height_weight * rh + (1.0 - c.height_weight) * rpsi;
-            assert!((b.reward[i] as f64 - want).abs() < 1e-5, "step {step} env {i}: {} vs {want}", b.reward[i]);
-            assert!((b.metrics[2 * i] as f64 - dz.abs()).abs() < 1e-5 && (b.metrics[2 * i + 1] as f64 - dpsi.abs()).abs() < 1e-5);
-            assert_eq!(b.terminated[i], 0, "step {step} env {i}: fell from the start pose (pelvis {:.3} m)", st.pos(0)[2]);
-            assert!((st.pos(0)[2] - c.start_height).abs() < 0.1, "step {step} env {i}: pelvis {:.3} m", st.pos(0)[2]);
+            assert!(
+                (b.reward[i] as f64 - want).abs() < 1e-5,
+                "step {step} env {i}: {} vs {want}",
+                b.reward[i]
+            );
+            assert!(
+                (b.metrics[2 * i] as f64 - dz.abs()).abs() < 1e-5
+                    && (b.metrics[2 * i + 1] as f64 - dpsi.abs()).abs() < 1e-5
+            );
+            assert_eq!(
+                b.terminated[i],
+                0,
+                "step {step} env {i}: fell from the start pose (pelvis {:.3} m)",
+                st.pos(0)[2]
+            );
+            assert!(
+                (st.pos(0)[2] - c.start_height).abs() < 0.1,
+                "step {step} env {i}: pelvis {:.3} m",
+                st.pos(0)[2]
+            );
         }
     }
 }
 
 #[test]
 fn episodes_end_at_the_time_limit_and_when_the_pelvis_falls() {
-    let cfg = EnvConfig { task: "stand".into(), num_envs: 2, threads: 1, stand: skillmimic_env::config::StandConfig { episode_length: 5, termination_height: 2.0, ..Default::default() }, ..Default::default() };
+    let cfg = EnvConfig {
+        task: "stand".into(),
+        num_envs: 2,
+        threads: 1,
+        stand: skillmimic_env::config::StandConfig {
+            episode_length: 5,
+            termination_height: 2.0,
+            ..Default::default()
+        },
+        ..Default::default()
+    };
     let mut env = registry::make(&cfg).unwrap();
     env.step(&vec![0.0; 2 * 156]).unwrap();
     // pelvis (≈0.95 m) below the 2 m termination height: terminated at once
     assert!(env.buffers().terminated.iter().all(|&t| t == 1));
-    let cfg = EnvConfig { task: "stand".into(), num_envs: 2, threads: 1, stand: skillmimic_env::config::StandConfig { episode_length: 5, ..Default::default() }, ..Default::default() };
+    let cfg = EnvConfig {
+        task: "stand".into(),
+        num_envs: 2,
+        threads: 1,
+        stand: skillmimic_env::config::StandConfig { episode_length: 5, ..Default::default() },
+        ..Default::default()
+    };
     let mut env = registry::make(&cfg).unwrap();
     for k in 1..=5 {
         env.step(&vec![0.0; 2 * 156]).unwrap();
         let want = u8::from(k == 5);
         assert!(env.buffers().truncated.iter().all(|&t| t == want), "step {k}");
     }
-    let bad = EnvConfig { task: "stand".into(), stand: skillmimic_env::config::StandConfig { height_weight: 1.5, ..Default::default() }, ..Default::default() };
+    let bad = EnvConfig {
+        task: "stand".into(),
+        stand: skillmimic_env::config::StandConfig { height_weight: 1.5, ..Default::default() },
+        ..Default::default()
+    };
     let e = registry::make(&bad).err().unwrap().to_string();
     assert!(e.contains("env.stand.height_weight"), "{e}");
 }

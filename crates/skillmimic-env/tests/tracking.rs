@@ -12,7 +12,8 @@ use skillmimic_env::tasks::tracking::{Tracking, formulas};
 use skillmimic_sim::{BatchSim, Scene};
 
 fn config(n: usize) -> EnvConfig {
-    let mut c = EnvConfig { task: "tracking".into(), num_envs: n, threads: 1, ..Default::default() };
+    let mut c =
+        EnvConfig { task: "tracking".into(), num_envs: n, threads: 1, ..Default::default() };
     c.motion = vec![std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../motions")];
     c.tracking.random_start = false;
     c
@@ -31,13 +32,24 @@ fn kinematic_replay_scores_one_with_zero_error() {
         for t in (0..lib.get(clip).clip.num_frames).step_by(7) {
             sim.reset(&[true], &[reset_state_from_clip(lib.get(clip), t)]).unwrap();
             let st = sim.state().env(0);
-            let e = formulas::errors(&formulas::BodyFrame::from_state(&st), &task.reference(clip).frame(t), &bodies);
+            let e = formulas::errors(
+                &formulas::BodyFrame::from_state(&st),
+                &task.reference(clip).frame(t),
+                &bodies,
+            );
             let r = formulas::reward(&e, 0.0, &c.tracking);
-            worst = worst.max(e.dist).max(e.dist_rel).max(e.rot2.sqrt()).max(e.vel2.sqrt()).max(e.angvel2.sqrt());
+            worst = worst
+                .max(e.dist)
+                .max(e.dist_rel)
+                .max(e.rot2.sqrt())
+                .max(e.vel2.sqrt())
+                .max(e.angvel2.sqrt());
             assert!((r[5] - 1.0).abs() < 1e-5, "clip {clip} frame {t}: reward {}", r[5]);
         }
     }
-    println!("kinematic replay: largest error {worst:.2e} (m, rad, m/s, rad/s; float32 storage of the reference)");
+    println!(
+        "kinematic replay: largest error {worst:.2e} (m, rad, m/s, rad/s; float32 storage of the reference)"
+    );
     assert!(worst < 1e-5);
 }
 

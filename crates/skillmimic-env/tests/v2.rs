@@ -14,21 +14,27 @@ use skillmimic_env::hoi::HoiState;
 use skillmimic_env::obs::layout;
 use skillmimic_env::v2::graph::{StitchGraph, aligned_similarity};
 use skillmimic_env::v2::history::{FEATURE_DIM, random_encoder};
-use skillmimic_nn::history_reference::torch_reference_embedding;
 use skillmimic_env::v2::similarity::{masked_steps, similarity};
 use skillmimic_env::{EnvConfig, ResetPlan, RewardConfig, SkillEnv, StateInit};
 use skillmimic_motion::{Clip, MotionLibrary};
+use skillmimic_nn::history_reference::torch_reference_embedding;
 
 fn demo_library() -> Arc<MotionLibrary> {
     Arc::new(MotionLibrary::load(&[workspace_root().join("motions")]).unwrap())
 }
 
 fn config(n: usize) -> EnvConfig {
-    EnvConfig { num_envs: n, threads: 2, motion: vec![workspace_root().join("motions")], ..Default::default() }
+    EnvConfig {
+        num_envs: n,
+        threads: 2,
+        motion: vec![workspace_root().join("motions")],
+        ..Default::default()
+    }
 }
 
 fn encoder_file(tag: &str) -> PathBuf {
-    let p = std::env::temp_dir().join(format!("skillmimic_test_encoder_{}_{tag}.safetensors", std::process::id()));
+    let p = std::env::temp_dir()
+        .join(format!("skillmimic_test_encoder_{}_{tag}.safetensors", std::process::id()));
     random_encoder(60, 3, 11).save(&p, &Default::default()).unwrap();
     p
 }
@@ -52,9 +58,16 @@ fn stf_connects_to_the_most_similar_frame_and_masks_the_bridge() {
             let (src_clip, src_frame) = env.start_source(i);
             assert_eq!(ep.clip, src_clip);
             let lib = env.library();
-            let (x, y) = (HoiState::from_reference(lib.get(src_clip), src_frame), HoiState::from_reference(lib.get(ep.clip), ep.ref_start));
+            let (x, y) = (
+                HoiState::from_reference(lib.get(src_clip), src_frame),
+                HoiState::from_reference(lib.get(ep.clip), ep.ref_start),
+            );
             let sim = similarity(&x, &y, &c.reward, false);
-            assert_eq!(sim, 1.0, "an exact start connects to an identical state (frame {src_frame} -> {})", ep.ref_start);
+            assert_eq!(
+                sim, 1.0,
+                "an exact start connects to an identical state (frame {src_frame} -> {})",
+                ep.ref_start
+            );
         }
     }
     // with noise: the connection is the argmax of the similarity over frames 2..T-2, and the
@@ -72,7 +85,14 @@ fn stf_connects_to_the_most_similar_frame_and_masks_the_bridge() {
             let m = lib.get(ep.clip);
             let st = HoiState::from_sim(&env.sim().state().env(i));
             let sims: Vec<f64> = (2..=m.clip.num_frames - 2)
-                .map(|j| skillmimic_env::v2::similarity::similarity(&st, &HoiState::from_reference(m, j), &c.reward, ep.ball_free))
+                .map(|j| {
+                    skillmimic_env::v2::similarity::similarity(
+                        &st,
+                        &HoiState::from_reference(m, j),
+                        &c.reward,
+                        ep.ball_free,
+                    )
+                })
                 .collect();
             let best = sims.iter().copied().fold(f64::NEG_INFINITY, f64::max);
             let j = 2 + sims.iter().position(|&s| s == best).unwrap();
@@ -113,15 +133,25 @@ fn stf_connects_to_the_most_similar_frame_and_masks_the_bridge() {
         assert_eq!(ep.ref_frame(), ep.ref_start + 1);
         if ep.masked_steps >= 1 {
             let same: Vec<usize> = (0..6).filter(|&k| env.episode(k).clip == ep.clip).collect();
-            let mean = same.iter().map(|&k| env.buffers().terms[k * skillmimic_env::reward::NUM_TERMS + total] as f64).sum::<f64>() / same.len() as f64;
+            let mean = same
+                .iter()
+                .map(|&k| env.buffers().terms[k * skillmimic_env::reward::NUM_TERMS + total] as f64)
+                .sum::<f64>()
+                / same.len() as f64;
             assert!((env.buffers().reward[i] as f64 - mean).abs() < 1e-6);
             // the replacement is visible: the environment's own reward differs from the mean
-            if (env.buffers().terms[i * skillmimic_env::reward::NUM_TERMS + total] as f64 - mean).abs() > 1e-6 {
+            if (env.buffers().terms[i * skillmimic_env::reward::NUM_TERMS + total] as f64 - mean)
+                .abs()
+                > 1e-6
+            {
                 replaced += 1;
             }
         }
     }
-    assert!(replaced > 0, "some masked first step must have its reward replaced by a different clip mean");
+    assert!(
+        replaced > 0,
+        "some masked first step must have its reward replaced by a different clip mean"
+    );
 }
 
 /// A copy of `c` turned by `yaw` about +z and moved by `shift` on the ground (a different
@@ -141,11 +171,13 @@ fn moved_clip(c: &Clip, yaw: f64, shift: [f64; 2], skill: u32) -> Clip {
     out.ball_pos.chunks_exact_mut(3).for_each(mv);
     out.body_pos.chunks_exact_mut(3).for_each(mv);
     for r in out.root_rot.chunks_exact_mut(4) {
-        let n = q.mul(Quat::from_wxyz([r[0] as f64, r[1] as f64, r[2] as f64, r[3] as f64])).to_wxyz();
+        let n =
+            q.mul(Quat::from_wxyz([r[0] as f64, r[1] as f64, r[2] as f64, r[3] as f64])).to_wxyz();
         r.iter_mut().zip(n).for_each(|(a, b)| *a = b as f32);
     }
     for r in out.ball_rot.chunks_exact_mut(4) {
-        let n = q.mul(Quat::from_wxyz([r[0] as f64, r[1] as f64, r[2] as f64, r[3] as f64])).to_wxyz();
+        let n =
+            q.mul(Quat::from_wxyz([r[0] as f64, r[1] as f64, r[2] as f64, r[3] as f64])).to_wxyz();
         r.iter_mut().zip(n).for_each(|(a, b)| *a = b as f32);
     }
     out
@@ -173,14 +205,23 @@ fn stg_connections_respect_threshold_and_alignment() {
                 assert!((s - c.similarity).abs() <= 1e-12 * s.max(1e-300));
                 assert_eq!(align, c.align);
                 for f in 2..=lib.get(c.clip).clip.num_frames - 2 {
-                    let (o, _) = aligned_similarity(&sa, &HoiState::from_reference(lib.get(c.clip), f), &cfg, false);
+                    let (o, _) = aligned_similarity(
+                        &sa,
+                        &HoiState::from_reference(lib.get(c.clip), f),
+                        &cfg,
+                        false,
+                    );
                     assert!(o <= c.similarity);
                 }
                 // alignment puts the target's root on the start's root x/y and heading
                 let aligned = sb.aligned(&c.align);
-                assert!((aligned.root_pos[0] - sa.root_pos[0]).abs() < 1e-9 && (aligned.root_pos[1] - sa.root_pos[1]).abs() < 1e-9);
+                assert!(
+                    (aligned.root_pos[0] - sa.root_pos[0]).abs() < 1e-9
+                        && (aligned.root_pos[1] - sa.root_pos[1]).abs() < 1e-9
+                );
                 assert!((aligned.root_pos[2] - sb.root_pos[2]).abs() < 1e-12, "heights are kept");
-                let dh = heading(Quat::from_rotvec(aligned.root_rotvec)) - heading(Quat::from_rotvec(sa.root_rotvec));
+                let dh = heading(Quat::from_rotvec(aligned.root_rotvec))
+                    - heading(Quat::from_rotvec(sa.root_rotvec));
                 assert!(skillmimic_core::math::wrap_angle(dh).abs() < 1e-9);
                 max_sim = max_sim.max(c.similarity);
                 min_sim = min_sim.min(c.similarity);
@@ -188,14 +229,21 @@ fn stg_connections_respect_threshold_and_alignment() {
         }
     }
     // moving and turning the other skill's clip changes nothing: alignment happens first
-    let lib2 = MotionLibrary::from_clips(vec![a.clone(), moved_clip(&b, 1.3, [7.0, -4.0], b.skill)]).unwrap();
+    let lib2 =
+        MotionLibrary::from_clips(vec![a.clone(), moved_clip(&b, 1.3, [7.0, -4.0], b.skill)])
+            .unwrap();
     let g2 = StitchGraph::build(&lib2, &cfg, 1e-10);
     for t in 2..=a.num_frames - 2 {
         let (c1, c2) = (g.connections(0, t), g2.connections(0, t));
         assert_eq!(c1.len(), c2.len());
         for (x, y) in c1.iter().zip(c2) {
             assert_eq!((x.clip, x.frame), (y.clip, y.frame));
-            assert!((x.similarity - y.similarity).abs() <= 1e-4 * x.similarity, "{} vs {}", x.similarity, y.similarity);
+            assert!(
+                (x.similarity - y.similarity).abs() <= 1e-4 * x.similarity,
+                "{} vs {}",
+                x.similarity,
+                y.similarity
+            );
         }
     }
     // a floor above every similarity removes every connection (distant states are excluded)
@@ -229,11 +277,23 @@ fn stg_switch_imitates_the_other_skill_from_the_sampled_state() {
             // same root x/y, and the observation asks for the target skill
             let st = env.sim().state().env(i);
             let r = HoiState::from_reference(m, ep.ref_start).aligned(&ep.align);
-            assert!((r.root_pos[0] - st.pos(0)[0]).abs() < 1e-6 && (r.root_pos[1] - st.pos(0)[1]).abs() < 1e-6);
-            assert_eq!(env.buffers().obs[i * env.obs_dim() + layout::SKILL.start + ep.skill as usize], 1.0);
+            assert!(
+                (r.root_pos[0] - st.pos(0)[0]).abs() < 1e-6
+                    && (r.root_pos[1] - st.pos(0)[1]).abs() < 1e-6
+            );
+            assert_eq!(
+                env.buffers().obs[i * env.obs_dim() + layout::SKILL.start + ep.skill as usize],
+                1.0
+            );
             let (src_clip, src_frame) = env.start_source(i);
             assert_ne!(env.library().get(src_clip).clip.skill, ep.skill);
-            let conn = env.stitch_graph().unwrap().connections(src_clip, src_frame).iter().find(|c| c.clip == ep.clip && c.frame == ep.ref_start).copied();
+            let conn = env
+                .stitch_graph()
+                .unwrap()
+                .connections(src_clip, src_frame)
+                .iter()
+                .find(|c| c.clip == ep.clip && c.frame == ep.ref_start)
+                .copied();
             let conn = conn.expect("the episode follows a graph connection of its start state");
             assert_eq!(ep.align, conn.align);
             assert_eq!(ep.masked_steps, masked_steps(conn.similarity, 10, 1e-6));
@@ -267,7 +327,12 @@ fn ats_records_episodes_and_shifts_sampling_to_hard_starts() {
     let t0 = ats.table(0);
     let hi = t0.iter().position(|&r| r > 0.0).expect("a start frame of clip 0 was tried");
     let lo = t0.iter().position(|&r| r == 0.0).expect("a start frame of clip 0 was never tried");
-    assert!(after[hi] < after[lo], "tried frame {hi}: p {} vs untried frame {lo}: p {}", after[hi], after[lo]);
+    assert!(
+        after[hi] < after[lo],
+        "tried frame {hi}: p {} vs untried frame {lo}: p {}",
+        after[hi],
+        after[lo]
+    );
 }
 
 #[test]
@@ -289,7 +354,9 @@ fn history_buffer_feeds_the_observation_with_the_embedding_of_past_frames() {
         assert_eq!(&w[59 * FEATURE_DIM..59 * FEATURE_DIM + 157], &obs[..157]);
         // at frame 70 the previous frame's FK row equals frame 69 of the clip, so the window is
         // continuous: the last reference row and the current row differ by one frame of motion
-        let d: f32 = (0..157).map(|k| (w[58 * FEATURE_DIM + k] - w[59 * FEATURE_DIM + k]).abs()).fold(0.0, f32::max);
+        let d: f32 = (0..157)
+            .map(|k| (w[58 * FEATURE_DIM + k] - w[59 * FEATURE_DIM + k]).abs())
+            .fold(0.0, f32::max);
         assert!(d < 0.05, "reference rows run into the simulated rows ({d})");
     }
     let zero = vec![0.0f32; 3 * 156];
@@ -300,10 +367,17 @@ fn history_buffer_feeds_the_observation_with_the_embedding_of_past_frames() {
             let h = torch_reference_embedding(&enc, &windows[i]);
             let obs = &env.buffers().obs[i * 905..(i + 1) * 905];
             for (k, (&x, &y)) in obs[902..].iter().zip(&h).enumerate() {
-                assert!((x - y).abs() <= 1e-4 * (1.0 + y.abs()), "env {i} embedding {k}: {x} vs hand-written {y}: the embedding summarises the frames before the step");
+                assert!(
+                    (x - y).abs() <= 1e-4 * (1.0 + y.abs()),
+                    "env {i} embedding {k}: {x} vs hand-written {y}: the embedding summarises the frames before the step"
+                );
             }
             let w = env.history_window(i).unwrap();
-            assert_eq!(&w[..59 * FEATURE_DIM], &windows[i][FEATURE_DIM..], "the window slides by one");
+            assert_eq!(
+                &w[..59 * FEATURE_DIM],
+                &windows[i][FEATURE_DIM..],
+                "the window slides by one"
+            );
         }
         env.reset_done();
     }
@@ -343,17 +417,33 @@ fn every_v2_combination_builds_and_steps_without_nan() {
             actions.iter_mut().for_each(|a| *a = 0.3 * rng.random_range(-1.0f32..1.0));
             env.step(&actions).unwrap();
             let b = env.buffers();
-            assert!(b.obs.iter().all(|x| x.is_finite()), "combination {bits:04b}: non-finite observation");
-            assert!(b.reward.iter().all(|r| r.is_finite() && (0.0..=1.0).contains(r)), "combination {bits:04b}: reward {:?}", b.reward);
+            assert!(
+                b.obs.iter().all(|x| x.is_finite()),
+                "combination {bits:04b}: non-finite observation"
+            );
+            assert!(
+                b.reward.iter().all(|r| r.is_finite() && (0.0..=1.0).contains(r)),
+                "combination {bits:04b}: reward {:?}",
+                b.reward
+            );
             ends += b.terminated.iter().chain(&b.truncated).filter(|&&x| x != 0).count();
-            let done: Vec<bool> = (0..4).map(|i| b.terminated[i] != 0 || b.truncated[i] != 0).collect();
+            let done: Vec<bool> =
+                (0..4).map(|i| b.terminated[i] != 0 || b.truncated[i] != 0).collect();
             env.reset_done();
             count_plans(&env, &done);
         }
         assert!(ends > 0, "combination {bits:04b}: no episode ended");
         // each enabled reset path was taken, and a disabled one never
-        assert_eq!(plans[ResetPlan::Connect as usize] > 0, bits & 2 != 0, "combination {bits:04b}: plans {plans:?}");
-        assert_eq!(plans[ResetPlan::Switch as usize] > 0, bits & 4 != 0, "combination {bits:04b}: plans {plans:?}");
+        assert_eq!(
+            plans[ResetPlan::Connect as usize] > 0,
+            bits & 2 != 0,
+            "combination {bits:04b}: plans {plans:?}"
+        );
+        assert_eq!(
+            plans[ResetPlan::Switch as usize] > 0,
+            bits & 4 != 0,
+            "combination {bits:04b}: plans {plans:?}"
+        );
     }
     let _ = std::fs::remove_file(path);
 }

@@ -105,7 +105,11 @@ static RUN_LOCK: Mutex<()> = Mutex::new(());
 /// Fuzz `opts.target` for `opts.duration`.
 pub fn run(opts: &Options) -> Report {
     let _guard = RUN_LOCK.lock().unwrap_or_else(|e| e.into_inner());
-    let work = std::env::temp_dir().join(format!("skillmimic-fuzz-{}-{}", opts.target.name(), std::process::id()));
+    let work = std::env::temp_dir().join(format!(
+        "skillmimic-fuzz-{}-{}",
+        opts.target.name(),
+        std::process::id()
+    ));
     std::fs::create_dir_all(&work).expect("fuzz work folder");
     let input_path = work.join(opts.target.file_name());
     let mut corpus = opts.target.seeds(&work);
@@ -119,7 +123,8 @@ pub fn run(opts: &Options) -> Report {
     let t0 = Instant::now();
     let watchdog = {
         let (started_ms, done) = (started_ms.clone(), done.clone());
-        let (input_path, dir, target, hang) = (input_path.clone(), opts.findings_dir.clone(), opts.target, opts.time_limit * 10);
+        let (input_path, dir, target, hang) =
+            (input_path.clone(), opts.findings_dir.clone(), opts.target, opts.time_limit * 10);
         std::thread::spawn(move || {
             while !done.load(Ordering::Relaxed) {
                 std::thread::sleep(Duration::from_millis(100));
@@ -127,7 +132,11 @@ pub fn run(opts: &Options) -> Report {
                 if s > 0 && t0.elapsed().as_millis() as u64 > s + hang.as_millis() as u64 {
                     let input = std::fs::read(&input_path).unwrap_or_default();
                     let p = save(&dir, target, 0, &input);
-                    eprintln!("FINDING [{}] hang: an input ran longer than {hang:?}; saved to {}", target.name(), p.display());
+                    eprintln!(
+                        "FINDING [{}] hang: an input ran longer than {hang:?}; saved to {}",
+                        target.name(),
+                        p.display()
+                    );
                     std::process::exit(3);
                 }
             }
@@ -150,7 +159,10 @@ pub fn run(opts: &Options) -> Report {
             match structured {
                 Some(m) => input = m,
                 None if opts.target == Target::Config && rng.random_bool(0.5) => {
-                    if let Some(t) = std::str::from_utf8(&input).ok().and_then(|t| mutate::replace_value(&mut rng, t)) {
+                    if let Some(t) = std::str::from_utf8(&input)
+                        .ok()
+                        .and_then(|t| mutate::replace_value(&mut rng, t))
+                    {
                         input = t.into_bytes();
                     }
                 }
@@ -161,14 +173,17 @@ pub fn run(opts: &Options) -> Report {
         LARGEST.store(0, Ordering::Relaxed);
         started_ms.store(t0.elapsed().as_millis() as u64 + 1, Ordering::Relaxed);
         let t = Instant::now();
-        let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| opts.target.run(&input_path)));
+        let outcome =
+            std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| opts.target.run(&input_path)));
         let took = t.elapsed();
         started_ms.store(0, Ordering::Relaxed);
         let largest = LARGEST.load(Ordering::Relaxed);
         report.executions += 1;
         let problem = match &outcome {
             Err(p) => Some(format!("panic: {}", skillmimic_core::panic_message(&**p))),
-            Ok(_) if took > opts.time_limit => Some(format!("slow: {took:?} (limit {:?})", opts.time_limit)),
+            Ok(_) if took > opts.time_limit => {
+                Some(format!("slow: {took:?} (limit {:?})", opts.time_limit))
+            }
             Ok(_) if largest > ALLOC_LIMIT => Some(format!("allocation of {largest} bytes")),
             Ok(_) => None,
         };
@@ -189,7 +204,14 @@ pub fn run(opts: &Options) -> Report {
         }
         if opts.progress_every > 0 && last_progress.elapsed().as_secs() >= opts.progress_every {
             last_progress = Instant::now();
-            eprintln!("[{}] {} executions, {} error kinds, corpus {}, {} findings", opts.target.name(), report.executions, kinds.len(), corpus.len(), report.findings.len());
+            eprintln!(
+                "[{}] {} executions, {} error kinds, corpus {}, {} findings",
+                opts.target.name(),
+                report.executions,
+                kinds.len(),
+                corpus.len(),
+                report.findings.len()
+            );
         }
     }
     std::panic::set_hook(previous_hook);

@@ -7,13 +7,16 @@ use std::time::Duration;
 use skillmimic_fuzz::{Options, Target, run, targets::ALL};
 
 fn usage() -> ! {
-    eprintln!("usage: skillmimic-fuzz --target pt|clip|checkpoint|config|all [--seconds N (60)] [--seed S (0)] [--time-limit-ms MS (1000)] [--findings DIR (fuzz-findings)]");
+    eprintln!(
+        "usage: skillmimic-fuzz --target pt|clip|checkpoint|config|all [--seconds N (60)] [--seed S (0)] [--time-limit-ms MS (1000)] [--findings DIR (fuzz-findings)]"
+    );
     std::process::exit(2)
 }
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let (mut target, mut seconds, mut seed, mut limit_ms, mut findings) = (None, 60.0, 0u64, 1000u64, "fuzz-findings".to_string());
+    let (mut target, mut seconds, mut seed, mut limit_ms, mut findings) =
+        (None, 60.0, 0u64, 1000u64, "fuzz-findings".to_string());
     let mut k = 0;
     while k < args.len() {
         let value = args.get(k + 1).cloned().unwrap_or_else(|| usage());

@@ -10,11 +10,45 @@ use rand::Rng;
 use rand::seq::IndexedRandom;
 
 /// Integers that break size arithmetic: 0, −1, 2^31, 2^32, 2^62, 2^63 − 1, u64::MAX, …
-pub const INTERESTING: &[u64] = &[0, 1, u64::MAX, 0x7f, 0x80, 0xff, 0xffff, 1 << 31, (1 << 31) - 1, 1 << 32, 1 << 62, i64::MAX as u64, 1 << 63];
+pub const INTERESTING: &[u64] = &[
+    0,
+    1,
+    u64::MAX,
+    0x7f,
+    0x80,
+    0xff,
+    0xffff,
+    1 << 31,
+    (1 << 31) - 1,
+    1 << 32,
+    1 << 62,
+    i64::MAX as u64,
+    1 << 63,
+];
 /// Textual values for JSON/TOML numbers.
 const INTERESTING_TEXT: &[&str] = &[
-    "0", "-1", "1", "2147483648", "4294967296", "4611686018427387904", "9223372036854775807", "18446744073709551615",
-    "1e308", "1e309", "-1e308", "nan", "inf", "-inf", "0.0", "-0.0", "1e-320", "100000", "\"x\"", "[]", "{}", "true",
+    "0",
+    "-1",
+    "1",
+    "2147483648",
+    "4294967296",
+    "4611686018427387904",
+    "9223372036854775807",
+    "18446744073709551615",
+    "1e308",
+    "1e309",
+    "-1e308",
+    "nan",
+    "inf",
+    "-inf",
+    "0.0",
+    "-0.0",
+    "1e-320",
+    "100000",
+    "\"x\"",
+    "[]",
+    "{}",
+    "true",
 ];
 
 fn random_bytes(r: &mut impl Rng, n: usize) -> Vec<u8> {
@@ -112,7 +146,8 @@ pub fn unzip(data: &[u8]) -> Option<Vec<(String, Vec<u8>)>> {
 /// A stored (uncompressed) zip of `entries`, CRCs correct.
 pub fn rezip(entries: &[(String, Vec<u8>)]) -> Vec<u8> {
     let mut z = zip::ZipWriter::new(std::io::Cursor::new(Vec::new()));
-    let o = zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Stored);
+    let o =
+        zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Stored);
     for (name, bytes) in entries {
         if z.start_file(name.as_str(), o).is_ok() {
             let _ = z.write_all(bytes);
@@ -139,7 +174,8 @@ pub fn zip_inner(r: &mut impl Rng, data: &[u8], other: &[u8]) -> Option<Vec<u8>>
         let run = pickle_run(r);
         target.splice(at..at, run);
     } else {
-        let other_inner = unzip(other).and_then(|e| e.into_iter().nth(k)).map(|e| e.1).unwrap_or_default();
+        let other_inner =
+            unzip(other).and_then(|e| e.into_iter().nth(k)).map(|e| e.1).unwrap_or_default();
         for _ in 0..r.random_range(1..4) {
             raw(r, target, &other_inner);
         }
@@ -165,15 +201,26 @@ pub fn safetensors_header(r: &mut impl Rng, data: &[u8]) -> Option<Vec<u8>> {
 /// `text` with one number or quoted value replaced by an interesting one.
 pub fn replace_value(r: &mut impl Rng, text: &str) -> Option<String> {
     let b = text.as_bytes();
-    let starts: Vec<usize> = (0..b.len()).filter(|&i| (b[i].is_ascii_digit() || b[i] == b'"') && (i == 0 || !b[i - 1].is_ascii_alphanumeric())).collect();
+    let starts: Vec<usize> = (0..b.len())
+        .filter(|&i| {
+            (b[i].is_ascii_digit() || b[i] == b'"') && (i == 0 || !b[i - 1].is_ascii_alphanumeric())
+        })
+        .collect();
     let &s = starts.choose(r)?;
     let e = if b[s] == b'"' {
         s + 1 + b[s + 1..].iter().position(|&c| c == b'"')? + 1
     } else {
-        s + b[s..].iter().position(|c| !(c.is_ascii_digit() || b".eE+-_".contains(c))).unwrap_or(b.len() - s)
+        s + b[s..]
+            .iter()
+            .position(|c| !(c.is_ascii_digit() || b".eE+-_".contains(c)))
+            .unwrap_or(b.len() - s)
     };
     let value = *INTERESTING_TEXT.choose(r)?;
     // inside a JSON string (metadata values), keep the quotes
-    let value = if b[s] == b'"' && r.random_bool(0.5) { format!("\"{}\"", value.trim_matches('"')) } else { value.to_string() };
+    let value = if b[s] == b'"' && r.random_bool(0.5) {
+        format!("\"{}\"", value.trim_matches('"'))
+    } else {
+        value.to_string()
+    };
     Some(format!("{}{}{}", &text[..s], value, &text[e..]))
 }

@@ -30,7 +30,8 @@ pub enum Target {
 }
 
 /// All targets, in the order `--target all` runs them.
-pub const ALL: [Target; 6] = [Target::Pt, Target::Clip, Target::Checkpoint, Target::Config, Target::Bvh, Target::Positions];
+pub const ALL: [Target; 6] =
+    [Target::Pt, Target::Clip, Target::Checkpoint, Target::Config, Target::Bvh, Target::Positions];
 
 impl Target {
     /// The target's command-line name.
@@ -88,12 +89,26 @@ impl Target {
                 let mut out = Vec::new();
                 for (obs, act) in [(6, 2), (3, 1)] {
                     let policy = skillmimic_learn::policy::Policy::new(obs, act, &cfg, &mut rng);
-                    let sizes: Vec<usize> = policy.actor.params().iter().chain(policy.critic.params().iter()).map(|x| x.len()).collect();
+                    let sizes: Vec<usize> = policy
+                        .actor
+                        .params()
+                        .iter()
+                        .chain(policy.critic.params().iter())
+                        .map(|x| x.len())
+                        .collect();
                     let adam = skillmimic_learn::adam::Adam::new(&sizes, 1e-3, 1e-8);
                     let config = TrainConfig::preset("tiny").expect("preset").to_toml();
-                    checkpoint::save(&p, &policy, Some(&adam), &Progress { iteration: 2, samples: 64 }, &config).expect("seed checkpoint");
+                    checkpoint::save(
+                        &p,
+                        &policy,
+                        Some(&adam),
+                        &Progress { iteration: 2, samples: 64 },
+                        &config,
+                    )
+                    .expect("seed checkpoint");
                     out.push(file(&p));
-                    checkpoint::save(&p, &policy, None, &Progress::default(), "").expect("seed checkpoint");
+                    checkpoint::save(&p, &policy, None, &Progress::default(), "")
+                        .expect("seed checkpoint");
                     out.push(file(&p));
                 }
                 out
@@ -112,10 +127,13 @@ impl Target {
         match self {
             Target::Pt => Clip::from_pt(path).map(drop).map_err(|e| e.to_string()),
             Target::Clip => Clip::load(path).map(drop).map_err(|e| e.to_string()),
-            Target::Checkpoint => checkpoint::load_with_config(path).map(drop).map_err(|e| e.to_string()),
+            Target::Checkpoint => {
+                checkpoint::load_with_config(path).map(drop).map_err(|e| e.to_string())
+            }
             Target::Config => {
                 let text = std::fs::read_to_string(path).map_err(|e| e.to_string())?;
-                let cfg = TrainConfig::from_toml_over(&TrainConfig::default(), &text, path).map_err(|e| e.to_string())?;
+                let cfg = TrainConfig::from_toml_over(&TrainConfig::default(), &text, path)
+                    .map_err(|e| e.to_string())?;
                 cfg.validate().map_err(|e| e.to_string())
             }
             Target::Bvh => {
@@ -124,16 +142,53 @@ impl Target {
                 for f in 0..b.frames {
                     let _ = b.pose(f);
                 }
-                let map = retarget_bvh::JointMap { up: "y".into(), yaw_deg: 0.0, scale: Some(0.01), bodies: [("Pelvis".to_string(), "Hips".to_string())].into() };
-                let m = retarget_bvh::retarget(&b, &map, &retarget_bvh::Options::default()).map_err(|e| e.to_string())?;
-                retarget_clip::to_clip(&m, "fuzz", "fuzz", 10, &retarget_clip::Ball::None, b.frame_time, path).map(drop).map_err(|e| e.to_string())
+                let map = retarget_bvh::JointMap {
+                    up: "y".into(),
+                    yaw_deg: 0.0,
+                    scale: Some(0.01),
+                    bodies: [("Pelvis".to_string(), "Hips".to_string())].into(),
+                };
+                let m = retarget_bvh::retarget(&b, &map, &retarget_bvh::Options::default())
+                    .map_err(|e| e.to_string())?;
+                retarget_clip::to_clip(
+                    &m,
+                    "fuzz",
+                    "fuzz",
+                    10,
+                    &retarget_clip::Ball::None,
+                    b.frame_time,
+                    path,
+                )
+                .map(drop)
+                .map_err(|e| e.to_string())
             }
             Target::Positions => {
                 use skillmimic_motion::{retarget_bvh, retarget_clip, retarget_positions};
-                let src = retarget_positions::JointPositions::read_csv(path, 30.0).map_err(|e| e.to_string())?;
-                let map = retarget_bvh::JointMap { up: "y".into(), yaw_deg: 0.0, scale: Some(0.01), bodies: LEGS.iter().map(|n| (n.to_string(), n.to_string())).collect() };
-                let m = retarget_positions::retarget_positions(&src, &map, &retarget_bvh::Options { ik: true, ..Default::default() }).map_err(|e| e.to_string())?;
-                retarget_clip::to_clip(&m, "fuzz", "fuzz", 10, &retarget_clip::Ball::None, 1.0 / 30.0, path).map(drop).map_err(|e| e.to_string())
+                let src = retarget_positions::JointPositions::read_csv(path, 30.0)
+                    .map_err(|e| e.to_string())?;
+                let map = retarget_bvh::JointMap {
+                    up: "y".into(),
+                    yaw_deg: 0.0,
+                    scale: Some(0.01),
+                    bodies: LEGS.iter().map(|n| (n.to_string(), n.to_string())).collect(),
+                };
+                let m = retarget_positions::retarget_positions(
+                    &src,
+                    &map,
+                    &retarget_bvh::Options { ik: true, ..Default::default() },
+                )
+                .map_err(|e| e.to_string())?;
+                retarget_clip::to_clip(
+                    &m,
+                    "fuzz",
+                    "fuzz",
+                    10,
+                    &retarget_clip::Ball::None,
+                    1.0 / 30.0,
+                    path,
+                )
+                .map(drop)
+                .map_err(|e| e.to_string())
             }
         }
     }
@@ -145,14 +200,23 @@ const LEGS: [&str; 7] = ["Pelvis", "L_Hip", "L_Knee", "L_Ankle", "R_Hip", "R_Kne
 /// A small valid positions CSV: the humanoid's rest legs (centimetres), three frames walking +z.
 fn positions_seed() -> String {
     use skillmimic_core::skeleton;
-    let rest = skeleton::forward_kinematics([0.0, 95.0, 0.0], skillmimic_core::math::Quat::IDENTITY, &[0.0; skeleton::NUM_DOFS]);
-    let mut text: String = LEGS.iter().flat_map(|n| ["x", "y", "z"].map(|a| format!("{n}_{a}"))).collect::<Vec<_>>().join(",");
+    let rest = skeleton::forward_kinematics(
+        [0.0, 95.0, 0.0],
+        skillmimic_core::math::Quat::IDENTITY,
+        &[0.0; skeleton::NUM_DOFS],
+    );
+    let mut text: String = LEGS
+        .iter()
+        .flat_map(|n| ["x", "y", "z"].map(|a| format!("{n}_{a}")))
+        .collect::<Vec<_>>()
+        .join(",");
     for f in 0..3 {
         let row: Vec<String> = LEGS
             .iter()
             .flat_map(|n| {
                 let p = rest[skeleton::body_index(n).expect("leg body")];
-                [100.0 * p[0], p[1] + 99.0 * (p[1] - 95.0), 100.0 * p[2] + 5.0 * f as f64].map(|x| format!("{x:.3}"))
+                [100.0 * p[0], p[1] + 99.0 * (p[1] - 95.0), 100.0 * p[2] + 5.0 * f as f64]
+                    .map(|x| format!("{x:.3}"))
             })
             .collect();
         text.push('\n');
@@ -168,7 +232,15 @@ const BVH_SEED: &str = "HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n  CHANNELS 6 Xp
 fn trim(c: &mut Clip, t: usize) {
     let n = c.num_frames.max(1);
     let cut = |v: &mut Vec<f32>| v.truncate(v.len() / n * t);
-    for v in [&mut c.root_pos, &mut c.root_rot, &mut c.dof_rot, &mut c.body_pos, &mut c.ball_pos, &mut c.ball_rot, &mut c.contact] {
+    for v in [
+        &mut c.root_pos,
+        &mut c.root_rot,
+        &mut c.dof_rot,
+        &mut c.body_pos,
+        &mut c.ball_pos,
+        &mut c.ball_rot,
+        &mut c.contact,
+    ] {
         cut(v);
     }
     c.num_frames = t;

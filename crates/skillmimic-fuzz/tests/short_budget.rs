@@ -15,7 +15,14 @@ fn fuzz(target: Target) {
         progress_every: 0,
     };
     let r = run(&opts);
-    println!("{}: {} executions, {} accepted, {} error kinds, corpus {}", target.name(), r.executions, r.accepted, r.error_kinds, r.corpus);
+    println!(
+        "{}: {} executions, {} accepted, {} error kinds, corpus {}",
+        target.name(),
+        r.executions,
+        r.accepted,
+        r.error_kinds,
+        r.corpus
+    );
     assert!(r.findings.is_empty(), "findings: {:#?}", r.findings);
     assert!(r.executions > 50, "only {} executions", r.executions);
     assert!(r.error_kinds >= 3, "the mutations reach only {} kinds of error", r.error_kinds);

@@ -59,7 +59,12 @@ pub fn evaluate_clip(policy: &Policy, cfg: &TrainConfig, path: &Path) -> Result<
     e.tracking.clip_weights.clear();
     let mut env = skillmimic_env::registry::make(&e)?;
     env.reset_all(Some(0));
-    let (mut buf, mut mu, mut v, mut a) = (InferenceBuffers::default(), vec![0.0; policy.actor_outputs()], vec![0.0], vec![0.0; env.act_dim()]);
+    let (mut buf, mut mu, mut v, mut a) = (
+        InferenceBuffers::default(),
+        vec![0.0; policy.actor_outputs()],
+        vec![0.0],
+        vec![0.0; env.act_dim()],
+    );
     for _ in 0..=env.spec().max_episode_steps {
         policy.infer(&env.buffers().obs, 1, &mut buf, &mut mu, &mut v, 1);
         policy.mode(&mu, 1, &mut a);
@@ -74,10 +79,17 @@ pub fn evaluate_clip(policy: &Policy, cfg: &TrainConfig, path: &Path) -> Result<
 }
 
 /// The motion prior's score of a clip: mean of sigmoid(D) over its windows (module doc).
-pub fn disc_score(disc: &mut Discriminator, clip: &Clip, cfg: &TrainConfig) -> Result<f64, LearnError> {
+pub fn disc_score(
+    disc: &mut Discriminator,
+    clip: &Clip,
+    cfg: &TrainConfig,
+) -> Result<f64, LearnError> {
     let cfg_err = |e: String| LearnError::Config(format!("scoring clip '{}': {e}", clip.name));
     let lib = MotionLibrary::from_clips(vec![clip.clone()]).map_err(|e| cfg_err(e.to_string()))?;
-    let scene = Arc::new(Scene::new(cfg.env.scene_options().map_err(|e| cfg_err(e.to_string()))?).map_err(|e| cfg_err(e.to_string()))?);
+    let scene = Arc::new(
+        Scene::new(cfg.env.scene_options().map_err(|e| cfg_err(e.to_string()))?)
+            .map_err(|e| cfg_err(e.to_string()))?,
+    );
     let feats = clip_features(scene, &lib).map_err(|e| cfg_err(e.to_string()))?.remove(0);
     let (k, t) = (cfg.ppo.amp.window, clip.num_frames);
     let ends: Vec<usize> = if t >= k { (k - 1..t).collect() } else { vec![t - 1] };
@@ -91,7 +103,14 @@ pub fn disc_score(disc: &mut Discriminator, clip: &Clip, cfg: &TrainConfig) -> R
 
 /// One round over the clips of `cfg.env.motion` (see the module doc); `disc` = the run's motion
 /// prior (needed when `a.disc_score_min` > 0).
-pub fn round(policy: &Policy, cfg: &TrainConfig, generator: &mut dyn Generator, a: &ActiveConfig, mut disc: Option<&mut Discriminator>, rng: &mut dyn RngCore) -> Result<RoundReport, LearnError> {
+pub fn round(
+    policy: &Policy,
+    cfg: &TrainConfig,
+    generator: &mut dyn Generator,
+    a: &ActiveConfig,
+    mut disc: Option<&mut Discriminator>,
+    rng: &mut dyn RngCore,
+) -> Result<RoundReport, LearnError> {
     if a.disc_score_min > 0.0 && disc.is_none() {
         return Err(LearnError::Config("config field 'run.active.disc_score_min': the discriminator filter needs the motion prior (--set ppo.amp.enabled=true)".into()));
     }
@@ -99,10 +118,15 @@ pub fn round(policy: &Policy, cfg: &TrainConfig, generator: &mut dyn Generator, 
     for p in cfg.env.motion.iter().filter(|p| p.as_os_str() != skillmimic_env::BUILTIN_DEMO) {
         files.extend(find_clip_files(p).map_err(|e| LearnError::Config(e.to_string()))?);
     }
-    let clips: Vec<Clip> = files.iter().map(|f| Clip::load_any(f)).collect::<Result<_, _>>().map_err(|e| LearnError::Config(e.to_string()))?;
+    let clips: Vec<Clip> = files
+        .iter()
+        .map(|f| Clip::load_any(f))
+        .collect::<Result<_, _>>()
+        .map_err(|e| LearnError::Config(e.to_string()))?;
     let dir = cfg.run.out_dir.join("generated");
     std::fs::create_dir_all(&dir).map_err(io(&dir))?;
-    let mut r = RoundReport { clip_weights: cfg.env.tracking.clip_weights.clone(), ..Default::default() };
+    let mut r =
+        RoundReport { clip_weights: cfg.env.tracking.clip_weights.clone(), ..Default::default() };
     for (c, path) in clips.iter().zip(&files) {
         r.evaluated += 1;
         if evaluate_clip(policy, cfg, path)? {
@@ -110,16 +134,26 @@ pub fn round(policy: &Policy, cfg: &TrainConfig, generator: &mut dyn Generator, 
         }
         r.failed.push(c.name.clone());
         *r.clip_weights.entry(c.name.clone()).or_insert(1.0) *= a.failure_weight;
-        let made = generator.generate(c, &clips, rng).map_err(|e| LearnError::Config(e.to_string()))?;
-        tracing::info!("active learning: '{}' failed; {} made {} clip(s)", c.name, generator.name(), made.len());
+        let made =
+            generator.generate(c, &clips, rng).map_err(|e| LearnError::Config(e.to_string()))?;
+        tracing::info!(
+            "active learning: '{}' failed; {} made {} clip(s)",
+            c.name,
+            generator.name(),
+            made.len()
+        );
         for g in made {
-            let mut verdict = check_validity(&g, a.floor_tol, a.max_joint_speed).map_err(|why| why.to_string());
+            let mut verdict =
+                check_validity(&g, a.floor_tol, a.max_joint_speed).map_err(|why| why.to_string());
             if let (Ok(()), Some(d)) = (&verdict, disc.as_deref_mut())
                 && a.disc_score_min > 0.0
             {
                 let score = disc_score(d, &g, cfg)?;
                 if score < a.disc_score_min {
-                    verdict = Err(format!("clip '{}': motion-prior score {score:.3} is below run.active.disc_score_min = {}", g.name, a.disc_score_min));
+                    verdict = Err(format!(
+                        "clip '{}': motion-prior score {score:.3} is below run.active.disc_score_min = {}",
+                        g.name, a.disc_score_min
+                    ));
                 }
             }
             match verdict {
@@ -141,7 +175,11 @@ pub fn round(policy: &Policy, cfg: &TrainConfig, generator: &mut dyn Generator, 
 /// The generator named by `run.active` (`work_dir`: the external command's scratch folder).
 pub fn generator(a: &ActiveConfig, work_dir: &Path) -> Box<dyn Generator> {
     match a.generator.as_str() {
-        "command" => Box::new(ExternalCommand::new(PathBuf::from(&a.command[0]), a.command[1..].to_vec(), work_dir.to_path_buf())),
+        "command" => Box::new(ExternalCommand::new(
+            PathBuf::from(&a.command[0]),
+            a.command[1..].to_vec(),
+            work_dir.to_path_buf(),
+        )),
         name => match skillmimic_motion::generate::registered(name) {
             Some(factory) => factory(work_dir),
             None => Box::new(ModelFree::default()),
@@ -155,15 +193,26 @@ pub fn train_round(t: &mut Trainer) -> Result<RoundReport, LearnError> {
     let a = t.cfg.run.active.clone();
     let out = t.cfg.run.out_dir.clone();
     let mut g = generator(&a, &out.join("generator_work"));
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(t.cfg.run.seed ^ t.progress.iteration.wrapping_mul(0x9e37_79b9_7f4a_7c15));
-    let report = round(&t.policy, &t.cfg, g.as_mut(), &a, t.amp.as_mut().map(|x| x.disc_mut()), &mut rng)?;
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(
+        t.cfg.run.seed ^ t.progress.iteration.wrapping_mul(0x9e37_79b9_7f4a_7c15),
+    );
+    let report =
+        round(&t.policy, &t.cfg, g.as_mut(), &a, t.amp.as_mut().map(|x| x.disc_mut()), &mut rng)?;
     apply(t, &report)?;
     let path = out.join("active.jsonl");
     let line = serde_json::json!({"iteration": t.progress.iteration, "report": &report});
     use std::io::Write;
-    let mut f = std::fs::OpenOptions::new().create(true).append(true).open(&path).map_err(io(&path))?;
+    let mut f =
+        std::fs::OpenOptions::new().create(true).append(true).open(&path).map_err(io(&path))?;
     writeln!(f, "{line}").map_err(io(&path))?;
-    tracing::info!("active learning at iteration {}: {} clips evaluated, {} failed, {} generated clips joined, {} rejected", t.progress.iteration, report.evaluated, report.failed.len(), report.accepted.len(), report.rejected.len());
+    tracing::info!(
+        "active learning at iteration {}: {} clips evaluated, {} failed, {} generated clips joined, {} rejected",
+        t.progress.iteration,
+        report.evaluated,
+        report.failed.len(),
+        report.accepted.len(),
+        report.rejected.len()
+    );
     Ok(report)
 }
 

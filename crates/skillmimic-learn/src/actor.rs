@@ -1,6 +1,7 @@
 //! The actor network of a policy: an MLP (every `*_mlp` family), ModSkill's modular attention
-//! network (`modular_attention`) or TokenHSI's token transformer (`token_transformer*`). One interface for inference, the candle gradient graph, the
-//! optimiser's parameter list and the checkpoint names.
+//! network (`modular_attention`) or TokenHSI's token transformer (`token_transformer*`). One
+//! interface for inference, the candle gradient graph, the optimiser's parameter list and the
+//! checkpoint names.
 
 use candle_core::{Device, Tensor, Var};
 use skillmimic_nn::mlp::{Mlp, Workspace};
@@ -83,7 +84,13 @@ impl ActorNet {
         }
     }
     /// Batched inference of `n` normalised observation rows; returns `n × output_dim`.
-    pub fn forward_into<'w>(&self, x: &[f32], n: usize, ws: &'w mut ActorWorkspace, threads: usize) -> &'w [f32] {
+    pub fn forward_into<'w>(
+        &self,
+        x: &[f32],
+        n: usize,
+        ws: &'w mut ActorWorkspace,
+        threads: usize,
+    ) -> &'w [f32] {
         match self {
             ActorNet::Mlp(m) => m.forward_into(x, n, &mut ws.mlp, threads),
             ActorNet::Modular(m) => m.forward_into(x, n, &mut ws.modular, threads),

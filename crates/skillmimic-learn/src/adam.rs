@@ -46,15 +46,17 @@ impl Adam {
         let eps = self.eps as f32;
         for (i, p) in params.iter_mut().enumerate() {
             let (m, v, g) = (&mut self.m[i], &mut self.v[i], &grads[i]);
-            p.par_chunks_mut(4096).zip(m.par_chunks_mut(4096)).zip(v.par_chunks_mut(4096)).zip(g.par_chunks(4096)).for_each(
-                |(((p, m), v), g)| {
+            p.par_chunks_mut(4096)
+                .zip(m.par_chunks_mut(4096))
+                .zip(v.par_chunks_mut(4096))
+                .zip(g.par_chunks(4096))
+                .for_each(|(((p, m), v), g)| {
                     for k in 0..p.len() {
                         m[k] = b1 * m[k] + (1.0 - b1) * g[k];
                         v[k] = b2 * v[k] + (1.0 - b2) * g[k] * g[k];
                         p[k] -= step_size * m[k] / (v[k].sqrt() / sqrt_bc2 + eps);
                     }
-                },
-            );
+                });
         }
     }
 }

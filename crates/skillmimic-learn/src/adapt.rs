@@ -29,22 +29,47 @@ use crate::policy::Policy;
 
 /// Replace `policy`'s actor (freshly built for the new task's layout) by the base checkpoint
 /// `from`, frozen and extended; see the module doc. `rng` draws the new tokenizers.
-pub fn adapt(policy: &mut Policy, from: &Path, gate: bool, rng: &mut dyn RngCore) -> Result<(), LearnError> {
+pub fn adapt(
+    policy: &mut Policy,
+    from: &Path,
+    gate: bool,
+    rng: &mut dyn RngCore,
+) -> Result<(), LearnError> {
     let err = |m: String| bad_checkpoint(from)(format!("{}: {m}", from.display()));
     let base = checkpoint::load(from, None)?.policy;
     let (ActorNet::Token(old), ActorNet::Token(new)) = (&base.actor, &policy.actor) else {
-        return Err(err(format!("policy adaptation needs a token transformer checkpoint and ppo.policy = \"token_transformer\"; the checkpoint's policy is '{}'", base.family.name())));
+        return Err(err(format!(
+            "policy adaptation needs a token transformer checkpoint and ppo.policy = \"token_transformer\"; the checkpoint's policy is '{}'",
+            base.family.name()
+        )));
     };
     if base.family.name() != policy.family.name() || base.space != policy.space {
-        return Err(err(format!("the checkpoint's policy '{}' over {:?} differs from this run's '{}' over {:?}", base.family.name(), base.space, policy.family.name(), policy.space)));
+        return Err(err(format!(
+            "the checkpoint's policy '{}' over {:?} differs from this run's '{}' over {:?}",
+            base.family.name(),
+            base.space,
+            policy.family.name(),
+            policy.space
+        )));
     }
     let (g0, g1) = (&old.spec.groups, &new.spec.groups);
     if g1.len() <= g0.len() || g1[..g0.len()] != g0[..] {
-        return Err(err(format!("the task's observation groups {g1:?} must start with the checkpoint's {g0:?} and add at least one new group (set env.multi.groups to the old groups followed by the new task's)")));
+        return Err(err(format!(
+            "the task's observation groups {g1:?} must start with the checkpoint's {g0:?} and add at least one new group (set env.multi.groups to the old groups followed by the new task's)"
+        )));
     }
     // the new groups' mask entries switch the adapters on (group g ≥ 1 is mask entry g − 1)
-    let adapter_gate = if gate && new.spec.mask > 0 { (g0.len() - 1..g1.len() - 1).collect() } else { Vec::new() };
-    let mut spec = TokenSpec { groups: g1.clone(), mask: new.spec.mask, adapters: true, adapter_gate, frozen: old.tensors.iter().map(|t| t.name.clone()).collect(), frozen_obs: Vec::new(), ..old.spec.clone() };
+    let adapter_gate =
+        if gate && new.spec.mask > 0 { (g0.len() - 1..g1.len() - 1).collect() } else { Vec::new() };
+    let mut spec = TokenSpec {
+        groups: g1.clone(),
+        mask: new.spec.mask,
+        adapters: true,
+        adapter_gate,
+        frozen: old.tensors.iter().map(|t| t.name.clone()).collect(),
+        frozen_obs: Vec::new(),
+        ..old.spec.clone()
+    };
     let old_cols = old.spec.obs_dim() - old.spec.mask;
     spec.frozen_obs = (0..old_cols).collect();
     let mut net = TokenTransformer::new(spec, old.act_dim, rng).map_err(err)?;

@@ -63,7 +63,14 @@ impl Discriminator {
         let mlp = Mlp::new(&dims, rng);
         let sizes: Vec<usize> = mlp.params().iter().map(|p| p.len()).collect();
         let adam = Adam::new(&sizes, cfg.lr, 1e-8);
-        Self { norm: RunningMeanStd::new(dim, 1e-5, 5.0), adam, mlp, cfg, ws: Workspace::default(), xn: Vec::new() }
+        Self {
+            norm: RunningMeanStd::new(dim, 1e-5, 5.0),
+            adam,
+            mlp,
+            cfg,
+            ws: Workspace::default(),
+            xn: Vec::new(),
+        }
     }
 
     /// Input width.
@@ -100,7 +107,13 @@ impl Discriminator {
 
     /// Loss and parameter gradients (in `mlp.params()` order) on *normalised* reference and
     /// simulated windows (`n_ref` and `n_sim` rows).
-    pub fn loss_and_grads(&self, x_ref: &[f32], n_ref: usize, x_sim: &[f32], n_sim: usize) -> Result<(DiscLoss, Vec<Vec<f32>>), LearnError> {
+    pub fn loss_and_grads(
+        &self,
+        x_ref: &[f32],
+        n_ref: usize,
+        x_sim: &[f32],
+        n_sim: usize,
+    ) -> Result<(DiscLoss, Vec<Vec<f32>>), LearnError> {
         let dev = Device::Cpu;
         let d = self.input_dim();
         let vars = self.mlp.candle_vars(&dev)?;
@@ -112,7 +125,9 @@ impl Discriminator {
             let mut h = xr.clone();
             let mut masks = Vec::new();
             for k in 0..layers {
-                let z = h.matmul(&vars[2 * k].as_tensor().t()?)?.broadcast_add(vars[2 * k + 1].as_tensor())?;
+                let z = h
+                    .matmul(&vars[2 * k].as_tensor().t()?)?
+                    .broadcast_add(vars[2 * k + 1].as_tensor())?;
                 if k + 1 < layers {
                     masks.push(z.gt(0.0)?.to_dtype(DType::F32)?.detach());
                     h = z.relu()?;
@@ -140,18 +155,33 @@ impl Discriminator {
                         // log(1 + e^t) = max(t, 0) + log(1 + e^(−|t|))
                         t.relu()? + (t.abs()?.neg()?.exp()? + 1.0)?.log()?
                     };
-                    (((softplus(&d_ref.neg()?)?.mean_all()? + softplus(&d_sim)?.mean_all()?)? * 0.5)?, self.cfg.grad_penalty)
+                    (
+                        ((softplus(&d_ref.neg()?)?.mean_all()?
+                            + softplus(&d_sim)?.mean_all()?)?
+                            * 0.5)?,
+                        self.cfg.grad_penalty,
+                    )
                 }
-                AmpLoss::LeastSquares => (((d_ref.clone() - 1.0)?.sqr()?.mean_all()? + (d_sim.clone() + 1.0)?.sqr()?.mean_all()?)?, 0.5 * self.cfg.grad_penalty),
+                AmpLoss::LeastSquares => (
+                    ((d_ref.clone() - 1.0)?.sqr()?.mean_all()?
+                        + (d_sim.clone() + 1.0)?.sqr()?.mean_all()?)?,
+                    0.5 * self.cfg.grad_penalty,
+                ),
             };
             let total = ((&adv + (&gp * gp_w)?)? + (&reg * self.cfg.logit_reg)?)?;
             let gs = total.backward()?;
             let mut grads = Vec::with_capacity(vars.len());
             for v in &vars {
-                let gr = gs.get(v).map(|t| t.flatten_all()?.to_vec1::<f32>()).transpose()?.unwrap_or_else(|| vec![0.0; v.elem_count()]);
+                let gr = gs
+                    .get(v)
+                    .map(|t| t.flatten_all()?.to_vec1::<f32>())
+                    .transpose()?
+                    .unwrap_or_else(|| vec![0.0; v.elem_count()]);
                 grads.push(gr);
             }
-            let s = |t: &Tensor| -> candle_core::Result<f64> { t.to_dtype(DType::F64)?.to_scalar::<f64>() };
+            let s = |t: &Tensor| -> candle_core::Result<f64> {
+                t.to_dtype(DType::F64)?.to_scalar::<f64>()
+            };
             let loss = DiscLoss {
                 adversarial: s(&adv)?,
                 grad_penalty: s(&gp)?,
@@ -167,7 +197,13 @@ impl Discriminator {
 
     /// One optimisation step on raw reference and simulated windows: update the normaliser with
     /// both, normalise, take the loss and gradients, Adam step. Returns the loss before the step.
-    pub fn update(&mut self, x_ref: &[f32], n_ref: usize, x_sim: &[f32], n_sim: usize) -> Result<DiscLoss, LearnError> {
+    pub fn update(
+        &mut self,
+        x_ref: &[f32],
+        n_ref: usize,
+        x_sim: &[f32],
+        n_sim: usize,
+    ) -> Result<DiscLoss, LearnError> {
         self.update_with(x_ref, n_ref, x_sim, n_sim, &mut crate::collective::Single)
     }
 
@@ -176,7 +212,14 @@ impl Discriminator {
     /// (reference windows, then simulated ones, as one process does), the gradients and the
     /// reported losses are averaged over the ranks — with equal shares, the step one process
     /// takes on the union of the windows. Replicas equal before the call stay equal.
-    pub fn update_with(&mut self, x_ref: &[f32], n_ref: usize, x_sim: &[f32], n_sim: usize, comm: &mut dyn crate::collective::Collective) -> Result<DiscLoss, LearnError> {
+    pub fn update_with(
+        &mut self,
+        x_ref: &[f32],
+        n_ref: usize,
+        x_sim: &[f32],
+        n_sim: usize,
+        comm: &mut dyn crate::collective::Collective,
+    ) -> Result<DiscLoss, LearnError> {
         let mut scratch = Vec::new();
         crate::collective::update_normalizer(&mut self.norm, x_ref, comm, &mut scratch)?;
         crate::collective::update_normalizer(&mut self.norm, x_sim, comm, &mut scratch)?;
@@ -196,10 +239,24 @@ impl Discriminator {
                 }
                 at += g.len();
             }
-            let mut l = [loss.adversarial, loss.grad_penalty, loss.logit_reg, loss.total, loss.mean_ref, loss.mean_sim];
+            let mut l = [
+                loss.adversarial,
+                loss.grad_penalty,
+                loss.logit_reg,
+                loss.total,
+                loss.mean_ref,
+                loss.mean_sim,
+            ];
             comm.all_reduce_f64(&mut l)?;
             let w = world as f64;
-            loss = DiscLoss { adversarial: l[0] / w, grad_penalty: l[1] / w, logit_reg: l[2] / w, total: l[3] / w, mean_ref: l[4] / w, mean_sim: l[5] / w };
+            loss = DiscLoss {
+                adversarial: l[0] / w,
+                grad_penalty: l[1] / w,
+                logit_reg: l[2] / w,
+                total: l[3] / w,
+                mean_ref: l[4] / w,
+                mean_sim: l[5] / w,
+            };
         }
         let mut params = self.mlp.params_mut();
         self.adam.update(&mut params, &grads);
@@ -207,7 +264,10 @@ impl Discriminator {
     }
 
     /// Copy rank 0's parameters, normaliser and Adam state into every rank.
-    pub fn broadcast(&mut self, comm: &mut dyn crate::collective::Collective) -> Result<(), LearnError> {
+    pub fn broadcast(
+        &mut self,
+        comm: &mut dyn crate::collective::Collective,
+    ) -> Result<(), LearnError> {
         for p in self.mlp.params_mut() {
             comm.broadcast_f32(p)?;
         }

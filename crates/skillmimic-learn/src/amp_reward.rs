@@ -30,8 +30,8 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use skillmimic_core::tensorfile::{OwnedTensor, TensorFile};
 use skillmimic_env::amp::{FEATURE_DIM, clip_features, frame_features, window_of};
-use skillmimic_env::tasks::hsi::style;
 use skillmimic_env::obs::layout;
+use skillmimic_env::tasks::hsi::style;
 use skillmimic_env::tasks::imitation::load_motion_library;
 use skillmimic_sim::Scene;
 
@@ -90,11 +90,23 @@ impl AmpReward {
     /// drives reference sampling, buffer choice and the discriminators' initialisation. `tasks`:
     /// the (task, environment rows) of a multi-task environment, one discriminator each (empty:
     /// one discriminator for all rows).
-    pub fn new(cfg: &TrainConfig, obs_dim: usize, n: usize, seed: u64, tasks: &[(String, std::ops::Range<usize>)]) -> Result<Self, LearnError> {
+    pub fn new(
+        cfg: &TrainConfig,
+        obs_dim: usize,
+        n: usize,
+        seed: u64,
+        tasks: &[(String, std::ops::Range<usize>)],
+    ) -> Result<Self, LearnError> {
         let a = cfg.ppo.amp.clone();
-        let groups: Vec<(String, std::ops::Range<usize>)> = if tasks.is_empty() { vec![(String::new(), 0..n)] } else { tasks.to_vec() };
-        let hsi = skillmimic_env::registry::character(&cfg.env.task) == Some(skillmimic_env::registry::Character::TokenHsi);
-        let (fdim, features): (usize, FrameFeatures) = if hsi { (style::STYLE_DIM, style::frame_features) } else { (FEATURE_DIM, frame_features) };
+        let groups: Vec<(String, std::ops::Range<usize>)> =
+            if tasks.is_empty() { vec![(String::new(), 0..n)] } else { tasks.to_vec() };
+        let hsi = skillmimic_env::registry::character(&cfg.env.task)
+            == Some(skillmimic_env::registry::Character::TokenHsi);
+        let (fdim, features): (usize, FrameFeatures) = if hsi {
+            (style::STYLE_DIM, style::frame_features)
+        } else {
+            (FEATURE_DIM, frame_features)
+        };
         let mut references = Vec::new();
         for (name, _) in &groups {
             references.push(if hsi {
@@ -116,7 +128,15 @@ impl AmpReward {
         let priors = groups
             .into_iter()
             .zip(references)
-            .map(|((name, rows), reference)| Prior { name, disc: Discriminator::new(width, a.clone(), &mut rng), rows, reference, buffer: vec![0.0; a.buffer * width], filled: 0, next: 0 })
+            .map(|((name, rows), reference)| Prior {
+                name,
+                disc: Discriminator::new(width, a.clone(), &mut rng),
+                rows,
+                reference,
+                buffer: vec![0.0; a.buffer * width],
+                filled: 0,
+                next: 0,
+            })
             .collect();
         Ok(Self {
             priors,
@@ -135,7 +155,14 @@ impl AmpReward {
 
     /// The prior of a training run when `ppo.amp.enabled` (restored from `resume` when that
     /// checkpoint holds one; in a data-parallel run rank 0 reads it and broadcasts).
-    pub fn for_run(cfg: &TrainConfig, obs_dim: usize, n: usize, tasks: &[(String, std::ops::Range<usize>)], comm: &mut dyn Collective, resume: Option<&std::path::Path>) -> Result<Option<Self>, LearnError> {
+    pub fn for_run(
+        cfg: &TrainConfig,
+        obs_dim: usize,
+        n: usize,
+        tasks: &[(String, std::ops::Range<usize>)],
+        comm: &mut dyn Collective,
+        resume: Option<&std::path::Path>,
+    ) -> Result<Option<Self>, LearnError> {
         if !cfg.ppo.amp.enabled {
             return Ok(None);
         }
@@ -143,7 +170,10 @@ impl AmpReward {
         let mut local = cfg.clone();
         if world > 1 {
             let a = &cfg.ppo.amp;
-            if !a.batch.is_multiple_of(world) || !a.buffer.is_multiple_of(world) || a.batch / world < 2 {
+            if !a.batch.is_multiple_of(world)
+                || !a.buffer.is_multiple_of(world)
+                || a.batch / world < 2
+            {
                 return Err(LearnError::Config(format!(
                     "config fields 'ppo.amp.batch' ({}) and 'ppo.amp.buffer' ({}): in a data-parallel run of {world} ranks both must be multiples of {world}, with at least 2 windows per rank",
                     a.batch, a.buffer
@@ -154,12 +184,19 @@ impl AmpReward {
         }
         let mut a = Self::new(&local, obs_dim, n, cfg.run.seed, tasks)?;
         if rank > 0 {
-            a.rng = ChaCha8Rng::seed_from_u64(crate::collective::mix_seed(cfg.run.seed ^ 0x616d_705f_7265_6621, rank as u64));
+            a.rng = ChaCha8Rng::seed_from_u64(crate::collective::mix_seed(
+                cfg.run.seed ^ 0x616d_705f_7265_6621,
+                rank as u64,
+            ));
         }
         if let Some(path) = resume.filter(|_| rank == 0) {
-            let f = TensorFile::open(path).map_err(|e| crate::error::bad_checkpoint(path)(e.to_string()))?;
+            let f = TensorFile::open(path)
+                .map_err(|e| crate::error::bad_checkpoint(path)(e.to_string()))?;
             if !a.load_from(&f).map_err(crate::error::bad_checkpoint(path))? {
-                tracing::warn!("{}: no motion-prior discriminator in the checkpoint; starting a fresh one", path.display());
+                tracing::warn!(
+                    "{}: no motion-prior discriminator in the checkpoint; starting a fresh one",
+                    path.display()
+                );
             }
         }
         if world > 1 {
@@ -207,7 +244,13 @@ impl AmpReward {
     /// After a step: push the new frames (`obs_after`: `n × d`), mix the style reward into
     /// `rewards` (in place) and keep some windows. `done[i]` = the episode ended in this step.
     /// Returns the sums over the environments of the task and the style reward.
-    pub fn after_step(&mut self, obs_after: &[f32], d: usize, done: &[u8], rewards: &mut [f32]) -> (f64, f64) {
+    pub fn after_step(
+        &mut self,
+        obs_after: &[f32],
+        d: usize,
+        done: &[u8],
+        rewards: &mut [f32],
+    ) -> (f64, f64) {
         let (w, n) = (self.width(), rewards.len());
         for i in 0..n {
             let ring = &mut self.rings[i * w..(i + 1) * w];
@@ -217,7 +260,11 @@ impl AmpReward {
         }
         for p in self.priors.iter_mut() {
             let r = p.rows.clone();
-            p.disc.style_reward_into(&self.rings[r.start * w..r.end * w], r.len(), &mut self.style[r.clone()]);
+            p.disc.style_reward_into(
+                &self.rings[r.start * w..r.end * w],
+                r.len(),
+                &mut self.style[r.clone()],
+            );
         }
         let (mut st, mut ss) = (0.0, 0.0);
         for (r, &s) in rewards.iter_mut().zip(&self.style) {
@@ -260,7 +307,13 @@ impl AmpReward {
                 for k in 0..b {
                     let c = self.rng.random_range(0..p.reference.len());
                     let end = self.rng.random_range(0..p.reference[c].len() / self.fdim);
-                    window_of(&p.reference[c], self.fdim, end, self.cfg.window, &mut xr[k * w..(k + 1) * w]);
+                    window_of(
+                        &p.reference[c],
+                        self.fdim,
+                        end,
+                        self.cfg.window,
+                        &mut xr[k * w..(k + 1) * w],
+                    );
                     let j = self.rng.random_range(0..p.filled);
                     xs[k * w..(k + 1) * w].copy_from_slice(&p.buffer[j * w..(j + 1) * w]);
                 }

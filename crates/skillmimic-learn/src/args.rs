@@ -50,7 +50,11 @@ fn task_help() -> String {
 /// `--policy` help: every policy family.
 fn policy_help() -> String {
     let names: Vec<&str> = crate::policies::FAMILIES.iter().map(|f| f.name()).collect();
-    format!("Policy family (`ppo.policy`): {} (default {})", names.join(", "), crate::config::DEFAULT_FAMILY)
+    format!(
+        "Policy family (`ppo.policy`): {} (default {})",
+        names.join(", "),
+        crate::config::DEFAULT_FAMILY
+    )
 }
 
 impl ConfigFlags {
@@ -76,7 +80,9 @@ impl ConfigFlags {
         }
         // a high-level task with the default (Gaussian) family: the high-level controller's
         // settings, unless the family was chosen (file or --policy)
-        if skillmimic_env::registry::is_high_level(&cfg.env.task) && cfg.ppo.policy == crate::config::DEFAULT_FAMILY {
+        if skillmimic_env::registry::is_high_level(&cfg.env.task)
+            && cfg.ppo.policy == crate::config::DEFAULT_FAMILY
+        {
             cfg.use_high_level_defaults();
         }
         for s in &self.set {
@@ -91,7 +97,8 @@ impl ConfigFlags {
 /// Preset + config file + override flags (shared by train and bench train).
 #[derive(clap::Args, Clone, Debug)]
 pub struct PresetArgs {
-    /// Preset: paper (2048 envs), small (256 envs, paper network and PPO settings), tiny (smoke tests).
+    /// Preset: paper (2048 envs), small (256 envs, paper network and PPO settings), tiny (smoke
+    /// tests).
     #[arg(long, default_value = "small")]
     pub preset: String,
     /// TOML config file with [env], [ppo] and [run] tables (over the preset).
@@ -109,7 +116,11 @@ impl PresetArgs {
 }
 
 /// Preset, then the TOML file, then the flags.
-pub fn assemble_config(preset: &str, file: Option<&Path>, flags: &ConfigFlags) -> anyhow::Result<TrainConfig> {
+pub fn assemble_config(
+    preset: &str,
+    file: Option<&Path>,
+    flags: &ConfigFlags,
+) -> anyhow::Result<TrainConfig> {
     let base = TrainConfig::preset(preset).map_err(anyhow::Error::msg)?;
     let mut cfg = match file {
         // relative paths in the file are resolved by the rule of `config_file` (shared with Python)
@@ -175,7 +186,9 @@ impl TrainArgs {
     /// The checkpoint to resume from (`latest` resolved in `out_dir`).
     pub fn resume_path(&self, out_dir: &Path) -> Option<PathBuf> {
         match &self.resume {
-            Some(p) if p.as_os_str() == "latest" => Some(out_dir.join("latest.safetensors")).filter(|p| p.is_file()),
+            Some(p) if p.as_os_str() == "latest" => {
+                Some(out_dir.join("latest.safetensors")).filter(|p| p.is_file())
+            }
             other => other.clone(),
         }
     }
@@ -208,14 +221,19 @@ mod tests {
     fn resume_latest_takes_the_newest_checkpoint_or_starts_fresh() {
         let dir = std::env::temp_dir().join(format!("sm-args-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
-        let parse = |v: &[&str]| Cli::try_parse_from(std::iter::once("train").chain(v.iter().copied())).unwrap().args;
+        let parse = |v: &[&str]| {
+            Cli::try_parse_from(std::iter::once("train").chain(v.iter().copied())).unwrap().args
+        };
         let a = parse(&["--resume", "latest", "--out", dir.to_str().unwrap(), "--iterations", "7"]);
         let cfg = a.config().unwrap();
         assert_eq!((cfg.run.iterations, cfg.run.out_dir.as_path()), (7, dir.as_path()));
         assert_eq!(a.resume_path(&dir), None, "no checkpoint yet: fresh start");
         std::fs::write(dir.join("latest.safetensors"), b"x").unwrap();
         assert_eq!(a.resume_path(&dir), Some(dir.join("latest.safetensors")));
-        assert_eq!(parse(&["--resume", "a/b.safetensors"]).resume_path(&dir), Some(PathBuf::from("a/b.safetensors")));
+        assert_eq!(
+            parse(&["--resume", "a/b.safetensors"]).resume_path(&dir),
+            Some(PathBuf::from("a/b.safetensors"))
+        );
         assert!(Cli::try_parse_from(["train", "--bogus"]).is_err());
     }
 }

@@ -36,10 +36,10 @@ use skillmimic_core::tensorfile::{OwnedTensor, TensorFile, write_atomic};
 
 use crate::actor::ActorNet;
 use crate::adam::Adam;
+use crate::policy::Policy;
 use skillmimic_nn::frozen::{read_mlp, read_normalizer};
 use skillmimic_nn::mlp::Mlp;
 use skillmimic_nn::normalizer::RunningMeanStd;
-use crate::policy::Policy;
 
 /// Value of the `format` metadata field.
 pub const FORMAT: &str = skillmimic_nn::frozen::POLICY_FORMAT;
@@ -95,15 +95,29 @@ pub const VALUE_DOC: &str = "if normalize_value: value = clamp(critic_out, -norm
 
 /// Save `policy` (and `adam` for a training checkpoint) atomically; refuses (`InvalidData`, nothing
 /// written) when a float tensor is not finite.
-pub fn save(path: &Path, policy: &Policy, adam: Option<&Adam>, progress: &Progress, config_toml: &str) -> std::io::Result<()> {
+pub fn save(
+    path: &Path,
+    policy: &Policy,
+    adam: Option<&Adam>,
+    progress: &Progress,
+    config_toml: &str,
+) -> std::io::Result<()> {
     save_with(path, policy, adam, progress, config_toml, Vec::new())
 }
 
 /// [`save`] with further tensors of the run (the motion prior's `amp.*`).
-pub fn save_with(path: &Path, policy: &Policy, adam: Option<&Adam>, progress: &Progress, config_toml: &str, extra: Vec<OwnedTensor>) -> std::io::Result<()> {
+pub fn save_with(
+    path: &Path,
+    policy: &Policy,
+    adam: Option<&Adam>,
+    progress: &Progress,
+    config_toml: &str,
+    extra: Vec<OwnedTensor>,
+) -> std::io::Result<()> {
     let mut tensors = extra;
     let names = param_names(policy);
-    let params: Vec<&[f32]> = policy.actor.params().into_iter().chain(policy.critic.params()).collect();
+    let params: Vec<&[f32]> =
+        policy.actor.params().into_iter().chain(policy.critic.params()).collect();
     for ((name, shape), data) in names.iter().zip(&params) {
         tensors.push(OwnedTensor::f32(name, shape, data));
     }
@@ -142,7 +156,10 @@ pub fn save_with(path: &Path, policy: &Policy, adam: Option<&Adam>, progress: &P
     meta.insert("hidden".to_string(), serde_json::to_string(hidden).unwrap());
     match &policy.actor {
         ActorNet::Modular(m) => {
-            meta.insert("actor_net".to_string(), serde_json::to_string(&crate::policies::modular_attention::spec_of(m)).unwrap());
+            meta.insert(
+                "actor_net".to_string(),
+                serde_json::to_string(&crate::policies::modular_attention::spec_of(m)).unwrap(),
+            );
         }
         ActorNet::Token(t) => {
             meta.insert("actor_net".to_string(), serde_json::to_string(&t.spec).unwrap());
@@ -175,12 +192,25 @@ fn refuse_non_finite(tensors: &[OwnedTensor]) -> std::io::Result<()> {
     use safetensors::tensor::Dtype;
     for t in tensors {
         let bad = match t.dtype {
-            Dtype::F32 => t.bytes.chunks_exact(4).map(|b| f32::from_le_bytes(b.try_into().unwrap()) as f64).enumerate().find(|(_, x)| !x.is_finite()),
-            Dtype::F64 => t.bytes.chunks_exact(8).map(|b| f64::from_le_bytes(b.try_into().unwrap())).enumerate().find(|(_, x)| !x.is_finite()),
+            Dtype::F32 => t
+                .bytes
+                .chunks_exact(4)
+                .map(|b| f32::from_le_bytes(b.try_into().unwrap()) as f64)
+                .enumerate()
+                .find(|(_, x)| !x.is_finite()),
+            Dtype::F64 => t
+                .bytes
+                .chunks_exact(8)
+                .map(|b| f64::from_le_bytes(b.try_into().unwrap()))
+                .enumerate()
+                .find(|(_, x)| !x.is_finite()),
             _ => None,
         };
         if let Some((i, x)) = bad {
-            let msg = format!("refusing to write a checkpoint with non-finite values: tensor '{}' holds {x} at index {i}", t.name);
+            let msg = format!(
+                "refusing to write a checkpoint with non-finite values: tensor '{}' holds {x} at index {i}",
+                t.name
+            );
             return Err(std::io::Error::new(std::io::ErrorKind::InvalidData, msg));
         }
     }
@@ -188,7 +218,13 @@ fn refuse_non_finite(tensors: &[OwnedTensor]) -> std::io::Result<()> {
 }
 
 /// A normaliser of the file, its statistics checked ([`RunningMeanStd::check`]).
-fn load_norm(f: &TensorFile, prefix: &str, dim: usize, eps: f64, clip: f64) -> Result<RunningMeanStd, String> {
+fn load_norm(
+    f: &TensorFile,
+    prefix: &str,
+    dim: usize,
+    eps: f64,
+    clip: f64,
+) -> Result<RunningMeanStd, String> {
     let n = read_normalizer(f, prefix, dim, eps, clip).map_err(|e| e.to_string())?;
     n.check(prefix).map_err(|detail| format!("{}: {detail}", f.path().display()))?;
     Ok(n)
@@ -197,7 +233,10 @@ fn load_norm(f: &TensorFile, prefix: &str, dim: usize, eps: f64, clip: f64) -> R
 /// The training configuration stored in checkpoint `path` (metadata `config`, TOML over the
 /// defaults), every number checked against its documented range
 /// ([`TrainConfig::validate_ranges`](crate::config::TrainConfig::validate_ranges)).
-pub fn stored_config(path: &Path, text: &str) -> Result<crate::config::TrainConfig, crate::error::LearnError> {
+pub fn stored_config(
+    path: &Path,
+    text: &str,
+) -> Result<crate::config::TrainConfig, crate::error::LearnError> {
     use crate::config::TrainConfig;
     let cfg = TrainConfig::from_toml_over(&TrainConfig::default(), text, path)?;
     check_stored(path, &cfg).map_err(crate::error::bad_checkpoint(path))?;
@@ -205,19 +244,27 @@ pub fn stored_config(path: &Path, text: &str) -> Result<crate::config::TrainConf
 }
 
 fn check_stored(path: &Path, cfg: &crate::config::TrainConfig) -> Result<(), String> {
-    cfg.validate_ranges().map_err(|e| format!("{}: metadata 'config' (the stored training configuration): {e}", path.display()))
+    cfg.validate_ranges().map_err(|e| {
+        format!("{}: metadata 'config' (the stored training configuration): {e}", path.display())
+    })
 }
 
 /// A checkpoint and the training configuration stored in it (the defaults when it has none).
-pub fn load_with_config(path: &Path) -> Result<(Checkpoint, crate::config::TrainConfig), crate::error::LearnError> {
+pub fn load_with_config(
+    path: &Path,
+) -> Result<(Checkpoint, crate::config::TrainConfig), crate::error::LearnError> {
     use crate::config::TrainConfig;
     let c = load(path, None)?;
-    let cfg = if c.config.is_empty() { TrainConfig::default() } else { stored_config(path, &c.config)? };
+    let cfg =
+        if c.config.is_empty() { TrainConfig::default() } else { stored_config(path, &c.config)? };
     Ok((c, cfg))
 }
 
 /// Load a checkpoint; `expect` = (obs_dim, act_dim) must match when given.
-pub fn load(path: &Path, expect: Option<(usize, usize)>) -> Result<Checkpoint, crate::error::LearnError> {
+pub fn load(
+    path: &Path,
+    expect: Option<(usize, usize)>,
+) -> Result<Checkpoint, crate::error::LearnError> {
     load_raw(path, expect).map_err(crate::error::bad_checkpoint(path))
 }
 
@@ -226,7 +273,10 @@ fn load_raw(path: &Path, expect: Option<(usize, usize)>) -> Result<Checkpoint, S
     let e = |e: skillmimic_core::tensorfile::TensorFileError| e.to_string();
     let fmt = f.meta("format").map_err(e)?;
     if fmt != FORMAT {
-        return Err(format!("{}: format '{fmt}', expected '{FORMAT}' (a skillmimic checkpoint)", path.display()));
+        return Err(format!(
+            "{}: format '{fmt}', expected '{FORMAT}' (a skillmimic checkpoint)",
+            path.display()
+        ));
     }
     let version: u32 = f.meta_parse("format_version", "an integer").map_err(e)?;
     if version != VERSION {
@@ -239,21 +289,23 @@ fn load_raw(path: &Path, expect: Option<(usize, usize)>) -> Result<Checkpoint, S
     // the stored configuration: a value outside its range is refused; a text this build cannot
     // parse (keys of another version) is left to the readers of the configuration
     let config = f.metadata().get("config").cloned().unwrap_or_default();
-    if let Ok(cfg) = crate::config::TrainConfig::from_toml_over(&Default::default(), &config, path) {
+    if let Ok(cfg) = crate::config::TrainConfig::from_toml_over(&Default::default(), &config, path)
+    {
         check_stored(path, &cfg)?;
     }
     let obs_dim: usize = f.meta_parse("obs_dim", "an integer").map_err(e)?;
     let act_dim: usize = f.meta_parse("act_dim", "an integer").map_err(e)?;
-    if let Some((o, a)) = expect {
-        if (o, a) != (obs_dim, act_dim) {
-            return Err(format!(
-                "{}: checkpoint is for observations of {obs_dim} and actions of {act_dim}, this environment has {o} and {a}",
-                path.display()
-            ));
-        }
+    if let Some((o, a)) = expect
+        && (o, a) != (obs_dim, act_dim)
+    {
+        return Err(format!(
+            "{}: checkpoint is for observations of {obs_dim} and actions of {act_dim}, this environment has {o} and {a}",
+            path.display()
+        ));
     }
-    let hidden: Vec<usize> = serde_json::from_str(f.meta("hidden").map_err(e)?)
-        .map_err(|x| format!("{}: metadata 'hidden' is not a JSON list of integers: {x}", path.display()))?;
+    let hidden: Vec<usize> = serde_json::from_str(f.meta("hidden").map_err(e)?).map_err(|x| {
+        format!("{}: metadata 'hidden' is not a JSON list of integers: {x}", path.display())
+    })?;
     let eps: f64 = f.meta_parse("norm_eps", "a number").map_err(e)?;
     let clip: f64 = f.meta_parse("norm_clip", "a number").map_err(e)?;
     let mlp = |prefix: &str, out: usize| -> Result<Mlp, String> {
@@ -262,15 +314,28 @@ fn load_raw(path: &Path, expect: Option<(usize, usize)>) -> Result<Checkpoint, S
         dims.push(out);
         read_mlp(&f, prefix, dims).map_err(e)
     };
-    let family = crate::policies::family(f.meta("policy").unwrap_or(crate::config::DEFAULT_FAMILY)).map_err(|x| format!("{}: metadata 'policy': {x}", path.display()))?;
+    let family = crate::policies::family(f.meta("policy").unwrap_or(crate::config::DEFAULT_FAMILY))
+        .map_err(|x| format!("{}: metadata 'policy': {x}", path.display()))?;
     let space = match f.meta("actions") {
         Err(_) => ActionSpace::Box { dim: act_dim },
-        Ok(text) => parse_space(text).ok_or_else(|| format!("{}: metadata 'actions' is '{text}', expected 'box:<dim>' or 'discrete:<n>'", path.display()))?,
+        Ok(text) => parse_space(text).ok_or_else(|| {
+            format!(
+                "{}: metadata 'actions' is '{text}', expected 'box:<dim>' or 'discrete:<n>'",
+                path.display()
+            )
+        })?,
     };
     if space.width() != act_dim || !family.supports(&space) {
-        return Err(format!("{}: metadata 'actions' {space:?} does not fit act_dim {act_dim} and policy '{}'", path.display(), family.name()));
+        return Err(format!(
+            "{}: metadata 'actions' {space:?} does not fit act_dim {act_dim} and policy '{}'",
+            path.display(),
+            family.name()
+        ));
     }
-    let actor = match family.read_actor(&f, obs_dim, &space).map_err(|x| format!("{}: {x}", path.display()))? {
+    let actor = match family
+        .read_actor(&f, obs_dim, &space)
+        .map_err(|x| format!("{}: {x}", path.display()))?
+    {
         Some(net) => net,
         None => ActorNet::Mlp(mlp("actor", family.actor_outputs(&space))?),
     };
@@ -280,7 +345,11 @@ fn load_raw(path: &Path, expect: Option<(usize, usize)>) -> Result<Checkpoint, S
         space,
         actor,
         critic,
-        log_std: if family.uses_log_std() { f.f32("log_std", &[Some(act_dim)]).map_err(e)?.1 } else { Vec::new() },
+        log_std: if family.uses_log_std() {
+            f.f32("log_std", &[Some(act_dim)]).map_err(e)?.1
+        } else {
+            Vec::new()
+        },
         obs_norm: load_norm(&f, "obs_norm", obs_dim, eps, clip)?,
         value_norm: load_norm(&f, "value_norm", 1, eps, clip)?,
         normalize_input: f.meta_parse("normalize_input", "true/false").map_err(e)?,
@@ -288,7 +357,11 @@ fn load_raw(path: &Path, expect: Option<(usize, usize)>) -> Result<Checkpoint, S
     };
     let adam = if f.meta("kind").map_err(e)? == "train" {
         let names = param_names(&policy);
-        let mut a = Adam::new(&[], f.meta_parse("adam_lr", "a number").map_err(e)?, f.meta_parse("adam_eps", "a number").map_err(e)?);
+        let mut a = Adam::new(
+            &[],
+            f.meta_parse("adam_lr", "a number").map_err(e)?,
+            f.meta_parse("adam_eps", "a number").map_err(e)?,
+        );
         a.step = f.i64("optim.step", &[]).map_err(e)?.1[0] as u64;
         for (name, shape) in &names {
             let want: Vec<Option<usize>> = shape.iter().map(|&s| Some(s)).collect();
@@ -322,7 +395,8 @@ mod tests {
         let cfg = PpoConfig { hidden: vec![16, 8], ..Default::default() };
         let mut p = Policy::new(10, 4, &cfg, &mut rng);
         p.obs_norm.update(&(0..30).map(|i| i as f32).collect::<Vec<_>>());
-        let sizes: Vec<usize> = p.actor.params().iter().chain(p.critic.params().iter()).map(|x| x.len()).collect();
+        let sizes: Vec<usize> =
+            p.actor.params().iter().chain(p.critic.params().iter()).map(|x| x.len()).collect();
         let mut adam = Adam::new(&sizes, 1e-3, 1e-8);
         adam.step = 7;
         adam.m[0][3] = 0.25;
@@ -335,7 +409,10 @@ mod tests {
         assert_eq!(c.progress, Progress { iteration: 3, samples: 99 });
         assert_eq!(c.config, "[ppo]\n");
         let e = load(&path, Some((902, 156))).unwrap_err();
-        assert!(e.to_string().contains("observations of 10") && e.to_string().contains("902"), "{e}");
+        assert!(
+            e.to_string().contains("observations of 10") && e.to_string().contains("902"),
+            "{e}"
+        );
         save(&path, &p, None, &Progress::default(), "").unwrap();
         assert!(load(&path, None).unwrap().adam.is_none());
         // non-finite values are never written: the file keeps its previous content
@@ -346,7 +423,12 @@ mod tests {
         assert!(load(&path, None).unwrap().adam.is_none());
         bad.critic.params_mut()[0][2] = 0.0;
         bad.obs_norm.var[1] = f64::INFINITY;
-        assert!(save(&path, &bad, None, &Progress::default(), "").unwrap_err().to_string().contains("'obs_norm.var'"));
+        assert!(
+            save(&path, &bad, None, &Progress::default(), "")
+                .unwrap_err()
+                .to_string()
+                .contains("'obs_norm.var'")
+        );
         std::fs::write(&path, b"garbage").unwrap();
         assert!(load(&path, None).unwrap_err().to_string().contains("not a safetensors file"));
     }

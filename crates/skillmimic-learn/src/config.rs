@@ -184,7 +184,14 @@ pub struct ModularConfig {
 
 impl Default for ModularConfig {
     fn default() -> Self {
-        Self { parts: "five".into(), embed: 64, proj_hidden: 256, heads: 1, scaled: false, controller: vec![512, 256] }
+        Self {
+            parts: "five".into(),
+            embed: 64,
+            proj_hidden: 256,
+            heads: 1,
+            scaled: false,
+            controller: vec![512, 256],
+        }
     }
 }
 
@@ -357,7 +364,11 @@ impl TrainConfig {
                 c.ppo.hidden = vec![2048, 1536, 1024, 512];
                 c.ppo.modular.controller = vec![2048, 1536, 1024, 512];
             }
-            other => return Err(LearnError::Config(format!("unknown preset '{other}', expected one of {PRESETS:?}"))),
+            other => {
+                return Err(LearnError::Config(format!(
+                    "unknown preset '{other}', expected one of {PRESETS:?}"
+                )));
+            }
         }
         Ok(c)
     }
@@ -375,7 +386,9 @@ impl TrainConfig {
     /// [2048, 1024, 512]: `--set 'ppo.hidden=[2048, 1024, 512]'`). An unreadable `env.hlc.llc`
     /// is reported when the environment is built.
     pub fn use_high_level_defaults(&mut self) {
-        let latent = skillmimic_nn::frozen_parts::policy_family(&self.env.hlc.llc).ok().flatten().as_deref() == Some("modular_attention");
+        let latent =
+            skillmimic_nn::frozen_parts::policy_family(&self.env.hlc.llc).ok().flatten().as_deref()
+                == Some("modular_attention");
         self.ppo.policy = if latent { "gaussian_mlp" } else { "categorical_mlp" }.into();
         if self.ppo.hidden == PpoConfig::default().hidden {
             self.ppo.hidden = vec![1024, 512];
@@ -391,22 +404,33 @@ impl TrainConfig {
 
     /// Parse a TOML document over the preset `base` (fields absent from the file keep the
     /// preset's values).
-    pub fn from_toml_over(base: &TrainConfig, text: &str, source: &Path) -> Result<Self, LearnError> {
+    pub fn from_toml_over(
+        base: &TrainConfig,
+        text: &str,
+        source: &Path,
+    ) -> Result<Self, LearnError> {
         let mut doc = toml::Table::try_from(base).map_err(|e| LearnError::Config(e.to_string()))?;
-        let user: toml::Table = text.parse().map_err(|e: toml::de::Error| LearnError::Config(format!("{}: {e}", source.display())))?;
+        let user: toml::Table = text.parse().map_err(|e: toml::de::Error| {
+            LearnError::Config(format!("{}: {e}", source.display()))
+        })?;
         merge(&mut doc, user);
-        let cfg: TrainConfig = doc.try_into().map_err(|e: toml::de::Error| LearnError::Config(format!("{}: {e}", source.display())))?;
+        let cfg: TrainConfig = doc.try_into().map_err(|e: toml::de::Error| {
+            LearnError::Config(format!("{}: {e}", source.display()))
+        })?;
         Ok(cfg)
     }
 
     /// Apply one `key.path=value` override (value in TOML syntax; bare words are strings).
     pub fn set(&mut self, assignment: &str) -> Result<(), LearnError> {
-        let (key, value) = assignment.split_once('=').ok_or_else(|| LearnError::Config(format!("override '{assignment}' is not key=value")))?;
+        let (key, value) = assignment.split_once('=').ok_or_else(|| {
+            LearnError::Config(format!("override '{assignment}' is not key=value"))
+        })?;
         let value_toml: toml::Value = match format!("v = {value}").parse::<toml::Table>() {
             Ok(t) => t["v"].clone(),
             Err(_) => toml::Value::String(value.to_string()),
         };
-        let mut doc = toml::Table::try_from(&*self).map_err(|e| LearnError::Config(e.to_string()))?;
+        let mut doc =
+            toml::Table::try_from(&*self).map_err(|e| LearnError::Config(e.to_string()))?;
         let mut table = &mut doc;
         let parts: Vec<&str> = key.trim().split('.').collect();
         for p in &parts[..parts.len() - 1] {
@@ -423,7 +447,9 @@ impl TrainConfig {
         match doc.try_into::<TrainConfig>() {
             Ok(c) => *self = c,
             Err(e) if !known && e.to_string().contains("unknown field") => {
-                return Err(LearnError::Config(format!("override '{key}': unknown field '{last}'")));
+                return Err(LearnError::Config(format!(
+                    "override '{key}': unknown field '{last}'"
+                )));
             }
             Err(e) => return Err(LearnError::Config(format!("override '{assignment}': {e}"))),
         }
@@ -441,18 +467,19 @@ impl TrainConfig {
         self.validate_ranges()?;
         self.env.validate().map_err(|e| LearnError::Config(e.to_string()))?;
         self.run.active.validate(&self.env.task).map_err(LearnError::Config)?;
-        if self.run.active.enabled && self.run.active.disc_score_min > 0.0 && !self.ppo.amp.enabled {
+        if self.run.active.enabled && self.run.active.disc_score_min > 0.0 && !self.ppo.amp.enabled
+        {
             return Err(LearnError::Config("config field 'run.active.disc_score_min': the discriminator filter needs the motion prior (--set ppo.amp.enabled=true)".into()));
         }
         let p = &self.ppo;
         if p.hidden.is_empty() {
-            return Err(LearnError::Config("config field 'ppo.hidden': needs at least one non-zero layer width".into()));
+            return Err(LearnError::Config(
+                "config field 'ppo.hidden': needs at least one non-zero layer width".into(),
+            ));
         }
         let a = &p.amp;
-        if a.enabled {
-            if a.buffer < a.batch || a.hidden.is_empty() {
-                return Err(LearnError::Config("config fields 'ppo.amp.buffer', 'ppo.amp.hidden': buffer must be >= batch, hidden non-empty".into()));
-            }
+        if a.enabled && (a.buffer < a.batch || a.hidden.is_empty()) {
+            return Err(LearnError::Config("config fields 'ppo.amp.buffer', 'ppo.amp.hidden': buffer must be >= batch, hidden non-empty".into()));
         }
         if p.minibatch > self.batch_size() {
             return Err(LearnError::Config(format!(
@@ -480,7 +507,8 @@ impl TrainConfig {
     /// key (`ppo.gamma`), the value and the range. Also the check of configurations stored in
     /// checkpoints.
     pub fn validate_ranges(&self) -> Result<(), LearnError> {
-        skillmimic_env::config_range::check_ranges(self, "").map_err(|e| LearnError::Config(e.to_string()))
+        skillmimic_env::config_range::check_ranges(self, "")
+            .map_err(|e| LearnError::Config(e.to_string()))
     }
 }
 
@@ -513,11 +541,18 @@ mod tests {
     #[test]
     fn toml_overrides_keep_preset_values_and_reject_typos() {
         let base = TrainConfig::preset("tiny").unwrap();
-        let c = TrainConfig::from_toml_over(&base, "[ppo]\nlr = 3e-4\n[env]\nnum_envs = 8\n", Path::new("x.toml")).unwrap();
+        let c = TrainConfig::from_toml_over(
+            &base,
+            "[ppo]\nlr = 3e-4\n[env]\nnum_envs = 8\n",
+            Path::new("x.toml"),
+        )
+        .unwrap();
         assert_eq!(c.ppo.lr, 3e-4);
         assert_eq!(c.ppo.hidden, vec![256, 128]);
         assert_eq!(c.env.num_envs, 8);
-        let e = TrainConfig::from_toml_over(&base, "[ppo]\nlearning_rate = 1\n", Path::new("x.toml")).unwrap_err();
+        let e =
+            TrainConfig::from_toml_over(&base, "[ppo]\nlearning_rate = 1\n", Path::new("x.toml"))
+                .unwrap_err();
         assert!(e.to_string().contains("x.toml") && e.to_string().contains("learning_rate"), "{e}");
         let mut c = base.clone();
         c.set("ppo.mini_epochs=3").unwrap();
@@ -531,7 +566,9 @@ mod tests {
         assert_eq!(c.env.seed, Some(3));
         assert!(c.set("env.seed=-1").is_err());
         assert!(c.set("ppo.lr=fast").is_err());
-        let round = TrainConfig::from_toml_over(&TrainConfig::default(), &c.to_toml(), Path::new("r.toml")).unwrap();
+        let round =
+            TrainConfig::from_toml_over(&TrainConfig::default(), &c.to_toml(), Path::new("r.toml"))
+                .unwrap();
         assert_eq!(round, c);
     }
 }

@@ -39,7 +39,16 @@ pub struct ActiveConfig {
 
 impl Default for ActiveConfig {
     fn default() -> Self {
-        Self { enabled: false, every: 50, generator: "model_free".into(), command: Vec::new(), failure_weight: 2.0, floor_tol: 0.05, max_joint_speed: 60.0, disc_score_min: 0.0 }
+        Self {
+            enabled: false,
+            every: 50,
+            generator: "model_free".into(),
+            command: Vec::new(),
+            failure_weight: 2.0,
+            floor_tol: 0.05,
+            max_joint_speed: 60.0,
+            disc_score_min: 0.0,
+        }
     }
 }
 
@@ -51,16 +60,29 @@ impl ActiveConfig {
             return Ok(());
         }
         if task != "tracking" {
-            return Err(format!("config field 'run.active.enabled': active skill learning runs on the tracking task, not '{task}'"));
+            return Err(format!(
+                "config field 'run.active.enabled': active skill learning runs on the tracking task, not '{task}'"
+            ));
         }
         match self.generator.as_str() {
             "model_free" => {}
-            "command" if self.command.is_empty() => return Err("config field 'run.active.command': the \"command\" generator needs a program".into()),
+            "command" if self.command.is_empty() => {
+                return Err(
+                    "config field 'run.active.command': the \"command\" generator needs a program"
+                        .into(),
+                );
+            }
             "command" => {}
             other if skillmimic_motion::generate::registered(other).is_some() => {}
             other => {
-                let known: Vec<String> = skillmimic_motion::generate::BUILT_IN.iter().map(|s| s.to_string()).chain(skillmimic_motion::generate::registered_names()).collect();
-                return Err(format!("config field 'run.active.generator': '{other}', expected one of {known:?} (a Python generator must be registered with skillmimic_rs.register_generator first)"));
+                let known: Vec<String> = skillmimic_motion::generate::BUILT_IN
+                    .iter()
+                    .map(|s| s.to_string())
+                    .chain(skillmimic_motion::generate::registered_names())
+                    .collect();
+                return Err(format!(
+                    "config field 'run.active.generator': '{other}', expected one of {known:?} (a Python generator must be registered with skillmimic_rs.register_generator first)"
+                ));
             }
         }
         Ok(())

@@ -20,9 +20,11 @@ use skillmimic_env::config_range::{SchemaDefs, range_text, root_schema};
 use crate::config::{PRESETS, TrainConfig};
 
 /// The command that rewrites `docs/config.md` (run from the repository root).
-pub const REGENERATE: &str = "cargo run --release -p skillmimic-cli -- config reference --out docs/config.md";
+pub const REGENERATE: &str =
+    "cargo run --release -p skillmimic-cli -- config reference --out docs/config.md";
 
-/// A generated reference and the keys that have no doc comment (neither on the field nor on its type).
+/// A generated reference and the keys that have no doc comment (neither on the field nor on its
+/// type).
 pub struct ConfigReference {
     pub markdown: String,
     pub undocumented: Vec<String>,
@@ -61,7 +63,8 @@ pub fn train_config_reference() -> ConfigReference {
 /// One Markdown section per TOML table of `value`'s type (`value` gives the defaults).
 pub fn reference_tables<T: JsonSchema + Serialize>(value: &T) -> ConfigReference {
     let root = root_schema::<T>();
-    let mut w = Walker { defs: SchemaDefs::of(&root), markdown: String::new(), undocumented: Vec::new() };
+    let mut w =
+        Walker { defs: SchemaDefs::of(&root), markdown: String::new(), undocumented: Vec::new() };
     w.table("", "", &root, &ordered(value));
     ConfigReference { markdown: w.markdown, undocumented: w.undocumented }
 }
@@ -86,9 +89,15 @@ impl Walker {
             }
             self.markdown.push_str(&format!("\n## `[{path}]`\n\n{}\n", paragraphs(&doc)));
         }
-        let props = schema.get("properties").and_then(Value::as_object).cloned().unwrap_or_default();
+        let props =
+            schema.get("properties").and_then(Value::as_object).cloned().unwrap_or_default();
         // declaration order from the serialised value, then any key it leaves out (e.g. `None`)
-        let mut keys: Vec<String> = defaults.entries().iter().map(|(k, _)| k.clone()).filter(|k| props.contains_key(k)).collect();
+        let mut keys: Vec<String> = defaults
+            .entries()
+            .iter()
+            .map(|(k, _)| k.clone())
+            .filter(|k| props.contains_key(k))
+            .collect();
         keys.extend(props.keys().filter(|k| !keys.contains(k)).cloned().collect::<Vec<_>>());
         let (mut rows, mut values, mut subtables) = (String::new(), String::new(), Vec::new());
         for key in keys {
@@ -98,16 +107,31 @@ impl Walker {
             let doc = description(prop).or_else(|| description(&target)).unwrap_or_default();
             let default = defaults.get(&key);
             if target.get("properties").is_some() {
-                subtables.push((full, doc, target, default.cloned().unwrap_or(Node::Table(Entries(Vec::new())))));
+                subtables.push((
+                    full,
+                    doc,
+                    target,
+                    default.cloned().unwrap_or(Node::Table(Entries(Vec::new()))),
+                ));
                 continue;
             }
             if doc.is_empty() {
                 self.undocumented.push(full.clone());
             }
-            let default = default.map(|d| format!("`{}`", toml_text(&d.to_value()))).unwrap_or_else(|| "*unset*".into());
-            let summary = if doc.is_empty() { "**undocumented**".into() } else { cell(&first_sentence(&doc)) };
+            let default = default
+                .map(|d| format!("`{}`", toml_text(&d.to_value())))
+                .unwrap_or_else(|| "*unset*".into());
+            let summary = if doc.is_empty() {
+                "**undocumented**".into()
+            } else {
+                cell(&first_sentence(&doc))
+            };
             let range = range_text(&target).unwrap_or_default();
-            rows.push_str(&format!("| `{key}` | {} | {} | {default} | {summary} |\n", cell(&self.type_name(prop)), cell(&range)));
+            rows.push_str(&format!(
+                "| `{key}` | {} | {} | {default} | {summary} |\n",
+                cell(&self.type_name(prop)),
+                cell(&range)
+            ));
             let variants = self.variants(&target);
             if variants.iter().any(|(_, d)| !d.is_empty()) {
                 values.push_str(&format!("\nValues of `{key}`:\n\n"));
@@ -147,7 +171,12 @@ impl Walker {
             "number" => "float".into(),
             "boolean" => "bool".into(),
             "string" if s.get("format").and_then(Value::as_str) == Some("path") => "path".into(),
-            "array" => format!("list of {}", plural(s.get("items").map(|i| self.type_name(i)).unwrap_or_else(|| "values".into()))),
+            "array" => format!(
+                "list of {}",
+                plural(
+                    s.get("items").map(|i| self.type_name(i)).unwrap_or_else(|| "values".into())
+                )
+            ),
             "object" => match s.get("additionalProperties").filter(|a| a.is_object()) {
                 Some(a) => format!("table of string → {}", self.type_name(a)),
                 None => "table".into(),
@@ -158,7 +187,8 @@ impl Walker {
             Some(Value::String(t)) => name(t),
             Some(Value::Array(ts)) => {
                 let ts: Vec<&str> = ts.iter().filter_map(Value::as_str).collect();
-                let main: Vec<String> = ts.iter().filter(|t| **t != "null").map(|t| name(t)).collect();
+                let main: Vec<String> =
+                    ts.iter().filter(|t| **t != "null").map(|t| name(t)).collect();
                 let optional = if ts.contains(&"null") { ", optional" } else { "" };
                 format!("{}{optional}", main.join(" or "))
             }
@@ -167,7 +197,8 @@ impl Walker {
     }
 
     fn one_of(&self, s: &Value) -> String {
-        let names: Vec<String> = self.variants(s).into_iter().map(|(v, _)| format!("`{v}`")).collect();
+        let names: Vec<String> =
+            self.variants(s).into_iter().map(|(v, _)| format!("`{v}`")).collect();
         format!("one of {}", names.join(" | "))
     }
 
@@ -179,10 +210,14 @@ impl Walker {
             return vec![(toml_text(c), doc())];
         }
         if let Some(e) = s.get("enum").and_then(Value::as_array) {
-            return e.iter().map(|v| (toml_text(v), if e.len() == 1 { doc() } else { String::new() })).collect();
+            return e
+                .iter()
+                .map(|v| (toml_text(v), if e.len() == 1 { doc() } else { String::new() }))
+                .collect();
         }
         if let Some(props) = s.get("properties").and_then(Value::as_object) {
-            let fields: Vec<String> = props.iter().map(|(k, v)| format!("{k} = <{}>", self.type_name(v))).collect();
+            let fields: Vec<String> =
+                props.iter().map(|(k, v)| format!("{k} = <{}>", self.type_name(v))).collect();
             return vec![(format!("{{ {} }}", fields.join(", ")), doc())];
         }
         match s.get("oneOf").or_else(|| s.get("anyOf")).and_then(Value::as_array) {
@@ -195,8 +230,10 @@ impl Walker {
 /// The table of what each preset changes.
 fn presets_markdown() -> String {
     let base = flatten(&ordered(&TrainConfig::default()));
-    let presets: Vec<(&str, Vec<(String, String)>)> =
-        PRESETS.iter().map(|p| (*p, flatten(&ordered(&TrainConfig::preset(p).expect("listed preset"))))).collect();
+    let presets: Vec<(&str, Vec<(String, String)>)> = PRESETS
+        .iter()
+        .map(|p| (*p, flatten(&ordered(&TrainConfig::preset(p).expect("listed preset")))))
+        .collect();
     let mut md = format!(
         "\n## Presets\n\n`--preset NAME` starts from `TrainConfig::preset(NAME)`: the defaults above with these keys changed \
          (see `skillmimic train --help` for the default preset).\n\n| Key | Default | {} |\n|---|---|{}\n",
@@ -204,9 +241,15 @@ fn presets_markdown() -> String {
         "---|".repeat(PRESETS.len())
     );
     for (key, default) in &base {
-        let values: Vec<&str> = presets.iter().map(|(_, kv)| kv.iter().find(|(k, _)| k == key).map_or("", |(_, v)| v.as_str())).collect();
+        let values: Vec<&str> = presets
+            .iter()
+            .map(|(_, kv)| kv.iter().find(|(k, _)| k == key).map_or("", |(_, v)| v.as_str()))
+            .collect();
         if values.iter().any(|v| v != default) {
-            md.push_str(&format!("| `{key}` | `{default}` | {} |\n", values.iter().map(|v| format!("`{v}`")).collect::<Vec<_>>().join(" | ")));
+            md.push_str(&format!(
+                "| `{key}` | `{default}` | {} |\n",
+                values.iter().map(|v| format!("`{v}`")).collect::<Vec<_>>().join(" | ")
+            ));
         }
     }
     md
@@ -218,7 +261,11 @@ fn flatten(node: &Node) -> Vec<(String, String)> {
         match node {
             Node::Table(entries) => {
                 for (k, v) in &entries.0 {
-                    go(&if prefix.is_empty() { k.clone() } else { format!("{prefix}.{k}") }, v, out);
+                    go(
+                        &if prefix.is_empty() { k.clone() } else { format!("{prefix}.{k}") },
+                        v,
+                        out,
+                    );
                 }
             }
             Node::Leaf(v) => out.push((prefix.to_string(), toml_text(v))),
@@ -241,17 +288,27 @@ fn toml_text(v: &Value) -> String {
         },
         Value::String(s) => serde_json::to_string(s).expect("string"),
         Value::Array(a) => format!("[{}]", a.iter().map(toml_text).collect::<Vec<_>>().join(", ")),
-        Value::Object(o) => format!("{{ {} }}", o.iter().map(|(k, v)| format!("{k} = {}", toml_text(v))).collect::<Vec<_>>().join(", ")),
+        Value::Object(o) => format!(
+            "{{ {} }}",
+            o.iter().map(|(k, v)| format!("{k} = {}", toml_text(v))).collect::<Vec<_>>().join(", ")
+        ),
     }
 }
 
 fn description(s: &Value) -> Option<String> {
-    s.get("description").and_then(Value::as_str).map(str::trim).filter(|d| !d.is_empty()).map(String::from)
+    s.get("description")
+        .and_then(Value::as_str)
+        .map(str::trim)
+        .filter(|d| !d.is_empty())
+        .map(String::from)
 }
 
 /// Doc paragraphs with their lines joined.
 fn paragraphs(doc: &str) -> String {
-    doc.split("\n\n").map(|p| p.lines().map(str::trim).collect::<Vec<_>>().join(" ")).collect::<Vec<_>>().join("\n\n")
+    doc.split("\n\n")
+        .map(|p| p.lines().map(str::trim).collect::<Vec<_>>().join(" "))
+        .collect::<Vec<_>>()
+        .join("\n\n")
 }
 
 /// The first sentence of the first paragraph: up to a '.' outside brackets that is followed by a
@@ -309,7 +366,9 @@ impl Node {
 
     fn to_value(&self) -> Value {
         match self {
-            Node::Table(e) => Value::Object(e.0.iter().map(|(k, v)| (k.clone(), v.to_value())).collect()),
+            Node::Table(e) => {
+                Value::Object(e.0.iter().map(|(k, v)| (k.clone(), v.to_value())).collect())
+            }
             Node::Leaf(v) => v.clone(),
         }
     }

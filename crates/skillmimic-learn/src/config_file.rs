@@ -19,14 +19,18 @@ use crate::config::TrainConfig;
 use crate::error::LearnError;
 
 /// Key paths, inside an `[env]` table, whose values are input paths (a string or an array of them).
-pub const ENV_PATH_KEYS: [&[&str]; 3] = [&["motion"], &["v2", "history", "encoder"], &["hlc", "llc"]];
+pub const ENV_PATH_KEYS: [&[&str]; 3] =
+    [&["motion"], &["v2", "history", "encoder"], &["hlc", "llc"]];
 
 /// The top-level tables of a training config file.
 pub const TABLES: [&str; 3] = ["env", "ppo", "run"];
 
 /// Resolve one path written in a config file whose folder is `config_dir` (see the module docs).
 pub fn resolve_path(written: &Path, config_dir: &Path) -> PathBuf {
-    if written.as_os_str().is_empty() || written.is_absolute() || written.as_os_str() == skillmimic_env::BUILTIN_DEMO {
+    if written.as_os_str().is_empty()
+        || written.is_absolute()
+        || written.as_os_str() == skillmimic_env::BUILTIN_DEMO
+    {
         return written.to_path_buf();
     }
     let beside = config_dir.join(written);
@@ -61,7 +65,9 @@ pub fn config_dir(path: &Path) -> &Path {
 
 /// Parse the config file `path` (`text` is its content) into a TOML table with its paths resolved.
 pub fn parse_resolved(text: &str, path: &Path) -> Result<toml::Table, LearnError> {
-    let mut doc: toml::Table = text.parse().map_err(|e: toml::de::Error| LearnError::Config(format!("{}: {e}", path.display())))?;
+    let mut doc: toml::Table = text
+        .parse()
+        .map_err(|e: toml::de::Error| LearnError::Config(format!("{}: {e}", path.display())))?;
     if let Some(toml::Value::Table(env)) = doc.get_mut("env") {
         resolve_env_paths(env, config_dir(path));
     }
@@ -76,7 +82,8 @@ fn read(path: &Path) -> Result<String, LearnError> {
 /// command-line flags): the file over `base`, its relative paths resolved.
 pub fn load_train_config(base: &TrainConfig, path: &Path) -> Result<TrainConfig, LearnError> {
     let doc = parse_resolved(&read(path)?, path)?;
-    let text = toml::to_string(&doc).map_err(|e| LearnError::Config(format!("{}: {e}", path.display())))?;
+    let text = toml::to_string(&doc)
+        .map_err(|e| LearnError::Config(format!("{}: {e}", path.display())))?;
     TrainConfig::from_toml_over(base, &text, path)
 }
 
@@ -85,11 +92,18 @@ pub fn load_train_config(base: &TrainConfig, path: &Path) -> Result<TrainConfig,
 /// a file with none of the tables `[env]`, `[ppo]`, `[run]`, the top-level keys.
 pub fn load_env_table(path: &Path) -> Result<toml::Table, LearnError> {
     let text = read(path)?;
-    let mut doc: toml::Table = text.parse().map_err(|e: toml::de::Error| LearnError::Config(format!("{}: {e}", path.display())))?;
+    let mut doc: toml::Table = text
+        .parse()
+        .map_err(|e: toml::de::Error| LearnError::Config(format!("{}: {e}", path.display())))?;
     let mut env = if TABLES.iter().any(|t| doc.contains_key(*t)) {
         match doc.remove("env") {
             Some(toml::Value::Table(t)) => t,
-            Some(_) => return Err(LearnError::Config(format!("{}: `env` must be a table", path.display()))),
+            Some(_) => {
+                return Err(LearnError::Config(format!(
+                    "{}: `env` must be a table",
+                    path.display()
+                )));
+            }
             None => toml::Table::new(),
         }
     } else {
@@ -104,7 +118,8 @@ mod tests {
     use super::*;
 
     fn scratch(tag: &str) -> PathBuf {
-        let d = std::env::temp_dir().join(format!("skillmimic-config-file-{tag}-{}", std::process::id()));
+        let d = std::env::temp_dir()
+            .join(format!("skillmimic-config-file-{tag}-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&d);
         std::fs::create_dir_all(d.join("sub/clips")).unwrap();
         d
@@ -119,14 +134,25 @@ mod tests {
         std::fs::write(&file, text).unwrap();
         let c = load_train_config(&TrainConfig::default(), &file).unwrap();
         let sub = d.join("sub");
-        assert_eq!(c.env.motion, vec![sub.join("clips"), sub.join("missing"), PathBuf::from("/abs/clip.pt"), PathBuf::from("builtin:demo")]);
+        assert_eq!(
+            c.env.motion,
+            vec![
+                sub.join("clips"),
+                sub.join("missing"),
+                PathBuf::from("/abs/clip.pt"),
+                PathBuf::from("builtin:demo")
+            ]
+        );
         assert_eq!(c.env.v2.history.encoder, sub.join("enc.safetensors"));
         // the same table for a standalone environment; a file without tables = top-level keys
         let env = load_env_table(&file).unwrap();
         assert_eq!(env["motion"][0].as_str(), Some(sub.join("clips").to_str().unwrap()));
         std::fs::write(&file, "num_envs = 3\nmotion = [\"clips\"]\n").unwrap();
         let env = load_env_table(&file).unwrap();
-        assert_eq!((env["num_envs"].as_integer(), env["motion"][0].as_str()), (Some(3), Some(sub.join("clips").to_str().unwrap())));
+        assert_eq!(
+            (env["num_envs"].as_integer(), env["motion"][0].as_str()),
+            (Some(3), Some(sub.join("clips").to_str().unwrap()))
+        );
         std::fs::write(&file, "[ppo]\nlr = 1e-4\n").unwrap();
         assert!(load_env_table(&file).unwrap().is_empty());
         std::fs::remove_dir_all(&d).ok();

@@ -43,7 +43,17 @@ pub struct TokenConfig {
 
 impl Default for TokenConfig {
     fn default() -> Self {
-        Self { tokenizer: vec![256, 128], embed: 64, layers: 4, heads: 2, feedforward: 512, head: vec![1024, 512], groups: Vec::new(), adapt_from: std::path::PathBuf::new(), gate_adapters: true }
+        Self {
+            tokenizer: vec![256, 128],
+            embed: 64,
+            layers: 4,
+            heads: 2,
+            feedforward: 512,
+            head: vec![1024, 512],
+            groups: Vec::new(),
+            adapt_from: std::path::PathBuf::new(),
+            gate_adapters: true,
+        }
     }
 }
 
@@ -53,13 +63,19 @@ impl TokenConfig {
         let mut groups = Vec::new();
         let mut mask = 0;
         for (k, g) in self.groups.iter().enumerate() {
-            let parsed = g.rsplit_once(':').and_then(|(n, w)| w.trim().parse::<usize>().ok().filter(|&w| w > 0).map(|w| (n.trim().to_string(), w)));
+            let parsed = g.rsplit_once(':').and_then(|(n, w)| {
+                w.trim().parse::<usize>().ok().filter(|&w| w > 0).map(|w| (n.trim().to_string(), w))
+            });
             let Some((name, w)) = parsed else {
-                return Err(format!("config field 'ppo.token.groups' entry {k} is '{g}', expected \"name:width\" with a positive width"));
+                return Err(format!(
+                    "config field 'ppo.token.groups' entry {k} is '{g}', expected \"name:width\" with a positive width"
+                ));
             };
             if name == "mask" {
                 if k + 1 != self.groups.len() {
-                    return Err(format!("config field 'ppo.token.groups': \"mask:{w}\" must be the last entry"));
+                    return Err(format!(
+                        "config field 'ppo.token.groups': \"mask:{w}\" must be the last entry"
+                    ));
                 }
                 mask = w;
             } else {

@@ -27,7 +27,13 @@ pub const MAX_ABS_PARAM: f32 = 1e6;
 /// The minibatch's loss terms and the global gradient norm (before clipping) are finite;
 /// otherwise [`LearnError::Diverged`] saying which.
 pub fn check_minibatch(l: &LossStats, grad_norm: f64) -> Result<(), LearnError> {
-    let terms = [("actor loss", l.actor), ("critic loss", l.critic), ("bounds loss", l.bounds), ("entropy", l.entropy), ("total loss", l.total)];
+    let terms = [
+        ("actor loss", l.actor),
+        ("critic loss", l.critic),
+        ("bounds loss", l.bounds),
+        ("entropy", l.entropy),
+        ("total loss", l.total),
+    ];
     if let Some((name, v)) = terms.iter().find(|(_, v)| !v.is_finite()) {
         return Err(LearnError::Diverged(format!("the {name} is {v}")));
     }
@@ -47,17 +53,27 @@ fn first_bad<T: Copy + Into<f64>>(xs: &[T], max: f64) -> Option<(usize, f64)> {
 /// [`MAX_ABS_PARAM`]; `log_std`, the Adam moments and the normalisers finite. The error names
 /// the tensor (checkpoint names), the index and the value.
 pub fn check_state(policy: &Policy, adam: &Adam) -> Result<(), LearnError> {
-    let params: Vec<&[f32]> = policy.actor.params().into_iter().chain(policy.critic.params()).collect();
+    let params: Vec<&[f32]> =
+        policy.actor.params().into_iter().chain(policy.critic.params()).collect();
     let names = || -> Vec<String> {
-        let mut v: Vec<String> = policy.actor.param_names("actor").into_iter().map(|p| p.0).collect();
+        let mut v: Vec<String> =
+            policy.actor.param_names("actor").into_iter().map(|p| p.0).collect();
         v.extend(policy.critic.param_names("critic").into_iter().map(|p| p.0));
         v
     };
-    let bad = |what: String, (i, v): (usize, f64)| LearnError::Diverged(format!("{what}[{i}] is {v:e}"));
+    let bad =
+        |what: String, (i, v): (usize, f64)| LearnError::Diverged(format!("{what}[{i}] is {v:e}"));
     for (k, p) in params.iter().enumerate() {
-        if let Some(b) = first_bad(*p, MAX_ABS_PARAM as f64) {
+        if let Some(b) = first_bad(p, MAX_ABS_PARAM as f64) {
             let what = format!("parameter '{}'", names()[k]);
-            return Err(if b.1.is_finite() { LearnError::Diverged(format!("{what}[{}] is {:e}, beyond the bound of {MAX_ABS_PARAM:e} for trained parameters", b.0, b.1)) } else { bad(what, b) });
+            return Err(if b.1.is_finite() {
+                LearnError::Diverged(format!(
+                    "{what}[{}] is {:e}, beyond the bound of {MAX_ABS_PARAM:e} for trained parameters",
+                    b.0, b.1
+                ))
+            } else {
+                bad(what, b)
+            });
         }
     }
     for (k, (m, v)) in adam.m.iter().zip(&adam.v).enumerate() {
@@ -71,7 +87,11 @@ pub fn check_state(policy: &Policy, adam: &Adam) -> Result<(), LearnError> {
         return Err(bad("'log_std'".into(), b));
     }
     for (prefix, n) in [("obs_norm", &policy.obs_norm), ("value_norm", &policy.value_norm)] {
-        for (field, xs) in [("mean", n.mean.as_slice()), ("var", n.var.as_slice()), ("count", std::slice::from_ref(&n.count))] {
+        for (field, xs) in [
+            ("mean", n.mean.as_slice()),
+            ("var", n.var.as_slice()),
+            ("count", std::slice::from_ref(&n.count)),
+        ] {
             if let Some(b) = first_bad(xs, f64::MAX) {
                 return Err(bad(format!("normaliser statistic '{prefix}.{field}'"), b));
             }
@@ -83,7 +103,9 @@ pub fn check_state(policy: &Policy, adam: &Adam) -> Result<(), LearnError> {
 /// `e` with the iteration (1-based) it happened in, when it is a divergence.
 pub fn in_iteration(e: LearnError, iteration: u64) -> LearnError {
     match e {
-        LearnError::Diverged(m) => LearnError::Diverged(format!("training diverged in iteration {iteration}: {m}")),
+        LearnError::Diverged(m) => {
+            LearnError::Diverged(format!("training diverged in iteration {iteration}: {m}"))
+        }
         other => other,
     }
 }
@@ -93,7 +115,10 @@ pub fn in_iteration(e: LearnError, iteration: u64) -> LearnError {
 pub fn with_last_good(e: LearnError, last_good: Option<&std::path::Path>) -> LearnError {
     match e {
         LearnError::Diverged(m) => LearnError::Diverged(match last_good {
-            Some(p) => format!("{m}; last good checkpoint: {} (lower ppo.lr and resume from it)", p.display()),
+            Some(p) => format!(
+                "{m}; last good checkpoint: {} (lower ppo.lr and resume from it)",
+                p.display()
+            ),
             None => format!("{m}; no checkpoint of this run was written before it (lower ppo.lr)"),
         }),
         other => other,
@@ -113,11 +138,16 @@ mod tests {
         assert_eq!(e, "the critic loss is NaN");
         l.critic = 0.5;
         assert!(check_minibatch(&l, 1.0).is_ok());
-        assert_eq!(check_minibatch(&l, f64::INFINITY).unwrap_err().to_string(), "the gradient norm is inf");
+        assert_eq!(
+            check_minibatch(&l, f64::INFINITY).unwrap_err().to_string(),
+            "the gradient norm is inf"
+        );
 
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0);
-        let mut p = Policy::new(6, 2, &PpoConfig { hidden: vec![4], ..Default::default() }, &mut rng);
-        let sizes: Vec<usize> = p.actor.params().iter().chain(p.critic.params().iter()).map(|x| x.len()).collect();
+        let mut p =
+            Policy::new(6, 2, &PpoConfig { hidden: vec![4], ..Default::default() }, &mut rng);
+        let sizes: Vec<usize> =
+            p.actor.params().iter().chain(p.critic.params().iter()).map(|x| x.len()).collect();
         let mut adam = Adam::new(&sizes, 1e-3, 1e-8);
         assert!(check_state(&p, &adam).is_ok());
         p.critic.params_mut()[1][0] = 2e6;
@@ -129,9 +159,17 @@ mod tests {
         assert_eq!(e, "Adam moment 'optim.v.actor.0.weight'[3] is inf");
         adam.v[0][3] = 0.0;
         p.value_norm.var[0] = f64::NAN;
-        assert!(check_state(&p, &adam).unwrap_err().to_string().contains("'value_norm.var'[0] is NaN"));
+        assert!(
+            check_state(&p, &adam).unwrap_err().to_string().contains("'value_norm.var'[0] is NaN")
+        );
         let e = in_iteration(LearnError::Diverged("x".into()), 7);
-        let e = with_last_good(e, Some(std::path::Path::new("run/checkpoints/iter_000006.safetensors")));
-        assert_eq!(e.to_string(), "training diverged in iteration 7: x; last good checkpoint: run/checkpoints/iter_000006.safetensors (lower ppo.lr and resume from it)");
+        let e = with_last_good(
+            e,
+            Some(std::path::Path::new("run/checkpoints/iter_000006.safetensors")),
+        );
+        assert_eq!(
+            e.to_string(),
+            "training diverged in iteration 7: x; last good checkpoint: run/checkpoints/iter_000006.safetensors (lower ppo.lr and resume from it)"
+        );
     }
 }

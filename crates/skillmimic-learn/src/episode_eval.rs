@@ -65,13 +65,26 @@ impl Actor<'_> {
 /// Evaluate `policy` on `env` for `episodes` episodes: every environment contributes a fixed
 /// quota of its first episodes (counting the first to finish would favour short ones); actions
 /// are the family's mode, or samples when `stochastic`; starts seeded with `seed`.
-pub fn evaluate_episodes(policy: &Policy, env: &mut dyn Env, episodes: usize, seed: u64, stochastic: bool, threads: usize) -> Result<EpisodeReport, LearnError> {
+pub fn evaluate_episodes(
+    policy: &Policy,
+    env: &mut dyn Env,
+    episodes: usize,
+    seed: u64,
+    stochastic: bool,
+    threads: usize,
+) -> Result<EpisodeReport, LearnError> {
     evaluate_actor(Actor::Policy { policy, stochastic }, env, episodes, seed, threads)
 }
 
 /// [`evaluate_episodes`] for any [`Actor`]: the baselines see the same episode starts (seed) as
 /// the policy. Random choices come from their own stream seeded with `seed`.
-pub fn evaluate_actor(actor: Actor<'_>, env: &mut dyn Env, episodes: usize, seed: u64, threads: usize) -> Result<EpisodeReport, LearnError> {
+pub fn evaluate_actor(
+    actor: Actor<'_>,
+    env: &mut dyn Env,
+    episodes: usize,
+    seed: u64,
+    threads: usize,
+) -> Result<EpisodeReport, LearnError> {
     let spec = env.spec().clone();
     let choices = match spec.action_space {
         skillmimic_env::ActionSpace::Discrete { n } => n,
@@ -83,11 +96,21 @@ pub fn evaluate_actor(actor: Actor<'_>, env: &mut dyn Env, episodes: usize, seed
         r
     };
     match actor {
-        Actor::Policy { policy, stochastic } => return evaluate_policy(policy, stochastic, env, episodes, seed, threads).map(labelled),
-        Actor::Fixed(k) if k >= choices => {
-            return Err(LearnError::Config(format!("baseline fixed:{k}: task '{}' has {choices} discrete choices", spec.name)));
+        Actor::Policy { policy, stochastic } => {
+            return evaluate_policy(policy, stochastic, env, episodes, seed, threads).map(labelled);
         }
-        _ if choices == 0 => return Err(LearnError::Config(format!("baselines need a task with discrete choices; '{}' has continuous actions", spec.name))),
+        Actor::Fixed(k) if k >= choices => {
+            return Err(LearnError::Config(format!(
+                "baseline fixed:{k}: task '{}' has {choices} discrete choices",
+                spec.name
+            )));
+        }
+        _ if choices == 0 => {
+            return Err(LearnError::Config(format!(
+                "baselines need a task with discrete choices; '{}' has continuous actions",
+                spec.name
+            )));
+        }
         _ => {}
     }
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0xba5e);
@@ -102,7 +125,14 @@ pub fn evaluate_actor(actor: Actor<'_>, env: &mut dyn Env, episodes: usize, seed
     .map(labelled)
 }
 
-fn evaluate_policy(policy: &Policy, stochastic: bool, env: &mut dyn Env, episodes: usize, seed: u64, threads: usize) -> Result<EpisodeReport, LearnError> {
+fn evaluate_policy(
+    policy: &Policy,
+    stochastic: bool,
+    env: &mut dyn Env,
+    episodes: usize,
+    seed: u64,
+    threads: usize,
+) -> Result<EpisodeReport, LearnError> {
     let spec = env.spec().clone();
     if (policy.obs_dim(), policy.act_dim()) != (spec.obs_dim, spec.act_dim()) {
         return Err(LearnError::Config(format!(
@@ -129,7 +159,12 @@ fn evaluate_policy(policy: &Policy, stochastic: bool, env: &mut dyn Env, episode
 }
 
 /// The episode loop shared by every actor: `act(obs, actions)` fills the actions of a step.
-fn run_episodes(env: &mut dyn Env, episodes: usize, seed: u64, mut act: impl FnMut(&[f32], &mut [f32])) -> Result<EpisodeReport, LearnError> {
+fn run_episodes(
+    env: &mut dyn Env,
+    episodes: usize,
+    seed: u64,
+    mut act: impl FnMut(&[f32], &mut [f32]),
+) -> Result<EpisodeReport, LearnError> {
     let spec = env.spec().clone();
     let (n, a) = (env.num_envs(), spec.act_dim());
     let (nt, nm) = (spec.term_names.len(), spec.metric_names.len());
@@ -138,8 +173,14 @@ fn run_episodes(env: &mut dyn Env, episodes: usize, seed: u64, mut act: impl FnM
     let mut actions = vec![0.0; n * a];
     let quota: Vec<usize> = (0..n).map(|i| episodes / n + usize::from(i < episodes % n)).collect();
     let (mut finished, mut ret, mut len) = (vec![0usize; n], vec![0.0f64; n], vec![0usize; n]);
-    let (mut terms, mut metrics, mut finals) = (vec![0.0f64; nt], vec![0.0f64; nm], vec![0.0f64; nm]);
-    let mut rep = EpisodeReport { task: spec.name.to_string(), seed, deterministic: true, ..Default::default() };
+    let (mut terms, mut metrics, mut finals) =
+        (vec![0.0f64; nt], vec![0.0f64; nm], vec![0.0f64; nm]);
+    let mut rep = EpisodeReport {
+        task: spec.name.to_string(),
+        seed,
+        deterministic: true,
+        ..Default::default()
+    };
     let (mut steps, mut reward, mut early) = (0.0f64, 0.0f64, 0usize);
     while rep.episodes < episodes {
         env.reset_done();
@@ -178,9 +219,12 @@ fn run_episodes(env: &mut dyn Env, episodes: usize, seed: u64, mut act: impl FnM
     rep.mean_episode_length = steps / e;
     rep.early_termination_rate = early as f64 / e;
     // the sums include the steps of counted episodes only
-    rep.reward_terms = spec.term_names.iter().zip(&terms).map(|(k, v)| (k.to_string(), v / s)).collect();
-    rep.metrics = spec.metric_names.iter().zip(&metrics).map(|(k, v)| (k.to_string(), v / s)).collect();
-    rep.final_metrics = spec.metric_names.iter().zip(&finals).map(|(k, v)| (k.to_string(), v / e)).collect();
+    rep.reward_terms =
+        spec.term_names.iter().zip(&terms).map(|(k, v)| (k.to_string(), v / s)).collect();
+    rep.metrics =
+        spec.metric_names.iter().zip(&metrics).map(|(k, v)| (k.to_string(), v / s)).collect();
+    rep.final_metrics =
+        spec.metric_names.iter().zip(&finals).map(|(k, v)| (k.to_string(), v / e)).collect();
     rep.mean_episode_low_level_steps = rep.mean_episode_length * spec.steps_per_action as f64;
     Ok(rep)
 }

@@ -28,7 +28,9 @@ pub enum LearnError {
     #[error("distributed: {0}")]
     Distributed(String),
     /// The requested device is not in this build.
-    #[error("config field 'ppo.device': device '{0}' is not available in this build (cpu, or cuda with the `cuda` feature)")]
+    #[error(
+        "config field 'ppo.device': device '{0}' is not available in this build (cpu, or cuda with the `cuda` feature)"
+    )]
     Device(String),
 }
 

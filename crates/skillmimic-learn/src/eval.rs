@@ -69,7 +69,12 @@ impl EpisodeTracker {
     /// of a transition run); `target_height` (m) is the shot/layup target ball height.
     pub fn new(skill: u32, target_height: f64) -> Self {
         let kind = skill_kind(skill);
-        Self { v1: kind.map(|k| V1Success::new(k, target_height)), v2: kind.map(|k| V2Success::new(k, target_height)), steps: 0, reward: 0.0 }
+        Self {
+            v1: kind.map(|k| V1Success::new(k, target_height)),
+            v2: kind.map(|k| V2Success::new(k, target_height)),
+            steps: 0,
+            reward: 0.0,
+        }
     }
 
     /// Feed the state after the episode's next step and that step's reward.
@@ -191,12 +196,22 @@ pub fn target_heights(lib: &MotionLibrary) -> BTreeMap<u32, f64> {
 
 fn tracker(env: &SkillEnv, i: usize, heights: &BTreeMap<u32, f64>) -> EpisodeTracker {
     let ep = env.episode(i);
-    let target = heights.get(&ep.skill).copied().unwrap_or_else(|| max_ball_height(&env.library().get(ep.clip).clip));
+    let target = heights
+        .get(&ep.skill)
+        .copied()
+        .unwrap_or_else(|| max_ball_height(&env.library().get(ep.clip).clip));
     EpisodeTracker::new(ep.skill, target)
 }
 
 /// Evaluate `policy` on `env` for `episodes` finished episodes.
-pub fn evaluate(policy: &Policy, env: &mut SkillEnv, episodes: usize, seed: u64, stochastic: bool, threads: usize) -> EvalReport {
+pub fn evaluate(
+    policy: &Policy,
+    env: &mut SkillEnv,
+    episodes: usize,
+    seed: u64,
+    stochastic: bool,
+    threads: usize,
+) -> EvalReport {
     let heights = target_heights(env.library());
     evaluate_with(policy, env, episodes, seed, stochastic, threads, &heights)
 }
@@ -217,7 +232,8 @@ pub fn evaluate_with(
     env.reset_all(Some(seed));
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5eed);
     let mut buf = InferenceBuffers::default();
-    let (mut mu, mut values, mut actions, mut neglogp) = (vec![0.0; n * a], vec![0.0; n], vec![0.0; n * a], vec![0.0; n]);
+    let (mut mu, mut values, mut actions, mut neglogp) =
+        (vec![0.0; n * a], vec![0.0; n], vec![0.0; n * a], vec![0.0; n]);
     let mut trackers: Vec<EpisodeTracker> = (0..n).map(|i| tracker(env, i, heights)).collect();
     let mut imitation = ImitationMetrics::default();
     let mut rep = EvalReport { seed, deterministic: !stochastic, ..Default::default() };
@@ -243,7 +259,11 @@ pub fn evaluate_with(
         let b = env.buffers();
         for i in 0..n {
             let st = env.sim().state().env(i);
-            let fs = FrameState { root_pos: st.pos(0), ball_pos: st.pos(BALL), ball_vel: st.linvel(BALL) };
+            let fs = FrameState {
+                root_pos: st.pos(0),
+                ball_pos: st.pos(BALL),
+                ball_vel: st.linvel(BALL),
+            };
             let tr = &mut trackers[i];
             tr.step(&fs, b.reward[i]);
             let counted = finished[i] < quota[i];
@@ -317,13 +337,22 @@ fn mean_of(m: &BTreeMap<String, f64>) -> f64 {
 /// SR, TSR (every other skill of the library as source), εNSR and NR, deterministic actions,
 /// fixed seeds. `base` supplies the environment settings of training (scene, reward, history
 /// encoder, ε of the State Transition Field); STG and ATS are off during evaluation.
-pub fn evaluate_v2(policy: &Policy, base: &EnvConfig, lib: &Arc<MotionLibrary>, cfg: &V2EvalConfig, threads: usize) -> Result<V2Report, EnvError> {
+pub fn evaluate_v2(
+    policy: &Policy,
+    base: &EnvConfig,
+    lib: &Arc<MotionLibrary>,
+    cfg: &V2EvalConfig,
+    threads: usize,
+) -> Result<V2Report, EnvError> {
     let heights = target_heights(lib);
     let mut skills: Vec<u32> = (0..lib.len()).map(|c| lib.get(c).clip.skill).collect();
     skills.sort_unstable();
     skills.dedup();
     let subset = |s: u32| -> Result<Arc<MotionLibrary>, EnvError> {
-        let clips = (0..lib.len()).filter(|&c| lib.get(c).clip.skill == s).map(|c| lib.get(c).clip.clone()).collect();
+        let clips = (0..lib.len())
+            .filter(|&c| lib.get(c).clip.skill == s)
+            .map(|c| lib.get(c).clip.clone())
+            .collect();
         Ok(Arc::new(MotionLibrary::from_clips(clips)?))
     };
     let env_cfg = |horizon: usize, noise: bool| {
@@ -343,11 +372,12 @@ pub fn evaluate_v2(policy: &Policy, base: &EnvConfig, lib: &Arc<MotionLibrary>, 
         c.v2.stf.prob = if noise { 1.0 } else { 0.0 };
         c
     };
-    let run = |c: EnvConfig, l: Arc<MotionLibrary>, over: Option<u32>| -> Result<EvalReport, EnvError> {
-        let mut env = SkillEnv::new(c, l)?;
-        env.set_skill_override(over);
-        Ok(evaluate_with(policy, &mut env, cfg.episodes, cfg.seed, false, threads, &heights))
-    };
+    let run =
+        |c: EnvConfig, l: Arc<MotionLibrary>, over: Option<u32>| -> Result<EvalReport, EnvError> {
+            let mut env = SkillEnv::new(c, l)?;
+            env.set_skill_override(over);
+            Ok(evaluate_with(policy, &mut env, cfg.episodes, cfg.seed, false, threads, &heights))
+        };
     let mut rep = V2Report { config: Some(cfg.clone()), ..Default::default() };
     for &s in &skills {
         let own = subset(s)?;
@@ -356,8 +386,12 @@ pub fn evaluate_v2(policy: &Policy, base: &EnvConfig, lib: &Arc<MotionLibrary>, 
             rep.skills_without_rule.push(s);
             continue;
         }
-        rep.sr.insert(format!("{s:03}"), v2_rate(&run(env_cfg(cfg.horizon, false), own.clone(), None)?, s));
-        rep.eps_nsr.insert(format!("{s:03}"), v2_rate(&run(env_cfg(cfg.horizon, true), own, None)?, s));
+        rep.sr.insert(
+            format!("{s:03}"),
+            v2_rate(&run(env_cfg(cfg.horizon, false), own.clone(), None)?, s),
+        );
+        rep.eps_nsr
+            .insert(format!("{s:03}"), v2_rate(&run(env_cfg(cfg.horizon, true), own, None)?, s));
         for &src in skills.iter().filter(|&&x| x != s) {
             let r = run(env_cfg(cfg.horizon, false), subset(src)?, Some(s))?;
             rep.tsr.insert(format!("{src:03}->{s:03}"), v2_rate(&r, s));

@@ -30,8 +30,11 @@ use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
-use skillmimic_nn::history::{CHANNELS, FEATURE_DIM, HistoryEncoder, KERNEL, TENSOR_NAMES, candle_forward, candle_forward_shared, reference_window};
 use skillmimic_motion::SKILL_WIDTH;
+use skillmimic_nn::history::{
+    CHANNELS, FEATURE_DIM, HistoryEncoder, KERNEL, TENSOR_NAMES, candle_forward,
+    candle_forward_shared, reference_window,
+};
 
 use crate::adam::Adam;
 use crate::error::LearnError;
@@ -115,7 +118,9 @@ impl PretrainData {
         let samples = features
             .iter()
             .enumerate()
-            .flat_map(|(c, rows)| (0..(rows.len() / FEATURE_DIM).saturating_sub(1)).map(move |i| (c, i)))
+            .flat_map(|(c, rows)| {
+                (0..(rows.len() / FEATURE_DIM).saturating_sub(1)).map(move |i| (c, i))
+            })
             .collect();
         Self { features, labels, samples }
     }
@@ -125,7 +130,11 @@ impl PretrainData {
         let mut out = self.batch_rows(idx);
         out[0] = vec![0.0f32; idx.len() * k * FEATURE_DIM];
         for (r, &(c, i)) in idx.iter().enumerate() {
-            reference_window(&self.features[c], i, &mut out[0][r * k * FEATURE_DIM..(r + 1) * k * FEATURE_DIM]);
+            reference_window(
+                &self.features[c],
+                i,
+                &mut out[0][r * k * FEATURE_DIM..(r + 1) * k * FEATURE_DIM],
+            );
         }
         out
     }
@@ -147,7 +156,8 @@ struct SharedBatch {
 
 impl PretrainData {
     fn shared_batch(&self, idx: &[(usize, usize)], k: usize) -> SharedBatch {
-        let mut row_of: std::collections::HashMap<(usize, usize), u32> = std::collections::HashMap::new();
+        let mut row_of: std::collections::HashMap<(usize, usize), u32> =
+            std::collections::HashMap::new();
         let mut order: Vec<(usize, usize)> = Vec::new();
         let b = idx.len();
         // window position τ of sample (c, i) holds frame i − k + τ (negative: zero row)
@@ -172,11 +182,23 @@ impl PretrainData {
         let u = order.len();
         let mut frames = vec![0.0f32; (u + 1) * FEATURE_DIM];
         for (r, &(c, t)) in order.iter().enumerate() {
-            frames[r * FEATURE_DIM..(r + 1) * FEATURE_DIM].copy_from_slice(&self.features[c][t * FEATURE_DIM..(t + 1) * FEATURE_DIM]);
+            frames[r * FEATURE_DIM..(r + 1) * FEATURE_DIM]
+                .copy_from_slice(&self.features[c][t * FEATURE_DIM..(t + 1) * FEATURE_DIM]);
         }
-        let pick = |j: usize| ids.iter().map(|e| e[j].map_or(u as u32, |key| row_of[&key])).collect::<Vec<u32>>();
+        let pick = |j: usize| {
+            ids.iter().map(|e| e[j].map_or(u as u32, |key| row_of[&key])).collect::<Vec<u32>>()
+        };
         let [_, current, onehot, target] = self.batch_rows(idx);
-        SharedBatch { frames, rows: u + 1, prev: pick(0), cur: pick(1), next: pick(2), current, onehot, target }
+        SharedBatch {
+            frames,
+            rows: u + 1,
+            prev: pick(0),
+            cur: pick(1),
+            next: pick(2),
+            current,
+            onehot,
+            target,
+        }
     }
 
     /// Current features, one-hot labels and targets of a batch (the window part left empty).
@@ -187,8 +209,10 @@ impl PretrainData {
         let mut tgt = vec![0.0f32; b * FEATURE_DIM];
         for (r, &(c, i)) in idx.iter().enumerate() {
             let rows = &self.features[c];
-            cur[r * FEATURE_DIM..(r + 1) * FEATURE_DIM].copy_from_slice(&rows[i * FEATURE_DIM..(i + 1) * FEATURE_DIM]);
-            tgt[r * FEATURE_DIM..(r + 1) * FEATURE_DIM].copy_from_slice(&rows[(i + 1) * FEATURE_DIM..(i + 2) * FEATURE_DIM]);
+            cur[r * FEATURE_DIM..(r + 1) * FEATURE_DIM]
+                .copy_from_slice(&rows[i * FEATURE_DIM..(i + 1) * FEATURE_DIM]);
+            tgt[r * FEATURE_DIM..(r + 1) * FEATURE_DIM]
+                .copy_from_slice(&rows[(i + 1) * FEATURE_DIM..(i + 2) * FEATURE_DIM]);
             onehot[r * SKILL_WIDTH + self.labels[c] as usize] = 1.0;
         }
         [Vec::new(), cur, onehot, tgt]
@@ -196,7 +220,13 @@ impl PretrainData {
 }
 
 /// Encoder forward of a [`SharedBatch`] (B samples, window k) → h (B, μ).
-fn encode_shared(p: &[Tensor], sb: &SharedBatch, b: usize, k: usize, dev: &Device) -> candle_core::Result<Tensor> {
+fn encode_shared(
+    p: &[Tensor],
+    sb: &SharedBatch,
+    b: usize,
+    k: usize,
+    dev: &Device,
+) -> candle_core::Result<Tensor> {
     let x = Tensor::from_slice(&sb.frames, (sb.rows, FEATURE_DIM), dev)?;
     candle_forward_shared(p, &x, &sb.prev, &sb.cur, &sb.next, b, k)
 }
@@ -254,7 +284,13 @@ fn predict(p: &[Tensor], h: &Tensor, cur: &Tensor, onehot: &Tensor) -> candle_co
 }
 
 /// (prediction MSE sum over elements, ‖h‖² sum) of a batch, without gradients.
-fn evaluate_batch(p: &[Tensor], host: &[Vec<f32>; 4], b: usize, k: usize, dev: &Device) -> candle_core::Result<(f64, f64)> {
+fn evaluate_batch(
+    p: &[Tensor],
+    host: &[Vec<f32>; 4],
+    b: usize,
+    k: usize,
+    dev: &Device,
+) -> candle_core::Result<(f64, f64)> {
     let win = Tensor::from_slice(&host[0], (b, k, FEATURE_DIM), dev)?;
     let cur = Tensor::from_slice(&host[1], (b, FEATURE_DIM), dev)?;
     let oh = Tensor::from_slice(&host[2], (b, SKILL_WIDTH), dev)?;
@@ -266,8 +302,18 @@ fn evaluate_batch(p: &[Tensor], host: &[Vec<f32>; 4], b: usize, k: usize, dev: &
     Ok((se, hn))
 }
 
-fn dataset_mse(params: &Params, data: &PretrainData, cfg: &PretrainConfig, dev: &Device) -> candle_core::Result<(f64, f64)> {
-    let p: Vec<Tensor> = params.values.iter().zip(&params.shapes).map(|(v, s)| Tensor::from_slice(v, s.as_slice(), dev)).collect::<Result<_, _>>()?;
+fn dataset_mse(
+    params: &Params,
+    data: &PretrainData,
+    cfg: &PretrainConfig,
+    dev: &Device,
+) -> candle_core::Result<(f64, f64)> {
+    let p: Vec<Tensor> = params
+        .values
+        .iter()
+        .zip(&params.shapes)
+        .map(|(v, s)| Tensor::from_slice(v, s.as_slice(), dev))
+        .collect::<Result<_, _>>()?;
     let (mut se, mut hn) = (0.0, 0.0);
     for chunk in data.samples.chunks(cfg.batch.max(1)) {
         let host = data.batch(chunk, cfg.history_length);
@@ -304,12 +350,21 @@ impl Plateau {
 
 /// Train encoder and predictor; `on_epoch(epoch, mean loss, lr)` reports progress. Returns the
 /// encoder (the predictor is only a training device) and the report.
-pub fn pretrain(data: &PretrainData, cfg: &PretrainConfig, mut on_epoch: impl FnMut(usize, f64, f64)) -> Result<(HistoryEncoder, PretrainReport), LearnError> {
+pub fn pretrain(
+    data: &PretrainData,
+    cfg: &PretrainConfig,
+    mut on_epoch: impl FnMut(usize, f64, f64),
+) -> Result<(HistoryEncoder, PretrainReport), LearnError> {
     if data.samples.is_empty() {
-        return Err(LearnError::Config("history pre-training: the clips give no samples (each clip needs at least 2 frames)".into()));
+        return Err(LearnError::Config(
+            "history pre-training: the clips give no samples (each clip needs at least 2 frames)"
+                .into(),
+        ));
     }
     if cfg.history_length == 0 || cfg.embed_dim == 0 || cfg.batch == 0 {
-        return Err(LearnError::Config("history pre-training: history_length, embed_dim and batch must be >= 1".into()));
+        return Err(LearnError::Config(
+            "history pre-training: history_length, embed_dim and batch must be >= 1".into(),
+        ));
     }
     let dev = Device::Cpu;
     let start = std::time::Instant::now();
@@ -317,8 +372,17 @@ pub fn pretrain(data: &PretrainData, cfg: &PretrainConfig, mut on_epoch: impl Fn
     let mut params = init_params(cfg, &mut rng);
     let sizes: Vec<usize> = params.values.iter().map(Vec::len).collect();
     let mut adam = Adam::new(&sizes, cfg.lr, 1e-8);
-    let mut plateau = Plateau { best: f64::INFINITY, bad: 0, patience: cfg.plateau_patience, factor: cfg.plateau_factor };
-    let mut rep = PretrainReport { clips: data.features.len(), samples: data.samples.len(), ..Default::default() };
+    let mut plateau = Plateau {
+        best: f64::INFINITY,
+        bad: 0,
+        patience: cfg.plateau_patience,
+        factor: cfg.plateau_factor,
+    };
+    let mut rep = PretrainReport {
+        clips: data.features.len(),
+        samples: data.samples.len(),
+        ..Default::default()
+    };
     rep.initial_prediction_mse = dataset_mse(&params, data, cfg, &dev)?.0;
     let k = cfg.history_length;
     let mut order = data.samples.clone();
@@ -330,7 +394,12 @@ pub fn pretrain(data: &PretrainData, cfg: &PretrainConfig, mut on_epoch: impl Fn
             let b = chunk.len();
             let sb = data.shared_batch(chunk, k);
             let step = || -> candle_core::Result<(f64, Vec<Vec<f32>>)> {
-                let vars: Vec<Var> = params.values.iter().zip(&params.shapes).map(|(v, s)| Var::from_slice(v, s.as_slice(), &dev)).collect::<Result<_, _>>()?;
+                let vars: Vec<Var> = params
+                    .values
+                    .iter()
+                    .zip(&params.shapes)
+                    .map(|(v, s)| Var::from_slice(v, s.as_slice(), &dev))
+                    .collect::<Result<_, _>>()?;
                 let p: Vec<Tensor> = vars.iter().map(|v| v.as_tensor().clone()).collect();
                 let cur = Tensor::from_slice(&sb.current, (b, FEATURE_DIM), &dev)?;
                 let oh = Tensor::from_slice(&sb.onehot, (b, SKILL_WIDTH), &dev)?;
@@ -352,7 +421,10 @@ pub fn pretrain(data: &PretrainData, cfg: &PretrainConfig, mut on_epoch: impl Fn
             };
             let (loss, grads) = step()?;
             if !loss.is_finite() {
-                return Err(LearnError::Diverged(format!("history pre-training diverged at epoch {} (loss {loss}); lower the learning rate", epoch + 1)));
+                return Err(LearnError::Diverged(format!(
+                    "history pre-training diverged at epoch {} (loss {loss}); lower the learning rate",
+                    epoch + 1
+                )));
             }
             adam.lr = lr;
             let mut refs: Vec<&mut Vec<f32>> = params.values.iter_mut().collect();
@@ -396,14 +468,29 @@ mod tests {
         let enc = HistoryEncoder::from_torch(6, 3, &enc_t);
         let dev = Device::Cpu;
         let b = 3;
-        let win: Vec<f32> = (0..b * 6 * FEATURE_DIM).map(|_| rng.random_range(-1.0f32..1.0)).collect();
-        let p: Vec<Tensor> = params.values.iter().zip(&params.shapes).map(|(v, s)| Tensor::from_slice(v, s.as_slice(), &dev).unwrap()).collect();
-        let h: Vec<f32> = encode(&p, &Tensor::from_slice(&win, (b, 6, FEATURE_DIM), &dev).unwrap()).unwrap().flatten_all().unwrap().to_vec1().unwrap();
+        let win: Vec<f32> =
+            (0..b * 6 * FEATURE_DIM).map(|_| rng.random_range(-1.0f32..1.0)).collect();
+        let p: Vec<Tensor> = params
+            .values
+            .iter()
+            .zip(&params.shapes)
+            .map(|(v, s)| Tensor::from_slice(v, s.as_slice(), &dev).unwrap())
+            .collect();
+        let h: Vec<f32> = encode(&p, &Tensor::from_slice(&win, (b, 6, FEATURE_DIM), &dev).unwrap())
+            .unwrap()
+            .flatten_all()
+            .unwrap()
+            .to_vec1()
+            .unwrap();
         for r in 0..b {
             let mut out = [0.0f32; 3];
             enc.embed(&win[r * 6 * FEATURE_DIM..(r + 1) * 6 * FEATURE_DIM], &mut out);
             for j in 0..3 {
-                assert!((out[j] - h[r * 3 + j]).abs() <= 1e-5 * (1.0 + out[j].abs()), "{out:?} vs {:?}", &h[r * 3..r * 3 + 3]);
+                assert!(
+                    (out[j] - h[r * 3 + j]).abs() <= 1e-5 * (1.0 + out[j].abs()),
+                    "{out:?} vs {:?}",
+                    &h[r * 3..r * 3 + 3]
+                );
             }
         }
     }
@@ -414,18 +501,33 @@ mod tests {
         let mut rng = ChaCha8Rng::seed_from_u64(9);
         let params = init_params(&cfg, &mut rng);
         // two clips of 12 and 5 frames; samples near the start (zero rows) and inside
-        let feats: Vec<Vec<f32>> = [12usize, 5].iter().map(|&t| (0..t * FEATURE_DIM).map(|_| rng.random_range(-1.0f32..1.0)).collect()).collect();
+        let feats: Vec<Vec<f32>> = [12usize, 5]
+            .iter()
+            .map(|&t| (0..t * FEATURE_DIM).map(|_| rng.random_range(-1.0f32..1.0)).collect())
+            .collect();
         let data = PretrainData::new(feats, vec![3, 7]);
         let idx = [(0, 0), (0, 3), (0, 10), (1, 2), (0, 9), (1, 3)];
         let dev = Device::Cpu;
-        let p: Vec<Tensor> = params.values.iter().zip(&params.shapes).map(|(v, s)| Tensor::from_slice(v, s.as_slice(), &dev).unwrap()).collect();
+        let p: Vec<Tensor> = params
+            .values
+            .iter()
+            .zip(&params.shapes)
+            .map(|(v, s)| Tensor::from_slice(v, s.as_slice(), &dev).unwrap())
+            .collect();
         let host = data.batch(&idx, 8);
-        let plain: Vec<f32> = encode(&p, &Tensor::from_slice(&host[0], (6, 8, FEATURE_DIM), &dev).unwrap()).unwrap().flatten_all().unwrap().to_vec1().unwrap();
+        let plain: Vec<f32> =
+            encode(&p, &Tensor::from_slice(&host[0], (6, 8, FEATURE_DIM), &dev).unwrap())
+                .unwrap()
+                .flatten_all()
+                .unwrap()
+                .to_vec1()
+                .unwrap();
         let sb = data.shared_batch(&idx, 8);
         assert!(sb.rows < 6 * 8, "frames are shared between windows");
         assert_eq!(sb.current, host[1]);
         assert_eq!(sb.target, host[3]);
-        let shared: Vec<f32> = encode_shared(&p, &sb, 6, 8, &dev).unwrap().flatten_all().unwrap().to_vec1().unwrap();
+        let shared: Vec<f32> =
+            encode_shared(&p, &sb, 6, 8, &dev).unwrap().flatten_all().unwrap().to_vec1().unwrap();
         for (a, b) in plain.iter().zip(&shared) {
             assert!((a - b).abs() <= 1e-5 * (1.0 + a.abs()), "{plain:?} vs {shared:?}");
         }

@@ -6,24 +6,27 @@
 //! * [`policies`]: policy families by name (`gaussian_mlp`, `categorical_mlp`);
 //! * [`policy`]: the actor–critic over `skillmimic_nn` MLPs (PyTorch layout), batched inference;
 //! * [`ppo`]: the canonical loss (candle autograd), its fast specialisation, the update, GAE;
-//! * [`adapt`]: policy adaptation of a token transformer (TokenHSI: frozen base, new tokenizer, adapters);
+//! * [`adapt`]: policy adaptation of a token transformer (TokenHSI: frozen base, new tokenizer,
+//!   adapters);
 //! * [`active`]: active skill learning (clip evaluation, generation, failure-weighted sampling);
 //! * [`amp`]: the adversarial motion prior's discriminator (style reward);
 //! * [`adam`]: Adam with exposed state; [`storage`]: rollout buffers; [`error`]: typed errors;
 //! * [`eval`]: SkillMimic / SkillMimic-V2 metrics; [`episode_eval`]: any task's episode report;
 //! * [`checkpoint`]: safetensors checkpoints that load into the PyTorch module;
-//! * [`onnx`]: ONNX export (normaliser folded in, deployment metadata), [`rlgames`]: rl_games import;
+//! * [`onnx`]: ONNX export (normaliser folded in, deployment metadata), [`rlgames`]: rl_games
+//!   import;
 //! * [`trainer`]: rollouts on any registered task's environment and PPO updates;
 //! * [`runner`]: the training loop — logs, checkpoints, end-of-run evaluation, hooks, summary;
-//!   [`divergence`]: when training stops as diverged; [`run_dir`]: the run folder on start and resume;
+//!   [`divergence`]: when training stops as diverged; [`run_dir`]: the run folder on start and
+//!   resume;
 //! * [`collective`], [`shard`], [`sync`]: data-parallel training (the collective operations, which
 //!   environments and samples a rank holds, the start-of-run agreement);
 //! * [`tblog`]: TensorBoard scalar event files.
 
 pub mod active;
-pub mod adapt;
 pub mod actor;
 pub mod adam;
+pub mod adapt;
 pub mod amp;
 pub mod amp_reward;
 #[cfg(feature = "args")]

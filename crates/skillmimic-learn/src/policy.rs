@@ -1,7 +1,7 @@
-//! The actor–critic of every policy family: an actor network ([`ActorNet`]: an MLP, or the
-//! modular attention network) and a critic MLP over the normalised observation, the observation and value normalisers, and the family
-//! ([`crate::policies`]) that turns actor outputs into a distribution over actions (SkillMimic's
-//! fixed-σ Gaussian keeps its log σ here).
+//! The actor–critic of every policy family: an actor network ([`ActorNet`]: an MLP, or the modular
+//! attention network) and a critic MLP over the normalised observation, the observation and value
+//! normalisers, and the family ([`crate::policies`]) that turns actor outputs into a distribution
+//! over actions (SkillMimic's fixed-σ Gaussian keeps its log σ here).
 //!
 //! The critic predicts the value in normalised space; [`Policy::value_from_output`] maps it back
 //! (clamp ±5, scale, shift).
@@ -9,13 +9,12 @@
 use rand::RngCore;
 use skillmimic_env::ActionSpace;
 
+use crate::actor::{ActorNet, ActorWorkspace};
 use crate::config::PpoConfig;
 use crate::error::LearnError;
 use crate::policies::{self, Head, PolicyFamily};
-use crate::actor::{ActorNet, ActorWorkspace};
 use skillmimic_nn::mlp::{Mlp, Workspace};
 use skillmimic_nn::normalizer::RunningMeanStd;
-
 
 /// Family, actor, critic, σ and normalisers.
 #[derive(Clone, Debug, PartialEq)]
@@ -44,21 +43,43 @@ pub struct InferenceBuffers {
 impl Policy {
     /// A freshly initialised `gaussian_mlp` policy for `obs_dim` → `act_dim` continuous actions.
     pub fn new<R: rand::Rng>(obs_dim: usize, act_dim: usize, cfg: &PpoConfig, rng: &mut R) -> Self {
-        Self::init(&policies::gaussian_mlp::GaussianMlp, obs_dim, ActionSpace::Box { dim: act_dim }, cfg, rng).expect("an MLP actor always builds")
+        Self::init(
+            &policies::gaussian_mlp::GaussianMlp,
+            obs_dim,
+            ActionSpace::Box { dim: act_dim },
+            cfg,
+            rng,
+        )
+        .expect("an MLP actor always builds")
     }
 
     /// A freshly initialised policy of the family `cfg.policy` for `space`.
-    pub fn build<R: rand::Rng>(obs_dim: usize, space: ActionSpace, cfg: &PpoConfig, rng: &mut R) -> Result<Self, LearnError> {
+    pub fn build<R: rand::Rng>(
+        obs_dim: usize,
+        space: ActionSpace,
+        cfg: &PpoConfig,
+        rng: &mut R,
+    ) -> Result<Self, LearnError> {
         let family = policies::family(&cfg.policy)?;
         if !family.supports(&space) {
-            return Err(LearnError::Config(format!("config field 'ppo.policy': the family '{}' cannot act in the task's action space {space:?}", family.name())));
+            return Err(LearnError::Config(format!(
+                "config field 'ppo.policy': the family '{}' cannot act in the task's action space {space:?}",
+                family.name()
+            )));
         }
         Self::init(family, obs_dim, space, cfg, rng)
     }
 
     /// Actor MLP `obs_dim → hidden… → actor outputs` (or the family's own actor network), critic
-    /// `obs_dim → hidden… → 1` (drawn in that order from `rng`), log σ for the families that use one.
-    fn init<R: rand::Rng + rand::RngCore>(family: &'static dyn PolicyFamily, obs_dim: usize, space: ActionSpace, cfg: &PpoConfig, rng: &mut R) -> Result<Self, LearnError> {
+    /// `obs_dim → hidden… → 1` (drawn in that order from `rng`), log σ for the families that use
+    /// one.
+    fn init<R: rand::Rng + rand::RngCore>(
+        family: &'static dyn PolicyFamily,
+        obs_dim: usize,
+        space: ActionSpace,
+        cfg: &PpoConfig,
+        rng: &mut R,
+    ) -> Result<Self, LearnError> {
         let mut dims = vec![obs_dim];
         dims.extend(&cfg.hidden);
         let mut adims = dims.clone();
@@ -76,14 +97,20 @@ impl Policy {
                 family.init_output_layer(&mut m, rng);
                 ActorNet::Mlp(m)
             }
-            (None, None) => unreachable!("an MLP is built when the family has no network of its own"),
+            (None, None) => {
+                unreachable!("an MLP is built when the family has no network of its own")
+            }
         };
         Ok(Self {
             family,
             space,
             actor,
             critic,
-            log_std: if family.uses_log_std() { vec![cfg.log_std as f32; space.width()] } else { Vec::new() },
+            log_std: if family.uses_log_std() {
+                vec![cfg.log_std as f32; space.width()]
+            } else {
+                Vec::new()
+            },
             obs_norm: RunningMeanStd::new(obs_dim, cfg.norm_eps, cfg.norm_clip),
             value_norm: RunningMeanStd::new(1, cfg.norm_eps, cfg.norm_clip),
             normalize_input: cfg.normalize_input,
@@ -132,7 +159,15 @@ impl Policy {
     /// Batched deterministic inference: actor outputs `mu` (n × actor outputs: Gaussian means,
     /// categorical logits) and values `values` (n).
     /// With two or more threads the actor and the critic run concurrently, each on half of them.
-    pub fn infer(&self, obs: &[f32], n: usize, buf: &mut InferenceBuffers, mu: &mut [f32], values: &mut [f32], threads: usize) {
+    pub fn infer(
+        &self,
+        obs: &[f32],
+        n: usize,
+        buf: &mut InferenceBuffers,
+        mu: &mut [f32],
+        values: &mut [f32],
+        threads: usize,
+    ) {
         let d = self.obs_dim();
         if buf.obs_n.len() < n * d {
             buf.obs_n.resize(n * d, 0.0);
@@ -142,7 +177,8 @@ impl Policy {
         self.normalize_obs_into(&obs[..n * d], obs_n);
         let obs_n: &[f32] = obs_n;
         let a = self.actor_outputs();
-        let mut run_actor = |t: usize| mu[..n * a].copy_from_slice(self.actor.forward_into(obs_n, n, actor_ws, t));
+        let mut run_actor =
+            |t: usize| mu[..n * a].copy_from_slice(self.actor.forward_into(obs_n, n, actor_ws, t));
         let mut run_critic = |t: usize| {
             let v = self.critic.forward_into(obs_n, n, critic_ws, t);
             for (o, &y) in values[..n].iter_mut().zip(v) {
@@ -159,7 +195,14 @@ impl Policy {
     }
 
     /// Values only (for bootstrapping on next observations).
-    pub fn infer_values(&self, obs: &[f32], n: usize, buf: &mut InferenceBuffers, values: &mut [f32], threads: usize) {
+    pub fn infer_values(
+        &self,
+        obs: &[f32],
+        n: usize,
+        buf: &mut InferenceBuffers,
+        values: &mut [f32],
+        threads: usize,
+    ) {
         let d = self.obs_dim();
         if buf.obs_n.len() < n * d {
             buf.obs_n.resize(n * d, 0.0);
@@ -174,7 +217,14 @@ impl Policy {
 
     /// Sample actions for `n` rows from actor outputs `out` (the family's distribution) and
     /// their negative log-probabilities.
-    pub fn sample<R: RngCore>(&self, out: &[f32], n: usize, rng: &mut R, actions: &mut [f32], neglogp: &mut [f32]) {
+    pub fn sample<R: RngCore>(
+        &self,
+        out: &[f32],
+        n: usize,
+        rng: &mut R,
+        actions: &mut [f32],
+        neglogp: &mut [f32],
+    ) {
         self.family.sample(self.head(), out, n, rng, actions, neglogp);
     }
 

@@ -33,7 +33,9 @@ pub fn remove_stale_temps(dir: &Path) -> Result<Vec<PathBuf>, LearnError> {
     };
     for entry in rd {
         let path = entry.map_err(io(dir))?.path();
-        let Some(pid) = path.file_name().and_then(|n| n.to_str()).and_then(tblog::temp_pid) else { continue };
+        let Some(pid) = path.file_name().and_then(|n| n.to_str()).and_then(tblog::temp_pid) else {
+            continue;
+        };
         if (pid == own || !pid_alive(pid)) && path.is_file() {
             std::fs::remove_file(&path).map_err(io(&path))?;
             removed.push(path);
@@ -55,7 +57,11 @@ pub fn truncate_log(path: &Path, iteration: u64) -> Result<usize, LearnError> {
     let mut kept = String::with_capacity(text.len());
     let mut dropped = 0;
     for line in text.split_inclusive('\n') {
-        let it = line.ends_with('\n').then(|| serde_json::from_str::<serde_json::Value>(line).ok()).flatten().and_then(|v| v.get("iteration")?.as_u64());
+        let it = line
+            .ends_with('\n')
+            .then(|| serde_json::from_str::<serde_json::Value>(line).ok())
+            .flatten()
+            .and_then(|v| v.get("iteration")?.as_u64());
         match it {
             Some(k) if k <= iteration => kept.push_str(line),
             _ => dropped += usize::from(!line.trim().is_empty()),
@@ -72,18 +78,29 @@ pub fn truncate_log(path: &Path, iteration: u64) -> Result<usize, LearnError> {
 pub fn prepare(out: &Path, progress: &Progress) -> Result<(), LearnError> {
     for dir in [out.to_path_buf(), out.join("checkpoints"), out.join("tb")] {
         for p in remove_stale_temps(&dir)? {
-            tracing::info!("removed the stale temporary file {} (left by an interrupted write)", p.display());
+            tracing::info!(
+                "removed the stale temporary file {} (left by an interrupted write)",
+                p.display()
+            );
         }
     }
     let log = out.join("log.jsonl");
     let n = truncate_log(&log, progress.iteration)?;
     if n > 0 {
-        tracing::info!("{}: removed {n} line(s) past iteration {}, where this run starts", log.display(), progress.iteration);
+        tracing::info!(
+            "{}: removed {n} line(s) past iteration {}, where this run starts",
+            log.display(),
+            progress.iteration
+        );
     }
     let tb = out.join("tb");
     let n = tblog::truncate_dir(&tb, progress.samples as i64).map_err(io(&tb))?;
     if n > 0 {
-        tracing::info!("{}: removed {n} TensorBoard event(s) past step {}, where this run starts", tb.display(), progress.samples);
+        tracing::info!(
+            "{}: removed {n} TensorBoard event(s) past step {}, where this run starts",
+            tb.display(),
+            progress.samples
+        );
     }
     Ok(())
 }
@@ -98,9 +115,13 @@ mod tests {
         let _ = std::fs::remove_dir_all(&dir);
         std::fs::create_dir_all(dir.join("checkpoints")).unwrap();
         let log = dir.join("log.jsonl");
-        std::fs::write(&log, "{\"iteration\":1}\n{\"iteration\":2}\n{\"iteration\":3}\n{\"itera").unwrap();
+        std::fs::write(&log, "{\"iteration\":1}\n{\"iteration\":2}\n{\"iteration\":3}\n{\"itera")
+            .unwrap();
         assert_eq!(truncate_log(&log, 2).unwrap(), 2);
-        assert_eq!(std::fs::read_to_string(&log).unwrap(), "{\"iteration\":1}\n{\"iteration\":2}\n");
+        assert_eq!(
+            std::fs::read_to_string(&log).unwrap(),
+            "{\"iteration\":1}\n{\"iteration\":2}\n"
+        );
         assert_eq!(truncate_log(&log, 5).unwrap(), 0);
         assert_eq!(truncate_log(&dir.join("none.jsonl"), 0).unwrap(), 0);
         // a stale temp file (no such process: pids are below 2^22 on Linux), this process's own,

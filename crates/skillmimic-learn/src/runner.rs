@@ -14,8 +14,8 @@ use serde::Serialize;
 use skillmimic_core::tensorfile::write_bytes_atomic;
 use skillmimic_env::SkillEnv;
 
-use crate::error::{LearnError, io};
 use crate::episode_eval::{EpisodeReport, evaluate_episodes};
+use crate::error::{LearnError, io};
 use crate::eval::{EvalReport, evaluate};
 use crate::tblog::EventWriter;
 use crate::trainer::{IterationStats, Trainer};
@@ -23,7 +23,10 @@ use crate::trainer::{IterationStats, Trainer};
 /// Train for the configured iterations, writing logs and checkpoints into `run.out_dir`;
 /// `on_iteration` sees every iteration's statistics (progress bars). Returns the path of the
 /// last checkpoint.
-pub fn train_loop(t: &mut Trainer, mut on_iteration: impl FnMut(&IterationStats)) -> Result<PathBuf, LearnError> {
+pub fn train_loop(
+    t: &mut Trainer,
+    mut on_iteration: impl FnMut(&IterationStats),
+) -> Result<PathBuf, LearnError> {
     train_loop_until(t, |s| {
         on_iteration(s);
         true
@@ -40,7 +43,10 @@ pub fn train_loop(t: &mut Trainer, mut on_iteration: impl FnMut(&IterationStats)
 /// iteration). A resumed run that already reached `run.iterations` is a [`LearnError::Config`]
 /// saying so. A divergence ([`crate::divergence`]) is a [`LearnError::Diverged`] naming the
 /// iteration and the last good checkpoint; nothing of the diverged state is saved.
-pub fn train_loop_until(t: &mut Trainer, mut on_iteration: impl FnMut(&IterationStats) -> bool) -> Result<(PathBuf, bool), LearnError> {
+pub fn train_loop_until(
+    t: &mut Trainer,
+    mut on_iteration: impl FnMut(&IterationStats) -> bool,
+) -> Result<(PathBuf, bool), LearnError> {
     let out = t.cfg.run.out_dir.clone();
     let target = t.cfg.run.iterations as u64;
     let start = t.progress.iteration;
@@ -65,14 +71,21 @@ pub fn train_loop_until(t: &mut Trainer, mut on_iteration: impl FnMut(&Iteration
     let cfg_path = out.join("config.toml");
     write_bytes_atomic(&cfg_path, t.config_toml().as_bytes()).map_err(io(&cfg_path))?;
     let log_path = out.join("log.jsonl");
-    let mut log = std::fs::OpenOptions::new().create(true).append(true).open(&log_path).map_err(io(&log_path))?;
+    let mut log = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(&log_path)
+        .map_err(io(&log_path))?;
     let mut tb = EventWriter::create(&out.join("tb")).map_err(io(&out.join("tb")))?;
     let mut last = out.join("latest.safetensors");
     let mut last_good = t.resumed_from.clone();
     while t.progress.iteration < target {
-        let s = t.iteration().map_err(|e| crate::divergence::with_last_good(e, last_good.as_deref()))?;
+        let s = t
+            .iteration()
+            .map_err(|e| crate::divergence::with_last_good(e, last_good.as_deref()))?;
         use std::io::Write;
-        writeln!(log, "{}", serde_json::to_string(&s).expect("serialisable stats")).map_err(io(&log_path))?;
+        writeln!(log, "{}", serde_json::to_string(&s).expect("serialisable stats"))
+            .map_err(io(&log_path))?;
         let mut scalars: Vec<(String, f32)> = vec![
             ("reward/mean_step".into(), s.mean_reward as f32),
             ("episode/length".into(), s.episode_length as f32),
@@ -87,13 +100,19 @@ pub fn train_loop_until(t: &mut Trainer, mut on_iteration: impl FnMut(&Iteration
             ("perf/samples_per_s".into(), s.samples_per_s as f32),
             ("perf/allreduce_s".into(), s.allreduce_s as f32),
         ];
-        scalars.extend(s.reward_terms.iter().map(|(k, v)| (format!("reward_terms/{k}"), *v as f32)));
+        scalars
+            .extend(s.reward_terms.iter().map(|(k, v)| (format!("reward_terms/{k}"), *v as f32)));
         let refs: Vec<(&str, f32)> = scalars.iter().map(|(k, v)| (k.as_str(), *v)).collect();
         tb.scalars(s.samples as i64, &refs).map_err(io(tb.path()))?;
         let go_on = on_iteration(&s);
         let it = t.progress.iteration;
-        if t.cfg.run.active.enabled && it.is_multiple_of(t.cfg.run.active.every as u64) && it < target && go_on {
-            crate::active::train_round(t).map_err(|e| crate::divergence::with_last_good(e, last_good.as_deref()))?;
+        if t.cfg.run.active.enabled
+            && it.is_multiple_of(t.cfg.run.active.every as u64)
+            && it < target
+            && go_on
+        {
+            crate::active::train_round(t)
+                .map_err(|e| crate::divergence::with_last_good(e, last_good.as_deref()))?;
         }
         if it.is_multiple_of(t.cfg.run.save_every as u64) || it == target || !go_on {
             let p = ckpt_dir.join(format!("iter_{it:06}.safetensors"));
@@ -185,7 +204,10 @@ impl Runner {
     /// Train to `run.iterations`, evaluate, run the hooks and write `summary.json` (returned).
     /// `on_iteration` sees every iteration's statistics (progress display). Ranks other than 0 of
     /// a data-parallel run only train and return `None`.
-    pub fn run(&mut self, mut on_iteration: impl FnMut(&IterationStats)) -> Result<Option<Summary>, anyhow::Error> {
+    pub fn run(
+        &mut self,
+        mut on_iteration: impl FnMut(&IterationStats),
+    ) -> Result<Option<Summary>, anyhow::Error> {
         self.run_until(|s| {
             on_iteration(s);
             true
@@ -194,7 +216,10 @@ impl Runner {
 
     /// [`Runner::run`] that stops when `on_iteration` returns false: the last finished iteration
     /// is saved and an error saying so is returned (no evaluation, no summary).
-    pub fn run_until(&mut self, mut on_iteration: impl FnMut(&IterationStats) -> bool) -> Result<Option<Summary>, anyhow::Error> {
+    pub fn run_until(
+        &mut self,
+        mut on_iteration: impl FnMut(&IterationStats) -> bool,
+    ) -> Result<Option<Summary>, anyhow::Error> {
         let start = Instant::now();
         let mut rewards = Vec::new();
         let mut allreduce = 0.0;
@@ -204,7 +229,11 @@ impl Runner {
             on_iteration(s)
         })?;
         if stopped {
-            anyhow::bail!("training stopped at iteration {}; checkpoint {} (continue with --resume)", self.trainer.progress.iteration, last.display());
+            anyhow::bail!(
+                "training stopped at iteration {}; checkpoint {} (continue with --resume)",
+                self.trainer.progress.iteration,
+                last.display()
+            );
         }
         let wall = start.elapsed().as_secs_f64();
         let t = &self.trainer;
@@ -214,7 +243,8 @@ impl Runner {
         let out = t.cfg.run.out_dir.clone();
         let report = evaluate_task(t)?;
         let path = out.join("metrics.json");
-        write_bytes_atomic(&path, serde_json::to_string_pretty(&report)?.as_bytes()).map_err(io(&path))?;
+        write_bytes_atomic(&path, serde_json::to_string_pretty(&report)?.as_bytes())
+            .map_err(io(&path))?;
         let (eval, task_eval) = match report {
             TaskEval::Imitation(r) => (Some(r), None),
             TaskEval::Episodes(r) => (None, Some(r)),
@@ -224,7 +254,9 @@ impl Runner {
             outputs.insert(h.name().to_string(), h.run(t, &out)?);
         }
         let window = (rewards.len() / 10).clamp(1, 25);
-        let mean_of = |xs: &[f64]| if xs.is_empty() { f64::NAN } else { xs.iter().sum::<f64>() / xs.len() as f64 };
+        let mean_of = |xs: &[f64]| {
+            if xs.is_empty() { f64::NAN } else { xs.iter().sum::<f64>() / xs.len() as f64 }
+        };
         let summary = Summary {
             task: t.cfg.env.task.clone(),
             iterations: t.progress.iteration,
@@ -248,7 +280,8 @@ impl Runner {
             task_eval,
         };
         let path = out.join("summary.json");
-        write_bytes_atomic(&path, serde_json::to_string_pretty(&summary)?.as_bytes()).map_err(io(&path))?;
+        write_bytes_atomic(&path, serde_json::to_string_pretty(&summary)?.as_bytes())
+            .map_err(io(&path))?;
         Ok(Some(summary))
     }
 }
@@ -270,8 +303,22 @@ pub fn evaluate_task(t: &Trainer) -> Result<TaskEval, LearnError> {
     c.num_envs = c.num_envs.min(16);
     if let Some(env) = t.env.as_any().downcast_ref::<SkillEnv>() {
         let mut eval_env = SkillEnv::new(c, env.library().clone())?;
-        return Ok(TaskEval::Imitation(evaluate(&t.policy, &mut eval_env, t.cfg.run.eval_episodes, t.cfg.run.seed, false, 0)));
+        return Ok(TaskEval::Imitation(evaluate(
+            &t.policy,
+            &mut eval_env,
+            t.cfg.run.eval_episodes,
+            t.cfg.run.seed,
+            false,
+            0,
+        )));
     }
     let mut eval_env = skillmimic_env::registry::make(&c)?;
-    Ok(TaskEval::Episodes(evaluate_episodes(&t.policy, eval_env.as_mut(), t.cfg.run.eval_episodes, t.cfg.run.seed, false, 0)?))
+    Ok(TaskEval::Episodes(evaluate_episodes(
+        &t.policy,
+        eval_env.as_mut(),
+        t.cfg.run.eval_episodes,
+        t.cfg.run.seed,
+        false,
+        0,
+    )?))
 }

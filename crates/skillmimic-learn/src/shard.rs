@@ -32,7 +32,9 @@ impl Shard {
     /// Rank `rank` of `world` over `total_envs` environments.
     pub fn new(total_envs: usize, rank: usize, world: usize) -> Result<Self, LearnError> {
         if world == 0 || rank >= world {
-            return Err(LearnError::Config(format!("distributed: rank {rank} is not in a world of {world}")));
+            return Err(LearnError::Config(format!(
+                "distributed: rank {rank} is not in a world of {world}"
+            )));
         }
         if total_envs < world {
             return Err(LearnError::Config(format!(
@@ -61,7 +63,13 @@ impl Shard {
 /// The order of the `samples` global rollout samples in mini-epoch `epoch` of iteration
 /// `iteration` (0-based, counted over the whole run) of a run seeded `seed`: the same on every
 /// rank, independent of the world size and of any other random stream.
-pub fn epoch_order(seed: u64, iteration: u64, epoch: usize, samples: usize, order: &mut Vec<usize>) {
+pub fn epoch_order(
+    seed: u64,
+    iteration: u64,
+    epoch: usize,
+    samples: usize,
+    order: &mut Vec<usize>,
+) {
     order.clear();
     order.extend(0..samples);
     let mut rng = ChaCha8Rng::seed_from_u64(mix_seed(mix_seed(seed, iteration), epoch as u64));
@@ -80,7 +88,8 @@ mod tests {
         assert_eq!(shards.iter().map(|s| s.offset).collect::<Vec<_>>(), [0, 3, 5]);
         let mut seen = vec![Vec::new(); 3];
         for g in 0..n * h {
-            let holders: Vec<usize> = (0..3).filter(|&r| shards[r].local_index(g).is_some()).collect();
+            let holders: Vec<usize> =
+                (0..3).filter(|&r| shards[r].local_index(g).is_some()).collect();
             assert_eq!(holders.len(), 1, "sample {g}");
             seen[holders[0]].push(shards[holders[0]].local_index(g).unwrap());
         }

@@ -35,7 +35,14 @@ impl Rollout {
         if self.obs.len() != h * n * d || self.actions.len() != h * n * a {
             self.obs = vec![0.0; h * n * d];
             self.actions = vec![0.0; h * n * a];
-            for v in [&mut self.neglogp, &mut self.values, &mut self.next_values, &mut self.rewards, &mut self.advantages, &mut self.returns] {
+            for v in [
+                &mut self.neglogp,
+                &mut self.values,
+                &mut self.next_values,
+                &mut self.rewards,
+                &mut self.advantages,
+                &mut self.returns,
+            ] {
                 *v = vec![0.0; h * n];
             }
             self.dones = vec![0; h * n];
@@ -45,7 +52,16 @@ impl Rollout {
     /// Copy environments `offset..offset + n` of `src` (a rollout of `h` steps of `src_n`
     /// environments) into this rollout (sized for `h` × `n`).
     #[allow(clippy::too_many_arguments)]
-    pub fn copy_envs_from(&mut self, src: &Rollout, h: usize, src_n: usize, offset: usize, n: usize, d: usize, a: usize) {
+    pub fn copy_envs_from(
+        &mut self,
+        src: &Rollout,
+        h: usize,
+        src_n: usize,
+        offset: usize,
+        n: usize,
+        d: usize,
+        a: usize,
+    ) {
         for t in 0..h {
             let (s0, t0) = (t * src_n + offset, t * n);
             self.obs[t0 * d..(t0 + n) * d].copy_from_slice(&src.obs[s0 * d..(s0 + n) * d]);

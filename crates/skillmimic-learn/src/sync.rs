@@ -11,7 +11,9 @@ use crate::policy::Policy;
 
 /// FNV-1a 64 of `bytes`.
 fn fnv1a(bytes: &[u8]) -> u64 {
-    bytes.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &b| (h ^ b as u64).wrapping_mul(0x0100_0000_01b3))
+    bytes
+        .iter()
+        .fold(0xcbf2_9ce4_8422_2325u64, |h, &b| (h ^ b as u64).wrapping_mul(0x0100_0000_01b3))
 }
 
 /// What must be equal on every rank, as exact small numbers, with names for the error (not the
@@ -37,7 +39,12 @@ fn signature(cfg: &TrainConfig, policy: &Policy, adam: &Adam) -> Vec<(&'static s
 /// Compare every rank's signature with rank 0's; when any rank differs, every rank returns an
 /// error naming the first rank that differs and the first field it differs in (a broadcast and
 /// one all-reduce, so no rank is left waiting).
-pub fn check_agreement(cfg: &TrainConfig, policy: &Policy, adam: &Adam, comm: &mut dyn Collective) -> Result<(), LearnError> {
+pub fn check_agreement(
+    cfg: &TrainConfig,
+    policy: &Policy,
+    adam: &Adam,
+    comm: &mut dyn Collective,
+) -> Result<(), LearnError> {
     if cfg.run.active.enabled {
         // every rank sees the same configuration, so every rank stops here (no rank waits)
         return Err(LearnError::Config(
@@ -57,7 +64,11 @@ pub fn check_agreement(cfg: &TrainConfig, policy: &Policy, adam: &Adam, comm: &m
         None => Ok(()),
         Some(rank) => {
             let k = verdict[rank] as usize - 1;
-            let detail = if rank == comm.rank() { format!(" ({} vs {})", mine[k].1, theirs[k]) } else { String::new() };
+            let detail = if rank == comm.rank() {
+                format!(" ({} vs {})", mine[k].1, theirs[k])
+            } else {
+                String::new()
+            };
             Err(LearnError::Config(format!(
                 "distributed: rank {rank} disagrees with rank 0 on the {}{detail}; every rank must start with the same configuration, clips and checkpoint",
                 mine[k].0
@@ -68,7 +79,12 @@ pub fn check_agreement(cfg: &TrainConfig, policy: &Policy, adam: &Adam, comm: &m
 
 /// Rank 0's parameters, σ, optimiser state and settings, normaliser statistics and switches, and
 /// progress copied into every rank (two broadcasts).
-pub fn broadcast_state(policy: &mut Policy, adam: &mut Adam, progress: &mut Progress, comm: &mut dyn Collective) -> Result<(), LearnError> {
+pub fn broadcast_state(
+    policy: &mut Policy,
+    adam: &mut Adam,
+    progress: &mut Progress,
+    comm: &mut dyn Collective,
+) -> Result<(), LearnError> {
     let mut flat: Vec<f32> = Vec::new();
     {
         let params = policy.actor.params_mut().into_iter().chain(policy.critic.params_mut());
@@ -101,8 +117,19 @@ pub fn broadcast_state(policy: &mut Policy, adam: &mut Adam, progress: &mut Prog
     }
     // rank 0 may have resumed from a checkpoint whose optimiser settings and normaliser switches
     // differ from the configuration the other ranks built from: rank 0's win
-    f64s.extend([adam.step as f64, progress.iteration as f64, progress.samples as f64, adam.lr, adam.beta1, adam.beta2, adam.eps]);
-    f64s.extend([f64::from(u8::from(policy.normalize_input)), f64::from(u8::from(policy.normalize_value))]);
+    f64s.extend([
+        adam.step as f64,
+        progress.iteration as f64,
+        progress.samples as f64,
+        adam.lr,
+        adam.beta1,
+        adam.beta2,
+        adam.eps,
+    ]);
+    f64s.extend([
+        f64::from(u8::from(policy.normalize_input)),
+        f64::from(u8::from(policy.normalize_value)),
+    ]);
     comm.broadcast_f64(&mut f64s)?;
     let mut at = 0;
     for n in [&mut policy.obs_norm, &mut policy.value_norm] {
@@ -115,7 +142,8 @@ pub fn broadcast_state(policy: &mut Policy, adam: &mut Adam, progress: &mut Prog
     adam.step = f64s[at] as u64;
     progress.iteration = f64s[at + 1] as u64;
     progress.samples = f64s[at + 2] as u64;
-    (adam.lr, adam.beta1, adam.beta2, adam.eps) = (f64s[at + 3], f64s[at + 4], f64s[at + 5], f64s[at + 6]);
+    (adam.lr, adam.beta1, adam.beta2, adam.eps) =
+        (f64s[at + 3], f64s[at + 4], f64s[at + 5], f64s[at + 6]);
     (policy.normalize_input, policy.normalize_value) = (f64s[at + 7] != 0.0, f64s[at + 8] != 0.0);
     Ok(())
 }

@@ -16,7 +16,7 @@ use std::path::{Path, PathBuf};
 
 fn masked_crc(data: &[u8]) -> u32 {
     let c = crc32c::crc32c(data);
-    ((c >> 15) | (c << 17)).wrapping_add(0xa282_ead8)
+    c.rotate_right(15).wrapping_add(0xa282_ead8)
 }
 
 fn varint(mut v: u64, out: &mut Vec<u8>) {
@@ -38,7 +38,12 @@ fn field_bytes(field: u32, bytes: &[u8], out: &mut Vec<u8>) {
 }
 
 /// Encode an `Event` with a wall time, a step and either a file version or scalar values.
-pub fn encode_event(wall_time: f64, step: i64, file_version: Option<&str>, scalars: &[(&str, f32)]) -> Vec<u8> {
+pub fn encode_event(
+    wall_time: f64,
+    step: i64,
+    file_version: Option<&str>,
+    scalars: &[(&str, f32)],
+) -> Vec<u8> {
     let mut ev = Vec::new();
     ev.push((1 << 3) | 1); // wall_time, fixed64
     ev.extend_from_slice(&wall_time.to_le_bytes());
@@ -83,7 +88,11 @@ pub fn read_records(bytes: &[u8]) -> Vec<&[u8]> {
             break;
         }
         let start = at + 12;
-        let Some(end) = usize::try_from(len).ok().and_then(|l| start.checked_add(l)).filter(|&e| e.checked_add(4).is_some_and(|x| x <= bytes.len())) else {
+        let Some(end) = usize::try_from(len)
+            .ok()
+            .and_then(|l| start.checked_add(l))
+            .filter(|&e| e.checked_add(4).is_some_and(|x| x <= bytes.len()))
+        else {
             break;
         };
         let data = &bytes[start..end];
@@ -218,7 +227,10 @@ pub struct EventWriter {
 }
 
 fn now() -> f64 {
-    std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map(|d| d.as_secs_f64()).unwrap_or(0.0)
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_secs_f64())
+        .unwrap_or(0.0)
 }
 
 impl EventWriter {
@@ -280,7 +292,10 @@ mod tests {
         // summary { value { tag "a", simple_value 2.0 } }
         assert_eq!(&ev[12..], &[10, 0x0a, 8, 0x0a, 1, b'a', 0x15, 0, 0, 0, 0x40]);
         assert_eq!(decode_event(&ev), Some(EventInfo { step: 7, has_summary: true }));
-        assert_eq!(decode_event(&encode_event(0.0, 0, Some("brain.Event:2"), &[])), Some(EventInfo { step: 0, has_summary: false }));
+        assert_eq!(
+            decode_event(&encode_event(0.0, 0, Some("brain.Event:2"), &[])),
+            Some(EventInfo { step: 0, has_summary: false })
+        );
         assert_eq!(decode_event(&ev[..ev.len() - 2]), None, "a cut message is not an event");
         assert_eq!(temp_pid("latest.safetensors.tmp4242"), Some(4242));
         assert_eq!(temp_pid("a.tmp"), None);
@@ -307,7 +322,14 @@ mod tests {
         frame_record(&encode_event(1.0, 50, None, &[("x", 5.0)]), &mut extra);
         bytes.extend_from_slice(&extra[..extra.len() - 3]);
         std::fs::write(&p1, &bytes).unwrap();
-        let steps = |p: &Path| read_events(p).unwrap().iter().filter(|e| e.has_summary).map(|e| e.step).collect::<Vec<_>>();
+        let steps = |p: &Path| {
+            read_events(p)
+                .unwrap()
+                .iter()
+                .filter(|e| e.has_summary)
+                .map(|e| e.step)
+                .collect::<Vec<_>>()
+        };
         assert_eq!(steps(&p1), vec![10, 20, 30]);
         assert_eq!(truncate_dir(&dir, 20).unwrap(), 2);
         assert_eq!(steps(&p1), vec![10, 20]);

@@ -19,14 +19,15 @@
 //! thread counts produce the same checkpoints bit for bit. A resumed run continues from the
 //! checkpoint's policy, normalisers and Adam state with freshly reset environments.
 //!
-//! `ppo.amp.enabled` adds the motion prior's style reward and discriminator ([`crate::amp_reward`]).
+//! `ppo.amp.enabled` adds the motion prior's style reward and discriminator
+//! ([`crate::amp_reward`]).
 //!
-//! Data-parallel ([`Trainer::with_collective`], [`crate::collective`]): `env.num_envs` is the
-//! total over all ranks; each rank steps its share ([`crate::shard`]): global environment g draws
-//! its episode starts from the stream `env.seed + g`, as in one process
+//! Data-parallel ([`Trainer::with_collective`], [`crate::collective`]): `env.num_envs` is the total
+//! over all ranks; each rank steps its share ([`crate::shard`]): global environment g draws its
+//! episode starts from the stream `env.seed + g`, as in one process
 //! (`skillmimic_env::vec_env::env_streams`), so the ranks together plan exactly the episodes of a
-//! single process; the action noise has a stream per rank (rank 0's is a single process's, rank
-//! r > 0 mixes r into the seed); every rank computes the same minibatch order from `run.seed` and the
+//! single process; the action noise has a stream per rank (rank 0's is a single process's, rank r >
+//! 0 mixes r into the seed); every rank computes the same minibatch order from `run.seed` and the
 //! iteration, and gradients and normaliser statistics are reduced so every rank takes the update
 //! one process would take on the same rollout. Only rank 0 reads a checkpoint to resume from; the
 //! state reaches the others by broadcast, so the world size may differ from the saving run's.
@@ -41,13 +42,13 @@ use skillmimic_env::{Env, registry};
 use crate::adam::Adam;
 use crate::checkpoint::{self, Progress};
 use crate::collective::{self, Collective, Single, Timed, mix_seed};
-use crate::shard::{Shard, epoch_order};
 use crate::config::TrainConfig;
 use crate::error::{LearnError, bad_checkpoint, io};
-use crate::ppo::gae::gae;
-use crate::storage::{MinibatchBuffers, Rollout};
 use crate::policy::{InferenceBuffers, Policy};
+use crate::ppo::gae::gae;
 use crate::ppo::{LossStats, RawMinibatch, update_minibatch};
+use crate::shard::{Shard, epoch_order};
+use crate::storage::{MinibatchBuffers, Rollout};
 
 pub use crate::iteration_stats::IterationStats;
 
@@ -104,7 +105,11 @@ impl Trainer {
     /// One rank of a data-parallel run over `comm` (see the module documentation); with
     /// [`Single`] the same as [`Trainer::new`]. Only rank 0 reads `resume`; the other ranks take
     /// the state from rank 0.
-    pub fn with_collective(mut cfg: TrainConfig, resume: Option<&Path>, comm: Box<dyn Collective>) -> Result<Self, LearnError> {
+    pub fn with_collective(
+        mut cfg: TrainConfig,
+        resume: Option<&Path>,
+        comm: Box<dyn Collective>,
+    ) -> Result<Self, LearnError> {
         let mut comm = Timed::new(comm);
         cfg.validate()?;
         let shard = Shard::new(cfg.env.num_envs, comm.rank(), comm.world_size())?;
@@ -118,9 +123,13 @@ impl Trainer {
         }
         if cfg.ppo.precision == crate::config::Precision::Bf16 {
             if !skillmimic_nn::bf16::available() {
-                tracing::warn!("ppo.precision = \"bf16\": this CPU has no AVX512-BF16; the update runs in float32");
+                tracing::warn!(
+                    "ppo.precision = \"bf16\": this CPU has no AVX512-BF16; the update runs in float32"
+                );
             } else if cfg.ppo.backend != crate::config::Backend::Fast {
-                tracing::warn!("ppo.precision = \"bf16\" applies to the fast backend only; the candle backend runs in float32");
+                tracing::warn!(
+                    "ppo.precision = \"bf16\" applies to the fast backend only; the candle backend runs in float32"
+                );
             }
         }
         // derived value, made explicit in the effective config: episode starts follow the run seed
@@ -137,7 +146,8 @@ impl Trainer {
                 if rank == 0 {
                     std::fs::create_dir_all(&cfg.run.out_dir).map_err(io(&cfg.run.out_dir))?;
                     let bytes = std::fs::read(&src).map_err(io(&src))?;
-                    skillmimic_core::tensorfile::write_bytes_atomic(&dst, &bytes).map_err(io(&dst))?;
+                    skillmimic_core::tensorfile::write_bytes_atomic(&dst, &bytes)
+                        .map_err(io(&dst))?;
                 }
                 cfg.env.v2.history.encoder = dst;
             }
@@ -156,9 +166,15 @@ impl Trainer {
         let fresh = |rng: &mut ChaCha8Rng| -> Result<(Policy, Adam), LearnError> {
             let mut policy = Policy::build(obs_dim, env.spec().action_space, &ppo, rng)?;
             if !ppo.token.adapt_from.as_os_str().is_empty() {
-                crate::adapt::adapt(&mut policy, &ppo.token.adapt_from, ppo.token.gate_adapters, rng)?;
+                crate::adapt::adapt(
+                    &mut policy,
+                    &ppo.token.adapt_from,
+                    ppo.token.gate_adapters,
+                    rng,
+                )?;
             }
-            let adam = Adam::new(&crate::ppo::update::param_sizes(&policy), cfg.ppo.lr, cfg.ppo.adam_eps);
+            let adam =
+                Adam::new(&crate::ppo::update::param_sizes(&policy), cfg.ppo.lr, cfg.ppo.adam_eps);
             Ok((policy, adam))
         };
         let (mut policy, mut adam, mut progress) = match resume.filter(|_| rank == 0) {
@@ -180,7 +196,12 @@ impl Trainer {
                     )));
                 }
                 if c.policy.family.name() != cfg.ppo.policy {
-                    return Err(bad_checkpoint(path)(format!("{}: policy family '{}' differs from the config's ppo.policy '{}'", path.display(), c.policy.family.name(), cfg.ppo.policy)));
+                    return Err(bad_checkpoint(path)(format!(
+                        "{}: policy family '{}' differs from the config's ppo.policy '{}'",
+                        path.display(),
+                        c.policy.family.name(),
+                        cfg.ppo.policy
+                    )));
                 }
                 adam.lr = cfg.ppo.lr;
                 (c.policy, adam, c.progress)
@@ -195,7 +216,12 @@ impl Trainer {
             // resumed: continue with streams of random numbers that differ from the first run's
             let it = progress.iteration;
             let mut noise = cfg.run.seed ^ it.wrapping_mul(0x9e37_79b9_7f4a_7c15);
-            let starts = cfg.run.seed.wrapping_add(it).wrapping_mul(0x9e37_79b9).wrapping_add(shard.offset as u64);
+            let starts = cfg
+                .run
+                .seed
+                .wrapping_add(it)
+                .wrapping_mul(0x9e37_79b9)
+                .wrapping_add(shard.offset as u64);
             if rank > 0 {
                 noise = mix_seed(noise, rank as u64);
             }
@@ -206,8 +232,19 @@ impl Trainer {
         }
         comm.take_seconds();
         // one discriminator per task of a multi-task environment
-        let amp = crate::amp_reward::AmpReward::for_run(&cfg, obs_dim, env.num_envs(), &env.task_rows(), &mut comm, resume)?;
-        let threads = if cfg.run.learner_threads == 0 { rayon::current_num_threads() } else { cfg.run.learner_threads };
+        let amp = crate::amp_reward::AmpReward::for_run(
+            &cfg,
+            obs_dim,
+            env.num_envs(),
+            &env.task_rows(),
+            &mut comm,
+            resume,
+        )?;
+        let threads = if cfg.run.learner_threads == 0 {
+            rayon::current_num_threads()
+        } else {
+            cfg.run.learner_threads
+        };
         let n = env.num_envs();
         let outputs = policy.actor_outputs();
         let config_toml = cfg.to_toml();
@@ -266,17 +303,20 @@ impl Trainer {
     }
 
     fn alloc_rollout(&mut self) {
-        let (h, n, d, a) = (self.cfg.ppo.horizon, self.env.num_envs(), self.env.obs_dim(), self.env.act_dim());
+        let (h, n, d, a) =
+            (self.cfg.ppo.horizon, self.env.num_envs(), self.env.obs_dim(), self.env.act_dim());
         self.roll.ensure(h, n, d, a);
     }
 
     /// Collect one rollout; returns rollout statistics.
     fn rollout(&mut self, stats: &mut IterationStats) -> Result<(), LearnError> {
         self.alloc_rollout();
-        let (h, n, d, a) = (self.cfg.ppo.horizon, self.env.num_envs(), self.env.obs_dim(), self.env.act_dim());
+        let (h, n, d, a) =
+            (self.cfg.ppo.horizon, self.env.num_envs(), self.env.obs_dim(), self.env.act_dim());
         let nt = self.term_sums.len();
         self.term_sums.fill(0.0);
-        let (mut ep_count, mut ep_len_sum, mut ep_ret_sum, mut early, mut unstable) = (0usize, 0u64, 0.0f64, 0usize, 0usize);
+        let (mut ep_count, mut ep_len_sum, mut ep_ret_sum, mut early, mut unstable) =
+            (0usize, 0u64, 0.0f64, 0usize, 0usize);
         let mut pending = false; // next_values[t-1] still to fill from values[t]
         let mut amp_sums = [0.0f64; 2];
         let mut env_time = std::time::Duration::ZERO;
@@ -290,7 +330,14 @@ impl Trainer {
             if let Some(amp) = &mut self.amp {
                 amp.begin_step(obs, d);
             }
-            self.policy.infer(obs, n, &mut self.infer, &mut self.mu, &mut self.step_values, self.threads);
+            self.policy.infer(
+                obs,
+                n,
+                &mut self.infer,
+                &mut self.mu,
+                &mut self.step_values,
+                self.threads,
+            );
             self.roll.values[rows.clone()].copy_from_slice(&self.step_values);
             if pending {
                 // environments not reset since the last step: their next value is this value
@@ -301,14 +348,22 @@ impl Trainer {
                     }
                 }
             }
-            self.policy.sample(&self.mu, n, &mut self.rng, &mut self.roll.actions[t * n * a..(t + 1) * n * a], &mut self.roll.neglogp[rows.clone()]);
+            self.policy.sample(
+                &self.mu,
+                n,
+                &mut self.rng,
+                &mut self.roll.actions[t * n * a..(t + 1) * n * a],
+                &mut self.roll.neglogp[rows.clone()],
+            );
             let te = Instant::now();
             self.env.step(&self.roll.actions[t * n * a..(t + 1) * n * a])?;
             env_time += te.elapsed();
             let b = self.env.buffers();
             self.step_rewards.copy_from_slice(&b.reward);
             if let Some(amp) = &mut self.amp {
-                for (o, (&te, &tr)) in self.step_done.iter_mut().zip(b.terminated.iter().zip(&b.truncated)) {
+                for (o, (&te, &tr)) in
+                    self.step_done.iter_mut().zip(b.terminated.iter().zip(&b.truncated))
+                {
                     *o = u8::from(te != 0 || tr != 0);
                 }
                 let (st, ss) = amp.after_step(&b.obs, d, &self.step_done, &mut self.step_rewards);
@@ -346,7 +401,13 @@ impl Trainer {
                 self.gather[k * d..(k + 1) * d].copy_from_slice(&b.obs[i * d..(i + 1) * d]);
             }
             if m > 0 {
-                self.policy.infer_values(&self.gather[..m * d], m, &mut self.infer, &mut self.gather_values, self.threads);
+                self.policy.infer_values(
+                    &self.gather[..m * d],
+                    m,
+                    &mut self.infer,
+                    &mut self.gather_values,
+                    self.threads,
+                );
             }
             for (k, &i) in self.done_rows.iter().enumerate() {
                 let keep = if b.terminated[i] != 0 { 0.0 } else { 1.0 };
@@ -372,11 +433,21 @@ impl Trainer {
         self.comm.all_reduce_f64(&mut s)?;
         let steps = s[0];
         stats.mean_reward = s[1] / steps;
-        stats.reward_terms = self.env.spec().term_names.iter().zip(&s[8..]).map(|(nm, v)| (nm.to_string(), v / steps)).collect();
+        stats.reward_terms = self
+            .env
+            .spec()
+            .term_names
+            .iter()
+            .zip(&s[8..])
+            .map(|(nm, v)| (nm.to_string(), v / steps))
+            .collect();
         if self.amp.is_some() {
             // the task reward before mixing and the style reward (the mixed one is `mean_reward`)
             let at = s.len() - 2;
-            stats.reward_terms.extend([("task".to_string(), s[at] / steps), ("style".to_string(), s[at + 1] / steps)]);
+            stats.reward_terms.extend([
+                ("task".to_string(), s[at] / steps),
+                ("style".to_string(), s[at + 1] / steps),
+            ]);
         }
         stats.episodes = s[3] as usize;
         stats.unstable_steps = s[7] as u64;
@@ -395,12 +466,32 @@ impl Trainer {
         let (n, d, a) = (self.env.num_envs(), self.env.obs_dim(), self.env.act_dim());
         let comm: &mut dyn Collective = &mut self.comm;
         let r = &mut self.roll;
-        gae(&r.rewards, &r.values, &r.next_values, &r.dones, n, cfg.gamma as f32, cfg.lam as f32, &mut r.advantages, &mut r.returns);
+        gae(
+            &r.rewards,
+            &r.values,
+            &r.next_values,
+            &r.dones,
+            n,
+            cfg.gamma as f32,
+            cfg.lam as f32,
+            &mut r.advantages,
+            &mut r.returns,
+        );
         if self.policy.normalize_value {
             // rl_games order: update with the values, then with the returns; the critic learns
             // the returns normalised with the final statistics
-            collective::update_normalizer(&mut self.policy.value_norm, &r.values, comm, &mut self.sums)?;
-            collective::update_normalizer(&mut self.policy.value_norm, &r.returns, comm, &mut self.sums)?;
+            collective::update_normalizer(
+                &mut self.policy.value_norm,
+                &r.values,
+                comm,
+                &mut self.sums,
+            )?;
+            collective::update_normalizer(
+                &mut self.policy.value_norm,
+                &r.returns,
+                comm,
+                &mut self.sums,
+            )?;
             for x in r.returns.iter_mut() {
                 *x = self.policy.value_norm.normalize_scalar(*x as f64) as f32;
             }
@@ -434,8 +525,24 @@ impl Trainer {
                     mb.adv[k] = r.advantages[s];
                     mb.ret[k] = r.returns[s];
                 }
-                let raw = RawMinibatch { n: m, obs: &mb.obs[..m * d], actions: &mb.actions[..m * a], old_neglogp: &mb.neglogp[..m], advantages: &mb.adv[..m], returns_n: &mb.ret[..m] };
-                let l = update_minibatch(&mut self.policy, &mut self.adam, &raw, mbs, &mut mb.update, cfg, self.threads, comm)?;
+                let raw = RawMinibatch {
+                    n: m,
+                    obs: &mb.obs[..m * d],
+                    actions: &mb.actions[..m * a],
+                    old_neglogp: &mb.neglogp[..m],
+                    advantages: &mb.adv[..m],
+                    returns_n: &mb.ret[..m],
+                };
+                let l = update_minibatch(
+                    &mut self.policy,
+                    &mut self.adam,
+                    &raw,
+                    mbs,
+                    &mut mb.update,
+                    cfg,
+                    self.threads,
+                    comm,
+                )?;
                 acc.actor += l.actor;
                 acc.critic += l.critic;
                 acc.bounds += l.bounds;
@@ -472,7 +579,10 @@ impl Trainer {
     /// The update half of an iteration on the rollout storage, then count the iteration. A
     /// divergence ([`crate::divergence`]) is an error naming the iteration; the trainer's state
     /// is then unusable (not to be saved).
-    pub fn update_from_rollout(&mut self, mut stats: IterationStats) -> Result<IterationStats, LearnError> {
+    pub fn update_from_rollout(
+        &mut self,
+        mut stats: IterationStats,
+    ) -> Result<IterationStats, LearnError> {
         let t1 = Instant::now();
         let it = self.progress.iteration + 1;
         let at = move |e| crate::divergence::in_iteration(e, it);
@@ -481,7 +591,10 @@ impl Trainer {
         if let Some(amp) = &mut self.amp {
             let l = amp.update(&mut self.comm)?;
             if !l.total.is_finite() {
-                return Err(at(LearnError::Diverged(format!("the discriminator loss is {}", l.total))));
+                return Err(at(LearnError::Diverged(format!(
+                    "the discriminator loss is {}",
+                    l.total
+                ))));
             }
             (stats.disc_loss, stats.disc_ref, stats.disc_sim) = (l.total, l.mean_ref, l.mean_sim);
         }
@@ -508,7 +621,15 @@ impl Trainer {
     pub fn load_rollout_part(&mut self, full: &Rollout) {
         self.alloc_rollout();
         let (h, d, a) = (self.cfg.ppo.horizon, self.env.obs_dim(), self.env.act_dim());
-        self.roll.copy_envs_from(full, h, self.shard.total_envs, self.shard.offset, self.shard.local, d, a);
+        self.roll.copy_envs_from(
+            full,
+            h,
+            self.shard.total_envs,
+            self.shard.offset,
+            self.shard.local,
+            d,
+            a,
+        );
     }
 
     /// Simulation-only throughput probe for `skillmimic bench train`: step the same environments
@@ -529,8 +650,17 @@ impl Trainer {
     /// Write a training checkpoint (atomic) and the effective config next to it.
     pub fn save(&self, path: &Path) -> Result<(), LearnError> {
         let extra = self.amp.as_ref().map(|a| a.tensors()).unwrap_or_default();
-        checkpoint::save_with(path, &self.policy, Some(&self.adam), &self.progress, &self.config_toml, extra).map_err(io(path))?;
+        checkpoint::save_with(
+            path,
+            &self.policy,
+            Some(&self.adam),
+            &self.progress,
+            &self.config_toml,
+            extra,
+        )
+        .map_err(io(path))?;
         let toml_path = path.with_extension("toml");
-        skillmimic_core::tensorfile::write_bytes_atomic(&toml_path, self.config_toml.as_bytes()).map_err(io(&toml_path))
+        skillmimic_core::tensorfile::write_bytes_atomic(&toml_path, self.config_toml.as_bytes())
+            .map_err(io(&toml_path))
     }
 }

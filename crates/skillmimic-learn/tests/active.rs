@@ -21,7 +21,12 @@ impl Generator for Probe {
     fn name(&self) -> String {
         "probe".into()
     }
-    fn generate(&mut self, failed: &Clip, _library: &[Clip], _rng: &mut dyn RngCore) -> Result<Vec<Clip>, GenError> {
+    fn generate(
+        &mut self,
+        failed: &Clip,
+        _library: &[Clip],
+        _rng: &mut dyn RngCore,
+    ) -> Result<Vec<Clip>, GenError> {
         self.0.lock().unwrap().push(failed.name.clone());
         let mut sunk = failed.clone();
         sunk.name = format!("{}~sunk", failed.name);
@@ -71,7 +76,15 @@ fn a_failed_clip_gets_generated_clips_and_more_weight() {
     let before = probabilities(&t);
     let seen = Arc::new(Mutex::new(Vec::new()));
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0);
-    let report = round(&t.policy, &t.cfg, &mut Probe(seen.clone()), &ActiveConfig::default(), None, &mut rng).unwrap();
+    let report = round(
+        &t.policy,
+        &t.cfg,
+        &mut Probe(seen.clone()),
+        &ActiveConfig::default(),
+        None,
+        &mut rng,
+    )
+    .unwrap();
     println!("{report:?}");
     assert_eq!(report.evaluated, 3);
     assert_eq!(report.failed, vec!["052_lifted".to_string()]);
@@ -114,7 +127,10 @@ fn training_runs_rounds_with_the_model_free_generator() {
     println!("{first}");
     assert_eq!(log.lines().count(), 1, "one round after iteration 1 (none after the last)");
     assert_eq!(first["report"]["evaluated"], 2);
-    assert!(first["report"]["accepted"].as_array().unwrap().len() >= 2, "mirror and time warp of each failed clip");
+    assert!(
+        first["report"]["accepted"].as_array().unwrap().len() >= 2,
+        "mirror and time warp of each failed clip"
+    );
     assert!(t.cfg.env.motion.contains(&root.join("generated")));
     // the task must be tracking
     let mut bad = cfg.clone();
@@ -145,9 +161,12 @@ fn the_discriminator_filter_scores_generated_clips() {
     let t = Trainer::new(cfg.clone(), None).unwrap();
     let mut disc = t.amp.as_ref().unwrap().disc().clone();
     // the score against windows cut by hand from the posed clip's features
-    let clip = Clip::load(&skillmimic_motion::library::find_clip_files(&cfg.env.motion[0]).unwrap()[0]).unwrap();
+    let clip =
+        Clip::load(&skillmimic_motion::library::find_clip_files(&cfg.env.motion[0]).unwrap()[0])
+            .unwrap();
     let lib = skillmimic_motion::MotionLibrary::from_clips(vec![clip.clone()]).unwrap();
-    let scene = std::sync::Arc::new(skillmimic_sim::Scene::new(cfg.env.scene_options().unwrap()).unwrap());
+    let scene =
+        std::sync::Arc::new(skillmimic_sim::Scene::new(cfg.env.scene_options().unwrap()).unwrap());
     let f = clip_features(scene, &lib).unwrap().remove(0);
     let k = cfg.ppo.amp.window;
     let mut want = 0.0;
@@ -167,11 +186,20 @@ fn the_discriminator_filter_scores_generated_clips() {
     let mut model_free = skillmimic_motion::generate::ModelFree::default();
     let fake = round(&t.policy, &t.cfg, &mut model_free, &a, Some(&mut disc), &mut rng).unwrap();
     assert!(fake.accepted.is_empty() && !fake.rejected.is_empty());
-    assert!(fake.rejected.iter().all(|(_, why)| why.contains("motion-prior score")), "{:?}", fake.rejected);
+    assert!(
+        fake.rejected.iter().all(|(_, why)| why.contains("motion-prior score")),
+        "{:?}",
+        fake.rejected
+    );
     disc.mlp.biases[last][0] = 50.0;
     let real = round(&t.policy, &t.cfg, &mut model_free, &a, Some(&mut disc), &mut rng).unwrap();
-    assert_eq!(real.accepted.len(), fake.rejected.len(), "the same clips pass a discriminator that calls everything real");
-    let err = round(&t.policy, &t.cfg, &mut model_free, &a, None, &mut rng).err().unwrap().to_string();
+    assert_eq!(
+        real.accepted.len(),
+        fake.rejected.len(),
+        "the same clips pass a discriminator that calls everything real"
+    );
+    let err =
+        round(&t.policy, &t.cfg, &mut model_free, &a, None, &mut rng).err().unwrap().to_string();
     assert!(err.contains("disc_score_min") && err.contains("ppo.amp.enabled"), "{err}");
     // configuration: the filter needs the prior
     let mut bad = cfg.clone();
@@ -190,7 +218,8 @@ fn the_discriminator_filter_scores_generated_clips() {
     skillmimic_learn::runner::train_loop(&mut t, |_| {}).unwrap();
     let log = std::fs::read_to_string(root.join("active.jsonl")).unwrap();
     let first: serde_json::Value = serde_json::from_str(log.lines().next().unwrap()).unwrap();
-    let n = first["report"]["accepted"].as_array().unwrap().len() + first["report"]["rejected"].as_array().unwrap().len();
+    let n = first["report"]["accepted"].as_array().unwrap().len()
+        + first["report"]["rejected"].as_array().unwrap().len();
     assert!(n >= 2, "{first}");
     std::fs::remove_dir_all(&root).ok();
 }
@@ -209,11 +238,22 @@ fn active_learning_is_refused_data_parallel_at_the_start() {
     cfg.run.active.enabled = true;
     cfg.run.out_dir = std::env::temp_dir().join(format!("sm-active-dp-{}", std::process::id()));
     let errs: Vec<String> = std::thread::scope(|s| {
-        let hs: Vec<_> = ThreadGroup::new_group(2).into_iter().map(|g| {
-            let c = cfg.clone();
-            s.spawn(move || Trainer::with_collective(c, None, Box::new(g)).err().map(|e| e.to_string()).unwrap_or_default())
-        }).collect();
+        let hs: Vec<_> = ThreadGroup::new_group(2)
+            .into_iter()
+            .map(|g| {
+                let c = cfg.clone();
+                s.spawn(move || {
+                    Trainer::with_collective(c, None, Box::new(g))
+                        .err()
+                        .map(|e| e.to_string())
+                        .unwrap_or_default()
+                })
+            })
+            .collect();
         hs.into_iter().map(|h| h.join().unwrap()).collect()
     });
-    assert!(errs.iter().all(|e| e.contains("run.active.enabled") && e.contains("one process")), "{errs:?}");
+    assert!(
+        errs.iter().all(|e| e.contains("run.active.enabled") && e.contains("one process")),
+        "{errs:?}"
+    );
 }

@@ -7,9 +7,9 @@ use std::sync::Arc;
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use skillmimic_env::EnvConfig;
 use skillmimic_env::amp::{FEATURE_DIM, clip_features, frame_features, window};
 use skillmimic_env::tasks::imitation::load_motion_library;
-use skillmimic_env::EnvConfig;
 use skillmimic_learn::amp::{AmpLoss, DiscConfig, Discriminator};
 use skillmimic_sim::Scene;
 
@@ -59,7 +59,8 @@ fn policy_windows(steps: usize) -> Vec<f32> {
 fn discriminator_separates_reference_from_random_policy_windows() {
     let c = EnvConfig { motion: motion(), ..Default::default() };
     let lib = load_motion_library(&c.motion).unwrap();
-    let rows = clip_features(Arc::new(Scene::new(c.scene_options().unwrap()).unwrap()), &lib).unwrap();
+    let rows =
+        clip_features(Arc::new(Scene::new(c.scene_options().unwrap()).unwrap()), &lib).unwrap();
     let sim = policy_windows(40);
     let n_sim = sim.len() / (K * FEATURE_DIM);
     let mut rng = ChaCha8Rng::seed_from_u64(1);
@@ -69,11 +70,17 @@ fn discriminator_separates_reference_from_random_policy_windows() {
     for _ in 0..60 {
         let r = reference_windows(&rows, 64, &mut rng);
         let pick: Vec<usize> = (0..64).map(|_| rng.random_range(0..n_sim)).collect();
-        let s: Vec<f32> = pick.iter().flat_map(|&k| sim[k * K * FEATURE_DIM..(k + 1) * K * FEATURE_DIM].iter().copied()).collect();
+        let s: Vec<f32> = pick
+            .iter()
+            .flat_map(|&k| sim[k * K * FEATURE_DIM..(k + 1) * K * FEATURE_DIM].iter().copied())
+            .collect();
         losses.push(disc.update(&r, 64, &s, 64).unwrap());
     }
     let (first, last) = (losses[0], losses[losses.len() - 1]);
-    println!("discriminator loss {:.4} -> {:.4} (adversarial {:.4} -> {:.4}); mean logits ref {:.2} sim {:.2}", first.total, last.total, first.adversarial, last.adversarial, last.mean_ref, last.mean_sim);
+    println!(
+        "discriminator loss {:.4} -> {:.4} (adversarial {:.4} -> {:.4}); mean logits ref {:.2} sim {:.2}",
+        first.total, last.total, first.adversarial, last.adversarial, last.mean_ref, last.mean_sim
+    );
     assert!(last.adversarial < 0.5 * first.adversarial, "the adversarial loss falls");
     assert!(last.mean_ref > last.mean_sim);
     let r = reference_windows(&rows, 64, &mut rng);
@@ -85,9 +92,17 @@ fn discriminator_separates_reference_from_random_policy_windows() {
 
 #[test]
 fn loss_gradients_equal_finite_differences() {
-    for (loss, gp) in [(AmpLoss::Logistic, 0.0), (AmpLoss::Logistic, 5.0), (AmpLoss::LeastSquares, 5.0)] {
+    for (loss, gp) in
+        [(AmpLoss::Logistic, 0.0), (AmpLoss::Logistic, 5.0), (AmpLoss::LeastSquares, 5.0)]
+    {
         let mut rng = ChaCha8Rng::seed_from_u64(5);
-        let cfg = DiscConfig { hidden: vec![16, 8], loss, grad_penalty: gp, logit_reg: 0.05, ..Default::default() };
+        let cfg = DiscConfig {
+            hidden: vec![16, 8],
+            loss,
+            grad_penalty: gp,
+            logit_reg: 0.05,
+            ..Default::default()
+        };
         let mut disc = Discriminator::new(6, cfg, &mut rng);
         for b in disc.mlp.biases.iter_mut() {
             b.iter_mut().for_each(|v| *v = rng.random_range(-0.3..0.3));
@@ -135,17 +150,24 @@ fn motion_prior_trains_inside_ppo_and_resumes_from_the_checkpoint() {
     let mut seen = Vec::new();
     let last = skillmimic_learn::runner::train_loop(&mut t, |s| seen.push(s.clone())).unwrap();
     let s = &seen[1];
-    let term = |name: &str| s.reward_terms.iter().find(|(n, _)| n == name).map(|(_, v)| *v).unwrap();
+    let term =
+        |name: &str| s.reward_terms.iter().find(|(n, _)| n == name).map(|(_, v)| *v).unwrap();
     let (task, style) = (term("task"), term("style"));
     println!("terms {:?}", s.reward_terms);
-    println!("mixed reward {:.4} = 0.5 x task {task:.4} + 0.5 x style {style:.4}; discriminator loss {:.4}", s.mean_reward, s.disc_loss);
+    println!(
+        "mixed reward {:.4} = 0.5 x task {task:.4} + 0.5 x style {style:.4}; discriminator loss {:.4}",
+        s.mean_reward, s.disc_loss
+    );
     assert!((s.mean_reward - 0.5 * (task + style)).abs() < 1e-5);
     assert!(s.disc_loss > 0.0 && style.is_finite() && style >= 0.0);
     assert_ne!(t.amp.as_ref().unwrap().disc().mlp, before, "the discriminator trains");
     let t2 = Trainer::new(c, Some(&last)).unwrap();
     let (a, b) = (&t.amp.as_ref().unwrap().disc(), &t2.amp.as_ref().unwrap().disc());
     assert_eq!(a.mlp, b.mlp);
-    assert_eq!((a.norm.mean.clone(), a.adam.step, a.adam.m.clone()), (b.norm.mean.clone(), b.adam.step, b.adam.m.clone()));
+    assert_eq!(
+        (a.norm.mean.clone(), a.adam.step, a.adam.m.clone()),
+        (b.norm.mean.clone(), b.adam.step, b.adam.m.clone())
+    );
 }
 
 /// Data-parallel discriminator steps: 2 ranks, each with half of the windows, take the step one
@@ -156,11 +178,13 @@ fn two_ranks_take_the_single_process_discriminator_step() {
     use skillmimic_learn::collective::threads::ThreadGroup;
     let c = EnvConfig { motion: motion(), ..Default::default() };
     let lib = load_motion_library(&c.motion).unwrap();
-    let rows = clip_features(Arc::new(Scene::new(c.scene_options().unwrap()).unwrap()), &lib).unwrap();
+    let rows =
+        clip_features(Arc::new(Scene::new(c.scene_options().unwrap()).unwrap()), &lib).unwrap();
     let sim = policy_windows(40);
     let w = K * FEATURE_DIM;
     let mut rng = ChaCha8Rng::seed_from_u64(4);
-    let batches: Vec<(Vec<f32>, Vec<f32>)> = (0..3).map(|_| (reference_windows(&rows, 32, &mut rng), sim[..32 * w].to_vec())).collect();
+    let batches: Vec<(Vec<f32>, Vec<f32>)> =
+        (0..3).map(|_| (reference_windows(&rows, 32, &mut rng), sim[..32 * w].to_vec())).collect();
     let cfg = DiscConfig { hidden: vec![64, 32], lr: 1e-3, ..Default::default() };
     let fresh = Discriminator::new(w, cfg, &mut ChaCha8Rng::seed_from_u64(7));
     let mut single = fresh.clone();
@@ -187,10 +211,23 @@ fn two_ranks_take_the_single_process_discriminator_step() {
     });
     assert_eq!(ranks[0].mlp, ranks[1].mlp, "replicas stay equal");
     assert_eq!(ranks[0].norm.mean, ranks[1].norm.mean);
-    let worst = |a: &[&[f32]], b: &[&[f32]]| a.iter().zip(b).map(|(x, y)| x.iter().zip(*y).map(|(p, q)| (p - q).abs()).fold(0.0f32, f32::max)).fold(0.0f32, f32::max);
+    let worst = |a: &[&[f32]], b: &[&[f32]]| {
+        a.iter()
+            .zip(b)
+            .map(|(x, y)| x.iter().zip(*y).map(|(p, q)| (p - q).abs()).fold(0.0f32, f32::max))
+            .fold(0.0f32, f32::max)
+    };
     let dp = worst(&single.mlp.params(), &ranks[0].mlp.params());
-    let dm = single.norm.mean.iter().zip(&ranks[0].norm.mean).map(|(a, b)| (a - b).abs()).fold(0.0f64, f64::max);
-    println!("2 ranks vs 1 process after 3 steps: max |d param| {dp:.2e}, max |d norm mean| {dm:.2e}");
+    let dm = single
+        .norm
+        .mean
+        .iter()
+        .zip(&ranks[0].norm.mean)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0f64, f64::max);
+    println!(
+        "2 ranks vs 1 process after 3 steps: max |d param| {dp:.2e}, max |d norm mean| {dm:.2e}"
+    );
     // float32 sums in another order differ by rounding; Adam divides by sqrt(v), so a gradient
     // component near zero turns rounding into up to ~lr per step: 5e-5 = lr / 20 after 3 steps
     // (measured 2e-6 to 2e-5 depending on the episode starts); a wrong reduction moves by ~lr
@@ -225,11 +262,17 @@ fn motion_prior_trains_data_parallel() {
                 .map(|g| {
                     let c = c.clone();
                     sc.spawn(move || {
-                        let mut t = Trainer::with_collective(c, None, Box::new(g)).map_err(|e| e.to_string())?;
+                        let mut t = Trainer::with_collective(c, None, Box::new(g))
+                            .map_err(|e| e.to_string())?;
                         let mut style = 0.0;
                         for _ in 0..2 {
                             let s = t.iteration().map_err(|e| e.to_string())?;
-                            style = s.reward_terms.iter().find(|(n, _)| n == "style").map(|(_, v)| *v).unwrap();
+                            style = s
+                                .reward_terms
+                                .iter()
+                                .find(|(n, _)| n == "style")
+                                .map(|(_, v)| *v)
+                                .unwrap();
                         }
                         Ok((t.amp.as_ref().unwrap().disc().clone(), style))
                     })
@@ -245,6 +288,7 @@ fn motion_prior_trains_data_parallel() {
     assert!(a.1 > 0.0 && a.1 == b.1, "the style reward is reduced over the ranks: {} {}", a.1, b.1);
     let mut bad = c.clone();
     bad.ppo.amp.batch = 33;
-    let err = run(&bad).into_iter().find_map(Result::err).expect("33 windows do not split over 2 ranks");
+    let err =
+        run(&bad).into_iter().find_map(Result::err).expect("33 windows do not split over 2 ranks");
     assert!(err.contains("ppo.amp.batch"), "{err}");
 }

@@ -29,16 +29,37 @@ fn out_of_range_settings_name_the_key_the_value_and_the_range() {
         ("ppo.gamma=2", "config field 'ppo.gamma': 2 is outside the valid range (0, 1]"),
         ("ppo.lr=1e30", "config field 'ppo.lr': 1e30 is outside the valid range (0, 1000]"),
         ("ppo.norm_clip=-1", "config field 'ppo.norm_clip': -1 is outside the valid range (0, ∞)"),
-        ("ppo.norm_clip=nan", "config field 'ppo.norm_clip': is not a finite number (NaN or infinite); valid range (0, ∞)"),
-        ("env.termination_height=nan", "config field 'env.termination_height': is not a finite number (NaN or infinite); valid range finite"),
+        (
+            "ppo.norm_clip=nan",
+            "config field 'ppo.norm_clip': is not a finite number (NaN or infinite); valid range (0, ∞)",
+        ),
+        (
+            "env.termination_height=nan",
+            "config field 'env.termination_height': is not a finite number (NaN or infinite); valid range finite",
+        ),
         ("ppo.log_std=50", "config field 'ppo.log_std': 50 is outside the valid range [-20, 2]"),
         ("ppo.lam=0", "config field 'ppo.lam': 0 is outside the valid range (0, 1]"),
-        ("env.threads=100000", "config field 'env.threads': 100000 is outside the valid range [0, 1024]"),
-        ("run.learner_threads=5000", "config field 'run.learner_threads': 5000 is outside the valid range [0, 1024]"),
-        ("env.reward.w_p=-1", "config field 'env.reward.w_p': -1 is outside the valid range [0, ∞)"),
-        ("env.v2.bridge.tau=1", "config field 'env.v2.bridge.tau': 1 is outside the valid range (0, 1)"),
+        (
+            "env.threads=100000",
+            "config field 'env.threads': 100000 is outside the valid range [0, 1024]",
+        ),
+        (
+            "run.learner_threads=5000",
+            "config field 'run.learner_threads': 5000 is outside the valid range [0, 1024]",
+        ),
+        (
+            "env.reward.w_p=-1",
+            "config field 'env.reward.w_p': -1 is outside the valid range [0, ∞)",
+        ),
+        (
+            "env.v2.bridge.tau=1",
+            "config field 'env.v2.bridge.tau': 1 is outside the valid range (0, 1)",
+        ),
         ("ppo.hidden=[64, 0]", "config field 'ppo.hidden[1]': 0 is outside the valid range [1, ∞)"),
-        ("env.tracking.weights=[0.5, inf, 0.1, 0.1]", "config field 'env.tracking.weights[1]': is not a finite number"),
+        (
+            "env.tracking.weights=[0.5, inf, 0.1, 0.1]",
+            "config field 'env.tracking.weights[1]': is not a finite number",
+        ),
         ("ppo.amp.lr=-1", "config field 'ppo.amp.lr': -1 is outside the valid range [0, 1000]"),
     ];
     for (assignment, want) in cases {
@@ -73,8 +94,15 @@ fn an_absurd_thread_count_is_refused_at_once() {
     assert!(e.contains("'env.threads'") && e.contains("[0, 1024]"), "{e}");
     assert!(t.elapsed() < Duration::from_secs(5), "refused at once, took {:?}", t.elapsed());
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-    assert_eq!(skillmimic_env::config_range::capped_threads(1000, "env.threads"), (4 * cores).min(1000));
-    assert_eq!(skillmimic_env::config_range::capped_threads(0, "env.threads"), 0, "0 = one per core");
+    assert_eq!(
+        skillmimic_env::config_range::capped_threads(1000, "env.threads"),
+        (4 * cores).min(1000)
+    );
+    assert_eq!(
+        skillmimic_env::config_range::capped_threads(0, "env.threads"),
+        0,
+        "0 = one per core"
+    );
     assert_eq!(skillmimic_env::config_range::capped_threads(cores, "env.threads"), cores);
 }
 
@@ -90,13 +118,23 @@ fn valid_checkpoint(dir: &Path, name: &str) -> PathBuf {
     let cfg = PpoConfig { hidden: vec![8], ..Default::default() };
     let p = Policy::new(6, 3, &cfg, &mut rng);
     let path = dir.join(name);
-    checkpoint::save(&path, &p, None, &Progress::default(), &TrainConfig::preset("tiny").unwrap().to_toml()).unwrap();
+    checkpoint::save(
+        &path,
+        &p,
+        None,
+        &Progress::default(),
+        &TrainConfig::preset("tiny").unwrap().to_toml(),
+    )
+    .unwrap();
     checkpoint::load(&path, None).expect("the unmodified file loads");
     path
 }
 
 /// Rewrite the checkpoint at `path` with `edit` applied to its metadata and float64 tensors.
-fn craft(path: &Path, edit: impl FnOnce(&mut BTreeMap<String, String>, &mut BTreeMap<String, Vec<f64>>)) {
+fn craft(
+    path: &Path,
+    edit: impl FnOnce(&mut BTreeMap<String, String>, &mut BTreeMap<String, Vec<f64>>),
+) {
     let f = TensorFile::open(path).unwrap();
     let mut meta = f.metadata().clone();
     let (mut f32s, mut f64s) = (Vec::new(), BTreeMap::new());
@@ -111,7 +149,8 @@ fn craft(path: &Path, edit: impl FnOnce(&mut BTreeMap<String, String>, &mut BTre
             f32s.push(OwnedTensor::f32(&name, &shape, &data));
         }
     }
-    let mut values: BTreeMap<String, Vec<f64>> = f64s.iter().map(|(k, (_, v))| (k.clone(), v.clone())).collect();
+    let mut values: BTreeMap<String, Vec<f64>> =
+        f64s.iter().map(|(k, (_, v))| (k.clone(), v.clone())).collect();
     edit(&mut meta, &mut values);
     for (name, (shape, _)) in &f64s {
         f32s.push(OwnedTensor::f64(name, shape, &values[name]));
@@ -123,7 +162,10 @@ fn craft(path: &Path, edit: impl FnOnce(&mut BTreeMap<String, String>, &mut BTre
 /// `checkpoint::load` and `load_with_config` refuse the crafted file; the message names the file
 /// and every string of `want`.
 fn assert_refused(path: &Path, want: &[&str]) {
-    for e in [checkpoint::load(path, None).err().map(|e| e.to_string()), checkpoint::load_with_config(path).err().map(|e| e.to_string())] {
+    for e in [
+        checkpoint::load(path, None).err().map(|e| e.to_string()),
+        checkpoint::load_with_config(path).err().map(|e| e.to_string()),
+    ] {
         let e = e.unwrap_or_else(|| panic!("{} was accepted", path.display()));
         assert!(e.contains(&path.display().to_string()), "names the file: {e}");
         for w in want {

@@ -39,8 +39,14 @@ fn batch(p: &mut Policy, n: usize, rng: &mut impl Rng) -> Batch {
     let mut buf = Default::default();
     let (mut mu, mut v) = (vec![0.0; n * a], vec![0.0; n]);
     p.infer(&obs, n, &mut buf, &mut mu, &mut v, 1);
-    let act: Vec<f32> = mu.iter().enumerate().map(|(i, m)| m + p.log_std[i % a].exp() * normal(rng)).collect();
-    let old = (0..n).map(|i| neglogp_row(&act[i * a..(i + 1) * a], &mu[i * a..(i + 1) * a], &p.log_std) as f32 + 0.1 * normal(rng)).collect();
+    let act: Vec<f32> =
+        mu.iter().enumerate().map(|(i, m)| m + p.log_std[i % a].exp() * normal(rng)).collect();
+    let old = (0..n)
+        .map(|i| {
+            neglogp_row(&act[i * a..(i + 1) * a], &mu[i * a..(i + 1) * a], &p.log_std) as f32
+                + 0.1 * normal(rng)
+        })
+        .collect();
     let adv = (0..n).map(|_| normal(rng)).collect();
     let ret = (0..n).map(|_| normal(rng)).collect();
     Batch { obs, act, old, adv, ret }
@@ -48,7 +54,14 @@ fn batch(p: &mut Policy, n: usize, rng: &mut impl Rng) -> Batch {
 
 fn compare(name: &str, p: &Policy, b: &Batch, cfg: &PpoConfig) {
     let n = b.ret.len();
-    let mb = Minibatch { n, obs_n: &b.obs, actions: &b.act, old_neglogp: &b.old, advantages: &b.adv, returns_n: &b.ret };
+    let mb = Minibatch {
+        n,
+        obs_n: &b.obs,
+        actions: &b.act,
+        old_neglogp: &b.old,
+        advantages: &b.adv,
+        returns_n: &b.ret,
+    };
     let run = |precision| {
         let c = PpoConfig { precision, ..cfg.clone() };
         let mut ws = UpdateWorkspace::default();
@@ -57,11 +70,26 @@ fn compare(name: &str, p: &Policy, b: &Batch, cfg: &PpoConfig) {
     };
     let (l32, g32) = run(Precision::F32);
     let (l16, g16) = run(Precision::Bf16);
-    println!("{name}: clip frac {:.4}, approx-KL {:.3e} (both precisions)", l32.clip_frac, l32.approx_kl);
-    for (a, b) in [(l32.actor, l16.actor), (l32.critic, l16.critic), (l32.bounds, l16.bounds), (l32.clip_frac, l16.clip_frac), (l32.approx_kl, l16.approx_kl)] {
+    println!(
+        "{name}: clip frac {:.4}, approx-KL {:.3e} (both precisions)",
+        l32.clip_frac, l32.approx_kl
+    );
+    for (a, b) in [
+        (l32.actor, l16.actor),
+        (l32.critic, l16.critic),
+        (l32.bounds, l16.bounds),
+        (l32.clip_frac, l16.clip_frac),
+        (l32.approx_kl, l16.approx_kl),
+    ] {
         assert_eq!(a, b, "{name}: the forward and the loss terms must not change");
     }
-    let names: Vec<String> = p.actor.param_names("actor").into_iter().chain(p.critic.param_names("critic")).map(|x| x.0).collect();
+    let names: Vec<String> = p
+        .actor
+        .param_names("actor")
+        .into_iter()
+        .chain(p.critic.param_names("critic"))
+        .map(|x| x.0)
+        .collect();
     let mut worst = (0.0f64, String::new());
     for ((name_p, a), b) in names.iter().zip(&g32).zip(&g16) {
         let dot: f64 = a.iter().zip(b).map(|(x, y)| *x as f64 * *y as f64).sum();
@@ -73,7 +101,10 @@ fn compare(name: &str, p: &Policy, b: &Batch, cfg: &PpoConfig) {
             continue;
         }
         let (rel, cos) = (diff / na, dot / (na * nb));
-        assert!(rel <= TOL && cos >= 0.999, "{name} {name_p}: relative L2 difference {rel:.3e}, cosine {cos:.6}");
+        assert!(
+            rel <= TOL && cos >= 0.999,
+            "{name} {name_p}: relative L2 difference {rel:.3e}, cosine {cos:.6}"
+        );
         if rel > worst.0 {
             worst = (rel, name_p.clone());
         }
@@ -84,8 +115,13 @@ fn compare(name: &str, p: &Policy, b: &Batch, cfg: &PpoConfig) {
 #[test]
 fn bf16_gradients_within_tolerance_of_f32() {
     if !skillmimic_nn::bf16::available() {
-        eprintln!("SKIP: this CPU has no AVX512-BF16; `ppo.precision = \"bf16\"` runs in float32 here");
-        assert!(!Mm::new(2, Precision::Bf16).bf16, "without the instructions the update must fall back to float32");
+        eprintln!(
+            "SKIP: this CPU has no AVX512-BF16; `ppo.precision = \"bf16\"` runs in float32 here"
+        );
+        assert!(
+            !Mm::new(2, Precision::Bf16).bf16,
+            "without the instructions the update must fall back to float32"
+        );
         return;
     }
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
@@ -103,7 +139,8 @@ fn bf16_gradients_within_tolerance_of_f32() {
 
     let mut mcfg = PpoConfig { policy: "modular_attention".into(), ..Default::default() };
     mcfg.modular.controller = vec![256, 128];
-    let mut p = Policy::build(902, skillmimic_env::ActionSpace::Box { dim: 156 }, &mcfg, &mut rng).unwrap();
+    let mut p =
+        Policy::build(902, skillmimic_env::ActionSpace::Box { dim: 156 }, &mcfg, &mut rng).unwrap();
     assert!(skillmimic_learn::ppo::fast::applies_to(&p));
     let b = batch(&mut p, 1024, &mut rng);
     compare("modular attention", &p, &b, &mcfg);
@@ -132,18 +169,28 @@ fn bf16_forward_would_add_log_ratio_noise() {
         let a = 156;
         let (mu32, mu16) = (h32.last().unwrap(), h16.last().unwrap());
         let d: Vec<f64> = (0..n)
-            .map(|i| neglogp_row(&b.act[i * a..(i + 1) * a], &mu16[i * a..(i + 1) * a], &p.log_std) - neglogp_row(&b.act[i * a..(i + 1) * a], &mu32[i * a..(i + 1) * a], &p.log_std))
+            .map(|i| {
+                neglogp_row(&b.act[i * a..(i + 1) * a], &mu16[i * a..(i + 1) * a], &p.log_std)
+                    - neglogp_row(&b.act[i * a..(i + 1) * a], &mu32[i * a..(i + 1) * a], &p.log_std)
+            })
             .collect();
         let mean = d.iter().sum::<f64>() / n as f64;
         let std = (d.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / n as f64).sqrt();
-        let rms_mu = (mu32.iter().map(|x| (*x as f64).powi(2)).sum::<f64>() / mu32.len() as f64).sqrt();
-        println!("action means of rms {rms_mu:.3}: a bf16 forward moves the log-ratio by std {std:.3} (PPO clip range ±0.2)");
-        assert!(std > 0.02, "the reason for a float32 forward no longer holds: log-ratio noise {std:.4}");
+        let rms_mu =
+            (mu32.iter().map(|x| (*x as f64).powi(2)).sum::<f64>() / mu32.len() as f64).sqrt();
+        println!(
+            "action means of rms {rms_mu:.3}: a bf16 forward moves the log-ratio by std {std:.3} (PPO clip range ±0.2)"
+        );
+        assert!(
+            std > 0.02,
+            "the reason for a float32 forward no longer holds: log-ratio noise {std:.4}"
+        );
     }
 }
 
 /// A short training run with `ppo.precision = "bf16"`: finite, deterministic (same seed, same
-/// curve), and the run reports the precision it used (float32 where the CPU lacks the instructions).
+/// curve), and the run reports the precision it used (float32 where the CPU lacks the
+/// instructions).
 #[test]
 fn bf16_training_run_is_finite_deterministic_and_reported() {
     use skillmimic_learn::config::TrainConfig;
@@ -158,7 +205,10 @@ fn bf16_training_run_is_finite_deterministic_and_reported() {
         c.run.out_dir = std::env::temp_dir().join(format!("sm-bf16-{}-{tag}", std::process::id()));
         let mut t = Trainer::new(c, None).unwrap();
         let mut curve = Vec::new();
-        skillmimic_learn::runner::train_loop(&mut t, |s| curve.push((s.mean_reward, s.actor_loss, s.critic_loss))).unwrap();
+        skillmimic_learn::runner::train_loop(&mut t, |s| {
+            curve.push((s.mean_reward, s.actor_loss, s.critic_loss))
+        })
+        .unwrap();
         (curve, t.policy.clone(), t.update_precision())
     };
     let (ca, pa, prec) = run("a");

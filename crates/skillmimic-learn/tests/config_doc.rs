@@ -5,7 +5,9 @@ use std::path::PathBuf;
 use schemars::JsonSchema;
 use serde::Serialize;
 use skillmimic_learn::config::TrainConfig;
-use skillmimic_learn::config_doc::{REGENERATE, config_reference_markdown, reference_tables, train_config_reference};
+use skillmimic_learn::config_doc::{
+    REGENERATE, config_reference_markdown, reference_tables, train_config_reference,
+};
 
 fn doc_path() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../docs/config.md")
@@ -22,7 +24,11 @@ fn committed_reference_is_current() {
     }
     let committed = std::fs::read_to_string(&path).unwrap_or_default();
     if committed != generated {
-        let line = committed.lines().zip(generated.lines()).position(|(a, b)| a != b).unwrap_or(committed.lines().count().min(generated.lines().count()));
+        let line = committed
+            .lines()
+            .zip(generated.lines())
+            .position(|(a, b)| a != b)
+            .unwrap_or(committed.lines().count().min(generated.lines().count()));
         panic!(
             "docs/config.md does not match the configuration types (first difference at line {}).\n\
              Regenerate it from the repository root with:\n    {REGENERATE}\n\
@@ -35,7 +41,11 @@ fn committed_reference_is_current() {
 #[test]
 fn every_key_is_documented() {
     let r = train_config_reference();
-    assert!(r.undocumented.is_empty(), "config keys without a /// doc comment: {:?} — document them, then run {REGENERATE}", r.undocumented);
+    assert!(
+        r.undocumented.is_empty(),
+        "config keys without a /// doc comment: {:?} — document them, then run {REGENERATE}",
+        r.undocumented
+    );
 }
 
 /// Rows of the document: (table, key).
@@ -47,7 +57,8 @@ fn rows(md: &str) -> Vec<(String, String)> {
             table = t.to_string();
         } else if line == "## Presets" {
             table.clear();
-        } else if let Some(key) = line.strip_prefix("| `").and_then(|l| l.split_once("` |")).map(|(k, _)| k)
+        } else if let Some(key) =
+            line.strip_prefix("| `").and_then(|l| l.split_once("` |")).map(|(k, _)| k)
             && !table.is_empty()
         {
             out.push((table.clone(), key.to_string()));
@@ -76,7 +87,8 @@ fn every_serialised_key_is_in_the_reference() {
     for key in keys {
         // a key is listed under its table, or (an inline table value) its parent is
         let parts: Vec<&str> = key.split('.').collect();
-        let found = (1..parts.len()).any(|i| rows.contains(&(parts[..i].join("."), parts[i].to_string())));
+        let found =
+            (1..parts.len()).any(|i| rows.contains(&(parts[..i].join("."), parts[i].to_string())));
         assert!(found, "config key '{key}' is missing from docs/config.md");
     }
 }
@@ -119,5 +131,9 @@ fn undocumented_fields_are_reported() {
     }
     let r = reference_tables(&Demo::default());
     assert_eq!(r.undocumented, vec!["b".to_string(), "inner".into(), "inner.flag".into()]);
-    assert!(r.markdown.contains("| `b` | float | finite | `0.0` | **undocumented** |"), "{}", r.markdown);
+    assert!(
+        r.markdown.contains("| `b` | float | finite | `0.0` | **undocumented** |"),
+        "{}",
+        r.markdown
+    );
 }

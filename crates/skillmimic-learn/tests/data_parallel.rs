@@ -41,7 +41,10 @@ fn state(t: &Trainer) -> Vec<(String, Vec<f64>)> {
     out.push(("obs mean".into(), p.obs_norm.mean.clone()));
     out.push(("obs var".into(), p.obs_norm.var.clone()));
     out.push(("obs count".into(), vec![p.obs_norm.count]));
-    out.push(("value mean/var/count".into(), vec![p.value_norm.mean[0], p.value_norm.var[0], p.value_norm.count]));
+    out.push((
+        "value mean/var/count".into(),
+        vec![p.value_norm.mean[0], p.value_norm.var[0], p.value_norm.count],
+    ));
     out
 }
 
@@ -59,7 +62,11 @@ fn max_rel(a: &[(String, Vec<f64>)], b: &[(String, Vec<f64>)]) -> (f64, String) 
 }
 
 /// Run `f(rank, trainer)` on `world` ranks built over one in-process group.
-fn on_ranks<R: Send>(cfg: &TrainConfig, world: usize, f: impl Fn(&mut Trainer) -> R + Sync) -> Vec<R> {
+fn on_ranks<R: Send>(
+    cfg: &TrainConfig,
+    world: usize,
+    f: impl Fn(&mut Trainer) -> R + Sync,
+) -> Vec<R> {
     let group = ThreadGroup::new_group(world);
     std::thread::scope(|s| {
         let hs: Vec<_> = group
@@ -87,22 +94,35 @@ fn two_ranks_take_the_single_process_update_from_one_rollout() {
     let want = state(&one);
     let ranks = on_ranks(&cfg, 2, |t| {
         assert_eq!(t.shard.local, 4);
-        assert_eq!(state(t), before, "rank {} starts from the single process's state", t.shard.rank);
+        assert_eq!(
+            state(t),
+            before,
+            "rank {} starts from the single process's state",
+            t.shard.rank
+        );
         t.load_rollout_part(&full);
         let s = t.update_from_rollout(Default::default()).unwrap();
         (state(t), s)
     });
     assert_eq!(ranks[0].0, ranks[1].0, "both ranks hold the same state after the update");
     let (rel, at) = max_rel(&want, &ranks[0].0);
-    let params = |s: &[(String, Vec<f64>)]| s.iter().filter(|(n, _)| n.starts_with("param")).cloned().collect::<Vec<_>>();
+    let params = |s: &[(String, Vec<f64>)]| {
+        s.iter().filter(|(n, _)| n.starts_with("param")).cloned().collect::<Vec<_>>()
+    };
     let (moved, _) = max_rel(&params(&want), &params(&before));
-    println!("1 x 8 vs 2 x 4 environments: max relative difference {rel:.2e} ({at}); the update itself moved the parameters by {moved:.2e}");
+    println!(
+        "1 x 8 vs 2 x 4 environments: max relative difference {rel:.2e} ({at}); the update itself moved the parameters by {moved:.2e}"
+    );
     assert!(moved > 1e-5, "the update changed the parameters ({moved:.2e})");
     // float32 rounding of sums taken in another order, amplified by Adam's division by sqrt(v):
     // measured 5e-6 to 1.1e-5 of a tensor's scale depending on the episode starts
     assert!(rel <= 3e-5, "2 ranks differ from 1 process by {rel:.3e} in {at}");
     // the reduced loss statistics are those of the whole minibatches
-    for (a, b) in [(s1.actor_loss, ranks[0].1.actor_loss), (s1.critic_loss, ranks[0].1.critic_loss), (s1.clip_frac, ranks[0].1.clip_frac)] {
+    for (a, b) in [
+        (s1.actor_loss, ranks[0].1.actor_loss),
+        (s1.critic_loss, ranks[0].1.critic_loss),
+        (s1.clip_frac, ranks[0].1.clip_frac),
+    ] {
         assert!((a - b).abs() <= 1e-5 * a.abs().max(1e-3), "loss statistics {a} vs {b}");
     }
     // three ranks over 8 environments (3 + 3 + 2) give the same update
@@ -134,12 +154,20 @@ fn full_iterations_agree_across_ranks_and_a_mismatch_is_an_error() {
             .map(|(r, g)| {
                 let mut c = cfg.clone();
                 c.ppo.lr *= 1.0 + r as f64;
-                s.spawn(move || Trainer::with_collective(c, None, Box::new(g)).err().map(|e| e.to_string()).unwrap_or_default())
+                s.spawn(move || {
+                    Trainer::with_collective(c, None, Box::new(g))
+                        .err()
+                        .map(|e| e.to_string())
+                        .unwrap_or_default()
+                })
             })
             .collect();
         hs.into_iter().map(|h| h.join().unwrap()).collect()
     });
-    assert!(errs.iter().all(|e| e.contains("rank 1 disagrees with rank 0 on the configuration")), "{errs:?}");
+    assert!(
+        errs.iter().all(|e| e.contains("rank 1 disagrees with rank 0 on the configuration")),
+        "{errs:?}"
+    );
 }
 
 #[test]
@@ -173,8 +201,19 @@ fn every_task_and_family_trains_on_two_ranks() {
             (state(t), s.mean_reward)
         });
         assert!(out[0].1.is_finite(), "{} / {}", entry.name, family.name());
-        assert!(out[0].0.iter().all(|(_, v)| v.iter().all(|x| x.is_finite())), "{} / {}", entry.name, family.name());
-        assert_eq!(out[0], out[1], "{} / {}: ranks differ after an iteration", entry.name, family.name());
+        assert!(
+            out[0].0.iter().all(|(_, v)| v.iter().all(|x| x.is_finite())),
+            "{} / {}",
+            entry.name,
+            family.name()
+        );
+        assert_eq!(
+            out[0],
+            out[1],
+            "{} / {}: ranks differ after an iteration",
+            entry.name,
+            family.name()
+        );
     }
     assert!(pairs >= TASKS.len(), "every task trained with at least one family");
 }

@@ -42,18 +42,32 @@ fn assert_folder_clean(out: &Path) {
     for p in checkpoints(out) {
         let c = checkpoint::load(&p, None).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
         let finite = |xs: &[f32]| xs.iter().all(|x| x.is_finite());
-        assert!(c.policy.actor.params().into_iter().chain(c.policy.critic.params()).all(finite), "{}", p.display());
+        assert!(
+            c.policy.actor.params().into_iter().chain(c.policy.critic.params()).all(finite),
+            "{}",
+            p.display()
+        );
         let adam = c.adam.unwrap();
         assert!(adam.m.iter().chain(&adam.v).all(|x| finite(x)), "{}", p.display());
-        assert!(c.policy.value_norm.var.iter().chain(&c.policy.obs_norm.var).all(|x| x.is_finite()), "{}", p.display());
+        assert!(
+            c.policy.value_norm.var.iter().chain(&c.policy.obs_norm.var).all(|x| x.is_finite()),
+            "{}",
+            p.display()
+        );
     }
-    let names: Vec<String> = std::fs::read_dir(out.join("checkpoints")).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    let names: Vec<String> = std::fs::read_dir(out.join("checkpoints"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
     assert!(names.iter().all(|n| !n.contains(".tmp")), "{names:?}");
 }
 
 /// The iteration named by a divergence error.
 fn failed_iteration(msg: &str) -> u64 {
-    let rest = msg.split("training diverged in iteration ").nth(1).unwrap_or_else(|| panic!("no iteration in: {msg}"));
+    let rest = msg
+        .split("training diverged in iteration ")
+        .nth(1)
+        .unwrap_or_else(|| panic!("no iteration in: {msg}"));
     rest.split(':').next().unwrap().parse().unwrap()
 }
 
@@ -91,11 +105,16 @@ fn divergence_after_a_resume_names_the_checkpoint_it_resumed_from() {
     c2.run.iterations = 12;
     c2.ppo.lr = 1e3;
     let mut t = Trainer::new(c2, Some(&resume)).unwrap();
-    let msg = train_loop(&mut t, |_| {}).expect_err("lr = 1e3 must not train to the end").to_string();
+    let msg =
+        train_loop(&mut t, |_| {}).expect_err("lr = 1e3 must not train to the end").to_string();
     println!("{msg}");
     let it = failed_iteration(&msg);
     assert!((3..=12).contains(&it), "{msg}");
-    let want = if it == 3 { resume } else { out.join(format!("checkpoints/iter_{:06}.safetensors", it - 1)) };
+    let want = if it == 3 {
+        resume
+    } else {
+        out.join(format!("checkpoints/iter_{:06}.safetensors", it - 1))
+    };
     assert!(msg.contains(&format!("last good checkpoint: {}", want.display())), "{msg}");
     assert_eq!(checkpoint::load(&want, None).unwrap().progress.iteration, it - 1);
     // the log ends at the last finished iteration

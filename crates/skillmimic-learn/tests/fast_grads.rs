@@ -5,8 +5,8 @@
 
 use rand::{Rng, SeedableRng};
 use skillmimic_learn::config::PpoConfig;
-use skillmimic_learn::ppo::fast::{UpdateWorkspace, loss_and_grads_fast};
 use skillmimic_learn::policy::Policy;
+use skillmimic_learn::ppo::fast::{UpdateWorkspace, loss_and_grads_fast};
 use skillmimic_learn::ppo::{Minibatch, loss_and_grads};
 
 struct Case {
@@ -38,7 +38,11 @@ fn setup(n: usize, scale_out: f32) -> (Policy, Case) {
     let act: Vec<f32> = mu.iter().map(|m| m + rng.random_range(-0.4..0.4)).collect();
     let mut old = vec![0.0; n];
     for i in 0..n {
-        let nl = skillmimic_learn::policy::neglogp_row(&act[i * 11..(i + 1) * 11], &mu[i * 11..(i + 1) * 11], &p.log_std);
+        let nl = skillmimic_learn::policy::neglogp_row(
+            &act[i * 11..(i + 1) * 11],
+            &mu[i * 11..(i + 1) * 11],
+            &p.log_std,
+        );
         old[i] = (nl + rng.random_range(-0.7..0.7)) as f32;
     }
     let adv = (0..n).map(|_| rng.random_range(-2.0..2.0)).collect();
@@ -77,10 +81,20 @@ fn check_tol(name: &str, cfg: &PpoConfig, p: &Policy, c: &Case, zero_adv: bool, 
         let lf = loss_and_grads_fast(p, &mb, cfg, &mut ws, threads);
         let rel = max_rel(&ws.grads, &slow);
         let na = p.actor.params().len();
-        let (ra, rc) = (max_rel(&ws.grads[..na], &slow[..na]), max_rel(&ws.grads[na..], &slow[na..]));
-        println!("{name} ({threads} threads): max relative gradient difference actor {ra:.2e}, critic {rc:.2e}; clip frac {:.2}", lf.clip_frac);
+        let (ra, rc) =
+            (max_rel(&ws.grads[..na], &slow[..na]), max_rel(&ws.grads[na..], &slow[na..]));
+        println!(
+            "{name} ({threads} threads): max relative gradient difference actor {ra:.2e}, critic {rc:.2e}; clip frac {:.2}",
+            lf.clip_frac
+        );
         assert!(rel <= tol, "{name}: relative difference {rel:.3e}");
-        for (a, b) in [(lf.actor, ls.actor), (lf.critic, ls.critic), (lf.bounds, ls.bounds), (lf.total, ls.total), (lf.clip_frac, ls.clip_frac)] {
+        for (a, b) in [
+            (lf.actor, ls.actor),
+            (lf.critic, ls.critic),
+            (lf.bounds, ls.bounds),
+            (lf.total, ls.total),
+            (lf.clip_frac, ls.clip_frac),
+        ] {
             assert!((a - b).abs() <= 1e-5 * (1.0 + b.abs()), "{name}: loss {a} vs {b}");
         }
     }
@@ -90,9 +104,27 @@ fn check_tol(name: &str, cfg: &PpoConfig, p: &Policy, c: &Case, zero_adv: bool, 
 fn fast_gradients_equal_candle_autograd_term_by_term() {
     let (p, c) = setup(96, 4.0);
     let base = PpoConfig { hidden: vec![64, 32], log_std: -1.0, ..Default::default() };
-    check("PPO surrogate only", &PpoConfig { critic_coef: 0.0, bounds_coef: 0.0, ..base.clone() }, &p, &c, false);
-    check("value loss only", &PpoConfig { critic_coef: 5.0, bounds_coef: 0.0, ..base.clone() }, &p, &c, true);
-    check("bounds loss only", &PpoConfig { critic_coef: 0.0, bounds_coef: 10.0, ..base.clone() }, &p, &c, true);
+    check(
+        "PPO surrogate only",
+        &PpoConfig { critic_coef: 0.0, bounds_coef: 0.0, ..base.clone() },
+        &p,
+        &c,
+        false,
+    );
+    check(
+        "value loss only",
+        &PpoConfig { critic_coef: 5.0, bounds_coef: 0.0, ..base.clone() },
+        &p,
+        &c,
+        true,
+    );
+    check(
+        "bounds loss only",
+        &PpoConfig { critic_coef: 0.0, bounds_coef: 10.0, ..base.clone() },
+        &p,
+        &c,
+        true,
+    );
     check("all terms", &base, &p, &c, false);
     // a batch larger than the small-batch kernel threshold goes through gemm
     let (p, c) = setup(600, 1.0);
@@ -101,7 +133,12 @@ fn fast_gradients_equal_candle_autograd_term_by_term() {
 
 fn setup_modular(n: usize, variant: &[&str]) -> (Policy, Case, PpoConfig) {
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(43);
-    let mut cfg = PpoConfig { policy: "modular_attention".into(), hidden: vec![32], log_std: -1.0, ..Default::default() };
+    let mut cfg = PpoConfig {
+        policy: "modular_attention".into(),
+        hidden: vec![32],
+        log_std: -1.0,
+        ..Default::default()
+    };
     cfg.modular.embed = 16;
     cfg.modular.proj_hidden = 24;
     cfg.modular.controller = vec![32, 16];
@@ -114,7 +151,8 @@ fn setup_modular(n: usize, variant: &[&str]) -> (Policy, Case, PpoConfig) {
         }
     }
     let (d, a) = (902, 156);
-    let mut p = Policy::build(d, skillmimic_env::ActionSpace::Box { dim: a }, &cfg, &mut rng).unwrap();
+    let mut p =
+        Policy::build(d, skillmimic_env::ActionSpace::Box { dim: a }, &cfg, &mut rng).unwrap();
     p.normalize_input = false;
     p.normalize_value = false;
     // larger controller outputs so that the bounds loss is active
@@ -132,7 +170,11 @@ fn setup_modular(n: usize, variant: &[&str]) -> (Policy, Case, PpoConfig) {
     let act: Vec<f32> = mu.iter().map(|m| m + rng.random_range(-0.4..0.4)).collect();
     let mut old = vec![0.0; n];
     for i in 0..n {
-        let nl = skillmimic_learn::policy::neglogp_row(&act[i * a..(i + 1) * a], &mu[i * a..(i + 1) * a], &p.log_std);
+        let nl = skillmimic_learn::policy::neglogp_row(
+            &act[i * a..(i + 1) * a],
+            &mu[i * a..(i + 1) * a],
+            &p.log_std,
+        );
         old[i] = (nl + rng.random_range(-0.7..0.7)) as f32;
     }
     let adv = (0..n).map(|_| rng.random_range(-2.0..2.0)).collect();
@@ -150,8 +192,22 @@ fn fast_modular_gradients_equal_candle_autograd() {
         // float32 rounding; measured up to 1.1e-5, most of it candle's (against float64 torch
         // autograd the fast path is within 9.5e-7 and candle 1e-5: tests/test_modular_attention.py)
         let tol = 3e-5;
-        check_tol(&format!("{name}, PPO surrogate only"), &PpoConfig { critic_coef: 0.0, bounds_coef: 0.0, ..base.clone() }, &p, &c, false, tol);
-        check_tol(&format!("{name}, bounds loss only"), &PpoConfig { critic_coef: 0.0, bounds_coef: 10.0, ..base.clone() }, &p, &c, true, tol);
+        check_tol(
+            &format!("{name}, PPO surrogate only"),
+            &PpoConfig { critic_coef: 0.0, bounds_coef: 0.0, ..base.clone() },
+            &p,
+            &c,
+            false,
+            tol,
+        );
+        check_tol(
+            &format!("{name}, bounds loss only"),
+            &PpoConfig { critic_coef: 0.0, bounds_coef: 10.0, ..base.clone() },
+            &p,
+            &c,
+            true,
+            tol,
+        );
         check_tol(&format!("{name}, all terms"), &base, &p, &c, false, tol);
     }
 }

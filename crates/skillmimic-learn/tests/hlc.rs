@@ -23,10 +23,7 @@ fn workspace_root() -> PathBuf {
 /// A skill policy checkpoint (902 → 156, small widths) with a non-trivial normaliser.
 pub fn write_llc(tag: &str) -> PathBuf {
     let mut rng = ChaCha8Rng::seed_from_u64(11);
-    let cfg = PpoConfig {
-        hidden: vec![64, 32],
-        ..Default::default()
-    };
+    let cfg = PpoConfig { hidden: vec![64, 32], ..Default::default() };
     let mut p = Policy::new(902, 156, &cfg, &mut rng);
     let x: Vec<f32> = (0..902 * 64).map(|_| rng.random_range(-3.0..3.0)).collect();
     p.obs_norm.update(&x);
@@ -42,12 +39,7 @@ pub fn write_llc(tag: &str) -> PathBuf {
 }
 
 fn config(task: &str, llc: &std::path::Path, n: usize) -> EnvConfig {
-    let mut c = EnvConfig {
-        task: task.into(),
-        num_envs: n,
-        threads: 2,
-        ..Default::default()
-    };
+    let mut c = EnvConfig { task: task.into(), num_envs: n, threads: 2, ..Default::default() };
     c.motion = vec![workspace_root().join("motions")];
     c.hlc.llc = llc.to_path_buf();
     c
@@ -78,14 +70,7 @@ fn the_skill_policy_inside_the_task_equals_standalone_inference_bit_for_bit() {
         }
         for threads in [1, 2] {
             let (mut mu, mut v, mut a) = (vec![0.0; 6 * 156], vec![0.0; 6], vec![0.0; 6 * 156]);
-            standalone.infer(
-                &obs,
-                6,
-                &mut InferenceBuffers::default(),
-                &mut mu,
-                &mut v,
-                threads,
-            );
+            standalone.infer(&obs, 6, &mut InferenceBuffers::default(), &mut mu, &mut v, threads);
             standalone.mode(&mu, 6, &mut a);
             clamped += a.iter().filter(|x| x.abs() > 1.0).count();
             let a: Vec<f32> = a.iter().map(|x| x.clamp(-1.0, 1.0)).collect();
@@ -145,25 +130,14 @@ fn holding_a_choice_equals_three_single_steps_also_across_a_reset() {
                 );
                 assert_eq!(b3.terminated[i] != 0 || b3.truncated[i] != 0, done[i]);
             }
-            assert_eq!(
-                b3.obs, last_obs,
-                "the observation of the transition's last counted step"
-            );
+            assert_eq!(b3.obs, last_obs, "the observation of the transition's last counted step");
             resets += done.iter().filter(|&&d| d).count();
             // the 1-step environment went on stepping the finished ones: reset both the same way
             let mask = done.clone();
             e3.reset_envs(&mask);
             e1.reset_envs(&mask);
-            assert_eq!(
-                e3.buffers().obs,
-                e1.buffers().obs,
-                "new episodes start identically"
-            );
-            assert_eq!(
-                e3.buffers().info,
-                e1.buffers().info,
-                "and with the same goals"
-            );
+            assert_eq!(e3.buffers().obs, e1.buffers().obs, "new episodes start identically");
+            assert_eq!(e3.buffers().info, e1.buffers().info, "and with the same goals");
         }
         if term_h > 1.0 {
             assert!(resets >= 12 * 4, "every transition ends inside the hold");
@@ -195,27 +169,18 @@ fn bad_skill_policies_and_actions_are_clear_errors() {
     assert!(e.contains("/nonexistent/llc.safetensors"), "{e}");
     // a policy of another size (a stand policy: observation 826)
     let mut rng = ChaCha8Rng::seed_from_u64(1);
-    let p = Policy::new(
-        826,
-        156,
-        &PpoConfig {
-            hidden: vec![8],
-            ..Default::default()
-        },
-        &mut rng,
-    );
+    let p = Policy::new(826, 156, &PpoConfig { hidden: vec![8], ..Default::default() }, &mut rng);
     let other = llc.with_file_name("stand.safetensors");
     checkpoint::save(&other, &p, None, &Progress::default(), "").unwrap();
-    let e = skillmimic_env::registry::make(&config("scoring", &other, 2))
-        .err()
-        .unwrap()
-        .to_string();
+    let e =
+        skillmimic_env::registry::make(&config("scoring", &other, 2)).err().unwrap().to_string();
     assert!(e.contains("826") && e.contains("902"), "{e}");
     // a skill policy trained on the box-hand humanoid drives only that humanoid
     let p = checkpoint::load(&llc, None).unwrap().policy;
     let boxed = llc.with_file_name("box.safetensors");
     checkpoint::save(&boxed, &p, None, &Progress::default(), "[env]\nhands = \"box\"\n").unwrap();
-    let e = skillmimic_env::registry::make(&config("throwing", &boxed, 2)).err().unwrap().to_string();
+    let e =
+        skillmimic_env::registry::make(&config("throwing", &boxed, 2)).err().unwrap().to_string();
     assert!(e.contains("env.hands") && e.contains("box"), "{e}");
     let mut c = config("throwing", &boxed, 2);
     c.hands = "box".into();
@@ -225,8 +190,13 @@ fn bad_skill_policies_and_actions_are_clear_errors() {
 #[test]
 fn high_level_logits_start_glorot_uniform_with_zero_bias() {
     let mut rng = ChaCha8Rng::seed_from_u64(2);
-    let cfg = PpoConfig { policy: "categorical_mlp".into(), hidden: vec![1024, 512], ..Default::default() };
-    let p = Policy::build(842, skillmimic_env::ActionSpace::Discrete { n: 3 }, &cfg, &mut rng).unwrap();
+    let cfg = PpoConfig {
+        policy: "categorical_mlp".into(),
+        hidden: vec![1024, 512],
+        ..Default::default()
+    };
+    let p =
+        Policy::build(842, skillmimic_env::ActionSpace::Discrete { n: 3 }, &cfg, &mut rng).unwrap();
     let params = p.actor.params();
     let (w, b) = (params[params.len() - 2], params[params.len() - 1]);
     let bound = (6.0f32 / (512.0 + 3.0)).sqrt();

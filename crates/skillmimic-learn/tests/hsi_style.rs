@@ -9,15 +9,21 @@ use std::path::PathBuf;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use skillmimic_core::shared_data::shared_dir_or_skip;
-use skillmimic_env::amp::window_of;
-use skillmimic_env::tasks::hsi::style::{STYLE_DIM, clip_features, frame_features, load_style_clips};
 use skillmimic_env::EnvConfig;
+use skillmimic_env::amp::window_of;
+use skillmimic_env::tasks::hsi::style::{
+    STYLE_DIM, clip_features, frame_features, load_style_clips,
+};
 use skillmimic_learn::amp::{DiscConfig, Discriminator};
 use skillmimic_motion::Clip;
 use skillmimic_motion::retarget_hsi::retarget_to_hsi;
 
 const K: usize = 10;
-const CLIPS: [&str; 3] = ["run/013_018pickle_run_3.pt", "turn/042_018pickle_rturnover_30.pt", "pick_40/001_007pickle_pick_000.pt"];
+const CLIPS: [&str; 3] = [
+    "run/013_018pickle_run_3.pt",
+    "turn/042_018pickle_rturnover_30.pt",
+    "pick_40/001_007pickle_pick_000.pt",
+];
 
 /// Retarget the BallPlay-M clips into a temporary folder (`tag` names it).
 fn retargeted(shared: &std::path::Path, tag: &str) -> PathBuf {
@@ -73,7 +79,11 @@ fn reference_windows(rows: &[Vec<f32>], n: usize, rng: &mut ChaCha8Rng) -> Vec<f
 
 #[test]
 fn discriminator_separates_retargeted_clips_from_random_policy_windows() {
-    let Some(shared) = shared_dir_or_skip("discriminator_separates_retargeted_clips_from_random_policy_windows") else { return };
+    let Some(shared) =
+        shared_dir_or_skip("discriminator_separates_retargeted_clips_from_random_policy_windows")
+    else {
+        return;
+    };
     let dir = retargeted(&shared, "disc");
     let clips = load_style_clips(std::slice::from_ref(&dir)).unwrap();
     assert_eq!(clips.len(), CLIPS.len());
@@ -89,14 +99,19 @@ fn discriminator_separates_retargeted_clips_from_random_policy_windows() {
     let mut losses = Vec::new();
     for _ in 0..60 {
         let r = reference_windows(&rows, 64, &mut rng);
-        let s: Vec<f32> = (0..64).flat_map(|_| {
-            let k = rng.random_range(0..n_sim);
-            sim[k * w..(k + 1) * w].to_vec()
-        }).collect();
+        let s: Vec<f32> = (0..64)
+            .flat_map(|_| {
+                let k = rng.random_range(0..n_sim);
+                sim[k * w..(k + 1) * w].to_vec()
+            })
+            .collect();
         losses.push(disc.update(&r, 64, &s, 64).unwrap());
     }
     let (first, last) = (losses[0], losses[losses.len() - 1]);
-    println!("discriminator loss {:.4} -> {:.4} (adversarial {:.4} -> {:.4}); mean logits reference {:.2}, policy {:.2}", first.total, last.total, first.adversarial, last.adversarial, last.mean_ref, last.mean_sim);
+    println!(
+        "discriminator loss {:.4} -> {:.4} (adversarial {:.4} -> {:.4}); mean logits reference {:.2}, policy {:.2}",
+        first.total, last.total, first.adversarial, last.adversarial, last.mean_ref, last.mean_sim
+    );
     assert!(last.adversarial < 0.5 * first.adversarial, "the adversarial loss falls");
     assert!(last.mean_ref > last.mean_sim + 1.0, "reference windows score above the policy's");
     let r = reference_windows(&rows, 64, &mut rng);
@@ -111,7 +126,10 @@ fn discriminator_separates_retargeted_clips_from_random_policy_windows() {
 fn the_style_reward_mixes_into_ppo_on_a_tokenhsi_task() {
     use skillmimic_learn::config::TrainConfig;
     use skillmimic_learn::trainer::Trainer;
-    let Some(shared) = shared_dir_or_skip("the_style_reward_mixes_into_ppo_on_a_tokenhsi_task") else { return };
+    let Some(shared) = shared_dir_or_skip("the_style_reward_mixes_into_ppo_on_a_tokenhsi_task")
+    else {
+        return;
+    };
     let dir = retargeted(&shared, "ppo");
     let mut c = TrainConfig::preset("tiny").unwrap();
     c.env.task = "hsi_sit".into();
@@ -134,9 +152,18 @@ fn the_style_reward_mixes_into_ppo_on_a_tokenhsi_task() {
     let mut seen = Vec::new();
     skillmimic_learn::runner::train_loop(&mut t, |s| seen.push(s.clone())).unwrap();
     let s = &seen[1];
-    let term = |name: &str| s.reward_terms.iter().find(|(n, _)| n == name).map(|(_, v)| *v).unwrap_or_else(|| panic!("no term {name} in {:?}", s.reward_terms));
+    let term = |name: &str| {
+        s.reward_terms
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, v)| *v)
+            .unwrap_or_else(|| panic!("no term {name} in {:?}", s.reward_terms))
+    };
     let (task, style) = (term("task"), term("style"));
-    println!("terms {:?}; mixed reward {:.4} = 0.5 x task {task:.4} + 0.5 x style {style:.4}", s.reward_terms, s.mean_reward);
+    println!(
+        "terms {:?}; mixed reward {:.4} = 0.5 x task {task:.4} + 0.5 x style {style:.4}",
+        s.reward_terms, s.mean_reward
+    );
     assert!((s.mean_reward - 0.5 * (task + style)).abs() < 1e-5);
     assert!(style.is_finite() && style >= 0.0 && s.disc_loss > 0.0);
     assert_ne!(t.amp.as_ref().unwrap().disc().mlp, before, "the discriminator trains");
@@ -151,7 +178,10 @@ fn the_style_reward_mixes_into_ppo_on_a_tokenhsi_task() {
 fn multi_task_training_keeps_one_discriminator_per_task() {
     use skillmimic_learn::config::TrainConfig;
     use skillmimic_learn::trainer::Trainer;
-    let Some(shared) = shared_dir_or_skip("multi_task_training_keeps_one_discriminator_per_task") else { return };
+    let Some(shared) = shared_dir_or_skip("multi_task_training_keeps_one_discriminator_per_task")
+    else {
+        return;
+    };
     let dir = retargeted(&shared, "multi");
     let mut c = TrainConfig::preset("tiny").unwrap();
     c.env.task = "hsi_multi".into();
@@ -191,7 +221,10 @@ fn multi_task_training_keeps_one_discriminator_per_task() {
     let path = c.run.out_dir.join("c.safetensors");
     t.save(&path).unwrap();
     let f = skillmimic_core::tensorfile::TensorFile::open(&path).unwrap();
-    assert!(f.names().iter().any(|n| n == "amp.hsi_sit.disc.0.weight") && f.names().iter().any(|n| n == "amp.hsi_follow.norm.mean"));
+    assert!(
+        f.names().iter().any(|n| n == "amp.hsi_sit.disc.0.weight")
+            && f.names().iter().any(|n| n == "amp.hsi_follow.norm.mean")
+    );
     let t2 = Trainer::new(c.clone(), Some(&path)).unwrap();
     for (p, q) in t.amp.as_ref().unwrap().priors.iter().zip(&t2.amp.as_ref().unwrap().priors) {
         assert_eq!(p.disc.mlp, q.disc.mlp, "{} restored", p.name);

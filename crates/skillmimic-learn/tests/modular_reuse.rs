@@ -14,7 +14,8 @@ use skillmimic_learn::trainer::Trainer;
 
 /// A small modular checkpoint (observation 902, 156 actions, 5 parts × 16-wide embeddings).
 fn modular_llc(tag: &str) -> (std::path::PathBuf, Policy) {
-    let mut cfg = PpoConfig { policy: "modular_attention".into(), hidden: vec![32], ..Default::default() };
+    let mut cfg =
+        PpoConfig { policy: "modular_attention".into(), hidden: vec![32], ..Default::default() };
     cfg.modular.embed = 16;
     cfg.modular.proj_hidden = 32;
     cfg.modular.controller = vec![48, 32];
@@ -35,7 +36,8 @@ fn config(task: &str, llc: &std::path::Path, out: &str) -> TrainConfig {
     c.env.num_envs = 4;
     c.env.threads = 1;
     c.ppo.horizon = 8;
-    c.run.out_dir = std::env::temp_dir().join(format!("skillmimic-modreuse-{out}-{}", std::process::id()));
+    c.run.out_dir =
+        std::env::temp_dir().join(format!("skillmimic-modreuse-{out}-{}", std::process::id()));
     c
 }
 
@@ -63,24 +65,33 @@ fn part_embeddings_drive_the_frozen_part_controllers() {
     for task in ["steering", "heading"] {
         let c = config(task, &llc, task);
         let mut env = skillmimic_env::registry::make(&c.env).unwrap();
-        assert_eq!(env.spec().action_space, ActionSpace::Box { dim: 5 * 16 }, "{task}: one 16-wide embedding per part");
+        assert_eq!(
+            env.spec().action_space,
+            ActionSpace::Box { dim: 5 * 16 },
+            "{task}: one 16-wide embedding per part"
+        );
         assert_eq!(env.spec().steps_per_action, 1, "{task}: latent_steps = 1 by default");
         assert!(env.spec().choice_labels.is_empty());
         env.reset_all(Some(2));
         let mut rng = <rand_chacha::ChaCha8Rng as rand::SeedableRng>::seed_from_u64(9);
         let n = env.num_envs();
         for _ in 0..5 {
-            let latent: Vec<f32> = (0..n * 80).map(|_| rand::Rng::random_range(&mut rng, -1.0..1.0)).collect();
+            let latent: Vec<f32> =
+                (0..n * 80).map(|_| rand::Rng::random_range(&mut rng, -1.0..1.0)).collect();
             env.step(&latent).unwrap();
             let targets = env.pd_targets().to_vec();
             for i in 0..n {
                 let want = by_hand(&p, &latent[i * 80..(i + 1) * 80]);
                 let got = &targets[i * 156..(i + 1) * 156];
                 let err = want.iter().zip(got).map(|(a, b)| (a - b).abs()).fold(0.0f32, f32::max);
-                assert!(err < 1e-5, "{task}: env {i}: PD targets differ from the hand-applied controllers by {err}");
+                assert!(
+                    err < 1e-5,
+                    "{task}: env {i}: PD targets differ from the hand-applied controllers by {err}"
+                );
             }
             // the projection makes each part's embedding scale-free
-            let scaled: Vec<f32> = latent.iter().enumerate().map(|(j, v)| v * (1.0 + (j / 16 % 5) as f32)).collect();
+            let scaled: Vec<f32> =
+                latent.iter().enumerate().map(|(j, v)| v * (1.0 + (j / 16 % 5) as f32)).collect();
             let a = by_hand(&p, &latent[..80]);
             let b = by_hand(&p, &scaled[..80]);
             assert!(a.iter().zip(&b).all(|(x, y)| (x - y).abs() < 1e-5));
@@ -103,12 +114,23 @@ fn the_learner_trains_a_gaussian_high_level_policy_over_modular_skills() {
     let before = t.policy.clone();
     let mut stats = Vec::new();
     let last = skillmimic_learn::runner::train_loop(&mut t, |s| stats.push(s.clone())).unwrap();
-    assert!(stats.iter().all(|s| s.mean_reward.is_finite() && (0.0..=1.0).contains(&s.mean_reward)), "steering rewards are in [0, 1]");
+    assert!(
+        stats.iter().all(|s| s.mean_reward.is_finite() && (0.0..=1.0).contains(&s.mean_reward)),
+        "steering rewards are in [0, 1]"
+    );
     assert_ne!(t.policy.actor, before.actor);
     let back = checkpoint::load(&last, Some((838 + 3, 80))).unwrap();
     assert_eq!(back.policy, t.policy);
     // alone its ONNX export would output embeddings, not PD targets: refused, --fused named
-    let err = skillmimic_learn::onnx::export::export_checkpoint(&last, &c.run.out_dir.join("p.onnx"), false, None).err().unwrap().to_string();
+    let err = skillmimic_learn::onnx::export::export_checkpoint(
+        &last,
+        &c.run.out_dir.join("p.onnx"),
+        false,
+        None,
+    )
+    .err()
+    .unwrap()
+    .to_string();
     assert!(err.contains("part embeddings") && err.contains("--fused"), "{err}");
     // a discrete skill policy keeps the categorical high-level policy
     let gaussian = common::skill_policy("modreuse-discrete");
@@ -145,13 +167,21 @@ fn steering_commands_rewards_and_redraws() {
             if b.terminated[i] != 0 || b.truncated[i] != 0 {
                 continue;
             }
-            let (dx, dy, s) = (before[3 * i] as f64, before[3 * i + 1] as f64, before[3 * i + 2] as f64);
-            assert!(((dx * dx + dy * dy).sqrt() - 1.0).abs() < 1e-6 && (1.0..2.0).contains(&s), "command {dx} {dy} {s}");
+            let (dx, dy, s) =
+                (before[3 * i] as f64, before[3 * i + 1] as f64, before[3 * i + 2] as f64);
+            assert!(
+                ((dx * dx + dy * dy).sqrt() - 1.0).abs() < 1e-6 && (1.0..2.0).contains(&s),
+                "command {dx} {dy} {s}"
+            );
             // reward with the command in force during the step, from the pelvis's world velocity
             let v = st.env(i).linvel(0);
             let e2 = (s * dx - v[0]).powi(2) + (s * dy - v[1]).powi(2);
             let want = (-0.25 * e2).exp();
-            assert!((b.reward[i] as f64 - want).abs() < 1e-5, "step {step} env {i}: reward {} vs {want}", b.reward[i]);
+            assert!(
+                (b.reward[i] as f64 - want).abs() < 1e-5,
+                "step {step} env {i}: reward {} vs {want}",
+                b.reward[i]
+            );
             assert!((b.metrics[2 * i] as f64 - e2.sqrt()).abs() < 1e-5);
         }
         commands.push(b.info[..3].to_vec());
@@ -161,7 +191,11 @@ fn steering_commands_rewards_and_redraws() {
     assert_ne!(commands[4], commands[3], "a new command after 5 steps");
     assert_eq!(commands[5], commands[8]);
     assert_ne!(commands[9], commands[8]);
-    let bad = { let mut c = c.clone(); c.env.steering.change_steps_min = 0; skillmimic_env::registry::make(&c.env).err().unwrap().to_string() };
+    let bad = {
+        let mut c = c.clone();
+        c.env.steering.change_steps_min = 0;
+        skillmimic_env::registry::make(&c.env).err().unwrap().to_string()
+    };
     assert!(bad.contains("env.steering.change_steps_min"), "{bad}");
     let mut r = c.clone();
     r.env.task = "reach".into();

@@ -1,6 +1,7 @@
-//! The `modular_attention` family (ModSkill) end to end on the shipped demo clips: it trains
-//! (the fast path's hand-written gradients by default, candle's with `ppo.backend = "candle"`), writes checkpoints that load
-//! back bit-identically and resume, and a bad network configuration is a clear error.
+//! The `modular_attention` family (ModSkill) end to end on the shipped demo clips: it trains (the
+//! fast path's hand-written gradients by default, candle's with `ppo.backend = "candle"`), writes
+//! checkpoints that load back bit-identically and resume, and a bad network configuration is a
+//! clear error.
 
 use skillmimic_core::shared_data::workspace_root;
 use skillmimic_learn::actor::ActorNet;
@@ -33,7 +34,9 @@ fn modular_attention_trains_saves_loads_and_resumes() {
     let before = t.policy.clone();
     let mut seen = Vec::new();
     let last = skillmimic_learn::runner::train_loop(&mut t, |s| seen.push(s.clone())).unwrap();
-    assert!(seen.iter().all(|s| s.mean_reward.is_finite() && s.actor_loss.is_finite() && s.critic_loss.is_finite()));
+    assert!(seen.iter().all(|s| s.mean_reward.is_finite()
+        && s.actor_loss.is_finite()
+        && s.critic_loss.is_finite()));
     assert_ne!(t.policy.actor, before.actor, "the update must move the modular actor");
     let c = checkpoint::load(&last, Some((902, 156))).unwrap();
     assert_eq!(c.policy, t.policy);

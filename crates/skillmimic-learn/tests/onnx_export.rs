@@ -29,7 +29,11 @@ fn env_config(task: &str, n: usize) -> EnvConfig {
 }
 
 /// Observations of `steps + 1` consecutive states of the environment under random actions.
-fn observations(env: &mut dyn skillmimic_env::Env, steps: usize, act: impl Fn(&mut ChaCha8Rng) -> f32) -> Vec<f32> {
+fn observations(
+    env: &mut dyn skillmimic_env::Env,
+    steps: usize,
+    act: impl Fn(&mut ChaCha8Rng) -> f32,
+) -> Vec<f32> {
     let mut rng = ChaCha8Rng::seed_from_u64(3);
     env.reset_all(Some(1));
     let mut rows = env.buffers().obs.clone();
@@ -47,7 +51,13 @@ fn observations(env: &mut dyn skillmimic_env::Env, steps: usize, act: impl Fn(&m
 fn run_tract(e: &Exported, obs: &[f32], n: usize) -> Vec<Tensor> {
     use onnx_protobuf::Message;
     let bytes = e.model.write_to_bytes().unwrap();
-    let model = tract_onnx::onnx().model_for_read(&mut &bytes[..]).unwrap().into_optimized().unwrap().into_runnable().unwrap();
+    let model = tract_onnx::onnx()
+        .model_for_read(&mut &bytes[..])
+        .unwrap()
+        .into_optimized()
+        .unwrap()
+        .into_runnable()
+        .unwrap();
     let d = obs.len() / n;
     let input = Tensor::from_shape(&[n, d], obs).unwrap();
     model.run(tvec!(input.into())).unwrap().into_iter().map(|v| v.into_tensor()).collect()
@@ -93,7 +103,8 @@ fn skill_policy_graph_gives_our_actions_on_real_observations() {
     let mut rng = ChaCha8Rng::seed_from_u64(9);
     let cfg = PpoConfig { hidden: vec![256, 128, 64], ..Default::default() };
     let p = fitted(Policy::new(902, 156, &cfg, &mut rng), &obs);
-    let meta = DeployMeta::new("", "gaussian_mlp", &train_config("imitation"), 902, 156, source()).unwrap();
+    let meta = DeployMeta::new("", "gaussian_mlp", &train_config("imitation"), 902, 156, source())
+        .unwrap();
     let e = policy_model(&p, meta).unwrap();
     let names: Vec<&str> = e.meta.outputs.iter().map(|o| o.name.as_str()).collect();
     assert_eq!(names, ["actions", "mu"]);
@@ -127,9 +138,15 @@ fn high_level_and_fused_graphs_give_the_choice_and_the_tasks_pd_targets() {
     let mut env = skillmimic_env::registry::make(&c).unwrap();
     let d = env.obs_dim();
     let obs = observations(env.as_mut(), 8, |r| r.random_range(0..3) as f32);
-    let hl_cfg = PpoConfig { hidden: vec![64, 32], policy: "categorical_mlp".into(), ..Default::default() };
-    let hl = fitted(Policy::build(d, skillmimic_env::ActionSpace::Discrete { n: 3 }, &hl_cfg, &mut rng).unwrap(), &obs);
-    let meta = DeployMeta::new("", "categorical_mlp", &train_config("heading"), d, 3, source()).unwrap();
+    let hl_cfg =
+        PpoConfig { hidden: vec![64, 32], policy: "categorical_mlp".into(), ..Default::default() };
+    let hl = fitted(
+        Policy::build(d, skillmimic_env::ActionSpace::Discrete { n: 3 }, &hl_cfg, &mut rng)
+            .unwrap(),
+        &obs,
+    );
+    let meta =
+        DeployMeta::new("", "categorical_mlp", &train_config("heading"), d, 3, source()).unwrap();
 
     // the high-level graph alone
     let n = obs.len() / d;
@@ -168,19 +185,35 @@ fn high_level_and_fused_graphs_give_the_choice_and_the_tasks_pd_targets() {
 #[test]
 fn metadata_sidecar_and_refusals() {
     let mut rng = ChaCha8Rng::seed_from_u64(2);
-    let mut p = Policy::new(902, 156, &PpoConfig { hidden: vec![16], ..Default::default() }, &mut rng);
+    let mut p =
+        Policy::new(902, 156, &PpoConfig { hidden: vec![16], ..Default::default() }, &mut rng);
     let dir = std::env::temp_dir().join(format!("skillmimic-onnx-meta-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let ckpt = dir.join("p.safetensors");
     checkpoint::save(&ckpt, &p, None, &Progress { iteration: 3, samples: 30 }, "").unwrap();
     let src = source_of(&ckpt, 3, 30).unwrap();
     assert_eq!(src.sha256.len(), 64);
-    let meta = DeployMeta::new("", "gaussian_mlp", &train_config("imitation"), 902, 156, src).unwrap();
+    let meta =
+        DeployMeta::new("", "gaussian_mlp", &train_config("imitation"), 902, 156, src).unwrap();
     assert_eq!(meta.joint_order.len(), 52);
-    let names = |cfg: &TrainConfig, d: usize| skillmimic_learn::onnx::meta::obs_blocks(cfg, d).iter().map(|b| format!("{}:{}-{}", b.name, b.start, b.end)).collect::<Vec<_>>();
-    assert_eq!(names(&train_config("imitation"), 905)[10..], ["skill:838-902", "history_embedding:902-905"]);
-    assert_eq!(names(&train_config("heading"), 842)[9..], ["ball_angvel:835-838", "task (heading):838-842"]);
-    assert_eq!(names(&train_config("tracking"), 1375)[5..], ["fingertip_force:793-823", "task (tracking):823-1375"]);
+    let names = |cfg: &TrainConfig, d: usize| {
+        skillmimic_learn::onnx::meta::obs_blocks(cfg, d)
+            .iter()
+            .map(|b| format!("{}:{}-{}", b.name, b.start, b.end))
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(
+        names(&train_config("imitation"), 905)[10..],
+        ["skill:838-902", "history_embedding:902-905"]
+    );
+    assert_eq!(
+        names(&train_config("heading"), 842)[9..],
+        ["ball_angvel:835-838", "task (heading):838-842"]
+    );
+    assert_eq!(
+        names(&train_config("tracking"), 1375)[5..],
+        ["fingertip_force:793-823", "task (tracking):823-1375"]
+    );
     assert_eq!((meta.control_dt, meta.sim_dt, meta.substeps), (1.0 / 60.0, 1.0 / 120.0, 2));
     let e = policy_model(&p, meta).unwrap();
     let out = dir.join("p.onnx");
@@ -199,8 +232,10 @@ fn metadata_sidecar_and_refusals() {
     // a non-finite weight: refused, nothing written
     p.actor.params_mut()[0][5] = f32::NAN;
     let bad = dir.join("bad.onnx");
-    let meta = DeployMeta::new("", "gaussian_mlp", &train_config("imitation"), 902, 156, source()).unwrap();
-    let err = policy_model(&p, meta.clone()).err().expect("NaN weights must be refused").to_string();
+    let meta = DeployMeta::new("", "gaussian_mlp", &train_config("imitation"), 902, 156, source())
+        .unwrap();
+    let err =
+        policy_model(&p, meta.clone()).err().expect("NaN weights must be refused").to_string();
     assert!(err.contains("actor.0.weight") && err.contains("non-finite"), "{err}");
     assert!(!bad.exists());
     // a Gaussian policy is not a high-level policy

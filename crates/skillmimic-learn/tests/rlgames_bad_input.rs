@@ -22,7 +22,14 @@ struct T {
 
 fn t(name: &'static str, class: &'static str, shape: &[u64], f: impl Fn(usize) -> f64) -> T {
     let n = shape.iter().product::<u64>() as usize;
-    T { name, class, shape: shape.to_vec(), values: (0..n).map(f).collect(), offset: 0, numel: None }
+    T {
+        name,
+        class,
+        shape: shape.to_vec(),
+        values: (0..n).map(f).collect(),
+        offset: 0,
+        numel: None,
+    }
 }
 
 fn long(p: &mut Vec<u8>, v: u64) {
@@ -98,7 +105,8 @@ fn write_pth(path: &Path, model: &[T], norm: &[T], extra: &[u8]) {
     }
     p.extend_from_slice(b"u.");
     let mut z = zip::ZipWriter::new(std::fs::File::create(path).unwrap());
-    let o = zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Stored);
+    let o =
+        zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Stored);
     z.start_file("ck/data.pkl", o).unwrap();
     z.write_all(&p).unwrap();
     for (k, s) in storages.iter().enumerate() {
@@ -163,18 +171,35 @@ fn a_valid_checkpoint_imports_exactly() {
 fn crafted_tensor_headers_are_refused_naming_the_tensor() {
     let d = dir();
     let w = "model.a2c_network.actor_mlp.0.weight";
-    let cases: Vec<(&str, Box<dyn Fn(&mut T)>, Vec<&str>)> = vec![
+    type Edit = Box<dyn Fn(&mut T)>;
+    let cases: Vec<(&str, Edit, Vec<&str>)> = vec![
         // claims 10^9 rows (4 TB as float32) in a file of a few KB
-        ("rows.pth", Box::new(|t: &mut T| {
-            t.shape = vec![1_000_000_000, 902];
-            t.numel = Some(902_000_000_000);
-        }), vec![w, "truncated", "needs 3608000000000 bytes"]),
-        ("offset.pth", Box::new(|t: &mut T| {
-            t.offset = 1 << 62;
-            t.numel = Some((1 << 62) + 3608);
-        }), vec![w, "storage offset 4611686018427387904", "overflows 64 bits"]),
-        ("shape.pth", Box::new(|t: &mut T| t.shape = vec![1 << 40, 1 << 40]), vec![w, "size [1099511627776, 1099511627776]", "overflows 64 bits"]),
-        ("half.pth", Box::new(|t: &mut T| t.class = "HalfStorage"), vec![w, "HalfStorage", "supported: FloatStorage, DoubleStorage, LongStorage"]),
+        (
+            "rows.pth",
+            Box::new(|t: &mut T| {
+                t.shape = vec![1_000_000_000, 902];
+                t.numel = Some(902_000_000_000);
+            }),
+            vec![w, "truncated", "needs 3608000000000 bytes"],
+        ),
+        (
+            "offset.pth",
+            Box::new(|t: &mut T| {
+                t.offset = 1 << 62;
+                t.numel = Some((1 << 62) + 3608);
+            }),
+            vec![w, "storage offset 4611686018427387904", "overflows 64 bits"],
+        ),
+        (
+            "shape.pth",
+            Box::new(|t: &mut T| t.shape = vec![1 << 40, 1 << 40]),
+            vec![w, "size [1099511627776, 1099511627776]", "overflows 64 bits"],
+        ),
+        (
+            "half.pth",
+            Box::new(|t: &mut T| t.class = "HalfStorage"),
+            vec![w, "HalfStorage", "supported: FloatStorage, DoubleStorage, LongStorage"],
+        ),
     ];
     for (name, change, want) in cases {
         let (mut model, norm) = valid_model();
@@ -197,7 +222,11 @@ fn crafted_pickles_are_refused_naming_the_pickle() {
     for (name, extra, want) in [
         ("deep.pth", deep, vec!["ck/data.pkl", "TUPLE1", "nest deeper than"]),
         ("memo.pth", memo, vec!["ck/data.pkl", "memo references"]),
-        ("evil.pth", b"cposix\nsystem\n(X\x02\x00\x00\x00lstR".to_vec(), vec!["posix.system", "nothing was executed"]),
+        (
+            "evil.pth",
+            b"cposix\nsystem\n(X\x02\x00\x00\x00lstR".to_vec(),
+            vec!["posix.system", "nothing was executed"],
+        ),
     ] {
         let p = d.join(name);
         write_pth(&p, &model, &norm, &extra);

@@ -37,7 +37,11 @@ fn fresh_dir(tag: &str) -> PathBuf {
 /// Iteration numbers of `log.jsonl`, in order.
 fn logged_iterations(out: &Path) -> Vec<u64> {
     let text = std::fs::read_to_string(out.join("log.jsonl")).unwrap_or_default();
-    text.lines().filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok()?.get("iteration")?.as_u64()).collect()
+    text.lines()
+        .filter_map(|l| {
+            serde_json::from_str::<serde_json::Value>(l).ok()?.get("iteration")?.as_u64()
+        })
+        .collect()
 }
 
 /// Every file below `dir` (recursive).
@@ -74,7 +78,10 @@ fn kill_9_then_resume_leaves_a_clean_folder() {
         if let Some(status) = child.try_wait().unwrap() {
             panic!("the training child exited early: {status}");
         }
-        assert!(t0.elapsed() < Duration::from_secs(300), "the child did not reach iteration 3 in 300 s");
+        assert!(
+            t0.elapsed() < Duration::from_secs(300),
+            "the child did not reach iteration 3 in 300 s"
+        );
         std::thread::sleep(Duration::from_millis(20));
     }
     let pid = child.id();
@@ -89,19 +96,31 @@ fn kill_9_then_resume_leaves_a_clean_folder() {
 
     let latest = out.join("latest.safetensors");
     let start = skillmimic_learn::checkpoint::load(&latest, None).unwrap().progress.iteration;
-    assert!(start >= 2 && start.is_multiple_of(2) && (start as usize) <= before.len(), "checkpoint at {start}, log {before:?}");
+    assert!(
+        start >= 2 && start.is_multiple_of(2) && (start as usize) <= before.len(),
+        "checkpoint at {start}, log {before:?}"
+    );
     let target = before.len() as u64 + 2;
     let mut t = Trainer::new(tiny(&out, target as usize, 2), Some(&latest)).unwrap();
     train_loop(&mut t, |_| {}).unwrap();
 
-    let temps: Vec<_> = files(&out).into_iter().filter(|p| p.file_name().unwrap().to_str().unwrap().contains(".tmp")).collect();
+    let temps: Vec<_> = files(&out)
+        .into_iter()
+        .filter(|p| p.file_name().unwrap().to_str().unwrap().contains(".tmp"))
+        .collect();
     assert!(temps.is_empty(), "temporary files left: {temps:?}");
-    assert_eq!(logged_iterations(&out), (1..=target).collect::<Vec<_>>(), "each iteration exactly once");
+    assert_eq!(
+        logged_iterations(&out),
+        (1..=target).collect::<Vec<_>>(),
+        "each iteration exactly once"
+    );
     // TensorBoard: every step once over all event files, one per iteration (step = samples)
     let per_iteration = 8 * 16;
     let mut steps = Vec::new();
     for f in tblog::event_files(&out.join("tb")).unwrap() {
-        steps.extend(tblog::read_events(&f).unwrap().into_iter().filter(|e| e.has_summary).map(|e| e.step));
+        steps.extend(
+            tblog::read_events(&f).unwrap().into_iter().filter(|e| e.has_summary).map(|e| e.step),
+        );
     }
     let unique: BTreeSet<i64> = steps.iter().copied().collect();
     assert_eq!(unique.len(), steps.len(), "TensorBoard steps logged twice: {steps:?}");
@@ -122,10 +141,19 @@ fn resuming_a_finished_run_says_so() {
     for iterations in [2, 1] {
         let mut t = Trainer::new(tiny(&out, iterations, 2), Some(&latest)).unwrap();
         let e = train_loop(&mut t, |_| {}).unwrap_err().to_string();
-        assert!(e.contains("already complete") && e.contains("at iteration 2") && e.contains(&format!("run.iterations is {iterations}")), "{e}");
+        assert!(
+            e.contains("already complete")
+                && e.contains("at iteration 2")
+                && e.contains(&format!("run.iterations is {iterations}")),
+            "{e}"
+        );
         assert!(e.contains(&latest.display().to_string()), "{e}");
     }
-    assert_eq!(std::fs::read(out.join("log.jsonl")).unwrap(), log, "the refused resume leaves the log alone");
+    assert_eq!(
+        std::fs::read(out.join("log.jsonl")).unwrap(),
+        log,
+        "the refused resume leaves the log alone"
+    );
     // one more iteration is fine
     let mut t = Trainer::new(tiny(&out, 3, 2), Some(&latest)).unwrap();
     train_loop(&mut t, |_| {}).unwrap();

@@ -82,7 +82,9 @@ impl Env for Scripted {
     }
     /// Resets the environments the schedule ended (not those the real task would end).
     fn reset_done(&mut self) {
-        let mask: Vec<bool> = (0..self.num_envs()).map(|i| self.buf.terminated[i] != 0 || self.buf.truncated[i] != 0).collect();
+        let mask: Vec<bool> = (0..self.num_envs())
+            .map(|i| self.buf.terminated[i] != 0 || self.buf.truncated[i] != 0)
+            .collect();
         if mask.iter().any(|&m| m) {
             self.reset_envs(&mask);
         }
@@ -148,17 +150,29 @@ fn truncated_steps_bootstrap_on_the_terminal_value_and_terminated_steps_do_not()
                     assert_eq!(r.dones[k], 1, "step {step} env {i}: the scripted end is a done");
                     if end == End::Truncated {
                         // the bootstrap must be visible: the critic's value is clearly non-zero
-                        assert!(v.abs() > 1e-3, "step {step} env {i}: V(terminal) = {v} cannot tell a bootstrap from none");
-                        assert!(close(next, v), "step {step} env {i}: truncated, next value {next} must be V(terminal obs) = {v}");
+                        assert!(
+                            v.abs() > 1e-3,
+                            "step {step} env {i}: V(terminal) = {v} cannot tell a bootstrap from none"
+                        );
+                        assert!(
+                            close(next, v),
+                            "step {step} env {i}: truncated, next value {next} must be V(terminal obs) = {v}"
+                        );
                         counts[0] += 1;
                     } else {
-                        assert_eq!(next, 0.0, "step {step} env {i}: terminated (V(terminal obs) = {v}), next value must be 0");
+                        assert_eq!(
+                            next, 0.0,
+                            "step {step} env {i}: terminated (V(terminal obs) = {v}), next value must be 0"
+                        );
                         counts[1] += 1;
                     }
                 }
                 None if step + 1 == h => {
                     assert_eq!(r.dones[k], 0);
-                    assert!(close(next, v), "step {step} env {i}: last step, next value {next} must be V(last obs) = {v}");
+                    assert!(
+                        close(next, v),
+                        "step {step} env {i}: last step, next value {next} must be V(last obs) = {v}"
+                    );
                     counts[3] += 1;
                 }
                 None => {

@@ -28,7 +28,8 @@ fn config(tag: &str) -> TrainConfig {
     c.ppo.minibatch = 16;
     c.ppo.mini_epochs = 2;
     c.ppo.lr = 1e-3;
-    c.run.out_dir = std::env::temp_dir().join(format!("skillmimic-token-adapt-{tag}-{}", std::process::id()));
+    c.run.out_dir =
+        std::env::temp_dir().join(format!("skillmimic-token-adapt-{tag}-{}", std::process::id()));
     c
 }
 
@@ -85,8 +86,14 @@ fn adaptation_freezes_the_base_and_starts_from_its_actions() {
     let spec = token(&t.policy).spec.clone();
     assert!(spec.adapters && spec.groups.len() == 4 && spec.mask == 3, "{spec:?}");
     // only the new tokenizer and the adapters train
-    let trained: Vec<String> = t.policy.actor.param_names("actor").into_iter().map(|x| x.0).collect();
-    assert!(trained.iter().all(|nm| nm.starts_with("actor.tokenizers.3.") || nm.starts_with("actor.adapters.")), "{trained:?}");
+    let trained: Vec<String> =
+        t.policy.actor.param_names("actor").into_iter().map(|x| x.0).collect();
+    assert!(
+        trained
+            .iter()
+            .all(|nm| nm.starts_with("actor.tokenizers.3.") || nm.starts_with("actor.adapters.")),
+        "{trained:?}"
+    );
     assert!(!trained.is_empty());
 
     // base-task observations in the new layout (the carry group zero and masked out)
@@ -101,20 +108,31 @@ fn adaptation_freezes_the_base_and_starts_from_its_actions() {
     let a0 = actions(&base_policy, &old_obs, n);
     let a1 = actions(&t.policy, &new_obs, n);
     let diff = a0.iter().zip(&a1).map(|(x, y)| (x - y).abs()).fold(0.0f32, f32::max);
-    println!("initial actions, adapted vs base policy on base-task observations: max |diff| {diff:.2e}");
+    println!(
+        "initial actions, adapted vs base policy on base-task observations: max |diff| {diff:.2e}"
+    );
     assert!(diff <= 1e-6, "{diff}");
     // the check can fail: non-zero adapters change the actions where the new task is active
     // (and, gated, nowhere else)
     let mut perturbed = t.policy.clone();
     if let ActorNet::Token(tt) = &mut perturbed.actor {
-        tt.tensors.iter_mut().filter(|x| x.name == "adapters.0.weight").for_each(|x| x.data.iter_mut().for_each(|v| *v = 0.05));
+        tt.tensors
+            .iter_mut()
+            .filter(|x| x.name == "adapters.0.weight")
+            .for_each(|x| x.data.iter_mut().for_each(|v| *v = 0.05));
     }
     let new_task_obs = t.env.buffers().obs.clone();
     let (b1, b2) = (actions(&t.policy, &new_task_obs, n), actions(&perturbed, &new_task_obs, n));
     assert!(b1.iter().zip(&b2).any(|(x, y)| (x - y).abs() > 1e-4));
     assert_eq!(a1, actions(&perturbed, &new_obs, n));
 
-    let init_new = token(&t.policy).tensors.iter().find(|x| x.name == "tokenizers.3.0.weight").unwrap().data.clone();
+    let init_new = token(&t.policy)
+        .tensors
+        .iter()
+        .find(|x| x.name == "tokenizers.3.0.weight")
+        .unwrap()
+        .data
+        .clone();
     for _ in 0..3 {
         let s = t.iteration().unwrap();
         assert!(s.actor_loss.is_finite());
@@ -129,18 +147,34 @@ fn adaptation_freezes_the_base_and_starts_from_its_actions() {
     println!("after adaptation, base-task actions vs base policy: max |diff| {diff:.2e}");
     assert!(diff <= 1e-6, "{diff}");
     let carry_obs = new_task_obs;
-    let (now, before) = (actions(&adapted, &carry_obs, n), actions(&perturbed_free(&t.policy, &init_new), &carry_obs, n));
-    assert!(now.iter().zip(&before).any(|(x, y)| (x - y).abs() > 1e-5), "the new task's actions changed");
+    let (now, before) = (
+        actions(&adapted, &carry_obs, n),
+        actions(&perturbed_free(&t.policy, &init_new), &carry_obs, n),
+    );
+    assert!(
+        now.iter().zip(&before).any(|(x, y)| (x - y).abs() > 1e-5),
+        "the new task's actions changed"
+    );
     let (old, new) = (token(&base_policy), token(&adapted));
     for o in &old.tensors {
         let x = new.tensors.iter().find(|x| x.name == o.name).unwrap();
-        assert!(o.data.iter().zip(&x.data).all(|(a, b)| a.to_bits() == b.to_bits()), "frozen tensor {} changed", o.name);
+        assert!(
+            o.data.iter().zip(&x.data).all(|(a, b)| a.to_bits() == b.to_bits()),
+            "frozen tensor {} changed",
+            o.name
+        );
     }
     for col in 0..old_groups {
-        assert_eq!(adapted.obs_norm.mean[col].to_bits(), base_policy.obs_norm.mean[col].to_bits(), "statistics of column {col}");
+        assert_eq!(
+            adapted.obs_norm.mean[col].to_bits(),
+            base_policy.obs_norm.mean[col].to_bits(),
+            "statistics of column {col}"
+        );
         assert_eq!(adapted.obs_norm.var[col].to_bits(), base_policy.obs_norm.var[col].to_bits());
     }
-    let moved = |name: &str| new.tensors.iter().find(|x| x.name == name).unwrap().data.iter().any(|&v| v != 0.0);
+    let moved = |name: &str| {
+        new.tensors.iter().find(|x| x.name == name).unwrap().data.iter().any(|&v| v != 0.0)
+    };
     assert!(moved("adapters.0.weight") && moved("adapters.1.weight"), "the adapters trained");
     let now = &new.tensors.iter().find(|x| x.name == "tokenizers.3.0.weight").unwrap().data;
     assert!(now.iter().zip(&init_new).any(|(a, b)| a != b), "the new tokenizer trained");

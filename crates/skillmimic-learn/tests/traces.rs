@@ -46,7 +46,8 @@ fn config(task: &str, tag: &str) -> TrainConfig {
     c.ppo.minibatch = 16;
     c.ppo.mini_epochs = 2;
     c.ppo.hidden = vec![32, 16];
-    c.run.out_dir = std::env::temp_dir().join(format!("skillmimic-traces-{tag}-{}", std::process::id()));
+    c.run.out_dir =
+        std::env::temp_dir().join(format!("skillmimic-traces-{tag}-{}", std::process::id()));
     if skillmimic_env::registry::is_high_level(task) {
         c.env.hlc.llc = skill_policy(&format!("traces-{tag}"));
     }
@@ -65,7 +66,8 @@ fn config(task: &str, tag: &str) -> TrainConfig {
 /// Trajectory Sampling and a (randomly initialised) history encoder.
 fn v2_config(tag: &str) -> TrainConfig {
     let mut c = config("imitation", tag);
-    let enc = std::env::temp_dir().join(format!("skillmimic-traces-{tag}-{}-enc.safetensors", std::process::id()));
+    let enc = std::env::temp_dir()
+        .join(format!("skillmimic-traces-{tag}-{}-enc.safetensors", std::process::id()));
     skillmimic_env::v2::history::random_encoder(60, 3, 5).save(&enc, &Default::default()).unwrap();
     c.env.v2.history.enabled = true;
     c.env.v2.history.encoder = enc;
@@ -96,7 +98,12 @@ impl Recorder {
             self.hash.update(x.to_bits().to_le_bytes());
         }
         if let Some(f) = &mut self.dump {
-            writeln!(f, "{{\"step\":{step},\"what\":\"{what}\",\"bits\":{:?}}}", xs.iter().map(|x| x.to_bits()).collect::<Vec<_>>()).unwrap();
+            writeln!(
+                f,
+                "{{\"step\":{step},\"what\":\"{what}\",\"bits\":{:?}}}",
+                xs.iter().map(|x| x.to_bits()).collect::<Vec<_>>()
+            )
+            .unwrap();
         }
     }
     fn u8s(&mut self, what: &str, step: usize, xs: &[u8]) {
@@ -122,8 +129,12 @@ fn env_trace(case: &str, c: &TrainConfig) -> String {
     let mut actions = vec![0.0f32; n * spec.act_dim()];
     for step in 1..=STEPS {
         match spec.action_space {
-            ActionSpace::Box { .. } => actions.iter_mut().for_each(|a| *a = rng.random_range(-1.0f32..=1.0)),
-            ActionSpace::Discrete { n: k } => actions.iter_mut().for_each(|a| *a = rng.random_range(0..k) as f32),
+            ActionSpace::Box { .. } => {
+                actions.iter_mut().for_each(|a| *a = rng.random_range(-1.0f32..=1.0))
+            }
+            ActionSpace::Discrete { n: k } => {
+                actions.iter_mut().for_each(|a| *a = rng.random_range(0..k) as f32)
+            }
         }
         env.step(&actions).unwrap_or_else(|e| panic!("{case} step {step}: {e}"));
         let b = env.buffers();
@@ -148,7 +159,21 @@ fn train_trace(case: &str, c: TrainConfig) -> String {
     let mut rec = Recorder::new(case);
     for it in 1..=2 {
         let s = t.iteration().unwrap_or_else(|e| panic!("{case} iteration {it}: {e}"));
-        let mut row = vec![s.mean_reward, s.episode_length, s.episode_return, s.early_terminations, s.actor_loss, s.critic_loss, s.bounds_loss, s.clip_frac, s.approx_kl, s.value_mean, s.disc_loss, s.disc_ref, s.disc_sim];
+        let mut row = vec![
+            s.mean_reward,
+            s.episode_length,
+            s.episode_return,
+            s.early_terminations,
+            s.actor_loss,
+            s.critic_loss,
+            s.bounds_loss,
+            s.clip_frac,
+            s.approx_kl,
+            s.value_mean,
+            s.disc_loss,
+            s.disc_ref,
+            s.disc_sim,
+        ];
         row.extend(s.reward_terms.iter().map(|(_, v)| *v));
         rec.f32s("stats", it, &row.iter().map(|&x| x as f32).collect::<Vec<_>>());
         rec.hash.update(row.iter().flat_map(|x| x.to_bits().to_le_bytes()).collect::<Vec<_>>());
@@ -191,7 +216,10 @@ fn all_cases() -> BTreeMap<String, String> {
     for (task, family) in families {
         let mut c = config(task, &format!("train-{task}"));
         c.ppo.policy = family.into();
-        out.insert(format!("train/{task}/{family}"), train_trace(&format!("train-{task}-{family}"), c));
+        out.insert(
+            format!("train/{task}/{family}"),
+            train_trace(&format!("train-{task}-{family}"), c),
+        );
     }
     let mut c = v2_config("train-v2");
     c.ppo.policy = "gaussian_mlp".into();
@@ -227,5 +255,10 @@ fn every_task_and_family_reproduces_its_recorded_trace() {
     for case in got.keys().filter(|k| !want.contains_key(*k)) {
         diff.push(format!("{case}: new case without a recorded digest"));
     }
-    assert!(diff.is_empty(), "traces differ from {} (SKILLMIMIC_TRACE_DUMP=<dir> writes the rows):\n{}", path.display(), diff.join("\n"));
+    assert!(
+        diff.is_empty(),
+        "traces differ from {} (SKILLMIMIC_TRACE_DUMP=<dir> writes the rows):\n{}",
+        path.display(),
+        diff.join("\n")
+    );
 }

@@ -28,9 +28,18 @@ fn tiny_run_writes_checkpoints_and_resumes() {
     let last = skillmimic_learn::runner::train_loop(&mut t, |s| seen.push(s.clone())).unwrap();
     assert_eq!(seen.len(), 3);
     assert!(seen.iter().all(|s| s.mean_reward.is_finite() && s.critic_loss.is_finite()));
-    println!("iteration stats: {:?}", seen.iter().map(|s| (s.mean_reward, s.samples_per_s)).collect::<Vec<_>>());
+    println!(
+        "iteration stats: {:?}",
+        seen.iter().map(|s| (s.mean_reward, s.samples_per_s)).collect::<Vec<_>>()
+    );
     assert!(last.ends_with("iter_000003.safetensors"));
-    for f in ["config.toml", "log.jsonl", "latest.safetensors", "checkpoints/iter_000002.safetensors", "checkpoints/iter_000002.toml"] {
+    for f in [
+        "config.toml",
+        "log.jsonl",
+        "latest.safetensors",
+        "checkpoints/iter_000002.safetensors",
+        "checkpoints/iter_000002.toml",
+    ] {
         assert!(out.join(f).exists(), "{f} missing");
     }
     assert_eq!(std::fs::read_to_string(out.join("log.jsonl")).unwrap().lines().count(), 3);
@@ -54,7 +63,10 @@ fn same_seed_gives_bit_identical_runs() {
     let run = |tag: &str| {
         let mut t = Trainer::new(tiny(tag, 2), None).unwrap();
         let mut rewards = Vec::new();
-        skillmimic_learn::runner::train_loop(&mut t, |s| rewards.push((s.mean_reward, s.actor_loss, s.critic_loss))).unwrap();
+        skillmimic_learn::runner::train_loop(&mut t, |s| {
+            rewards.push((s.mean_reward, s.actor_loss, s.critic_loss))
+        })
+        .unwrap();
         (rewards, t.policy.clone())
     };
     let (ra, pa) = run("s1");
@@ -82,18 +94,34 @@ fn actor_len(p: &Policy) -> usize {
 fn same_update(a: &mut Trainer, b: &mut Trainer) -> (usize, usize) {
     let iteration = a.progress.iteration + 1;
     let theta0 = flat_params(&a.policy);
-    assert_eq!(theta0, flat_params(&b.policy), "iteration {iteration}: both start from the same parameters");
+    assert_eq!(
+        theta0,
+        flat_params(&b.policy),
+        "iteration {iteration}: both start from the same parameters"
+    );
     let stats = a.collect_rollout().unwrap();
     b.load_rollout_part(a.rollout_storage());
     let sa = a.update_from_rollout(stats.clone()).unwrap();
     let sb = b.update_from_rollout(stats).unwrap();
-    println!("iteration {iteration}: clip fraction {} / {}, approx KL {} / {}", sa.clip_frac, sb.clip_frac, sa.approx_kl, sb.approx_kl);
+    println!(
+        "iteration {iteration}: clip fraction {} / {}, approx KL {} / {}",
+        sa.clip_frac, sb.clip_frac, sa.approx_kl, sb.approx_kl
+    );
     let rel = |x: f64, y: f64| (x - y).abs() / y.abs().max(1e-12);
-    for (name, x, y) in [("actor", sa.actor_loss, sb.actor_loss), ("critic", sa.critic_loss, sb.critic_loss), ("bounds", sa.bounds_loss, sb.bounds_loss)] {
-        println!("iteration {iteration} {name} loss: candle {x:.6e}, fast {y:.6e}, relative difference {:.2e}", rel(x, y));
+    for (name, x, y) in [
+        ("actor", sa.actor_loss, sb.actor_loss),
+        ("critic", sa.critic_loss, sb.critic_loss),
+        ("bounds", sa.bounds_loss, sb.bounds_loss),
+    ] {
+        println!(
+            "iteration {iteration} {name} loss: candle {x:.6e}, fast {y:.6e}, relative difference {:.2e}",
+            rel(x, y)
+        );
         assert!(rel(x, y) < 1e-3 || (x - y).abs() < 1e-7, "{name}: {x} vs {y}");
     }
-    let delta = |p: &Policy| -> Vec<f32> { flat_params(p).iter().zip(&theta0).map(|(x, x0)| x - x0).collect() };
+    let delta = |p: &Policy| -> Vec<f32> {
+        flat_params(p).iter().zip(&theta0).map(|(x, x0)| x - x0).collect()
+    };
     let (da, db) = (delta(&a.policy), delta(&b.policy));
     // Adam's ε = 1 (see the test) makes each step ≈ lr·m̂/(√v̂ + 1), nearly linear in the
     // gradients: the backends' gradients agree to ≈ 1e-5 relative (tests/fast_grads.rs), but the
@@ -124,7 +152,11 @@ fn same_update(a: &mut Trainer, b: &mut Trainer) -> (usize, usize) {
         norm(&da.iter().zip(&db).map(|(x, y)| x - y).collect::<Vec<_>>()),
         da.len() - na,
     );
-    assert_eq!(over, 0, "iteration {iteration}: {over} elements of Δθ differ by more than the tolerance (worst {worst:.2}× at {worst_at}: candle {}, fast {})", da[worst_at], db[worst_at]);
+    assert_eq!(
+        over, 0,
+        "iteration {iteration}: {over} elements of Δθ differ by more than the tolerance (worst {worst:.2}× at {worst_at}: candle {}, fast {})",
+        da[worst_at], db[worst_at]
+    );
     // first moments, per tensor relative to its largest entry (measured: ≤ 5e-5, the same
     // amplification as above)
     let mut worst_m = 0.0f32;
@@ -132,10 +164,15 @@ fn same_update(a: &mut Trainer, b: &mut Trainer) -> (usize, usize) {
         let scale = ma.iter().fold(0.0f32, |m, x| m.max(x.abs()));
         let diff = ma.iter().zip(mb).fold(0.0f32, |m, (x, y)| m.max((x - y).abs()));
         assert!(scale > 0.0, "iteration {iteration} tensor {k}: no gradient");
-        assert!(diff <= 3e-4 * scale, "iteration {iteration} tensor {k}: Adam first moments differ by {diff:e} (largest {scale:e})");
+        assert!(
+            diff <= 3e-4 * scale,
+            "iteration {iteration} tensor {k}: Adam first moments differ by {diff:e} (largest {scale:e})"
+        );
         worst_m = worst_m.max(diff / scale);
     }
-    println!("iteration {iteration}: largest first-moment difference {worst_m:.2e} of its tensor's largest entry");
+    println!(
+        "iteration {iteration}: largest first-moment difference {worst_m:.2e} of its tensor's largest entry"
+    );
     (moved_actor, moved_critic)
 }
 

@@ -16,7 +16,11 @@ const HORIZON: usize = 600;
 
 /// Dribbling in place: root at 0.9 m, the ball 0.5 m in front bouncing (vertical velocity ±2).
 fn dribble(t: usize) -> FrameState {
-    FrameState { root_pos: [0.0, 0.0, 0.9], ball_pos: [0.5, 0.0, 0.5], ball_vel: [0.0, 0.0, if t % 2 == 0 { 2.0 } else { -2.0 }] }
+    FrameState {
+        root_pos: [0.0, 0.0, 0.9],
+        ball_pos: [0.5, 0.0, 0.5],
+        ball_vel: [0.0, 0.0, if t.is_multiple_of(2) { 2.0 } else { -2.0 }],
+    }
 }
 
 /// The character has fallen: root at 0.3 m, the ball lying still beside it.
@@ -34,7 +38,12 @@ fn layup(t: usize) -> FrameState {
 }
 
 /// Feed `steps` frames of `state(t)` with reward `reward` per step into a tracker of `skill`.
-fn episode(skill: u32, steps: usize, reward: f32, state: impl Fn(usize) -> FrameState) -> EpisodeTracker {
+fn episode(
+    skill: u32,
+    steps: usize,
+    reward: f32,
+    state: impl Fn(usize) -> FrameState,
+) -> EpisodeTracker {
     let mut tr = EpisodeTracker::new(skill, 2.0);
     for t in 0..steps {
         tr.step(&state(t), reward);
@@ -127,7 +136,11 @@ fn nr_is_the_step_weighted_mean_reward_of_finished_episodes() {
     // steps at 0.5, no success rule)
     let mut tally = EpisodeTally::default();
     tally.finish(RUN, &episode(RUN, HORIZON, 0.8, dribble), false);
-    tally.finish(RUN, &episode(RUN, 151, 0.2, |t| if t < 150 { dribble(t) } else { fallen() }), true);
+    tally.finish(
+        RUN,
+        &episode(RUN, 151, 0.2, |t| if t < 150 { dribble(t) } else { fallen() }),
+        true,
+    );
     // an episode still running is not part of NR: it is never passed to `finish`
     let _running = episode(RUN, 30, 100.0, dribble);
     tally.finish(DEMO, &episode(DEMO, 50, 0.5, dribble), false);

@@ -7,19 +7,22 @@ use std::sync::Arc;
 
 use skillmimic_core::shared_data::{shared_dir_or_skip, workspace_root};
 use skillmimic_env::v2::history::{FEATURE_DIM, HistoryEncoder, reference_features};
-use skillmimic_nn::history_reference::torch_reference_embedding;
 use skillmimic_env::{EnvConfig, load_motion_library};
 use skillmimic_learn::config::TrainConfig;
 use skillmimic_learn::eval::{V2EvalConfig, evaluate_v2};
 use skillmimic_learn::history_pretrain::{PretrainConfig, PretrainData, pretrain};
 use skillmimic_learn::trainer::Trainer;
+use skillmimic_nn::history_reference::torch_reference_embedding;
 use skillmimic_sim::Scene;
 
 fn tmp(name: &str) -> std::path::PathBuf {
     std::env::temp_dir().join(format!("sm-v2-{}-{name}", std::process::id()))
 }
 
-fn pretrain_on(paths: &[std::path::PathBuf], epochs: usize) -> (HistoryEncoder, skillmimic_learn::history_pretrain::PretrainReport) {
+fn pretrain_on(
+    paths: &[std::path::PathBuf],
+    epochs: usize,
+) -> (HistoryEncoder, skillmimic_learn::history_pretrain::PretrainReport) {
     let lib = load_motion_library(paths).unwrap();
     let scene = Arc::new(Scene::new(EnvConfig::default().scene_options().unwrap()).unwrap());
     let features = reference_features(scene, &lib).unwrap();
@@ -34,7 +37,11 @@ fn pretraining_lowers_the_prediction_loss_and_the_encoder_round_trips() {
     let (enc, rep) = pretrain_on(&[workspace_root().join("motions")], 8);
     println!(
         "demo clips: {} samples, next-state MSE {:.5} -> {:.5}, epoch loss {:.5} -> {:.5}",
-        rep.samples, rep.initial_prediction_mse, rep.final_prediction_mse, rep.first_epoch_loss, rep.last_epoch_loss
+        rep.samples,
+        rep.initial_prediction_mse,
+        rep.final_prediction_mse,
+        rep.first_epoch_loss,
+        rep.last_epoch_loss
     );
     assert!(rep.final_prediction_mse < 0.5 * rep.initial_prediction_mse, "{rep:?}");
     assert!(rep.last_epoch_loss < rep.first_epoch_loss);
@@ -66,7 +73,9 @@ fn pretraining_lowers_the_prediction_loss_and_the_encoder_round_trips() {
 #[test]
 fn full_v2_stack_trains_and_evaluates() {
     let enc_path = tmp("stack_enc.safetensors");
-    skillmimic_env::v2::history::random_encoder(60, 3, 5).save(&enc_path, &Default::default()).unwrap();
+    skillmimic_env::v2::history::random_encoder(60, 3, 5)
+        .save(&enc_path, &Default::default())
+        .unwrap();
     let mut c = TrainConfig::preset("tiny").unwrap();
     c.env.motion = vec![workspace_root().join("motions")];
     c.env.num_envs = 8;
@@ -81,10 +90,19 @@ fn full_v2_stack_trains_and_evaluates() {
     c.run.out_dir = tmp("stack_run");
     let mut t = Trainer::new(c.clone(), None).unwrap();
     assert_eq!(t.env.obs_dim(), 905);
-    let last = skillmimic_learn::runner::train_loop(&mut t, |s| assert!(s.mean_reward.is_finite() && s.critic_loss.is_finite())).unwrap();
+    let last = skillmimic_learn::runner::train_loop(&mut t, |s| {
+        assert!(s.mean_reward.is_finite() && s.critic_loss.is_finite())
+    })
+    .unwrap();
     let ck = skillmimic_learn::checkpoint::load(&last, Some((905, 156))).unwrap();
     assert_eq!(ck.policy.obs_dim(), 905);
-    let lib = t.env.as_any().downcast_ref::<skillmimic_env::SkillEnv>().expect("imitation task").library().clone();
+    let lib = t
+        .env
+        .as_any()
+        .downcast_ref::<skillmimic_env::SkillEnv>()
+        .expect("imitation task")
+        .library()
+        .clone();
     let vcfg = V2EvalConfig { episodes: 2, horizon: 20, num_envs: 2, ..Default::default() };
     let rep = evaluate_v2(&t.policy, &c.env, &lib, &vcfg, 0).unwrap();
     // the demo skills (50, 51) have no success rule: NR only
@@ -96,7 +114,10 @@ fn full_v2_stack_trains_and_evaluates() {
 #[test]
 fn v2_metrics_on_two_real_skills() {
     let Some(shared) = shared_dir_or_skip("V2 metrics on real clips") else { return };
-    let clips = [shared.join("data/ballplay_m/run/013_018pickle_run_3.pt"), shared.join("data/ballplay_m/layup/031_015pickle_layup_001_001.pt")];
+    let clips = [
+        shared.join("data/ballplay_m/run/013_018pickle_run_3.pt"),
+        shared.join("data/ballplay_m/layup/031_015pickle_layup_001_001.pt"),
+    ];
     let mut c = TrainConfig::preset("tiny").unwrap();
     c.env.motion = clips.to_vec();
     c.env.num_envs = 8;
@@ -106,7 +127,13 @@ fn v2_metrics_on_two_real_skills() {
     c.run.out_dir = tmp("real_run");
     let mut t = Trainer::new(c.clone(), None).unwrap();
     skillmimic_learn::runner::train_loop(&mut t, |_| {}).unwrap();
-    let lib = t.env.as_any().downcast_ref::<skillmimic_env::SkillEnv>().expect("imitation task").library().clone();
+    let lib = t
+        .env
+        .as_any()
+        .downcast_ref::<skillmimic_env::SkillEnv>()
+        .expect("imitation task")
+        .library()
+        .clone();
     let vcfg = V2EvalConfig { episodes: 2, horizon: 30, num_envs: 2, ..Default::default() };
     let rep = evaluate_v2(&t.policy, &c.env, &lib, &vcfg, 0).unwrap();
     println!("{}", serde_json::to_string(&rep).unwrap());

@@ -106,30 +106,57 @@ fn parse_npy(path: &Path, name: &str, bytes: &[u8]) -> Result<Array, ClipError> 
     }
     let (hlen, start) = match bytes[6] {
         1 => (u16::from_le_bytes([bytes[8], bytes[9]]) as usize, 10),
-        2 | 3 if bytes.len() >= 12 => (u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]) as usize, 12),
+        2 | 3 if bytes.len() >= 12 => {
+            (u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]) as usize, 12)
+        }
         v => return Err(e(format!("unsupported .npy version {v}"))),
     };
-    let header = bytes.get(start..start + hlen).ok_or_else(|| e("header longer than the file".into()))?;
+    let header =
+        bytes.get(start..start + hlen).ok_or_else(|| e("header longer than the file".into()))?;
     let header = std::str::from_utf8(header).map_err(|_| e("header is not text".into()))?;
     let field = |key: &str| -> Option<&str> {
         let i = header.find(&format!("'{key}'"))? + key.len() + 2;
         Some(header[i..].trim_start().trim_start_matches(':').trim_start())
     };
-    let descr = field("descr").and_then(|s| s.strip_prefix('\'')).and_then(|s| s.split('\'').next()).ok_or_else(|| e("no 'descr' in the header".into()))?;
+    let descr = field("descr")
+        .and_then(|s| s.strip_prefix('\''))
+        .and_then(|s| s.split('\'').next())
+        .ok_or_else(|| e("no 'descr' in the header".into()))?;
     let width = match descr {
         "<f4" => 4,
         "<f8" => 8,
-        other => return Err(e(format!("dtype '{other}', expected little-endian float32 '<f4' or float64 '<f8'"))),
+        other => {
+            return Err(e(format!(
+                "dtype '{other}', expected little-endian float32 '<f4' or float64 '<f8'"
+            )));
+        }
     };
     if field("fortran_order").is_some_and(|s| s.starts_with("True")) {
         return Err(e("Fortran order is not supported (save C-ordered arrays)".into()));
     }
-    let shape_txt = field("shape").and_then(|s| s.strip_prefix('(')).and_then(|s| s.split(')').next()).ok_or_else(|| e("no 'shape' in the header".into()))?;
-    let shape: Vec<usize> = shape_txt.split(',').map(str::trim).filter(|s| !s.is_empty()).map(|s| s.parse::<usize>()).collect::<Result<_, _>>().map_err(|_| e(format!("shape ({shape_txt}) is not a tuple of whole numbers")))?;
-    let n = shape.iter().try_fold(1usize, |a, &d| a.checked_mul(d)).filter(|&n| n <= 3 * 165 * MAX_FRAMES).ok_or_else(|| e(format!("shape {shape:?} is too large")))?;
+    let shape_txt = field("shape")
+        .and_then(|s| s.strip_prefix('('))
+        .and_then(|s| s.split(')').next())
+        .ok_or_else(|| e("no 'shape' in the header".into()))?;
+    let shape: Vec<usize> = shape_txt
+        .split(',')
+        .map(str::trim)
+        .filter(|s| !s.is_empty())
+        .map(|s| s.parse::<usize>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| e(format!("shape ({shape_txt}) is not a tuple of whole numbers")))?;
+    let n = shape
+        .iter()
+        .try_fold(1usize, |a, &d| a.checked_mul(d))
+        .filter(|&n| n <= 3 * 165 * MAX_FRAMES)
+        .ok_or_else(|| e(format!("shape {shape:?} is too large")))?;
     let data = &bytes[start + hlen..];
     if data.len() != n * width {
-        return Err(e(format!("{} data bytes, expected {} for shape {shape:?} of {descr}", data.len(), n * width)));
+        return Err(e(format!(
+            "{} data bytes, expected {} for shape {shape:?} of {descr}",
+            data.len(),
+            n * width
+        )));
     }
     let values: Vec<f64> = if width == 4 {
         data.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]) as f64).collect()
@@ -147,14 +174,20 @@ const MAX_ARRAY_BYTES: u64 = 8 * 165 * MAX_FRAMES as u64;
 
 /// The named arrays of a `numpy.savez` archive that exist in it (others are never read).
 fn read_arrays(path: &Path, names: &[&str]) -> Result<Vec<Option<Array>>, ClipError> {
-    let file = std::fs::File::open(path).map_err(|error| ClipError::Io { path: path.to_path_buf(), error })?;
-    let mut zip = zip::ZipArchive::new(file).map_err(|e| fmt_err(path, format!("not a zip archive ({e}); expected numpy.savez output")))?;
+    let file = std::fs::File::open(path)
+        .map_err(|error| ClipError::Io { path: path.to_path_buf(), error })?;
+    let mut zip = zip::ZipArchive::new(file).map_err(|e| {
+        fmt_err(path, format!("not a zip archive ({e}); expected numpy.savez output"))
+    })?;
     names
         .iter()
         .map(|name| {
             let Ok(mut f) = zip.by_name(&format!("{name}.npy")) else { return Ok(None) };
             if f.size() > MAX_ARRAY_BYTES {
-                return Err(fmt_err(path, format!("array '{name}' of {} bytes is too large", f.size())));
+                return Err(fmt_err(
+                    path,
+                    format!("array '{name}' of {} bytes is too large", f.size()),
+                ));
             }
             let mut bytes = Vec::with_capacity(f.size() as usize);
             f.read_to_end(&mut bytes).map_err(|e| fmt_err(path, format!("array '{name}': {e}")))?;
@@ -172,7 +205,8 @@ pub fn model_joints(model: &Path, betas: &[f64]) -> Result<Vec<Vec3>, ClipError>
     let e = |d: String| fmt_err(model, format!("body model: {d}"));
     let mut a = read_arrays(model, &["v_template", "J_regressor", "shapedirs"])?.into_iter();
     let (vs, v) = a.next().flatten().ok_or_else(|| e("no 'v_template' array (V, 3)".into()))?;
-    let (rs, r) = a.next().flatten().ok_or_else(|| e("no dense 'J_regressor' array (J, V)".into()))?;
+    let (rs, r) =
+        a.next().flatten().ok_or_else(|| e("no dense 'J_regressor' array (J, V)".into()))?;
     let shape = a.next().flatten();
     let nv = match vs[..] {
         [n, 3] => n,
@@ -180,7 +214,11 @@ pub fn model_joints(model: &Path, betas: &[f64]) -> Result<Vec<Vec3>, ClipError>
     };
     let nj = match rs[..] {
         [j, n] if n == nv && (j == 52 || j == 24) => j,
-        _ => return Err(e(format!("'J_regressor' has shape {rs:?}, expected (52, {nv}) for SMPL-H or (24, {nv}) for SMPL"))),
+        _ => {
+            return Err(e(format!(
+                "'J_regressor' has shape {rs:?}, expected (52, {nv}) for SMPL-H or (24, {nv}) for SMPL"
+            )));
+        }
     };
     let mut verts = v;
     if let Some((ss, sd)) = shape {
@@ -194,7 +232,9 @@ pub fn model_joints(model: &Path, betas: &[f64]) -> Result<Vec<Vec3>, ClipError>
             }
         }
     }
-    let mut joints: Vec<Vec3> = (0..nj).map(|j| std::array::from_fn(|c| (0..nv).map(|i| r[j * nv + i] * verts[3 * i + c]).sum())).collect();
+    let mut joints: Vec<Vec3> = (0..nj)
+        .map(|j| std::array::from_fn(|c| (0..nv).map(|i| r[j * nv + i] * verts[3 * i + c]).sum()))
+        .collect();
     if nj == 24 {
         // SMPL: fingers from the humanoid's rest skeleton, relative to each wrist
         joints.truncate(22);
@@ -210,28 +250,28 @@ pub fn model_joints(model: &Path, betas: &[f64]) -> Result<Vec<Vec3>, ClipError>
 /// (PHC / ProtoMotions `smpl_humanoid.xml`, TokenHSI's lower body) carry them (their Z-up x-forward
 /// frame turned into SMPL's: (x, y, z) → (y, z, x)).
 pub const SMPL_NEUTRAL_OFFSETS: [Vec3; 22] = [
-    [-0.0018, -0.2233, 0.0282], // pelvis (J_pelvis, absolute)
-    [0.0695, -0.0914, -0.0068], // left_hip
+    [-0.0018, -0.2233, 0.0282],  // pelvis (J_pelvis, absolute)
+    [0.0695, -0.0914, -0.0068],  // left_hip
     [-0.0677, -0.0905, -0.0043], // right_hip
-    [-0.0025, 0.1090, -0.0267], // spine1
-    [0.0343, -0.3752, -0.0045], // left_knee
+    [-0.0025, 0.1090, -0.0267],  // spine1
+    [0.0343, -0.3752, -0.0045],  // left_knee
     [-0.0383, -0.3826, -0.0089], // right_knee
-    [0.0055, 0.1352, 0.0011], // spine2
+    [0.0055, 0.1352, 0.0011],    // spine2
     [-0.0136, -0.3980, -0.0437], // left_ankle
-    [0.0158, -0.3984, -0.0423], // right_ankle
-    [0.0015, 0.0529, 0.0254], // spine3
-    [0.0264, -0.0558, 0.1193], // left_foot
-    [-0.0254, -0.0481, 0.1233], // right_foot
-    [-0.0028, 0.2139, -0.0429], // neck
-    [0.0788, 0.1217, -0.0341], // left_collar
-    [-0.0818, 0.1188, -0.0386], // right_collar
-    [0.0052, 0.0650, 0.0513], // head
-    [0.0910, 0.0305, -0.0089], // left_shoulder
-    [-0.0960, 0.0326, -0.0091], // right_shoulder
-    [0.2596, -0.0128, -0.0275], // left_elbow
+    [0.0158, -0.3984, -0.0423],  // right_ankle
+    [0.0015, 0.0529, 0.0254],    // spine3
+    [0.0264, -0.0558, 0.1193],   // left_foot
+    [-0.0254, -0.0481, 0.1233],  // right_foot
+    [-0.0028, 0.2139, -0.0429],  // neck
+    [0.0788, 0.1217, -0.0341],   // left_collar
+    [-0.0818, 0.1188, -0.0386],  // right_collar
+    [0.0052, 0.0650, 0.0513],    // head
+    [0.0910, 0.0305, -0.0089],   // left_shoulder
+    [-0.0960, 0.0326, -0.0091],  // right_shoulder
+    [0.2596, -0.0128, -0.0275],  // left_elbow
     [-0.2537, -0.0133, -0.0214], // right_elbow
-    [0.2492, 0.0090, -0.0012], // left_wrist
-    [-0.2553, 0.0078, -0.0056], // right_wrist
+    [0.2492, 0.0090, -0.0012],   // left_wrist
+    [-0.2553, 0.0078, -0.0056],  // right_wrist
 ];
 
 /// The rest skeleton an AMASS sequence is read on (module docs).
@@ -285,28 +325,50 @@ pub fn read(path: &Path) -> Result<Bvh, ClipError> {
 /// `trans + J_pelvis`, as SMPL does.
 pub fn read_with_rest(path: &Path, rest: Rest) -> Result<Bvh, ClipError> {
     let [poses, trans, fps_a, fps_b, betas]: [Option<Array>; 5] =
-        read_arrays(path, &["poses", "trans", "mocap_framerate", "mocap_frame_rate", "betas"])?.try_into().expect("five names");
-    let (pshape, poses) = poses.ok_or_else(|| fmt_err(path, "no 'poses' array (T, 156) of per-joint axis-angles".into()))?;
-    let (tshape, trans) = trans.ok_or_else(|| fmt_err(path, "no 'trans' array (T, 3) of root translations".into()))?;
+        read_arrays(path, &["poses", "trans", "mocap_framerate", "mocap_frame_rate", "betas"])?
+            .try_into()
+            .expect("five names");
+    let (pshape, poses) = poses.ok_or_else(|| {
+        fmt_err(path, "no 'poses' array (T, 156) of per-joint axis-angles".into())
+    })?;
+    let (tshape, trans) = trans
+        .ok_or_else(|| fmt_err(path, "no 'trans' array (T, 3) of root translations".into()))?;
     let betas = betas.map(|b| b.1).unwrap_or_default();
-    let fps = fps_a.or(fps_b).ok_or_else(|| fmt_err(path, "no 'mocap_framerate' (or 'mocap_frame_rate') scalar".into()))?;
+    let fps = fps_a.or(fps_b).ok_or_else(|| {
+        fmt_err(path, "no 'mocap_framerate' (or 'mocap_frame_rate') scalar".into())
+    })?;
     let fps = *fps.1.first().ok_or_else(|| fmt_err(path, "empty frame rate".into()))?;
     if !(fps > 0.0 && fps <= 1000.0) {
         return Err(fmt_err(path, format!("frame rate {fps}, expected 0 < fps <= 1000")));
     }
     let (t, width) = match pshape[..] {
         [t, w] => (t, w),
-        _ => return Err(fmt_err(path, format!("'poses' has shape {pshape:?}, expected (T, 72), (T, 156) or (T, 165)"))),
+        _ => {
+            return Err(fmt_err(
+                path,
+                format!("'poses' has shape {pshape:?}, expected (T, 72), (T, 156) or (T, 165)"),
+            ));
+        }
     };
     // source column of each SMPL-H joint (None: not in the file)
     let hands_at = match width {
         156 => Some(22),
         165 => Some(25),
         72 => None,
-        w => return Err(fmt_err(path, format!("'poses' has {w} columns, expected 72 (SMPL), 156 (SMPL-H) or 165 (SMPL-X)"))),
+        w => {
+            return Err(fmt_err(
+                path,
+                format!(
+                    "'poses' has {w} columns, expected 72 (SMPL), 156 (SMPL-H) or 165 (SMPL-X)"
+                ),
+            ));
+        }
     };
     if tshape[..] != [t, 3] {
-        return Err(fmt_err(path, format!("'trans' has shape {tshape:?}, expected ({t}, 3) like 'poses'")));
+        return Err(fmt_err(
+            path,
+            format!("'trans' has shape {tshape:?}, expected ({t}, 3) like 'poses'"),
+        ));
     }
     if !(2..=MAX_FRAMES).contains(&t) {
         return Err(fmt_err(path, format!("{t} frames, expected 2 to {MAX_FRAMES}")));
@@ -339,22 +401,42 @@ pub fn read_with_rest(path: &Path, rest: Rest) -> Result<Bvh, ClipError> {
             channels.splice(0..0, [Channel::Xposition, Channel::Yposition, Channel::Zposition]);
         }
         let first_value = if j == 0 { 0 } else { 6 + 3 * (j - 1) };
-        joints.push(BvhJoint { name: name.to_string(), parent: *parent, offset, channels, first_value, end_site: None });
+        joints.push(BvhJoint {
+            name: name.to_string(),
+            parent: *parent,
+            offset,
+            channels,
+            first_value,
+            end_site: None,
+        });
     }
     let width_out = 6 + 3 * 51;
     let untilt = Quat::from_axis_angle([1.0, 0.0, 0.0], -std::f64::consts::FRAC_PI_2);
     let mut values = Vec::with_capacity(t * width_out);
     for f in 0..t {
         let row = &poses[f * width..(f + 1) * width];
-        let aa = |j: usize| -> Quat { col(j).map_or(Quat::IDENTITY, |c| Quat::from_rotvec([row[c], row[c + 1], row[c + 2]])) };
-        let p = untilt.rotate([trans[3 * f] + pelvis[0], trans[3 * f + 1] + pelvis[1], trans[3 * f + 2] + pelvis[2]]);
+        let aa = |j: usize| -> Quat {
+            col(j).map_or(Quat::IDENTITY, |c| Quat::from_rotvec([row[c], row[c + 1], row[c + 2]]))
+        };
+        let p = untilt.rotate([
+            trans[3 * f] + pelvis[0],
+            trans[3 * f + 1] + pelvis[1],
+            trans[3 * f + 2] + pelvis[2],
+        ]);
         values.extend_from_slice(&p);
         values.extend_from_slice(&zxy_degrees(untilt.mul(aa(0))));
         for j in 1..52 {
             values.extend_from_slice(&zxy_degrees(aa(j)));
         }
     }
-    Ok(Bvh { path: path.to_path_buf(), joints, frame_time: 1.0 / fps, frames: t, width: width_out, values })
+    Ok(Bvh {
+        path: path.to_path_buf(),
+        joints,
+        frame_time: 1.0 / fps,
+        frames: t,
+        width: width_out,
+        values,
+    })
 }
 
 /// Euler angles (degrees) of R = Rz(a) · Rx(b) · Ry(c), the channel order of [`read`]'s joints.
@@ -365,5 +447,9 @@ pub fn zxy_degrees(q: Quat) -> [f64; 3] {
     let m20 = 2.0 * (x * z - w * y);
     let m21 = 2.0 * (y * z + w * x);
     let m22 = 1.0 - 2.0 * (x * x + y * y);
-    [(-m01).atan2(m11).to_degrees(), m21.clamp(-1.0, 1.0).asin().to_degrees(), (-m20).atan2(m22).to_degrees()]
+    [
+        (-m01).atan2(m11).to_degrees(),
+        m21.clamp(-1.0, 1.0).asin().to_degrees(),
+        (-m20).atan2(m22).to_degrees(),
+    ]
 }

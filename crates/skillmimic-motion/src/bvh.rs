@@ -111,17 +111,27 @@ struct Tokens<'a> {
 
 impl<'a> Tokens<'a> {
     fn new(path: &'a Path, text: &'a str) -> Self {
-        let items = text.lines().enumerate().flat_map(|(i, l)| l.split_whitespace().map(move |w| (i + 1, w))).collect();
+        let items = text
+            .lines()
+            .enumerate()
+            .flat_map(|(i, l)| l.split_whitespace().map(move |w| (i + 1, w)))
+            .collect();
         Self { path, items, at: 0 }
     }
     fn line(&self) -> usize {
         self.items.get(self.at).or(self.items.last()).map_or(0, |t| t.0)
     }
     fn err(&self, what: impl Into<String>) -> ClipError {
-        ClipError::Format { path: self.path.to_path_buf(), detail: format!("BVH line {}: {}", self.line(), what.into()) }
+        ClipError::Format {
+            path: self.path.to_path_buf(),
+            detail: format!("BVH line {}: {}", self.line(), what.into()),
+        }
     }
     fn next(&mut self, expected: &str) -> Result<&'a str, ClipError> {
-        let t = self.items.get(self.at).ok_or_else(|| self.err(format!("unexpected end of file, expected {expected}")))?;
+        let t = self
+            .items
+            .get(self.at)
+            .ok_or_else(|| self.err(format!("unexpected end of file, expected {expected}")))?;
         self.at += 1;
         Ok(t.1)
     }
@@ -130,7 +140,11 @@ impl<'a> Tokens<'a> {
     }
     fn expect(&mut self, word: &str) -> Result<(), ClipError> {
         let t = self.next(&format!("'{word}'"))?;
-        if t.eq_ignore_ascii_case(word) { Ok(()) } else { Err(self.err(format!("expected '{word}', found '{t}'"))) }
+        if t.eq_ignore_ascii_case(word) {
+            Ok(())
+        } else {
+            Err(self.err(format!("expected '{word}', found '{t}'")))
+        }
     }
     fn number(&mut self, what: &str) -> Result<f64, ClipError> {
         let t = self.next(what)?;
@@ -146,12 +160,21 @@ impl<'a> Tokens<'a> {
 
 /// Read and parse a BVH file.
 pub fn read(path: &Path) -> Result<Bvh, ClipError> {
-    let len = std::fs::metadata(path).map_err(|error| ClipError::Io { path: path.to_path_buf(), error })?.len();
+    let len = std::fs::metadata(path)
+        .map_err(|error| ClipError::Io { path: path.to_path_buf(), error })?
+        .len();
     if len > MAX_BYTES {
-        return Err(ClipError::Format { path: path.to_path_buf(), detail: format!("BVH: file of {len} bytes exceeds the limit of {MAX_BYTES}") });
+        return Err(ClipError::Format {
+            path: path.to_path_buf(),
+            detail: format!("BVH: file of {len} bytes exceeds the limit of {MAX_BYTES}"),
+        });
     }
-    let bytes = std::fs::read(path).map_err(|error| ClipError::Io { path: path.to_path_buf(), error })?;
-    let text = String::from_utf8(bytes).map_err(|e| ClipError::Format { path: path.to_path_buf(), detail: format!("BVH: not UTF-8 text ({e})") })?;
+    let bytes =
+        std::fs::read(path).map_err(|error| ClipError::Io { path: path.to_path_buf(), error })?;
+    let text = String::from_utf8(bytes).map_err(|e| ClipError::Format {
+        path: path.to_path_buf(),
+        detail: format!("BVH: not UTF-8 text ({e})"),
+    })?;
     parse(path, &text)
 }
 
@@ -169,7 +192,11 @@ pub fn parse(path: &Path, text: &str) -> Result<Bvh, ClipError> {
             "ROOT" | "JOINT" => {
                 let is_root = word.eq_ignore_ascii_case("ROOT");
                 if is_root != stack.is_empty() {
-                    return Err(t.err(if is_root { "ROOT inside another joint" } else { "JOINT outside a ROOT" }));
+                    return Err(t.err(if is_root {
+                        "ROOT inside another joint"
+                    } else {
+                        "JOINT outside a ROOT"
+                    }));
                 }
                 if joints.len() >= MAX_JOINTS {
                     return Err(t.err(format!("more than {MAX_JOINTS} joints")));
@@ -190,17 +217,28 @@ pub fn parse(path: &Path, text: &str) -> Result<Bvh, ClipError> {
                 if t.peek().is_some_and(|w| w.eq_ignore_ascii_case("CHANNELS")) {
                     t.next("CHANNELS")?;
                     let n = t.next("the channel count")?;
-                    let n: usize = n.parse().ok().filter(|&n| n <= 6).ok_or_else(|| t.err(format!("CHANNELS: expected a count of 0 to 6, found '{n}'")))?;
+                    let n: usize = n.parse().ok().filter(|&n| n <= 6).ok_or_else(|| {
+                        t.err(format!("CHANNELS: expected a count of 0 to 6, found '{n}'"))
+                    })?;
                     for _ in 0..n {
                         let c = t.next("a channel name")?;
                         let ch = Channel::parse(c).ok_or_else(|| t.err(format!("unknown channel '{c}' (expected Xposition, Yposition, Zposition, Xrotation, Yrotation or Zrotation)")))?;
                         if channels.contains(&ch) {
-                            return Err(t.err(format!("channel '{c}' given twice for joint '{name}'")));
+                            return Err(
+                                t.err(format!("channel '{c}' given twice for joint '{name}'"))
+                            );
                         }
                         channels.push(ch);
                     }
                 }
-                joints.push(BvhJoint { name, parent, offset, first_value: width, channels: channels.clone(), end_site: None });
+                joints.push(BvhJoint {
+                    name,
+                    parent,
+                    offset,
+                    first_value: width,
+                    channels: channels.clone(),
+                    end_site: None,
+                });
                 width += channels.len();
                 stack.push(Some(joints.len() - 1));
             }
@@ -229,7 +267,11 @@ pub fn parse(path: &Path, text: &str) -> Result<Bvh, ClipError> {
                 }
                 break;
             }
-            other => return Err(t.err(format!("expected ROOT, JOINT, End Site, '}}' or MOTION, found '{other}'"))),
+            other => {
+                return Err(t.err(format!(
+                    "expected ROOT, JOINT, End Site, '}}' or MOTION, found '{other}'"
+                )));
+            }
         }
     }
     if joints.is_empty() {
@@ -237,14 +279,17 @@ pub fn parse(path: &Path, text: &str) -> Result<Bvh, ClipError> {
     }
     t.expect("Frames:")?;
     let n = t.next("the frame count")?;
-    let frames: usize = n.parse().map_err(|_| t.err(format!("Frames: expected a whole number, found '{n}'")))?;
+    let frames: usize =
+        n.parse().map_err(|_| t.err(format!("Frames: expected a whole number, found '{n}'")))?;
     t.expect("Frame")?;
     t.expect("Time:")?;
     let frame_time = t.number("Frame Time")?;
     if frame_time <= 0.0 {
         return Err(t.err(format!("Frame Time must be positive, found {frame_time}")));
     }
-    let total = frames.checked_mul(width).filter(|&v| v <= MAX_VALUES).ok_or_else(|| t.err(format!("{frames} frames × {width} channels exceeds {MAX_VALUES} values")))?;
+    let total = frames.checked_mul(width).filter(|&v| v <= MAX_VALUES).ok_or_else(|| {
+        t.err(format!("{frames} frames × {width} channels exceeds {MAX_VALUES} values"))
+    })?;
     let available = t.items.len() - t.at;
     if available != total {
         return Err(t.err(format!("MOTION holds {available} values, expected Frames ({frames}) × channels ({width}) = {total}")));

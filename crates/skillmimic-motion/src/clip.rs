@@ -87,7 +87,9 @@ pub fn skill_label_from_name(path: &Path) -> Result<u32, ClipError> {
     if prefix.len() != 3 || !prefix.chars().all(|c| c.is_ascii_digit()) {
         return Err(ClipError::Label { path: path.to_path_buf(), name });
     }
-    let label: u32 = prefix.parse().map_err(|_| ClipError::Label { path: path.to_path_buf(), name: name.clone() })?;
+    let label: u32 = prefix
+        .parse()
+        .map_err(|_| ClipError::Label { path: path.to_path_buf(), name: name.clone() })?;
     if label as usize >= SKILL_WIDTH {
         return Err(ClipError::LabelRange { path: path.to_path_buf(), label, width: SKILL_WIDTH });
     }
@@ -102,7 +104,14 @@ fn rotvec_to_wxyz(v: [f32; 3]) -> [f32; 4] {
 impl Clip {
     /// Decode `t` rows of the 337-column layout (values must be finite). Nothing is validated or
     /// rounded: the contact label is column 336 as stored; see `crate::validate::validate_clip`.
-    pub fn from_rows(name: String, source: String, skill: u32, fps: f64, t: usize, rows: &[f32]) -> Clip {
+    pub fn from_rows(
+        name: String,
+        source: String,
+        skill: u32,
+        fps: f64,
+        t: usize,
+        rows: &[f32],
+    ) -> Clip {
         assert_eq!(rows.len(), t * PT_WIDTH);
         let mut clip = Clip {
             name,
@@ -123,10 +132,10 @@ impl Clip {
             clip.root_pos.extend_from_slice(&r[0..3]);
             let mut q = rotvec_to_wxyz([r[3], r[4], r[5]]);
             // sign continuity: q and −q are the same rotation; keep neighbours in one hemisphere
-            if let Some(p) = prev {
-                if p.iter().zip(&q).map(|(a, b)| a * b).sum::<f32>() < 0.0 {
-                    q = q.map(|x| -x);
-                }
+            if let Some(p) = prev
+                && p.iter().zip(&q).map(|(a, b)| a * b).sum::<f32>() < 0.0
+            {
+                q = q.map(|x| -x);
             }
             prev = Some(q);
             clip.root_rot.extend_from_slice(&q);

@@ -8,9 +8,13 @@ pub enum ClipError {
     /// (The I/O error is part of the message, not a `source`, so error chains do not repeat it.)
     #[error("{path}: cannot read file: {error}")]
     Io { path: PathBuf, error: std::io::Error },
-    #[error("{path}: no such clip file or folder (give .pt/.safetensors files or folders holding them; `builtin:demo` selects the built-in demo clips)")]
+    #[error(
+        "{path}: no such clip file or folder (give .pt/.safetensors files or folders holding them; `builtin:demo` selects the built-in demo clips)"
+    )]
     NotFound { path: PathBuf },
-    #[error("{path}: not a PyTorch zip archive ({detail}); expected a file written by torch.save holding one float32 tensor of shape (T, 337)")]
+    #[error(
+        "{path}: not a PyTorch zip archive ({detail}); expected a file written by torch.save holding one float32 tensor of shape (T, 337)"
+    )]
     NotZip { path: PathBuf, detail: String },
     #[error("{path}: {detail}")]
     Format { path: PathBuf, detail: String },
@@ -20,7 +24,9 @@ pub enum ClipError {
     NonFinite { path: PathBuf, frame: usize, column: usize, field: &'static str, value: f32 },
     #[error("{path}: {field} at frame {frame} {problem}")]
     Invalid { path: PathBuf, field: String, frame: usize, problem: String },
-    #[error("{path}: cannot read the skill label: the file name must start with three digits (e.g. 013_run.pt), got '{name}'")]
+    #[error(
+        "{path}: cannot read the skill label: the file name must start with three digits (e.g. 013_run.pt), got '{name}'"
+    )]
     Label { path: PathBuf, name: String },
     #[error("{path}: skill label {label} is outside the one-hot width {width}")]
     LabelRange { path: PathBuf, label: u32, width: usize },

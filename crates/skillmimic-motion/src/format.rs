@@ -1,5 +1,6 @@
-//! The project's clip file format (`.safetensors`), version 1, and the clip loaders (`Clip::from_pt`,
-//! `Clip::load`, `Clip::load_any`), each running the one validation of [`crate::validate`].
+//! The project's clip file format (`.safetensors`), version 1, and the clip loaders
+//! (`Clip::from_pt`, `Clip::load`, `Clip::load_any`), each running the one validation of
+//! [`crate::validate`].
 //!
 //! | tensor | dtype | shape | content |
 //! |---|---|---|---|
@@ -39,7 +40,10 @@ pub const FORMAT_VERSION: u32 = 1;
 fn tf_err(path: &Path, e: TensorFileError) -> ClipError {
     match e {
         TensorFileError::Io { error, .. } => ClipError::Io { path: path.to_path_buf(), error },
-        other => ClipError::Format { path: path.to_path_buf(), detail: strip_path(path, &other.to_string()) },
+        other => ClipError::Format {
+            path: path.to_path_buf(),
+            detail: strip_path(path, &other.to_string()),
+        },
     }
 }
 
@@ -76,11 +80,16 @@ impl Clip {
         let skill = skill_label_from_name(path)?;
         let m = read_pt_matrix(path)?;
         if m.cols != PT_WIDTH || m.rows == 0 {
-            return Err(ClipError::Shape { path: path.to_path_buf(), shape: vec![m.rows, m.cols], expected_width: PT_WIDTH });
+            return Err(ClipError::Shape {
+                path: path.to_path_buf(),
+                shape: vec![m.rows, m.cols],
+                expected_width: PT_WIDTH,
+            });
         }
         check_pt_rows(&m.data, path)?;
         let name = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
-        let clip = Clip::from_rows(name, path.display().to_string(), skill, BALLPLAY_FPS, m.rows, &m.data);
+        let clip =
+            Clip::from_rows(name, path.display().to_string(), skill, BALLPLAY_FPS, m.rows, &m.data);
         validate_clip(&clip, path, Naming::PtColumns)?;
         Ok(clip)
     }
@@ -91,19 +100,30 @@ impl Clip {
         let f = TensorFile::open(path).map_err(|e| tf_err(path, e))?;
         let fmt = f.meta("format").map_err(|e| tf_err(path, e))?;
         if fmt != FORMAT_NAME {
-            return Err(ClipError::Format { path: path.into(), detail: format!("metadata format is '{fmt}', expected '{FORMAT_NAME}'") });
+            return Err(ClipError::Format {
+                path: path.into(),
+                detail: format!("metadata format is '{fmt}', expected '{FORMAT_NAME}'"),
+            });
         }
-        let version: u32 = f.meta_parse("format_version", "an integer").map_err(|e| tf_err(path, e))?;
+        let version: u32 =
+            f.meta_parse("format_version", "an integer").map_err(|e| tf_err(path, e))?;
         if version > FORMAT_VERSION {
             return Err(ClipError::Format {
                 path: path.into(),
-                detail: format!("format_version {version} is newer than this build supports ({FORMAT_VERSION})"),
+                detail: format!(
+                    "format_version {version} is newer than this build supports ({FORMAT_VERSION})"
+                ),
             });
         }
-        let fps: f64 = f.meta_parse("fps", "a number of frames per second").map_err(|e| tf_err(path, e))?;
+        let fps: f64 =
+            f.meta_parse("fps", "a number of frames per second").map_err(|e| tf_err(path, e))?;
         let skill: u32 = f.meta_parse("skill", "an integer 0..63").map_err(|e| tf_err(path, e))?;
         if skill as usize >= SKILL_WIDTH {
-            return Err(ClipError::LabelRange { path: path.into(), label: skill, width: SKILL_WIDTH });
+            return Err(ClipError::LabelRange {
+                path: path.into(),
+                label: skill,
+                width: SKILL_WIDTH,
+            });
         }
         let (shape, root_pos) = f.f32("root_pos", &[None, Some(3)]).map_err(|e| tf_err(path, e))?;
         let t = shape[0];

@@ -22,7 +22,9 @@ use std::path::{Path, PathBuf};
 
 use rand::{Rng, RngCore};
 use skillmimic_core::math::Quat;
-use skillmimic_core::skeleton::{NUM_BODIES, NUM_DOFS, NUM_JOINTS, body_parts, dof_range, forward_kinematics, mirror_body};
+use skillmimic_core::skeleton::{
+    NUM_BODIES, NUM_DOFS, NUM_JOINTS, body_parts, dof_range, forward_kinematics, mirror_body,
+};
 
 use crate::clip::Clip;
 
@@ -38,7 +40,12 @@ pub trait Generator: Send {
     /// Name in logs.
     fn name(&self) -> String;
     /// New clips derived from `failed`; `library` = the clips trained on.
-    fn generate(&mut self, failed: &Clip, library: &[Clip], rng: &mut dyn RngCore) -> Result<Vec<Clip>, GenError>;
+    fn generate(
+        &mut self,
+        failed: &Clip,
+        library: &[Clip],
+        rng: &mut dyn RngCore,
+    ) -> Result<Vec<Clip>, GenError>;
 }
 
 fn q_at(v: &[f32], t: usize) -> Quat {
@@ -118,7 +125,17 @@ pub fn mirror(c: &Clip) -> Clip {
 pub fn time_warp(c: &Clip, factor: f64) -> Clip {
     assert!(factor > 0.0 && c.num_frames >= 1);
     let t_new = (((c.num_frames - 1) as f64 / factor).floor() as usize) + 1;
-    let mut w = Clip { num_frames: t_new, root_pos: vec![0.0; 3 * t_new], root_rot: vec![0.0; 4 * t_new], dof_rot: vec![0.0; NUM_DOFS * t_new], body_pos: vec![0.0; 3 * NUM_BODIES * t_new], ball_pos: vec![0.0; 3 * t_new], ball_rot: vec![0.0; 4 * t_new], contact: vec![0.0; t_new], ..c.clone() };
+    let mut w = Clip {
+        num_frames: t_new,
+        root_pos: vec![0.0; 3 * t_new],
+        root_rot: vec![0.0; 4 * t_new],
+        dof_rot: vec![0.0; NUM_DOFS * t_new],
+        body_pos: vec![0.0; 3 * NUM_BODIES * t_new],
+        ball_pos: vec![0.0; 3 * t_new],
+        ball_rot: vec![0.0; 4 * t_new],
+        contact: vec![0.0; t_new],
+        ..c.clone()
+    };
     for k in 0..t_new {
         let x = (k as f64 * factor).min((c.num_frames - 1) as f64);
         let (i, s) = (x.floor() as usize, x - x.floor());
@@ -133,7 +150,11 @@ pub fn time_warp(c: &Clip, factor: f64) -> Clip {
         put_q(&mut w.root_rot, k, slerp(q_at(&c.root_rot, i), q_at(&c.root_rot, j), s));
         put_q(&mut w.ball_rot, k, slerp(q_at(&c.ball_rot, i), q_at(&c.ball_rot, j), s));
         for jt in 0..NUM_JOINTS {
-            let rv = |t: usize| Quat::from_rotvec(std::array::from_fn(|d| c.dof_rot[t * NUM_DOFS + 3 * jt + d] as f64));
+            let rv = |t: usize| {
+                Quat::from_rotvec(std::array::from_fn(|d| {
+                    c.dof_rot[t * NUM_DOFS + 3 * jt + d] as f64
+                }))
+            };
             let v = slerp(rv(i), rv(j), s).to_rotvec();
             let at = k * NUM_DOFS + 3 * jt;
             for (o, &x) in w.dof_rot[at..at + 3].iter_mut().zip(&v) {
@@ -164,7 +185,8 @@ pub fn recombine(base: &Clip, donor: &Clip, part: &str, bodies: &[usize]) -> Cli
     for f in 0..t {
         for &b in bodies.iter().filter(|&&b| b >= 1) {
             let r = dof_range(b);
-            c.dof_rot[f * NUM_DOFS + r.start..f * NUM_DOFS + r.end].copy_from_slice(&donor.dof_rot[f * NUM_DOFS + r.start..f * NUM_DOFS + r.end]);
+            c.dof_rot[f * NUM_DOFS + r.start..f * NUM_DOFS + r.end]
+                .copy_from_slice(&donor.dof_rot[f * NUM_DOFS + r.start..f * NUM_DOFS + r.end]);
         }
     }
     c.name = format!("{}~{part}-from-{}", base.name, donor.name);
@@ -191,9 +213,17 @@ impl Generator for ModelFree {
     fn name(&self) -> String {
         "model-free (part recombination, mirror, time warp)".into()
     }
-    fn generate(&mut self, failed: &Clip, library: &[Clip], rng: &mut dyn RngCore) -> Result<Vec<Clip>, GenError> {
+    fn generate(
+        &mut self,
+        failed: &Clip,
+        library: &[Clip],
+        rng: &mut dyn RngCore,
+    ) -> Result<Vec<Clip>, GenError> {
         let mut out = Vec::new();
-        let donors: Vec<&Clip> = library.iter().filter(|c| c.skill == failed.skill && c.name != failed.name && c.num_frames >= 2).collect();
+        let donors: Vec<&Clip> = library
+            .iter()
+            .filter(|c| c.skill == failed.skill && c.name != failed.name && c.num_frames >= 2)
+            .collect();
         if !donors.is_empty() {
             let parts = body_parts("five").expect("a known split");
             for _ in 0..self.per_part {
@@ -228,11 +258,21 @@ impl Generator for ExternalCommand {
     fn name(&self) -> String {
         format!("external command {}", self.program.display())
     }
-    fn generate(&mut self, failed: &Clip, _library: &[Clip], _rng: &mut dyn RngCore) -> Result<Vec<Clip>, GenError> {
+    fn generate(
+        &mut self,
+        failed: &Clip,
+        _library: &[Clip],
+        _rng: &mut dyn RngCore,
+    ) -> Result<Vec<Clip>, GenError> {
         self.calls += 1;
         let (program, args) = (&self.program, &self.args);
         through_folder(&self.name(), &self.work_dir, self.calls, failed, |input, out| {
-            let status = std::process::Command::new(program).args(args).arg(input).arg(out).status().map_err(|e| format!("cannot start: {e}"))?;
+            let status = std::process::Command::new(program)
+                .args(args)
+                .arg(input)
+                .arg(out)
+                .status()
+                .map_err(|e| format!("cannot start: {e}"))?;
             if status.success() { Ok(()) } else { Err(format!("exited with {status}")) }
         })
     }
@@ -242,11 +282,18 @@ impl Generator for ExternalCommand {
 /// `<work_dir>/call_<call>/failed.safetensors`, `run(input, out)` writes clips into the empty
 /// folder `<work_dir>/call_<call>/out`, and every `*.safetensors` clip there is read back
 /// (project format, validated by [`Clip::load`]).
-fn through_folder(name: &str, work_dir: &Path, call: usize, failed: &Clip, run: impl FnOnce(&Path, &Path) -> Result<(), String>) -> Result<Vec<Clip>, GenError> {
+fn through_folder(
+    name: &str,
+    work_dir: &Path,
+    call: usize,
+    failed: &Clip,
+    run: impl FnOnce(&Path, &Path) -> Result<(), String>,
+) -> Result<Vec<Clip>, GenError> {
     let fail = |detail: String| GenError::Failed { name: name.to_string(), detail };
     let dir = work_dir.join(format!("call_{call:05}"));
     let out = dir.join("out");
-    std::fs::create_dir_all(&out).map_err(|e| fail(format!("cannot create {}: {e}", out.display())))?;
+    std::fs::create_dir_all(&out)
+        .map_err(|e| fail(format!("cannot create {}: {e}", out.display())))?;
     let input = dir.join("failed.safetensors");
     failed.save(&input).map_err(|e| fail(format!("cannot write {}: {e}", input.display())))?;
     run(&input, &out).map_err(&fail)?;
@@ -275,7 +322,12 @@ impl Generator for Callback {
     fn name(&self) -> String {
         self.label.clone()
     }
-    fn generate(&mut self, failed: &Clip, _library: &[Clip], _rng: &mut dyn RngCore) -> Result<Vec<Clip>, GenError> {
+    fn generate(
+        &mut self,
+        failed: &Clip,
+        _library: &[Clip],
+        _rng: &mut dyn RngCore,
+    ) -> Result<Vec<Clip>, GenError> {
         self.calls += 1;
         let f = &mut self.f;
         through_folder(&self.label, &self.work_dir, self.calls, failed, |input, out| f(input, out))
@@ -285,7 +337,8 @@ impl Generator for Callback {
 /// Makes a registered generator for a run (argument: the run's scratch folder for generators).
 pub type Factory = std::sync::Arc<dyn Fn(&Path) -> Box<dyn Generator> + Send + Sync>;
 
-static REGISTRY: std::sync::Mutex<std::collections::BTreeMap<String, Factory>> = std::sync::Mutex::new(std::collections::BTreeMap::new());
+static REGISTRY: std::sync::Mutex<std::collections::BTreeMap<String, Factory>> =
+    std::sync::Mutex::new(std::collections::BTreeMap::new());
 
 /// Names `run.active.generator` takes without registration.
 pub const BUILT_IN: [&str; 2] = ["model_free", "command"];
@@ -312,7 +365,11 @@ pub fn registered_names() -> Vec<String> {
 
 /// Every project-format clip in `dir` (sorted by name).
 fn read_clips(dir: &Path) -> Result<Vec<Clip>, String> {
-    let mut files: Vec<PathBuf> = std::fs::read_dir(dir).map_err(|e| format!("{}: {e}", dir.display()))?.filter_map(|e| e.ok().map(|e| e.path())).filter(|p| p.extension().is_some_and(|x| x == "safetensors")).collect();
+    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+        .map_err(|e| format!("{}: {e}", dir.display()))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "safetensors"))
+        .collect();
     files.sort();
     files.iter().map(|p| Clip::load(p).map_err(|e| e.to_string())).collect()
 }
@@ -324,7 +381,9 @@ pub enum Invalid {
     NonFinite { clip: String, field: &'static str, frame: usize },
     #[error("clip '{clip}': body {body} is {depth:.3} m below the floor at frame {frame}")]
     BelowFloor { clip: String, body: &'static str, depth: f64, frame: usize },
-    #[error("clip '{clip}': joint {joint} turns at {speed:.1} rad/s at frame {frame} (limit {limit} rad/s)")]
+    #[error(
+        "clip '{clip}': joint {joint} turns at {speed:.1} rad/s at frame {frame} (limit {limit} rad/s)"
+    )]
     TooFast { clip: String, joint: &'static str, speed: f64, frame: usize, limit: f64 },
     #[error("clip '{clip}': fewer than {min} frames", min = crate::validate::MIN_FRAMES)]
     TooShort { clip: String },
@@ -332,16 +391,23 @@ pub enum Invalid {
     Implausible { clip: String, why: String },
 }
 
-/// The validity filter: at least [`MIN_FRAMES`](crate::validate::MIN_FRAMES) frames, finite values, no body frame lower than `floor_tol`
-/// below the floor (z < −floor_tol, m), no joint turning faster than `max_speed` (rad/s, the
-/// angle between consecutive frames' local rotations × fps), and every rule of the loaders'
-/// validation ([`crate::validate::validate_clip`]), so that an accepted clip can be loaded again.
+/// The validity filter: at least [`MIN_FRAMES`](crate::validate::MIN_FRAMES) frames, finite values,
+/// no body frame lower than `floor_tol` below the floor (z < −floor_tol, m), no joint turning
+/// faster than `max_speed` (rad/s, the angle between consecutive frames' local rotations × fps),
+/// and every rule of the loaders' validation ([`crate::validate::validate_clip`]), so that an
+/// accepted clip can be loaded again.
 pub fn check_validity(c: &Clip, floor_tol: f64, max_speed: f64) -> Result<(), Invalid> {
     let clip = c.name.clone();
     if c.num_frames < crate::validate::MIN_FRAMES {
         return Err(Invalid::TooShort { clip });
     }
-    for (field, v, w) in [("root_pos", &c.root_pos, 3), ("root_rot", &c.root_rot, 4), ("dof_rot", &c.dof_rot, NUM_DOFS), ("body_pos", &c.body_pos, 3 * NUM_BODIES), ("ball_pos", &c.ball_pos, 3)] {
+    for (field, v, w) in [
+        ("root_pos", &c.root_pos, 3),
+        ("root_rot", &c.root_rot, 4),
+        ("dof_rot", &c.dof_rot, NUM_DOFS),
+        ("body_pos", &c.body_pos, 3 * NUM_BODIES),
+        ("ball_pos", &c.ball_pos, 3),
+    ] {
         if let Some(k) = v.iter().position(|x| !x.is_finite()) {
             return Err(Invalid::NonFinite { clip, field, frame: k / w });
         }
@@ -350,17 +416,32 @@ pub fn check_validity(c: &Clip, floor_tol: f64, max_speed: f64) -> Result<(), In
         for b in 0..NUM_BODIES {
             let z = c.body_pos[(t * NUM_BODIES + b) * 3 + 2] as f64;
             if z < -floor_tol {
-                return Err(Invalid::BelowFloor { clip, body: skillmimic_core::skeleton::BODIES[b].name, depth: -z, frame: t });
+                return Err(Invalid::BelowFloor {
+                    clip,
+                    body: skillmimic_core::skeleton::BODIES[b].name,
+                    depth: -z,
+                    frame: t,
+                });
             }
         }
     }
     for t in 1..c.num_frames {
         for b in 1..NUM_BODIES {
             let r = dof_range(b);
-            let q = |f: usize| Quat::from_rotvec(std::array::from_fn(|d| c.dof_rot[f * NUM_DOFS + r.start + d] as f64));
+            let q = |f: usize| {
+                Quat::from_rotvec(std::array::from_fn(|d| {
+                    c.dof_rot[f * NUM_DOFS + r.start + d] as f64
+                }))
+            };
             let speed = q(t - 1).conj().mul(q(t)).angle() * c.fps;
             if speed > max_speed {
-                return Err(Invalid::TooFast { clip, joint: skillmimic_core::skeleton::BODIES[b].name, speed, frame: t, limit: max_speed });
+                return Err(Invalid::TooFast {
+                    clip,
+                    joint: skillmimic_core::skeleton::BODIES[b].name,
+                    speed,
+                    frame: t,
+                    limit: max_speed,
+                });
             }
         }
     }

@@ -42,7 +42,11 @@ pub struct HsiClip {
 }
 
 /// World positions and orientations of the 15 bodies for a root pose and 32 joint coordinates.
-pub fn hsi_forward_kinematics(root_pos: [f64; 3], root_quat: Quat, dof: &[f64]) -> ([[f64; 3]; NUM_BODIES], [Quat; NUM_BODIES]) {
+pub fn hsi_forward_kinematics(
+    root_pos: [f64; 3],
+    root_quat: Quat,
+    dof: &[f64],
+) -> ([[f64; 3]; NUM_BODIES], [Quat; NUM_BODIES]) {
     let mut pos = [[0.0; 3]; NUM_BODIES];
     let mut rot = [root_quat; NUM_BODIES];
     pos[0] = root_pos;
@@ -101,14 +105,24 @@ impl HsiClip {
         let f = TensorFile::open(path).map_err(|e| bad(e.to_string()))?;
         let meta = f.metadata();
         if meta.get("format").map(String::as_str) != Some(HSI_FORMAT_NAME) {
-            return Err(bad(format!("metadata 'format' is {:?}, expected \"{HSI_FORMAT_NAME}\"", meta.get("format"))));
+            return Err(bad(format!(
+                "metadata 'format' is {:?}, expected \"{HSI_FORMAT_NAME}\"",
+                meta.get("format")
+            )));
         }
-        let fps: f64 = meta.get("fps").and_then(|s| s.parse().ok()).filter(|v: &f64| v.is_finite() && *v > 0.0).ok_or_else(|| bad("metadata 'fps' must be a positive number".into()))?;
+        let fps: f64 = meta
+            .get("fps")
+            .and_then(|s| s.parse().ok())
+            .filter(|v: &f64| v.is_finite() && *v > 0.0)
+            .ok_or_else(|| bad("metadata 'fps' must be a positive number".into()))?;
         let read = |name: &str, tail: &[usize]| -> Result<(usize, Vec<f32>), ClipError> {
-            let spec: Vec<Option<usize>> = std::iter::once(None).chain(tail.iter().map(|&d| Some(d))).collect();
+            let spec: Vec<Option<usize>> =
+                std::iter::once(None).chain(tail.iter().map(|&d| Some(d))).collect();
             let (shape, data) = f.f32(name, &spec).map_err(|e| bad(e.to_string()))?;
             if let Some(k) = data.iter().position(|x| !x.is_finite()) {
-                return Err(bad(format!("tensor '{name}' holds a non-finite value at flat index {k}")));
+                return Err(bad(format!(
+                    "tensor '{name}' holds a non-finite value at flat index {k}"
+                )));
             }
             Ok((shape[0], data))
         };
@@ -117,9 +131,22 @@ impl HsiClip {
         let (t3, dof_pos) = read("dof_pos", &[NUM_DOFS])?;
         let (t4, body_pos) = read("body_pos", &[NUM_BODIES, 3])?;
         if t < 2 || [t2, t3, t4].iter().any(|&x| x != t) {
-            return Err(bad(format!("tensors disagree on the frame count or hold fewer than 2 frames ({t}, {t2}, {t3}, {t4})")));
+            return Err(bad(format!(
+                "tensors disagree on the frame count or hold fewer than 2 frames ({t}, {t2}, {t3}, {t4})"
+            )));
         }
-        let name = meta.get("name").cloned().unwrap_or_else(|| path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default());
-        Ok(Self { name, source: meta.get("source").cloned().unwrap_or_default(), fps, num_frames: t, root_pos, root_rot, dof_pos, body_pos })
+        let name = meta.get("name").cloned().unwrap_or_else(|| {
+            path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default()
+        });
+        Ok(Self {
+            name,
+            source: meta.get("source").cloned().unwrap_or_default(),
+            fps,
+            num_frames: t,
+            root_pos,
+            root_rot,
+            dof_pos,
+            body_pos,
+        })
     }
 }

@@ -1,5 +1,6 @@
-//! The BallPlay-M row layout (one row per frame, 60 fps), shared by the `.pt` reader ([`crate::pt`])
-//! and the clip decoder ([`crate::clip`]). This module depends on no other module of the crate.
+//! The BallPlay-M row layout (one row per frame, 60 fps), shared by the `.pt` reader
+//! ([`crate::pt`]) and the clip decoder ([`crate::clip`]). This module depends on no other module
+//! of the crate.
 //!
 //! | columns | content |
 //! |---|---|

@@ -45,7 +45,8 @@ pub fn find_clip_files(path: &Path) -> Result<Vec<PathBuf>, ClipError> {
     let mut out = Vec::new();
     let mut stack = vec![path.to_path_buf()];
     while let Some(dir) = stack.pop() {
-        let rd = std::fs::read_dir(&dir).map_err(|error| ClipError::Io { path: dir.clone(), error })?;
+        let rd =
+            std::fs::read_dir(&dir).map_err(|error| ClipError::Io { path: dir.clone(), error })?;
         for entry in rd {
             let p = entry.map_err(|error| ClipError::Io { path: dir.clone(), error })?.path();
             if p.is_dir() {
@@ -90,10 +91,17 @@ impl MotionLibrary {
         for c in &clips {
             // clips from files were validated by their loader under the file's name; clips built
             // in memory are named by clip name and `source` (not a file that was loaded)
-            validate_clip(c, Path::new(&format!("clip '{}' (from {})", c.name, c.source)), Naming::Project)?;
+            validate_clip(
+                c,
+                Path::new(&format!("clip '{}' (from {})", c.name, c.source)),
+                Naming::Project,
+            )?;
         }
         if clips.is_empty() {
-            return Err(ClipError::Format { path: PathBuf::new(), detail: "the motion library is empty".into() });
+            return Err(ClipError::Format {
+                path: PathBuf::new(),
+                detail: "the motion library is empty".into(),
+            });
         }
         let count = |label: u32| clips.iter().filter(|c| c.skill == label).count() as f64;
         let raw: Vec<f64> = clips
@@ -161,10 +169,14 @@ impl MotionLibrary {
     /// from them with [`sample_cumulative`]).
     pub fn cumulative_weighted(&self, factor: impl Fn(&Clip) -> f64) -> Vec<f64> {
         let mut acc = 0.0;
-        self.clips.iter().zip(&self.weights).map(|(m, w)| {
-            acc += w * factor(&m.clip);
-            acc
-        }).collect()
+        self.clips
+            .iter()
+            .zip(&self.weights)
+            .map(|(m, w)| {
+                acc += w * factor(&m.clip);
+                acc
+            })
+            .collect()
     }
 
     /// Draw a start frame uniformly from 2 … T−2 of clip `i`.

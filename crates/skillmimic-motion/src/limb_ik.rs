@@ -1,6 +1,6 @@
 //! Light IK for retargeting (issue 23, `skillmimic retarget --ik`): after the rotations are
-//! transferred, each leg (hip → knee → ankle) and arm (shoulder → elbow → wrist) is bent so that its
-//! end body reaches a target, the source's ankle or wrist position × scale.
+//! transferred, each leg (hip → knee → ankle) and arm (shoulder → elbow → wrist) is bent so that
+//! its end body reaches a target, the source's ankle or wrist position × scale.
 //!
 //! Frame: the humanoid skeleton's Y-up frame (metres, no rest rotations; the same frame as the
 //! global rotations `G(b)` of [`crate::retarget_bvh`]). Why the target is the source position ×
@@ -21,13 +21,12 @@
 //!
 //! Before the limbs, the root moves so that the midpoint of the humanoid's hips lands on the
 //! midpoint of the source's hips × scale (when both hips are mapped): skeletons place their hips
-//! differently below the pelvis (the humanoid's sit 3.7 cm below its pelvis, SMPL's 9.1 cm × scale),
-//! and without the shift a standing source's ankles would lie beyond the humanoid's straight legs.
-//! The body's shape is unchanged by the shift; only its position is.
+//! differently below the pelvis (the humanoid's sit 3.7 cm below its pelvis, SMPL's 9.1 cm ×
+//! scale), and without the shift a standing source's ankles would lie beyond the humanoid's
+//! straight legs. The body's shape is unchanged by the shift; only its position is.
 
 use skillmimic_core::math::{Quat, Vec3, add, cross, dot, norm, scale, sub};
 use skillmimic_core::skeleton::{self, BODIES, NUM_BODIES};
-
 
 /// The IK chains: upper, middle and end body, and the middle body's flexion axis (body frame).
 pub const LIMBS: [([&str; 3], Vec3); 4] = [
@@ -51,7 +50,13 @@ pub fn position_of(root: Vec3, g: &[Quat; NUM_BODIES], b: usize) -> Vec3 {
 /// distance left (m, > 0 when the target is out of reach). A limb that is straight, nearly straight
 /// (interior angle within 11.5° of 180°) or bent the wrong way first turns about its flexion axis;
 /// the pass repeats (at most 4 times) until the target is met to 1 nm or no longer approached.
-pub fn two_bone(g: &mut [Quat; NUM_BODIES], root: Vec3, chain: [usize; 3], flex_axis: Vec3, target: Vec3) -> f64 {
+pub fn two_bone(
+    g: &mut [Quat; NUM_BODIES],
+    root: Vec3,
+    chain: [usize; 3],
+    flex_axis: Vec3,
+    target: Vec3,
+) -> f64 {
     let mut r = f64::INFINITY;
     for _ in 0..4 {
         let next = two_bone_pass(g, root, chain, flex_axis, target);
@@ -64,7 +69,13 @@ pub fn two_bone(g: &mut [Quat; NUM_BODIES], root: Vec3, chain: [usize; 3], flex_
     r
 }
 
-fn two_bone_pass(g: &mut [Quat; NUM_BODIES], root: Vec3, chain: [usize; 3], flex_axis: Vec3, target: Vec3) -> f64 {
+fn two_bone_pass(
+    g: &mut [Quat; NUM_BODIES],
+    root: Vec3,
+    chain: [usize; 3],
+    flex_axis: Vec3,
+    target: Vec3,
+) -> f64 {
     let [a, b, c] = chain;
     let pa = position_of(root, g, a);
     let pb = add(pa, g[a].rotate(BODIES[b].offset));
@@ -82,7 +93,11 @@ fn two_bone_pass(g: &mut [Quat; NUM_BODIES], root: Vec3, chain: [usize; 3], flex
         Quat::from_axis_angle(scale(n, 1.0 / norm(n)), want - theta)
     } else {
         // signed flexion now (negative: bent the wrong way) → the flexion wanted, about the axis
-        let now = if dot(n, flex) < 0.0 { std::f64::consts::PI - theta } else { theta - std::f64::consts::PI };
+        let now = if dot(n, flex) < 0.0 {
+            std::f64::consts::PI - theta
+        } else {
+            theta - std::f64::consts::PI
+        };
         Quat::from_axis_angle(scale(flex, 1.0 / norm(flex)), (std::f64::consts::PI - want) - now)
     };
     g[b] = bend.mul(g[b]).normalized();
@@ -124,7 +139,10 @@ impl Limbs {
             .iter()
             .filter_map(|(names, axis)| {
                 let chain = names.map(|n| skeleton::body_index(n).expect("limb bodies exist"));
-                chain.iter().all(|&b| src[b].is_some()).then(|| (chain, *axis, src[chain[2]].expect("mapped")))
+                chain
+                    .iter()
+                    .all(|&b| src[b].is_some())
+                    .then(|| (chain, *axis, src[chain[2]].expect("mapped")))
             })
             .collect();
         let hip = |n: &str| skeleton::body_index(n).expect("hip bodies exist");
@@ -136,7 +154,12 @@ impl Limbs {
     /// Solve one frame: move the root so the hips' midpoint meets the source's (module docs), then
     /// bend every chain; `target(j)`: the target position of source joint `j` (Y-up skeleton frame,
     /// metres). Returns the root position used.
-    pub fn solve(&mut self, g: &mut [Quat; NUM_BODIES], root: Vec3, target: impl Fn(usize) -> Vec3) -> Vec3 {
+    pub fn solve(
+        &mut self,
+        g: &mut [Quat; NUM_BODIES],
+        root: Vec3,
+        target: impl Fn(usize) -> Vec3,
+    ) -> Vec3 {
         let root = match self.hips {
             Some(([l, r], [jl, jr])) => {
                 let mid = scale(add(position_of(root, g, l), position_of(root, g, r)), 0.5);
@@ -156,7 +179,12 @@ impl Limbs {
     /// Mean and largest distance left (m) per kind over the chains solved; zeros where none was.
     pub fn residuals(&self) -> IkResiduals {
         let mean = |(_, sum, n): (f64, f64, usize)| if n == 0 { 0.0 } else { sum / n as f64 };
-        IkResiduals { feet_mean_m: mean(self.stats[0]), feet_max_m: self.stats[0].0, hands_mean_m: mean(self.stats[1]), hands_max_m: self.stats[1].0 }
+        IkResiduals {
+            feet_mean_m: mean(self.stats[0]),
+            feet_max_m: self.stats[0].0,
+            hands_mean_m: mean(self.stats[1]),
+            hands_max_m: self.stats[1].0,
+        }
     }
 }
 
@@ -164,8 +192,8 @@ impl Limbs {
 mod tests {
     use super::*;
 
-    /// A reachable target is met to 1e-9 m with the end body's rotation and the rest of the skeleton
-    /// untouched; an unreachable one leaves the straight-limb distance.
+    /// A reachable target is met to 1e-9 m with the end body's rotation and the rest of the
+    /// skeleton untouched; an unreachable one leaves the straight-limb distance.
     #[test]
     fn reaches_targets_and_keeps_the_end_rotation() {
         let mut g = [Quat::IDENTITY; NUM_BODIES];
@@ -175,7 +203,9 @@ mod tests {
         g[ankle] = Quat::from_axis_angle([1.0, 0.0, 0.0], 0.2);
         let before = g;
         let root = [0.1, 0.9, -0.2];
-        let positions = |g: &[Quat; NUM_BODIES]| -> [Vec3; NUM_BODIES] { std::array::from_fn(|b| position_of(root, g, b)) };
+        let positions = |g: &[Quat; NUM_BODIES]| -> [Vec3; NUM_BODIES] {
+            std::array::from_fn(|b| position_of(root, g, b))
+        };
         let p0 = positions(&g);
         // a target 10 cm up and 5 cm forward of the straight rest leg's ankle: the knee must bend
         let target = add(p0[ankle], [0.0, 0.1, 0.05]);
@@ -189,7 +219,10 @@ mod tests {
         // the straight leg bent forward at the knee's flexion axis, i.e. the shin turned backwards
         let shin = sub(p[ankle], p[knee]);
         let thigh = sub(p[knee], p[hip]);
-        assert!(cross(thigh, shin)[0] > 0.0, "knee bent the wrong way: thigh {thigh:?}, shin {shin:?}");
+        assert!(
+            cross(thigh, shin)[0] > 0.0,
+            "knee bent the wrong way: thigh {thigh:?}, shin {shin:?}"
+        );
         // out of reach: 2 m below the hip
         let far = add(p0[hip], [0.0, -2.0, 0.0]);
         let r = two_bone(&mut g, root, [hip, knee, ankle], [1.0, 0.0, 0.0], far);

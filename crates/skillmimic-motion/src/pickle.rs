@@ -43,11 +43,20 @@ pub enum Node {
     /// A dict or `collections.OrderedDict`, entries in insertion order.
     Dict(Vec<(Id, Id)>),
     /// `GLOBAL module name`: a reference to a class or function, never imported.
-    Global { module: String, name: String },
+    Global {
+        module: String,
+        name: String,
+    },
     /// `callable(*args)` as `REDUCE` or `NEWOBJ` would call it (never called).
-    Reduce { callable: Id, args: Id },
+    Reduce {
+        callable: Id,
+        args: Id,
+    },
     /// `obj.__setstate__(state)` as `BUILD` would apply it (never applied).
-    Build { obj: Id, state: Id },
+    Build {
+        obj: Id,
+        state: Id,
+    },
     /// `persistent_load(pid)` (torch: a storage reference).
     PersistentId(Id),
 }
@@ -178,7 +187,10 @@ impl Machine {
                 self.pos = end;
                 Ok(s)
             }
-            None => self.err(format!("needs {n} more bytes, the program has {} left", bytes.len() - self.pos)),
+            None => self.err(format!(
+                "needs {n} more bytes, the program has {} left",
+                bytes.len() - self.pos
+            )),
         }
     }
 
@@ -219,7 +231,9 @@ impl Machine {
             return self.err(format!("values nest deeper than {MAX_DEPTH} levels"));
         }
         if expanded > MAX_EXPANDED {
-            return self.err(format!("a value expands to more than {MAX_EXPANDED} values through memo references"));
+            return self.err(format!(
+                "a value expands to more than {MAX_EXPANDED} values through memo references"
+            ));
         }
         Ok(())
     }
@@ -249,7 +263,9 @@ impl Machine {
 
     fn top(&self) -> Result<Id, PickleError> {
         match (self.stack.last(), self.marks.last()) {
-            (Some(_), Some(&m)) if m >= self.stack.len() => self.err("stack is empty above the mark"),
+            (Some(_), Some(&m)) if m >= self.stack.len() => {
+                self.err("stack is empty above the mark")
+            }
             (Some(&id), _) => Ok(id),
             (None, _) => self.err("stack is empty"),
         }
@@ -277,7 +293,7 @@ impl Machine {
         match (&mut self.nodes[real], self.op) {
             (Node::List(v), b'a' | b'e') => v.extend(items),
             (Node::Dict(v), b's' | b'u') => {
-                if items.len() % 2 != 0 {
+                if !items.len().is_multiple_of(2) {
                     return self.err("odd number of values for key/value pairs");
                 }
                 v.extend(items.chunks_exact(2).map(|kv| (kv[0], kv[1])));
@@ -305,7 +321,9 @@ impl Machine {
     fn reduce(&mut self, callable: Id, args: Id) -> Result<(), PickleError> {
         // an empty OrderedDict becomes a dict so that SETITEMS can fill it (torch's state_dicts)
         let empty_args = matches!(self.nodes[args], Node::Tuple(ref v) if v.is_empty());
-        if empty_args && matches!(self.nodes[callable], Node::Global { ref module, ref name } if module == "collections" && name == "OrderedDict") {
+        if empty_args
+            && matches!(self.nodes[callable], Node::Global { ref module, ref name } if module == "collections" && name == "OrderedDict")
+        {
             return self.push_new(Node::Dict(Vec::new()), &[]);
         }
         self.push_new(Node::Reduce { callable, args }, &[callable, args])
@@ -392,14 +410,21 @@ impl Machine {
                     self.push_new(Node::Int(i64::from(u16::from_le_bytes([s[0], s[1]]))), &[])?;
                 }
                 0x8a | 0x8b => {
-                    let len = if op == 0x8a { i64::from(self.u8(b)?) } else { i64::from(self.u32(b)? as i32) };
+                    let len = if op == 0x8a {
+                        i64::from(self.u8(b)?)
+                    } else {
+                        i64::from(self.u32(b)? as i32)
+                    };
                     let n = self.len_field(b, len)?;
                     let s = self.take(b, n)?;
                     self.push_new(long(s), &[])?;
                 }
                 b'G' => {
                     let s = self.take(b, 8)?;
-                    self.push_new(Node::Float(f64::from_be_bytes(s.try_into().expect("8 bytes"))), &[])?;
+                    self.push_new(
+                        Node::Float(f64::from_be_bytes(s.try_into().expect("8 bytes"))),
+                        &[],
+                    )?;
                 }
                 b'X' | b'T' | b'U' | b'B' | b'C' => {
                     let len = match op {

@@ -38,14 +38,27 @@ pub fn read_pt_matrix(path: &Path) -> Result<PtMatrix, ClipError> {
     let pkl_name = tz.pkl_name.clone();
     let root = tz.pickle.root;
     if tz.pickle.dict(root).is_some() {
-        return Err(format_err(path, format!("{pkl_name}: holds a dict (a checkpoint?), expected the pickle of one tensor (torch._utils._rebuild_tensor_v2)")));
+        return Err(format_err(
+            path,
+            format!(
+                "{pkl_name}: holds a dict (a checkpoint?), expected the pickle of one tensor (torch._utils._rebuild_tensor_v2)"
+            ),
+        ));
     }
-    let t = torch_zip::tensor_ref(&tz.pickle, root).map_err(|d| format_err(path, format!("{pkl_name}: the pickled value {d}")))?;
+    let t = torch_zip::tensor_ref(&tz.pickle, root)
+        .map_err(|d| format_err(path, format!("{pkl_name}: the pickled value {d}")))?;
     if t.storage_class != "FloatStorage" {
-        return Err(format_err(path, format!("tensor storage is {}, expected FloatStorage (float32)", t.storage_class)));
+        return Err(format_err(
+            path,
+            format!("tensor storage is {}, expected FloatStorage (float32)", t.storage_class),
+        ));
     }
     if t.size.len() != 2 {
-        return Err(ClipError::Shape { path: path.to_path_buf(), shape: t.size.iter().map(|&s| s as usize).collect(), expected_width: PT_WIDTH });
+        return Err(ClipError::Shape {
+            path: path.to_path_buf(),
+            shape: t.size.iter().map(|&s| s as usize).collect(),
+            expected_width: PT_WIDTH,
+        });
     }
     let data = tz.read_f32(&t).map_err(|d| format_err(path, format!("tensor {}: {d}", t.key)))?;
     Ok(PtMatrix { rows: t.size[0] as usize, cols: t.size[1] as usize, data })
@@ -55,7 +68,13 @@ pub fn read_pt_matrix(path: &Path) -> Result<PtMatrix, ClipError> {
 /// `archive/data.pkl`, `archive/data/0`, `archive/version`), readable by [`read_pt_matrix`] and by
 /// `torch.load`. `storage_class` is normally `"FloatStorage"`; other names exist for tests of the
 /// reader's errors. The file is written to a temporary name and renamed.
-pub fn write_pt_matrix(path: &Path, rows: usize, cols: usize, data: &[f32], storage_class: &str) -> std::io::Result<()> {
+pub fn write_pt_matrix(
+    path: &Path,
+    rows: usize,
+    cols: usize,
+    data: &[f32],
+    storage_class: &str,
+) -> std::io::Result<()> {
     use std::io::Write;
     assert_eq!(data.len(), rows * cols, "data length must be rows * cols");
     let mut p: Vec<u8> = vec![0x80, 2]; // PROTO 2
@@ -100,7 +119,8 @@ pub fn write_pt_matrix(path: &Path, rows: usize, cols: usize, data: &[f32], stor
     let tmp = path.with_extension("pt.tmp");
     {
         let mut zip = zip::ZipWriter::new(std::fs::File::create(&tmp)?);
-        let opts = zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Stored);
+        let opts = zip::write::SimpleFileOptions::default()
+            .compression_method(zip::CompressionMethod::Stored);
         let io = |e: zip::result::ZipError| std::io::Error::other(e);
         zip.start_file("archive/data.pkl", opts).map_err(io)?;
         zip.write_all(&p)?;

@@ -46,7 +46,8 @@ fn backward_diff(x: &[f32], width: usize, fps: f64) -> Vec<f32> {
     let mut out = vec![0.0f32; x.len()];
     for t in 1..x.len() / width {
         for k in 0..width {
-            out[t * width + k] = ((x[t * width + k] as f64 - x[(t - 1) * width + k] as f64) * fps) as f32;
+            out[t * width + k] =
+                ((x[t * width + k] as f64 - x[(t - 1) * width + k] as f64) * fps) as f32;
         }
     }
     out

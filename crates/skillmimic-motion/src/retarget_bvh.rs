@@ -7,11 +7,11 @@
 //! Method, per source frame:
 //! 1. Source global rotations `R_s(j)` from the BVH ([`crate::bvh`]), turned into the Y-up frame:
 //!    `R'_s = U · R_s · U⁻¹`, with `U` the map's up-axis conversion and yaw.
-//! 2. Rest alignment of each mapped bone: `D(b)` is the smallest rotation taking the humanoid's rest
-//!    direction of bone b (towards its next mapped body, or its first child for a leaf) onto the
-//!    source's rest direction of the mapped joint (BVH rest = all channels zero). The pelvis keeps
-//!    `D = I` (both skeletons face +z with the left side at +x; a map's `yaw_deg` fixes sources
-//!    that face elsewhere).
+//! 2. Rest alignment of each mapped bone: `D(b)` is the smallest rotation taking the humanoid's
+//!    rest direction of bone b (towards its next mapped body, or its first child for a leaf) onto
+//!    the source's rest direction of the mapped joint (BVH rest = all channels zero). The pelvis
+//!    keeps `D = I` (both skeletons face +z with the left side at +x; a map's `yaw_deg` fixes
+//!    sources that face elsewhere).
 //! 3. Global rotations `G(b) = R'_s(j) · D(b)`; an unmapped body (fingers, Spine2, toes …) keeps
 //!    the rest pose relative to its parent, `G(b) = G(parent)`.
 //! 4. Local rotations `G(parent)⁻¹ · G(b)` as rotation vectors; root rotation `T · G(pelvis)`.
@@ -69,9 +69,16 @@ impl JointMap {
             None => {
                 if !path.is_file() {
                     let names: Vec<&str> = BUILTIN_MAPS.iter().map(|m| m.0).collect();
-                    return Err(ClipError::Format { path: path.to_path_buf(), detail: format!("joint map: neither a shipped map ({}) nor a TOML file", names.join(", ")) });
+                    return Err(ClipError::Format {
+                        path: path.to_path_buf(),
+                        detail: format!(
+                            "joint map: neither a shipped map ({}) nor a TOML file",
+                            names.join(", ")
+                        ),
+                    });
                 }
-                let t = std::fs::read_to_string(path).map_err(|error| ClipError::Io { path: path.to_path_buf(), error })?;
+                let t = std::fs::read_to_string(path)
+                    .map_err(|error| ClipError::Io { path: path.to_path_buf(), error })?;
                 (t, path.to_path_buf())
             }
         };
@@ -144,7 +151,12 @@ pub(crate) fn up_turn(map: &JointMap, path: &std::path::Path) -> Result<Quat, Cl
     let u = match map.up.as_str() {
         "y" => Quat::IDENTITY,
         "z" => Quat::from_axis_angle([1.0, 0.0, 0.0], -std::f64::consts::FRAC_PI_2),
-        other => return Err(err_at(path, format!("joint map 'up' must be \"y\" or \"z\", found \"{other}\""))),
+        other => {
+            return Err(err_at(
+                path,
+                format!("joint map 'up' must be \"y\" or \"z\", found \"{other}\""),
+            ));
+        }
     };
     Ok(Quat::from_axis_angle([0.0, 1.0, 0.0], map.yaw_deg.to_radians()).mul(u))
 }
@@ -154,8 +166,8 @@ pub(crate) fn tilt() -> Quat {
     Quat::from_axis_angle([1.0, 0.0, 0.0], std::f64::consts::FRAC_PI_2)
 }
 
-/// Local rotations from global ones (Y-up skeleton frame): `G(parent)⁻¹ · G(b)`, and `T · G(pelvis)`
-/// for the root.
+/// Local rotations from global ones (Y-up skeleton frame): `G(parent)⁻¹ · G(b)`, and `T ·
+/// G(pelvis)` for the root.
 pub(crate) fn locals_of(g: &[Quat; NUM_BODIES]) -> [Quat; NUM_BODIES] {
     std::array::from_fn(|b| match BODIES[b].parent {
         Some(p) => g[p].conj().mul(g[b]).normalized(),
@@ -201,7 +213,9 @@ pub fn retarget(bvh: &Bvh, map: &JointMap, opts: &Options) -> Result<Motion, Cli
         let j = bvh.joint(joint).ok_or_else(|| err(bvh, format!("joint map sends body '{body}' to joint '{joint}', which the BVH file does not have")))?;
         src[b] = Some(j);
     }
-    let Some(root_joint) = src[0] else { return Err(err(bvh, "the joint map must map the Pelvis".into())) };
+    let Some(root_joint) = src[0] else {
+        return Err(err(bvh, "the joint map must map the Pelvis".into()));
+    };
     if bvh.frames < 2 {
         return Err(err(bvh, format!("{} frame(s): at least 2 are needed", bvh.frames)));
     }
@@ -220,9 +234,13 @@ pub fn retarget(bvh: &Bvh, map: &JointMap, opts: &Options) -> Result<Motion, Cli
     for b in 1..NUM_BODIES {
         let Some(j) = src[b] else { continue };
         // the next mapped body down the humanoid's chain whose source joint lies below j
-        let next = (b + 1..NUM_BODIES).find(|&c| src[c].is_some_and(|sc| sc != j && is_desc(j, sc)) && target_chain(b, c).is_some());
+        let next = (b + 1..NUM_BODIES).find(|&c| {
+            src[c].is_some_and(|sc| sc != j && is_desc(j, sc)) && target_chain(b, c).is_some()
+        });
         let (dt, ds) = match next {
-            Some(c) => (target_chain(b, c).unwrap(), source_chain(bvh, j, src[c].unwrap()).unwrap()),
+            Some(c) => {
+                (target_chain(b, c).unwrap(), source_chain(bvh, j, src[c].unwrap()).unwrap())
+            }
             None => {
                 let child = (b + 1..NUM_BODIES).find(|&c| BODIES[c].parent == Some(b));
                 match (child, bvh.joints[j].end_site) {
@@ -235,7 +253,8 @@ pub fn retarget(bvh: &Bvh, map: &JointMap, opts: &Options) -> Result<Motion, Cli
     }
     // scale: leg lengths (hip → knee → ankle) of both skeletons, else the map's factor
     let leg = |h: &str, k: &str, a: &str| -> Option<(f64, f64)> {
-        let (hb, kb, ab) = (skeleton::body_index(h)?, skeleton::body_index(k)?, skeleton::body_index(a)?);
+        let (hb, kb, ab) =
+            (skeleton::body_index(h)?, skeleton::body_index(k)?, skeleton::body_index(a)?);
         let (hj, kj, aj) = (src[hb]?, src[kb]?, src[ab]?);
         let t = norm(BODIES[kb].offset) + norm(BODIES[ab].offset);
         let s = norm(source_chain(bvh, hj, kj)?) + norm(source_chain(bvh, kj, aj)?);
@@ -243,7 +262,13 @@ pub fn retarget(bvh: &Bvh, map: &JointMap, opts: &Options) -> Result<Motion, Cli
     };
     let scale_f = match (leg("L_Hip", "L_Knee", "L_Ankle"), leg("R_Hip", "R_Knee", "R_Ankle")) {
         (Some((t1, s1)), Some((t2, s2))) => (t1 + t2) / (s1 + s2),
-        _ => map.scale.ok_or_else(|| err(bvh, "map both legs (L/R_Hip, _Knee, _Ankle) or give 'scale' (source units to metres)".into()))?,
+        _ => map.scale.ok_or_else(|| {
+            err(
+                bvh,
+                "map both legs (L/R_Hip, _Knee, _Ankle) or give 'scale' (source units to metres)"
+                    .into(),
+            )
+        })?,
     };
     // per source frame: root position (Y-up frame, metres), global rotations → locals
     let mut root_p = Vec::with_capacity(bvh.frames);
@@ -273,17 +298,42 @@ pub fn retarget(bvh: &Bvh, map: &JointMap, opts: &Options) -> Result<Motion, Cli
 /// (Y-up skeleton frame, metres) and local rotations to `opts.fps`, the finiteness check and the
 /// ground alignment (module docs, steps 5–6).
 #[allow(clippy::too_many_arguments)]
-pub(crate) fn finish(path: &std::path::Path, frame_time: f64, root_p: Vec<Vec3>, locals: Vec<[Quat; NUM_BODIES]>, scale_f: f64, u: Quat, ik: &crate::limb_ik::Limbs, opts: &Options) -> Result<Motion, ClipError> {
+pub(crate) fn finish(
+    path: &std::path::Path,
+    frame_time: f64,
+    root_p: Vec<Vec3>,
+    locals: Vec<[Quat; NUM_BODIES]>,
+    scale_f: f64,
+    u: Quat,
+    ik: &crate::limb_ik::Limbs,
+    opts: &Options,
+) -> Result<Motion, ClipError> {
     let n = locals.len();
     let tilt = tilt();
     let duration = (n - 1) as f64 * frame_time;
     // (a 1e-6-frame allowance: 245 frames at 1/60 s make 244.99999… frames of 1/60 s in floats)
     let out_frames = (duration * opts.fps + 1e-6).floor() + 1.0;
     if !(out_frames.is_finite() && out_frames <= MAX_OUTPUT_FRAMES as f64) {
-        return Err(err_at(path, format!("{n} frames of {frame_time} s last {duration} s: more than {MAX_OUTPUT_FRAMES} output frames at {} fps", opts.fps)));
+        return Err(err_at(
+            path,
+            format!(
+                "{n} frames of {frame_time} s last {duration} s: more than {MAX_OUTPUT_FRAMES} output frames at {} fps",
+                opts.fps
+            ),
+        ));
     }
     let frames = out_frames as usize;
-    let mut m = Motion { fps: opts.fps, frames, root_pos: Vec::with_capacity(frames), root_rot: Vec::with_capacity(frames), dof_rot: Vec::with_capacity(frames), scale: scale_f, ground_shift: 0.0, source_turn: tilt.mul(u), ik: ik.residuals() };
+    let mut m = Motion {
+        fps: opts.fps,
+        frames,
+        root_pos: Vec::with_capacity(frames),
+        root_rot: Vec::with_capacity(frames),
+        dof_rot: Vec::with_capacity(frames),
+        scale: scale_f,
+        ground_shift: 0.0,
+        source_turn: tilt.mul(u),
+        ik: ik.residuals(),
+    };
     let mut prev_root = Quat::IDENTITY;
     for k in 0..frames {
         let x = (k as f64 / opts.fps / frame_time).min((n - 1) as f64);
@@ -297,9 +347,19 @@ pub(crate) fn finish(path: &std::path::Path, frame_time: f64, root_p: Vec<Vec3>,
         }
         prev_root = r;
         m.root_rot.push(r);
-        m.dof_rot.push(std::array::from_fn(|jt| slerp(locals[i][jt + 1], locals[i1][jt + 1], t).to_rotvec()));
+        m.dof_rot.push(std::array::from_fn(|jt| {
+            slerp(locals[i][jt + 1], locals[i1][jt + 1], t).to_rotvec()
+        }));
     }
-    let finite = m.root_pos.iter().flatten().chain(m.dof_rot.iter().flatten().flatten()).all(|x| x.is_finite()) && m.root_rot.iter().all(|q| q.w.is_finite() && q.x.is_finite() && q.y.is_finite() && q.z.is_finite());
+    let finite = m
+        .root_pos
+        .iter()
+        .flatten()
+        .chain(m.dof_rot.iter().flatten().flatten())
+        .all(|x| x.is_finite())
+        && m.root_rot
+            .iter()
+            .all(|q| q.w.is_finite() && q.x.is_finite() && q.y.is_finite() && q.z.is_finite());
     if !finite {
         return Err(err_at(path, "the retargeted motion has non-finite values (offsets, positions or channel values too large?)".into()));
     }
@@ -327,7 +387,8 @@ pub fn body_positions(m: &Motion, k: usize) -> [Vec3; NUM_BODIES] {
 
 /// Feet of the sole rule: (body, height of its sole below the body frame in the rest pose, m):
 /// the ankle and toe boxes' bottoms.
-const SOLES: [(&str, f64); 4] = [("L_Ankle", 0.1164), ("R_Ankle", 0.1164), ("L_Toe", 0.02), ("R_Toe", 0.02)];
+const SOLES: [(&str, f64); 4] =
+    [("L_Ankle", 0.1164), ("R_Ankle", 0.1164), ("L_Toe", 0.02), ("R_Toe", 0.02)];
 
 /// The lowest sole point (m) of a frame's body positions, and the foot body it belongs to.
 pub fn lowest_sole_of(p: &[Vec3; NUM_BODIES]) -> (f64, usize) {
@@ -353,7 +414,8 @@ pub fn joint_speeds(m: &Motion, spike: f64) -> ((f64, usize, usize), usize, Vec<
     let mut per_frame = vec![0.0; m.frames];
     for k in 1..m.frames {
         for j in 0..NUM_JOINTS {
-            let (a, b) = (Quat::from_rotvec(m.dof_rot[k - 1][j]), Quat::from_rotvec(m.dof_rot[k][j]));
+            let (a, b) =
+                (Quat::from_rotvec(m.dof_rot[k - 1][j]), Quat::from_rotvec(m.dof_rot[k][j]));
             let w = a.conj().mul(b).angle() * m.fps;
             per_frame[k] = f64::max(per_frame[k], w);
             if w > worst.0 {

@@ -1,5 +1,5 @@
-//! A retargeted body motion ([`crate::retarget_bvh::Motion`]) as a clip of the project format:
-//! the 53 body positions by forward kinematics, a ball track, the hand–ball contact label, the skill
+//! A retargeted body motion ([`crate::retarget_bvh::Motion`]) as a clip of the project format: the
+//! 53 body positions by forward kinematics, a ball track, the hand–ball contact label, the skill
 //! label, and the diagnostics a user checks before training (issue 23).
 //!
 //! Ball track ([`Ball`]), world frame, Z-up, metres:
@@ -91,7 +91,15 @@ fn resample(points: &[Vec3], src_dt: f64, m: &Motion) -> Vec<Vec3> {
 
 /// Build the clip and its report (`src_dt`: the source's frame time; `path` names the source in
 /// errors). The clip passes the one clip validation every loader runs.
-pub fn to_clip(m: &Motion, name: &str, source: &str, skill: u32, ball: &Ball, src_dt: f64, path: &Path) -> Result<(Clip, Report), ClipError> {
+pub fn to_clip(
+    m: &Motion,
+    name: &str,
+    source: &str,
+    skill: u32,
+    ball: &Ball,
+    src_dt: f64,
+    path: &Path,
+) -> Result<(Clip, Report), ClipError> {
     let t = m.frames;
     let mut clip = Clip {
         name: name.into(),
@@ -117,12 +125,18 @@ pub fn to_clip(m: &Motion, name: &str, source: &str, skill: u32, ball: &Ball, sr
         }
         Ball::Points(p) => {
             if p.is_empty() {
-                return Err(ClipError::Format { path: path.to_path_buf(), detail: "ball track: no positions".into() });
+                return Err(ClipError::Format {
+                    path: path.to_path_buf(),
+                    detail: "ball track: no positions".into(),
+                });
             }
-            resample(&p.iter().map(|&x| m.source_to_world(x)).collect::<Vec<_>>(), src_dt, m).into_iter().map(|mut x| {
-                x[2] += m.ground_shift;
-                x
-            }).collect()
+            resample(&p.iter().map(|&x| m.source_to_world(x)).collect::<Vec<_>>(), src_dt, m)
+                .into_iter()
+                .map(|mut x| {
+                    x[2] += m.ground_shift;
+                    x
+                })
+                .collect()
         }
     };
     let hands: Vec<usize> = [L_WRIST, R_WRIST].into_iter().chain(FINGERTIPS).collect();
@@ -153,7 +167,8 @@ pub fn to_clip(m: &Motion, name: &str, source: &str, skill: u32, ball: &Ball, sr
         clip.body_pos.extend(p.iter().flat_map(|v| v.map(|x| x as f32)));
         clip.ball_pos.extend(ball_k.map(|x| x as f32));
         clip.ball_rot.extend(Quat::IDENTITY.to_wxyz().map(|x| x as f32));
-        let touching = !matches!(ball, Ball::None) && hands.iter().any(|&h| norm(sub(p[h], *ball_k)) < BALL_RADIUS + 0.05);
+        let touching = !matches!(ball, Ball::None)
+            && hands.iter().any(|&h| norm(sub(p[h], *ball_k)) < BALL_RADIUS + 0.05);
         clip.contact.push(touching as u8 as f32);
         rep.contact_frames += touching as usize;
         let (sole, foot) = lowest_sole_of(&p);

@@ -96,7 +96,11 @@ fn lowest_sole(pos: &[[f64; 3]; hsi::NUM_BODIES], rot: &[Quat; hsi::NUM_BODIES])
         for (_, g) in BODIES[b].geoms {
             if let GeomSpec::Box { half_extents: h, center: c, .. } = *g {
                 for k in 0..8 {
-                    let p = [c[0] + if k & 4 == 0 { -h[0] } else { h[0] }, c[1] + if k & 2 == 0 { -h[1] } else { h[1] }, c[2] + if k & 1 == 0 { -h[2] } else { h[2] }];
+                    let p = [
+                        c[0] + if k & 4 == 0 { -h[0] } else { h[0] },
+                        c[1] + if k & 2 == 0 { -h[1] } else { h[1] },
+                        c[2] + if k & 1 == 0 { -h[2] } else { h[2] },
+                    ];
                     z = z.min(pos[b][2] + rot[b].rotate(p)[2]);
                 }
             }
@@ -108,7 +112,10 @@ fn lowest_sole(pos: &[[f64; 3]; hsi::NUM_BODIES], rot: &[Quat; hsi::NUM_BODIES])
 /// Retarget `clip` (SkillMimic skeleton) onto the TokenHSI character.
 pub fn retarget_to_hsi(clip: &Clip) -> (HsiClip, RetargetReport) {
     let t_frames = clip.num_frames;
-    let src_index: Vec<Option<usize>> = MAP.iter().map(|m| m.map(|n| skeleton::body_index(n).expect("mapped skeleton body"))).collect();
+    let src_index: Vec<Option<usize>> = MAP
+        .iter()
+        .map(|m| m.map(|n| skeleton::body_index(n).expect("mapped skeleton body")))
+        .collect();
     let a_inv = Quat::from_rotvec([std::f64::consts::FRAC_PI_2, 0.0, 0.0]).conj();
     let y_inv = Quat::about_z(std::f64::consts::FRAC_PI_2).conj();
     let tpose = |b: usize| match b {
@@ -117,10 +124,14 @@ pub fn retarget_to_hsi(clip: &Clip) -> (HsiClip, RetargetReport) {
         _ => Quat::IDENTITY,
     };
     let scale = leg_length_target() / leg_length_source();
-    let mut rep = RetargetReport { name: clip.name.clone(), frames: t_frames, scale, ..Default::default() };
+    let mut rep =
+        RetargetReport { name: clip.name.clone(), frames: t_frames, scale, ..Default::default() };
     let mut out = HsiClip {
         name: clip.name.clone(),
-        source: format!("retargeted from {} (SkillMimic skeleton) by skillmimic retarget", clip.source),
+        source: format!(
+            "retargeted from {} (SkillMimic skeleton) by skillmimic retarget",
+            clip.source
+        ),
         fps: clip.fps,
         num_frames: t_frames,
         root_pos: Vec::with_capacity(3 * t_frames),
@@ -131,8 +142,14 @@ pub fn retarget_to_hsi(clip: &Clip) -> (HsiClip, RetargetReport) {
     let mut roots = Vec::with_capacity(t_frames);
     let mut soles = Vec::with_capacity(t_frames);
     let mut src_feet = Vec::with_capacity(t_frames);
-    let wrist_src = [skeleton::body_index("R_Wrist").expect("skeleton body"), skeleton::body_index("L_Wrist").expect("skeleton body")];
-    let feet_src: Vec<usize> = ["L_Ankle", "R_Ankle", "L_Toe", "R_Toe"].iter().map(|n| skeleton::body_index(n).expect("skeleton body")).collect();
+    let wrist_src = [
+        skeleton::body_index("R_Wrist").expect("skeleton body"),
+        skeleton::body_index("L_Wrist").expect("skeleton body"),
+    ];
+    let feet_src: Vec<usize> = ["L_Ankle", "R_Ankle", "L_Toe", "R_Toe"]
+        .iter()
+        .map(|n| skeleton::body_index(n).expect("skeleton body"))
+        .collect();
     let mut frames_bad = 0usize;
     for t in 0..t_frames {
         // source global rotations
@@ -141,7 +158,11 @@ pub fn retarget_to_hsi(clip: &Clip) -> (HsiClip, RetargetReport) {
         for b in 1..skeleton::NUM_BODIES {
             let p = skeleton::BODIES[b].parent.expect("parent");
             let r = skeleton::dof_range(b);
-            gs[b] = gs[p].mul(Quat::from_rotvec([dof[r.start] as f64, dof[r.start + 1] as f64, dof[r.start + 2] as f64]));
+            gs[b] = gs[p].mul(Quat::from_rotvec([
+                dof[r.start] as f64,
+                dof[r.start + 1] as f64,
+                dof[r.start + 2] as f64,
+            ]));
         }
         // target global rotations (bodies without a counterpart follow their parent's local rest)
         let mut gt = [Quat::IDENTITY; hsi::NUM_BODIES];
@@ -201,7 +222,9 @@ pub fn retarget_to_hsi(clip: &Clip) -> (HsiClip, RetargetReport) {
         let (pos, rot) = hsi_forward_kinematics(root, gt[0], &q);
         soles.push(lowest_sole(&pos, &rot));
         roots.push((root, gt[0], q));
-        src_feet.push(feet_src.iter().map(|&b| clip.body_pos_at(t, b)[2]).fold(f64::INFINITY, f64::min));
+        src_feet.push(
+            feet_src.iter().map(|&b| clip.body_pos_at(t, b)[2]).fold(f64::INFINITY, f64::min),
+        );
     }
     // stance frames: the source's lowest foot frame within 3 cm of its clip-wide 10th percentile
     let mut sorted = src_feet.clone();
@@ -210,7 +233,8 @@ pub fn retarget_to_hsi(clip: &Clip) -> (HsiClip, RetargetReport) {
     let stance: Vec<bool> = src_feet.iter().map(|&z| z - floor < 0.03).collect();
     let lift = stance_lift(&soles, &stance);
     let median = {
-        let mut l: Vec<f64> = stance.iter().zip(&lift).filter(|(s, _)| **s).map(|(_, l)| *l).collect();
+        let mut l: Vec<f64> =
+            stance.iter().zip(&lift).filter(|(s, _)| **s).map(|(_, l)| *l).collect();
         l.sort_by(f64::total_cmp);
         l.get(l.len() / 2).copied().unwrap_or(0.0)
     };

@@ -36,7 +36,9 @@ use skillmimic_core::math::{Quat, Vec3, cross, norm, scale, sub};
 use skillmimic_core::skeleton::{self, BODIES, NUM_BODIES};
 
 use crate::error::ClipError;
-use crate::retarget_bvh::{JointMap, MAX_OUTPUT_FRAMES, Motion, Options, err_at, finish, locals_of, target_chain, up_turn};
+use crate::retarget_bvh::{
+    JointMap, MAX_OUTPUT_FRAMES, Motion, Options, err_at, finish, locals_of, target_chain, up_turn,
+};
 
 /// Joint positions per frame: `frames × names.len()` points, row-major (source axes and units).
 #[derive(Clone, Debug)]
@@ -65,33 +67,75 @@ impl JointPositions {
     pub fn read_csv(path: &Path, fps: f64) -> Result<Self, ClipError> {
         let fail = |detail: String| ClipError::Format { path: path.to_path_buf(), detail };
         if !(fps.is_finite() && fps > 0.0 && fps <= 10_000.0) {
-            return Err(fail(format!("frame rate {fps}: expected a positive number of frames per second (≤ 10000)")));
+            return Err(fail(format!(
+                "frame rate {fps}: expected a positive number of frames per second (≤ 10000)"
+            )));
         }
-        let meta = std::fs::metadata(path).map_err(|error| ClipError::Io { path: path.to_path_buf(), error })?;
+        let meta = std::fs::metadata(path)
+            .map_err(|error| ClipError::Io { path: path.to_path_buf(), error })?;
         if meta.len() > crate::bvh::MAX_BYTES {
-            return Err(fail(format!("{} bytes: larger than the {} bytes a motion file may have", meta.len(), crate::bvh::MAX_BYTES)));
+            return Err(fail(format!(
+                "{} bytes: larger than the {} bytes a motion file may have",
+                meta.len(),
+                crate::bvh::MAX_BYTES
+            )));
         }
-        let text = std::fs::read_to_string(path).map_err(|error| ClipError::Io { path: path.to_path_buf(), error })?;
+        let text = std::fs::read_to_string(path)
+            .map_err(|error| ClipError::Io { path: path.to_path_buf(), error })?;
         let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
-        let Some((_, header)) = lines.next() else { return Err(fail("empty: expected a header line of <joint>_x,<joint>_y,<joint>_z columns".into())) };
+        let Some((_, header)) = lines.next() else {
+            return Err(fail(
+                "empty: expected a header line of <joint>_x,<joint>_y,<joint>_z columns".into(),
+            ));
+        };
         let cells: Vec<&str> = header.split(',').map(str::trim).collect();
         if cells.is_empty() || !cells.len().is_multiple_of(3) {
-            return Err(fail(format!("line 1: {} columns, expected x, y, z triples per joint", cells.len())));
+            return Err(fail(format!(
+                "line 1: {} columns, expected x, y, z triples per joint",
+                cells.len()
+            )));
         }
         let mut names = Vec::with_capacity(cells.len() / 3);
         for (k, triple) in cells.chunks(3).enumerate() {
-            let stem = |c: &str, axis: char| c.strip_suffix(&format!("_{axis}")).or_else(|| c.strip_suffix(&format!(".{axis}"))).map(str::to_string);
+            let stem = |c: &str, axis: char| {
+                c.strip_suffix(&format!("_{axis}"))
+                    .or_else(|| c.strip_suffix(&format!(".{axis}")))
+                    .map(str::to_string)
+            };
             match (stem(triple[0], 'x'), stem(triple[1], 'y'), stem(triple[2], 'z')) {
                 (Some(a), Some(b), Some(c)) if a == b && b == c && !a.is_empty() => names.push(a),
-                _ => return Err(fail(format!("line 1, columns {}–{}: expected <joint>_x,<joint>_y,<joint>_z, found '{}'", 3 * k + 1, 3 * k + 3, triple.join(",")))),
+                _ => {
+                    return Err(fail(format!(
+                        "line 1, columns {}–{}: expected <joint>_x,<joint>_y,<joint>_z, found '{}'",
+                        3 * k + 1,
+                        3 * k + 3,
+                        triple.join(",")
+                    )));
+                }
             }
         }
         let mut positions = Vec::new();
         let mut frames = 0;
         for (i, line) in lines {
-            let row: Vec<f64> = line.split(',').map(|c| c.trim().parse::<f64>()).collect::<Result<_, _>>().map_err(|_| fail(format!("line {}: expected {} numbers, found '{}'", i + 1, cells.len(), line.chars().take(80).collect::<String>())))?;
+            let row: Vec<f64> = line
+                .split(',')
+                .map(|c| c.trim().parse::<f64>())
+                .collect::<Result<_, _>>()
+                .map_err(|_| {
+                    fail(format!(
+                        "line {}: expected {} numbers, found '{}'",
+                        i + 1,
+                        cells.len(),
+                        line.chars().take(80).collect::<String>()
+                    ))
+                })?;
             if row.len() != cells.len() || row.iter().any(|x| !x.is_finite()) {
-                return Err(fail(format!("line {}: expected {} finite numbers, found {}", i + 1, cells.len(), row.len())));
+                return Err(fail(format!(
+                    "line {}: expected {} finite numbers, found {}",
+                    i + 1,
+                    cells.len(),
+                    row.len()
+                )));
             }
             positions.extend(row.chunks(3).map(|c| [c[0], c[1], c[2]]));
             frames += 1;
@@ -103,7 +147,8 @@ impl JointPositions {
     }
 }
 
-/// The rotation that best takes the unit vectors `rest[i]` onto `obs[i]` (Horn's quaternion method).
+/// The rotation that best takes the unit vectors `rest[i]` onto `obs[i]` (Horn's quaternion
+/// method).
 pub fn best_rotation(rest: &[Vec3], obs: &[Vec3]) -> Quat {
     let mut s = [[0.0f64; 3]; 3];
     for (r, o) in rest.iter().zip(obs) {
@@ -134,7 +179,10 @@ fn jacobi4(a: &mut [[f64; 4]; 4]) -> ([f64; 4], [[f64; 4]; 4]) {
         row[i] = 1.0;
     }
     for _sweep in 0..50 {
-        let off: f64 = (0..4).flat_map(|i| (0..4).filter(move |&j| j != i).map(move |j| (i, j))).map(|(i, j)| a[i][j] * a[i][j]).sum();
+        let off: f64 = (0..4)
+            .flat_map(|i| (0..4).filter(move |&j| j != i).map(move |j| (i, j)))
+            .map(|(i, j)| a[i][j] * a[i][j])
+            .sum();
         if off < 1e-30 {
             break;
         }
@@ -195,16 +243,33 @@ fn branches(mapped: &[bool; NUM_BODIES]) -> Vec<Vec<usize>> {
         if mapped[c] {
             return Some(c);
         }
-        (c + 1..NUM_BODIES).filter(|&d| BODIES[d].parent == Some(c)).find_map(|d| nearest(d, mapped))
+        (c + 1..NUM_BODIES)
+            .filter(|&d| BODIES[d].parent == Some(c))
+            .find_map(|d| nearest(d, mapped))
     }
     (0..NUM_BODIES).map(|b| children(b).filter_map(|c| nearest(c, mapped)).collect()).collect()
 }
 
 /// Retarget joint positions with `map` (see the module docs).
-pub fn retarget_positions(src: &JointPositions, map: &JointMap, opts: &Options) -> Result<Motion, ClipError> {
+pub fn retarget_positions(
+    src: &JointPositions,
+    map: &JointMap,
+    opts: &Options,
+) -> Result<Motion, ClipError> {
     let path = &src.path;
-    if src.positions.len() != src.frames * src.names.len() || !(src.fps.is_finite() && src.fps > 0.0) {
-        return Err(err_at(path, format!("{} positions for {} frames × {} joints at {} fps: expected frames × joints points and a positive frame rate", src.positions.len(), src.frames, src.names.len(), src.fps)));
+    if src.positions.len() != src.frames * src.names.len()
+        || !(src.fps.is_finite() && src.fps > 0.0)
+    {
+        return Err(err_at(
+            path,
+            format!(
+                "{} positions for {} frames × {} joints at {} fps: expected frames × joints points and a positive frame rate",
+                src.positions.len(),
+                src.frames,
+                src.names.len(),
+                src.fps
+            ),
+        ));
     }
     let u = up_turn(map, path)?;
     let mut joint: [Option<usize>; NUM_BODIES] = [None; NUM_BODIES];
@@ -221,16 +286,25 @@ pub fn retarget_positions(src: &JointPositions, map: &JointMap, opts: &Options) 
     let o = |f: usize, b: usize| u.rotate(src.at(f, joint[b].expect("mapped")));
     // scale: the humanoid's leg length over the source's median leg length
     let leg = |h: &str, k: &str, a: &str| -> Option<(f64, f64)> {
-        let (hb, kb, ab) = (skeleton::body_index(h)?, skeleton::body_index(k)?, skeleton::body_index(a)?);
+        let (hb, kb, ab) =
+            (skeleton::body_index(h)?, skeleton::body_index(k)?, skeleton::body_index(a)?);
         joint[hb].and(joint[kb]).and(joint[ab])?;
-        let mut lengths: Vec<f64> = (0..src.frames).map(|f| norm(sub(o(f, kb), o(f, hb))) + norm(sub(o(f, ab), o(f, kb)))).collect();
+        let mut lengths: Vec<f64> = (0..src.frames)
+            .map(|f| norm(sub(o(f, kb), o(f, hb))) + norm(sub(o(f, ab), o(f, kb))))
+            .collect();
         lengths.sort_by(f64::total_cmp);
         let s = lengths[lengths.len() / 2];
         (s > 1e-9).then_some((norm(BODIES[kb].offset) + norm(BODIES[ab].offset), s))
     };
     let scale_f = match (leg("L_Hip", "L_Knee", "L_Ankle"), leg("R_Hip", "R_Knee", "R_Ankle")) {
         (Some((t1, s1)), Some((t2, s2))) => (t1 + t2) / (s1 + s2),
-        _ => map.scale.ok_or_else(|| err_at(path, "map both legs (L/R_Hip, _Knee, _Ankle) or give 'scale' (source units to metres)".into()))?,
+        _ => map.scale.ok_or_else(|| {
+            err_at(
+                path,
+                "map both legs (L/R_Hip, _Knee, _Ankle) or give 'scale' (source units to metres)"
+                    .into(),
+            )
+        })?,
     };
     let mapped: [bool; NUM_BODIES] = std::array::from_fn(|b| joint[b].is_some());
     let branch = branches(&mapped);
@@ -239,7 +313,9 @@ pub fn retarget_positions(src: &JointPositions, map: &JointMap, opts: &Options) 
     let mut locals = Vec::with_capacity(src.frames);
     // each body's rest vectors towards its branches (skeleton frame), and how its rotation is
     // found: from ≥ 2 spanning branches, from one bone, or inherited
-    let rest: Vec<Vec<Vec3>> = (0..NUM_BODIES).map(|b| branch[b].iter().map(|&c| target_chain(b, c).expect("a descendant")).collect()).collect();
+    let rest: Vec<Vec<Vec3>> = (0..NUM_BODIES)
+        .map(|b| branch[b].iter().map(|&c| target_chain(b, c).expect("a descendant")).collect())
+        .collect();
     let kind: [Kind; NUM_BODIES] = std::array::from_fn(|b| {
         if !mapped[b] || branch[b].is_empty() {
             return Kind::Inherit;

@@ -28,18 +28,25 @@ pub fn synthetic_rows(t: usize) -> Vec<f32> {
 /// world) turning slowly about z, walking along the world's facing at 1 m/s at pelvis height
 /// 0.95 m, hips and knees swinging (±0.5 rad, 0–0.9 rad at 1 Hz), arms counter-swinging, fingers
 /// curled a little; `betas` stored as given. Returns `poses` for checks.
-pub fn write_synthetic_amass(path: &std::path::Path, frames: usize, fps: f64, betas: &[f64]) -> std::io::Result<Vec<f64>> {
+pub fn write_synthetic_amass(
+    path: &std::path::Path,
+    frames: usize,
+    fps: f64,
+    betas: &[f64],
+) -> std::io::Result<Vec<f64>> {
     use skillmimic_core::math::Quat;
     let mut poses = vec![0.0f64; frames * 156];
     let mut trans = vec![0.0f64; frames * 3];
     for f in 0..frames {
         let t = f as f64 / fps;
         let yaw = 0.3 * t;
-        let root = Quat::about_z(yaw).mul(Quat::from_axis_angle([1.0, 0.0, 0.0], std::f64::consts::FRAC_PI_2));
+        let root = Quat::about_z(yaw)
+            .mul(Quat::from_axis_angle([1.0, 0.0, 0.0], std::f64::consts::FRAC_PI_2));
         let row = &mut poses[f * 156..(f + 1) * 156];
         row[0..3].copy_from_slice(&root.to_rotvec());
         let s = (2.0 * std::f64::consts::PI * t).sin();
-        let set = |row: &mut [f64], j: usize, v: [f64; 3]| row[3 * j..3 * j + 3].copy_from_slice(&v);
+        let set =
+            |row: &mut [f64], j: usize, v: [f64; 3]| row[3 * j..3 * j + 3].copy_from_slice(&v);
         set(row, 1, [0.5 * s, 0.0, 0.0]); // left hip
         set(row, 2, [-0.5 * s, 0.0, 0.0]); // right hip
         set(row, 4, [0.45 * (1.0 + s), 0.0, 0.0]); // left knee
@@ -56,12 +63,23 @@ pub fn write_synthetic_amass(path: &std::path::Path, frames: usize, fps: f64, be
         let p = [fwd[0] * t, fwd[1] * t, 0.95];
         trans[3 * f..3 * f + 3].copy_from_slice(&p);
     }
-    write_npz(path, &[("poses", &[frames, 156], &poses), ("trans", &[frames, 3], &trans), ("mocap_framerate", &[], &[fps]), ("betas", &[betas.len()], betas)])?;
+    write_npz(
+        path,
+        &[
+            ("poses", &[frames, 156], &poses),
+            ("trans", &[frames, 3], &trans),
+            ("mocap_framerate", &[], &[fps]),
+            ("betas", &[betas.len()], betas),
+        ],
+    )?;
     Ok(poses)
 }
 
 /// Write float64 arrays as a `numpy.savez` archive (`name.npy` entries, C order, stored).
-pub fn write_npz(path: &std::path::Path, arrays: &[(&str, &[usize], &[f64])]) -> std::io::Result<()> {
+pub fn write_npz(
+    path: &std::path::Path,
+    arrays: &[(&str, &[usize], &[f64])],
+) -> std::io::Result<()> {
     fn npy(shape: &[usize], v: &[f64]) -> Vec<u8> {
         let dims: Vec<String> = shape.iter().map(|d| d.to_string()).collect();
         let shape_txt = match dims.len() {
@@ -69,7 +87,8 @@ pub fn write_npz(path: &std::path::Path, arrays: &[(&str, &[usize], &[f64])]) ->
             1 => format!("({},)", dims[0]),
             _ => format!("({})", dims.join(", ")),
         };
-        let mut header = format!("{{'descr': '<f8', 'fortran_order': False, 'shape': {shape_txt}, }}");
+        let mut header =
+            format!("{{'descr': '<f8', 'fortran_order': False, 'shape': {shape_txt}, }}");
         while (10 + header.len() + 1) % 64 != 0 {
             header.push(' ');
         }
@@ -83,7 +102,8 @@ pub fn write_npz(path: &std::path::Path, arrays: &[(&str, &[usize], &[f64])]) ->
         out
     }
     let mut zip = zip::ZipWriter::new(std::fs::File::create(path)?);
-    let opts = zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Stored);
+    let opts =
+        zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Stored);
     for (name, shape, v) in arrays {
         zip.start_file(format!("{name}.npy"), opts).map_err(std::io::Error::other)?;
         std::io::Write::write_all(&mut zip, &npy(shape, v))?;

@@ -92,27 +92,37 @@ impl TensorRef {
         }
         let mut last = self.offset;
         for (&n, &s) in self.size.iter().zip(&self.stride) {
-            last = (n - 1).checked_mul(s).and_then(|x| last.checked_add(x)).ok_or_else(|| self.overflow())?;
+            last = (n - 1)
+                .checked_mul(s)
+                .and_then(|x| last.checked_add(x))
+                .ok_or_else(|| self.overflow())?;
         }
         last.checked_add(1).ok_or_else(|| self.overflow())
     }
 
     fn overflow(&self) -> String {
-        format!("storage offset {} with size {:?} and stride {:?} overflows 64 bits", self.offset, self.size, self.stride)
+        format!(
+            "storage offset {} with size {:?} and stride {:?} overflows 64 bits",
+            self.offset, self.size, self.stride
+        )
     }
 }
 
 /// A non-negative integer of the pickle.
 fn index(p: &Pickle, id: Id, what: &str) -> Result<u64, String> {
     match p.get(id) {
-        Node::Int(i) => u64::try_from(*i).map_err(|_| format!("{what} is {i}, expected a non-negative integer")),
+        Node::Int(i) => {
+            u64::try_from(*i).map_err(|_| format!("{what} is {i}, expected a non-negative integer"))
+        }
         Node::BigInt => Err(format!("{what} does not fit in 64 bits")),
         other => Err(format!("{what} is {}, expected an integer", kind(other))),
     }
 }
 
 fn indices(p: &Pickle, id: Id, what: &str) -> Result<Vec<u64>, String> {
-    let items = p.tuple(id).ok_or_else(|| format!("{what} is {}, expected a tuple of integers", kind(p.get(id))))?;
+    let items = p
+        .tuple(id)
+        .ok_or_else(|| format!("{what} is {}, expected a tuple of integers", kind(p.get(id))))?;
     items.iter().enumerate().map(|(k, &i)| index(p, i, &format!("{what}[{k}]"))).collect()
 }
 
@@ -138,7 +148,10 @@ pub fn kind(n: &Node) -> &'static str {
 /// Whether value `id` is built by `_rebuild_tensor_v2` or `_rebuild_parameter` (a tensor).
 pub fn is_tensor(p: &Pickle, id: Id) -> bool {
     match p.get(id) {
-        Node::Reduce { callable, .. } => matches!(p.global(*callable), Some(("torch._utils", "_rebuild_tensor_v2" | "_rebuild_parameter"))),
+        Node::Reduce { callable, .. } => matches!(
+            p.global(*callable),
+            Some(("torch._utils", "_rebuild_tensor_v2" | "_rebuild_parameter"))
+        ),
         _ => false,
     }
 }
@@ -153,18 +166,30 @@ pub fn tensor_ref(p: &Pickle, id: Id) -> Result<TensorRef, String> {
     let args = p.tuple(*args).unwrap_or(&[]);
     match p.global(*callable) {
         Some(("torch._utils", "_rebuild_tensor_v2")) => {}
-        Some(("torch._utils", "_rebuild_parameter")) if !args.is_empty() => return tensor_ref(p, args[0]),
+        Some(("torch._utils", "_rebuild_parameter")) if !args.is_empty() => {
+            return tensor_ref(p, args[0]);
+        }
         Some((m, c)) => return Err(format!("is built by {m}.{c}, {expected}")),
         None => return Err(format!("is {}, {expected}", kind(p.get(id)))),
     }
     if args.len() < 4 {
-        return Err(format!("_rebuild_tensor_v2 has {} arguments, expected at least 4", args.len()));
+        return Err(format!(
+            "_rebuild_tensor_v2 has {} arguments, expected at least 4",
+            args.len()
+        ));
     }
     let Node::PersistentId(pid) = p.get(args[0]) else {
-        return Err(format!("storage argument is {}, expected a storage reference", kind(p.get(args[0]))));
+        return Err(format!(
+            "storage argument is {}, expected a storage reference",
+            kind(p.get(args[0]))
+        ));
     };
-    let storage = p.tuple(*pid).filter(|s| s.len() >= 5 && p.str(s[0]) == Some("storage")).ok_or("storage reference is not ('storage', class, key, device, numel)")?;
-    let storage_class = p.global(storage[1]).ok_or("storage class is not a class reference")?.1.to_string();
+    let storage = p
+        .tuple(*pid)
+        .filter(|s| s.len() >= 5 && p.str(s[0]) == Some("storage"))
+        .ok_or("storage reference is not ('storage', class, key, device, numel)")?;
+    let storage_class =
+        p.global(storage[1]).ok_or("storage class is not a class reference")?.1.to_string();
     let key = p.str(storage[2]).ok_or("storage key is not a string")?.to_string();
     if key.is_empty() || !key.bytes().all(|c| c.is_ascii_alphanumeric() || c == b'_') {
         return Err(format!("storage key '{key}' is not a plain name"));
@@ -199,23 +224,34 @@ impl<R: Read + Seek> TorchZip<R> {
     pub fn new(mut reader: R, max_pickle: u64) -> Result<Self, TorchError> {
         let file_len = reader.seek(std::io::SeekFrom::End(0)).map_err(TorchError::Io)?;
         reader.rewind().map_err(TorchError::Io)?;
-        let mut zip = zip::ZipArchive::new(reader).map_err(|e| TorchError::NotZip(e.to_string()))?;
+        let mut zip =
+            zip::ZipArchive::new(reader).map_err(|e| TorchError::NotZip(e.to_string()))?;
         let pkl_name = zip
             .file_names()
             .filter_map(Result::ok)
             .find(|n| n.ends_with("/data.pkl") || n == "data.pkl")
             .map(|n| n.into_owned())
-            .ok_or_else(|| TorchError::Format("archive has no data.pkl entry; expected a torch.save file".into()))?;
+            .ok_or_else(|| {
+                TorchError::Format(
+                    "archive has no data.pkl entry; expected a torch.save file".into(),
+                )
+            })?;
         let dir = pkl_name.strip_suffix("data.pkl").unwrap_or("").to_owned();
         let pkl = {
-            let mut entry = zip.by_name(&pkl_name).map_err(|e| TorchError::Format(format!("{pkl_name}: {e}")))?;
+            let mut entry = zip
+                .by_name(&pkl_name)
+                .map_err(|e| TorchError::Format(format!("{pkl_name}: {e}")))?;
             let size = entry.size();
             if size > max_pickle {
-                return fmt_err(format!("{pkl_name} is {size} bytes, more than the {max_pickle} this reader accepts"));
+                return fmt_err(format!(
+                    "{pkl_name} is {size} bytes, more than the {max_pickle} this reader accepts"
+                ));
             }
-            read_entry(&mut entry, size, false).map_err(|e| TorchError::Format(format!("{pkl_name}: {e}")))?
+            read_entry(&mut entry, size, false)
+                .map_err(|e| TorchError::Format(format!("{pkl_name}: {e}")))?
         };
-        let pickle = Pickle::parse(&pkl).map_err(|e| TorchError::Format(format!("{pkl_name}: {e}")))?;
+        let pickle =
+            Pickle::parse(&pkl).map_err(|e| TorchError::Format(format!("{pkl_name}: {e}")))?;
         Ok(Self { zip, pkl_name, dir, file_len, pickle })
     }
 
@@ -224,39 +260,65 @@ impl<R: Read + Seek> TorchZip<R> {
     fn storage_bytes(&mut self, t: &TensorRef, dtype: Dtype) -> Result<Vec<u8>, String> {
         let extent = t.extent()?;
         if extent > t.storage_numel {
-            return Err(format!("needs storage elements up to {extent} (offset {}, size {:?}, stride {:?}), the storage declares {}", t.offset, t.size, t.stride, t.storage_numel));
+            return Err(format!(
+                "needs storage elements up to {extent} (offset {}, size {:?}, stride {:?}), the storage declares {}",
+                t.offset, t.size, t.stride, t.storage_numel
+            ));
         }
         let need = extent.checked_mul(dtype.size()).ok_or_else(|| t.overflow())?;
         let name = format!("{}data/{}", self.dir, t.key);
-        let mut entry = self.zip.by_name(&name).map_err(|e| format!("storage entry {name}: {e}"))?;
+        let mut entry =
+            self.zip.by_name(&name).map_err(|e| format!("storage entry {name}: {e}"))?;
         let size = entry.size();
         if need > size {
-            return Err(format!("storage entry {name} is truncated: the tensor needs {need} bytes, the entry holds {size}"));
+            return Err(format!(
+                "storage entry {name} is truncated: the tensor needs {need} bytes, the entry holds {size}"
+            ));
         }
         if size > MAX_STORAGE_BYTES {
-            return Err(format!("storage entry {name} is {size} bytes, more than this reader's limit of {MAX_STORAGE_BYTES}"));
+            return Err(format!(
+                "storage entry {name} is {size} bytes, more than this reader's limit of {MAX_STORAGE_BYTES}"
+            ));
         }
         // a stored (uncompressed) entry cannot hold more than the file: only then reserve it all
         let stored = entry.compression() == zip::CompressionMethod::Stored;
         if stored && size > self.file_len {
-            return Err(format!("storage entry {name} claims {size} bytes, the whole file has {}", self.file_len));
+            return Err(format!(
+                "storage entry {name} claims {size} bytes, the whole file has {}",
+                self.file_len
+            ));
         }
-        let bytes = read_entry(&mut entry, size, stored).map_err(|e| format!("storage entry {name}: {e}"))?;
+        let bytes = read_entry(&mut entry, size, stored)
+            .map_err(|e| format!("storage entry {name}: {e}"))?;
         if (bytes.len() as u64) < need {
-            return Err(format!("storage entry {name} is truncated ({} bytes, need {need})", bytes.len()));
+            return Err(format!(
+                "storage entry {name} is truncated ({} bytes, need {need})",
+                bytes.len()
+            ));
         }
         Ok(bytes)
     }
 
     /// The elements of `t` in row-major order, converted by `conv` from each element's bytes.
-    fn gather<T>(&mut self, t: &TensorRef, conv: impl Fn(Dtype, &[u8]) -> T) -> Result<Vec<T>, String> {
-        let dtype = Dtype::from_storage(&t.storage_class)
-            .ok_or_else(|| format!("storage is {}; supported: FloatStorage, DoubleStorage, LongStorage, IntStorage", t.storage_class))?;
+    fn gather<T>(
+        &mut self,
+        t: &TensorRef,
+        conv: impl Fn(Dtype, &[u8]) -> T,
+    ) -> Result<Vec<T>, String> {
+        let dtype = Dtype::from_storage(&t.storage_class).ok_or_else(|| {
+            format!(
+                "storage is {}; supported: FloatStorage, DoubleStorage, LongStorage, IntStorage",
+                t.storage_class
+            )
+        })?;
         let bytes = self.storage_bytes(t, dtype)?;
         let numel = t.numel().ok_or_else(|| t.overflow())?;
         if numel > t.extent()? {
             // only overlapping strides (stride 0, expanded views) give more elements than storage
-            return Err(format!("size {:?} with stride {:?} has more elements than the storage it reads; overlapping strides are not supported", t.size, t.stride));
+            return Err(format!(
+                "size {:?} with stride {:?} has more elements than the storage it reads; overlapping strides are not supported",
+                t.size, t.stride
+            ));
         }
         let numel = numel as usize;
         let es = dtype.size() as usize;
@@ -281,7 +343,10 @@ impl<R: Read + Seek> TorchZip<R> {
     /// The float32 tensor `t`, values in row-major order (other dtypes are refused).
     pub fn read_f32(&mut self, t: &TensorRef) -> Result<Vec<f32>, String> {
         if t.storage_class != "FloatStorage" {
-            return Err(format!("tensor storage is {}, expected FloatStorage (float32)", t.storage_class));
+            return Err(format!(
+                "tensor storage is {}, expected FloatStorage (float32)",
+                t.storage_class
+            ));
         }
         self.gather(t, |_, b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
     }
@@ -305,13 +370,18 @@ fn read_entry(entry: &mut impl Read, size: u64, reserve: bool) -> std::io::Resul
     let mut bytes = Vec::with_capacity(if reserve { size } else { size.min(1 << 26) } as usize);
     entry.take(size.saturating_add(1)).read_to_end(&mut bytes)?;
     if bytes.len() as u64 > size {
-        return Err(std::io::Error::other(format!("the entry holds more than its declared {size} bytes")));
+        return Err(std::io::Error::other(format!(
+            "the entry holds more than its declared {size} bytes"
+        )));
     }
     Ok(bytes)
 }
 
 /// Open the archive at `path` (see [`TorchZip::new`]).
-pub fn open(path: &Path, max_pickle: u64) -> Result<TorchZip<std::io::BufReader<std::fs::File>>, TorchError> {
+pub fn open(
+    path: &Path,
+    max_pickle: u64,
+) -> Result<TorchZip<std::io::BufReader<std::fs::File>>, TorchError> {
     let file = std::fs::File::open(path).map_err(TorchError::Io)?;
     TorchZip::new(std::io::BufReader::new(file), max_pickle)
 }

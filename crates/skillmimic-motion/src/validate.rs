@@ -121,7 +121,15 @@ impl Field {
     }
 }
 
-const ALL: [Field; 7] = [Field::RootPos, Field::RootRot, Field::DofRot, Field::BodyPos, Field::BallPos, Field::BallRot, Field::Contact];
+const ALL: [Field; 7] = [
+    Field::RootPos,
+    Field::RootRot,
+    Field::DofRot,
+    Field::BodyPos,
+    Field::BallPos,
+    Field::BallRot,
+    Field::Contact,
+];
 
 /// Name of `len` values of `field` starting at index `k` within a frame (`len` is 1 for one
 /// component, 3 for a vector, the field width for the whole field).
@@ -132,14 +140,22 @@ fn field_name(naming: Naming, field: Field, k: usize, len: usize) -> String {
                 Field::RootRot | Field::BallRot => (field.pt_column(), 3),
                 _ => (field.pt_column() + k, len),
             };
-            if n == 1 { format!("column {c} ({})", pt_column_field(c)) } else { format!("columns {c}..{} ({})", c + n, pt_column_field(c)) }
+            if n == 1 {
+                format!("column {c} ({})", pt_column_field(c))
+            } else {
+                format!("columns {c}..{} ({})", c + n, pt_column_field(c))
+            }
         }
         Naming::Project => {
             let t = field.tensor();
             match (field, len) {
-                (Field::DofRot, 1) => format!("{t}[{}, {}] ({})", k / 3, k % 3, BODIES[k / 3 + 1].name),
+                (Field::DofRot, 1) => {
+                    format!("{t}[{}, {}] ({})", k / 3, k % 3, BODIES[k / 3 + 1].name)
+                }
                 (Field::DofRot, _) => format!("{t}[{}] ({})", k / 3, BODIES[k / 3 + 1].name),
-                (Field::BodyPos, 1) => format!("{t}[{}, {}] ({})", k / 3, k % 3, BODIES[k / 3].name),
+                (Field::BodyPos, 1) => {
+                    format!("{t}[{}, {}] ({})", k / 3, k % 3, BODIES[k / 3].name)
+                }
                 (Field::BodyPos, _) => format!("{t}[{}] ({})", k / 3, BODIES[k / 3].name),
                 (_, 1) if field.width() > 1 => format!("{t}[{k}]"),
                 _ => t.to_string(),
@@ -154,7 +170,9 @@ pub fn validate_clip(clip: &Clip, path: &Path, naming: Naming) -> Result<(), Cli
     let format_err = |detail: String| ClipError::Format { path: path.to_path_buf(), detail };
     let fps = clip.fps;
     if !(MIN_FPS..=MAX_FPS).contains(&fps) {
-        return Err(format_err(format!("fps is {fps}, expected a frame rate of {MIN_FPS} to {MAX_FPS} frames per second")));
+        return Err(format_err(format!(
+            "fps is {fps}, expected a frame rate of {MIN_FPS} to {MAX_FPS} frames per second"
+        )));
     }
     let t_len = clip.num_frames;
     if t_len < MIN_FRAMES {
@@ -165,7 +183,11 @@ pub fn validate_clip(clip: &Clip, path: &Path, naming: Naming) -> Result<(), Cli
     for f in ALL {
         let n = f.values(clip).len();
         if Some(n) != t_len.checked_mul(f.width()) {
-            return Err(format_err(format!("{} holds {n} values, expected {t_len} frames x {}", f.tensor(), f.width())));
+            return Err(format_err(format!(
+                "{} holds {n} values, expected {t_len} frames x {}",
+                f.tensor(),
+                f.width()
+            )));
         }
     }
     let bad = |f: Field, frame: usize, k: usize, len: usize, problem: String| ClipError::Invalid {
@@ -179,24 +201,53 @@ pub fn validate_clip(clip: &Clip, path: &Path, naming: Naming) -> Result<(), Cli
             let w = f.width();
             let row = &f.values(clip)[t * w..(t + 1) * w];
             if let Some(k) = row.iter().position(|x| !x.is_finite()) {
-                return Err(bad(f, t, k, 1, format!("is {}, expected a finite number", show(row[k]))));
+                return Err(bad(
+                    f,
+                    t,
+                    k,
+                    1,
+                    format!("is {}, expected a finite number", show(row[k])),
+                ));
             }
             match f {
                 Field::RootPos | Field::BodyPos | Field::BallPos => {
                     if let Some(k) = row.iter().position(|x| (*x as f64).abs() > MAX_POSITION) {
-                        return Err(bad(f, t, k, 1, format!("is {} m, expected a position within ±{MAX_POSITION} m", show(row[k]))));
+                        return Err(bad(
+                            f,
+                            t,
+                            k,
+                            1,
+                            format!(
+                                "is {} m, expected a position within ±{MAX_POSITION} m",
+                                show(row[k])
+                            ),
+                        ));
                     }
                 }
                 Field::DofRot => check_rotvecs(row, |k, p| bad(f, t, k, 3, p))?,
                 Field::RootRot | Field::BallRot => {
                     let n = row.iter().map(|&x| (x as f64) * (x as f64)).sum::<f64>().sqrt();
                     if (n - 1.0).abs() > QUAT_NORM_TOL {
-                        return Err(bad(f, t, 0, 4, format!("has norm {n}, expected a unit quaternion (w, x, y, z), norm within {QUAT_NORM_TOL} of 1")));
+                        return Err(bad(
+                            f,
+                            t,
+                            0,
+                            4,
+                            format!(
+                                "has norm {n}, expected a unit quaternion (w, x, y, z), norm within {QUAT_NORM_TOL} of 1"
+                            ),
+                        ));
                     }
                 }
                 Field::Contact => {
                     if row[0] != 0.0 && row[0] != 1.0 {
-                        return Err(bad(f, t, 0, 1, format!("is {}, expected 0 or 1", show(row[0]))));
+                        return Err(bad(
+                            f,
+                            t,
+                            0,
+                            1,
+                            format!("is {}, expected 0 or 1", show(row[0])),
+                        ));
                     }
                 }
             }
@@ -213,12 +264,21 @@ pub fn validate_clip(clip: &Clip, path: &Path, naming: Naming) -> Result<(), Cli
             let (w, v) = (f.width(), f.values(clip));
             let (prev, cur) = (&v[(t - 1) * w..t * w], &v[t * w..(t + 1) * w]);
             for k in (0..w).step_by(group) {
-                let speed = (k..k + group).map(|i| ((cur[i] as f64 - prev[i] as f64) * fps).powi(2)).sum::<f64>().sqrt();
+                let speed = (k..k + group)
+                    .map(|i| ((cur[i] as f64 - prev[i] as f64) * fps).powi(2))
+                    .sum::<f64>()
+                    .sqrt();
                 if speed > limit {
-                    return Err(bad(f, t, k, group, format!(
-                        "moves at {speed:.4e} {unit} from frame {} (backward difference x {fps} fps), expected at most {limit} {unit}",
-                        t - 1
-                    )));
+                    return Err(bad(
+                        f,
+                        t,
+                        k,
+                        group,
+                        format!(
+                            "moves at {speed:.4e} {unit} from frame {} (backward difference x {fps} fps), expected at most {limit} {unit}",
+                            t - 1
+                        ),
+                    ));
                 }
             }
         }
@@ -234,11 +294,19 @@ fn show(x: f32) -> String {
 
 /// Check the exp-map rotation vectors (consecutive triples) of `values` against [`MAX_ROTVEC`];
 /// `err(k, problem)` builds the error of the vector starting at index `k`.
-fn check_rotvecs(values: &[f32], err: impl Fn(usize, String) -> ClipError) -> Result<(), ClipError> {
+fn check_rotvecs(
+    values: &[f32],
+    err: impl Fn(usize, String) -> ClipError,
+) -> Result<(), ClipError> {
     for (j, v) in values.chunks_exact(3).enumerate() {
         let n = v.iter().map(|&x| (x as f64) * (x as f64)).sum::<f64>().sqrt();
         if n > MAX_ROTVEC {
-            return Err(err(3 * j, format!("is a rotation vector of length {n:.4e} rad, expected at most 2π = {MAX_ROTVEC:.4} rad")));
+            return Err(err(
+                3 * j,
+                format!(
+                    "is a rotation vector of length {n:.4e} rad, expected at most 2π = {MAX_ROTVEC:.4} rad"
+                ),
+            ));
         }
     }
     Ok(())
@@ -251,7 +319,13 @@ fn check_rotvecs(values: &[f32], err: impl Fn(usize, String) -> ClipError) -> Re
 pub fn check_pt_rows(rows: &[f32], path: &Path) -> Result<(), ClipError> {
     if let Some(k) = rows.iter().position(|x| !x.is_finite()) {
         let (frame, column) = (k / PT_WIDTH, k % PT_WIDTH);
-        return Err(ClipError::NonFinite { path: path.to_path_buf(), frame, column, field: pt_column_field(column), value: rows[k] });
+        return Err(ClipError::NonFinite {
+            path: path.to_path_buf(),
+            frame,
+            column,
+            field: pt_column_field(column),
+            value: rows[k],
+        });
     }
     for (frame, r) in rows.chunks_exact(PT_WIDTH).enumerate() {
         for c in [3, 327] {

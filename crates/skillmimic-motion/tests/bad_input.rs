@@ -108,7 +108,10 @@ fn nan_and_inf_are_located() {
     rows[3 * PT_WIDTH + 200] = f32::NAN;
     write_pt_matrix(&p, 5, PT_WIDTH, &rows, "FloatStorage").unwrap();
     let s = err_text(&p);
-    assert!(s.contains("frame 3") && s.contains("column 200") && s.contains("body positions"), "{s}");
+    assert!(
+        s.contains("frame 3") && s.contains("column 200") && s.contains("body positions"),
+        "{s}"
+    );
     let mut rows = synthetic_rows(5);
     rows[PT_WIDTH + 325] = f32::INFINITY;
     write_pt_matrix(&p, 5, PT_WIDTH, &rows, "FloatStorage").unwrap();
@@ -146,7 +149,8 @@ fn truncated_storage_and_garbage_pickle_are_rejected() {
     ] {
         let p = d.join(name);
         let mut z = zip::ZipWriter::new(std::fs::File::create(&p).unwrap());
-        let o = zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Stored);
+        let o = zip::write::SimpleFileOptions::default()
+            .compression_method(zip::CompressionMethod::Stored);
         z.start_file("archive/data.pkl", o).unwrap();
         z.write_all(&pickle).unwrap();
         z.start_file("archive/data/0", o).unwrap();
@@ -166,7 +170,8 @@ fn truncated_storage_and_garbage_pickle_are_rejected() {
 fn write_archive(p: &Path, pickle: &[u8], storage: &[u8]) {
     use std::io::Write;
     let mut z = zip::ZipWriter::new(std::fs::File::create(p).unwrap());
-    let o = zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Stored);
+    let o =
+        zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Stored);
     z.start_file("archive/data.pkl", o).unwrap();
     z.write_all(pickle).unwrap();
     z.start_file("archive/data/0", o).unwrap();
@@ -213,14 +218,30 @@ fn crafted_tensor_header_claiming_more_rows_than_the_file_holds() {
     let storage = vec![0u8; 2 * PT_WIDTH * 4];
     // consistent claim (storage numel too) of 10^9 rows: terabytes if allocated from the header
     let rows = 1_000_000_000u64;
-    let s = crafted("001_rows.pt", &tensor_pickle(rows * PT_WIDTH as u64, 0, [rows, PT_WIDTH as u64], [PT_WIDTH as u64, 1]), &storage);
-    assert!(s.contains("storage entry archive/data/0 is truncated") && s.contains(&format!("needs {} bytes", rows * PT_WIDTH as u64 * 4)), "{s}");
+    let s = crafted(
+        "001_rows.pt",
+        &tensor_pickle(rows * PT_WIDTH as u64, 0, [rows, PT_WIDTH as u64], [PT_WIDTH as u64, 1]),
+        &storage,
+    );
+    assert!(
+        s.contains("storage entry archive/data/0 is truncated")
+            && s.contains(&format!("needs {} bytes", rows * PT_WIDTH as u64 * 4)),
+        "{s}"
+    );
     // the storage declares fewer elements than the tensor reads
-    let s = crafted("001_numel.pt", &tensor_pickle(674, 0, [3, PT_WIDTH as u64], [PT_WIDTH as u64, 1]), &storage);
+    let s = crafted(
+        "001_numel.pt",
+        &tensor_pickle(674, 0, [3, PT_WIDTH as u64], [PT_WIDTH as u64, 1]),
+        &storage,
+    );
     assert!(s.contains("the storage declares 674") && s.contains("size [3, 337]"), "{s}");
     // the well-formed version of the same archive reads
     let d = tmpdir("crafted");
-    write_archive(&d.join("001_fine.pt"), &tensor_pickle(674, 0, [2, PT_WIDTH as u64], [PT_WIDTH as u64, 1]), &storage);
+    write_archive(
+        &d.join("001_fine.pt"),
+        &tensor_pickle(674, 0, [2, PT_WIDTH as u64], [PT_WIDTH as u64, 1]),
+        &storage,
+    );
     assert_eq!(read_pt_matrix(&d.join("001_fine.pt")).unwrap().data.len(), 674);
 }
 
@@ -228,9 +249,14 @@ fn crafted_tensor_header_claiming_more_rows_than_the_file_holds() {
 fn crafted_deep_pickle_nesting() {
     let p: Vec<u8> = [&[0x80, 2, b')'][..], &vec![0x85u8; 1 << 19], b"."].concat();
     let s = crafted("001_deep.pt", &p, &[]);
-    assert!(s.contains("archive/data.pkl") && s.contains("TUPLE1") && s.contains("nest deeper than 200 levels"), "{s}");
+    assert!(
+        s.contains("archive/data.pkl")
+            && s.contains("TUPLE1")
+            && s.contains("nest deeper than 200 levels"),
+        "{s}"
+    );
     // nesting by marks is bounded too
-    let p: Vec<u8> = [&[0x80, 2][..], &vec![b'(', b']'].repeat(1 << 18), b"."].concat();
+    let p: Vec<u8> = [&[0x80, 2][..], &[b'(', b']'].repeat(1 << 18), b"."].concat();
     let s = crafted("001_marks.pt", &p, &[]);
     assert!(s.contains("archive/data.pkl"), "{s}");
 }
@@ -244,16 +270,27 @@ fn crafted_memo_blow_up() {
     }
     p.push(b'.');
     let s = crafted("001_memo.pt", &p, &[]);
-    assert!(s.contains("archive/data.pkl") && s.contains("expands to more than") && s.contains("memo references"), "{s}");
+    assert!(
+        s.contains("archive/data.pkl")
+            && s.contains("expands to more than")
+            && s.contains("memo references"),
+        "{s}"
+    );
 }
 
 #[test]
 fn crafted_storage_offset_near_2_pow_62() {
     let storage = vec![0u8; 2 * PT_WIDTH * 4];
     let w = PT_WIDTH as u64;
-    for (offset, numel) in [(1u64 << 62, (1u64 << 62) + 674), (1 << 62, 674), (u64::MAX >> 1, u64::MAX >> 1)] {
+    for (offset, numel) in
+        [(1u64 << 62, (1u64 << 62) + 674), (1 << 62, 674), (u64::MAX >> 1, u64::MAX >> 1)]
+    {
         let s = crafted("001_offset.pt", &tensor_pickle(numel, offset, [2, w], [w, 1]), &storage);
-        assert!(s.contains(&format!("storage offset {offset}")) || s.contains(&format!("offset {offset}")), "{s}");
+        assert!(
+            s.contains(&format!("storage offset {offset}"))
+                || s.contains(&format!("offset {offset}")),
+            "{s}"
+        );
         assert!(s.contains("overflows 64 bits") || s.contains("the storage declares"), "{s}");
     }
     // a negative offset is refused as such
@@ -264,10 +301,18 @@ fn crafted_storage_offset_near_2_pow_62() {
 #[test]
 fn crafted_shape_product_overflow() {
     let storage = vec![0u8; 2 * PT_WIDTH * 4];
-    let s = crafted("001_shape.pt", &tensor_pickle(674, 0, [1 << 40, 1 << 40], [1 << 40, 1]), &storage);
-    assert!(s.contains("size [1099511627776, 1099511627776]") && s.contains("overflows 64 bits"), "{s}");
+    let s =
+        crafted("001_shape.pt", &tensor_pickle(674, 0, [1 << 40, 1 << 40], [1 << 40, 1]), &storage);
+    assert!(
+        s.contains("size [1099511627776, 1099511627776]") && s.contains("overflows 64 bits"),
+        "{s}"
+    );
     // stride 0 (an expanded view) cannot make a small storage yield many elements
-    let s = crafted("001_stride0.pt", &tensor_pickle(674, 0, [1 << 40, PT_WIDTH as u64], [0, 1]), &storage);
+    let s = crafted(
+        "001_stride0.pt",
+        &tensor_pickle(674, 0, [1 << 40, PT_WIDTH as u64], [0, 1]),
+        &storage,
+    );
     assert!(s.contains("stride [0, 1]") && s.contains("overlapping strides"), "{s}");
 }
 
@@ -280,11 +325,27 @@ fn crafted_safetensors_headers() {
     bytes.extend_from_slice(b"{}      ");
     std::fs::write(&p, &bytes).unwrap();
     let s = Clip::load(&p).unwrap_err().to_string();
-    assert!(s.contains(&p.display().to_string()) && s.contains(&format!("header length field is {}", u64::MAX)), "{s}");
+    assert!(
+        s.contains(&p.display().to_string())
+            && s.contains(&format!("header length field is {}", u64::MAX)),
+        "{s}"
+    );
     for (name, info, msg) in [
-        ("overflow", r#"{"root_pos":{"dtype":"F32","shape":[4294967296,4294967296,4],"data_offsets":[0,8]}}"#, "tensor 'root_pos': shape [4294967296, 4294967296, 4] has more elements"),
-        ("beyond", r#"{"root_pos":{"dtype":"F32","shape":[1000000,3],"data_offsets":[0,12000000]}}"#, "tensor 'root_pos': data_offsets [0, 12000000] lie outside the 8 data bytes"),
-        ("mismatch", r#"{"root_pos":{"dtype":"F32","shape":[5,3],"data_offsets":[0,8]}}"#, "tensor 'root_pos': data_offsets [0, 8] hold 8 bytes, its shape [5, 3] needs 60"),
+        (
+            "overflow",
+            r#"{"root_pos":{"dtype":"F32","shape":[4294967296,4294967296,4],"data_offsets":[0,8]}}"#,
+            "tensor 'root_pos': shape [4294967296, 4294967296, 4] has more elements",
+        ),
+        (
+            "beyond",
+            r#"{"root_pos":{"dtype":"F32","shape":[1000000,3],"data_offsets":[0,12000000]}}"#,
+            "tensor 'root_pos': data_offsets [0, 12000000] lie outside the 8 data bytes",
+        ),
+        (
+            "mismatch",
+            r#"{"root_pos":{"dtype":"F32","shape":[5,3],"data_offsets":[0,8]}}"#,
+            "tensor 'root_pos': data_offsets [0, 8] hold 8 bytes, its shape [5, 3] needs 60",
+        ),
     ] {
         let p = d.join(format!("{name}.safetensors"));
         let mut head = info.as_bytes().to_vec();

@@ -41,7 +41,10 @@ fn forward_kinematics_by_hand() {
     let p = b.pose(0);
     // root at (1, 2, 3) turned 90° about z: the child's offset (0, 10, 0) points along −x
     let c = p.positions[1];
-    assert!((c[0] + 9.0).abs() < 1e-9 && (c[1] - 2.0).abs() < 1e-9 && (c[2] - 3.0).abs() < 1e-9, "{c:?}");
+    assert!(
+        (c[0] + 9.0).abs() < 1e-9 && (c[1] - 2.0).abs() < 1e-9 && (c[2] - 3.0).abs() < 1e-9,
+        "{c:?}"
+    );
     assert_eq!(b.pose(1).positions[1], [0.0, 10.0, 0.0]);
 }
 
@@ -80,7 +83,8 @@ fn every_channel_order_matches_matrix_composition() {
         let b = parse(&text).unwrap();
         let got = b.pose(0).positions[1];
         let m = euler_matrix(&order, &deg);
-        let want: Vec<f64> = (0..3).map(|i| m[i][0] * 1.0 + m[i][1] * 2.0 + m[i][2] * 3.0).collect();
+        let want: Vec<f64> =
+            (0..3).map(|i| m[i][0] * 1.0 + m[i][1] * 2.0 + m[i][2] * 3.0).collect();
         for i in 0..3 {
             assert!((got[i] - want[i]).abs() < 1e-9, "order {ch:?}: {got:?} vs {want:?}");
         }
@@ -90,7 +94,11 @@ fn every_channel_order_matches_matrix_composition() {
 /// `data/test_mocapbank.bvh` of the crates.io package `bvh_anim` 0.4.0 (MIT): a real MocapBank
 /// capture, 455 frames at 30 fps, Y-up, centimetres. Found in the local cargo registry.
 fn mocapbank() -> Option<std::path::PathBuf> {
-    skillmimic_core::shared_data::registry_file_or_skip("mocapbank BVH", "bvh_anim-0.4.0", "data/test_mocapbank.bvh")
+    skillmimic_core::shared_data::registry_file_or_skip(
+        "mocapbank BVH",
+        "bvh_anim-0.4.0",
+        "data/test_mocapbank.bvh",
+    )
 }
 
 #[test]
@@ -106,13 +114,20 @@ fn real_mocap_file_parses_and_keeps_bone_lengths() {
         let p = b.pose(f);
         for (j, joint) in b.joints.iter().enumerate() {
             if let Some(pa) = joint.parent {
-                let d: f64 = (0..3).map(|i| (p.positions[j][i] - p.positions[pa][i]).powi(2)).sum::<f64>().sqrt();
+                let d: f64 = (0..3)
+                    .map(|i| (p.positions[j][i] - p.positions[pa][i]).powi(2))
+                    .sum::<f64>()
+                    .sqrt();
                 let want: f64 = joint.offset.iter().map(|x| x * x).sum::<f64>().sqrt();
                 worst = worst.max((d - want).abs());
             }
         }
     }
-    println!("{} joints, {} frames; worst bone-length change {worst:.2e}", b.joints.len(), b.frames);
+    println!(
+        "{} joints, {} frames; worst bone-length change {worst:.2e}",
+        b.joints.len(),
+        b.frames
+    );
     assert!(worst < 1e-9);
 }
 
@@ -123,15 +138,29 @@ fn hostile_files_are_refused_with_line_and_expectation() {
         ("truncated", TWO[..TWO.len() - 20].to_string(), "MOTION holds"),
         ("non-finite", TWO.replace("1 2 3 90", "1 2 NaN 90"), "finite number"),
         ("infinite offset", TWO.replace("OFFSET 0 10 0", "OFFSET 0 inf 0"), "finite number"),
-        ("unknown channel", TWO.replace("Zrotation Xrotation Yrotation\n    End", "Zrotation Xrotation Wrotation\n    End"), "unknown channel 'Wrotation'"),
+        (
+            "unknown channel",
+            TWO.replace(
+                "Zrotation Xrotation Yrotation\n    End",
+                "Zrotation Xrotation Wrotation\n    End",
+            ),
+            "unknown channel 'Wrotation'",
+        ),
         ("seven channels", TWO.replace("CHANNELS 3", "CHANNELS 7"), "count of 0 to 6"),
         ("duplicate joint", TWO.replace("JOINT Spine", "JOINT Hips"), "appears twice"),
-        ("zero frame time", TWO.replace("Frame Time: 0.0333333", "Frame Time: 0"), "must be positive"),
+        (
+            "zero frame time",
+            TWO.replace("Frame Time: 0.0333333", "Frame Time: 0"),
+            "must be positive",
+        ),
         ("huge frame count", TWO.replace("Frames: 2", "Frames: 99999999999"), "exceeds"),
     ];
     for (name, text, want) in cases {
         let err = parse(&text).expect_err(name);
-        assert!(err.contains("t.bvh") && err.contains("BVH line") && err.contains(want), "{name}: {err}");
+        assert!(
+            err.contains("t.bvh") && err.contains("BVH line") && err.contains(want),
+            "{name}: {err}"
+        );
     }
     let unbalanced = TWO.replace("}\nMOTION", "MOTION");
     assert!(parse(&unbalanced).unwrap_err().contains("braces"), "unbalanced");

@@ -12,19 +12,32 @@ use skillmimic_motion::retarget_clip::{Ball, to_clip};
 
 #[test]
 fn ik_puts_ankles_and_wrists_on_the_scaled_source() {
-    let Some(path) = skillmimic_core::shared_data::registry_file_or_skip("mocapbank BVH", "bvh_anim-0.4.0", "data/test_mocapbank.bvh") else { return };
+    let Some(path) = skillmimic_core::shared_data::registry_file_or_skip(
+        "mocapbank BVH",
+        "bvh_anim-0.4.0",
+        "data/test_mocapbank.bvh",
+    ) else {
+        return;
+    };
     let b = bvh::read(&path).unwrap();
     let map = JointMap::load("mocapbank").unwrap();
     // output at the source's rate: output frame k is source frame k (no resampling in the check)
     let fps = 1.0 / b.frame_time;
-    let plain = retarget_bvh::retarget(&b, &map, &Options { fps, ground: true, ik: false }).unwrap();
+    let plain =
+        retarget_bvh::retarget(&b, &map, &Options { fps, ground: true, ik: false }).unwrap();
     let ik = retarget_bvh::retarget(&b, &map, &Options { fps, ground: true, ik: true }).unwrap();
     assert_eq!((plain.frames, ik.frames), (b.frames, b.frames));
-    let ends = [("L_Hip", "L_Ankle"), ("R_Hip", "R_Ankle"), ("L_Shoulder", "L_Wrist"), ("R_Shoulder", "R_Wrist")];
+    let ends = [
+        ("L_Hip", "L_Ankle"),
+        ("R_Hip", "R_Ankle"),
+        ("L_Shoulder", "L_Wrist"),
+        ("R_Shoulder", "R_Wrist"),
+    ];
     let (mut before, mut after, mut after_max, mut out_of_reach) = (0.0f64, 0.0f64, 0.0f64, 0usize);
     for k in 0..b.frames {
         let pose = b.pose(k);
-        let (p0, p1) = (retarget_bvh::body_positions(&plain, k), retarget_bvh::body_positions(&ik, k));
+        let (p0, p1) =
+            (retarget_bvh::body_positions(&plain, k), retarget_bvh::body_positions(&ik, k));
         for (upper, e) in ends {
             let body = skeleton::body_index(e).unwrap();
             let up = skeleton::body_index(upper).unwrap();
@@ -32,19 +45,27 @@ fn ik_puts_ankles_and_wrists_on_the_scaled_source() {
             // the target: the source joint in the world, like the root (scale, axes, ground shift)
             let t0 = plain.source_to_world(pose.positions[j]);
             let t1 = ik.source_to_world(pose.positions[j]);
-            let (t0, t1) = ([t0[0], t0[1], t0[2] + plain.ground_shift], [t1[0], t1[1], t1[2] + ik.ground_shift]);
+            let (t0, t1) = (
+                [t0[0], t0[1], t0[2] + plain.ground_shift],
+                [t1[0], t1[1], t1[2] + ik.ground_shift],
+            );
             before += norm(sub(p0[body], t0));
             let d = norm(sub(p1[body], t1));
             after += d;
             after_max = after_max.max(d);
             // a target within the limb's reach is met; one beyond it leaves the straight-limb gap
-            let reach = norm(skeleton::BODIES[body].offset) + norm(skeleton::BODIES[body - 1].offset) - 1e-3;
+            let reach = norm(skeleton::BODIES[body].offset)
+                + norm(skeleton::BODIES[body - 1].offset)
+                - 1e-3;
             let gap = norm(sub(t1, p1[up])) - reach;
             if gap < -1e-3 {
                 assert!(d < 1e-6, "{e} at frame {k}: {d} m from a reachable target");
             } else {
                 out_of_reach += 1;
-                assert!(d <= gap.max(0.0) + 1e-3, "{e} at frame {k}: {d} m from a target {gap} m beyond reach");
+                assert!(
+                    d <= gap.max(0.0) + 1e-3,
+                    "{e} at frame {k}: {d} m from a target {gap} m beyond reach"
+                );
             }
         }
     }
@@ -72,25 +93,43 @@ fn ik_puts_ankles_and_wrists_on_the_scaled_source() {
         c0.max_joint_speed_rad_s,
         c1.max_joint_speed_rad_s
     );
-    assert!(before > 0.01, "the proportions differ, so rotations alone miss by more than 1 cm ({before} m)");
+    assert!(
+        before > 0.01,
+        "the proportions differ, so rotations alone miss by more than 1 cm ({before} m)"
+    );
     assert!(after < before / 5.0, "IK ends {after} m mean from the targets (without: {before} m)");
     assert!(c1.ik.feet_mean_m < 1e-3 && c1.ik.feet_max_m < 0.01, "ankles {:?}", c1.ik);
-    assert!((c1.ik.feet_max_m.max(c1.ik.hands_max_m) - after_max).abs() < 1e-6, "report {:?} vs {after_max}", c1.ik);
-    assert!(c1.foot_sliding_mean_m_s <= c0.foot_sliding_mean_m_s + 1e-3, "sliding {} → {}", c0.foot_sliding_mean_m_s, c1.foot_sliding_mean_m_s);
+    assert!(
+        (c1.ik.feet_max_m.max(c1.ik.hands_max_m) - after_max).abs() < 1e-6,
+        "report {:?} vs {after_max}",
+        c1.ik
+    );
+    assert!(
+        c1.foot_sliding_mean_m_s <= c0.foot_sliding_mean_m_s + 1e-3,
+        "sliding {} → {}",
+        c0.foot_sliding_mean_m_s,
+        c1.foot_sliding_mean_m_s
+    );
     assert!(c1.foot_penetration_max_m < 0.02 && c1.frames_with_speed_spike == 0, "{c1:?}");
     // IK moves the root (hips' midpoint onto the source's) and bends the limbs; the torso's shape
     // (pelvis, spine, head, shoulders and hips relative to the pelvis) is unchanged
     let (lh, rh) = (skeleton::body_index("L_Hip").unwrap(), skeleton::body_index("R_Hip").unwrap());
     let mut hips_worst = 0.0f64;
     for k in 0..b.frames {
-        let (p0, p1) = (retarget_bvh::body_positions(&plain, k), retarget_bvh::body_positions(&ik, k));
+        let (p0, p1) =
+            (retarget_bvh::body_positions(&plain, k), retarget_bvh::body_positions(&ik, k));
         for name in ["Chest", "Head", "L_Shoulder", "R_Hip"] {
             let i = skeleton::body_index(name).unwrap();
-            assert!(norm(sub(sub(p0[i], p0[0]), sub(p1[i], p1[0]))) < 1e-9, "{name} moved relative to the pelvis at frame {k}");
+            assert!(
+                norm(sub(sub(p0[i], p0[0]), sub(p1[i], p1[0]))) < 1e-9,
+                "{name} moved relative to the pelvis at frame {k}"
+            );
         }
         let pose = b.pose(k);
         let src_mid: [f64; 3] = std::array::from_fn(|c| {
-            let w = |n: &str| ik.source_to_world(pose.positions[b.joint(map.bodies[n].as_str()).unwrap()])[c];
+            let w = |n: &str| {
+                ik.source_to_world(pose.positions[b.joint(map.bodies[n].as_str()).unwrap()])[c]
+            };
             0.5 * (w("L_Hip") + w("R_Hip")) + if c == 2 { ik.ground_shift } else { 0.0 }
         });
         let mid: [f64; 3] = std::array::from_fn(|c| 0.5 * (p1[lh][c] + p1[rh][c]));

@@ -12,7 +12,7 @@ fn values_memo_and_ordered_dict() {
     p.extend_from_slice(b"ccollections\nOrderedDict\n)R");
     p.extend_from_slice(&[b'X', 1, 0, 0, 0, b'x', b'G']);
     p.extend_from_slice(&1.5f64.to_be_bytes());
-    p.extend_from_slice(&[b's', b'u', b'.']);
+    p.extend_from_slice(b"su.");
     let pk = Pickle::parse(&p).unwrap();
     let a = pk.tuple(pk.dict_get(pk.root, "a").unwrap()).unwrap().to_vec();
     assert_eq!(a.iter().map(|&i| pk.int(i).unwrap()).collect::<Vec<_>>(), vec![1, -2, 1 << 40]);
@@ -34,10 +34,15 @@ fn hostile_programs_are_errors() {
     assert!(Pickle::parse(&blow).unwrap_err().message.contains("memo references"));
     let e = Pickle::parse(&[0x80, 2, b'X', 0xff, 0xff, 0xff, 0x7f, b'.']).unwrap_err();
     assert!(e.message.contains("exceeds") && e.opcode == "BINUNICODE", "{e}");
-    assert!(Pickle::parse(b"cos\nsystem\n(X\x02\x00\x00\x00lstR").unwrap_err().message.contains("without STOP"));
-    assert!(Pickle::parse(&[b'i']).unwrap_err().to_string().contains("0x69"));
+    assert!(
+        Pickle::parse(b"cos\nsystem\n(X\x02\x00\x00\x00lstR")
+            .unwrap_err()
+            .message
+            .contains("without STOP")
+    );
+    assert!(Pickle::parse(b"i").unwrap_err().to_string().contains("0x69"));
     assert!(Pickle::parse(&[b'h', 3]).unwrap_err().message.contains("memo key 3"));
-    assert!(Pickle::parse(&[b'(', b'a']).is_err());
+    assert!(Pickle::parse(b"(a").is_err());
     assert!(Pickle::parse(&[]).is_err());
     // a list appended to itself is a cycle, not a hang
     let cyc = [b']', b'2', b'a', b'.'];

@@ -1,7 +1,7 @@
-//! Retargeting from joint positions alone (issue 23, item 3): every BallPlay-M clip, re-derived from
-//! the 53 world body positions it stores (columns 165:324) through `retarget_positions` with the
-//! identity map, against the clip's own joint rotations and positions; and the light IK on a real
-//! mocap file.
+//! Retargeting from joint positions alone (issue 23, item 3): every BallPlay-M clip, re-derived
+//! from the 53 world body positions it stores (columns 165:324) through `retarget_positions` with
+//! the identity map, against the clip's own joint rotations and positions; and the light IK on a
+//! real mocap file.
 
 use skillmimic_core::math::{Quat, Vec3, norm, sub};
 use skillmimic_core::skeleton::{self, BODIES, NUM_BODIES};
@@ -46,7 +46,8 @@ fn is_multi(b: usize) -> bool {
 /// differs by its twist about the bone only (its bone direction is exact: positions to 1e-9 m).
 #[test]
 fn rotations_come_back_from_consistent_positions() {
-    let path = skillmimic_core::shared_data::workspace_root().join("motions/050_synth_stand_dribble_right.safetensors");
+    let path = skillmimic_core::shared_data::workspace_root()
+        .join("motions/050_synth_stand_dribble_right.safetensors");
     let clip = Clip::load(&path).unwrap();
     let mut src = positions_of(&clip);
     for t in 0..clip.num_frames {
@@ -57,11 +58,13 @@ fn rotations_come_back_from_consistent_positions() {
     }
     let mut map = JointMap::load("humanoid").unwrap();
     map.up = "z".into();
-    let m = retarget_positions(&src, &map, &Options { fps: clip.fps, ground: false, ik: false }).unwrap();
+    let m = retarget_positions(&src, &map, &Options { fps: clip.fps, ground: false, ik: false })
+        .unwrap();
     let (mut exact, mut twist, mut pos) = (0.0f64, 0.0f64, 0.0f64);
     for t in 0..clip.num_frames {
         let dof = |j: usize| std::array::from_fn(|k| clip.dof_rot[t * 156 + 3 * j + k] as f64);
-        let ga = globals(Quat::from_wxyz(std::array::from_fn(|k| clip.root_rot[t * 4 + k] as f64)), dof);
+        let ga =
+            globals(Quat::from_wxyz(std::array::from_fn(|k| clip.root_rot[t * 4 + k] as f64)), dof);
         let gb = globals(m.root_rot[t], |j| m.dof_rot[t][j]);
         let got = retarget_bvh::body_positions(&m, t);
         for b in 0..NUM_BODIES {
@@ -74,14 +77,20 @@ fn rotations_come_back_from_consistent_positions() {
             }
         }
     }
-    println!("consistent positions: root and branching bodies within {exact:.2e} rad, single-child bodies within {twist:.3} rad (twist), positions within {pos:.2e} m");
+    println!(
+        "consistent positions: root and branching bodies within {exact:.2e} rad, single-child bodies within {twist:.3} rad (twist), positions within {pos:.2e} m"
+    );
     assert!(exact < 1e-5, "{exact} rad");
     assert!(pos < 1e-5, "{pos} m");
 }
 
 #[test]
 fn ballplay_m_clips_rederived_from_their_body_positions() {
-    let Some(shared) = skillmimic_core::shared_data::shared_dir_or_skip("ballplay_m_clips_rederived_from_their_body_positions") else { return };
+    let Some(shared) = skillmimic_core::shared_data::shared_dir_or_skip(
+        "ballplay_m_clips_rederived_from_their_body_positions",
+    ) else {
+        return;
+    };
     let files = skillmimic_core::shared_data::ballplay_clips(&shared);
     assert!(files.len() >= 50, "{} clips", files.len());
     let mut map = JointMap::load("humanoid").unwrap();
@@ -89,24 +98,37 @@ fn ballplay_m_clips_rederived_from_their_body_positions() {
     // position errors: re-derived vs stored positions, and the stored rotations' own FK vs stored
     let (mut pos_max, mut pos_sum, mut quirk_sum, mut n_pos) = (0.0f64, 0.0, 0.0, 0usize);
     // rotation errors (global body orientations, rad): single-branch bodies vs the rest
-    let (mut rot_multi, mut rot_single, mut rot_max_multi) = ((0.0f64, 0usize), (0.0f64, 0usize), 0.0f64);
+    let (mut rot_multi, mut rot_single, mut rot_max_multi) =
+        ((0.0f64, 0usize), (0.0f64, 0usize), 0.0f64);
     let (mut root_err, mut frames) = (0.0f64, 0usize);
     for f in &files {
         let clip = Clip::load_any(f).unwrap();
-        let m = retarget_positions(&positions_of(&clip), &map, &Options { fps: clip.fps, ground: false, ik: false }).unwrap();
+        let m = retarget_positions(
+            &positions_of(&clip),
+            &map,
+            &Options { fps: clip.fps, ground: false, ik: false },
+        )
+        .unwrap();
         assert_eq!(m.frames, clip.num_frames, "{}", clip.name);
-        assert!((m.scale - 1.0).abs() < 2e-3, "{}: scale {} (same skeleton: 1)", clip.name, m.scale);
+        assert!(
+            (m.scale - 1.0).abs() < 2e-3,
+            "{}: scale {} (same skeleton: 1)",
+            clip.name,
+            m.scale
+        );
         for t in 0..clip.num_frames {
             let got = retarget_bvh::body_positions(&m, t);
             let rq = Quat::from_wxyz(std::array::from_fn(|k| clip.root_rot[t * 4 + k] as f64));
             let rp = std::array::from_fn(|k| clip.root_pos[t * 3 + k] as f64);
             let dof = &clip.dof_rot[t * 156..(t + 1) * 156];
             let fk = skeleton::forward_kinematics(rp, rq, dof);
-            let ga = globals(rq, |j| [dof[3 * j] as f64, dof[3 * j + 1] as f64, dof[3 * j + 2] as f64]);
+            let ga =
+                globals(rq, |j| [dof[3 * j] as f64, dof[3 * j + 1] as f64, dof[3 * j + 2] as f64]);
             let gb = globals(m.root_rot[t], |j| m.dof_rot[t][j]);
             root_err += ga[0].conj().mul(gb[0]).angle();
             for b in 0..NUM_BODIES {
-                let stored = std::array::from_fn(|k| clip.body_pos[(t * NUM_BODIES + b) * 3 + k] as f64);
+                let stored =
+                    std::array::from_fn(|k| clip.body_pos[(t * NUM_BODIES + b) * 3 + k] as f64);
                 let e = dist(got[b], stored);
                 pos_max = pos_max.max(e);
                 pos_sum += e;
@@ -127,7 +149,8 @@ fn ballplay_m_clips_rederived_from_their_body_positions() {
     }
     let pos_mean = pos_sum / n_pos as f64;
     let quirk_mean = quirk_sum / n_pos as f64;
-    let (multi_mean, single_mean) = (rot_multi.0 / rot_multi.1 as f64, rot_single.0 / rot_single.1 as f64);
+    let (multi_mean, single_mean) =
+        (rot_multi.0 / rot_multi.1 as f64, rot_single.0 / rot_single.1 as f64);
     println!(
         "{} clips, {frames} frames: body positions re-derived from the stored positions within {:.4} mm mean, {:.4} mm max \
          (the stored rotations' own FK: {:.1} mm mean from the stored positions); global orientation vs the stored rotations: \
@@ -142,7 +165,10 @@ fn ballplay_m_clips_rederived_from_their_body_positions() {
         rot_max_multi,
         single_mean
     );
-    assert!(pos_max < 0.01, "re-derived body positions {pos_max} m from the stored ones (1 cm allowed)");
+    assert!(
+        pos_max < 0.01,
+        "re-derived body positions {pos_max} m from the stored ones (1 cm allowed)"
+    );
     assert!(pos_mean < 0.002, "mean {pos_mean} m");
 }
 
@@ -171,15 +197,33 @@ fn csv_reader_names_the_line_and_the_expectation() {
     assert!(JointPositions::read_csv(&p, 0.0).unwrap_err().to_string().contains("frame rate"));
     // one frame only, and a map naming a joint the file lacks
     let j = JointPositions::read_csv(&p, 30.0).unwrap();
-    let e = retarget_positions(&j, &JointMap::load("humanoid").unwrap(), &Options::default()).unwrap_err().to_string();
-    assert!(e.contains("which the positions file does not have (it has a)") && e.contains("m.csv"), "{e}");
+    let e = retarget_positions(&j, &JointMap::load("humanoid").unwrap(), &Options::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("which the positions file does not have (it has a)") && e.contains("m.csv"),
+        "{e}"
+    );
     // hostile values: legs of 1e308 overflow the bone vectors; refused as non-finite, never written
     let legs = ["Pelvis", "L_Hip", "L_Knee", "L_Ankle", "R_Hip", "R_Knee", "R_Ankle"];
-    let header: Vec<String> = legs.iter().flat_map(|n| ["x", "y", "z"].map(|a| format!("{n}_{a}"))).collect();
+    let header: Vec<String> =
+        legs.iter().flat_map(|n| ["x", "y", "z"].map(|a| format!("{n}_{a}"))).collect();
     let row: Vec<&str> = (0..21).map(|i| if i % 2 == 0 { "1.7e308" } else { "-1.7e308" }).collect();
-    std::fs::write(&p, format!("{}\n{}\n{}\n", header.join(","), row.join(","), row.join(","))).unwrap();
-    let map = JointMap { up: "y".into(), yaw_deg: 0.0, scale: None, bodies: legs.iter().map(|n| (n.to_string(), n.to_string())).collect() };
-    let e = retarget_positions(&JointPositions::read_csv(&p, 30.0).unwrap(), &map, &Options { ik: true, ..Options::default() }).unwrap_err().to_string();
+    std::fs::write(&p, format!("{}\n{}\n{}\n", header.join(","), row.join(","), row.join(",")))
+        .unwrap();
+    let map = JointMap {
+        up: "y".into(),
+        yaw_deg: 0.0,
+        scale: None,
+        bodies: legs.iter().map(|n| (n.to_string(), n.to_string())).collect(),
+    };
+    let e = retarget_positions(
+        &JointPositions::read_csv(&p, 30.0).unwrap(),
+        &map,
+        &Options { ik: true, ..Options::default() },
+    )
+    .unwrap_err()
+    .to_string();
     assert!(e.contains("non-finite") && e.contains("m.csv"), "{e}");
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -7,12 +7,13 @@ use std::path::{Path, PathBuf};
 
 use skillmimic_core::shared_data::{ballplay_clips, shared_dir_or_skip};
 use skillmimic_motion::pt::write_pt_matrix;
-use skillmimic_motion::validate::{MIN_FRAMES, Naming, validate_clip};
 use skillmimic_motion::testing::synthetic_rows as rows;
+use skillmimic_motion::validate::{MIN_FRAMES, Naming, validate_clip};
 use skillmimic_motion::{Clip, ClipError, ClipReference, MotionLibrary, PT_WIDTH};
 
 fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("skillmimic-validation-{}-{name}", std::process::id()));
+    let d =
+        std::env::temp_dir().join(format!("skillmimic-validation-{}-{name}", std::process::id()));
     std::fs::create_dir_all(&d).unwrap();
     d
 }
@@ -39,8 +40,14 @@ fn write_project(dir: &Path, name: &str, t: usize, edit: impl FnOnce(&mut Clip))
 fn load_err(path: &Path) -> (ClipError, String) {
     let e = Clip::load_any(path).unwrap_err();
     let s = e.to_string();
-    assert!(s.starts_with(&format!("{}: ", path.display())), "error does not name the file first: {s}");
-    assert!(!s.contains("/original/"), "error names the source metadata instead of the loaded file: {s}");
+    assert!(
+        s.starts_with(&format!("{}: ", path.display())),
+        "error does not name the file first: {s}"
+    );
+    assert!(
+        !s.contains("/original/"),
+        "error names the source metadata instead of the loaded file: {s}"
+    );
     (e, s)
 }
 
@@ -79,7 +86,10 @@ fn finite_but_huge_values_are_refused_with_file_frame_column_and_bound() {
     has(&s, &["column 170 (body positions) at frame 3", "3.06", "within ±100 m"]);
     // a joint exp map: the rotation bound (column 20 is joint 3, columns 18..21)
     let p = write_pt(&d, "013_joint.pt", 6, |r| r[2 * PT_WIDTH + 20] = big);
-    has(&load_err(&p).1, &["columns 18..21 (joint rotations) at frame 2", "rotation vector of length", "at most 2π"]);
+    has(
+        &load_err(&p).1,
+        &["columns 18..21 (joint rotations) at frame 2", "rotation vector of length", "at most 2π"],
+    );
     // the root exp map, before it becomes a unit quaternion
     let p = write_pt(&d, "013_root.pt", 6, |r| r[PT_WIDTH + 4] = big);
     has(&load_err(&p).1, &["columns 3..6 (root rotation) at frame 1", "at most 2π"]);
@@ -97,7 +107,15 @@ fn a_jump_inside_the_position_bound_fails_the_velocity_bound() {
     let p = write_pt(&d, "013_ball.pt", 6, |r| r[4 * PT_WIDTH + 326] += 50.0);
     let (e, s) = load_err(&p);
     assert!(matches!(e, ClipError::Invalid { frame: 4, .. }), "{e:?}");
-    has(&s, &["columns 324..327 (ball position) at frame 4", "moves at 3.0006e3 m/s from frame 3", "x 60 fps", "at most 100 m/s"]);
+    has(
+        &s,
+        &[
+            "columns 324..327 (ball position) at frame 4",
+            "moves at 3.0006e3 m/s from frame 3",
+            "x 60 fps",
+            "at most 100 m/s",
+        ],
+    );
     let p = write_project(&d, "root.safetensors", 6, |c| c.root_pos[3 * 2 + 2] += 10.0);
     has(&load_err(&p).1, &["root_pos at frame 2", "moves at 6.0000e2 m/s", "at most 100 m/s"]);
     // joint exp-map component rate: 0.1 rad per frame at 1000 fps = 100 rad/s passes; 3 rad at
@@ -182,13 +200,15 @@ fn errors_of_a_converted_clip_name_the_loaded_file_not_its_source() {
     let p = write_project(&d, "renamed.safetensors", 6, |c| c.contact[1] = 0.5);
     has(&load_err(&p).1, &["renamed.safetensors: contact at frame 1"]);
     let p = write_project(&d, "short.safetensors", 2, |_| {});
-    let e = MotionLibrary::load(&[p.clone()]).unwrap_err().to_string();
+    let e = MotionLibrary::load(std::slice::from_ref(&p)).unwrap_err().to_string();
     assert!(e.starts_with(&p.display().to_string()) && !e.contains("/original/"), "{e}");
 }
 
 #[test]
 fn every_real_ballplay_clip_passes_validation() {
-    let Some(shared) = shared_dir_or_skip("every_real_ballplay_clip_passes_validation") else { return };
+    let Some(shared) = shared_dir_or_skip("every_real_ballplay_clip_passes_validation") else {
+        return;
+    };
     let files = ballplay_clips(&shared);
     assert!(!files.is_empty(), "no BallPlay-M clips under {}", shared.display());
     let d = tmpdir("real");

@@ -18,21 +18,44 @@ fn main() {
     }
     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
     // (name, m, n, k, lhs transposed)
-    let shapes = [("forward x·Wt", 4096, 1024, 902, false), ("weight grad gt·h", 1024, 902, 4096, true), ("input grad g·W", 4096, 1024, 512, false)];
+    let shapes = [
+        ("forward x·Wt", 4096, 1024, 902, false),
+        ("weight grad gt·h", 1024, 902, 4096, true),
+        ("input grad g·W", 4096, 1024, 512, false),
+    ];
     let mut ws = bf16::Workspace::default();
     println!("{threads} threads");
     for (name, m, n, k, tr) in shapes {
-        let lhs: Vec<f32> = (0..m * k).map(|i| ((i * 7919 % 1000) as f32 - 500.0) / 500.0).collect();
-        let rhs: Vec<f32> = (0..k * n).map(|i| ((i * 104_729 % 1000) as f32 - 500.0) / 500.0).collect();
+        let lhs: Vec<f32> =
+            (0..m * k).map(|i| ((i * 7919 % 1000) as f32 - 500.0) / 500.0).collect();
+        let rhs: Vec<f32> =
+            (0..k * n).map(|i| ((i * 104_729 % 1000) as f32 - 500.0) / 500.0).collect();
         let (lrs, lcs) = if tr { (1, m) } else { (k, 1) };
         let (mut d32, mut d16) = (vec![0f32; m * n], vec![0f32; m * n]);
         let f32_product = |d: &mut [f32]| {
             let dst = SendPtr(d.as_mut_ptr());
             split_ranges(n, threads).into_par_iter().for_each(|r| unsafe {
-                gemm_raw(m, r.len(), k, dst.get().add(r.start), n as isize, 1, false, lhs.as_ptr(), lrs as isize, lcs as isize, rhs.as_ptr().add(r.start), n as isize, 1);
+                gemm_raw(
+                    m,
+                    r.len(),
+                    k,
+                    dst.get().add(r.start),
+                    n as isize,
+                    1,
+                    false,
+                    lhs.as_ptr(),
+                    lrs as isize,
+                    lcs as isize,
+                    rhs.as_ptr().add(r.start),
+                    n as isize,
+                    1,
+                );
             });
         };
-        let views = (View { ptr: lhs.as_ptr(), rs: lrs as isize, cs: lcs as isize }, View { ptr: rhs.as_ptr(), rs: n as isize, cs: 1 });
+        let views = (
+            View { ptr: lhs.as_ptr(), rs: lrs as isize, cs: lcs as isize },
+            View { ptr: rhs.as_ptr(), rs: n as isize, cs: 1 },
+        );
         let reps = 10;
         let (mut t32, mut t16) = (0.0, 0.0);
         pool.install(|| {
@@ -41,7 +64,20 @@ fn main() {
                 f32_product(&mut d32);
                 let a = t.elapsed().as_secs_f64();
                 let t = Instant::now();
-                unsafe { bf16::gemm(m, n, k, d16.as_mut_ptr(), n, false, views.0, views.1, threads, &mut ws) };
+                unsafe {
+                    bf16::gemm(
+                        m,
+                        n,
+                        k,
+                        d16.as_mut_ptr(),
+                        n,
+                        false,
+                        views.0,
+                        views.1,
+                        threads,
+                        &mut ws,
+                    )
+                };
                 let b = t.elapsed().as_secs_f64();
                 if r > 0 {
                     t32 += a / reps as f64;

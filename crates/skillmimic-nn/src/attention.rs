@@ -32,12 +32,25 @@ impl Dense {
     /// PyTorch's default initialisation: weight and bias U(±1/√fan_in).
     pub fn new<R: Rng>(inp: usize, out: usize, rng: &mut R) -> Self {
         let b = 1.0 / (inp as f32).sqrt();
-        Self { out, inp, weight: (0..out * inp).map(|_| rng.random_range(-b..b)).collect(), bias: (0..out).map(|_| rng.random_range(-b..b)).collect() }
+        Self {
+            out,
+            inp,
+            weight: (0..out * inp).map(|_| rng.random_range(-b..b)).collect(),
+            bias: (0..out).map(|_| rng.random_range(-b..b)).collect(),
+        }
     }
     fn named(&self, prefix: &str) -> Vec<NamedTensor> {
         vec![
-            NamedTensor { name: format!("{prefix}.weight"), shape: vec![self.out, self.inp], data: self.weight.clone() },
-            NamedTensor { name: format!("{prefix}.bias"), shape: vec![self.out], data: self.bias.clone() },
+            NamedTensor {
+                name: format!("{prefix}.weight"),
+                shape: vec![self.out, self.inp],
+                data: self.weight.clone(),
+            },
+            NamedTensor {
+                name: format!("{prefix}.bias"),
+                shape: vec![self.out],
+                data: self.bias.clone(),
+            },
         ]
     }
 }
@@ -55,7 +68,10 @@ pub struct MultiHeadAttention {
 impl MultiHeadAttention {
     /// A new layer with PyTorch-like initialisation; `embed_dim` must be a multiple of `num_heads`.
     pub fn new<R: Rng>(embed_dim: usize, num_heads: usize, rng: &mut R) -> Self {
-        assert!(num_heads > 0 && embed_dim.is_multiple_of(num_heads), "embed_dim {embed_dim} is not a multiple of num_heads {num_heads}");
+        assert!(
+            num_heads > 0 && embed_dim.is_multiple_of(num_heads),
+            "embed_dim {embed_dim} is not a multiple of num_heads {num_heads}"
+        );
         let mut in_proj = Dense::new(embed_dim, 3 * embed_dim, rng);
         in_proj.bias.fill(0.0);
         let mut out_proj = Dense::new(embed_dim, embed_dim, rng);
@@ -65,7 +81,12 @@ impl MultiHeadAttention {
 
     /// Attention of queries `q` (B, L, E) over keys/values `kv` (B, S, E); `key_padding_mask`
     /// (B, S) with 1 = ignore that key. Returns (B, L, E).
-    pub fn attend(&self, q: &Tensor, kv: &Tensor, key_padding_mask: Option<&Tensor>) -> candle_core::Result<Tensor> {
+    pub fn attend(
+        &self,
+        q: &Tensor,
+        kv: &Tensor,
+        key_padding_mask: Option<&Tensor>,
+    ) -> candle_core::Result<Tensor> {
         let dev = q.device();
         let e = self.embed_dim;
         let p = [
@@ -89,18 +110,32 @@ pub fn dense(x: &Tensor, w: &Tensor, b: &Tensor) -> candle_core::Result<Tensor> 
 /// width E/heads, scale 1/√(E/heads), optional key padding mask (B, S) float or integer with
 /// nonzero = ignore (the score gets −1e30, which underflows to a zero weight as PyTorch's −∞
 /// does). Softmax as exp/sum (differentiable). Returns (B, L, E).
-pub fn mha(q: &Tensor, kv: &Tensor, p: &[Tensor], heads: usize, key_padding_mask: Option<&Tensor>) -> candle_core::Result<Tensor> {
+pub fn mha(
+    q: &Tensor,
+    kv: &Tensor,
+    p: &[Tensor],
+    heads: usize,
+    key_padding_mask: Option<&Tensor>,
+) -> candle_core::Result<Tensor> {
     let e = p[2].dim(0)?;
     let hd = e / heads;
     let proj = |x: &Tensor, part: usize| -> candle_core::Result<Tensor> {
         let (bs, n, _) = x.dims3()?;
-        dense(x, &p[0].narrow(0, part * e, e)?, &p[1].narrow(0, part * e, e)?)?.reshape((bs, n, heads, hd))?.transpose(1, 2)?.contiguous()
+        dense(x, &p[0].narrow(0, part * e, e)?, &p[1].narrow(0, part * e, e)?)?
+            .reshape((bs, n, heads, hd))?
+            .transpose(1, 2)?
+            .contiguous()
     };
     let (qh, kh, vh) = (proj(q, 0)?, proj(kv, 1)?, proj(kv, 2)?); // (B, H, n, hd)
     let mut scores = (qh.matmul(&kh.t()?.contiguous()?)? / (hd as f64).sqrt())?; // (B, H, L, S)
     if let Some(mask) = key_padding_mask {
         let (bs, s) = mask.dims2()?;
-        let neg = mask.to_dtype(scores.dtype())?.ne(0.0)?.to_dtype(scores.dtype())?.affine(-1e30, 0.0)?.reshape((bs, 1, 1, s))?;
+        let neg = mask
+            .to_dtype(scores.dtype())?
+            .ne(0.0)?
+            .to_dtype(scores.dtype())?
+            .affine(-1e30, 0.0)?
+            .reshape((bs, 1, 1, s))?;
         scores = scores.broadcast_add(&neg)?;
     }
     let att = candle_nn::ops::softmax(&scores, D::Minus1)?;
@@ -122,7 +157,12 @@ pub fn layer_norm(x: &Tensor, w: &Tensor, b: &Tensor) -> candle_core::Result<Ten
 /// `state_dict` order (self_attn in_proj_weight, in_proj_bias, out_proj.weight, out_proj.bias,
 /// linear1.weight, linear1.bias, linear2.weight, linear2.bias, norm1.weight, norm1.bias,
 /// norm2.weight, norm2.bias): x ← LN1(x + SA(x)); x ← LN2(x + W2 ReLU(W1 x)). `x` (B, S, E).
-pub fn encoder_layer(x: &Tensor, p: &[Tensor], heads: usize, key_padding_mask: Option<&Tensor>) -> candle_core::Result<Tensor> {
+pub fn encoder_layer(
+    x: &Tensor,
+    p: &[Tensor],
+    heads: usize,
+    key_padding_mask: Option<&Tensor>,
+) -> candle_core::Result<Tensor> {
     let sa = mha(x, x, &p[0..4], heads, key_padding_mask)?;
     let x = layer_norm(&(x + sa)?, &p[8], &p[9])?;
     let ff = dense(&dense(&x, &p[4], &p[5])?.relu()?, &p[6], &p[7])?;
@@ -132,8 +172,16 @@ pub fn encoder_layer(x: &Tensor, p: &[Tensor], heads: usize, key_padding_mask: O
 impl Network for MultiHeadAttention {
     fn state_dict(&self) -> Vec<NamedTensor> {
         let mut v = vec![
-            NamedTensor { name: "in_proj_weight".into(), shape: vec![3 * self.embed_dim, self.embed_dim], data: self.in_proj.weight.clone() },
-            NamedTensor { name: "in_proj_bias".into(), shape: vec![3 * self.embed_dim], data: self.in_proj.bias.clone() },
+            NamedTensor {
+                name: "in_proj_weight".into(),
+                shape: vec![3 * self.embed_dim, self.embed_dim],
+                data: self.in_proj.weight.clone(),
+            },
+            NamedTensor {
+                name: "in_proj_bias".into(),
+                shape: vec![3 * self.embed_dim],
+                data: self.in_proj.bias.clone(),
+            },
         ];
         v.extend(self.out_proj.named("out_proj"));
         v
@@ -172,9 +220,17 @@ impl TransformerEncoderLayer {
     }
 
     /// The layer on `x` (B, S, E) with an optional key padding mask (B, S), 1 = ignore.
-    pub fn forward_masked(&self, x: &Tensor, key_padding_mask: Option<&Tensor>) -> candle_core::Result<Tensor> {
+    pub fn forward_masked(
+        &self,
+        x: &Tensor,
+        key_padding_mask: Option<&Tensor>,
+    ) -> candle_core::Result<Tensor> {
         let dev = x.device();
-        let p = self.state_dict().into_iter().map(|t| Tensor::from_vec(t.data, t.shape, dev)).collect::<candle_core::Result<Vec<_>>>()?;
+        let p = self
+            .state_dict()
+            .into_iter()
+            .map(|t| Tensor::from_vec(t.data, t.shape, dev))
+            .collect::<candle_core::Result<Vec<_>>>()?;
         encoder_layer(x, &p, self.self_attn.num_heads, key_padding_mask)
     }
 }
@@ -185,8 +241,16 @@ impl Network for TransformerEncoderLayer {
         v.extend(self.linear1.named("linear1"));
         v.extend(self.linear2.named("linear2"));
         for (name, p) in [("norm1", &self.norm1), ("norm2", &self.norm2)] {
-            v.push(NamedTensor { name: format!("{name}.weight"), shape: vec![p.0.len()], data: p.0.clone() });
-            v.push(NamedTensor { name: format!("{name}.bias"), shape: vec![p.1.len()], data: p.1.clone() });
+            v.push(NamedTensor {
+                name: format!("{name}.weight"),
+                shape: vec![p.0.len()],
+                data: p.0.clone(),
+            });
+            v.push(NamedTensor {
+                name: format!("{name}.bias"),
+                shape: vec![p.1.len()],
+                data: p.1.clone(),
+            });
         }
         v
     }

@@ -36,7 +36,8 @@ pub fn available() -> bool {
     *AVAILABLE.get_or_init(|| {
         #[cfg(target_arch = "x86_64")]
         {
-            std::arch::is_x86_feature_detected!("avx512f") && std::arch::is_x86_feature_detected!("avx512bf16")
+            std::arch::is_x86_feature_detected!("avx512f")
+                && std::arch::is_x86_feature_detected!("avx512bf16")
         }
         #[cfg(not(target_arch = "x86_64"))]
         {
@@ -148,7 +149,13 @@ unsafe fn pack_lines_avx512(v: View, valid: usize, len: usize, w: usize, out: &m
         while c < len {
             let n = (len - c).min(32);
             let m_lo: __mmask16 = if n >= 16 { 0xFFFF } else { ((1u32 << n) - 1) as u16 };
-            let m_hi: __mmask16 = if n >= 32 { 0xFFFF } else if n > 16 { ((1u32 << (n - 16)) - 1) as u16 } else { 0 };
+            let m_hi: __mmask16 = if n >= 32 {
+                0xFFFF
+            } else if n > 16 {
+                ((1u32 << (n - 16)) - 1) as u16
+            } else {
+                0
+            };
             unsafe {
                 let lo = _mm512_maskz_loadu_ps(m_lo, line.add(c));
                 let hi = _mm512_maskz_loadu_ps(m_hi, line.add(c + 16));
@@ -178,15 +185,23 @@ unsafe fn pack_across_avx512(v: View, valid: usize, len: usize, w: usize, out: &
         while l < w {
             let n = valid.saturating_sub(l).min(16);
             let mask: __mmask16 = if n >= 16 { 0xFFFF } else { ((1u32 << n) - 1) as u16 };
-            let store: __mmask16 = if w - l >= 16 { 0xFFFF } else { ((1u32 << (w - l)) - 1) as u16 };
+            let store: __mmask16 =
+                if w - l >= 16 { 0xFFFF } else { ((1u32 << (w - l)) - 1) as u16 };
             // SAFETY: loads are masked to the valid lines of columns 2p, 2p + 1; the store to the
             // panel's w words.
             unsafe {
                 let lo = _mm512_maskz_loadu_ps(mask, v.ptr.offset((2 * p) as isize * v.cs).add(l));
-                let hi = if has_hi { _mm512_maskz_loadu_ps(mask, v.ptr.offset((2 * p + 1) as isize * v.cs).add(l)) } else { _mm512_setzero_ps() };
+                let hi = if has_hi {
+                    _mm512_maskz_loadu_ps(mask, v.ptr.offset((2 * p + 1) as isize * v.cs).add(l))
+                } else {
+                    _mm512_setzero_ps()
+                };
                 let lo16: __m256i = std::mem::transmute(_mm512_cvtneps_pbh(lo));
                 let hi16: __m256i = std::mem::transmute(_mm512_cvtneps_pbh(hi));
-                let words = _mm512_or_si512(_mm512_cvtepu16_epi32(lo16), _mm512_slli_epi32(_mm512_cvtepu16_epi32(hi16), 16));
+                let words = _mm512_or_si512(
+                    _mm512_cvtepu16_epi32(lo16),
+                    _mm512_slli_epi32(_mm512_cvtepu16_epi32(hi16), 16),
+                );
                 _mm512_mask_storeu_epi32(dst.add(l) as *mut i32, store, words);
             }
             l += 16;
@@ -237,7 +252,18 @@ impl Out {
 /// [`available`] must be true; the views must address every element of an m × k (lhs) and
 /// k × n (rhs) matrix, and `dst` every element of an m × n matrix with row stride `dst_rs`.
 #[allow(clippy::too_many_arguments)]
-pub unsafe fn gemm(m: usize, n: usize, k: usize, dst: *mut f32, dst_rs: usize, accumulate: bool, lhs: View, rhs: View, threads: usize, ws: &mut Workspace) {
+pub unsafe fn gemm(
+    m: usize,
+    n: usize,
+    k: usize,
+    dst: *mut f32,
+    dst_rs: usize,
+    accumulate: bool,
+    lhs: View,
+    rhs: View,
+    threads: usize,
+    ws: &mut Workspace,
+) {
     if m == 0 || n == 0 {
         return;
     }
@@ -299,7 +325,16 @@ pub unsafe fn gemm(m: usize, n: usize, k: usize, dst: *mut f32, dst_rs: usize, a
 /// One MR × NR output tile over `kc` k pairs.
 #[allow(clippy::too_many_arguments)]
 #[inline]
-unsafe fn tile(a: &[u32], b: &[u32], kc: usize, c: *mut f32, rs: usize, rows: usize, cols: usize, load: bool) {
+unsafe fn tile(
+    a: &[u32],
+    b: &[u32],
+    kc: usize,
+    c: *mut f32,
+    rs: usize,
+    rows: usize,
+    cols: usize,
+    load: bool,
+) {
     #[cfg(target_arch = "x86_64")]
     // SAFETY: forwarded from `gemm`.
     unsafe {
@@ -315,11 +350,26 @@ unsafe fn tile(a: &[u32], b: &[u32], kc: usize, c: *mut f32, rs: usize, rows: us
 #[cfg(target_arch = "x86_64")]
 #[allow(clippy::too_many_arguments)]
 #[target_feature(enable = "avx512f,avx512bf16")]
-unsafe fn tile_avx512(a: &[u32], b: &[u32], kc: usize, c: *mut f32, rs: usize, rows: usize, cols: usize, load: bool) {
+unsafe fn tile_avx512(
+    a: &[u32],
+    b: &[u32],
+    kc: usize,
+    c: *mut f32,
+    rs: usize,
+    rows: usize,
+    cols: usize,
+    load: bool,
+) {
     use std::arch::x86_64::*;
     debug_assert!(a.len() >= kc * MR && b.len() >= kc * NR);
     let m0: __mmask16 = if cols >= 16 { 0xFFFF } else { ((1u32 << cols) - 1) as u16 };
-    let m1: __mmask16 = if cols >= NR { 0xFFFF } else if cols > 16 { ((1u32 << (cols - 16)) - 1) as u16 } else { 0 };
+    let m1: __mmask16 = if cols >= NR {
+        0xFFFF
+    } else if cols > 16 {
+        ((1u32 << (cols - 16)) - 1) as u16
+    } else {
+        0
+    };
     let mut acc = [[_mm512_setzero_ps(); 2]; MR];
     if load {
         for (r, row) in acc.iter_mut().enumerate().take(rows) {
@@ -334,10 +384,13 @@ unsafe fn tile_avx512(a: &[u32], b: &[u32], kc: usize, c: *mut f32, rs: usize, r
     for p in 0..kc {
         // SAFETY: p < kc, inside the packed panels (checked above).
         unsafe {
-            let b0: __m512bh = std::mem::transmute(_mm512_loadu_si512(bp.add(p * NR) as *const __m512i));
-            let b1: __m512bh = std::mem::transmute(_mm512_loadu_si512(bp.add(p * NR + 16) as *const __m512i));
+            let b0: __m512bh =
+                std::mem::transmute(_mm512_loadu_si512(bp.add(p * NR) as *const __m512i));
+            let b1: __m512bh =
+                std::mem::transmute(_mm512_loadu_si512(bp.add(p * NR + 16) as *const __m512i));
             for (r, row) in acc.iter_mut().enumerate() {
-                let av: __m512bh = std::mem::transmute(_mm512_set1_epi32(*ap.add(p * MR + r) as i32));
+                let av: __m512bh =
+                    std::mem::transmute(_mm512_set1_epi32(*ap.add(p * MR + r) as i32));
                 row[0] = _mm512_dpbf16_ps(row[0], av, b0);
                 row[1] = _mm512_dpbf16_ps(row[1], av, b1);
             }
@@ -354,11 +407,26 @@ unsafe fn tile_avx512(a: &[u32], b: &[u32], kc: usize, c: *mut f32, rs: usize, r
 
 /// Reference of [`gemm`] in plain code (bf16-rounded inputs, float64 sums), for tests.
 #[allow(clippy::too_many_arguments)]
-pub fn reference(m: usize, n: usize, k: usize, lhs: &[f32], lhs_rs: usize, lhs_cs: usize, rhs: &[f32], rhs_rs: usize, rhs_cs: usize) -> Vec<f64> {
+pub fn reference(
+    m: usize,
+    n: usize,
+    k: usize,
+    lhs: &[f32],
+    lhs_rs: usize,
+    lhs_cs: usize,
+    rhs: &[f32],
+    rhs_rs: usize,
+    rhs_cs: usize,
+) -> Vec<f64> {
     let mut out = vec![0.0f64; m * n];
     for i in 0..m {
         for j in 0..n {
-            out[i * n + j] = (0..k).map(|t| round_bf16(lhs[i * lhs_rs + t * lhs_cs]) as f64 * round_bf16(rhs[t * rhs_rs + j * rhs_cs]) as f64).sum();
+            out[i * n + j] = (0..k)
+                .map(|t| {
+                    round_bf16(lhs[i * lhs_rs + t * lhs_cs]) as f64
+                        * round_bf16(rhs[t * rhs_rs + j * rhs_cs]) as f64
+                })
+                .sum();
         }
     }
     out

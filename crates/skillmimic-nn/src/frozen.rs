@@ -39,7 +39,13 @@ pub fn read_mlp(f: &TensorFile, prefix: &str, dims: Vec<usize>) -> Result<Mlp, T
 }
 
 /// The normaliser `prefix.{mean,var,count}` (F64) of width `dim`.
-pub fn read_normalizer(f: &TensorFile, prefix: &str, dim: usize, eps: f64, clip: f64) -> Result<RunningMeanStd, TensorFileError> {
+pub fn read_normalizer(
+    f: &TensorFile,
+    prefix: &str,
+    dim: usize,
+    eps: f64,
+    clip: f64,
+) -> Result<RunningMeanStd, TensorFileError> {
     let mean = f.f64(&format!("{prefix}.mean"), &[Some(dim)])?.1;
     let var = f.f64(&format!("{prefix}.var"), &[Some(dim)])?.1;
     let count = f.f64(&format!("{prefix}.count"), &[])?.1[0];
@@ -53,7 +59,9 @@ pub fn open_policy(path: &Path) -> Result<TensorFile, FrozenError> {
         POLICY_FORMAT => Ok(f),
         other => Err(FrozenError::Invalid {
             path: path.to_path_buf(),
-            detail: format!("metadata 'format' is '{other}', expected '{POLICY_FORMAT}' (a skill policy written by `skillmimic train`)"),
+            detail: format!(
+                "metadata 'format' is '{other}', expected '{POLICY_FORMAT}' (a skill policy written by `skillmimic train`)"
+            ),
         }),
     }
 }
@@ -81,11 +89,17 @@ impl FrozenActor {
         if let Ok(family) = f.meta("policy")
             && family != "gaussian_mlp"
         {
-            return Err(invalid(format!("metadata 'policy' is '{family}': a skill policy inside a high-level task must be a 'gaussian_mlp' checkpoint")));
+            return Err(invalid(format!(
+                "metadata 'policy' is '{family}': a skill policy inside a high-level task must be a 'gaussian_mlp' checkpoint"
+            )));
         }
         let obs_dim: usize = f.meta_parse("obs_dim", "an integer")?;
         let act_dim: usize = f.meta_parse("act_dim", "an integer")?;
-        let hidden: Vec<usize> = serde_json::from_str(f.meta("hidden")?).map_err(|e| invalid(format!("metadata 'hidden' is not a JSON list of integers like [1024, 512, 512]: {e}")))?;
+        let hidden: Vec<usize> = serde_json::from_str(f.meta("hidden")?).map_err(|e| {
+            invalid(format!(
+                "metadata 'hidden' is not a JSON list of integers like [1024, 512, 512]: {e}"
+            ))
+        })?;
         let eps: f64 = f.meta_parse("norm_eps", "a number")?;
         let clip: f64 = f.meta_parse("norm_clip", "a number")?;
         let normalize: bool = f.meta_parse("normalize_input", "true/false")?;
@@ -93,12 +107,23 @@ impl FrozenActor {
         dims.extend(hidden);
         dims.push(act_dim);
         let actor = read_mlp(&f, "actor", dims)?;
-        let obs_norm = if normalize { Some(read_normalizer(&f, "obs_norm", obs_dim, eps, clip)?) } else { None };
+        let obs_norm = if normalize {
+            Some(read_normalizer(&f, "obs_norm", obs_dim, eps, clip)?)
+        } else {
+            None
+        };
         if let Some(n) = &obs_norm {
             n.check("obs_norm").map_err(invalid)?;
         }
         let config = f.metadata().get("config").cloned().unwrap_or_default();
-        Ok(Self { actor, obs_norm, source: path.to_path_buf(), config, ws: Workspace::default(), obs_n: Vec::new() })
+        Ok(Self {
+            actor,
+            obs_norm,
+            source: path.to_path_buf(),
+            config,
+            ws: Workspace::default(),
+            obs_n: Vec::new(),
+        })
     }
 
     /// Observation width the policy takes.

@@ -61,13 +61,28 @@ impl FrozenParts {
         let invalid = |detail: String| FrozenError::Invalid { path: path.to_path_buf(), detail };
         match f.meta("policy") {
             Ok("modular_attention") => {}
-            Ok(other) => return Err(invalid(format!("metadata 'policy' is '{other}', expected 'modular_attention' (part controllers)"))),
-            Err(_) => return Err(invalid("metadata 'policy' is missing, expected 'modular_attention' (part controllers)".into())),
+            Ok(other) => {
+                return Err(invalid(format!(
+                    "metadata 'policy' is '{other}', expected 'modular_attention' (part controllers)"
+                )));
+            }
+            Err(_) => {
+                return Err(invalid(
+                    "metadata 'policy' is missing, expected 'modular_attention' (part controllers)"
+                        .into(),
+                ));
+            }
         }
         let act_dim: usize = f.meta_parse("act_dim", "an integer")?;
-        let spec: ModularSpec = serde_json::from_str(f.meta("actor_net")?).map_err(|e| invalid(format!("metadata 'actor_net' is not a modular network description: {e}")))?;
+        let spec: ModularSpec = serde_json::from_str(f.meta("actor_net")?).map_err(|e| {
+            invalid(format!("metadata 'actor_net' is not a modular network description: {e}"))
+        })?;
         if spec.embed == 0 || spec.parts.is_empty() {
-            return Err(invalid(format!("metadata 'actor_net': {} parts with embeddings of {}; expected at least one part and a positive width", spec.parts.len(), spec.embed)));
+            return Err(invalid(format!(
+                "metadata 'actor_net': {} parts with embeddings of {}; expected at least one part and a positive width",
+                spec.parts.len(),
+                spec.embed
+            )));
         }
         let mut covered = vec![0u32; act_dim];
         let mut parts = Vec::with_capacity(spec.parts.len());
@@ -82,10 +97,22 @@ impl FrozenParts {
             parts.push(FrozenPart { name: name.clone(), outputs: outputs.clone(), controller });
         }
         if let Some(o) = covered.iter().position(|&c| c != 1) {
-            return Err(invalid(format!("metadata 'actor_net': action column {o} is written by {} parts, expected exactly one", covered[o])));
+            return Err(invalid(format!(
+                "metadata 'actor_net': action column {o} is written by {} parts, expected exactly one",
+                covered[o]
+            )));
         }
         let config = f.metadata().get("config").cloned().unwrap_or_default();
-        Ok(Self { parts, embed: spec.embed, act_dim, source: path.to_path_buf(), config, z: Vec::new(), ws: Workspace::default(), out: Vec::new() })
+        Ok(Self {
+            parts,
+            embed: spec.embed,
+            act_dim,
+            source: path.to_path_buf(),
+            config,
+            z: Vec::new(),
+            ws: Workspace::default(),
+            out: Vec::new(),
+        })
     }
 
     /// Width of the latent action: parts × embedding width.

@@ -51,7 +51,9 @@ pub fn reference_window(rows: &[f32], s: usize, window: &mut [f32]) {
     for (i, w) in window.chunks_exact_mut(FEATURE_DIM).enumerate() {
         // window row i holds frame s − k + i
         match (s + i).checked_sub(k) {
-            Some(t) if (t + 1) * FEATURE_DIM <= rows.len() => w.copy_from_slice(&rows[t * FEATURE_DIM..(t + 1) * FEATURE_DIM]),
+            Some(t) if (t + 1) * FEATURE_DIM <= rows.len() => {
+                w.copy_from_slice(&rows[t * FEATURE_DIM..(t + 1) * FEATURE_DIM])
+            }
             _ => w.fill(0.0),
         }
     }
@@ -126,13 +128,24 @@ pub struct HistoryEncoder {
 }
 
 /// Tensor names of the encoder in PyTorch layout.
-pub const TENSOR_NAMES: [&str; 8] = ["conv1.weight", "conv1.bias", "conv2.weight", "conv2.bias", "conv3.weight", "conv3.bias", "fc.weight", "fc.bias"];
+pub const TENSOR_NAMES: [&str; 8] = [
+    "conv1.weight",
+    "conv1.bias",
+    "conv2.weight",
+    "conv2.bias",
+    "conv3.weight",
+    "conv3.bias",
+    "fc.weight",
+    "fc.bias",
+];
 
 impl HistoryEncoder {
     /// Build from PyTorch-layout tensors in [`TENSOR_NAMES`] order.
     pub fn from_torch(length: usize, embed_dim: usize, t: &[Vec<f32>; 8]) -> Self {
         let dims = [FEATURE_DIM, CHANNELS[0], CHANNELS[1], CHANNELS[2]];
-        let convs = std::array::from_fn(|l| Conv::from_torch(dims[l], dims[l + 1], &t[2 * l], &t[2 * l + 1]));
+        let convs = std::array::from_fn(|l| {
+            Conv::from_torch(dims[l], dims[l + 1], &t[2 * l], &t[2 * l + 1])
+        });
         Self { length, embed_dim, convs, fc_w: t[6].clone(), fc_b: t[7].clone() }
     }
 
@@ -143,7 +156,11 @@ impl HistoryEncoder {
             v.push((TENSOR_NAMES[2 * l], vec![c.cout, c.cin, KERNEL], c.to_torch()));
             v.push((TENSOR_NAMES[2 * l + 1], vec![c.cout], c.b.clone()));
         }
-        v.push((TENSOR_NAMES[6], vec![self.embed_dim, CHANNELS[2] * self.length], self.fc_w.clone()));
+        v.push((
+            TENSOR_NAMES[6],
+            vec![self.embed_dim, CHANNELS[2] * self.length],
+            self.fc_w.clone(),
+        ));
         v.push((TENSOR_NAMES[7], vec![self.embed_dim], self.fc_b.clone()));
         v
     }
@@ -159,7 +176,8 @@ impl HistoryEncoder {
 
     /// Save as safetensors (atomic) with `extra` metadata added.
     pub fn save(&self, path: &Path, extra: &BTreeMap<String, String>) -> std::io::Result<()> {
-        let tensors: Vec<OwnedTensor> = self.torch_tensors().iter().map(|(n, s, d)| OwnedTensor::f32(n, s, d)).collect();
+        let tensors: Vec<OwnedTensor> =
+            self.torch_tensors().iter().map(|(n, s, d)| OwnedTensor::f32(n, s, d)).collect();
         let mut meta = extra.clone();
         meta.insert("format".into(), FORMAT.into());
         meta.insert("format_version".into(), "1".into());
@@ -176,19 +194,26 @@ impl HistoryEncoder {
         let invalid = |detail: String| HistoryError::Invalid { path: path.to_path_buf(), detail };
         match f.meta("format") {
             Ok(FORMAT) => {}
-            Ok(other) => return Err(invalid(format!("metadata 'format' is '{other}', expected '{FORMAT}' (write encoders with `skillmimic history pretrain`)"))),
+            Ok(other) => {
+                return Err(invalid(format!(
+                    "metadata 'format' is '{other}', expected '{FORMAT}' (write encoders with `skillmimic history pretrain`)"
+                )));
+            }
             Err(e) => return Err(e.into()),
         }
         let length: usize = f.meta_parse("history_length", "a positive integer")?;
         let embed: usize = f.meta_parse("embed_dim", "a positive integer")?;
         let feat: usize = f.meta_parse("feature_dim", "316")?;
         if feat != FEATURE_DIM || length == 0 || embed == 0 {
-            return Err(invalid(format!("feature_dim {feat}, history_length {length}, embed_dim {embed}: expected 316 and positive sizes")));
+            return Err(invalid(format!(
+                "feature_dim {feat}, history_length {length}, embed_dim {embed}: expected 316 and positive sizes"
+            )));
         }
         let dims = [FEATURE_DIM, CHANNELS[0], CHANNELS[1], CHANNELS[2]];
         let mut t: [Vec<f32>; 8] = Default::default();
         for l in 0..3 {
-            t[2 * l] = f.f32(TENSOR_NAMES[2 * l], &[Some(dims[l + 1]), Some(dims[l]), Some(KERNEL)])?.1;
+            t[2 * l] =
+                f.f32(TENSOR_NAMES[2 * l], &[Some(dims[l + 1]), Some(dims[l]), Some(KERNEL)])?.1;
             t[2 * l + 1] = f.f32(TENSOR_NAMES[2 * l + 1], &[Some(dims[l + 1])])?.1;
         }
         t[6] = f.f32("fc.weight", &[Some(embed), Some(CHANNELS[2] * length)])?.1;
@@ -205,8 +230,12 @@ impl HistoryEncoder {
         for conv in &self.convs {
             let mut next = vec![0.0f32; k * conv.cout];
             for tau in 0..k {
-                let at = |p: Option<usize>| p.filter(|&p| p < k).map(|p| &prev[p * cin..(p + 1) * cin]);
-                conv.apply([at(tau.checked_sub(1)), at(Some(tau)), at(Some(tau + 1))], &mut next[tau * conv.cout..(tau + 1) * conv.cout]);
+                let at =
+                    |p: Option<usize>| p.filter(|&p| p < k).map(|p| &prev[p * cin..(p + 1) * cin]);
+                conv.apply(
+                    [at(tau.checked_sub(1)), at(Some(tau)), at(Some(tau + 1))],
+                    &mut next[tau * conv.cout..(tau + 1) * conv.cout],
+                );
             }
             prev = next;
             cin = conv.cout;
@@ -270,9 +299,14 @@ impl HistoryBuffer {
                     continue;
                 }
                 let slot = |p: usize| (self.head + p) % k;
-                let at = |p: Option<usize>| p.filter(|&p| p < k).map(|p| &prev[slot(p) * cin..(slot(p) + 1) * cin]);
+                let at = |p: Option<usize>| {
+                    p.filter(|&p| p < k).map(|p| &prev[slot(p) * cin..(slot(p) + 1) * cin])
+                };
                 let s = slot(tau);
-                enc.convs[l - 1].apply([at(tau.checked_sub(1)), at(Some(tau)), at(Some(tau + 1))], &mut cur[s * cout..(s + 1) * cout]);
+                enc.convs[l - 1].apply(
+                    [at(tau.checked_sub(1)), at(Some(tau)), at(Some(tau + 1))],
+                    &mut cur[s * cout..(s + 1) * cout],
+                );
             }
         }
     }
@@ -343,7 +377,6 @@ pub fn random_encoder(length: usize, embed_dim: usize, seed: u64) -> HistoryEnco
     HistoryEncoder::from_torch(length, embed_dim, &t)
 }
 
-
 /// Zero-pad + unfold + matmul convolution (kernel 3, padding 1), ReLU. `x`: (B, k, C_in), `w`:
 /// PyTorch layout (C_out, C_in, 3).
 fn conv_relu(x: &Tensor, w: &Tensor, b: &Tensor) -> candle_core::Result<Tensor> {
@@ -377,7 +410,15 @@ pub fn candle_forward(p: &[Tensor], win: &Tensor) -> candle_core::Result<Tensor>
 /// (R, 316) holds each distinct frame once plus a final zero row (index R−1 = padding); window
 /// position τ of sample b reads frame `prev[b·k+τ]`, `cur[b·k+τ]`, `next[b·k+τ]` for its three
 /// kernel taps. The first convolution, 90 % of the work, then runs once per distinct frame.
-pub fn candle_forward_shared(p: &[Tensor], frames: &Tensor, prev: &[u32], cur: &[u32], next: &[u32], b: usize, k: usize) -> candle_core::Result<Tensor> {
+pub fn candle_forward_shared(
+    p: &[Tensor],
+    frames: &Tensor,
+    prev: &[u32],
+    cur: &[u32],
+    next: &[u32],
+    b: usize,
+    k: usize,
+) -> candle_core::Result<Tensor> {
     let dev = frames.device();
     let c1 = CHANNELS[0];
     // taps[(c, kk·128 + o)] = W1[o, c, kk]
@@ -393,11 +434,18 @@ pub fn candle_forward_shared(p: &[Tensor], frames: &Tensor, prev: &[u32], cur: &
 
 impl crate::network::Network for HistoryEncoder {
     fn state_dict(&self) -> Vec<crate::network::NamedTensor> {
-        self.torch_tensors().into_iter().map(|(n, s, d)| crate::network::NamedTensor { name: n.to_string(), shape: s, data: d }).collect()
+        self.torch_tensors()
+            .into_iter()
+            .map(|(n, s, d)| crate::network::NamedTensor { name: n.to_string(), shape: s, data: d })
+            .collect()
     }
     fn forward(&self, x: &Tensor) -> candle_core::Result<Tensor> {
         let dev = x.device();
-        let p: Vec<Tensor> = self.torch_tensors().iter().map(|(_, s, d)| Tensor::from_slice(d, s.as_slice(), dev)).collect::<Result<_, _>>()?;
+        let p: Vec<Tensor> = self
+            .torch_tensors()
+            .iter()
+            .map(|(_, s, d)| Tensor::from_slice(d, s.as_slice(), dev))
+            .collect::<Result<_, _>>()?;
         candle_forward(&p, x)
     }
 }
@@ -415,7 +463,9 @@ mod tests {
         for (k, pushes) in [(60, 150), (7, 30), (3, 10), (1, 4)] {
             let enc = random_encoder(k, 3, 7);
             let mut buf = HistoryBuffer::new(&enc);
-            let mut window: Vec<f32> = (0..k).flat_map(|i| if i % 3 == 0 { vec![0.0; FEATURE_DIM] } else { frame(i) }).collect();
+            let mut window: Vec<f32> = (0..k)
+                .flat_map(|i| if i % 3 == 0 { vec![0.0; FEATURE_DIM] } else { frame(i) })
+                .collect();
             buf.fill(&enc, &window);
             let (mut a, mut b) = ([0.0f32; 3], [0.0f32; 3]);
             for p in 0..pushes {
@@ -455,12 +505,21 @@ mod tests {
         let win: Vec<f32> = (0..b * k).flat_map(frame).collect();
         let dev = candle_core::Device::Cpu;
         let x = Tensor::from_slice(&win, (b, k, FEATURE_DIM), &dev).unwrap();
-        let h: Vec<f32> = crate::network::Network::forward(&enc, &x).unwrap().flatten_all().unwrap().to_vec1().unwrap();
+        let h: Vec<f32> = crate::network::Network::forward(&enc, &x)
+            .unwrap()
+            .flatten_all()
+            .unwrap()
+            .to_vec1()
+            .unwrap();
         for s in 0..b {
             let mut e = [0.0f32; 3];
             enc.embed(&win[s * k * FEATURE_DIM..(s + 1) * k * FEATURE_DIM], &mut e);
             for j in 0..3 {
-                assert!((e[j] - h[s * 3 + j]).abs() < 1e-4, "sample {s}: {e:?} vs {:?}", &h[s * 3..s * 3 + 3]);
+                assert!(
+                    (e[j] - h[s * 3 + j]).abs() < 1e-4,
+                    "sample {s}: {e:?} vs {:?}",
+                    &h[s * 3..s * 3 + 3]
+                );
             }
         }
     }

@@ -11,7 +11,9 @@ use crate::history::{FEATURE_DIM, HistoryEncoder};
 pub fn torch_reference_embedding(enc: &HistoryEncoder, window: &[f32]) -> Vec<f32> {
     let t = enc.torch_tensors();
     let k = enc.length();
-    let mut x: Vec<Vec<f64>> = (0..FEATURE_DIM).map(|c| (0..k).map(|tau| window[tau * FEATURE_DIM + c] as f64).collect()).collect();
+    let mut x: Vec<Vec<f64>> = (0..FEATURE_DIM)
+        .map(|c| (0..k).map(|tau| window[tau * FEATURE_DIM + c] as f64).collect())
+        .collect();
     for l in 0..3 {
         let (w, b) = (&t[2 * l].2, &t[2 * l + 1].2);
         let (cout, cin, kw) = (t[2 * l].1[0], t[2 * l].1[1], t[2 * l].1[2]);

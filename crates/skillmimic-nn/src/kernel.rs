@@ -1,12 +1,13 @@
 //! Small-batch linear layer without operand packing.
 //!
-//! y[n × out] = x[n × in] · Wᵀ + b, reading a transposed copy `wt` = Wᵀ (in × out, row-major),
-//! so that for every input feature k the weights of a block of outputs are contiguous. A register
+//! y[n × out] = x[n × in] · Wᵀ + b, reading a transposed copy `wt` = Wᵀ (in × out, row-major), so
+//! that for every input feature k the weights of a block of outputs are contiguous. A register
 //! block of [`MR`] rows × [`NR`] outputs (16 AVX-512 accumulators; 8 × 16 with AVX2) accumulates
-//! with fused multiply–adds over all k, then is stored once; edge blocks use a portable loop. General-purpose GEMMs pack both operands on every call; at batch sizes around 64
-//! re-packing the weights costs as much as the arithmetic (measured: 56 % of inference time),
-//! which this kernel avoids. The body is compiled for AVX-512 and for AVX2 + FMA and chosen at run
-//! time; other CPUs use the portable build of the same code.
+//! with fused multiply–adds over all k, then is stored once; edge blocks use a portable loop.
+//! General-purpose GEMMs pack both operands on every call; at batch sizes around 64 re-packing the
+//! weights costs as much as the arithmetic (measured: 56 % of inference time), which this kernel
+//! avoids. The body is compiled for AVX-512 and for AVX2 + FMA and chosen at run time; other CPUs
+//! use the portable build of the same code.
 
 /// Rows per register block.
 pub const MR: usize = 8;
@@ -15,7 +16,17 @@ pub const NR: usize = 32;
 
 /// Portable edge path: rows `rows`, outputs `o0..o0 + nr` (nr ≤ NR).
 #[inline(always)]
-fn edge(x: &[f32], fan_in: usize, wt: &[f32], b: &[f32], fan_out: usize, out: &mut [f32], rows: std::ops::Range<usize>, o0: usize, nr: usize) {
+fn edge(
+    x: &[f32],
+    fan_in: usize,
+    wt: &[f32],
+    b: &[f32],
+    fan_out: usize,
+    out: &mut [f32],
+    rows: std::ops::Range<usize>,
+    o0: usize,
+    nr: usize,
+) {
     for i in rows {
         let mut acc = [0.0f32; NR];
         acc[..nr].copy_from_slice(&b[o0..o0 + nr]);
@@ -31,7 +42,16 @@ fn edge(x: &[f32], fan_in: usize, wt: &[f32], b: &[f32], fan_out: usize, out: &m
 }
 
 /// Portable build of the whole block loop.
-fn block_portable(x: &[f32], n: usize, fan_in: usize, wt: &[f32], b: &[f32], fan_out: usize, out: &mut [f32], cols: std::ops::Range<usize>) {
+fn block_portable(
+    x: &[f32],
+    n: usize,
+    fan_in: usize,
+    wt: &[f32],
+    b: &[f32],
+    fan_out: usize,
+    out: &mut [f32],
+    cols: std::ops::Range<usize>,
+) {
     let mut o0 = cols.start;
     while o0 < cols.end {
         let nr = NR.min(cols.end - o0);
@@ -42,7 +62,16 @@ fn block_portable(x: &[f32], n: usize, fan_in: usize, wt: &[f32], b: &[f32], fan
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,fma")]
-unsafe fn block_avx512(x: &[f32], n: usize, fan_in: usize, wt: &[f32], b: &[f32], fan_out: usize, out: &mut [f32], cols: std::ops::Range<usize>) {
+unsafe fn block_avx512(
+    x: &[f32],
+    n: usize,
+    fan_in: usize,
+    wt: &[f32],
+    b: &[f32],
+    fan_out: usize,
+    out: &mut [f32],
+    cols: std::ops::Range<usize>,
+) {
     use std::arch::x86_64::*;
     let mut o0 = cols.start;
     while o0 < cols.end {
@@ -83,7 +112,16 @@ unsafe fn block_avx512(x: &[f32], n: usize, fan_in: usize, wt: &[f32], b: &[f32]
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-unsafe fn block_avx2(x: &[f32], n: usize, fan_in: usize, wt: &[f32], b: &[f32], fan_out: usize, out: &mut [f32], cols: std::ops::Range<usize>) {
+unsafe fn block_avx2(
+    x: &[f32],
+    n: usize,
+    fan_in: usize,
+    wt: &[f32],
+    b: &[f32],
+    fan_out: usize,
+    out: &mut [f32],
+    cols: std::ops::Range<usize>,
+) {
     use std::arch::x86_64::*;
     const NR2: usize = 16;
     let mut o0 = cols.start;
@@ -123,7 +161,15 @@ unsafe fn block_avx2(x: &[f32], n: usize, fan_in: usize, wt: &[f32], b: &[f32], 
 }
 
 /// Compute the output columns `cols` of y = x · wt + b (all rows), best instruction set.
-pub fn linear_cols(x: &[f32], n: usize, fan_in: usize, wt: &[f32], b: &[f32], out: &mut [f32], cols: std::ops::Range<usize>) {
+pub fn linear_cols(
+    x: &[f32],
+    n: usize,
+    fan_in: usize,
+    wt: &[f32],
+    b: &[f32],
+    out: &mut [f32],
+    cols: std::ops::Range<usize>,
+) {
     let fan_out = b.len();
     assert_eq!(x.len(), n * fan_in);
     assert_eq!(wt.len(), fan_in * fan_out);
@@ -131,11 +177,14 @@ pub fn linear_cols(x: &[f32], n: usize, fan_in: usize, wt: &[f32], b: &[f32], ou
     assert!(cols.end <= fan_out);
     #[cfg(target_arch = "x86_64")]
     {
-        if std::arch::is_x86_feature_detected!("avx512f") && std::arch::is_x86_feature_detected!("fma") {
+        if std::arch::is_x86_feature_detected!("avx512f")
+            && std::arch::is_x86_feature_detected!("fma")
+        {
             // SAFETY: the CPU supports the enabled features (checked just above).
             return unsafe { block_avx512(x, n, fan_in, wt, b, fan_out, out, cols) };
         }
-        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
+        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
+        {
             // SAFETY: as above.
             return unsafe { block_avx2(x, n, fan_in, wt, b, fan_out, out, cols) };
         }
@@ -164,9 +213,13 @@ mod tests {
 
     #[test]
     fn kernel_matches_a_naive_product_for_edge_sizes() {
-        for &(n, fan_in, fan_out) in &[(1usize, 3usize, 1usize), (5, 7, 33), (8, 16, 64), (13, 9, 100), (4, 902, 156)] {
-            let x: Vec<f32> = (0..n * fan_in).map(|i| ((i * 37 % 23) as f32 - 11.0) * 0.05).collect();
-            let w: Vec<f32> = (0..fan_out * fan_in).map(|i| ((i * 17 % 29) as f32 - 14.0) * 0.02).collect();
+        for &(n, fan_in, fan_out) in
+            &[(1usize, 3usize, 1usize), (5, 7, 33), (8, 16, 64), (13, 9, 100), (4, 902, 156)]
+        {
+            let x: Vec<f32> =
+                (0..n * fan_in).map(|i| ((i * 37 % 23) as f32 - 11.0) * 0.05).collect();
+            let w: Vec<f32> =
+                (0..fan_out * fan_in).map(|i| ((i * 17 % 29) as f32 - 14.0) * 0.02).collect();
             let b: Vec<f32> = (0..fan_out).map(|i| i as f32 * 0.01).collect();
             let mut wt = Vec::new();
             transpose_into(&w, fan_out, fan_in, &mut wt);
@@ -174,8 +227,14 @@ mod tests {
             linear_cols(&x, n, fan_in, &wt, &b, &mut y, 0..fan_out);
             for i in 0..n {
                 for o in 0..fan_out {
-                    let want: f64 = b[o] as f64 + (0..fan_in).map(|k| x[i * fan_in + k] as f64 * w[o * fan_in + k] as f64).sum::<f64>();
-                    assert!((y[i * fan_out + o] as f64 - want).abs() < 1e-4, "({n},{fan_in},{fan_out}) [{i},{o}]");
+                    let want: f64 = b[o] as f64
+                        + (0..fan_in)
+                            .map(|k| x[i * fan_in + k] as f64 * w[o * fan_in + k] as f64)
+                            .sum::<f64>();
+                    assert!(
+                        (y[i * fan_out + o] as f64 - want).abs() < 1e-4,
+                        "({n},{fan_in},{fan_out}) [{i},{o}]"
+                    );
                 }
             }
         }

@@ -4,9 +4,11 @@
 //!
 //! * [`network`]: the [`Network`] trait — PyTorch `state_dict` names/shapes and a candle forward;
 //! * [`mlp`]: Linear+ReLU MLPs with fast batched CPU inference ([`kernel`]: small-batch kernels);
-//! * [`bf16`]: bf16 × bf16 → float32 matrix products (AVX512-BF16) for the reduced-precision update;
+//! * [`bf16`]: bf16 × bf16 → float32 matrix products (AVX512-BF16) for the reduced-precision
+//!   update;
 //! * [`normalizer`]: running mean/std normalisers (observations, values);
-//! * [`frozen`]: a frozen skill policy's deterministic actor with its normaliser (high-level tasks);
+//! * [`frozen`]: a frozen skill policy's deterministic actor with its normaliser (high-level
+//!   tasks);
 //! * [`frozen_parts`]: the frozen part controllers of a modular checkpoint (ModSkill skill reuse);
 //! * [`history`]: the SkillMimic-V2 history encoder (candle forward, plain pass, online buffer);
 //! * [`modular`]: ModSkill's modular attention actor (per-part tokens, attention, controllers);

@@ -75,9 +75,31 @@ pub unsafe fn gemm_raw(
     unsafe {
         if m <= SMALL_BATCH || n <= SMALL_BATCH && m > 4 * n {
             let beta = if accumulate { 1.0 } else { 0.0 };
-            matrixmultiply::sgemm(m, k, n, 1.0, lhs, lhs_rs, lhs_cs, rhs, rhs_rs, rhs_cs, beta, dst, dst_rs, dst_cs);
+            matrixmultiply::sgemm(
+                m, k, n, 1.0, lhs, lhs_rs, lhs_cs, rhs, rhs_rs, rhs_cs, beta, dst, dst_rs, dst_cs,
+            );
         } else {
-            gemm::gemm(m, n, k, dst, dst_cs, dst_rs, accumulate, lhs, lhs_cs, lhs_rs, rhs, rhs_cs, rhs_rs, 1.0, 1.0, false, false, false, gemm::Parallelism::None);
+            gemm::gemm(
+                m,
+                n,
+                k,
+                dst,
+                dst_cs,
+                dst_rs,
+                accumulate,
+                lhs,
+                lhs_cs,
+                lhs_rs,
+                rhs,
+                rhs_cs,
+                rhs_rs,
+                1.0,
+                1.0,
+                false,
+                false,
+                false,
+                gemm::Parallelism::None,
+            );
         }
     }
 }
@@ -101,14 +123,25 @@ impl SendPtr {
 pub fn split_ranges(len: usize, parts: usize) -> Vec<std::ops::Range<usize>> {
     let parts = parts.clamp(1, len.div_ceil(16).max(1));
     let chunk = len.div_ceil(parts).div_ceil(16) * 16;
-    (0..parts).map(|p| (p * chunk).min(len)..((p + 1) * chunk).min(len)).filter(|r| !r.is_empty()).collect()
+    (0..parts)
+        .map(|p| (p * chunk).min(len)..((p + 1) * chunk).min(len))
+        .filter(|r| !r.is_empty())
+        .collect()
 }
 
 /// y[n × out] = x[n × in] · Wᵀ + b (row-major everything). With `threads` > 1 the output
 /// features are split into contiguous blocks, one single-threaded `gemm` per block on the current
 /// rayon pool: each thread packs only its own rows of W, which scales at small batches where
 /// gemm's internal parallelism does not.
-pub fn linear_into(x: &[f32], n: usize, w: &[f32], b: &[f32], fan_in: usize, out: &mut [f32], threads: usize) {
+pub fn linear_into(
+    x: &[f32],
+    n: usize,
+    w: &[f32],
+    b: &[f32],
+    fan_in: usize,
+    out: &mut [f32],
+    threads: usize,
+) {
     use rayon::prelude::*;
     let fan_out = b.len();
     assert_eq!(x.len(), n * fan_in);
@@ -167,7 +200,9 @@ impl Mlp {
         for w in dims.windows(2) {
             let (fan_in, fan_out) = (w[0], w[1]);
             let bound = 1.0 / (fan_in as f64).sqrt();
-            weights.push((0..fan_in * fan_out).map(|_| rng.random_range(-bound..bound) as f32).collect());
+            weights.push(
+                (0..fan_in * fan_out).map(|_| rng.random_range(-bound..bound) as f32).collect(),
+            );
             biases.push(vec![0.0; fan_out]);
         }
         Self::from_parts(dims.to_vec(), weights, biases)
@@ -198,7 +233,11 @@ impl Mlp {
 
     /// Parameters in `param_names` order.
     pub fn params(&self) -> Vec<&[f32]> {
-        self.weights.iter().zip(&self.biases).flat_map(|(w, b)| [w.as_slice(), b.as_slice()]).collect()
+        self.weights
+            .iter()
+            .zip(&self.biases)
+            .flat_map(|(w, b)| [w.as_slice(), b.as_slice()])
+            .collect()
     }
     /// Mutable parameters in `param_names` order (renews the parameter identity).
     pub fn params_mut(&mut self) -> Vec<&mut Vec<f32>> {
@@ -210,7 +249,13 @@ impl Mlp {
     /// Batches up to [`SMALL_BATCH`] rows use the packing-free kernel of [`crate::kernel`] on the
     /// transposed weights, larger ones `gemm`; with `threads` > 1 the output features of every
     /// layer are split over the current rayon pool.
-    pub fn forward_into<'w>(&self, x: &[f32], n: usize, ws: &'w mut Workspace, threads: usize) -> &'w [f32] {
+    pub fn forward_into<'w>(
+        &self,
+        x: &[f32],
+        n: usize,
+        ws: &'w mut Workspace,
+        threads: usize,
+    ) -> &'w [f32] {
         use rayon::prelude::*;
         let layers = self.num_layers();
         if ws.acts.len() < layers {
@@ -226,7 +271,12 @@ impl Mlp {
         if small && ws.wt_id != self.id {
             ws.wt.resize_with(layers, Vec::new);
             for k in 0..layers {
-                crate::kernel::transpose_into(&self.weights[k], self.dims[k + 1], self.dims[k], &mut ws.wt[k]);
+                crate::kernel::transpose_into(
+                    &self.weights[k],
+                    self.dims[k + 1],
+                    self.dims[k],
+                    &mut ws.wt[k],
+                );
             }
             ws.wt_id = self.id;
         }
@@ -274,7 +324,9 @@ impl Mlp {
         let layers = vars.len() / 2;
         let mut h = x.clone();
         for k in 0..layers {
-            h = h.matmul(&vars[2 * k].as_tensor().t()?)?.broadcast_add(vars[2 * k + 1].as_tensor())?;
+            h = h
+                .matmul(&vars[2 * k].as_tensor().t()?)?
+                .broadcast_add(vars[2 * k + 1].as_tensor())?;
             if k + 1 < layers {
                 h = h.relu()?;
             }
@@ -288,8 +340,16 @@ impl crate::network::Network for Mlp {
     fn state_dict(&self) -> Vec<crate::network::NamedTensor> {
         let mut v = Vec::with_capacity(2 * self.num_layers());
         for (k, w) in self.dims.windows(2).enumerate() {
-            v.push(crate::network::NamedTensor { name: format!("{}.weight", 2 * k), shape: vec![w[1], w[0]], data: self.weights[k].clone() });
-            v.push(crate::network::NamedTensor { name: format!("{}.bias", 2 * k), shape: vec![w[1]], data: self.biases[k].clone() });
+            v.push(crate::network::NamedTensor {
+                name: format!("{}.weight", 2 * k),
+                shape: vec![w[1], w[0]],
+                data: self.weights[k].clone(),
+            });
+            v.push(crate::network::NamedTensor {
+                name: format!("{}.bias", 2 * k),
+                shape: vec![w[1]],
+                data: self.biases[k].clone(),
+            });
         }
         v
     }
@@ -305,8 +365,13 @@ mod tests {
 
     #[test]
     fn gemm_forward_equals_candle_forward_and_a_hand_computed_layer() {
-        // one layer by hand: W = [[1, 2], [3, 4], [5, 6]], b = [0.5, -1, 0], x = [[1, -1], [2, 0.5]]
-        let m = Mlp::from_parts(vec![2, 3], vec![vec![1., 2., 3., 4., 5., 6.]], vec![vec![0.5, -1., 0.]]);
+        // one layer by hand: W = [[1, 2], [3, 4], [5, 6]], b = [0.5, -1, 0], x = [[1, -1], [2,
+        // 0.5]]
+        let m = Mlp::from_parts(
+            vec![2, 3],
+            vec![vec![1., 2., 3., 4., 5., 6.]],
+            vec![vec![0.5, -1., 0.]],
+        );
         let mut ws = Workspace::default();
         let y = m.forward_into(&[1., -1., 2., 0.5], 2, &mut ws, 1).to_vec();
         assert_eq!(y, vec![-0.5, -2.0, -1.0, 3.5, 7.0, 13.0]);
@@ -318,7 +383,8 @@ mod tests {
         let dev = Device::Cpu;
         let vars = m.candle_vars(&dev).unwrap();
         let xt = Tensor::from_slice(&x, (11, 37), &dev).unwrap();
-        let slow: Vec<f32> = Mlp::candle_forward(&vars, &xt).unwrap().flatten_all().unwrap().to_vec1().unwrap();
+        let slow: Vec<f32> =
+            Mlp::candle_forward(&vars, &xt).unwrap().flatten_all().unwrap().to_vec1().unwrap();
         let err = fast.iter().zip(&slow).map(|(a, b)| (a - b).abs()).fold(0.0f32, f32::max);
         assert!(err < 1e-5, "max diff {err}");
         assert_eq!(m.param_names("actor")[4], ("actor.4.weight".to_string(), vec![5, 32]));

@@ -13,10 +13,10 @@
 //! * a controller MLP per part (`parts.{k}.controller`, ReLU between layers) maps z_k to the
 //!   part's action means; the means are written to the columns `outputs[k]` of the action row.
 //!
-//! Shapes: input (B, obs_dim) — already normalised by the policy — output (B, act_dim). Two
-//! forward paths over the same parameters: [`ModularAttention::forward_into`] (batched inference
-//! into preallocated buffers) and [`ModularAttention::candle_forward`] (candle graph over `Var`s for
-//! the PPO gradients), tested equal.
+//! Shapes: input (B, obs_dim) — already normalised by the policy — output (B, act_dim). Two forward
+//! paths over the same parameters: [`ModularAttention::forward_into`] (batched inference into
+//! preallocated buffers) and [`ModularAttention::candle_forward`] (candle graph over `Var`s for the
+//! PPO gradients), tested equal.
 
 use candle_core::{D, Device, Tensor, Var};
 use rand::Rng;
@@ -89,7 +89,15 @@ fn linear<R: Rng + ?Sized>(inp: usize, out: usize, rng: &mut R) -> Mlp {
 /// a[h][i][j] = softmax_j(q_i · k_j · scale) into `attn` (H·P·P) and the mixed embeddings
 /// u_i = Σ_j a_ij v_j (heads side by side) into `u` (P·E). Shared by inference and the training
 /// forward, which keeps `attn` for its backward.
-pub fn attend_row<'a>(qkv: impl Fn(usize, usize) -> &'a [f32], np: usize, e: usize, heads: usize, scale: f32, attn: &mut [f32], u: &mut [f32]) {
+pub fn attend_row<'a>(
+    qkv: impl Fn(usize, usize) -> &'a [f32],
+    np: usize,
+    e: usize,
+    heads: usize,
+    scale: f32,
+    attn: &mut [f32],
+    u: &mut [f32],
+) {
     let dh = e / heads;
     u.fill(0.0);
     for h in 0..heads {
@@ -98,7 +106,8 @@ pub fn attend_row<'a>(qkv: impl Fn(usize, usize) -> &'a [f32], np: usize, e: usi
             let q = &qkv(0, i)[cols.clone()];
             let a = &mut attn[(h * np + i) * np..(h * np + i + 1) * np];
             for (j, aj) in a.iter_mut().enumerate() {
-                *aj = q.iter().zip(&qkv(1, j)[cols.clone()]).map(|(x, y)| x * y).sum::<f32>() * scale;
+                *aj =
+                    q.iter().zip(&qkv(1, j)[cols.clone()]).map(|(x, y)| x * y).sum::<f32>() * scale;
             }
             let mx = a.iter().copied().fold(f32::NEG_INFINITY, f32::max);
             a.iter_mut().for_each(|v| *v = (*v - mx).exp());
@@ -147,9 +156,18 @@ impl ModularAttention {
     /// A new network: part k reads `parts[k].1` and writes `parts[k].2`. Projections get PyTorch's
     /// `nn.Linear` initialisation, controllers the policy MLPs' (U(±1/√fan_in) weights, zero
     /// biases). Errors name what is wrong with the parts.
-    pub fn new<R: Rng + ?Sized>(shape: ModularShape, parts: &[(String, Vec<usize>, Vec<usize>)], obs_dim: usize, act_dim: usize, rng: &mut R) -> Result<Self, String> {
+    pub fn new<R: Rng + ?Sized>(
+        shape: ModularShape,
+        parts: &[(String, Vec<usize>, Vec<usize>)],
+        obs_dim: usize,
+        act_dim: usize,
+        rng: &mut R,
+    ) -> Result<Self, String> {
         if shape.heads == 0 || !shape.embed.is_multiple_of(shape.heads) {
-            return Err(format!("embedding width {} is not a multiple of the {} heads", shape.embed, shape.heads));
+            return Err(format!(
+                "embedding width {} is not a multiple of the {} heads",
+                shape.embed, shape.heads
+            ));
         }
         let mut covered = vec![0u32; act_dim];
         for (name, inputs, outputs) in parts {
@@ -157,14 +175,21 @@ impl ModularAttention {
                 return Err(format!("part '{name}' has no observation or no action columns"));
             }
             if let Some(c) = inputs.iter().find(|&&c| c >= obs_dim) {
-                return Err(format!("part '{name}' reads observation column {c}, the observation has {obs_dim}"));
+                return Err(format!(
+                    "part '{name}' reads observation column {c}, the observation has {obs_dim}"
+                ));
             }
             for &o in outputs {
-                *covered.get_mut(o).ok_or_else(|| format!("part '{name}' writes action column {o}, the action has {act_dim}"))? += 1;
+                *covered.get_mut(o).ok_or_else(|| {
+                    format!("part '{name}' writes action column {o}, the action has {act_dim}")
+                })? += 1;
             }
         }
         if let Some(o) = covered.iter().position(|&c| c != 1) {
-            return Err(format!("action column {o} is written by {} parts; every column needs exactly one", covered[o]));
+            return Err(format!(
+                "action column {o} is written by {} parts; every column needs exactly one",
+                covered[o]
+            ));
         }
         let (e, h) = (shape.embed, shape.proj_hidden);
         let mut built = Vec::new();
@@ -176,14 +201,26 @@ impl ModularAttention {
             dims.extend(&shape.controller);
             dims.push(outputs.len());
             let controller = Mlp::new(&dims, &mut &mut *rng);
-            built.push(Part { name: name.clone(), inputs: inputs.clone(), outputs: outputs.clone(), q, k, v, controller });
+            built.push(Part {
+                name: name.clone(),
+                inputs: inputs.clone(),
+                outputs: outputs.clone(),
+                q,
+                k,
+                v,
+                controller,
+            });
         }
         Ok(Self { shape, parts: built, obs_dim, act_dim })
     }
 
     /// The factor of the attention scores: 1/√(E/H) when `scaled`, else 1.
     pub fn score_scale(&self) -> f32 {
-        if self.shape.scaled { 1.0 / ((self.shape.embed / self.shape.heads) as f32).sqrt() } else { 1.0 }
+        if self.shape.scaled {
+            1.0 / ((self.shape.embed / self.shape.heads) as f32).sqrt()
+        } else {
+            1.0
+        }
     }
 
     /// `(name, shape)` of every parameter in [`ModularAttention::params`] order.
@@ -203,7 +240,9 @@ impl ModularAttention {
     }
 
     fn mlps(&self) -> impl Iterator<Item = &Mlp> {
-        self.parts.iter().flat_map(|p| p.q.iter().chain(&p.k).chain(&p.v).chain(std::iter::once(&p.controller)))
+        self.parts
+            .iter()
+            .flat_map(|p| p.q.iter().chain(&p.k).chain(&p.v).chain(std::iter::once(&p.controller)))
     }
 
     /// Parameters: per part q.0, q.1, k.0, k.1, v.0, v.1 (weight, bias each), then the controller.
@@ -213,11 +252,26 @@ impl ModularAttention {
 
     /// Mutable parameters in [`ModularAttention::params`] order.
     pub fn params_mut(&mut self) -> Vec<&mut Vec<f32>> {
-        self.parts.iter_mut().flat_map(|p| p.q.iter_mut().chain(p.k.iter_mut()).chain(p.v.iter_mut()).chain(std::iter::once(&mut p.controller))).flat_map(|m| m.params_mut()).collect()
+        self.parts
+            .iter_mut()
+            .flat_map(|p| {
+                p.q.iter_mut()
+                    .chain(p.k.iter_mut())
+                    .chain(p.v.iter_mut())
+                    .chain(std::iter::once(&mut p.controller))
+            })
+            .flat_map(|m| m.params_mut())
+            .collect()
     }
 
     /// Batched inference of `n` rows of `x` (`n × obs_dim`, normalised); returns `n × act_dim`.
-    pub fn forward_into<'w>(&self, x: &[f32], n: usize, ws: &'w mut ModularWorkspace, threads: usize) -> &'w [f32] {
+    pub fn forward_into<'w>(
+        &self,
+        x: &[f32],
+        n: usize,
+        ws: &'w mut ModularWorkspace,
+        threads: usize,
+    ) -> &'w [f32] {
         let (np, e) = (self.parts.len(), self.shape.embed);
         ws.tokens.resize_with(np, Vec::new);
         ws.qkv.resize_with(3 * np, Vec::new);
@@ -226,7 +280,10 @@ impl ModularAttention {
         for (k, p) in self.parts.iter().enumerate() {
             let t = &mut ws.tokens[k];
             t.resize(n * p.inputs.len(), 0.0);
-            for (row, trow) in x[..n * self.obs_dim].chunks_exact(self.obs_dim).zip(t.chunks_exact_mut(p.inputs.len())) {
+            for (row, trow) in x[..n * self.obs_dim]
+                .chunks_exact(self.obs_dim)
+                .zip(t.chunks_exact_mut(p.inputs.len()))
+            {
                 for (o, &c) in trow.iter_mut().zip(&p.inputs) {
                     *o = row[c];
                 }
@@ -248,7 +305,15 @@ impl ModularAttention {
         ws.u.resize(np * e, 0.0);
         for r in 0..n {
             let qkv = &ws.qkv;
-            attend_row(|which, part| &qkv[3 * part + which][r * e..(r + 1) * e], np, e, heads, scale, &mut ws.scores, &mut ws.u);
+            attend_row(
+                |which, part| &qkv[3 * part + which][r * e..(r + 1) * e],
+                np,
+                e,
+                heads,
+                scale,
+                &mut ws.scores,
+                &mut ws.u,
+            );
             for (i, zi) in ws.z.iter_mut().enumerate() {
                 let zi = &mut zi[r * e..(r + 1) * e];
                 zi.copy_from_slice(&ws.u[i * e..(i + 1) * e]);
@@ -277,7 +342,9 @@ impl ModularAttention {
         let dev = x.device();
         let (b, np, e) = (x.dim(0)?, self.parts.len(), self.shape.embed);
         let (heads, dh) = (self.shape.heads, e / self.shape.heads);
-        let lin = |h: &Tensor, w: &Var, bias: &Var| h.matmul(&w.as_tensor().t()?)?.broadcast_add(bias.as_tensor());
+        let lin = |h: &Tensor, w: &Var, bias: &Var| {
+            h.matmul(&w.as_tensor().t()?)?.broadcast_add(bias.as_tensor())
+        };
         let (mut qs, mut ks, mut vs) = (Vec::new(), Vec::new(), Vec::new());
         let mut at = 0;
         let mut ctrl_vars = Vec::new();
@@ -294,7 +361,9 @@ impl ModularAttention {
             at += nc;
         }
         // (B, P, E) → (B, H, P, dh)
-        let split = |t: Vec<Tensor>| -> candle_core::Result<Tensor> { Tensor::stack(&t, 1)?.reshape((b, np, heads, dh))?.transpose(1, 2)?.contiguous() };
+        let split = |t: Vec<Tensor>| -> candle_core::Result<Tensor> {
+            Tensor::stack(&t, 1)?.reshape((b, np, heads, dh))?.transpose(1, 2)?.contiguous()
+        };
         let (q, k, v) = (split(qs)?, split(ks)?, split(vs)?);
         let mut scores = q.matmul(&k.transpose(2, 3)?.contiguous()?)?;
         if self.shape.scaled {
@@ -326,7 +395,15 @@ impl ModularAttention {
 impl Network for ModularAttention {
     fn state_dict(&self) -> Vec<NamedTensor> {
         let names = self.param_names("");
-        names.into_iter().zip(self.params()).map(|((name, shape), data)| NamedTensor { name: name[1..].to_string(), shape, data: data.to_vec() }).collect()
+        names
+            .into_iter()
+            .zip(self.params())
+            .map(|((name, shape), data)| NamedTensor {
+                name: name[1..].to_string(),
+                shape,
+                data: data.to_vec(),
+            })
+            .collect()
     }
     fn forward(&self, x: &Tensor) -> candle_core::Result<Tensor> {
         self.candle_forward(&self.candle_vars(x.device())?, x)
@@ -340,7 +417,8 @@ mod tests {
 
     fn net(scaled: bool, heads: usize) -> ModularAttention {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);
-        let shape = ModularShape { embed: 8, proj_hidden: 6, heads, scaled, controller: vec![10, 7] };
+        let shape =
+            ModularShape { embed: 8, proj_hidden: 6, heads, scaled, controller: vec![10, 7] };
         // three parts over 12 inputs and 7 actions, outputs interleaved (not in part order)
         let parts = vec![
             ("a".to_string(), vec![0, 1, 2, 11], vec![0, 3]),
@@ -373,10 +451,15 @@ mod tests {
         assert_eq!(names.len(), m.params().len());
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);
         let shape = m.shape.clone();
-        let twice = vec![("a".to_string(), vec![0], vec![0, 1]), ("b".to_string(), vec![1], vec![1])];
+        let twice =
+            vec![("a".to_string(), vec![0], vec![0, 1]), ("b".to_string(), vec![1], vec![1])];
         let err = ModularAttention::new(shape.clone(), &twice, 2, 2, &mut rng).unwrap_err();
         assert!(err.contains("action column 1 is written by 2 parts"), "{err}");
         let outside = vec![("a".to_string(), vec![5], vec![0])];
-        assert!(ModularAttention::new(shape, &outside, 2, 1, &mut rng).unwrap_err().contains("column 5"));
+        assert!(
+            ModularAttention::new(shape, &outside, 2, 1, &mut rng)
+                .unwrap_err()
+                .contains("column 5")
+        );
     }
 }

@@ -34,19 +34,34 @@ impl RunningMeanStd {
     /// and the value; `prefix` (e.g. `obs_norm`) is put before tensor names.
     pub fn check(&self, prefix: &str) -> Result<(), String> {
         if let Some((j, m)) = self.mean.iter().enumerate().find(|(_, m)| !m.is_finite()) {
-            return Err(format!("tensor '{prefix}.mean' entry {j} is {m}, expected a finite number"));
+            return Err(format!(
+                "tensor '{prefix}.mean' entry {j} is {m}, expected a finite number"
+            ));
         }
-        if let Some((j, v)) = self.var.iter().enumerate().find(|(_, v)| !(v.is_finite() && **v >= 0.0)) {
-            return Err(format!("tensor '{prefix}.var' entry {j} is {v}, expected a finite variance >= 0"));
+        if let Some((j, v)) =
+            self.var.iter().enumerate().find(|(_, v)| !(v.is_finite() && **v >= 0.0))
+        {
+            return Err(format!(
+                "tensor '{prefix}.var' entry {j} is {v}, expected a finite variance >= 0"
+            ));
         }
         if !(self.count.is_finite() && self.count > 0.0) {
-            return Err(format!("tensor '{prefix}.count' is {}, expected a finite count > 0", self.count));
+            return Err(format!(
+                "tensor '{prefix}.count' is {}, expected a finite count > 0",
+                self.count
+            ));
         }
         if !(self.eps.is_finite() && self.eps > 0.0) {
-            return Err(format!("metadata field 'norm_eps' is {}, expected a finite number > 0", self.eps));
+            return Err(format!(
+                "metadata field 'norm_eps' is {}, expected a finite number > 0",
+                self.eps
+            ));
         }
         if !(self.clip > 0.0) {
-            return Err(format!("metadata field 'norm_clip' is {}, expected a number > 0", self.clip));
+            return Err(format!(
+                "metadata field 'norm_clip' is {}, expected a number > 0",
+                self.clip
+            ));
         }
         Ok(())
     }
@@ -98,9 +113,15 @@ impl RunningMeanStd {
     }
 
     /// Mean and unbiased variance from `n` rows' sums of `x − shift` and `(x − shift)²`.
-    pub fn moments_from_sums(n: f64, s1: &[f64], s2: &[f64], shift: &[f64]) -> (Vec<f64>, Vec<f64>) {
+    pub fn moments_from_sums(
+        n: f64,
+        s1: &[f64],
+        s2: &[f64],
+        shift: &[f64],
+    ) -> (Vec<f64>, Vec<f64>) {
         let mean = (0..s1.len()).map(|j| shift[j] + s1[j] / n).collect();
-        let var = (0..s1.len()).map(|j| ((s2[j] - s1[j] * s1[j] / n) / (n - 1.0)).max(0.0)).collect();
+        let var =
+            (0..s1.len()).map(|j| ((s2[j] - s1[j] * s1[j] / n) / (n - 1.0)).max(0.0)).collect();
         (mean, var)
     }
 
@@ -179,7 +200,10 @@ mod tests {
             f(&mut r);
             r.check("obs_norm").unwrap_err()
         };
-        assert_eq!(with(&|r| r.var[1] = -1.0), "tensor 'obs_norm.var' entry 1 is -1, expected a finite variance >= 0");
+        assert_eq!(
+            with(&|r| r.var[1] = -1.0),
+            "tensor 'obs_norm.var' entry 1 is -1, expected a finite variance >= 0"
+        );
         assert!(with(&|r| r.mean[2] = f64::NAN).contains("'obs_norm.mean' entry 2 is NaN"));
         assert!(with(&|r| r.eps = -1e-5).contains("'norm_eps' is -0.00001"));
         assert!(with(&|r| r.eps = 0.0).contains("'norm_eps' is 0"));

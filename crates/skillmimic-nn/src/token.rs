@@ -93,13 +93,23 @@ impl TokenSpec {
     /// Errors name what is inconsistent.
     pub fn check(&self) -> Result<(), String> {
         if self.groups.is_empty() || self.groups.iter().any(|g| g.1 == 0) {
-            return Err(format!("the token groups {:?} must be non-empty with positive widths (group 0: proprioception)", self.groups));
+            return Err(format!(
+                "the token groups {:?} must be non-empty with positive widths (group 0: proprioception)",
+                self.groups
+            ));
         }
         if self.mask != 0 && self.mask + 1 != self.groups.len() {
-            return Err(format!("the mask has {} entries, expected one per task group ({})", self.mask, self.groups.len() - 1));
+            return Err(format!(
+                "the mask has {} entries, expected one per task group ({})",
+                self.mask,
+                self.groups.len() - 1
+            ));
         }
         if self.heads == 0 || !self.embed.is_multiple_of(self.heads) {
-            return Err(format!("token width {} is not a multiple of the {} heads", self.embed, self.heads));
+            return Err(format!(
+                "token width {} is not a multiple of the {} heads",
+                self.embed, self.heads
+            ));
         }
         Ok(())
     }
@@ -180,14 +190,24 @@ impl TokenTransformer {
     /// encoders' feed-forward layers get PyTorch's default U(±1/√fan_in) (weights and biases),
     /// the attention projections U(±1/√E) with zero biases, LayerNorms ones/zeros, the output
     /// token and the adapters zeros.
-    pub fn new<R: Rng + ?Sized>(spec: TokenSpec, act_dim: usize, rng: &mut R) -> Result<Self, String> {
+    pub fn new<R: Rng + ?Sized>(
+        spec: TokenSpec,
+        act_dim: usize,
+        rng: &mut R,
+    ) -> Result<Self, String> {
         spec.check()?;
         let layout = spec.layout(act_dim);
         let mut tensors = Vec::with_capacity(layout.len());
         let mut fan_in = 1usize;
         for (name, shape) in layout {
             let n: usize = shape.iter().product();
-            let data = if name == "output_token" || name.starts_with("adapters.") || name.ends_with("_proj_bias") || name.ends_with("out_proj.bias") || name.ends_with("norm1.bias") || name.ends_with("norm2.bias") {
+            let data = if name == "output_token"
+                || name.starts_with("adapters.")
+                || name.ends_with("_proj_bias")
+                || name.ends_with("out_proj.bias")
+                || name.ends_with("norm1.bias")
+                || name.ends_with("norm2.bias")
+            {
                 vec![0.0; n]
             } else if name.ends_with("norm1.weight") || name.ends_with("norm2.weight") {
                 vec![1.0; n]
@@ -212,24 +232,49 @@ impl TokenTransformer {
 
     /// `(name, shape)` of the trained tensors under `prefix` ([`TokenTransformer::params`] order).
     pub fn param_names(&self, prefix: &str) -> Vec<(String, Vec<usize>)> {
-        self.tensors.iter().zip(&self.trainable).filter(|&(_, &t)| t).map(|(t, _)| (format!("{prefix}.{}", t.name), t.shape.clone())).collect()
+        self.tensors
+            .iter()
+            .zip(&self.trainable)
+            .filter(|&(_, &t)| t)
+            .map(|(t, _)| (format!("{prefix}.{}", t.name), t.shape.clone()))
+            .collect()
     }
     /// The trained tensors (the optimiser's list).
     pub fn params(&self) -> Vec<&[f32]> {
-        self.tensors.iter().zip(&self.trainable).filter(|&(_, &t)| t).map(|(t, _)| t.data.as_slice()).collect()
+        self.tensors
+            .iter()
+            .zip(&self.trainable)
+            .filter(|&(_, &t)| t)
+            .map(|(t, _)| t.data.as_slice())
+            .collect()
     }
     /// The trained tensors, mutably.
     pub fn params_mut(&mut self) -> Vec<&mut Vec<f32>> {
-        self.tensors.iter_mut().zip(&self.trainable).filter(|&(_, &t)| t).map(|(t, _)| &mut t.data).collect()
+        self.tensors
+            .iter_mut()
+            .zip(&self.trainable)
+            .filter(|&(_, &t)| t)
+            .map(|(t, _)| &mut t.data)
+            .collect()
     }
     /// The frozen tensors with their names under `prefix`.
     pub fn frozen_tensors(&self, prefix: &str) -> Vec<(String, Vec<usize>, &[f32])> {
-        self.tensors.iter().zip(&self.trainable).filter(|&(_, &t)| !t).map(|(t, _)| (format!("{prefix}.{}", t.name), t.shape.clone(), t.data.as_slice())).collect()
+        self.tensors
+            .iter()
+            .zip(&self.trainable)
+            .filter(|&(_, &t)| !t)
+            .map(|(t, _)| (format!("{prefix}.{}", t.name), t.shape.clone(), t.data.as_slice()))
+            .collect()
     }
 
     /// Candle variables of the trained tensors.
     pub fn candle_vars(&self, dev: &Device) -> candle_core::Result<Vec<Var>> {
-        self.tensors.iter().zip(&self.trainable).filter(|&(_, &t)| t).map(|(t, _)| Var::from_tensor(&Tensor::from_slice(&t.data, t.shape.as_slice(), dev)?)).collect()
+        self.tensors
+            .iter()
+            .zip(&self.trainable)
+            .filter(|&(_, &t)| t)
+            .map(|(t, _)| Var::from_tensor(&Tensor::from_slice(&t.data, t.shape.as_slice(), dev)?))
+            .collect()
     }
 
     /// Candle forward of `x` (B, obs_dim) → (B, act_dim), the trained tensors taken from `vars`
@@ -254,7 +299,8 @@ impl TokenTransformer {
         let s = &self.spec;
         let b = x.dim(0)?;
         let mut at = 1; // after output_token
-        let mut seq = vec![p[0].reshape((1, 1, s.embed))?.broadcast_as((b, 1, s.embed))?.contiguous()?];
+        let mut seq =
+            vec![p[0].reshape((1, 1, s.embed))?.broadcast_as((b, 1, s.embed))?.contiguous()?];
         let layers_per_mlp = s.tokenizer.len() + 1;
         for ((_, w), off) in s.groups.iter().zip(s.offsets()) {
             let mut h = x.narrow(1, off, *w)?;
@@ -277,13 +323,18 @@ impl TokenTransformer {
         }
         let mut h = z.narrow(1, 0, 1)?.squeeze(1)?;
         let nh = s.head.len();
-        let gate = match (s.adapters && !s.adapter_gate.is_empty() && s.mask > 0, s.obs_dim() - s.mask) {
-            (true, at) => {
-                let cols = s.adapter_gate.iter().map(|&k| x.narrow(1, at + k, 1)).collect::<candle_core::Result<Vec<_>>>()?;
-                Some(Tensor::cat(&cols, 1)?.max_keepdim(1)?)
-            }
-            (false, _) => None,
-        };
+        let gate =
+            match (s.adapters && !s.adapter_gate.is_empty() && s.mask > 0, s.obs_dim() - s.mask) {
+                (true, at) => {
+                    let cols = s
+                        .adapter_gate
+                        .iter()
+                        .map(|&k| x.narrow(1, at + k, 1))
+                        .collect::<candle_core::Result<Vec<_>>>()?;
+                    Some(Tensor::cat(&cols, 1)?.max_keepdim(1)?)
+                }
+                (false, _) => None,
+            };
         let adapters = if s.adapters { at + 2 * nh } else { at };
         for l in 0..nh {
             let mut y = dense(&h, &p[at + 2 * l], &p[at + 2 * l + 1])?;
@@ -307,7 +358,11 @@ impl TokenTransformer {
         let d = self.obs_dim();
         let run = || -> candle_core::Result<Vec<f32>> {
             let dev = Device::Cpu;
-            let all = self.tensors.iter().map(|t| Tensor::from_slice(&t.data, t.shape.as_slice(), &dev)).collect::<candle_core::Result<Vec<_>>>()?;
+            let all = self
+                .tensors
+                .iter()
+                .map(|t| Tensor::from_slice(&t.data, t.shape.as_slice(), &dev))
+                .collect::<candle_core::Result<Vec<_>>>()?;
             let xt = Tensor::from_slice(&x[..n * d], (n, d), &dev)?;
             self.forward_tensors(&all, &xt)?.flatten_all()?.to_vec1()
         };
@@ -322,7 +377,11 @@ impl Network for TokenTransformer {
         self.tensors.clone()
     }
     fn forward(&self, x: &Tensor) -> candle_core::Result<Tensor> {
-        let all = self.tensors.iter().map(|t| Tensor::from_slice(&t.data, t.shape.as_slice(), x.device())).collect::<candle_core::Result<Vec<_>>>()?;
+        let all = self
+            .tensors
+            .iter()
+            .map(|t| Tensor::from_slice(&t.data, t.shape.as_slice(), x.device()))
+            .collect::<candle_core::Result<Vec<_>>>()?;
         self.forward_tensors(&all, x)
     }
 }
@@ -377,10 +436,23 @@ mod tests {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
         let mut spec = small(true);
         let all = TokenTransformer::new(spec.clone(), 5, &mut rng).unwrap();
-        spec.frozen = all.tensors.iter().filter(|t| !t.name.starts_with("adapters.")).map(|t| t.name.clone()).collect();
+        spec.frozen = all
+            .tensors
+            .iter()
+            .filter(|t| !t.name.starts_with("adapters."))
+            .map(|t| t.name.clone())
+            .collect();
         let net = TokenTransformer::new(spec, 5, &mut rng).unwrap();
         let names: Vec<String> = net.param_names("actor").into_iter().map(|n| n.0).collect();
-        assert_eq!(names, ["actor.adapters.0.weight", "actor.adapters.0.bias", "actor.adapters.1.weight", "actor.adapters.1.bias"]);
+        assert_eq!(
+            names,
+            [
+                "actor.adapters.0.weight",
+                "actor.adapters.0.bias",
+                "actor.adapters.1.weight",
+                "actor.adapters.1.bias"
+            ]
+        );
         assert_eq!(net.frozen_tensors("actor").len() + 4, net.tensors.len());
         let x = Tensor::from_slice(&[0.5f32; 16], (1, 16), &Device::Cpu).unwrap();
         let vars = net.candle_vars(&Device::Cpu).unwrap();

@@ -7,7 +7,12 @@ use skillmimic_nn::Network;
 use skillmimic_nn::attention::{Dense, MultiHeadAttention, TransformerEncoderLayer};
 
 fn dense(d: &Dense, x: &[f64]) -> Vec<f64> {
-    (0..d.out).map(|o| d.bias[o] as f64 + (0..d.inp).map(|i| d.weight[o * d.inp + i] as f64 * x[i]).sum::<f64>()).collect()
+    (0..d.out)
+        .map(|o| {
+            d.bias[o] as f64
+                + (0..d.inp).map(|i| d.weight[o * d.inp + i] as f64 * x[i]).sum::<f64>()
+        })
+        .collect()
 }
 
 /// Reference attention of one batch element: x (S × E), mask[s] = true → ignored key.
@@ -22,7 +27,11 @@ fn ref_mha(m: &MultiHeadAttention, x: &[Vec<f64>], mask: &[bool]) -> Vec<Vec<f64
             let scores: Vec<f64> = (0..x.len())
                 .map(|s| {
                     let k = &proj[s][e + head * hd..e + (head + 1) * hd];
-                    if mask[s] { f64::NEG_INFINITY } else { q.iter().zip(k).map(|(a, b)| a * b).sum::<f64>() / (hd as f64).sqrt() }
+                    if mask[s] {
+                        f64::NEG_INFINITY
+                    } else {
+                        q.iter().zip(k).map(|(a, b)| a * b).sum::<f64>() / (hd as f64).sqrt()
+                    }
                 })
                 .collect();
             let mx = scores.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
@@ -43,7 +52,10 @@ fn ref_ln(x: &[f64], p: &(Vec<f32>, Vec<f32>)) -> Vec<f64> {
     let n = x.len() as f64;
     let mean = x.iter().sum::<f64>() / n;
     let var = x.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / n;
-    x.iter().enumerate().map(|(i, v)| (v - mean) / (var + 1e-5).sqrt() * p.0[i] as f64 + p.1[i] as f64).collect()
+    x.iter()
+        .enumerate()
+        .map(|(i, v)| (v - mean) / (var + 1e-5).sqrt() * p.0[i] as f64 + p.1[i] as f64)
+        .collect()
 }
 
 fn ref_layer(t: &TransformerEncoderLayer, x: &[Vec<f64>], mask: &[bool]) -> Vec<Vec<f64>> {
@@ -52,7 +64,10 @@ fn ref_layer(t: &TransformerEncoderLayer, x: &[Vec<f64>], mask: &[bool]) -> Vec<
         .zip(&sa)
         .map(|(a, b)| {
             let h1 = ref_ln(&a.iter().zip(b).map(|(u, v)| u + v).collect::<Vec<_>>(), &t.norm1);
-            let f = dense(&t.linear2, &dense(&t.linear1, &h1).into_iter().map(|v| v.max(0.0)).collect::<Vec<_>>());
+            let f = dense(
+                &t.linear2,
+                &dense(&t.linear1, &h1).into_iter().map(|v| v.max(0.0)).collect::<Vec<_>>(),
+            );
             ref_ln(&h1.iter().zip(&f).map(|(u, v)| u + v).collect::<Vec<_>>(), &t.norm2)
         })
         .collect()
@@ -65,18 +80,40 @@ fn transformer_layer_matches_the_loop_reference_with_and_without_mask() {
     let mut layer = TransformerEncoderLayer::new(e, h, f, &mut rng);
     // non-trivial biases and norms
     use rand::Rng;
-    for v in layer.self_attn.in_proj.bias.iter_mut().chain(layer.norm1.1.iter_mut()).chain(layer.norm2.0.iter_mut()) {
+    for v in layer
+        .self_attn
+        .in_proj
+        .bias
+        .iter_mut()
+        .chain(layer.norm1.1.iter_mut())
+        .chain(layer.norm2.0.iter_mut())
+    {
         *v += rng.random_range(-0.5..0.5);
     }
     let x: Vec<f32> = (0..b * s * e).map(|_| rng.random_range(-1.0..1.0)).collect();
     let mask_rows = [[false, false, true, false, true], [false; 5]];
     let dev = Device::Cpu;
     let xt = Tensor::from_slice(&x, (b, s, e), &dev).unwrap();
-    let mt = Tensor::from_vec(mask_rows.iter().flatten().map(|&m| u8::from(m)).collect::<Vec<u8>>(), (b, s), &dev).unwrap();
+    let mt = Tensor::from_vec(
+        mask_rows.iter().flatten().map(|&m| u8::from(m)).collect::<Vec<u8>>(),
+        (b, s),
+        &dev,
+    )
+    .unwrap();
     for masked in [false, true] {
-        let y: Vec<f32> = layer.forward_masked(&xt, masked.then_some(&mt)).unwrap().flatten_all().unwrap().to_vec1().unwrap();
+        let y: Vec<f32> = layer
+            .forward_masked(&xt, masked.then_some(&mt))
+            .unwrap()
+            .flatten_all()
+            .unwrap()
+            .to_vec1()
+            .unwrap();
         for bi in 0..b {
-            let rows: Vec<Vec<f64>> = (0..s).map(|si| x[(bi * s + si) * e..(bi * s + si + 1) * e].iter().map(|&v| v as f64).collect()).collect();
+            let rows: Vec<Vec<f64>> = (0..s)
+                .map(|si| {
+                    x[(bi * s + si) * e..(bi * s + si + 1) * e].iter().map(|&v| v as f64).collect()
+                })
+                .collect();
             let mask = if masked { mask_rows[bi] } else { [false; 5] };
             let r = ref_layer(&layer, &rows, &mask);
             for si in 0..s {
@@ -103,7 +140,20 @@ fn transformer_layer_matches_the_loop_reference_with_and_without_mask() {
         }
     }
     let names: Vec<String> = layer.state_dict().into_iter().map(|t| t.name).collect();
-    assert_eq!(names[..4], ["self_attn.in_proj_weight", "self_attn.in_proj_bias", "self_attn.out_proj.weight", "self_attn.out_proj.bias"]);
-    assert!(names.contains(&"norm2.bias".to_string()) && names.contains(&"linear1.weight".to_string()));
-    assert_eq!(layer.num_parameters(), 3 * e * e + 3 * e + e * e + e + f * e + f + e * f + e + 4 * e);
+    assert_eq!(
+        names[..4],
+        [
+            "self_attn.in_proj_weight",
+            "self_attn.in_proj_bias",
+            "self_attn.out_proj.weight",
+            "self_attn.out_proj.bias"
+        ]
+    );
+    assert!(
+        names.contains(&"norm2.bias".to_string()) && names.contains(&"linear1.weight".to_string())
+    );
+    assert_eq!(
+        layer.num_parameters(),
+        3 * e * e + 3 * e + e * e + e + f * e + f + e * f + e + 4 * e
+    );
 }

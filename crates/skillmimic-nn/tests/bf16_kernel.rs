@@ -24,14 +24,16 @@ fn rounding_is_nearest_even() {
 }
 
 fn rand_mat(rng: &mut impl Rng, len: usize) -> Vec<f32> {
-    (0..len).map(|_| rng.random_range(-1.0f32..1.0) * if rng.random_bool(0.1) { 30.0 } else { 1.0 }).collect()
+    (0..len)
+        .map(|_| rng.random_range(-1.0f32..1.0) * if rng.random_bool(0.1) { 30.0 } else { 1.0 })
+        .collect()
 }
 
 /// Element (r, c) of an r × c matrix stored with strides (rs, cs) in `buf`.
 fn layout(rows: usize, cols: usize, kind: usize) -> (usize, usize, usize) {
     match kind {
-        0 => (cols, 1, rows * cols),              // row-major
-        1 => (1, rows, rows * cols),              // column-major
+        0 => (cols, 1, rows * cols),                   // row-major
+        1 => (1, rows, rows * cols),                   // column-major
         _ => (2 * cols + 3, 2, rows * (2 * cols + 3)), // neither stride 1
     }
 }
@@ -65,10 +67,20 @@ fn check(m: usize, n: usize, k: usize, lk: usize, rk: usize, accumulate: bool, r
             for j in 0..n {
                 let base = if accumulate { init[i * n + j] as f64 } else { 0.0 };
                 // float32 accumulation of k products: bound by k·2⁻²⁴ of the absolute sum
-                let abs: f64 = (0..k).map(|t| (bf16::round_bf16(lhs[i * lrs + t * lcs]) as f64 * bf16::round_bf16(rhs[t * rrs + j * rcs]) as f64).abs()).sum();
+                let abs: f64 = (0..k)
+                    .map(|t| {
+                        (bf16::round_bf16(lhs[i * lrs + t * lcs]) as f64
+                            * bf16::round_bf16(rhs[t * rrs + j * rcs]) as f64)
+                            .abs()
+                    })
+                    .sum();
                 let tol = (k as f64 + 2.0) * 6e-8 * (abs + base.abs()) + 1e-30;
                 let got = dst[i * n + j] as f64;
-                assert!((got - base - want[i * n + j]).abs() <= tol, "m {m} n {n} k {k} layouts {lk}/{rk} acc {accumulate}: ({i}, {j}) {got} vs {}", base + want[i * n + j]);
+                assert!(
+                    (got - base - want[i * n + j]).abs() <= tol,
+                    "m {m} n {n} k {k} layouts {lk}/{rk} acc {accumulate}: ({i}, {j}) {got} vs {}",
+                    base + want[i * n + j]
+                );
             }
         }
         outs.push(dst);
@@ -83,7 +95,17 @@ fn gemm_matches_reference() {
         return;
     }
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
-    for &(m, n, k) in &[(1, 1, 1), (12, 32, 2), (13, 33, 3), (11, 31, 97), (97, 13, 12), (5, 70, 1200), (200, 40, 33), (1, 512, 64), (64, 1, 64)] {
+    for &(m, n, k) in &[
+        (1, 1, 1),
+        (12, 32, 2),
+        (13, 33, 3),
+        (11, 31, 97),
+        (97, 13, 12),
+        (5, 70, 1200),
+        (200, 40, 33),
+        (1, 512, 64),
+        (64, 1, 64),
+    ] {
         for (lk, rk) in [(0, 0), (0, 1), (1, 0), (1, 1)] {
             check(m, n, k, lk, rk, false, &mut rng);
         }
@@ -100,8 +122,17 @@ fn hardware_conversion_equals_to_bf16() {
     }
     // 1 × 1 × 1 products with 1.0: the packed value comes back exactly
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
-    let mut vals: Vec<f32> = (0..4000).map(|_| f32::from_bits(rng.random::<u32>() & 0xBFFF_FFFF)).collect();
-    vals.extend([0.0, -0.0, 1.0, f32::from_bits(0x3F80_8000), f32::from_bits(0x3F81_8000), 1e-40, f32::MAX]);
+    let mut vals: Vec<f32> =
+        (0..4000).map(|_| f32::from_bits(rng.random::<u32>() & 0xBFFF_FFFF)).collect();
+    vals.extend([
+        0.0,
+        -0.0,
+        1.0,
+        f32::from_bits(0x3F80_8000),
+        f32::from_bits(0x3F81_8000),
+        1e-40,
+        f32::MAX,
+    ]);
     let mut ws = bf16::Workspace::default();
     for &x in &vals {
         // a row-major and a column-major operand take the two packing paths
@@ -109,9 +140,27 @@ fn hardware_conversion_equals_to_bf16() {
             let lhs = [x, 0.0];
             let one = [1.0f32, 0.0];
             let mut out = [0.0f32];
-            unsafe { bf16::gemm(1, 1, 1, out.as_mut_ptr(), 1, false, View { ptr: lhs.as_ptr(), rs, cs }, View { ptr: one.as_ptr(), rs: cs, cs: rs }, 1, &mut ws) };
+            unsafe {
+                bf16::gemm(
+                    1,
+                    1,
+                    1,
+                    out.as_mut_ptr(),
+                    1,
+                    false,
+                    View { ptr: lhs.as_ptr(), rs, cs },
+                    View { ptr: one.as_ptr(), rs: cs, cs: rs },
+                    1,
+                    &mut ws,
+                )
+            };
             let want = from_bf16(to_bf16(x));
-            assert!(out[0] == want || (out[0] == 0.0 && want.abs() < f32::MIN_POSITIVE), "{x:e} ({:#010x}): kernel {:e}, to_bf16 {want:e}", x.to_bits(), out[0]);
+            assert!(
+                out[0] == want || (out[0] == 0.0 && want.abs() < f32::MIN_POSITIVE),
+                "{x:e} ({:#010x}): kernel {:e}, to_bf16 {want:e}",
+                x.to_bits(),
+                out[0]
+            );
         }
     }
 }

@@ -15,7 +15,8 @@ use skillmimic_learn::config_file;
 /// or `[run]` table gives its `[env]` table; a file with none of them, its top-level keys.
 #[pyfunction]
 fn load_env_config(path: PathBuf) -> PyResult<String> {
-    let env = config_file::load_env_table(&path).map_err(|e| PyValueError::new_err(e.to_string()))?;
+    let env =
+        config_file::load_env_table(&path).map_err(|e| PyValueError::new_err(e.to_string()))?;
     serde_json::to_string(&env).map_err(|e| PyValueError::new_err(e.to_string()))
 }
 
@@ -25,7 +26,8 @@ fn load_env_config(path: PathBuf) -> PyResult<String> {
 #[pyo3(signature = (path, preset = "small"))]
 fn load_train_config(path: PathBuf, preset: &str) -> PyResult<String> {
     let base = TrainConfig::preset(preset).map_err(|e| PyValueError::new_err(e.to_string()))?;
-    let cfg = config_file::load_train_config(&base, &path).map_err(|e| PyValueError::new_err(e.to_string()))?;
+    let cfg = config_file::load_train_config(&base, &path)
+        .map_err(|e| PyValueError::new_err(e.to_string()))?;
     serde_json::to_string(&cfg).map_err(|e| PyValueError::new_err(e.to_string()))
 }
 
@@ -50,10 +52,17 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("TERM_NAMES", PyTuple::new(py, skillmimic_env::reward::TERM_NAMES)?)?;
     m.add("FRAME_METRIC_NAMES", PyTuple::new(py, skillmimic_env::FRAME_METRIC_NAMES)?)?;
     m.add("TASKS", PyTuple::new(py, skillmimic_env::registry::names())?)?;
-    let high: Vec<&str> = skillmimic_env::registry::TASKS.iter().filter(|t| t.high_level).map(|t| t.name).collect();
+    let high: Vec<&str> =
+        skillmimic_env::registry::TASKS.iter().filter(|t| t.high_level).map(|t| t.name).collect();
     m.add("HIGH_LEVEL_TASKS", PyTuple::new(py, high)?)?;
-    m.add("POLICY_FAMILIES", PyTuple::new(py, skillmimic_learn::policies::FAMILIES.iter().map(|f| f.name()))?)?;
-    m.add("CONFIG_PATH_KEYS", PyTuple::new(py, config_file::ENV_PATH_KEYS.iter().map(|k| k.join(".")))?)?;
+    m.add(
+        "POLICY_FAMILIES",
+        PyTuple::new(py, skillmimic_learn::policies::FAMILIES.iter().map(|f| f.name()))?,
+    )?;
+    m.add(
+        "CONFIG_PATH_KEYS",
+        PyTuple::new(py, config_file::ENV_PATH_KEYS.iter().map(|k| k.join(".")))?,
+    )?;
     m.add_function(wrap_pyfunction!(load_env_config, m)?)?;
     m.add_function(wrap_pyfunction!(load_train_config, m)?)?;
     m.add_function(wrap_pyfunction!(resolve_config_path, m)?)?;

@@ -18,7 +18,12 @@ pub(crate) fn check_shape(name: &str, got: &[usize], want: &[usize]) -> PyResult
 }
 
 /// A new `(rows, cols)` float32 array holding `data`.
-pub(crate) fn to_2d<'py>(py: Python<'py>, data: &[f32], rows: usize, cols: usize) -> PyResult<Bound<'py, PyArray2<f32>>> {
+pub(crate) fn to_2d<'py>(
+    py: Python<'py>,
+    data: &[f32],
+    rows: usize,
+    cols: usize,
+) -> PyResult<Bound<'py, PyArray2<f32>>> {
     PyArray1::from_slice(py, data).reshape([rows, cols])
 }
 
@@ -26,7 +31,15 @@ pub(crate) fn to_2d<'py>(py: Python<'py>, data: &[f32], rows: usize, cols: usize
 /// naming `what` (pyo3 would raise `PanicException`, a `BaseException` that `except Exception`
 /// does not catch). A panic is a bug of this package, never a user mistake: user mistakes are
 /// `ValueError`s returned by `f`.
-pub(crate) fn detach_guarded<T: Send>(py: Python<'_>, what: &str, f: impl FnOnce() -> T + Send) -> PyResult<T> {
-    py.detach(|| std::panic::catch_unwind(std::panic::AssertUnwindSafe(f)))
-        .map_err(|p| pyo3::exceptions::PyRuntimeError::new_err(format!("internal error in {what}: {} (a bug of skillmimic-rs; please report it)", skillmimic_core::panic_message(&*p))))
+pub(crate) fn detach_guarded<T: Send>(
+    py: Python<'_>,
+    what: &str,
+    f: impl FnOnce() -> T + Send,
+) -> PyResult<T> {
+    py.detach(|| std::panic::catch_unwind(std::panic::AssertUnwindSafe(f))).map_err(|p| {
+        pyo3::exceptions::PyRuntimeError::new_err(format!(
+            "internal error in {what}: {} (a bug of skillmimic-rs; please report it)",
+            skillmimic_core::panic_message(&*p)
+        ))
+    })
 }

@@ -2,7 +2,10 @@
 //! gymnasium `VectorEnv`: numpy arrays in, the Rust core steps with the GIL released, results
 //! written into preallocated numpy buffers owned by the Python side.
 
-use numpy::{PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2, PyReadwriteArray1, PyReadwriteArray2, PyUntypedArrayMethods};
+use numpy::{
+    PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2, PyReadwriteArray1, PyReadwriteArray2,
+    PyUntypedArrayMethods,
+};
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -28,8 +31,16 @@ impl CoreEnv {
     }
     /// Run `f` on the environment with the GIL released; after a panic inside the core the
     /// environment's state is unknown, so it is closed and the error says so.
-    fn run_core<T: Send>(&mut self, py: Python<'_>, what: &str, f: impl FnOnce(&mut dyn Env) -> T + Send) -> PyResult<T> {
-        let env = self.env.as_deref_mut().ok_or_else(|| PyRuntimeError::new_err("the environment is closed"))?;
+    fn run_core<T: Send>(
+        &mut self,
+        py: Python<'_>,
+        what: &str,
+        f: impl FnOnce(&mut dyn Env) -> T + Send,
+    ) -> PyResult<T> {
+        let env = self
+            .env
+            .as_deref_mut()
+            .ok_or_else(|| PyRuntimeError::new_err("the environment is closed"))?;
         match detach_guarded(py, what, || f(env)) {
             Ok(v) => Ok(v),
             Err(e) => {
@@ -40,7 +51,12 @@ impl CoreEnv {
     }
     /// The imitation task's environment (task-specific accessors).
     fn imitation(&self) -> PyResult<&SkillEnv> {
-        self.env()?.as_any().downcast_ref::<SkillEnv>().ok_or_else(|| PyValueError::new_err(format!("only the imitation task has this (task is '{}')", self.cfg.task)))
+        self.env()?.as_any().downcast_ref::<SkillEnv>().ok_or_else(|| {
+            PyValueError::new_err(format!(
+                "only the imitation task has this (task is '{}')",
+                self.cfg.task
+            ))
+        })
     }
 }
 
@@ -64,8 +80,10 @@ impl CoreEnv {
     #[new]
     #[pyo3(signature = (config_json, autoreset))]
     fn new(py: Python<'_>, config_json: &str, autoreset: bool) -> PyResult<Self> {
-        let cfg: EnvConfig = serde_json::from_str(config_json).map_err(|e| PyValueError::new_err(format!("config: {e}")))?;
-        let mut env = detach_guarded(py, "VecEnv()", || skillmimic_env::registry::make(&cfg))?.map_err(value_error)?;
+        let cfg: EnvConfig = serde_json::from_str(config_json)
+            .map_err(|e| PyValueError::new_err(format!("config: {e}")))?;
+        let mut env = detach_guarded(py, "VecEnv()", || skillmimic_env::registry::make(&cfg))?
+            .map_err(value_error)?;
         env.set_autoreset(autoreset);
         let n = env.num_envs() * env.act_dim();
         Ok(Self { env: Some(env), cfg, actions: vec![0.0; n] })
@@ -132,7 +150,10 @@ impl CoreEnv {
     fn env_mjcf_xml(&self, i: usize) -> PyResult<String> {
         let env = self.env()?;
         if i >= env.num_envs() {
-            return Err(PyValueError::new_err(format!("environment index {i} out of range (num_envs = {})", env.num_envs())));
+            return Err(PyValueError::new_err(format!(
+                "environment index {i} out of range (num_envs = {})",
+                env.num_envs()
+            )));
         }
         Ok(env.mujoco().env_xml(i).to_string())
     }
@@ -146,18 +167,32 @@ impl CoreEnv {
     /// Names and skill labels of the clips of the motion library.
     fn clips(&self) -> PyResult<Vec<(String, u32, usize)>> {
         let lib = self.imitation()?.library();
-        Ok(lib.clips().iter().map(|m| (m.clip.name.clone(), m.clip.skill, m.clip.num_frames)).collect())
+        Ok(lib
+            .clips()
+            .iter()
+            .map(|m| (m.clip.name.clone(), m.clip.skill, m.clip.num_frames))
+            .collect())
     }
 
     /// Reset every environment (reseeding when `seed` is given); writes the observations.
     #[pyo3(signature = (seed, obs_out))]
-    fn reset_all(&mut self, py: Python<'_>, seed: Option<u64>, obs_out: PyReadwriteArray2<'_, f32>) -> PyResult<()> {
+    fn reset_all(
+        &mut self,
+        py: Python<'_>,
+        seed: Option<u64>,
+        obs_out: PyReadwriteArray2<'_, f32>,
+    ) -> PyResult<()> {
         self.run_core(py, "VecEnv.reset", |env| env.reset_all(seed))?;
         copy_obs(self.env()?, obs_out)
     }
 
     /// Reset the environments where `mask` is true; writes all observations.
-    fn reset_mask(&mut self, py: Python<'_>, mask: PyReadonlyArray1<'_, bool>, obs_out: PyReadwriteArray2<'_, f32>) -> PyResult<()> {
+    fn reset_mask(
+        &mut self,
+        py: Python<'_>,
+        mask: PyReadonlyArray1<'_, bool>,
+        obs_out: PyReadwriteArray2<'_, f32>,
+    ) -> PyResult<()> {
         check_shape("reset_mask", mask.shape(), &[self.env()?.num_envs()])?;
         let m: Vec<bool> = mask.as_slice().map_err(value_error)?.to_vec();
         if !m.iter().any(|&x| x) {
@@ -238,7 +273,8 @@ impl CoreEnv {
         to_2d(py, &env.buffers().info, env.num_envs(), env.spec().info_names.len())
     }
     /// `(N, 156)` PD targets in [−1, 1] the task applied in the last simulation step (high-level
-    /// tasks: the frozen skill policy's clamped actions; `(N, 0)` when the actions are the targets).
+    /// tasks: the frozen skill policy's clamped actions; `(N, 0)` when the actions are the
+    /// targets).
     fn pd_targets<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f32>>> {
         let env = self.env()?;
         let t = env.pd_targets();
@@ -256,7 +292,12 @@ impl CoreEnv {
     }
     /// Move environment `i`'s goal (values in `cg_names` order: e.g. goal_x, goal_y in world
     /// metres) and write its new observation into `obs_out`.
-    fn set_task_info(&mut self, i: usize, values: PyReadonlyArray1<'_, f32>, obs_out: PyReadwriteArray2<'_, f32>) -> PyResult<()> {
+    fn set_task_info(
+        &mut self,
+        i: usize,
+        values: PyReadonlyArray1<'_, f32>,
+        obs_out: PyReadwriteArray2<'_, f32>,
+    ) -> PyResult<()> {
         let env = self.env_mut()?;
         env.set_task_info(i, values.as_slice().map_err(value_error)?).map_err(value_error)?;
         copy_obs(env.as_ref(), obs_out)
@@ -271,7 +312,9 @@ impl CoreEnv {
     fn episode_info<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let env = self.imitation()?;
         let d = PyDict::new(py);
-        let col = |f: &dyn Fn(&skillmimic_env::episode::Episode) -> i64| -> Vec<i64> { env.episodes().map(f).collect() };
+        let col = |f: &dyn Fn(&skillmimic_env::episode::Episode) -> i64| -> Vec<i64> {
+            env.episodes().map(f).collect()
+        };
         d.set_item("clip", PyArray1::from_vec(py, col(&|e| e.clip as i64)))?;
         d.set_item("ref_start", PyArray1::from_vec(py, col(&|e| e.ref_start as i64)))?;
         d.set_item("ref_frame", PyArray1::from_vec(py, col(&|e| e.ref_frame() as i64)))?;
@@ -285,7 +328,10 @@ impl CoreEnv {
     fn get_qpos<'py>(&self, py: Python<'py>, i: usize) -> PyResult<Bound<'py, PyArray1<f64>>> {
         let env = self.env()?;
         if i >= env.num_envs() {
-            return Err(PyValueError::new_err(format!("environment index {i} out of range (num_envs = {})", env.num_envs())));
+            return Err(PyValueError::new_err(format!(
+                "environment index {i} out of range (num_envs = {})",
+                env.num_envs()
+            )));
         }
         Ok(PyArray1::from_slice(py, env.mujoco().env_qpos(i)))
     }
@@ -293,13 +339,22 @@ impl CoreEnv {
     fn get_qvel<'py>(&self, py: Python<'py>, i: usize) -> PyResult<Bound<'py, PyArray1<f64>>> {
         let env = self.env()?;
         if i >= env.num_envs() {
-            return Err(PyValueError::new_err(format!("environment index {i} out of range (num_envs = {})", env.num_envs())));
+            return Err(PyValueError::new_err(format!(
+                "environment index {i} out of range (num_envs = {})",
+                env.num_envs()
+            )));
         }
         Ok(PyArray1::from_slice(py, env.mujoco().env_qvel(i)))
     }
     /// Overwrite `qpos`/`qvel` of environment `i` (forward kinematics runs; observations of all
     /// environments are refreshed and written to `obs_out`).
-    fn set_state(&mut self, i: usize, qpos: PyReadonlyArray1<'_, f64>, qvel: PyReadonlyArray1<'_, f64>, obs_out: PyReadwriteArray2<'_, f32>) -> PyResult<()> {
+    fn set_state(
+        &mut self,
+        i: usize,
+        qpos: PyReadonlyArray1<'_, f64>,
+        qvel: PyReadonlyArray1<'_, f64>,
+        obs_out: PyReadwriteArray2<'_, f32>,
+    ) -> PyResult<()> {
         let env = self.env_mut()?;
         let (q, v) = (qpos.as_slice().map_err(value_error)?, qvel.as_slice().map_err(value_error)?);
         env.mujoco_mut().set_env_qpos_qvel(i, q, v).map_err(value_error)?;
@@ -310,10 +365,17 @@ impl CoreEnv {
     /// The history window `(k, 316)` of environment `i` (SkillMimic-V2 history encoder), or None
     /// when the encoder is off. Its embedding becomes the last μ observation entries at the next
     /// step.
-    fn history_window<'py>(&self, py: Python<'py>, i: usize) -> PyResult<Option<Bound<'py, PyArray2<f32>>>> {
+    fn history_window<'py>(
+        &self,
+        py: Python<'py>,
+        i: usize,
+    ) -> PyResult<Option<Bound<'py, PyArray2<f32>>>> {
         let env = self.imitation()?;
         if i >= env.num_envs() {
-            return Err(PyValueError::new_err(format!("environment index {i} out of range (num_envs {})", env.num_envs())));
+            return Err(PyValueError::new_err(format!(
+                "environment index {i} out of range (num_envs {})",
+                env.num_envs()
+            )));
         }
         match env.history_window(i) {
             None => Ok(None),

@@ -19,7 +19,12 @@ pub(crate) fn register_generator(name: &str, callable: Py<PyAny>) -> PyResult<()
         let f = Python::attach(|py| callable.clone_ref(py));
         let run = move |input: &Path, out: &Path| -> Result<(), String> {
             Python::attach(|py| {
-                f.call1(py, (input.to_string_lossy().into_owned(), out.to_string_lossy().into_owned())).map(|_| ()).map_err(|e| {
+                f.call1(
+                    py,
+                    (input.to_string_lossy().into_owned(), out.to_string_lossy().into_owned()),
+                )
+                .map(|_| ())
+                .map_err(|e| {
                     let tb = e.traceback(py).and_then(|t| t.format().ok()).unwrap_or_default();
                     format!("{tb}{e}")
                 })

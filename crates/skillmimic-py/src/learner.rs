@@ -2,7 +2,9 @@
 //! checkpoint evaluated by the Rust inference path, the SkillMimic-V2 history encoder, the
 //! running normaliser, the PPO loss and gradients, and freshly initialised policies.
 
-use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
+use numpy::{
+    PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods,
+};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -25,7 +27,8 @@ impl Policy {
     /// Load a checkpoint written by `skillmimic train` or `skillmimic export`.
     #[staticmethod]
     fn load(path: std::path::PathBuf) -> PyResult<Self> {
-        let c = skillmimic_learn::checkpoint::load(&path, None).map_err(|e| PyValueError::new_err(e.to_string()))?;
+        let c = skillmimic_learn::checkpoint::load(&path, None)
+            .map_err(|e| PyValueError::new_err(e.to_string()))?;
         Ok(Self { policy: c.policy, buf: Default::default() })
     }
     #[getter]
@@ -37,14 +40,20 @@ impl Policy {
         self.policy.act_dim()
     }
     /// Action means `(N, act_dim)` and values `(N,)` for observations `(N, obs_dim)`.
-    fn infer<'py>(&mut self, py: Python<'py>, obs: PyReadonlyArray2<'_, f32>) -> PyResult<MeansValues<'py>> {
+    fn infer<'py>(
+        &mut self,
+        py: Python<'py>,
+        obs: PyReadonlyArray2<'_, f32>,
+    ) -> PyResult<MeansValues<'py>> {
         let n = obs.shape()[0];
         check_shape("obs", obs.shape(), &[n, self.policy.obs_dim()])?;
         let x = obs.as_slice().map_err(value_error)?.to_vec();
         let a = self.policy.actor_outputs();
         let (mut mu, mut v) = (vec![0.0f32; n * a], vec![0.0f32; n]);
         let Self { policy, buf } = self;
-        crate::convert::detach_guarded(py, "Policy.infer", || policy.infer(&x, n, buf, &mut mu, &mut v, 0))?;
+        crate::convert::detach_guarded(py, "Policy.infer", || {
+            policy.infer(&x, n, buf, &mut mu, &mut v, 0)
+        })?;
         Ok((PyArray1::from_vec(py, mu).reshape([n, a])?, PyArray1::from_vec(py, v)))
     }
 }
@@ -74,7 +83,11 @@ impl HistoryEncoder {
         self.enc.embed_dim()
     }
     /// Embeddings `(B, μ)` of windows `(B, k, 316)` (oldest frame first).
-    fn embed<'py>(&self, py: Python<'py>, windows: numpy::PyReadonlyArray3<'_, f32>) -> PyResult<Bound<'py, PyArray2<f32>>> {
+    fn embed<'py>(
+        &self,
+        py: Python<'py>,
+        windows: numpy::PyReadonlyArray3<'_, f32>,
+    ) -> PyResult<Bound<'py, PyArray2<f32>>> {
         use skillmimic_env::v2::history::FEATURE_DIM;
         let b = windows.shape()[0];
         check_shape("windows", windows.shape(), &[b, self.enc.length(), FEATURE_DIM])?;
@@ -103,10 +116,14 @@ impl RunningMeanStd {
             return Err(PyValueError::new_err("dim must be at least 1"));
         }
         if !(eps.is_finite() && eps > 0.0) {
-            return Err(PyValueError::new_err(format!("eps is {eps}, expected a finite number > 0 (it is added to the variance under the square root)")));
+            return Err(PyValueError::new_err(format!(
+                "eps is {eps}, expected a finite number > 0 (it is added to the variance under the square root)"
+            )));
         }
         if !(clip > 0.0) {
-            return Err(PyValueError::new_err(format!("clip is {clip}, expected a number > 0 (normalised values are clamped to ±clip)")));
+            return Err(PyValueError::new_err(format!(
+                "clip is {clip}, expected a number > 0 (normalised values are clamped to ±clip)"
+            )));
         }
         Ok(Self { inner: skillmimic_nn::normalizer::RunningMeanStd::new(dim, eps, clip) })
     }
@@ -119,13 +136,22 @@ impl RunningMeanStd {
         let x = x.as_slice().map_err(value_error)?;
         if let Some(k) = x.iter().position(|v| !v.is_finite()) {
             let d = self.inner.dim();
-            return Err(PyValueError::new_err(format!("batch: non-finite value {} at row {}, column {}; the statistics were left unchanged", x[k], k / d, k % d)));
+            return Err(PyValueError::new_err(format!(
+                "batch: non-finite value {} at row {}, column {}; the statistics were left unchanged",
+                x[k],
+                k / d,
+                k % d
+            )));
         }
         self.inner.update(x);
         Ok(())
     }
     /// Normalised copy of `x` `(N, dim)`.
-    fn normalize<'py>(&self, py: Python<'py>, x: PyReadonlyArray2<'_, f32>) -> PyResult<Bound<'py, PyArray2<f32>>> {
+    fn normalize<'py>(
+        &self,
+        py: Python<'py>,
+        x: PyReadonlyArray2<'_, f32>,
+    ) -> PyResult<Bound<'py, PyArray2<f32>>> {
         check_shape("x", &[x.shape()[1]], &[self.inner.dim()])?;
         let mut out = vec![0.0f32; x.len()];
         self.inner.normalize_into(x.as_slice().map_err(value_error)?, &mut out);
@@ -167,20 +193,35 @@ pub(crate) fn ppo_loss_and_grads<'py>(
     entropy_coef: f64,
 ) -> PyResult<(Bound<'py, PyDict>, Bound<'py, PyDict>)> {
     use skillmimic_learn::config::{Backend, PpoConfig};
-    let c = skillmimic_learn::checkpoint::load(&checkpoint, None).map_err(|e| PyValueError::new_err(e.to_string()))?;
+    let c = skillmimic_learn::checkpoint::load(&checkpoint, None)
+        .map_err(|e| PyValueError::new_err(e.to_string()))?;
     let p = &c.policy;
     let n = obs_n.shape()[0];
     check_shape("obs_n", obs_n.shape(), &[n, p.obs_dim()])?;
     check_shape("actions", actions.shape(), &[n, p.act_dim()])?;
-    for (name, a) in [("old_neglogp", &old_neglogp), ("advantages", &advantages), ("returns_n", &returns_n)] {
+    for (name, a) in
+        [("old_neglogp", &old_neglogp), ("advantages", &advantages), ("returns_n", &returns_n)]
+    {
         check_shape(name, a.shape(), &[n])?;
     }
     let backend = match backend {
         "fast" => Backend::Fast,
         "candle" => Backend::Candle,
-        other => return Err(PyValueError::new_err(format!("backend '{other}', expected 'fast' or 'candle'"))),
+        other => {
+            return Err(PyValueError::new_err(format!(
+                "backend '{other}', expected 'fast' or 'candle'"
+            )));
+        }
     };
-    let cfg = PpoConfig { clip, critic_coef, bounds_coef, bound, backend, entropy_coef, ..Default::default() };
+    let cfg = PpoConfig {
+        clip,
+        critic_coef,
+        bounds_coef,
+        bound,
+        backend,
+        entropy_coef,
+        ..Default::default()
+    };
     let mb = skillmimic_learn::ppo::Minibatch {
         n,
         obs_n: obs_n.as_slice().map_err(value_error)?,
@@ -198,7 +239,14 @@ pub(crate) fn ppo_loss_and_grads<'py>(
         _ => skillmimic_learn::ppo::loss_and_grads(p, &mb, &cfg).map_err(value_error)?,
     };
     let losses = PyDict::new(py);
-    for (k, v) in [("actor", stats.actor), ("critic", stats.critic), ("bounds", stats.bounds), ("entropy", stats.entropy), ("total", stats.total), ("clip_frac", stats.clip_frac)] {
+    for (k, v) in [
+        ("actor", stats.actor),
+        ("critic", stats.critic),
+        ("bounds", stats.bounds),
+        ("entropy", stats.entropy),
+        ("total", stats.total),
+        ("clip_frac", stats.clip_frac),
+    ] {
         losses.set_item(k, v)?;
     }
     let g = PyDict::new(py);
@@ -222,22 +270,39 @@ pub(crate) fn ppo_loss_and_grads<'py>(
 /// Python.
 #[pyfunction]
 #[pyo3(signature = (path, family, obs_dim, actions, hidden, seed = 0, overrides = Vec::new()))]
-pub(crate) fn init_policy(path: std::path::PathBuf, family: &str, obs_dim: usize, actions: (String, usize), hidden: Vec<usize>, seed: u64, overrides: Vec<String>) -> PyResult<()> {
+pub(crate) fn init_policy(
+    path: std::path::PathBuf,
+    family: &str,
+    obs_dim: usize,
+    actions: (String, usize),
+    hidden: Vec<usize>,
+    seed: u64,
+    overrides: Vec<String>,
+) -> PyResult<()> {
     use rand::SeedableRng;
     let space = match actions.0.as_str() {
         "box" => skillmimic_env::ActionSpace::Box { dim: actions.1 },
         "discrete" => skillmimic_env::ActionSpace::Discrete { n: actions.1 },
-        other => return Err(PyValueError::new_err(format!("actions: kind '{other}', expected 'box' or 'discrete'"))),
+        other => {
+            return Err(PyValueError::new_err(format!(
+                "actions: kind '{other}', expected 'box' or 'discrete'"
+            )));
+        }
     };
     if obs_dim == 0 || actions.1 == 0 || hidden.contains(&0) {
-        return Err(PyValueError::new_err("obs_dim, the action size and every hidden width must be positive"));
+        return Err(PyValueError::new_err(
+            "obs_dim, the action size and every hidden width must be positive",
+        ));
     }
     let mut train = skillmimic_learn::config::TrainConfig::default();
     for o in &overrides {
         train.set(o).map_err(value_error)?;
     }
-    let cfg = skillmimic_learn::config::PpoConfig { policy: family.to_string(), hidden, ..train.ppo };
+    let cfg =
+        skillmimic_learn::config::PpoConfig { policy: family.to_string(), hidden, ..train.ppo };
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-    let p = skillmimic_learn::policy::Policy::build(obs_dim, space, &cfg, &mut rng).map_err(value_error)?;
-    skillmimic_learn::checkpoint::save(&path, &p, None, &Default::default(), "").map_err(|e| PyValueError::new_err(format!("{}: {e}", path.display())))
+    let p = skillmimic_learn::policy::Policy::build(obs_dim, space, &cfg, &mut rng)
+        .map_err(value_error)?;
+    skillmimic_learn::checkpoint::save(&path, &p, None, &Default::default(), "")
+        .map_err(|e| PyValueError::new_err(format!("{}: {e}", path.display())))
 }

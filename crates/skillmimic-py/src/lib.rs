@@ -1,9 +1,9 @@
 //! `skillmimic_rs._core`: the Rust environment exposed to Python.
 //!
-//! The Python package wraps [`env::CoreEnv`] in a gymnasium `VectorEnv`; this layer only moves data:
-//! numpy arrays in, the Rust core steps with the GIL released, results are written into
-//! preallocated numpy buffers owned by the Python side. Every user mistake raises `ValueError`
-//! (or `RuntimeError` after `close()`), never a crash.
+//! The Python package wraps [`env::CoreEnv`] in a gymnasium `VectorEnv`; this layer only moves
+//! data: numpy arrays in, the Rust core steps with the GIL released, results are written into
+//! preallocated numpy buffers owned by the Python side. Every user mistake raises `ValueError` (or
+//! `RuntimeError` after `close()`), never a crash.
 
 use pyo3::prelude::*;
 
@@ -15,9 +15,9 @@ mod learner;
 mod nn;
 mod train;
 
-// env.rs: the batched environment; learner.rs: policy inference, normaliser, PPO loss; train.rs: the
-// trainer (one process or one rank of a data-parallel run); nn.rs: network blocks; consts.rs: tables;
-// convert.rs: argument checks and array helpers shared by them; generator.rs: Python clip
+// env.rs: the batched environment; learner.rs: policy inference, normaliser, PPO loss; train.rs:
+// the trainer (one process or one rank of a data-parallel run); nn.rs: network blocks; consts.rs:
+// tables; convert.rs: argument checks and array helpers shared by them; generator.rs: Python clip
 // generators of active skill learning
 
 /// Run the `skillmimic` command-line tool in this process (`argv` without the program name) with

@@ -32,7 +32,13 @@ struct PyCollective {
 }
 
 /// One operation through a cached numpy array of `T`.
-fn call<T: numpy::Element + Copy>(obj: &Py<PyAny>, cache: &mut HashMap<usize, Py<PyArray1<T>>>, buf: &mut [T], op: &str, rank: usize) -> Result<(), LearnError> {
+fn call<T: numpy::Element + Copy>(
+    obj: &Py<PyAny>,
+    cache: &mut HashMap<usize, Py<PyArray1<T>>>,
+    buf: &mut [T],
+    op: &str,
+    rank: usize,
+) -> Result<(), LearnError> {
     Python::attach(|py| -> PyResult<()> {
         let arr = match cache.get(&buf.len()) {
             Some(a) => a.bind(py).clone(),
@@ -74,7 +80,10 @@ impl Collective for PyCollective {
 }
 
 #[derive(Parser)]
-#[command(name = "python -m skillmimic_rs.train", about = "Train a policy with PPO (the arguments of `skillmimic train`)")]
+#[command(
+    name = "python -m skillmimic_rs.train",
+    about = "Train a policy with PPO (the arguments of `skillmimic train`)"
+)]
 struct Cli {
     #[command(flatten)]
     args: TrainArgs,
@@ -93,7 +102,9 @@ pub struct PyTrainer {
 
 impl PyTrainer {
     fn t(&mut self) -> PyResult<&mut Trainer> {
-        self.trainer.as_mut().ok_or_else(|| PyRuntimeError::new_err("the trainer is in use, or was closed after an internal error"))
+        self.trainer.as_mut().ok_or_else(|| {
+            PyRuntimeError::new_err("the trainer is in use, or was closed after an internal error")
+        })
     }
 }
 
@@ -108,7 +119,10 @@ impl PyTrainer {
     #[new]
     #[pyo3(signature = (argv, collective = None))]
     fn new(py: Python<'_>, argv: Vec<String>, collective: Option<Py<PyAny>>) -> PyResult<Self> {
-        let cli = Cli::try_parse_from(std::iter::once("python -m skillmimic_rs.train".to_string()).chain(argv)).map_err(|e| PyValueError::new_err(e.render().to_string()))?;
+        let cli = Cli::try_parse_from(
+            std::iter::once("python -m skillmimic_rs.train".to_string()).chain(argv),
+        )
+        .map_err(|e| PyValueError::new_err(e.render().to_string()))?;
         let cfg = cli.args.config().map_err(|e| PyValueError::new_err(format!("{e:#}")))?;
         let resume = cli.args.resume_path(&cfg.run.out_dir);
         let comm: Box<dyn Collective> = match collective {
@@ -116,12 +130,21 @@ impl PyTrainer {
             Some(obj) => {
                 let rank: usize = obj.getattr(py, "rank")?.extract(py)?;
                 let world: usize = obj.getattr(py, "world_size")?.extract(py)?;
-                Box::new(PyCollective { obj, rank, world, f32s: HashMap::new(), f64s: HashMap::new() })
+                Box::new(PyCollective {
+                    obj,
+                    rank,
+                    world,
+                    f32s: HashMap::new(),
+                    f64s: HashMap::new(),
+                })
             }
         };
         init_learner_threads(cfg.run.learner_threads);
         let r = resume.clone();
-        let trainer = detach_guarded(py, "Trainer()", move || Trainer::with_collective(cfg, r.as_deref(), comm))?.map_err(|e| PyValueError::new_err(e.to_string()))?;
+        let trainer = detach_guarded(py, "Trainer()", move || {
+            Trainer::with_collective(cfg, r.as_deref(), comm)
+        })?
+        .map_err(|e| PyValueError::new_err(e.to_string()))?;
         Ok(Self { trainer: Some(trainer), resumed_from: resume })
     }
 
@@ -139,7 +162,8 @@ impl PyTrainer {
     /// saves a checkpoint of it and is raised.
     #[pyo3(signature = (on_iteration = None))]
     fn run(&mut self, py: Python<'_>, on_iteration: Option<Py<PyAny>>) -> PyResult<Option<String>> {
-        let trainer = self.trainer.take().ok_or_else(|| PyRuntimeError::new_err("the trainer is in use"))?;
+        let trainer =
+            self.trainer.take().ok_or_else(|| PyRuntimeError::new_err("the trainer is in use"))?;
         if trainer.cfg.run.final_video {
             // the end-of-training video starts EGL in this process: keep a later `import triton`
             // safe (skillmimic_rs/_gl.py); failing to do so must not stop training
@@ -181,28 +205,40 @@ impl PyTrainer {
     /// Collect a rollout only; its statistics as JSON (pass them to `update_from_rollout`).
     fn collect_rollout(&mut self, py: Python<'_>) -> PyResult<String> {
         let t = self.t()?;
-        let s = detach_guarded(py, "Trainer.collect_rollout", || t.collect_rollout())?.map_err(err)?;
+        let s =
+            detach_guarded(py, "Trainer.collect_rollout", || t.collect_rollout())?.map_err(err)?;
         stats_json(&s)
     }
 
     /// The update on the rollout storage (after `collect_rollout` or `load_rollout_part`).
     #[pyo3(signature = (stats_json = None))]
-    fn update_from_rollout(&mut self, py: Python<'_>, stats_json: Option<&str>) -> PyResult<String> {
+    fn update_from_rollout(
+        &mut self,
+        py: Python<'_>,
+        stats_json: Option<&str>,
+    ) -> PyResult<String> {
         let stats = match stats_json {
-            Some(j) => serde_json::from_str(j).map_err(|e| PyValueError::new_err(format!("stats_json: {e}")))?,
+            Some(j) => serde_json::from_str(j)
+                .map_err(|e| PyValueError::new_err(format!("stats_json: {e}")))?,
             None => Default::default(),
         };
         let t = self.t()?;
-        let s = detach_guarded(py, "Trainer.update_from_rollout", || t.update_from_rollout(stats))?.map_err(err)?;
+        let s = detach_guarded(py, "Trainer.update_from_rollout", || t.update_from_rollout(stats))?
+            .map_err(err)?;
         self::stats_json(&s)
     }
 
     /// Take this rank's environments of `other`'s rollout (a one-process trainer over all
     /// `env.num_envs` environments): equivalence checks.
     fn load_rollout_part(&mut self, other: PyRef<'_, PyTrainer>) -> PyResult<()> {
-        let src = other.trainer.as_ref().ok_or_else(|| PyRuntimeError::new_err("the other trainer is in use"))?;
+        let src = other
+            .trainer
+            .as_ref()
+            .ok_or_else(|| PyRuntimeError::new_err("the other trainer is in use"))?;
         if src.shard.world != 1 || src.shard.total_envs != self.t()?.shard.total_envs {
-            return Err(PyValueError::new_err("load_rollout_part: the source must be a one-process trainer over the same env.num_envs"));
+            return Err(PyValueError::new_err(
+                "load_rollout_part: the source must be a one-process trainer over the same env.num_envs",
+            ));
         }
         let full = src.rollout_storage().clone();
         self.t()?.load_rollout_part(&full);
@@ -217,7 +253,13 @@ impl PyTrainer {
         let d = PyDict::new(py);
         let f = |xs: &mut dyn Iterator<Item = f32>| xs.map(|x| x as f64).collect::<Vec<f64>>();
         let p = &t.policy;
-        d.set_item("params", PyArray1::from_vec(py, f(&mut p.actor.params().into_iter().chain(p.critic.params()).flatten().copied())))?;
+        d.set_item(
+            "params",
+            PyArray1::from_vec(
+                py,
+                f(&mut p.actor.params().into_iter().chain(p.critic.params()).flatten().copied()),
+            ),
+        )?;
         d.set_item("log_std", PyArray1::from_vec(py, f(&mut p.log_std.iter().copied())))?;
         d.set_item("adam_m", PyArray1::from_vec(py, f(&mut t.adam.m.iter().flatten().copied())))?;
         d.set_item("adam_v", PyArray1::from_vec(py, f(&mut t.adam.v.iter().flatten().copied())))?;

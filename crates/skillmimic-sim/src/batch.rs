@@ -65,16 +65,30 @@ impl BatchSim {
             .num_threads(num_threads)
             .thread_name(|i| format!("skillmimic-sim-{i}"))
             .build()
-            .map_err(|e| SimError::Config(format!("cannot start {num_threads} simulation threads: {e}")))?;
+            .map_err(|e| {
+                SimError::Config(format!("cannot start {num_threads} simulation threads: {e}"))
+            })?;
         let make = || {
             MjData::try_new(Arc::clone(scene.model()))
                 .map(|data| EnvSlot { data, bounce: BounceState::default() })
                 .map_err(|e| SimError::Config(format!("cannot allocate MuJoCo data: {e}")))
         };
         let first = make()?;
-        crate::memory::check_batch(num_envs, crate::memory::data_bytes(first.data.ffi()), "the SkillMimic scene")?;
-        let envs = std::iter::once(Ok(first)).chain((1..num_envs).map(|_| make())).collect::<Result<Vec<_>, _>>()?;
-        let mut sim = Self { scene, envs, pool, state: BatchState::new(num_envs), substeps: DEFAULT_SUBSTEPS };
+        crate::memory::check_batch(
+            num_envs,
+            crate::memory::data_bytes(first.data.ffi()),
+            "the SkillMimic scene",
+        )?;
+        let envs = std::iter::once(Ok(first))
+            .chain((1..num_envs).map(|_| make()))
+            .collect::<Result<Vec<_>, _>>()?;
+        let mut sim = Self {
+            scene,
+            envs,
+            pool,
+            state: BatchState::new(num_envs),
+            substeps: DEFAULT_SUBSTEPS,
+        };
         let mask = vec![true; num_envs];
         let init = vec![ResetState::default(); num_envs];
         sim.reset(&mask, &init)?;
@@ -140,7 +154,11 @@ impl BatchSim {
         let n = self.num_envs();
         check_len("actions", actions.len(), n * NUM_DOFS, || format!("{n} x {NUM_DOFS}"))?;
         if let Some(k) = actions.iter().position(|a| !a.is_finite()) {
-            return Err(SimError::NonFinite { what: "actions", env: k / NUM_DOFS, index: k % NUM_DOFS });
+            return Err(SimError::NonFinite {
+                what: "actions",
+                env: k / NUM_DOFS,
+                index: k % NUM_DOFS,
+            });
         }
         let scene = &*self.scene;
         let substeps = self.substeps;
@@ -206,11 +224,14 @@ impl BatchSim {
         Ok(())
     }
 
-    /// Overwrite the raw MuJoCo `qpos`/`qvel` of environment `i` (same clearing as [`reset`](Self::reset)).
+    /// Overwrite the raw MuJoCo `qpos`/`qvel` of environment `i` (same clearing as
+    /// [`reset`](Self::reset)).
     pub fn set_qpos_qvel(&mut self, i: usize, qpos: &[f64], qvel: &[f64]) -> Result<(), SimError> {
         let n = self.num_envs();
         if i >= n {
-            return Err(SimError::Config(format!("environment index {i} out of range (num_envs = {n})")));
+            return Err(SimError::Config(format!(
+                "environment index {i} out of range (num_envs = {n})"
+            )));
         }
         let (nq, nv, _) = self.scene.sizes();
         check_len("qpos", qpos.len(), nq, || nq.to_string())?;
@@ -276,8 +297,17 @@ impl BatchSim {
 }
 
 /// Length check; the shape text is only built on the error path (the step path must not allocate).
-fn check_len(what: &'static str, got: usize, expected: usize, shape: impl FnOnce() -> String) -> Result<(), SimError> {
-    if got == expected { Ok(()) } else { Err(SimError::Shape { what, expected, shape: shape(), got }) }
+fn check_len(
+    what: &'static str,
+    got: usize,
+    expected: usize,
+    shape: impl FnOnce() -> String,
+) -> Result<(), SimError> {
+    if got == expected {
+        Ok(())
+    } else {
+        Err(SimError::Shape { what, expected, shape: shape(), got })
+    }
 }
 
 fn check_reset_state(env: usize, s: &ResetState) -> Result<(), SimError> {
@@ -304,7 +334,8 @@ fn check_reset_state(env: usize, s: &ResetState) -> Result<(), SimError> {
 
 /// MuJoCo's warnings of a bad state: a non-finite or huge `qpos`, `qvel` or `qacc`. On each of
 /// them MuJoCo resets that environment's data (auto-reset), so the step's outcome is not physics.
-const BAD_STATE: [mjtWarning; 3] = [mjtWarning::mjWARN_BADQPOS, mjtWarning::mjWARN_BADQVEL, mjtWarning::mjWARN_BADQACC];
+const BAD_STATE: [mjtWarning; 3] =
+    [mjtWarning::mjWARN_BADQPOS, mjtWarning::mjWARN_BADQVEL, mjtWarning::mjWARN_BADQACC];
 
 /// Zero the [`BAD_STATE`] warning counters before a step, reset or forward pass.
 pub(crate) fn clear_bad_state(d: &mut Data) {
@@ -389,7 +420,11 @@ fn read_kinematics(scene: &Scene, d: &Data, rows: &mut Rows<'_>) {
         let (w, v) = (&cvel[id][..3], &cvel[id][3..]);
         let c = subtree_com[scene.tree_root[b]];
         let r = [xipos[id][0] - c[0], xipos[id][1] - c[1], xipos[id][2] - c[2]];
-        let lin = [v[0] + w[1] * r[2] - w[2] * r[1], v[1] + w[2] * r[0] - w[0] * r[2], v[2] + w[0] * r[1] - w[1] * r[0]];
+        let lin = [
+            v[0] + w[1] * r[2] - w[2] * r[1],
+            v[1] + w[2] * r[0] - w[0] * r[2],
+            v[2] + w[0] * r[1] - w[1] * r[0],
+        ];
         rows.body_angvel[3 * b..3 * b + 3].copy_from_slice(w);
         rows.body_linvel[3 * b..3 * b + 3].copy_from_slice(&lin);
     }
@@ -400,7 +435,8 @@ fn read_kinematics(scene: &Scene, d: &Data, rows: &mut Rows<'_>) {
         let (p, v) = (&mut rows.dof_pos[3 * j..3 * j + 3], &mut rows.dof_vel[3 * j..3 * j + 3]);
         match (scene.joint_qpos[j], scene.joint_dof[j]) {
             (Some(a), Some(dv)) => {
-                let q = Quat::from_wxyz([qpos[a], qpos[a + 1], qpos[a + 2], qpos[a + 3]]).normalized();
+                let q =
+                    Quat::from_wxyz([qpos[a], qpos[a + 1], qpos[a + 2], qpos[a + 3]]).normalized();
                 p.copy_from_slice(&q.to_rotvec());
                 v.copy_from_slice(&qvel[dv..dv + 3]);
             }
@@ -410,7 +446,6 @@ fn read_kinematics(scene: &Scene, d: &Data, rows: &mut Rows<'_>) {
             }
         }
     }
-
 }
 
 /// Classify the active contacts and accumulate per-body net contact forces (world frame) from the

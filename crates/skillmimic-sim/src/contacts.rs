@@ -108,6 +108,6 @@ mod tests {
         assert_eq!(ContactPair::classify(Floor, Body(0)), Some(ContactPair::BodyFloor));
         assert_eq!(ContactPair::classify(Floor, Body(4)), Some(ContactPair::FootFloor));
         assert_eq!(ContactPair::classify(Body(52), Floor), Some(ContactPair::HandFloor));
-        assert_eq!(ContactPair::ALL.iter().enumerate().all(|(i, p)| *p as usize == i), true);
+        assert!(ContactPair::ALL.iter().enumerate().all(|(i, p)| *p as usize == i));
     }
 }

@@ -42,7 +42,12 @@ pub struct ObjectState {
 
 impl Default for ObjectState {
     fn default() -> Self {
-        Self { pos: [0.0, 0.0, -10.0], quat: Quat::IDENTITY, linvel: [0.0; 3], angvel_local: [0.0; 3] }
+        Self {
+            pos: [0.0, 0.0, -10.0],
+            quat: Quat::IDENTITY,
+            linvel: [0.0; 3],
+            angvel_local: [0.0; 3],
+        }
     }
 }
 
@@ -199,21 +204,36 @@ pub struct HsiBatch {
 impl HsiBatch {
     /// `num_envs` environments; environment `i` uses scene `variants[i % variants.len()]` (all
     /// variants must hold the same number of objects); `num_threads` workers (0 = one per core).
-    pub fn new(variants: Vec<Arc<HsiScene>>, num_envs: usize, num_threads: usize) -> Result<Self, SimError> {
+    pub fn new(
+        variants: Vec<Arc<HsiScene>>,
+        num_envs: usize,
+        num_threads: usize,
+    ) -> Result<Self, SimError> {
         if num_envs == 0 || variants.is_empty() {
-            return Err(SimError::Config("a TokenHSI batch needs at least one environment and one scene".into()));
+            return Err(SimError::Config(
+                "a TokenHSI batch needs at least one environment and one scene".into(),
+            ));
         }
         let k = variants[0].objects().len();
         if variants.iter().any(|v| v.objects().len() != k) {
-            return Err(SimError::Config("every scene variant of a batch must hold the same objects".into()));
+            return Err(SimError::Config(
+                "every scene variant of a batch must hold the same objects".into(),
+            ));
         }
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(num_threads)
             .thread_name(|i| format!("skillmimic-hsi-{i}"))
             .build()
-            .map_err(|e| SimError::Config(format!("cannot start {num_threads} simulation threads: {e}")))?;
-        let probe = MjData::try_new(Arc::clone(variants[0].model())).map_err(|e| SimError::Config(format!("cannot allocate MuJoCo data: {e}")))?;
-        crate::memory::check_batch(num_envs, crate::memory::data_bytes(probe.ffi()), "the TokenHSI scene")?;
+            .map_err(|e| {
+                SimError::Config(format!("cannot start {num_threads} simulation threads: {e}"))
+            })?;
+        let probe = MjData::try_new(Arc::clone(variants[0].model()))
+            .map_err(|e| SimError::Config(format!("cannot allocate MuJoCo data: {e}")))?;
+        crate::memory::check_batch(
+            num_envs,
+            crate::memory::data_bytes(probe.ffi()),
+            "the TokenHSI scene",
+        )?;
         drop(probe);
         let envs = (0..num_envs)
             .map(|i| {
@@ -263,10 +283,19 @@ impl HsiBatch {
     pub fn step(&mut self, actions: &[f32]) -> Result<(), SimError> {
         let n = self.num_envs();
         if actions.len() != n * NUM_DOFS {
-            return Err(SimError::Shape { what: "actions", expected: n * NUM_DOFS, shape: format!("{n} x {NUM_DOFS}"), got: actions.len() });
+            return Err(SimError::Shape {
+                what: "actions",
+                expected: n * NUM_DOFS,
+                shape: format!("{n} x {NUM_DOFS}"),
+                got: actions.len(),
+            });
         }
         if let Some(k) = actions.iter().position(|a| !a.is_finite()) {
-            return Err(SimError::NonFinite { what: "actions", env: k / NUM_DOFS, index: k % NUM_DOFS });
+            return Err(SimError::NonFinite {
+                what: "actions",
+                env: k / NUM_DOFS,
+                index: k % NUM_DOFS,
+            });
         }
         let (variants, substeps) = (&self.variants, self.substeps);
         Self::for_each(&self.pool, &mut self.envs, &mut self.state, |i, slot, mut rows| {
@@ -295,11 +324,25 @@ impl HsiBatch {
     pub fn reset(&mut self, mask: &[bool], states: &[HsiReset]) -> Result<(), SimError> {
         let n = self.num_envs();
         if mask.len() != n || states.len() != n {
-            return Err(SimError::Config(format!("reset needs {n} mask entries and states, got {} and {}", mask.len(), states.len())));
+            return Err(SimError::Config(format!(
+                "reset needs {n} mask entries and states, got {} and {}",
+                mask.len(),
+                states.len()
+            )));
         }
         for (i, s) in states.iter().enumerate().filter(|(i, _)| mask[*i]) {
-            let objs = s.objects.iter().flat_map(|o| o.pos.into_iter().chain(o.quat.to_wxyz()).chain(o.linvel).chain(o.angvel_local));
-            let all = s.root_pos.into_iter().chain(s.root_quat.to_wxyz()).chain(s.root_linvel).chain(s.root_angvel_local).chain(s.dof_pos).chain(s.dof_vel).chain(objs);
+            let objs = s.objects.iter().flat_map(|o| {
+                o.pos.into_iter().chain(o.quat.to_wxyz()).chain(o.linvel).chain(o.angvel_local)
+            });
+            let all = s
+                .root_pos
+                .into_iter()
+                .chain(s.root_quat.to_wxyz())
+                .chain(s.root_linvel)
+                .chain(s.root_angvel_local)
+                .chain(s.dof_pos)
+                .chain(s.dof_vel)
+                .chain(objs);
             if let Some(index) = all.enumerate().find(|(_, x)| !x.is_finite()).map(|(k, _)| k) {
                 return Err(SimError::NonFinite { what: "reset state", env: i, index });
             }
@@ -325,11 +368,17 @@ impl HsiBatch {
     pub fn set_qpos_qvel(&mut self, i: usize, qpos: &[f64], qvel: &[f64]) -> Result<(), SimError> {
         let n = self.num_envs();
         if i >= n {
-            return Err(SimError::Config(format!("environment index {i} out of range (num_envs = {n})")));
+            return Err(SimError::Config(format!(
+                "environment index {i} out of range (num_envs = {n})"
+            )));
         }
         let (nq, nv, _) = self.scene(i).sizes();
         if qpos.len() != nq || qvel.len() != nv {
-            return Err(SimError::Config(format!("qpos/qvel need {nq}/{nv} entries, got {}/{}", qpos.len(), qvel.len())));
+            return Err(SimError::Config(format!(
+                "qpos/qvel need {nq}/{nv} entries, got {}/{}",
+                qpos.len(),
+                qvel.len()
+            )));
         }
         if let Some(k) = qpos.iter().chain(qvel).position(|x| !x.is_finite()) {
             return Err(SimError::NonFinite { what: "qpos/qvel", env: i, index: k });
@@ -370,9 +419,18 @@ impl HsiBatch {
             )
                 .into_par_iter()
                 .enumerate()
-                .for_each(|(i, (slot, pos, quat, linvel, angvel, dof_pos, dof_vel, contact, unstable))| {
-                    f(i, slot, Rows { pos, quat, linvel, angvel, dof_pos, dof_vel, contact, unstable })
-                });
+                .for_each(
+                    |(
+                        i,
+                        (slot, pos, quat, linvel, angvel, dof_pos, dof_vel, contact, unstable),
+                    )| {
+                        f(
+                            i,
+                            slot,
+                            Rows { pos, quat, linvel, angvel, dof_pos, dof_vel, contact, unstable },
+                        )
+                    },
+                );
         });
     }
 }
@@ -394,7 +452,10 @@ fn write_reset(scene: &HsiScene, d: &mut Data, s: &HsiReset) {
         for j in &scene.joints {
             if j.dofs == 3 {
                 let a = j.action;
-                qpos[j.qpos..j.qpos + 4].copy_from_slice(&Quat::from_rotvec([s.dof_pos[a], s.dof_pos[a + 1], s.dof_pos[a + 2]]).to_wxyz());
+                qpos[j.qpos..j.qpos + 4].copy_from_slice(
+                    &Quat::from_rotvec([s.dof_pos[a], s.dof_pos[a + 1], s.dof_pos[a + 2]])
+                        .to_wxyz(),
+                );
             } else {
                 qpos[j.qpos] = s.dof_pos[j.action];
             }
@@ -427,7 +488,8 @@ fn write_reset(scene: &HsiScene, d: &mut Data, s: &HsiReset) {
 
 /// Kinematic read-out (needs the position/velocity stages of the current state).
 fn read_state(scene: &HsiScene, d: &Data, rows: &mut Rows<'_>) {
-    let (xpos, xquat, xipos, cvel, com) = (d.xpos(), d.xquat(), d.xipos(), d.cvel(), d.subtree_com());
+    let (xpos, xquat, xipos, cvel, com) =
+        (d.xpos(), d.xquat(), d.xipos(), d.cvel(), d.subtree_com());
     for (b, &id) in scene.body_ids.iter().enumerate() {
         rows.pos[3 * b..3 * b + 3].copy_from_slice(&xpos[id]);
         rows.quat[4 * b..4 * b + 4].copy_from_slice(&xquat[id]);
@@ -436,13 +498,23 @@ fn read_state(scene: &HsiScene, d: &Data, rows: &mut Rows<'_>) {
         let c = com[scene.tree_root[b]];
         let r = [xipos[id][0] - c[0], xipos[id][1] - c[1], xipos[id][2] - c[2]];
         rows.angvel[3 * b..3 * b + 3].copy_from_slice(w);
-        rows.linvel[3 * b..3 * b + 3].copy_from_slice(&[v[0] + w[1] * r[2] - w[2] * r[1], v[1] + w[2] * r[0] - w[0] * r[2], v[2] + w[0] * r[1] - w[1] * r[0]]);
+        rows.linvel[3 * b..3 * b + 3].copy_from_slice(&[
+            v[0] + w[1] * r[2] - w[2] * r[1],
+            v[1] + w[2] * r[0] - w[0] * r[2],
+            v[2] + w[0] * r[1] - w[1] * r[0],
+        ]);
     }
     let (qpos, qvel) = (d.qpos(), d.qvel());
     for j in &scene.joints {
         let a = j.action;
         if j.dofs == 3 {
-            let q = Quat::from_wxyz([qpos[j.qpos], qpos[j.qpos + 1], qpos[j.qpos + 2], qpos[j.qpos + 3]]).normalized();
+            let q = Quat::from_wxyz([
+                qpos[j.qpos],
+                qpos[j.qpos + 1],
+                qpos[j.qpos + 2],
+                qpos[j.qpos + 3],
+            ])
+            .normalized();
             rows.dof_pos[a..a + 3].copy_from_slice(&q.to_rotvec());
         } else {
             rows.dof_pos[a] = qpos[j.qpos];
@@ -458,7 +530,10 @@ fn read_contacts(scene: &HsiScene, d: &Data, rows: &mut Rows<'_>) {
         if con.efc_address < 0 || con.geom[0] < 0 || con.geom[1] < 0 {
             continue;
         }
-        let (a, b) = (scene.geom_character_body[con.geom[0] as usize], scene.geom_character_body[con.geom[1] as usize]);
+        let (a, b) = (
+            scene.geom_character_body[con.geom[0] as usize],
+            scene.geom_character_body[con.geom[1] as usize],
+        );
         match (a, b) {
             (Some(x), None) | (None, Some(x)) => rows.contact[x] = 1,
             _ => {}

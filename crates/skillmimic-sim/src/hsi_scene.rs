@@ -4,7 +4,9 @@ use std::sync::Arc;
 
 use mujoco_rs::prelude::*;
 use mujoco_rs::wrappers::mj_model::MjtObjBase;
-use skillmimic_core::hsi_character::{BODIES, JointSpec, NUM_BODIES, NUM_DOFS, action_offset_scale};
+use skillmimic_core::hsi_character::{
+    BODIES, JointSpec, NUM_BODIES, NUM_DOFS, action_offset_scale,
+};
 
 use crate::error::SimError;
 use crate::hsi_mjcf::{HsiObject, hsi_scene_xml};
@@ -57,7 +59,10 @@ impl HsiScene {
     /// Generate and compile the scene with `objects` (at most [`MAX_OBJECTS`]).
     pub fn new(objects: Vec<HsiObject>) -> Result<Self, SimError> {
         if objects.len() > MAX_OBJECTS {
-            return Err(SimError::Config(format!("a TokenHSI scene holds at most {MAX_OBJECTS} objects, got {}", objects.len())));
+            return Err(SimError::Config(format!(
+                "a TokenHSI scene holds at most {MAX_OBJECTS} objects, got {}",
+                objects.len()
+            )));
         }
         let xml = hsi_scene_xml(&objects);
         Self::from_xml(xml, objects)
@@ -66,9 +71,14 @@ impl HsiScene {
     /// Compile MJCF text that follows the generator's naming (e.g. a generated scene edited for
     /// an experiment); `objects` names the task objects it holds.
     pub fn from_xml(xml: String, objects: Vec<HsiObject>) -> Result<Self, SimError> {
-        let bad = |message: String| SimError::Model { source_name: "<TokenHSI scene>".into(), message };
+        let bad =
+            |message: String| SimError::Model { source_name: "<TokenHSI scene>".into(), message };
         let model = MjModel::from_xml_string(&xml).map_err(|e| bad(e.to_string()))?;
-        let id_of = |name: &str| model.name_to_id(MjtObjBase::mjOBJ_BODY, name).ok_or_else(|| bad(format!("body '{name}' missing")));
+        let id_of = |name: &str| {
+            model
+                .name_to_id(MjtObjBase::mjOBJ_BODY, name)
+                .ok_or_else(|| bad(format!("body '{name}' missing")))
+        };
         let mut body_ids = Vec::with_capacity(NUM_BODIES + objects.len());
         for b in &BODIES {
             body_ids.push(id_of(b.name)?);
@@ -76,7 +86,11 @@ impl HsiScene {
         for o in &objects {
             body_ids.push(id_of(&o.name)?);
         }
-        let jnt_id = |name: &str| model.name_to_id(MjtObjBase::mjOBJ_JOINT, name).ok_or_else(|| bad(format!("joint '{name}' missing")));
+        let jnt_id = |name: &str| {
+            model
+                .name_to_id(MjtObjBase::mjOBJ_JOINT, name)
+                .ok_or_else(|| bad(format!("joint '{name}' missing")))
+        };
         let (qposadr, dofadr) = (model.jnt_qposadr(), model.jnt_dofadr());
         let root = jnt_id("root")?;
         let mut joints = Vec::new();
@@ -85,7 +99,12 @@ impl HsiScene {
             let dofs = b.joint.dofs();
             if dofs > 0 {
                 let j = jnt_id(b.joint_name)?;
-                joints.push(JointAddr { action, dofs, qpos: qposadr[j] as usize, qvel: dofadr[j] as usize });
+                joints.push(JointAddr {
+                    action,
+                    dofs,
+                    qpos: qposadr[j] as usize,
+                    qvel: dofadr[j] as usize,
+                });
                 action += dofs;
             }
         }
@@ -94,7 +113,10 @@ impl HsiScene {
         for (k, o) in objects.iter().enumerate() {
             let body = body_ids[NUM_BODIES + k];
             object_addr.push(match o.mass {
-                None => ObjectAddr::Mocap(usize::try_from(mocapid[body]).map_err(|_| bad(format!("object '{}' is not a mocap body", o.name)))?),
+                None => ObjectAddr::Mocap(
+                    usize::try_from(mocapid[body])
+                        .map_err(|_| bad(format!("object '{}' is not a mocap body", o.name)))?,
+                ),
                 Some(_) => {
                     let j = jnt_id(&o.name)?;
                     ObjectAddr::Free { qpos: qposadr[j] as usize, qvel: dofadr[j] as usize }
@@ -107,16 +129,20 @@ impl HsiScene {
         let mut actuator_map = Vec::with_capacity(nu);
         for a in 0..nu {
             let name = model.id_to_name(MjtObjBase::mjOBJ_ACTUATOR, a).unwrap_or_default();
-            let found = joints.iter().zip(BODIES.iter().filter(|b| b.joint.dofs() > 0)).find_map(|(j, b)| match b.joint {
-                JointSpec::HingeY { .. } if name == b.joint_name => Some(j.action),
-                JointSpec::Ball { .. } => {
-                    let (stem, axis) = name.rsplit_once('_')?;
-                    let k = ["x", "y", "z"].iter().position(|&s| s == axis)?;
-                    (stem == b.joint_name).then_some(j.action + k)
-                }
-                _ => None,
-            });
-            let k = found.ok_or_else(|| bad(format!("actuator '{name}' drives no joint of the character")))?;
+            let found = joints.iter().zip(BODIES.iter().filter(|b| b.joint.dofs() > 0)).find_map(
+                |(j, b)| match b.joint {
+                    JointSpec::HingeY { .. } if name == b.joint_name => Some(j.action),
+                    JointSpec::Ball { .. } => {
+                        let (stem, axis) = name.rsplit_once('_')?;
+                        let k = ["x", "y", "z"].iter().position(|&s| s == axis)?;
+                        (stem == b.joint_name).then_some(j.action + k)
+                    }
+                    _ => None,
+                },
+            );
+            let k = found.ok_or_else(|| {
+                bad(format!("actuator '{name}' drives no joint of the character"))
+            })?;
             actuator_map.push((k, maps[k].0, maps[k].1));
         }
         if action != NUM_DOFS {
@@ -126,7 +152,8 @@ impl HsiScene {
         for (b, &id) in body_ids.iter().take(NUM_BODIES).enumerate() {
             character_of_body[id] = Some(b);
         }
-        let geom_character_body = model.geom_bodyid().iter().map(|&b| character_of_body[b as usize]).collect();
+        let geom_character_body =
+            model.geom_bodyid().iter().map(|&b| character_of_body[b as usize]).collect();
         let rootid = model.body_rootid();
         let tree_root = body_ids.iter().map(|&id| rootid[id] as usize).collect();
         Ok(Self {

@@ -30,6 +30,8 @@ pub use hsi_batch::{HsiBatch, HsiEnvState, HsiReset, HsiState, ObjectState};
 pub use hsi_mjcf::{HsiObject, ObjectBox};
 pub use hsi_scene::{HsiScene, MAX_OBJECTS};
 pub use mj_batch::MjBatch;
-pub use mjcf::{BallParams, BodyContact, HandModel, RootJoint, SceneOptions, Solver, SolverOptions};
+pub use mjcf::{
+    BallParams, BodyContact, HandModel, RootJoint, SceneOptions, Solver, SolverOptions,
+};
 pub use scene::{BALL, NUM_STATE_BODIES, Scene};
 pub use state::{BatchState, EnvState, ResetState};

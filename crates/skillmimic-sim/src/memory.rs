@@ -35,17 +35,26 @@ pub fn available_bytes() -> Option<u64> {
     if let Ok(m) = std::fs::read_to_string("/proc/meminfo") {
         limits.extend(read_kb_field(&m, "MemAvailable:"));
     }
-    let cg = |f: &str| std::fs::read_to_string(format!("/sys/fs/cgroup/{f}")).ok().and_then(|s| s.trim().parse::<u64>().ok());
+    let cg = |f: &str| {
+        std::fs::read_to_string(format!("/sys/fs/cgroup/{f}"))
+            .ok()
+            .and_then(|s| s.trim().parse::<u64>().ok())
+    };
     if let (Some(max), Some(cur)) = (cg("memory.max"), cg("memory.current")) {
         limits.push(max.saturating_sub(cur));
     }
     if let Ok(l) = std::fs::read_to_string("/proc/self/limits") {
-        let soft = l
-            .lines()
-            .find(|x| x.starts_with("Max address space"))
-            .and_then(|x| x["Max address space".len()..].split_whitespace().next().and_then(|v| v.parse::<u64>().ok()));
+        let soft = l.lines().find(|x| x.starts_with("Max address space")).and_then(|x| {
+            x["Max address space".len()..]
+                .split_whitespace()
+                .next()
+                .and_then(|v| v.parse::<u64>().ok())
+        });
         if let Some(soft) = soft {
-            let vm = std::fs::read_to_string("/proc/self/status").ok().and_then(|s| read_kb_field(&s, "VmSize:")).unwrap_or(0);
+            let vm = std::fs::read_to_string("/proc/self/status")
+                .ok()
+                .and_then(|s| read_kb_field(&s, "VmSize:"))
+                .unwrap_or(0);
             limits.push(soft.saturating_sub(vm));
         }
     }
@@ -84,7 +93,12 @@ mod tests {
         let avail = available_bytes().expect("Linux exposes /proc/meminfo");
         assert!(avail > 1 << 20, "{avail}");
         let e = check_batch(usize::MAX / 4096, 1 << 20, "the test scene").unwrap_err().to_string();
-        assert!(e.contains("env.num_envs") && e.contains("the test scene") && e.contains("at most about"), "{e}");
+        assert!(
+            e.contains("env.num_envs")
+                && e.contains("the test scene")
+                && e.contains("at most about"),
+            "{e}"
+        );
         check_batch(1, 1024, "the test scene").unwrap();
     }
 }

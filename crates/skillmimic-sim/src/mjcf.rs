@@ -132,7 +132,15 @@ impl BallParams {
 
 impl Default for BallParams {
     fn default() -> Self {
-        Self { radius: 0.12, density: 1000.0, restitution: 0.81, friction: 1.0, damping: 0.01, bounce_threshold: 0.2, body_contact: BodyContact::Combined }
+        Self {
+            radius: 0.12,
+            density: 1000.0,
+            restitution: 0.81,
+            friction: 1.0,
+            damping: 0.01,
+            bounce_threshold: 0.2,
+            body_contact: BodyContact::Combined,
+        }
     }
 }
 
@@ -273,9 +281,18 @@ pub fn scene_xml(opts: &SceneOptions) -> String {
     let solver = if *sv == SolverOptions::default() {
         String::new()
     } else {
-        format!(" solver=\"{}\" iterations=\"{}\" tolerance=\"{}\"", sv.solver.mjcf_name(), sv.iterations, sv.tolerance)
+        format!(
+            " solver=\"{}\" iterations=\"{}\" tolerance=\"{}\"",
+            sv.solver.mjcf_name(),
+            sv.iterations,
+            sv.tolerance
+        )
     };
-    let _ = writeln!(x, "  <option timestep=\"{}\" integrator=\"implicitfast\"{solver}/>", opts.timestep);
+    let _ = writeln!(
+        x,
+        "  <option timestep=\"{}\" integrator=\"implicitfast\"{solver}/>",
+        opts.timestep
+    );
     let _ = writeln!(x, "  <size memory=\"4M\"/>");
     // Rendering only (no effect on physics): the `side` camera tracks the centre of mass from 5.5 m
     // at 1.7 m, pitched 5 degrees down, so a ball up to ~3.4 m (a layup at the rim) stays in frame;
@@ -309,15 +326,25 @@ pub fn scene_xml(opts: &SceneOptions) -> String {
         let [r, g, b, a] = p.rgba;
         let [px, py, pz] = p.pos;
         let shape = match p.kind {
-            PropKind::Marker { radius } => format!("type=\"sphere\" size=\"{radius}\" contype=\"0\" conaffinity=\"0\""),
-            PropKind::Box { half: [hx, hy, hz] } => format!("type=\"box\" size=\"{hx} {hy} {hz}\" condim=\"3\""),
+            PropKind::Marker { radius } => {
+                format!("type=\"sphere\" size=\"{radius}\" contype=\"0\" conaffinity=\"0\"")
+            }
+            PropKind::Box { half: [hx, hy, hz] } => {
+                format!("type=\"box\" size=\"{hx} {hy} {hz}\" condim=\"3\"")
+            }
         };
-        let _ = writeln!(x, "    <geom name=\"{}\" {shape} pos=\"{px} {py} {pz}\" rgba=\"{r} {g} {b} {a}\"/>", p.name);
+        let _ = writeln!(
+            x,
+            "    <geom name=\"{}\" {shape} pos=\"{px} {py} {pz}\" rgba=\"{r} {g} {b} {a}\"/>",
+            p.name
+        );
     }
 
     // humanoid, depth first
     let (root_pos, root_quat) = match opts.root {
-        RootJoint::Free => ([0.0, 0.0, 0.95], Quat::from_rotvec([std::f64::consts::FRAC_PI_2, 0.0, 0.0])),
+        RootJoint::Free => {
+            ([0.0, 0.0, 0.95], Quat::from_rotvec([std::f64::consts::FRAC_PI_2, 0.0, 0.0]))
+        }
         RootJoint::Fixed { pos, quat } => (pos, quat),
     };
     let mut open: Vec<usize> = Vec::new();
@@ -358,10 +385,17 @@ pub fn scene_xml(opts: &SceneOptions) -> String {
                 );
             }
         }
-        let material = if skeleton::body_part(i) == skeleton::BodyPart::Hand { " material=\"hand\"" } else { "" };
+        let material = if skeleton::body_part(i) == skeleton::BodyPart::Hand {
+            " material=\"hand\""
+        } else {
+            ""
+        };
         let geom = match b.geom {
             GeomSpec::Sphere { radius, center, density } => {
-                format!("type=\"sphere\" size=\"{radius}\" pos=\"{}\" density=\"{density}\"", v3(center))
+                format!(
+                    "type=\"sphere\" size=\"{radius}\" pos=\"{}\" density=\"{density}\"",
+                    v3(center)
+                )
             }
             GeomSpec::Capsule { radius, from, to, density } => format!(
                 "type=\"capsule\" size=\"{radius}\" fromto=\"{} {}\" density=\"{density}\"",
@@ -390,7 +424,11 @@ pub fn scene_xml(opts: &SceneOptions) -> String {
     let lin = ball.damping * ball.mass();
     let ang = ball.damping * 0.4 * ball.mass() * ball.radius * ball.radius;
     for (k, (axis, dir)) in [("x", "1 0 0"), ("y", "0 1 0"), ("z", "0 0 1")].iter().enumerate() {
-        let _ = writeln!(x, "      <joint name=\"ball_{axis}\" type=\"slide\" axis=\"{dir}\" ref=\"{}\" damping=\"{lin}\"/>", start[k]);
+        let _ = writeln!(
+            x,
+            "      <joint name=\"ball_{axis}\" type=\"slide\" axis=\"{dir}\" ref=\"{}\" damping=\"{lin}\"/>",
+            start[k]
+        );
     }
     let _ = writeln!(x, "      <joint name=\"ball_rot\" type=\"ball\" damping=\"{ang}\"/>");
     let contact = match ball.body_contact {

@@ -56,8 +56,10 @@ impl Scene {
     /// Generate and compile the scene for `options`.
     pub fn new(options: SceneOptions) -> Result<Self, SimError> {
         let xml = mjcf::scene_xml(&options);
-        let model = MjModel::from_xml_string(&xml)
-            .map_err(|e| SimError::Model { source_name: "<generated scene>".into(), message: e.to_string() })?;
+        let model = MjModel::from_xml_string(&xml).map_err(|e| SimError::Model {
+            source_name: "<generated scene>".into(),
+            message: e.to_string(),
+        })?;
         Self::from_model(model, options, xml)
     }
 
@@ -65,8 +67,10 @@ impl Scene {
     /// `Ball`, actuators `<Body>_<axis>`), e.g. a generated scene edited for an experiment.
     /// `options` describes the variant (hand model, root joint) for the index tables.
     pub fn from_xml(xml: String, options: SceneOptions) -> Result<Self, SimError> {
-        let model = MjModel::from_xml_string(&xml)
-            .map_err(|e| SimError::Model { source_name: "<custom scene>".into(), message: e.to_string() })?;
+        let model = MjModel::from_xml_string(&xml).map_err(|e| SimError::Model {
+            source_name: "<custom scene>".into(),
+            message: e.to_string(),
+        })?;
         Self::from_model(model, options, xml)
     }
 
@@ -76,9 +80,12 @@ impl Scene {
     }
 
     fn from_model(model: MjModel, options: SceneOptions, xml: String) -> Result<Self, SimError> {
-        let bad = |message: String| SimError::Model { source_name: "<generated scene>".into(), message };
+        let bad =
+            |message: String| SimError::Model { source_name: "<generated scene>".into(), message };
         let id_of = |name: &str| {
-            model.name_to_id(MjtObjBase::mjOBJ_BODY, name).ok_or_else(|| bad(format!("body '{name}' missing")))
+            model
+                .name_to_id(MjtObjBase::mjOBJ_BODY, name)
+                .ok_or_else(|| bad(format!("body '{name}' missing")))
         };
         let mut body_ids = [0usize; NUM_STATE_BODIES];
         for (b, spec) in BODIES.iter().enumerate() {
@@ -112,8 +119,11 @@ impl Scene {
         let mut actuator_action = Vec::with_capacity(nu);
         for a in 0..nu {
             let name = model.id_to_name(MjtObjBase::mjOBJ_ACTUATOR, a).unwrap_or_default();
-            let (body, axis) = name.rsplit_once('_').ok_or_else(|| bad(format!("actuator '{name}'")))?;
-            let b = skeleton::body_index(body).filter(|&b| b > 0).ok_or_else(|| bad(format!("actuator '{name}'")))?;
+            let (body, axis) =
+                name.rsplit_once('_').ok_or_else(|| bad(format!("actuator '{name}'")))?;
+            let b = skeleton::body_index(body)
+                .filter(|&b| b > 0)
+                .ok_or_else(|| bad(format!("actuator '{name}'")))?;
             let k = match axis {
                 "x" => 0,
                 "y" => 1,

@@ -131,8 +131,10 @@ impl BatchState {
             body_angvel: &self.body_angvel[i * width::BODY_VEL..(i + 1) * width::BODY_VEL],
             dof_pos: &self.dof_pos[i * width::DOF..(i + 1) * width::DOF],
             dof_vel: &self.dof_vel[i * width::DOF..(i + 1) * width::DOF],
-            contact_force: &self.contact_force[i * width::CONTACT_FORCE..(i + 1) * width::CONTACT_FORCE],
-            contact_pairs: &self.contact_pairs[i * width::CONTACT_PAIRS..(i + 1) * width::CONTACT_PAIRS],
+            contact_force: &self.contact_force
+                [i * width::CONTACT_FORCE..(i + 1) * width::CONTACT_FORCE],
+            contact_pairs: &self.contact_pairs
+                [i * width::CONTACT_PAIRS..(i + 1) * width::CONTACT_PAIRS],
             unstable: self.unstable[i] != 0,
         }
     }
@@ -161,7 +163,12 @@ impl EnvState<'_> {
     /// Orientation of body `b`.
     #[inline]
     pub fn quat(&self, b: usize) -> Quat {
-        Quat::from_wxyz([self.body_quat[4 * b], self.body_quat[4 * b + 1], self.body_quat[4 * b + 2], self.body_quat[4 * b + 3]])
+        Quat::from_wxyz([
+            self.body_quat[4 * b],
+            self.body_quat[4 * b + 1],
+            self.body_quat[4 * b + 2],
+            self.body_quat[4 * b + 3],
+        ])
     }
     /// Linear velocity of body `b`.
     #[inline]

@@ -6,10 +6,16 @@ use std::sync::Arc;
 
 use skillmimic_core::math::Quat;
 use skillmimic_core::skeleton::NUM_DOFS;
-use skillmimic_sim::{BALL, BallParams, BatchSim, BodyContact, ContactPair, HandModel, ResetState, RootJoint, Scene, SceneOptions};
+use skillmimic_sim::{
+    BALL, BallParams, BatchSim, BodyContact, ContactPair, HandModel, ResetState, RootJoint, Scene,
+    SceneOptions,
+};
 
 fn sim_with(ball: BallParams, root: RootJoint) -> BatchSim {
-    let scene = Arc::new(Scene::new(SceneOptions { hands: HandModel::Box, root, ball, ..Default::default() }).unwrap());
+    let scene = Arc::new(
+        Scene::new(SceneOptions { hands: HandModel::Box, root, ball, ..Default::default() })
+            .unwrap(),
+    );
     BatchSim::new(scene, 1, 1).unwrap()
 }
 
@@ -39,11 +45,24 @@ fn slow_floor_impacts_do_not_bounce_below_the_threshold() {
     let r = 0.12;
     // released 1.5 mm above the floor: impact at 0.17 m/s, below PhysX's 0.2 m/s
     let s = ResetState { ball_pos: [0.0, 0.0, r + 0.0015], ..away() };
-    let with = apex_after_touch(&mut sim_with(BallParams::default(), RootJoint::Free), s.clone(), 120);
-    let without = apex_after_touch(&mut sim_with(BallParams { bounce_threshold: 0.0, ..Default::default() }, RootJoint::Free), s.clone(), 120);
-    println!("slow impact (0.17 m/s): highest point after the first touch {:.2} mm above rest with the threshold, {:.2} mm without", 1e3 * (with - r), 1e3 * (without - r));
+    let with =
+        apex_after_touch(&mut sim_with(BallParams::default(), RootJoint::Free), s.clone(), 120);
+    let without = apex_after_touch(
+        &mut sim_with(BallParams { bounce_threshold: 0.0, ..Default::default() }, RootJoint::Free),
+        s.clone(),
+        120,
+    );
+    println!(
+        "slow impact (0.17 m/s): highest point after the first touch {:.2} mm above rest with the threshold, {:.2} mm without",
+        1e3 * (with - r),
+        1e3 * (without - r)
+    );
     assert!(with - r < 1e-4, "the ball rebounded to {:.3} mm", 1e3 * (with - r));
-    assert!(without - r > 3e-4, "without the rule the soft contact rebounds ({:.3} mm)", 1e3 * (without - r));
+    assert!(
+        without - r > 3e-4,
+        "without the rule the soft contact rebounds ({:.3} mm)",
+        1e3 * (without - r)
+    );
     // a fast impact still bounces with the floor's combined restitution (0.81 + 0.8)/2
     let h = 1.0;
     let fast = ResetState { ball_pos: [0.0, 0.0, h], ..away() };
@@ -55,7 +74,12 @@ fn slow_floor_impacts_do_not_bounce_below_the_threshold() {
 
 #[test]
 fn damping_slows_the_flying_ball_by_one_percent_per_second() {
-    let mut s = ResetState { ball_pos: [0.0, 0.0, 5.0], ball_linvel: [5.0, 0.0, 0.0], ball_angvel_local: [0.0, 0.0, 20.0], ..away() };
+    let mut s = ResetState {
+        ball_pos: [0.0, 0.0, 5.0],
+        ball_linvel: [5.0, 0.0, 0.0],
+        ball_angvel_local: [0.0, 0.0, 20.0],
+        ..away()
+    };
     s.ball_quat = Quat::IDENTITY;
     let run = |ball: BallParams| {
         let mut sim = sim_with(ball, RootJoint::Free);
@@ -69,8 +93,13 @@ fn damping_slows_the_flying_ball_by_one_percent_per_second() {
     let (vx, wz) = run(BallParams::default());
     let (vx0, wz0) = run(BallParams { damping: 0.0, ..Default::default() });
     let decay = (-0.01f64 * 0.5).exp();
-    println!("after 0.5 s of flight: vx {vx:.5} m/s (undamped {vx0:.5}), wz {wz:.4} rad/s (undamped {wz0:.4}); expected factor {decay:.5}");
-    assert!((vx0 - 5.0).abs() < 1e-9 && (wz0 - 20.0).abs() < 1e-9, "undamped flight keeps its speed");
+    println!(
+        "after 0.5 s of flight: vx {vx:.5} m/s (undamped {vx0:.5}), wz {wz:.4} rad/s (undamped {wz0:.4}); expected factor {decay:.5}"
+    );
+    assert!(
+        (vx0 - 5.0).abs() < 1e-9 && (wz0 - 20.0).abs() < 1e-9,
+        "undamped flight keeps its speed"
+    );
     assert!((vx / vx0 - decay).abs() < 2e-4, "linear damping factor {}", vx / vx0);
     assert!((wz / wz0 - decay).abs() < 2e-4, "angular damping factor {}", wz / wz0);
 }
@@ -86,7 +115,11 @@ fn body_bounce(body_contact: BodyContact, drop: f64) -> (f64, f64) {
     let mut sim = sim_with(BallParams { body_contact, ..Default::default() }, root);
     let zero = vec![0.0f32; NUM_DOFS];
     let top = 0.5 + 0.0985 + 0.12;
-    let s = ResetState { root_pos: [0.0, 0.0, 0.5], ball_pos: [0.0, 0.0, top + drop], ..Default::default() };
+    let s = ResetState {
+        root_pos: [0.0, 0.0, 0.5],
+        ball_pos: [0.0, 0.0, top + drop],
+        ..Default::default()
+    };
     sim.reset(&[true], &[s]).unwrap();
     let (mut v_in, mut prev, mut up) = (None, 0.0, f64::NEG_INFINITY);
     for _ in 0..90 {
@@ -113,7 +146,9 @@ fn ball_bounces_off_the_body_with_the_combined_restitution() {
     let (vi, vo) = body_bounce(BodyContact::Combined, drop);
     let (vi_s, vo_s) = body_bounce(BodyContact::Soft, drop);
     let (e, e_soft) = (-vo / vi, -vo_s / vi_s);
-    println!("ball dropped {drop} m onto the (welded) pelvis: v_in {vi:.3} m/s, rebound {vo:.3} m/s, e = {e:.3} (combined, target 0.405); soft contact: e = {e_soft:.3}");
+    println!(
+        "ball dropped {drop} m onto the (welded) pelvis: v_in {vi:.3} m/s, rebound {vo:.3} m/s, e = {e:.3} (combined, target 0.405); soft contact: e = {e_soft:.3}"
+    );
     assert!(vi < -1.5 && vi_s < -1.5);
     assert!((e - 0.405).abs() < 0.06, "combined restitution measured {e}");
     assert!(e_soft < 0.15, "the soft contact barely bounces: {e_soft}");

@@ -22,7 +22,9 @@ fn reset_state(clip: &Clip, t: usize) -> ResetState {
 
 #[test]
 fn forward_kinematics_reproduces_stored_body_positions_on_all_clips() {
-    let Some(shared) = shared_dir_or_skip("forward_kinematics_reproduces_stored_body_positions_on_all_clips") else {
+    let Some(shared) =
+        shared_dir_or_skip("forward_kinematics_reproduces_stored_body_positions_on_all_clips")
+    else {
         return;
     };
     let clips = ballplay_clips(&shared);
@@ -43,10 +45,14 @@ fn forward_kinematics_reproduces_stored_body_positions_on_all_clips() {
     let (mut total_err, mut total_n) = (0.0f64, 0usize);
     let mut worst_bone = 0.0f64;
     let mut worst_body = 0.0f64;
-    println!("{:<45} {:>6} {:>10} {:>10} {:>12}", "clip", "frames", "mean [cm]", "max [cm]", "bone err [m]");
+    println!(
+        "{:<45} {:>6} {:>10} {:>10} {:>12}",
+        "clip", "frames", "mean [cm]", "max [cm]", "bone err [m]"
+    );
     for path in &clips {
         let clip = Clip::from_pt(path).unwrap();
-        let (mut clip_err, mut clip_n, mut clip_max, mut clip_bone) = (0.0f64, 0usize, 0.0f64, 0.0f64);
+        let (mut clip_err, mut clip_n, mut clip_max, mut clip_bone) =
+            (0.0f64, 0usize, 0.0f64, 0.0f64);
         for start in (0..clip.num_frames).step_by(N) {
             let frames: Vec<usize> = (start..(start + N).min(clip.num_frames)).collect();
             let mut mask = vec![false; N];
@@ -60,20 +66,31 @@ fn forward_kinematics_reproduces_stored_body_positions_on_all_clips() {
                 let st = sim.state().env(e);
                 for b in 0..NUM_BODIES {
                     let (p, r) = (st.pos(b), clip.body_pos_at(t, b));
-                    let err = ((p[0] - r[0]).powi(2) + (p[1] - r[1]).powi(2) + (p[2] - r[2]).powi(2)).sqrt();
+                    let err =
+                        ((p[0] - r[0]).powi(2) + (p[1] - r[1]).powi(2) + (p[2] - r[2]).powi(2))
+                            .sqrt();
                     clip_err += err;
                     clip_n += 1;
                     clip_max = clip_max.max(err);
                     if let Some(parent) = BODIES[b].parent {
                         let q = clip.body_pos_at(t, parent);
-                        let len = ((r[0] - q[0]).powi(2) + (r[1] - q[1]).powi(2) + (r[2] - q[2]).powi(2)).sqrt();
+                        let len =
+                            ((r[0] - q[0]).powi(2) + (r[1] - q[1]).powi(2) + (r[2] - q[2]).powi(2))
+                                .sqrt();
                         clip_bone = clip_bone.max((len - bone[b]).abs());
                     }
                 }
             }
         }
         let name = path.file_name().unwrap().to_string_lossy();
-        println!("{:<45} {:>6} {:>10.2} {:>10.2} {:>12.2e}", name, clip.num_frames, 100.0 * clip_err / clip_n as f64, 100.0 * clip_max, clip_bone);
+        println!(
+            "{:<45} {:>6} {:>10.2} {:>10.2} {:>12.2e}",
+            name,
+            clip.num_frames,
+            100.0 * clip_err / clip_n as f64,
+            100.0 * clip_max,
+            clip_bone
+        );
         total_err += clip_err;
         total_n += clip_n;
         worst_bone = worst_bone.max(clip_bone);
@@ -88,5 +105,8 @@ fn forward_kinematics_reproduces_stored_body_positions_on_all_clips() {
         worst_bone
     );
     assert!(mean <= 0.035, "mean per-body FK error {:.2} cm exceeds 3.5 cm", 100.0 * mean);
-    assert!(worst_bone <= 1e-4, "stored bone lengths differ from the model offsets by {worst_bone:.2e} m");
+    assert!(
+        worst_bone <= 1e-4,
+        "stored bone lengths differ from the model offsets by {worst_bone:.2e} m"
+    );
 }

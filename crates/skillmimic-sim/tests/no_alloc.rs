@@ -33,7 +33,8 @@ fn step_and_reset_do_not_allocate() {
         let scene = Arc::new(Scene::default_for(hands).unwrap());
         let n = 8;
         let mut sim = BatchSim::new(scene, n, 2).unwrap();
-        let actions: Vec<f32> = (0..n * NUM_DOFS).map(|i| ((i * 37 % 101) as f32 / 50.0) - 1.0).collect();
+        let actions: Vec<f32> =
+            (0..n * NUM_DOFS).map(|i| ((i * 37 % 101) as f32 / 50.0) - 1.0).collect();
         let states = vec![ResetState::default(); n];
         let mask: Vec<bool> = (0..n).map(|i| i % 3 == 0).collect();
         // warm up: rayon's per-thread latches are created lazily on first use
@@ -52,4 +53,3 @@ fn step_and_reset_do_not_allocate() {
         assert_eq!(count, 0, "{hands:?}: {count} heap allocations in 30 steps + 3 resets");
     }
 }
-

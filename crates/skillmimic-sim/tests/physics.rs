@@ -6,7 +6,9 @@ use std::sync::Arc;
 use skillmimic_core::math::Quat;
 use skillmimic_core::skeleton::{BODIES, JointGroup, NUM_DOFS, dof_range};
 use skillmimic_sim::mjcf::scene_xml;
-use skillmimic_sim::{BALL, BatchSim, ContactPair, HandModel, ResetState, RootJoint, Scene, SceneOptions};
+use skillmimic_sim::{
+    BALL, BatchSim, ContactPair, HandModel, ResetState, RootJoint, Scene, SceneOptions,
+};
 
 /// Deterministic uniform numbers in [-1, 1] (no RNG dependency in the sim crate).
 struct Lcg(u64);
@@ -55,7 +57,9 @@ fn ball_dropped_from_1_5_m_bounces_with_the_combined_floor_restitution_0_805() {
     assert!(left_floor, "the ball never bounced");
     let e_height = ((apex - r) / (h - r)).sqrt();
     let e_speed = -v_out / v_in;
-    println!("ball drop from {h} m: restitution from apex height {e_height:.3}, from speeds {e_speed:.3}");
+    println!(
+        "ball drop from {h} m: restitution from apex height {e_height:.3}, from speeds {e_speed:.3}"
+    );
     assert!((e_height - 0.805).abs() <= 0.03, "restitution {e_height:.3} not within 0.805 ± 0.03");
     assert!((e_speed - 0.805).abs() <= 0.04, "speed ratio {e_speed:.3}");
 }
@@ -84,7 +88,10 @@ fn ball_resting_on_floor_carries_its_weight() {
     }
     // forces are those of the last of the 2 sub-steps: their mean over policy steps is the weight
     let mean = fz / 240.0;
-    println!("ball mass {mass:.3} kg, mean floor force {mean:.2} N (m g = {:.2} N), in contact {steps_in_contact}/240 steps", mass * 9.81);
+    println!(
+        "ball mass {mass:.3} kg, mean floor force {mean:.2} N (m g = {:.2} N), in contact {steps_in_contact}/240 steps",
+        mass * 9.81
+    );
     assert!((mean - mass * 9.81).abs() < 0.1 * mass * 9.81);
 }
 
@@ -92,7 +99,10 @@ fn ball_resting_on_floor_carries_its_weight() {
 fn pd_drives_track_a_step_target_within_0_05_rad_after_half_a_second() {
     // root welded at 2 m, upright; gravity and contacts off to isolate the drive dynamics
     let upright = Quat::from_rotvec([std::f64::consts::FRAC_PI_2, 0.0, 0.0]);
-    let options = SceneOptions { root: RootJoint::Fixed { pos: [0.0, 0.0, 2.0], quat: upright }, ..Default::default() };
+    let options = SceneOptions {
+        root: RootJoint::Fixed { pos: [0.0, 0.0, 2.0], quat: upright },
+        ..Default::default()
+    };
     let xml = scene_xml(&options).replace(
         "<option timestep",
         "<option gravity=\"0 0 0\"><flag contact=\"disable\"/></option>\n  <option timestep",
@@ -118,12 +128,21 @@ fn pd_drives_track_a_step_target_within_0_05_rad_after_half_a_second() {
                 worst = worst.max((st.dof_pos[i] - target[k]).abs());
             }
         }
-        println!("{group:?}: {} bodies, worst tracking error after 0.5 s = {worst:.4} rad", bodies.len());
+        println!(
+            "{group:?}: {} bodies, worst tracking error after 0.5 s = {worst:.4} rad",
+            bodies.len()
+        );
         assert!(worst < 0.05, "{group:?}: error {worst} rad");
     }
 }
 
-fn random_rollout(hands: HandModel, threads: usize, envs: usize, steps: usize, seed: u64) -> (BatchSim, bool) {
+fn random_rollout(
+    hands: HandModel,
+    threads: usize,
+    envs: usize,
+    steps: usize,
+    seed: u64,
+) -> (BatchSim, bool) {
     let scene = Arc::new(Scene::default_for(hands).unwrap());
     let mut sim = BatchSim::new(scene, envs, threads).unwrap();
     let mut rng = Lcg(seed);
@@ -142,8 +161,16 @@ fn random_actions_for_ten_seconds_stay_finite_and_stable() {
     for hands in [HandModel::Full, HandModel::Box] {
         let (sim, unstable) = random_rollout(hands, 2, 4, 600, 7);
         let st = sim.state();
-        let finite = st.body_pos.iter().chain(&st.body_linvel).chain(&st.dof_pos).chain(&st.contact_force).all(|x| x.is_finite());
-        println!("{hands:?}: 10 s of uniform random actions, unstable = {unstable}, finite = {finite}");
+        let finite = st
+            .body_pos
+            .iter()
+            .chain(&st.body_linvel)
+            .chain(&st.dof_pos)
+            .chain(&st.contact_force)
+            .all(|x| x.is_finite());
+        println!(
+            "{hands:?}: 10 s of uniform random actions, unstable = {unstable}, finite = {finite}"
+        );
         assert!(finite && !unstable);
     }
 }
@@ -213,14 +240,21 @@ fn read_out_matches_mujoco_object_velocity_and_joint_quaternions() {
             let v = d.object_velocity(MjtObjBase::mjOBJ_BODY, scene.body_ids[b], false);
             let (w, l) = (st.angvel(b), st.linvel(b));
             for k in 0..3 {
-                assert!((w[k] - v[k]).abs() < 1e-10 && (l[k] - v[3 + k]).abs() < 1e-10, "env {i} body {b}: {w:?} {l:?} vs {v:?}");
+                assert!(
+                    (w[k] - v[k]).abs() < 1e-10 && (l[k] - v[3 + k]).abs() < 1e-10,
+                    "env {i} body {b}: {w:?} {l:?} vs {v:?}"
+                );
             }
             assert_eq!(st.pos(b), d.xpos()[scene.body_ids[b]]);
         }
         // joint rotation vectors rebuild the joint quaternions
         for j in 0..52 {
             let a = scene.joint_qpos[j].unwrap();
-            let q = Quat::from_rotvec([st.dof_pos[3 * j], st.dof_pos[3 * j + 1], st.dof_pos[3 * j + 2]]);
+            let q = Quat::from_rotvec([
+                st.dof_pos[3 * j],
+                st.dof_pos[3 * j + 1],
+                st.dof_pos[3 * j + 2],
+            ]);
             let qp = &sim.qpos(i)[a..a + 4];
             let s = if q.w * qp[0] < 0.0 { -1.0 } else { 1.0 };
             let n = (qp.iter().map(|x| x * x).sum::<f64>()).sqrt();

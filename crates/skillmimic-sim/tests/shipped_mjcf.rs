@@ -9,7 +9,8 @@ use skillmimic_sim::{BALL, HandModel, Scene, SceneOptions};
 fn shipped_files_equal_the_generator_output() {
     for hands in [HandModel::Full, HandModel::Box] {
         let path = workspace_root().join("mjcf").join(default_scene_file(hands));
-        let shipped = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let shipped =
+            std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
         let generated = scene_xml(&SceneOptions { hands, ..Default::default() });
         assert!(shipped == generated, "{} is stale: run `skillmimic mjcf`", path.display());
     }

@@ -1,8 +1,8 @@
 //! The registered tasks (see [`crate::registry`]).
 //!
 //! * [`imitation`]: SkillMimic imitation of human–ball clips, with the SkillMimic-V2 parts;
-//! * [`hlc`]: skill reuse — `heading`, `circling`, `throwing`, `scoring`, `steering`, `reach` over a frozen skill
-//!   policy (SkillMimic §5.4);
+//! * [`hlc`]: skill reuse — `heading`, `circling`, `throwing`, `scoring`, `steering`, `reach` over
+//!   a frozen skill policy (SkillMimic §5.4);
 //! * [`hsi`]: the TokenHSI tasks on the 32-DoF TokenHSI character — `hsi_follow`, `hsi_sit`,
 //!   `hsi_climb`, `hsi_carry`;
 //! * [`multi`]: `hsi_multi`, `hlc_multi` — several tasks in one batch for one token policy;

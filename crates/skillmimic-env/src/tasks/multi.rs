@@ -70,8 +70,8 @@ pub fn build(cfg: &EnvConfig) -> Result<Box<dyn Env>, EnvError> {
 }
 
 impl MultiEnv {
-    /// Build every task's sub-batch (environment counts from `env.multi.mix`; sub-batch k's
-    /// episode starts of batch row r seeded with `start_seed(0) + r`) and lay out the combined observation.
+    /// Build every task's sub-batch (environment counts from `env.multi.mix`; sub-batch k's episode
+    /// starts of batch row r seeded with `start_seed(0) + r`) and lay out the combined observation.
     pub fn new(cfg: &EnvConfig) -> Result<Self, EnvError> {
         let m = &cfg.multi;
         let (tasks, mix) = m.effective(&cfg.task);
@@ -80,15 +80,34 @@ impl MultiEnv {
         let mut envs = Vec::new();
         for (k, (task, &n)) in tasks.iter().zip(&counts).enumerate() {
             if registry::entry(task).is_none() {
-                return Err(bad("env.multi.tasks", format!("'{task}' is not a registered task; registered: {}", registry::names().join(", "))).into());
+                return Err(bad(
+                    "env.multi.tasks",
+                    format!(
+                        "'{task}' is not a registered task; registered: {}",
+                        registry::names().join(", ")
+                    ),
+                )
+                .into());
             }
             if task.ends_with("_multi") {
-                return Err(bad("env.multi.tasks", format!("'{task}' is itself a multi-task environment")).into());
+                return Err(bad(
+                    "env.multi.tasks",
+                    format!("'{task}' is itself a multi-task environment"),
+                )
+                .into());
             }
             let want_hl = cfg.task == "hlc_multi";
             if registry::entry(task).is_some_and(|e| e.high_level != want_hl) {
-                let kind = if want_hl { "high-level (heading, circling, …)" } else { "TokenHSI (hsi_*)" };
-                return Err(bad("env.multi.tasks", format!("'{task}' cannot run in '{}': it takes {kind} tasks", cfg.task)).into());
+                let kind = if want_hl {
+                    "high-level (heading, circling, …)"
+                } else {
+                    "TokenHSI (hsi_*)"
+                };
+                return Err(bad(
+                    "env.multi.tasks",
+                    format!("'{task}' cannot run in '{}': it takes {kind} tasks", cfg.task),
+                )
+                .into());
             }
             let mut c = cfg.clone();
             c.task = task.clone();
@@ -99,13 +118,21 @@ impl MultiEnv {
         }
         let first = envs[0].spec().clone();
         let Some(shared) = first.token_groups.first().cloned() else {
-            return Err(bad("env.multi.tasks", format!("task '{}' declares no observation groups", first.name)).into());
+            return Err(bad(
+                "env.multi.tasks",
+                format!("task '{}' declares no observation groups", first.name),
+            )
+            .into());
         };
         let mut groups: Vec<(String, usize)> = Vec::new();
         let named = !m.groups.is_empty();
         for e in &envs {
             let s = e.spec();
-            if s.token_groups.first() != Some(&shared) || s.action_space != first.action_space || s.steps_per_action != first.steps_per_action || s.choice_labels != first.choice_labels {
+            if s.token_groups.first() != Some(&shared)
+                || s.action_space != first.action_space
+                || s.steps_per_action != first.steps_per_action
+                || s.choice_labels != first.choice_labels
+            {
                 return Err(bad("env.multi.tasks", format!("'{}' and '{}' do not share the observed character part, the action space or the choice table", first.name, s.name)).into());
             }
             for g in &s.token_groups[1..] {
@@ -118,22 +145,36 @@ impl MultiEnv {
             let mut ordered = Vec::new();
             for name in &m.groups {
                 // a group no task fills keeps the width the policy expects: known task widths
-                let width = groups.iter().find(|g| &g.0 == name).map(|g| g.1).or_else(|| group_width(cfg, name));
+                let width = groups
+                    .iter()
+                    .find(|g| &g.0 == name)
+                    .map(|g| g.1)
+                    .or_else(|| group_width(cfg, name));
                 let Some(w) = width else {
-                    return Err(bad("env.multi.groups", format!("'{name}' is not a task observation group of a registered task")).into());
+                    return Err(bad(
+                        "env.multi.groups",
+                        format!("'{name}' is not a task observation group of a registered task"),
+                    )
+                    .into());
                 };
                 ordered.push((name.clone(), w));
             }
             if let Some(g) = groups.iter().find(|g| !ordered.iter().any(|o| o.0 == g.0)) {
-                return Err(bad("env.multi.groups", format!("misses '{}', a group of the configured tasks", g.0)).into());
+                return Err(bad(
+                    "env.multi.groups",
+                    format!("misses '{}', a group of the configured tasks", g.0),
+                )
+                .into());
             }
             groups = ordered;
         }
         let k = groups.len();
-        let offsets: Vec<usize> = groups.iter().scan(shared.1, |at, g| Some(std::mem::replace(at, *at + g.1))).collect();
+        let offsets: Vec<usize> =
+            groups.iter().scan(shared.1, |at, g| Some(std::mem::replace(at, *at + g.1))).collect();
         let mask_at = shared.1 + groups.iter().map(|g| g.1).sum::<usize>();
         let n = cfg.num_envs;
-        let (mut term_names, mut metric_names, mut info_names) = (Vec::new(), Vec::new(), Vec::new());
+        let (mut term_names, mut metric_names, mut info_names) =
+            (Vec::new(), Vec::new(), Vec::new());
         let mut subs = Vec::new();
         let mut start = 0;
         for env in envs {
@@ -142,19 +183,30 @@ impl MultiEnv {
             let mut active = Vec::new();
             let mut src = shared.1;
             for g in &s.token_groups[1..] {
-                let j = groups.iter().position(|x| x.0 == g.0).expect("every task group is laid out");
+                let j =
+                    groups.iter().position(|x| x.0 == g.0).expect("every task group is laid out");
                 copies.push((src, offsets[j], g.1));
                 active.push(j);
                 src += g.1;
             }
             let leak = |v: String| -> &'static str { Box::leak(v.into_boxed_str()) };
-            let (term_at, metric_at, info_at) = (term_names.len(), metric_names.len(), info_names.len());
+            let (term_at, metric_at, info_at) =
+                (term_names.len(), metric_names.len(), info_names.len());
             term_names.push(leak(format!("{}/reward", s.name)));
             term_names.extend(s.term_names.iter().map(|t| leak(format!("{}/{t}", s.name))));
             metric_names.extend(s.metric_names.iter().map(|t| leak(format!("{}/{t}", s.name))));
             info_names.extend(s.info_names.iter().map(|t| format!("{}/{t}", s.name)));
             let nt = env.num_envs();
-            subs.push(Sub { env, start, copies, active, term_at, metric_at, info_at, scale: n as f32 / nt as f32 });
+            subs.push(Sub {
+                env,
+                start,
+                copies,
+                active,
+                term_at,
+                metric_at,
+                info_at,
+                scale: n as f32 / nt as f32,
+            });
             start += nt;
         }
         let mut token_groups = vec![shared];
@@ -165,7 +217,11 @@ impl MultiEnv {
             name: registry::entry(&cfg.task).map_or("hsi_multi", |e| e.name),
             obs_dim,
             action_space: first.action_space,
-            max_episode_steps: subs.iter().map(|s| s.env.spec().max_episode_steps).max().unwrap_or(0),
+            max_episode_steps: subs
+                .iter()
+                .map(|s| s.env.spec().max_episode_steps)
+                .max()
+                .unwrap_or(0),
             term_names,
             metric_names,
             info_names,
@@ -182,7 +238,8 @@ impl MultiEnv {
     /// Rows `start..start + n_t` of every combined buffer from each sub-batch's buffers.
     fn gather(&mut self) {
         let d = self.spec.obs_dim;
-        let (nt, nm, ni) = (self.spec.term_names.len(), self.spec.metric_names.len(), self.spec.info_names.len());
+        let (nt, nm, ni) =
+            (self.spec.term_names.len(), self.spec.metric_names.len(), self.spec.info_names.len());
         let b = &mut self.buf;
         b.terms.fill(0.0);
         b.metrics.fill(0.0);
@@ -190,7 +247,11 @@ impl MultiEnv {
         for s in &self.subs {
             let sb = s.env.buffers();
             let sd = s.env.spec().obs_dim;
-            let (st, sm, si) = (s.env.spec().term_names.len(), s.env.spec().metric_names.len(), s.env.spec().info_names.len());
+            let (st, sm, si) = (
+                s.env.spec().term_names.len(),
+                s.env.spec().metric_names.len(),
+                s.env.spec().info_names.len(),
+            );
             for i in 0..s.env.num_envs() {
                 let r = s.start + i;
                 for (obs, src) in [(&mut b.obs, &sb.obs), (&mut b.final_obs, &sb.final_obs)] {
@@ -213,8 +274,10 @@ impl MultiEnv {
                 for (o, &v) in t[1..].iter_mut().zip(&sb.terms[i * st..(i + 1) * st]) {
                     *o = v * s.scale;
                 }
-                b.metrics[r * nm + s.metric_at..r * nm + s.metric_at + sm].copy_from_slice(&sb.metrics[i * sm..(i + 1) * sm]);
-                b.info[r * ni + s.info_at..r * ni + s.info_at + si].copy_from_slice(&sb.info[i * si..(i + 1) * si]);
+                b.metrics[r * nm + s.metric_at..r * nm + s.metric_at + sm]
+                    .copy_from_slice(&sb.metrics[i * sm..(i + 1) * sm]);
+                b.info[r * ni + s.info_at..r * ni + s.info_at + si]
+                    .copy_from_slice(&sb.info[i * si..(i + 1) * si]);
             }
         }
     }
@@ -224,7 +287,6 @@ impl MultiEnv {
         let k = self.subs.iter().rposition(|s| s.start <= i).unwrap_or(0);
         (k, i - self.subs[k].start)
     }
-
 }
 
 /// The task observation width of group `name` (a registered task's own group) when no
@@ -309,7 +371,10 @@ impl Env for MultiEnv {
         &[]
     }
     fn task_rows(&self) -> Vec<(String, std::ops::Range<usize>)> {
-        self.subs.iter().map(|s| (s.env.spec().name.to_string(), s.start..s.start + s.env.num_envs())).collect()
+        self.subs
+            .iter()
+            .map(|s| (s.env.spec().name.to_string(), s.start..s.start + s.env.num_envs()))
+            .collect()
     }
     fn as_any(&self) -> &dyn Any {
         self

@@ -65,7 +65,10 @@ impl Stand {
 
     /// (z − z*, Δψ) of a state.
     fn errors(&self, slot: &StandSlot, st: &EnvState<'_>) -> (f64, f64) {
-        (st.pos(0)[2] - self.cfg.target_height, wrap_angle(slot.target_heading - heading(st.quat(0))))
+        (
+            st.pos(0)[2] - self.cfg.target_height,
+            wrap_angle(slot.target_heading - heading(st.quat(0))),
+        )
     }
 
     fn write_obs(&self, slot: &StandSlot, st: &EnvState<'_>, obs: &mut [f32]) {
@@ -73,7 +76,11 @@ impl Stand {
         write_state_obs(st, &mut state);
         obs[..layout::HUMANOID_DIM].copy_from_slice(&state[..layout::HUMANOID_DIM]);
         let (dz, dpsi) = self.errors(slot, st);
-        obs[layout::HUMANOID_DIM..].copy_from_slice(&[dz as f32, dpsi.cos() as f32, dpsi.sin() as f32]);
+        obs[layout::HUMANOID_DIM..].copy_from_slice(&[
+            dz as f32,
+            dpsi.cos() as f32,
+            dpsi.sin() as f32,
+        ]);
     }
 }
 
@@ -87,12 +94,24 @@ impl Task for Stand {
         StandSlot::default()
     }
 
-    fn plan_reset(&mut self, _i: usize, slot: &mut StandSlot, rng: &mut ChaCha8Rng, state: &mut ResetState) {
+    fn plan_reset(
+        &mut self,
+        _i: usize,
+        slot: &mut StandSlot,
+        rng: &mut ChaCha8Rng,
+        state: &mut ResetState,
+    ) {
         let psi = rng.random_range(-std::f64::consts::PI..std::f64::consts::PI);
         // skeleton Y-up → world Z-up, then the heading about world z
         let upright = Quat::from_rotvec([std::f64::consts::FRAC_PI_2, 0.0, 0.0]);
         let root_quat = Quat::about_z(psi).mul(upright);
-        *state = ResetState { root_pos: [0.0, 0.0, self.cfg.start_height], root_quat, dof_pos: [0.0; NUM_DOFS], ball_pos: [5.0, 5.0, 0.12], ..ResetState::default() };
+        *state = ResetState {
+            root_pos: [0.0, 0.0, self.cfg.start_height],
+            root_quat,
+            dof_pos: [0.0; NUM_DOFS],
+            ball_pos: [5.0, 5.0, 0.12],
+            ..ResetState::default()
+        };
         *slot = StandSlot { steps: 0, target_heading: heading(root_quat) };
     }
 
@@ -104,7 +123,8 @@ impl Task for Stand {
         slot.steps += 1;
         let c = &self.cfg;
         let (dz, dpsi) = self.errors(slot, st);
-        let (rh, rpsi) = ((-c.height_scale * dz * dz).exp(), (-c.heading_scale * dpsi * dpsi).exp());
+        let (rh, rpsi) =
+            ((-c.height_scale * dz * dz).exp(), (-c.heading_scale * dpsi * dpsi).exp());
         let total = c.height_weight * rh + (1.0 - c.height_weight) * rpsi;
         out.terms.copy_from_slice(&[rh as f32, rpsi as f32, total as f32]);
         *out.reward = total as f32;
@@ -128,8 +148,18 @@ pub fn build(cfg: &EnvConfig) -> Result<Box<dyn Env>, EnvError> {
         return Err(bad("env.stand.episode_length", "must be at least 1").into());
     }
     if !(0.0..=1.0).contains(&s.height_weight) {
-        return Err(bad("env.stand.height_weight", format!("{} is outside [0, 1]", s.height_weight)).into());
+        return Err(bad(
+            "env.stand.height_weight",
+            format!("{} is outside [0, 1]", s.height_weight),
+        )
+        .into());
     }
     let scene = Arc::new(Scene::new(cfg.scene_options()?)?);
-    Ok(Box::new(VecEnv::with_task(Stand::new(cfg.stand.clone()), scene, cfg.num_envs, cfg.threads, cfg.start_seed(0))?))
+    Ok(Box::new(VecEnv::with_task(
+        Stand::new(cfg.stand.clone()),
+        scene,
+        cfg.num_envs,
+        cfg.threads,
+        cfg.start_seed(0),
+    )?))
 }

@@ -63,7 +63,17 @@ impl AdaptiveSampler {
         let interval = if cfg.update_interval > 0 { cfg.update_interval } else { 5 * total };
         let table = (0..lib.len()).map(|c| vec![0.0; lib.get(c).clip.num_frames - 3]).collect();
         let classes = (0..lib.len()).map(|c| lib.get(c).clip.skill).collect();
-        let mut s = Self { cfg: cfg.clone(), interval, steps: 0, classes, table, clip_cdf: vec![], frame_cdf: vec![], clip_p: vec![], frame_p: vec![] };
+        let mut s = Self {
+            cfg: cfg.clone(),
+            interval,
+            steps: 0,
+            classes,
+            table,
+            clip_cdf: vec![],
+            frame_cdf: vec![],
+            clip_p: vec![],
+            frame_p: vec![],
+        };
         s.recompute();
         if let Some(w) = initial.filter(|w| w.len() == s.clip_p.len()) {
             let z: f64 = w.iter().sum();
@@ -75,7 +85,8 @@ impl AdaptiveSampler {
 
     /// Record an episode that started at `start` of `clip` and earned `mean_reward` per step.
     pub fn record(&mut self, clip: usize, start: usize, mean_reward: f64) {
-        if let Some(cell) = start.checked_sub(2).and_then(|k| self.table.get_mut(clip)?.get_mut(k)) {
+        if let Some(cell) = start.checked_sub(2).and_then(|k| self.table.get_mut(clip)?.get_mut(k))
+        {
             *cell = 0.5 * (*cell + mean_reward);
         }
     }
@@ -106,14 +117,16 @@ impl AdaptiveSampler {
             })
             .collect();
         let m = self.table.len();
-        let r_m: Vec<f64> = self.table.iter().map(|t| t.iter().sum::<f64>() / t.len() as f64).collect();
+        let r_m: Vec<f64> =
+            self.table.iter().map(|t| t.iter().sum::<f64>() / t.len() as f64).collect();
         let mut classes = self.classes.clone();
         classes.sort_unstable();
         classes.dedup();
         let r_c: Vec<f64> = classes
             .iter()
             .map(|&c| {
-                let v: Vec<f64> = (0..m).filter(|&i| self.classes[i] == c).map(|i| r_m[i]).collect();
+                let v: Vec<f64> =
+                    (0..m).filter(|&i| self.classes[i] == c).map(|i| r_m[i]).collect();
                 v.iter().sum::<f64>() / v.len() as f64
             })
             .collect();
@@ -166,13 +179,24 @@ mod tests {
     fn probabilities_match_a_hand_computed_example() {
         // class 1: clips 0 (6 frames -> 3 starts) and 1 (5 frames -> 2 starts); class 2: clip 2
         let lib = MotionLibrary::from_clips(vec![clip(1, 6), clip(1, 5), clip(2, 5)]).unwrap();
-        let cfg = AtsConfig { enabled: true, lambda_s: 10.0, lambda_c: 5.0, alpha: 1.0, update_interval: 3 };
+        let cfg = AtsConfig {
+            enabled: true,
+            lambda_s: 10.0,
+            lambda_c: 5.0,
+            alpha: 1.0,
+            update_interval: 3,
+        };
         let mut s = AdaptiveSampler::new(&lib, &cfg, None);
         // all zero: uniform frames, classes equally likely, clips equal within the class
         assert_eq!(s.frame_probs(0), &[1.0 / 3.0; 3]);
         let cp = s.clip_probs();
-        assert!((cp[0] - 0.25).abs() < 1e-12 && (cp[1] - 0.25).abs() < 1e-12 && (cp[2] - 0.5).abs() < 1e-12);
-        // clip 0: start 2 earns 0.4 twice -> 0.5*(0+0.4)=0.2, then 0.5*(0.2+0.4)=0.3; start 3 earns 0.2 once -> 0.1
+        assert!(
+            (cp[0] - 0.25).abs() < 1e-12
+                && (cp[1] - 0.25).abs() < 1e-12
+                && (cp[2] - 0.5).abs() < 1e-12
+        );
+        // clip 0: start 2 earns 0.4 twice -> 0.5*(0+0.4)=0.2, then 0.5*(0.2+0.4)=0.3; start 3 earns
+        // 0.2 once -> 0.1
         s.record(0, 2, 0.4);
         s.record(0, 2, 0.4);
         s.record(0, 3, 0.2);
@@ -216,7 +240,11 @@ mod tests {
             counts[c] += 1;
         }
         for (k, w) in want.iter().enumerate() {
-            assert!((counts[k] as f64 / 20000.0 - w).abs() < 0.015, "clip {k}: {} vs {w}", counts[k]);
+            assert!(
+                (counts[k] as f64 / 20000.0 - w).abs() < 0.015,
+                "clip {k}: {} vs {w}",
+                counts[k]
+            );
         }
     }
 }

@@ -41,13 +41,22 @@ pub struct Connection {
 pub fn align_onto(a: &HoiState, b: &HoiState) -> RefAlign {
     let ha = heading(skillmimic_core::math::Quat::from_rotvec(a.root_rotvec));
     let hb = heading(skillmimic_core::math::Quat::from_rotvec(b.root_rotvec));
-    RefAlign { yaw: skillmimic_core::math::wrap_angle(ha - hb), pivot: [b.root_pos[0], b.root_pos[1]], target: [a.root_pos[0], a.root_pos[1]] }
+    RefAlign {
+        yaw: skillmimic_core::math::wrap_angle(ha - hb),
+        pivot: [b.root_pos[0], b.root_pos[1]],
+        target: [a.root_pos[0], a.root_pos[1]],
+    }
 }
 
 /// Similarity of start state `a` to reference state `b` aligned onto it (ball terms off when
 /// `ball_free`: the target skill has no ball). Starts from clips without a ball (their ball is
 /// random) are not connected to skills with a ball.
-pub fn aligned_similarity(a: &HoiState, b: &HoiState, cfg: &RewardConfig, ball_free: bool) -> (f64, RefAlign) {
+pub fn aligned_similarity(
+    a: &HoiState,
+    b: &HoiState,
+    cfg: &RewardConfig,
+    ball_free: bool,
+) -> (f64, RefAlign) {
     let align = align_onto(a, b);
     (similarity(a, &b.aligned(&align), cfg, ball_free), align)
 }
@@ -86,15 +95,23 @@ impl StitchGraph {
                         for &class in classes.iter().filter(|&&c| c != skills[a]) {
                             let ball_free = BALL_FREE_SKILLS.contains(&class);
                             if source_free && !ball_free {
-                                // the start state has a random ball: it cannot continue a ball skill
+                                // the start state has a random ball: it cannot continue a ball
+                                // skill
                                 continue;
                             }
                             let mut best: Option<Connection> = None;
                             for b in (0..n).filter(|&b| skills[b] == class) {
                                 for f in connectable_frames(lib.get(b)) {
-                                    let (s, align) = aligned_similarity(sa, &states[b][f], cfg, ball_free);
+                                    let (s, align) =
+                                        aligned_similarity(sa, &states[b][f], cfg, ball_free);
                                     if s >= tau && best.is_none_or(|c| s > c.similarity) {
-                                        best = Some(Connection { skill: class, clip: b, frame: f, similarity: s, align });
+                                        best = Some(Connection {
+                                            skill: class,
+                                            clip: b,
+                                            frame: f,
+                                            similarity: s,
+                                            align,
+                                        });
                                     }
                                 }
                             }
@@ -110,7 +127,10 @@ impl StitchGraph {
 
     /// Connections from start frame `start` (2 … T−2) of `clip`; empty outside that range.
     pub fn connections(&self, clip: usize, start: usize) -> &[Connection] {
-        start.checked_sub(2).and_then(|k| self.table.get(clip)?.get(k)).map_or(&[], |v| v.as_slice())
+        start
+            .checked_sub(2)
+            .and_then(|k| self.table.get(clip)?.get(k))
+            .map_or(&[], |v| v.as_slice())
     }
 
     /// Number of start states with at least one connection, and the total number of connections.

@@ -24,11 +24,11 @@
 
 use std::sync::Arc;
 
-pub use skillmimic_nn::history::{
-    CHANNELS, DEFAULT_EMBED, DEFAULT_LENGTH, FEATURE_DIM, FORMAT, HistoryBuffer, HistoryEncoder, HistoryError, KERNEL, TENSOR_NAMES, random_encoder,
-    reference_window,
-};
 use skillmimic_motion::MotionLibrary;
+pub use skillmimic_nn::history::{
+    CHANNELS, DEFAULT_EMBED, DEFAULT_LENGTH, FEATURE_DIM, FORMAT, HistoryBuffer, HistoryEncoder,
+    HistoryError, KERNEL, TENSOR_NAMES, random_encoder, reference_window,
+};
 use skillmimic_sim::{Scene, SimError};
 
 use crate::episode::BALL_FREE_SKILLS;
@@ -50,20 +50,35 @@ pub fn features_from_obs(state_obs: &[f32], dof_pos: &[f64], ball: bool, out: &m
 
 /// Reference features of every frame of every clip (`[clip][T × 316]`), by forward kinematics of
 /// the clip poses in `scene`.
-pub fn reference_features(scene: Arc<Scene>, lib: &MotionLibrary) -> Result<Vec<Vec<f32>>, SimError> {
+pub fn reference_features(
+    scene: Arc<Scene>,
+    lib: &MotionLibrary,
+) -> Result<Vec<Vec<f32>>, SimError> {
     let mut obs = vec![0.0f32; layout::STATE_DIM];
-    let mut out: Vec<Vec<f32>> = lib.clips().iter().map(|m| vec![0.0f32; m.clip.num_frames * FEATURE_DIM]).collect();
+    let mut out: Vec<Vec<f32>> =
+        lib.clips().iter().map(|m| vec![0.0f32; m.clip.num_frames * FEATURE_DIM]).collect();
     crate::episode::pose_clips(scene, lib, |c, t, st| {
         let ball = !BALL_FREE_SKILLS.contains(&lib.get(c).clip.skill);
         write_state_obs(st, &mut obs);
-        features_from_obs(&obs, st.dof_pos, ball, &mut out[c][t * FEATURE_DIM..(t + 1) * FEATURE_DIM]);
+        features_from_obs(
+            &obs,
+            st.dof_pos,
+            ball,
+            &mut out[c][t * FEATURE_DIM..(t + 1) * FEATURE_DIM],
+        );
     })?;
     Ok(out)
 }
 
 /// One observation's history update: write h (from the frames before this one) into
 /// `obs[902..902+μ]`, then push this frame's features, taken from `obs` and `dof_pos`.
-pub fn observe(buf: &mut HistoryBuffer, enc: &HistoryEncoder, obs: &mut [f32], dof_pos: &[f64], ball: bool) {
+pub fn observe(
+    buf: &mut HistoryBuffer,
+    enc: &HistoryEncoder,
+    obs: &mut [f32],
+    dof_pos: &[f64],
+    ball: bool,
+) {
     buf.embedding(enc, &mut obs[layout::OBS_DIM..]);
     let mut f = [0.0f32; FEATURE_DIM];
     features_from_obs(obs, dof_pos, ball, &mut f);

@@ -18,23 +18,40 @@ use crate::compat::Compat;
 use crate::config::RewardConfig;
 use crate::hoi::HoiState;
 use crate::reward::{
-    err_ball_angvel, err_ball_linvel, err_ball_pos, err_ball_rot, err_body_pos, err_body_rot, err_body_vel, err_dof_vel, err_relative,
+    err_ball_angvel, err_ball_linvel, err_ball_pos, err_ball_rot, err_body_pos, err_body_rot,
+    err_body_vel, err_dof_vel, err_relative,
 };
 
 /// Similarity of state `s` to reference state `r`, in (0, 1].
 pub fn similarity(s: &HoiState, r: &HoiState, cfg: &RewardConfig, ball_free: bool) -> f64 {
     let ex = |w: f64, e: f64| (-w * e).exp();
-    let rb = ex(cfg.w_p, err_body_pos(s, r)) * ex(cfg.w_r, err_body_rot(s, r)) * ex(cfg.w_pv, err_body_vel(s, r)) * ex(cfg.w_rv, err_dof_vel(s, r));
+    let rb = ex(cfg.w_p, err_body_pos(s, r))
+        * ex(cfg.w_r, err_body_rot(s, r))
+        * ex(cfg.w_pv, err_body_vel(s, r))
+        * ex(cfg.w_rv, err_dof_vel(s, r));
     if ball_free {
         return rb;
     }
-    let ro = ex(cfg.w_op, err_ball_pos(s, r)) * ex(cfg.w_or, err_ball_rot(s, r)) * ex(cfg.w_opv, err_ball_linvel(s, r)) * ex(cfg.w_orv, err_ball_angvel(s, r));
+    let ro = ex(cfg.w_op, err_ball_pos(s, r))
+        * ex(cfg.w_or, err_ball_rot(s, r))
+        * ex(cfg.w_opv, err_ball_linvel(s, r))
+        * ex(cfg.w_orv, err_ball_angvel(s, r));
     rb * ro * ex(cfg.w_ig, err_relative(s, r))
 }
 
 /// The similarity the STF connection uses under `compat` ([`similarity`] or [`code_similarity`]).
-pub fn connection_similarity(s: &HoiState, r: &HoiState, cfg: &RewardConfig, ball_free: bool, compat: Compat) -> f64 {
-    if compat.is_code() { code_similarity(s, r, ball_free) } else { similarity(s, r, cfg, ball_free) }
+pub fn connection_similarity(
+    s: &HoiState,
+    r: &HoiState,
+    cfg: &RewardConfig,
+    ball_free: bool,
+    compat: Compat,
+) -> f64 {
+    if compat.is_code() {
+        code_similarity(s, r, ball_free)
+    } else {
+        similarity(s, r, cfg, ball_free)
+    }
 }
 
 /// Squared rotation angle (rad²) between two rotations given as rotation vectors.
@@ -84,7 +101,8 @@ pub fn code_similarity(s: &HoiState, r: &HoiState, ball_free: bool) -> f64 {
     let mut d_rel = 0.0;
     for k in 0..NUM_KEY {
         for a in 0..3 {
-            d_rel += ((s.key_pos[k][a] - s.ball_pos[a]) - (r.key_pos[k][a] - r.ball_pos[a])).powi(2);
+            d_rel +=
+                ((s.key_pos[k][a] - s.ball_pos[a]) - (r.key_pos[k][a] - r.ball_pos[a])).powi(2);
         }
     }
     pose * obj * (-2.0 * d_rel / (3 * NUM_KEY) as f64).exp()
@@ -164,7 +182,8 @@ mod tests {
         // relative: root - ball changes by (0.3, 0, -0.2) -> 0.13; each of 17 key bodies by
         // (0, 0, -0.2) -> 17 * 0.04 = 0.68; 0.81 over 54
         let e_rel: f64 = 0.81 / 54.0;
-        let want = (-20.0 * e_p).exp() * (-20.0 * e_r).exp() * (-e_op).exp() * (-20.0 * e_rel).exp();
+        let want =
+            (-20.0 * e_p).exp() * (-20.0 * e_r).exp() * (-e_op).exp() * (-20.0 * e_rel).exp();
         let got = similarity(&s, &r, &cfg, false);
         assert!((got - want).abs() < 1e-12, "{got} vs {want}");
         // ball-free clips: only the body terms

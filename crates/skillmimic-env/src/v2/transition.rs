@@ -52,7 +52,14 @@ struct BodyEps {
     angvel: f64,
 }
 
-fn perturb_body<R: Rng>(pos: &mut [f64; 3], quat: &mut Quat, linvel: &mut [f64; 3], angvel: &mut [f64; 3], e: BodyEps, rng: &mut R) {
+fn perturb_body<R: Rng>(
+    pos: &mut [f64; 3],
+    quat: &mut Quat,
+    linvel: &mut [f64; 3],
+    angvel: &mut [f64; 3],
+    e: BodyEps,
+    rng: &mut R,
+) {
     pos[0] += sym(rng, e.xy);
     pos[1] += sym(rng, e.xy);
     pos[2] += up(rng, e.height);
@@ -64,8 +71,19 @@ fn perturb_body<R: Rng>(pos: &mut [f64; 3], quat: &mut Quat, linvel: &mut [f64; 
 /// Perturb a reset state: the paper's uniform ε-neighbourhood ([`perturb_uniform`]) or, with
 /// `compat = Code`, the released code's noise ([`perturb_code`]; `after_getup` = the environment's
 /// previous episode imitated the get-up skill, label 0).
-pub fn perturb<R: Rng>(s: &mut ResetState, eps: &NoiseEps, with_ball: bool, compat: Compat, after_getup: bool, rng: &mut R) {
-    if compat.is_code() { perturb_code(s, eps, with_ball, after_getup, rng) } else { perturb_uniform(s, eps, with_ball, rng) }
+pub fn perturb<R: Rng>(
+    s: &mut ResetState,
+    eps: &NoiseEps,
+    with_ball: bool,
+    compat: Compat,
+    after_getup: bool,
+    rng: &mut R,
+) {
+    if compat.is_code() {
+        perturb_code(s, eps, with_ball, after_getup, rng)
+    } else {
+        perturb_uniform(s, eps, with_ball, rng)
+    }
 }
 
 /// Roll, pitch, yaw (rad) of `q` with q = R_z(yaw)·R_y(pitch)·R_x(roll) (Isaac Gym's
@@ -80,7 +98,9 @@ pub fn to_roll_pitch_yaw(q: Quat) -> [f64; 3] {
 
 /// The rotation R_z(yaw)·R_y(pitch)·R_x(roll).
 pub fn from_roll_pitch_yaw(e: [f64; 3]) -> Quat {
-    Quat::from_axis_angle([0.0, 0.0, 1.0], e[2]).mul(Quat::from_axis_angle([0.0, 1.0, 0.0], e[1])).mul(Quat::from_axis_angle([1.0, 0.0, 0.0], e[0]))
+    Quat::from_axis_angle([0.0, 0.0, 1.0], e[2])
+        .mul(Quat::from_axis_angle([0.0, 1.0, 0.0], e[1]))
+        .mul(Quat::from_axis_angle([1.0, 0.0, 0.0], e[0]))
 }
 
 /// w_g·(2·N(0,1) − 1): the released code's velocity / joint noise (mean −w_g, std 2·w_g).
@@ -119,8 +139,15 @@ fn euler_noise<R: Rng>(q: Quat, rng: &mut R, w: f64) -> Quat {
 /// * ball (when `with_ball`): height + U(0, `ball_height`); orientation roll/pitch/yaw ±
 ///   `ball_rot`; linear / angular velocity + w·(2·N − 1) with `ball_linvel` / `ball_angvel`; no
 ///   x/y noise.
-pub fn perturb_code<R: Rng>(s: &mut ResetState, eps: &NoiseEps, with_ball: bool, after_getup: bool, rng: &mut R) {
-    let (wh, wr, wd) = if after_getup { (1.0, 1.0, 0.5) } else { (eps.root_height, eps.root_rot, eps.dof_pos) };
+pub fn perturb_code<R: Rng>(
+    s: &mut ResetState,
+    eps: &NoiseEps,
+    with_ball: bool,
+    after_getup: bool,
+    rng: &mut R,
+) {
+    let (wh, wr, wd) =
+        if after_getup { (1.0, 1.0, 0.5) } else { (eps.root_height, eps.root_rot, eps.dof_pos) };
     s.root_pos[2] += up(rng, wh);
     s.root_quat = euler_noise(s.root_quat, rng, wr);
     add_gauss(&mut s.root_linvel, rng, eps.root_linvel);
@@ -138,13 +165,39 @@ pub fn perturb_code<R: Rng>(s: &mut ResetState, eps: &NoiseEps, with_ball: bool,
 /// Perturb a reset state inside the ε-neighbourhood ([`NoiseEps`] documents each component).
 /// The ball is perturbed only when `with_ball` (clips without a ball already get a random one).
 pub fn perturb_uniform<R: Rng>(s: &mut ResetState, eps: &NoiseEps, with_ball: bool, rng: &mut R) {
-    let root = BodyEps { xy: eps.root_pos, height: eps.root_height, rot: eps.root_rot, linvel: eps.root_linvel, angvel: eps.root_angvel };
-    perturb_body(&mut s.root_pos, &mut s.root_quat, &mut s.root_linvel, &mut s.root_angvel_local, root, rng);
+    let root = BodyEps {
+        xy: eps.root_pos,
+        height: eps.root_height,
+        rot: eps.root_rot,
+        linvel: eps.root_linvel,
+        angvel: eps.root_angvel,
+    };
+    perturb_body(
+        &mut s.root_pos,
+        &mut s.root_quat,
+        &mut s.root_linvel,
+        &mut s.root_angvel_local,
+        root,
+        rng,
+    );
     add_sym(&mut s.dof_pos, rng, eps.dof_pos);
     add_sym(&mut s.dof_vel, rng, eps.dof_vel);
     if with_ball {
-        let ball = BodyEps { xy: eps.ball_pos, height: eps.ball_height, rot: eps.ball_rot, linvel: eps.ball_linvel, angvel: eps.ball_angvel };
-        perturb_body(&mut s.ball_pos, &mut s.ball_quat, &mut s.ball_linvel, &mut s.ball_angvel_local, ball, rng);
+        let ball = BodyEps {
+            xy: eps.ball_pos,
+            height: eps.ball_height,
+            rot: eps.ball_rot,
+            linvel: eps.ball_linvel,
+            angvel: eps.ball_angvel,
+        };
+        perturb_body(
+            &mut s.ball_pos,
+            &mut s.ball_quat,
+            &mut s.ball_linvel,
+            &mut s.ball_angvel_local,
+            ball,
+            rng,
+        );
     }
 }
 
@@ -157,7 +210,13 @@ pub fn connectable_frames(m: &MotionClip) -> std::ops::RangeInclusive<usize> {
 /// The frame of clip `m` most similar to the (simulated) state `s`, and its similarity β.
 /// Ties keep the earliest frame.
 /// `compat` picks the similarity ([`connection_similarity`]).
-pub fn connect(s: &HoiState, m: &MotionClip, cfg: &RewardConfig, ball_free: bool, compat: Compat) -> (usize, f64) {
+pub fn connect(
+    s: &HoiState,
+    m: &MotionClip,
+    cfg: &RewardConfig,
+    ball_free: bool,
+    compat: Compat,
+) -> (usize, f64) {
     let mut best = (*connectable_frames(m).start(), f64::NEG_INFINITY);
     for j in connectable_frames(m) {
         let sim = connection_similarity(s, &HoiState::from_reference(m, j), cfg, ball_free, compat);
@@ -201,7 +260,11 @@ mod tests {
             ball_linvel: 0.2,
             ball_angvel: 0.3,
         };
-        let base = ResetState { root_quat: Quat::from_rotvec([0.3, -1.0, 2.0]), ball_quat: Quat::from_rotvec([1.0, 0.5, 0.0]), ..Default::default() };
+        let base = ResetState {
+            root_quat: Quat::from_rotvec([0.3, -1.0, 2.0]),
+            ball_quat: Quat::from_rotvec([1.0, 0.5, 0.0]),
+            ..Default::default()
+        };
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
         let (mut max_dof, mut min_h) = (0.0f64, f64::INFINITY);
         for _ in 0..2000 {
@@ -209,17 +272,39 @@ mod tests {
             perturb_uniform(&mut s, &eps, true, &mut rng);
             assert!(within(&s.root_pos[..2], &base.root_pos[..2], -eps.root_pos, eps.root_pos));
             assert!(within(&s.root_pos[2..], &base.root_pos[2..], 0.0, eps.root_height));
-            assert!(within(&rel_rotvec(s.root_quat, base.root_quat), &[0.0; 3], -eps.root_rot, eps.root_rot));
+            assert!(within(
+                &rel_rotvec(s.root_quat, base.root_quat),
+                &[0.0; 3],
+                -eps.root_rot,
+                eps.root_rot
+            ));
             assert!(within(&s.root_linvel, &base.root_linvel, -eps.root_linvel, eps.root_linvel));
-            assert!(within(&s.root_angvel_local, &base.root_angvel_local, -eps.root_angvel, eps.root_angvel));
+            assert!(within(
+                &s.root_angvel_local,
+                &base.root_angvel_local,
+                -eps.root_angvel,
+                eps.root_angvel
+            ));
             assert!(within(&s.dof_pos, &base.dof_pos, -eps.dof_pos, eps.dof_pos));
             assert!(within(&s.dof_vel, &base.dof_vel, -eps.dof_vel, eps.dof_vel));
             assert!(within(&s.ball_pos[..2], &base.ball_pos[..2], -eps.ball_pos, eps.ball_pos));
             assert!(within(&s.ball_pos[2..], &base.ball_pos[2..], 0.0, eps.ball_height));
-            assert!(within(&rel_rotvec(s.ball_quat, base.ball_quat), &[0.0; 3], -eps.ball_rot, eps.ball_rot));
+            assert!(within(
+                &rel_rotvec(s.ball_quat, base.ball_quat),
+                &[0.0; 3],
+                -eps.ball_rot,
+                eps.ball_rot
+            ));
             assert!(within(&s.ball_linvel, &base.ball_linvel, -eps.ball_linvel, eps.ball_linvel));
-            assert!(within(&s.ball_angvel_local, &base.ball_angvel_local, -eps.ball_angvel, eps.ball_angvel));
-            max_dof = max_dof.max(s.dof_pos.iter().zip(&base.dof_pos).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max));
+            assert!(within(
+                &s.ball_angvel_local,
+                &base.ball_angvel_local,
+                -eps.ball_angvel,
+                eps.ball_angvel
+            ));
+            max_dof = max_dof.max(
+                s.dof_pos.iter().zip(&base.dof_pos).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max),
+            );
             min_h = min_h.min(s.root_pos[2] - base.root_pos[2]);
         }
         // the samples fill the neighbourhood (not a degenerate sampler)
@@ -228,7 +313,10 @@ mod tests {
         // the ball is left alone when asked
         let mut s = base.clone();
         perturb_uniform(&mut s, &eps, false, &mut rng);
-        assert_eq!((s.ball_pos, s.ball_quat, s.ball_linvel), (base.ball_pos, base.ball_quat, base.ball_linvel));
+        assert_eq!(
+            (s.ball_pos, s.ball_quat, s.ball_linvel),
+            (base.ball_pos, base.ball_quat, base.ball_linvel)
+        );
         // zero widths leave the state unchanged
         let zero = NoiseEps::zero();
         let mut s = base.clone();

@@ -84,7 +84,10 @@ impl Timed {
         std::mem::take(&mut self.seconds)
     }
     /// Run `f` on the inner collective and count its seconds; nothing to do for one process.
-    fn timed(&mut self, f: impl FnOnce(&mut dyn Collective) -> Result<(), LearnError>) -> Result<(), LearnError> {
+    fn timed(
+        &mut self,
+        f: impl FnOnce(&mut dyn Collective) -> Result<(), LearnError>,
+    ) -> Result<(), LearnError> {
         if self.inner.world_size() == 1 {
             return Ok(());
         }
@@ -119,7 +122,12 @@ impl Collective for Timed {
 /// Merge the rows of `x` held by every rank into `norm` (each rank's `norm` must be equal before
 /// the call; it is equal after). One all-reduce of `1 + 2·dim` values. With a single process the
 /// result is bit for bit that of [`RunningMeanStd::update`].
-pub fn update_normalizer(norm: &mut RunningMeanStd, x: &[f32], comm: &mut dyn Collective, scratch: &mut Vec<f64>) -> Result<(), LearnError> {
+pub fn update_normalizer(
+    norm: &mut RunningMeanStd,
+    x: &[f32],
+    comm: &mut dyn Collective,
+    scratch: &mut Vec<f64>,
+) -> Result<(), LearnError> {
     let dim = norm.dim();
     let local = (x.len() / dim) as f64;
     let (s1, s2) = RunningMeanStd::batch_sums(x, dim, &norm.mean);
@@ -130,7 +138,9 @@ pub fn update_normalizer(norm: &mut RunningMeanStd, x: &[f32], comm: &mut dyn Co
     comm.all_reduce_f64(scratch)?;
     let n = scratch[0];
     if n < 2.0 {
-        return Err(LearnError::Config(format!("normaliser update over {n} samples in all ranks: at least 2 are needed")));
+        return Err(LearnError::Config(format!(
+            "normaliser update over {n} samples in all ranks: at least 2 are needed"
+        )));
     }
     norm.merge_sums(n, &scratch[1..1 + dim], &scratch[1 + dim..1 + 2 * dim]);
     Ok(())

@@ -25,7 +25,10 @@ pub struct ThreadGroup {
 impl ThreadGroup {
     /// `world` members of one group; hand member `r` to the thread that plays rank `r`.
     pub fn new_group(world: usize) -> Vec<ThreadGroup> {
-        let shared = Arc::new(Shared { barrier: Barrier::new(world), slots: Mutex::new(vec![Vec::new(); world]) });
+        let shared = Arc::new(Shared {
+            barrier: Barrier::new(world),
+            slots: Mutex::new(vec![Vec::new(); world]),
+        });
         (0..world).map(|rank| ThreadGroup { rank, world, shared: Arc::clone(&shared) }).collect()
     }
 

@@ -9,8 +9,8 @@ use onnx_protobuf::tensor_proto::DataType;
 use onnx_protobuf::tensor_shape_proto::{Dimension, dimension};
 use onnx_protobuf::type_proto::{Tensor, Value};
 use onnx_protobuf::{
-    AttributeProto, GraphProto, ModelProto, NodeProto, OperatorSetIdProto, StringStringEntryProto, TensorProto, TensorShapeProto, TypeProto, ValueInfoProto,
-    attribute_proto::AttributeType,
+    AttributeProto, GraphProto, ModelProto, NodeProto, OperatorSetIdProto, StringStringEntryProto,
+    TensorProto, TensorShapeProto, TypeProto, ValueInfoProto, attribute_proto::AttributeType,
 };
 use skillmimic_nn::mlp::Mlp;
 use skillmimic_nn::normalizer::RunningMeanStd;
@@ -66,13 +66,20 @@ fn attr_ints(name: &str, v: &[i64]) -> AttributeProto {
 
 /// A `(batch, width…)` tensor type; `width` empty = a `(batch,)` vector.
 fn value_info(name: &str, elem: Elem, width: &[usize], doc: &str) -> ValueInfoProto {
-    let mut dims = vec![Dimension { value: Some(dimension::Value::DimParam(BATCH.to_string())), ..Default::default() }];
-    dims.extend(width.iter().map(|&w| Dimension { value: Some(dimension::Value::DimValue(w as i64)), ..Default::default() }));
+    let mut dims = vec![Dimension {
+        value: Some(dimension::Value::DimParam(BATCH.to_string())),
+        ..Default::default()
+    }];
+    dims.extend(width.iter().map(|&w| Dimension {
+        value: Some(dimension::Value::DimValue(w as i64)),
+        ..Default::default()
+    }));
     let shape = TensorShapeProto { dim: dims, ..Default::default() };
     let tensor = Tensor { elem_type: elem.code(), shape: Some(shape).into(), ..Default::default() };
     ValueInfoProto {
         name: name.to_string(),
-        type_: Some(TypeProto { value: Some(Value::TensorType(tensor)), ..Default::default() }).into(),
+        type_: Some(TypeProto { value: Some(Value::TensorType(tensor)), ..Default::default() })
+            .into(),
         doc_string: doc.to_string(),
         ..Default::default()
     }
@@ -94,7 +101,13 @@ impl Graph {
 
     /// A constant initialiser of element type `elem` from little-endian `raw` bytes.
     fn constant(&mut self, name: &str, dims: &[usize], elem: Elem, raw: Vec<u8>) -> String {
-        let t = TensorProto { name: name.to_string(), dims: dims.iter().map(|&d| d as i64).collect(), data_type: elem.code(), raw_data: raw, ..Default::default() };
+        let t = TensorProto {
+            name: name.to_string(),
+            dims: dims.iter().map(|&d| d as i64).collect(),
+            data_type: elem.code(),
+            raw_data: raw,
+            ..Default::default()
+        };
         self.g.initializer.push(t);
         name.to_string()
     }
@@ -112,7 +125,13 @@ impl Graph {
     }
 
     /// Append a node `op(inputs) -> outputs` with attributes.
-    pub fn node(&mut self, op: &str, inputs: &[&str], outputs: &[&str], attrs: Vec<AttributeProto>) {
+    pub fn node(
+        &mut self,
+        op: &str,
+        inputs: &[&str],
+        outputs: &[&str],
+        attrs: Vec<AttributeProto>,
+    ) {
         let n = NodeProto {
             name: format!("{}_{}", op.to_lowercase(), self.g.node.len()),
             op_type: op.to_string(),
@@ -125,7 +144,13 @@ impl Graph {
     }
 
     /// `op(inputs)` into a fresh value (or into `out` when given); returns its name.
-    pub fn op(&mut self, op: &str, inputs: &[&str], out: Option<&str>, attrs: Vec<AttributeProto>) -> String {
+    pub fn op(
+        &mut self,
+        op: &str,
+        inputs: &[&str],
+        out: Option<&str>,
+        attrs: Vec<AttributeProto>,
+    ) -> String {
         let name = match out {
             Some(o) => o.to_string(),
             None => self.fresh(&op.to_lowercase()),
@@ -161,7 +186,8 @@ impl Graph {
     pub fn normalizer(&mut self, prefix: &str, x: &str, norm: &RunningMeanStd) -> String {
         let d = norm.dim();
         let mean: Vec<f32> = norm.mean.iter().map(|&m| m as f32).collect();
-        let scale: Vec<f32> = norm.var.iter().map(|&v| (1.0 / (v + norm.eps).sqrt()) as f32).collect();
+        let scale: Vec<f32> =
+            norm.var.iter().map(|&v| (1.0 / (v + norm.eps).sqrt()) as f32).collect();
         let mean = self.const_f32(&format!("{prefix}.mean"), &[d], &mean);
         let scale = self.const_f32(&format!("{prefix}.inv_std"), &[d], &scale);
         let centred = self.op("Sub", &[x, &mean], None, Vec::new());
@@ -176,10 +202,19 @@ impl Graph {
         let layers = mlp.num_layers();
         for l in 0..layers {
             let (fan_in, fan_out) = (mlp.dims[l], mlp.dims[l + 1]);
-            let w = self.const_f32(&format!("{prefix}.{}.weight", 2 * l), &[fan_out, fan_in], &mlp.weights[l]);
+            let w = self.const_f32(
+                &format!("{prefix}.{}.weight", 2 * l),
+                &[fan_out, fan_in],
+                &mlp.weights[l],
+            );
             let b = self.const_f32(&format!("{prefix}.{}.bias", 2 * l), &[fan_out], &mlp.biases[l]);
             let last = l + 1 == layers;
-            let y = self.op("Gemm", &[&h, &w, &b], if last { out } else { None }, vec![attr_int("transB", 1)]);
+            let y = self.op(
+                "Gemm",
+                &[&h, &w, &b],
+                if last { out } else { None },
+                vec![attr_int("transB", 1)],
+            );
             h = if last { y } else { self.op("Relu", &[&y], None, Vec::new()) };
         }
         h
@@ -187,7 +222,12 @@ impl Graph {
 
     /// `argmax(x, axis 1)` as int64 `(batch,)` (first index on ties, as `numpy.argmax`).
     pub fn argmax(&mut self, x: &str, out: Option<&str>) -> String {
-        self.op("ArgMax", &[x], out, vec![attr_int("axis", 1), attr_int("keepdims", 0), attr_int("select_last_index", 0)])
+        self.op(
+            "ArgMax",
+            &[x],
+            out,
+            vec![attr_int("axis", 1), attr_int("keepdims", 0), attr_int("select_last_index", 0)],
+        )
     }
 
     /// Rows of the constant `table` picked by the int64 `index` (Gather, axis 0).
@@ -252,7 +292,12 @@ impl Graph {
 
     /// `x / max(‖x‖₂, eps)` over the last axis (`F.normalize`).
     pub fn l2_normalize_last(&mut self, x: &str, eps: f32) -> String {
-        let norm = self.op("ReduceL2", &[x], None, vec![attr_ints("axes", &[-1]), attr_int("keepdims", 1)]);
+        let norm = self.op(
+            "ReduceL2",
+            &[x],
+            None,
+            vec![attr_ints("axes", &[-1]), attr_int("keepdims", 1)],
+        );
         let e = self.fresh("eps");
         self.const_f32(&e, &[], &[eps]);
         let safe = self.op("Max", &[&norm, &e], None, Vec::new());
@@ -275,12 +320,23 @@ impl Graph {
     pub fn into_model(self, doc: &str, props: &[(String, String)]) -> ModelProto {
         let mut m = ModelProto::new();
         m.ir_version = IR_VERSION;
-        m.opset_import = vec![OperatorSetIdProto { domain: String::new(), version: OPSET, ..Default::default() }];
+        m.opset_import = vec![OperatorSetIdProto {
+            domain: String::new(),
+            version: OPSET,
+            ..Default::default()
+        }];
         m.producer_name = "skillmimic-rs".to_string();
         m.producer_version = env!("CARGO_PKG_VERSION").to_string();
         m.doc_string = doc.to_string();
         m.graph = Some(self.g).into();
-        m.metadata_props = props.iter().map(|(k, v)| StringStringEntryProto { key: k.clone(), value: v.clone(), ..Default::default() }).collect();
+        m.metadata_props = props
+            .iter()
+            .map(|(k, v)| StringStringEntryProto {
+                key: k.clone(),
+                value: v.clone(),
+                ..Default::default()
+            })
+            .collect();
         m
     }
 }

@@ -24,10 +24,19 @@ fn part_controllers(g: &mut Graph, latent: &str, m: &ModularAttention) {
 /// Export a high-level `gaussian_mlp` policy over part embeddings fused with the frozen part
 /// controllers of its `modular_attention` skill policy: `obs` → normaliser → actor → `latent`
 /// (the Gaussian means, P·E wide) → [`part_controllers`] → `actions`.
-pub fn fused_latent_model(hl: &Policy, skill: &Policy, mut meta: DeployMeta, skill_source: Source) -> Result<Exported, LearnError> {
+pub fn fused_latent_model(
+    hl: &Policy,
+    skill: &Policy,
+    mut meta: DeployMeta,
+    skill_source: Source,
+) -> Result<Exported, LearnError> {
     check_exportable(hl, &meta.source.file)?;
     let ActorNet::Modular(m) = &skill.actor else {
-        return Err(LearnError::Config(format!("{}: a high-level policy over part embeddings needs a modular_attention skill policy, not a '{}' one", skill_source.file, skill.family.name())));
+        return Err(LearnError::Config(format!(
+            "{}: a high-level policy over part embeddings needs a modular_attention skill policy, not a '{}' one",
+            skill_source.file,
+            skill.family.name()
+        )));
     };
     let latent = m.parts.len() * m.shape.embed;
     if hl.actor.output_dim() != latent || hl.family.name() != "gaussian_mlp" {
@@ -49,7 +58,12 @@ pub fn fused_latent_model(hl: &Policy, skill: &Policy, mut meta: DeployMeta, ski
     meta.normalizer = normalizer_meta(hl);
     meta.skill_source = Some(skill_source);
     meta.choices.clear();
-    Ports { g: &mut g, meta: &mut meta }.input("obs", Elem::F32, &[d], "high-level observation (see obs_blocks)");
+    Ports { g: &mut g, meta: &mut meta }.input(
+        "obs",
+        Elem::F32,
+        &[d],
+        "high-level observation (see obs_blocks)",
+    );
     actor(&mut g, "hl", "obs", hl, Some("latent"));
     part_controllers(&mut g, "latent", m);
     let mut ports = Ports { g: &mut g, meta: &mut meta };

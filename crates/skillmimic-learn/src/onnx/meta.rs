@@ -20,7 +20,8 @@ use crate::error::{LearnError, io};
 pub const FORMAT: &str = "skillmimic-onnx";
 /// Version of this metadata layout.
 pub const FORMAT_VERSION: u32 = 1;
-/// How an action entry becomes a joint target (the simulator's rule, `skillmimic_sim::BatchSim::step`).
+/// How an action entry becomes a joint target (the simulator's rule,
+/// `skillmimic_sim::BatchSim::step`).
 pub const PD_TARGET_DOC: &str = "action row = 156 float32 in joint_order, 3 per joint (x, y, z of the joint's rotation vector = exp map of the body relative to its parent, skeleton frame, Y-up); PD target (rad) = pi * clamp(a, -1, 1); torque = kp * (target - q) - kd * qdot per axis, clamped to +-force_limit_nm; entries of welded_joints are ignored";
 
 /// A named range of observation columns `[start, end)`.
@@ -152,7 +153,11 @@ pub fn source_of(path: &Path, iteration: u64, samples: u64) -> Result<Source, Le
 /// blocks (0..823) always; then the imitation task's ball, skill and (SkillMimic-V2) history
 /// embedding, a high-level task's ball and task part, or any other task's own part.
 pub fn obs_blocks(cfg: &TrainConfig, obs_dim: usize) -> Vec<Block> {
-    let block = |name: &str, r: std::ops::Range<usize>| Block { name: name.to_string(), start: r.start, end: r.end };
+    let block = |name: &str, r: std::ops::Range<usize>| Block {
+        name: name.to_string(),
+        start: r.start,
+        end: r.end,
+    };
     let task = cfg.env.task.as_str();
     let high_level = skillmimic_env::registry::is_high_level(task);
     let with_ball = task == "imitation" || high_level;
@@ -161,9 +166,17 @@ pub fn obs_blocks(cfg: &TrainConfig, obs_dim: usize) -> Vec<Block> {
         (_, true) => layout::STATE_DIM,
         _ => layout::HUMANOID_DIM,
     };
-    let mut v: Vec<Block> = BLOCKS.iter().filter(|(_, r)| r.end <= used && (with_ball || r.end <= layout::HUMANOID_DIM)).map(|(n, r)| block(n, r.clone())).collect();
+    let mut v: Vec<Block> = BLOCKS
+        .iter()
+        .filter(|(_, r)| r.end <= used && (with_ball || r.end <= layout::HUMANOID_DIM))
+        .map(|(n, r)| block(n, r.clone()))
+        .collect();
     if obs_dim > used {
-        let name = if task == "imitation" { "history_embedding".to_string() } else { format!("task ({task})") };
+        let name = if task == "imitation" {
+            "history_embedding".to_string()
+        } else {
+            format!("task ({task})")
+        };
         v.push(block(&name, used..obs_dim));
     }
     v
@@ -171,9 +184,17 @@ pub fn obs_blocks(cfg: &TrainConfig, obs_dim: usize) -> Vec<Block> {
 
 impl DeployMeta {
     /// The fields every export shares, from the training configuration `cfg`.
-    pub fn new(graph: &str, policy: &str, cfg: &TrainConfig, obs_dim: usize, act_dim: usize, source: Source) -> Result<Self, LearnError> {
+    pub fn new(
+        graph: &str,
+        policy: &str,
+        cfg: &TrainConfig,
+        obs_dim: usize,
+        act_dim: usize,
+        source: Source,
+    ) -> Result<Self, LearnError> {
         let scene = cfg.env.scene_options().map_err(|e| LearnError::Config(e.to_string()))?;
-        let box_hands = cfg.env.hand_model().map_err(|e| LearnError::Config(e.to_string()))? == skillmimic_sim::HandModel::Box;
+        let box_hands = cfg.env.hand_model().map_err(|e| LearnError::Config(e.to_string()))?
+            == skillmimic_sim::HandModel::Box;
         let joints = &BODIES[1..NUM_BODIES];
         let entry = skillmimic_env::registry::entry(&cfg.env.task);
         let choices = entry.map(|e| e.choices).unwrap_or(&[]);
@@ -194,15 +215,33 @@ impl DeployMeta {
             joint_order: joints.iter().map(|b| b.name.to_string()).collect(),
             action_to_pd_target: PD_TARGET_DOC.to_string(),
             action_offset_scale: Vec::new(),
-            pd_gains: joints.iter().map(|b| Gain { joint: b.name.to_string(), kp: b.group.gains().0, kd: b.group.gains().1, force_limit_nm: None }).collect(),
+            pd_gains: joints
+                .iter()
+                .map(|b| Gain {
+                    joint: b.name.to_string(),
+                    kp: b.group.gains().0,
+                    kd: b.group.gains().1,
+                    force_limit_nm: None,
+                })
+                .collect(),
             hands: cfg.env.hands.clone(),
-            welded_joints: (1..NUM_BODIES).filter(|&b| box_hands && is_finger(b)).map(|b| BODIES[b].name.to_string()).collect(),
+            welded_joints: (1..NUM_BODIES)
+                .filter(|&b| box_hands && is_finger(b))
+                .map(|b| BODIES[b].name.to_string())
+                .collect(),
             force_limit_nm: scene.force_limit,
             control_dt: scene.timestep * DEFAULT_SUBSTEPS as f64,
             sim_dt: scene.timestep,
             substeps: DEFAULT_SUBSTEPS,
-            skill_labels: skillmimic_motion::clip::SKILL_NAMES.iter().map(|(l, n)| (l.to_string(), n.to_string())).collect(),
-            choices: choices.iter().enumerate().map(|(choice, &label)| Choice { choice, label, skill: name_of(label) }).collect(),
+            skill_labels: skillmimic_motion::clip::SKILL_NAMES
+                .iter()
+                .map(|(l, n)| (l.to_string(), n.to_string()))
+                .collect(),
+            choices: choices
+                .iter()
+                .enumerate()
+                .map(|(choice, &label)| Choice { choice, label, skill: name_of(label) })
+                .collect(),
             source,
             skill_source: None,
         };
@@ -212,7 +251,9 @@ impl DeployMeta {
     /// One `(key, value)` per field: strings as they are, numbers and structures as compact JSON.
     pub fn props(&self) -> Vec<(String, String)> {
         let value = serde_json::to_value(self).expect("metadata is plain data");
-        let serde_json::Value::Object(map) = value else { unreachable!("a struct serialises to an object") };
+        let serde_json::Value::Object(map) = value else {
+            unreachable!("a struct serialises to an object")
+        };
         map.into_iter()
             .map(|(k, v)| {
                 let text = match v {

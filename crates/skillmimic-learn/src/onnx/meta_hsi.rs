@@ -1,8 +1,9 @@
-//! Deployment metadata of a policy of a TokenHSI task ([`skillmimic_env::registry::Character::TokenHsi`]):
-//! the 32-DoF TokenHSI character replaces the SkillMimic humanoid in every character-specific
-//! field of [`DeployMeta`] — observation blocks (the 222-d proprioception and the task part),
-//! joint order, the action → PD target map with its per-entry offset and scale, gains and torque
-//! limits per joint, and the time steps (1/120 s physics, 4 steps per 30 Hz action).
+//! Deployment metadata of a policy of a TokenHSI task
+//! ([`skillmimic_env::registry::Character::TokenHsi`]): the 32-DoF TokenHSI character replaces the
+//! SkillMimic humanoid in every character-specific field of [`DeployMeta`] — observation blocks
+//! (the 222-d proprioception and the task part), joint order, the action → PD target map with its
+//! per-entry offset and scale, gains and torque limits per joint, and the time steps (1/120 s
+//! physics, 4 steps per 30 Hz action).
 
 use skillmimic_core::hsi_character::{BODIES, JointSpec, action_offset_scale};
 use skillmimic_sim::hsi_mjcf::{HSI_SUBSTEPS, HSI_TIMESTEP};
@@ -19,7 +20,11 @@ pub fn describe_tokenhsi(m: &mut DeployMeta, obs_dim: usize) {
     m.obs_layout_version = HSI_OBS_LAYOUT_VERSION.to_string();
     m.obs_blocks = vec![
         block("body_pos (bodies 1-14 minus the root, heading frame, m)", 0, 42),
-        block("body_rot (15 bodies, tan-norm 6D; the root in the world frame, the others in the heading frame)", 42, 132),
+        block(
+            "body_rot (15 bodies, tan-norm 6D; the root in the world frame, the others in the heading frame)",
+            42,
+            132,
+        ),
         block("body_linvel (15 bodies' centres of mass, heading frame, m/s)", 132, 177),
         block("body_angvel (15 bodies, heading frame, rad/s)", 177, 222),
     ];
@@ -31,7 +36,11 @@ pub fn describe_tokenhsi(m: &mut DeployMeta, obs_dim: usize) {
     let mut k = 0;
     for b in &joints {
         let n = b.joint.dofs();
-        ranges.push(if n == 3 { format!("{} {}-{}", b.joint_name, k, k + 2) } else { format!("{} {k}", b.joint_name) });
+        ranges.push(if n == 3 {
+            format!("{} {}-{}", b.joint_name, k, k + 2)
+        } else {
+            format!("{} {k}", b.joint_name)
+        });
         k += n;
     }
     m.joint_order = joints.iter().map(|b| b.joint_name.to_string()).collect();

@@ -18,9 +18,9 @@
 //!   calls the graph every step and holds `choice` itself, or feeds fresh observations and
 //!   accepts a new choice each step).
 //!
-//! The normaliser is folded into float32 constants (`mean`, `1/√(var + ε)`; [`graph::Graph::normalizer`]);
-//! the critic is not exported. Every export carries [`meta::DeployMeta`] as metadata properties
-//! and as a JSON sidecar (`<file>.json`).
+//! The normaliser is folded into float32 constants (`mean`, `1/√(var + ε)`;
+//! [`graph::Graph::normalizer`]); the critic is not exported. Every export carries
+//! [`meta::DeployMeta`] as metadata properties and as a JSON sidecar (`<file>.json`).
 
 pub mod export;
 pub mod graph;
@@ -51,7 +51,12 @@ pub struct Exported {
 fn io_doc(name: &str, elem: Elem, width: &[usize], doc: &str) -> Io {
     let mut shape = vec![Dim::Symbol(graph::BATCH.to_string())];
     shape.extend(width.iter().map(|&w| Dim::Size(w)));
-    Io { name: name.to_string(), dtype: if elem == Elem::F32 { "float32" } else { "int64" }.to_string(), shape, doc: doc.to_string() }
+    Io {
+        name: name.to_string(),
+        dtype: if elem == Elem::F32 { "float32" } else { "int64" }.to_string(),
+        shape,
+        doc: doc.to_string(),
+    }
 }
 
 /// Records the graph's inputs and outputs in the graph and in the metadata at once.
@@ -75,27 +80,45 @@ impl Ports<'_> {
 /// weights is refused).
 fn check_exportable(p: &Policy, what: &str) -> Result<(), LearnError> {
     if !matches!(p.actor, ActorNet::Mlp(_) | ActorNet::Modular(_)) {
-        return Err(LearnError::Config(format!("{what}: ONNX export covers MLP and modular attention actors; a '{}' actor is not supported yet", p.family.name())));
+        return Err(LearnError::Config(format!(
+            "{what}: ONNX export covers MLP and modular attention actors; a '{}' actor is not supported yet",
+            p.family.name()
+        )));
     }
     let params = p.actor.params();
     let stats = [&p.obs_norm.mean, &p.obs_norm.var];
     let bad_param = params.iter().position(|w| w.iter().any(|v| !v.is_finite()));
     let bad_stat = stats.iter().position(|s| s.iter().any(|v| !v.is_finite()));
     if let Some(k) = bad_param {
-        return Err(LearnError::Config(format!("{what}: actor tensor {} has non-finite values; refusing to export", p.actor.param_names("actor")[k].0)));
+        return Err(LearnError::Config(format!(
+            "{what}: actor tensor {} has non-finite values; refusing to export",
+            p.actor.param_names("actor")[k].0
+        )));
     }
     if let Some(k) = bad_stat {
-        return Err(LearnError::Config(format!("{what}: obs_norm.{} has non-finite values; refusing to export", ["mean", "var"][k])));
+        return Err(LearnError::Config(format!(
+            "{what}: obs_norm.{} has non-finite values; refusing to export",
+            ["mean", "var"][k]
+        )));
     }
     Ok(())
 }
 
 /// The normaliser (when the policy uses one) and the actor of `p` over the value `x`.
 fn actor(g: &mut Graph, prefix: &str, x: &str, p: &Policy, out: Option<&str>) -> String {
-    let xn = if p.normalize_input { g.normalizer(&format!("{prefix}.obs_norm"), x, &p.obs_norm) } else { x.to_string() };
+    let xn = if p.normalize_input {
+        g.normalizer(&format!("{prefix}.obs_norm"), x, &p.obs_norm)
+    } else {
+        x.to_string()
+    };
     match &p.actor {
         ActorNet::Modular(m) => modular::modular_actor(g, &format!("{prefix}.actor"), &xn, m, out),
-        other => g.mlp(&format!("{prefix}.actor"), &xn, other.as_mlp().expect("checked by check_exportable"), out),
+        other => g.mlp(
+            &format!("{prefix}.actor"),
+            &xn,
+            other.as_mlp().expect("checked by check_exportable"),
+            out,
+        ),
     }
 }
 
@@ -124,7 +147,12 @@ fn high_level_head(g: &mut Graph, meta: &mut DeployMeta, hl: &Policy, x: &str) -
     ports.output("logits", Elem::F32, &[n], "high-level logits (categorical, unnormalised)");
     ports.output("choice", Elem::I64, &[], "argmax of the logits (first index on ties)");
     if has_labels {
-        ports.output("skill_label", Elem::I64, &[], "skill label of the choice (the task's choice -> label table)");
+        ports.output(
+            "skill_label",
+            Elem::I64,
+            &[],
+            "skill label of the choice (the task's choice -> label table)",
+        );
     }
     choice
 }
@@ -135,21 +163,40 @@ pub fn policy_model(p: &Policy, mut meta: DeployMeta) -> Result<Exported, LearnE
     let (d, a) = (p.obs_dim(), p.actor.output_dim());
     let mut g = Graph::new("skillmimic_policy");
     meta.normalizer = normalizer_meta(p);
-    Ports { g: &mut g, meta: &mut meta }.input("obs", Elem::F32, &[d], "observation (see obs_blocks)");
+    Ports { g: &mut g, meta: &mut meta }.input(
+        "obs",
+        Elem::F32,
+        &[d],
+        "observation (see obs_blocks)",
+    );
     match p.family.name() {
         "gaussian_mlp" | "modular_attention" => {
             meta.graph = "skill_policy".to_string();
             actor(&mut g, "skill", "obs", p, Some("mu"));
             g.clip("mu", -1.0, 1.0, Some("actions"));
             let mut ports = Ports { g: &mut g, meta: &mut meta };
-            ports.output("actions", Elem::F32, &[a], "clamp(mu, -1, 1): the action row the simulator applies (see action_to_pd_target)");
-            ports.output("mu", Elem::F32, &[a], "Gaussian mean of the policy (deterministic action before the clamp)");
+            ports.output(
+                "actions",
+                Elem::F32,
+                &[a],
+                "clamp(mu, -1, 1): the action row the simulator applies (see action_to_pd_target)",
+            );
+            ports.output(
+                "mu",
+                Elem::F32,
+                &[a],
+                "Gaussian mean of the policy (deterministic action before the clamp)",
+            );
         }
         "categorical_mlp" => {
             meta.graph = "high_level_policy".to_string();
             high_level_head(&mut g, &mut meta, p, "obs");
         }
-        other => return Err(LearnError::Config(format!("ONNX export supports the gaussian_mlp, modular_attention and categorical_mlp families, not '{other}'"))),
+        other => {
+            return Err(LearnError::Config(format!(
+                "ONNX export supports the gaussian_mlp, modular_attention and categorical_mlp families, not '{other}'"
+            )));
+        }
     }
     let doc = format!("skillmimic-rs {} exported from {}", meta.graph, meta.source.file);
     Ok(Exported { model: g.into_model(&doc, &meta.props()), meta })
@@ -158,13 +205,24 @@ pub fn policy_model(p: &Policy, mut meta: DeployMeta) -> Result<Exported, LearnE
 /// Export a high-level policy fused with its frozen skill policy (high-level argmax → skill
 /// label → one-hot → skill policy), so one graph maps an observation to PD-target actions.
 /// `meta` is the high-level policy's; `skill_source` identifies the skill checkpoint.
-pub fn fused_model(hl: &Policy, skill: &Policy, mut meta: DeployMeta, skill_source: meta::Source) -> Result<Exported, LearnError> {
+pub fn fused_model(
+    hl: &Policy,
+    skill: &Policy,
+    mut meta: DeployMeta,
+    skill_source: meta::Source,
+) -> Result<Exported, LearnError> {
     check_exportable(hl, &meta.source.file)?;
     check_exportable(skill, &skill_source.file)?;
     if hl.family.name() != "categorical_mlp" {
-        return Err(LearnError::Config(format!("--fused needs a high-level (categorical_mlp) checkpoint; {} is a '{}' policy", meta.source.file, hl.family.name())));
+        return Err(LearnError::Config(format!(
+            "--fused needs a high-level (categorical_mlp) checkpoint; {} is a '{}' policy",
+            meta.source.file,
+            hl.family.name()
+        )));
     }
-    if !matches!(skill.family.name(), "gaussian_mlp" | "modular_attention") || skill.obs_dim() != layout::OBS_DIM {
+    if !matches!(skill.family.name(), "gaussian_mlp" | "modular_attention")
+        || skill.obs_dim() != layout::OBS_DIM
+    {
         return Err(LearnError::Config(format!(
             "{}: the skill policy of a fused graph must be a gaussian_mlp or modular_attention policy with {} observations, not a '{}' one with {}",
             skill_source.file,
@@ -190,7 +248,12 @@ pub fn fused_model(hl: &Policy, skill: &Policy, mut meta: DeployMeta, skill_sour
     meta.act_dim = a;
     meta.normalizer = normalizer_meta(hl);
     meta.skill_source = Some(skill_source);
-    Ports { g: &mut g, meta: &mut meta }.input("obs", Elem::F32, &[d], "high-level observation (see obs_blocks)");
+    Ports { g: &mut g, meta: &mut meta }.input(
+        "obs",
+        Elem::F32,
+        &[d],
+        "high-level observation (see obs_blocks)",
+    );
     let choice = high_level_head(&mut g, &mut meta, hl, "obs");
     let mut onehot = vec![0.0f32; n * SKILL_WIDTH];
     for (k, c) in meta.choices.iter().enumerate() {
@@ -203,7 +266,12 @@ pub fn fused_model(hl: &Policy, skill: &Policy, mut meta: DeployMeta, skill_sour
     actor(&mut g, "skill", &skill_obs, skill, Some("mu"));
     g.clip("mu", -1.0, 1.0, Some("actions"));
     let mut ports = Ports { g: &mut g, meta: &mut meta };
-    ports.output("actions", Elem::F32, &[a], "clamp(mu, -1, 1) of the skill policy for the chosen skill (see action_to_pd_target)");
+    ports.output(
+        "actions",
+        Elem::F32,
+        &[a],
+        "clamp(mu, -1, 1) of the skill policy for the chosen skill (see action_to_pd_target)",
+    );
     ports.output("mu", Elem::F32, &[a], "Gaussian mean of the skill policy");
     let doc = format!("skillmimic-rs fused high-level graph from {}", meta.source.file);
     Ok(Exported { model: g.into_model(&doc, &meta.props()), meta })
@@ -218,7 +286,10 @@ pub fn sidecar_path(path: &Path) -> PathBuf {
 
 /// Write the model and its JSON sidecar, each atomically (never a partial file).
 pub fn write(path: &Path, e: &Exported) -> Result<PathBuf, LearnError> {
-    let bytes = e.model.write_to_bytes().map_err(|x| LearnError::Config(format!("cannot encode the ONNX model: {x}")))?;
+    let bytes = e
+        .model
+        .write_to_bytes()
+        .map_err(|x| LearnError::Config(format!("cannot encode the ONNX model: {x}")))?;
     write_bytes_atomic(path, &bytes).map_err(io(path))?;
     let side = sidecar_path(path);
     let json = serde_json::to_string_pretty(&e.meta).expect("metadata is plain data");

@@ -12,13 +12,18 @@
 //!
 //! Constant names follow the checkpoint's tensors (`actor.parts.{k}.q.0.weight`, …).
 
-
 use skillmimic_nn::modular::ModularAttention;
 
 use super::graph::Graph;
 
 /// The modular actor over the (normalised) value `x`; the means are written to `out`.
-pub fn modular_actor(g: &mut Graph, prefix: &str, x: &str, m: &ModularAttention, out: Option<&str>) -> String {
+pub fn modular_actor(
+    g: &mut Graph,
+    prefix: &str,
+    x: &str,
+    m: &ModularAttention,
+    out: Option<&str>,
+) -> String {
     let (np, e, h) = (m.parts.len() as i64, m.shape.embed as i64, m.shape.heads as i64);
     let dh = e / h;
     let mut qkv: [Vec<String>; 3] = Default::default();

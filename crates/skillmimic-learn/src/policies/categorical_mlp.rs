@@ -50,7 +50,15 @@ impl PolicyFamily for CategoricalMlp {
     }
 
     /// Inverse-CDF sampling with one uniform draw per environment.
-    fn sample(&self, head: Head<'_>, logits: &[f32], n: usize, rng: &mut dyn RngCore, actions: &mut [f32], neglogp: &mut [f32]) {
+    fn sample(
+        &self,
+        head: Head<'_>,
+        logits: &[f32],
+        n: usize,
+        rng: &mut dyn RngCore,
+        actions: &mut [f32],
+        neglogp: &mut [f32],
+    ) {
         let k = head.outputs;
         for i in 0..n {
             let row = &logits[i * k..(i + 1) * k];
@@ -78,7 +86,12 @@ impl PolicyFamily for CategoricalMlp {
         }
     }
 
-    fn neglogp(&self, _head: Head<'_>, logits: &Tensor, actions: &Tensor) -> candle_core::Result<Tensor> {
+    fn neglogp(
+        &self,
+        _head: Head<'_>,
+        logits: &Tensor,
+        actions: &Tensor,
+    ) -> candle_core::Result<Tensor> {
         let logp = candle_nn::ops::log_softmax(logits, D::Minus1)?;
         let idx = actions.flatten_all()?.to_dtype(candle_core::DType::U32)?.unsqueeze(1)?;
         logp.gather(&idx, 1)?.squeeze(1)?.neg()
@@ -87,7 +100,11 @@ impl PolicyFamily for CategoricalMlp {
     fn extra_loss(&self, logits: &Tensor, cfg: &PpoConfig) -> candle_core::Result<ExtraLoss> {
         let logp = candle_nn::ops::log_softmax(logits, D::Minus1)?;
         let entropy = (logp.exp()? * &logp)?.sum(1)?.neg()?.mean_all()?;
-        Ok(ExtraLoss { total: (&entropy * -cfg.entropy_coef)?, bounds: None, entropy: Some(entropy) })
+        Ok(ExtraLoss {
+            total: (&entropy * -cfg.entropy_coef)?,
+            bounds: None,
+            entropy: Some(entropy),
+        })
     }
 }
 
@@ -116,12 +133,21 @@ mod tests {
         let act = Tensor::from_slice(&a[..4], (4, 1), &dev).unwrap();
         let g: Vec<f32> = CategoricalMlp.neglogp(head, &out, &act).unwrap().to_vec1().unwrap();
         for i in 0..4 {
-            assert!((g[i] - nl[i]).abs() < 1e-5 && (nl[i] as f64 + probs[a[i] as usize].ln()).abs() < 1e-5);
+            assert!(
+                (g[i] - nl[i]).abs() < 1e-5
+                    && (nl[i] as f64 + probs[a[i] as usize].ln()).abs() < 1e-5
+            );
         }
         let mut m = [0.0f32; 1];
         CategoricalMlp.mode(head, &logits, 1, &mut m);
         assert_eq!(m[0], 2.0);
-        let ent: f32 = CategoricalMlp.extra_loss(&out, &PpoConfig { entropy_coef: 1.0, ..Default::default() }).unwrap().entropy.unwrap().to_scalar().unwrap();
+        let ent: f32 = CategoricalMlp
+            .extra_loss(&out, &PpoConfig { entropy_coef: 1.0, ..Default::default() })
+            .unwrap()
+            .entropy
+            .unwrap()
+            .to_scalar()
+            .unwrap();
         let want: f64 = -probs.iter().map(|p| p * p.ln()).sum::<f64>();
         assert!((ent as f64 - want).abs() < 1e-5);
     }

@@ -40,12 +40,23 @@ pub trait PolicyFamily: Send + Sync + 'static {
     fn actor_outputs(&self, space: &ActionSpace) -> usize;
     /// Build the actor network when it is not an MLP (default: `None`, an MLP
     /// `obs → ppo.hidden → actor_outputs`). `rng` continues the policy's initialisation stream.
-    fn build_actor(&self, _obs_dim: usize, _space: &ActionSpace, _cfg: &PpoConfig, _rng: &mut dyn RngCore) -> Result<Option<crate::actor::ActorNet>, crate::error::LearnError> {
+    fn build_actor(
+        &self,
+        _obs_dim: usize,
+        _space: &ActionSpace,
+        _cfg: &PpoConfig,
+        _rng: &mut dyn RngCore,
+    ) -> Result<Option<crate::actor::ActorNet>, crate::error::LearnError> {
         Ok(None)
     }
     /// Rebuild the actor from checkpoint `f` when it is not an MLP (default: `None`, the MLP
     /// tensors `actor.*`); errors name what is wrong with the file.
-    fn read_actor(&self, _f: &skillmimic_core::tensorfile::TensorFile, _obs_dim: usize, _space: &ActionSpace) -> Result<Option<crate::actor::ActorNet>, String> {
+    fn read_actor(
+        &self,
+        _f: &skillmimic_core::tensorfile::TensorFile,
+        _obs_dim: usize,
+        _space: &ActionSpace,
+    ) -> Result<Option<crate::actor::ActorNet>, String> {
         Ok(None)
     }
     /// Re-initialise the actor's output layer after the default initialisation (default: keep
@@ -53,11 +64,24 @@ pub trait PolicyFamily: Send + Sync + 'static {
     fn init_output_layer(&self, _actor: &mut skillmimic_nn::mlp::Mlp, _rng: &mut dyn RngCore) {}
     /// Sample actions (`n × space.width()`) from actor outputs `out` (`n × head.outputs`) and
     /// write their negative log-probabilities.
-    fn sample(&self, head: Head<'_>, out: &[f32], n: usize, rng: &mut dyn RngCore, actions: &mut [f32], neglogp: &mut [f32]);
+    fn sample(
+        &self,
+        head: Head<'_>,
+        out: &[f32],
+        n: usize,
+        rng: &mut dyn RngCore,
+        actions: &mut [f32],
+        neglogp: &mut [f32],
+    );
     /// Deterministic actions (mean / most likely choice).
     fn mode(&self, head: Head<'_>, out: &[f32], n: usize, actions: &mut [f32]);
     /// Negative log-probabilities `(n,)` of `actions` under actor outputs `out` (candle graph).
-    fn neglogp(&self, head: Head<'_>, out: &Tensor, actions: &Tensor) -> candle_core::Result<Tensor>;
+    fn neglogp(
+        &self,
+        head: Head<'_>,
+        out: &Tensor,
+        actions: &Tensor,
+    ) -> candle_core::Result<Tensor>;
     /// The family's extra loss terms (candle graph over the actor outputs).
     fn extra_loss(&self, out: &Tensor, cfg: &PpoConfig) -> candle_core::Result<ExtraLoss>;
 }
@@ -73,4 +97,3 @@ impl PartialEq for dyn PolicyFamily {
         self.name() == o.name()
     }
 }
-

@@ -46,7 +46,15 @@ impl PolicyFamily for GaussianMlp {
     }
 
     /// a = μ + σ·ε, ε ~ N(0, 1) drawn row-major (environment, then dimension).
-    fn sample(&self, head: Head<'_>, mu: &[f32], n: usize, rng: &mut dyn RngCore, actions: &mut [f32], neglogp: &mut [f32]) {
+    fn sample(
+        &self,
+        head: Head<'_>,
+        mu: &[f32],
+        n: usize,
+        rng: &mut dyn RngCore,
+        actions: &mut [f32],
+        neglogp: &mut [f32],
+    ) {
         let a = head.outputs;
         for k in 0..n * a {
             let eps: f64 = StandardNormal.sample(rng);
@@ -54,7 +62,8 @@ impl PolicyFamily for GaussianMlp {
         }
         let log_std = head.log_std;
         neglogp[..n].par_iter_mut().enumerate().for_each(|(i, nl)| {
-            *nl = neglogp_row(&actions[i * a..(i + 1) * a], &mu[i * a..(i + 1) * a], log_std) as f32;
+            *nl =
+                neglogp_row(&actions[i * a..(i + 1) * a], &mu[i * a..(i + 1) * a], log_std) as f32;
         });
     }
 
@@ -63,7 +72,12 @@ impl PolicyFamily for GaussianMlp {
         actions[..n * a].copy_from_slice(&mu[..n * a]);
     }
 
-    fn neglogp(&self, head: Head<'_>, mu: &Tensor, actions: &Tensor) -> candle_core::Result<Tensor> {
+    fn neglogp(
+        &self,
+        head: Head<'_>,
+        mu: &Tensor,
+        actions: &Tensor,
+    ) -> candle_core::Result<Tensor> {
         let dev = mu.device();
         let inv_sigma: Vec<f32> = head.log_std.iter().map(|l| (-l).exp()).collect();
         let inv_sigma = Tensor::from_vec(inv_sigma, head.log_std.len(), dev)?;

@@ -23,12 +23,21 @@ pub use family::{ExtraLoss, Head, PolicyFamily};
 use crate::error::LearnError;
 
 /// Every family, in listing order.
-pub const FAMILIES: &[&dyn PolicyFamily] = &[&gaussian_mlp::GaussianMlp, &categorical_mlp::CategoricalMlp, &modular_attention::ModularAttentionFamily, &token_transformer::GAUSSIAN, &token_transformer::CATEGORICAL];
+pub const FAMILIES: &[&dyn PolicyFamily] = &[
+    &gaussian_mlp::GaussianMlp,
+    &categorical_mlp::CategoricalMlp,
+    &modular_attention::ModularAttentionFamily,
+    &token_transformer::GAUSSIAN,
+    &token_transformer::CATEGORICAL,
+];
 
 /// The family named `name`.
 pub fn family(name: &str) -> Result<&'static dyn PolicyFamily, LearnError> {
     FAMILIES.iter().copied().find(|f| f.name() == name).ok_or_else(|| {
         let known: Vec<&str> = FAMILIES.iter().map(|f| f.name()).collect();
-        LearnError::Config(format!("config field 'ppo.policy': unknown policy family '{name}'; registered: {}", known.join(", ")))
+        LearnError::Config(format!(
+            "config field 'ppo.policy': unknown policy family '{name}'; registered: {}",
+            known.join(", ")
+        ))
     })
 }

@@ -53,7 +53,9 @@ pub fn body_columns(b: usize) -> Vec<usize> {
     c.extend(layout::BODY_LINVEL.start + 3 * b..layout::BODY_LINVEL.start + 3 * (b + 1));
     c.extend(layout::BODY_ANGVEL.start + 3 * b..layout::BODY_ANGVEL.start + 3 * (b + 1));
     if let Some(f) = FINGERTIPS.iter().position(|&t| t == b) {
-        c.extend(layout::FINGERTIP_FORCE.start + 3 * f..layout::FINGERTIP_FORCE.start + 3 * (f + 1));
+        c.extend(
+            layout::FINGERTIP_FORCE.start + 3 * f..layout::FINGERTIP_FORCE.start + 3 * (f + 1),
+        );
     }
     c
 }
@@ -68,7 +70,10 @@ pub fn shared_columns(obs_dim: usize) -> Vec<usize> {
 /// entries first) and the 156 joint coordinates.
 pub fn spec(cfg: &ModularConfig, obs_dim: usize) -> Result<ModularSpec, LearnError> {
     if obs_dim < layout::HUMANOID_DIM {
-        return Err(LearnError::Config(format!("ppo.policy = \"modular_attention\" needs an observation that starts with the {} humanoid entries; this task's has {obs_dim}", layout::HUMANOID_DIM)));
+        return Err(LearnError::Config(format!(
+            "ppo.policy = \"modular_attention\" needs an observation that starts with the {} humanoid entries; this task's has {obs_dim}",
+            layout::HUMANOID_DIM
+        )));
     }
     let shared = shared_columns(obs_dim);
     let parts = part_bodies(&cfg.parts)?
@@ -80,13 +85,32 @@ pub fn spec(cfg: &ModularConfig, obs_dim: usize) -> Result<ModularSpec, LearnErr
             (name.to_string(), inputs, outputs)
         })
         .collect();
-    Ok(ModularSpec { embed: cfg.embed, proj_hidden: cfg.proj_hidden, heads: cfg.heads, scaled: cfg.scaled, controller: cfg.controller.clone(), parts })
+    Ok(ModularSpec {
+        embed: cfg.embed,
+        proj_hidden: cfg.proj_hidden,
+        heads: cfg.heads,
+        scaled: cfg.scaled,
+        controller: cfg.controller.clone(),
+        parts,
+    })
 }
 
 /// A freshly initialised network for `spec` (obs `obs_dim`, `act_dim` actions).
-pub fn build(spec: &ModularSpec, obs_dim: usize, act_dim: usize, rng: &mut dyn RngCore) -> Result<ModularAttention, LearnError> {
-    let shape = ModularShape { embed: spec.embed, proj_hidden: spec.proj_hidden, heads: spec.heads, scaled: spec.scaled, controller: spec.controller.clone() };
-    ModularAttention::new(shape, &spec.parts, obs_dim, act_dim, rng).map_err(|e| LearnError::Config(format!("config field 'ppo.modular': {e}")))
+pub fn build(
+    spec: &ModularSpec,
+    obs_dim: usize,
+    act_dim: usize,
+    rng: &mut dyn RngCore,
+) -> Result<ModularAttention, LearnError> {
+    let shape = ModularShape {
+        embed: spec.embed,
+        proj_hidden: spec.proj_hidden,
+        heads: spec.heads,
+        scaled: spec.scaled,
+        controller: spec.controller.clone(),
+    };
+    ModularAttention::new(shape, &spec.parts, obs_dim, act_dim, rng)
+        .map_err(|e| LearnError::Config(format!("config field 'ppo.modular': {e}")))
 }
 
 /// The modular attention family (Gaussian over the modular actor's means).
@@ -110,21 +134,45 @@ impl PolicyFamily for ModularAttentionFamily {
     fn actor_outputs(&self, space: &ActionSpace) -> usize {
         space.width()
     }
-    fn build_actor(&self, obs_dim: usize, space: &ActionSpace, cfg: &PpoConfig, rng: &mut dyn RngCore) -> Result<Option<ActorNet>, LearnError> {
+    fn build_actor(
+        &self,
+        obs_dim: usize,
+        space: &ActionSpace,
+        cfg: &PpoConfig,
+        rng: &mut dyn RngCore,
+    ) -> Result<Option<ActorNet>, LearnError> {
         let s = spec(&cfg.modular, obs_dim)?;
         Ok(Some(ActorNet::Modular(build(&s, obs_dim, space.width(), rng)?)))
     }
-    fn read_actor(&self, f: &skillmimic_core::tensorfile::TensorFile, obs_dim: usize, space: &ActionSpace) -> Result<Option<ActorNet>, String> {
+    fn read_actor(
+        &self,
+        f: &skillmimic_core::tensorfile::TensorFile,
+        obs_dim: usize,
+        space: &ActionSpace,
+    ) -> Result<Option<ActorNet>, String> {
         let text = f.meta("actor_net").map_err(|e| e.to_string())?;
         Ok(Some(ActorNet::Modular(read(f, text, obs_dim, space.width())?)))
     }
-    fn sample(&self, head: Head<'_>, out: &[f32], n: usize, rng: &mut dyn RngCore, actions: &mut [f32], neglogp: &mut [f32]) {
+    fn sample(
+        &self,
+        head: Head<'_>,
+        out: &[f32],
+        n: usize,
+        rng: &mut dyn RngCore,
+        actions: &mut [f32],
+        neglogp: &mut [f32],
+    ) {
         GaussianMlp.sample(head, out, n, rng, actions, neglogp)
     }
     fn mode(&self, head: Head<'_>, out: &[f32], n: usize, actions: &mut [f32]) {
         GaussianMlp.mode(head, out, n, actions)
     }
-    fn neglogp(&self, head: Head<'_>, out: &Tensor, actions: &Tensor) -> candle_core::Result<Tensor> {
+    fn neglogp(
+        &self,
+        head: Head<'_>,
+        out: &Tensor,
+        actions: &Tensor,
+    ) -> candle_core::Result<Tensor> {
         GaussianMlp.neglogp(head, out, actions)
     }
     fn extra_loss(&self, out: &Tensor, cfg: &PpoConfig) -> candle_core::Result<ExtraLoss> {
@@ -135,16 +183,31 @@ impl PolicyFamily for ModularAttentionFamily {
 /// The description of a built network (what [`build`] needs to rebuild it).
 pub fn spec_of(m: &ModularAttention) -> ModularSpec {
     let s = &m.shape;
-    let parts = m.parts.iter().map(|p| (p.name.clone(), p.inputs.clone(), p.outputs.clone())).collect();
-    ModularSpec { embed: s.embed, proj_hidden: s.proj_hidden, heads: s.heads, scaled: s.scaled, controller: s.controller.clone(), parts }
+    let parts =
+        m.parts.iter().map(|p| (p.name.clone(), p.inputs.clone(), p.outputs.clone())).collect();
+    ModularSpec {
+        embed: s.embed,
+        proj_hidden: s.proj_hidden,
+        heads: s.heads,
+        scaled: s.scaled,
+        controller: s.controller.clone(),
+        parts,
+    }
 }
 
 /// Rebuild the network described by the metadata text `spec_json` and fill its parameters from
 /// the tensors `actor.*` of `f` (shapes checked).
-pub fn read(f: &skillmimic_core::tensorfile::TensorFile, spec_json: &str, obs_dim: usize, act_dim: usize) -> Result<ModularAttention, String> {
-    let spec: ModularSpec = serde_json::from_str(spec_json).map_err(|e| format!("metadata 'actor_net' is not a modular network description: {e}"))?;
+pub fn read(
+    f: &skillmimic_core::tensorfile::TensorFile,
+    spec_json: &str,
+    obs_dim: usize,
+    act_dim: usize,
+) -> Result<ModularAttention, String> {
+    let spec: ModularSpec = serde_json::from_str(spec_json)
+        .map_err(|e| format!("metadata 'actor_net' is not a modular network description: {e}"))?;
     let mut rng = <rand_chacha::ChaCha8Rng as rand::SeedableRng>::seed_from_u64(0);
-    let mut net = build(&spec, obs_dim, act_dim, &mut rng).map_err(|e| format!("metadata 'actor_net': {e}"))?;
+    let mut net = build(&spec, obs_dim, act_dim, &mut rng)
+        .map_err(|e| format!("metadata 'actor_net': {e}"))?;
     let names = net.param_names("actor");
     for ((name, shape), dst) in names.iter().zip(net.params_mut()) {
         let want: Vec<Option<usize>> = shape.iter().map(|&d| Some(d)).collect();

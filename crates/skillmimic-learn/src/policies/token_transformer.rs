@@ -33,34 +33,69 @@ use crate::error::LearnError;
 pub fn with_task_groups(cfg: &PpoConfig, spec: &skillmimic_env::TaskSpec) -> PpoConfig {
     let mut c = cfg.clone();
     if c.token.groups.is_empty() {
-        c.token.groups = if spec.token_groups.is_empty() { vec![format!("obs:{}", spec.obs_dim)] } else { spec.token_groups.iter().map(|(n, w)| format!("{n}:{w}")).collect() };
+        c.token.groups = if spec.token_groups.is_empty() {
+            vec![format!("obs:{}", spec.obs_dim)]
+        } else {
+            spec.token_groups.iter().map(|(n, w)| format!("{n}:{w}")).collect()
+        };
     }
     c
 }
 
 /// The network description for observations of width `obs_dim` from `[ppo.token]`.
-pub fn spec(cfg: &crate::config_token::TokenConfig, obs_dim: usize) -> Result<TokenSpec, LearnError> {
+pub fn spec(
+    cfg: &crate::config_token::TokenConfig,
+    obs_dim: usize,
+) -> Result<TokenSpec, LearnError> {
     let (groups, mask) = cfg.parsed_groups().map_err(LearnError::Config)?;
     if groups.is_empty() {
         return Err(LearnError::Config("config field 'ppo.token.groups' is empty and the task declares no observation groups: set it to \"name:width\" entries (proprioception first, \"mask:K\" last)".into()));
     }
-    let s = TokenSpec { groups, mask, tokenizer: cfg.tokenizer.clone(), embed: cfg.embed, layers: cfg.layers, heads: cfg.heads, feedforward: cfg.feedforward, head: cfg.head.clone(), adapters: false, adapter_gate: Vec::new(), frozen: Vec::new(), frozen_obs: Vec::new() };
+    let s = TokenSpec {
+        groups,
+        mask,
+        tokenizer: cfg.tokenizer.clone(),
+        embed: cfg.embed,
+        layers: cfg.layers,
+        heads: cfg.heads,
+        feedforward: cfg.feedforward,
+        head: cfg.head.clone(),
+        adapters: false,
+        adapter_gate: Vec::new(),
+        frozen: Vec::new(),
+        frozen_obs: Vec::new(),
+    };
     s.check().map_err(|e| LearnError::Config(format!("config field 'ppo.token': {e}")))?;
     if s.obs_dim() != obs_dim {
-        return Err(LearnError::Config(format!("config field 'ppo.token.groups': the groups {:?} and mask {} cover {} observation columns, the task's observation has {obs_dim}", cfg.groups, s.mask, s.obs_dim())));
+        return Err(LearnError::Config(format!(
+            "config field 'ppo.token.groups': the groups {:?} and mask {} cover {} observation columns, the task's observation has {obs_dim}",
+            cfg.groups,
+            s.mask,
+            s.obs_dim()
+        )));
     }
     Ok(s)
 }
 
 /// Rebuild the network described by the metadata text `spec_json` and fill every tensor (frozen
 /// ones included) from `actor.*` of `f` (shapes checked).
-pub fn read(f: &skillmimic_core::tensorfile::TensorFile, spec_json: &str, obs_dim: usize, act_dim: usize) -> Result<TokenTransformer, String> {
-    let spec: TokenSpec = serde_json::from_str(spec_json).map_err(|e| format!("metadata 'actor_net' is not a token transformer description: {e}"))?;
+pub fn read(
+    f: &skillmimic_core::tensorfile::TensorFile,
+    spec_json: &str,
+    obs_dim: usize,
+    act_dim: usize,
+) -> Result<TokenTransformer, String> {
+    let spec: TokenSpec = serde_json::from_str(spec_json)
+        .map_err(|e| format!("metadata 'actor_net' is not a token transformer description: {e}"))?;
     if spec.obs_dim() != obs_dim {
-        return Err(format!("metadata 'actor_net' describes observations of {}, obs_dim is {obs_dim}", spec.obs_dim()));
+        return Err(format!(
+            "metadata 'actor_net' describes observations of {}, obs_dim is {obs_dim}",
+            spec.obs_dim()
+        ));
     }
     let mut rng = <rand_chacha::ChaCha8Rng as rand::SeedableRng>::seed_from_u64(0);
-    let mut net = TokenTransformer::new(spec, act_dim, &mut rng).map_err(|e| format!("metadata 'actor_net': {e}"))?;
+    let mut net = TokenTransformer::new(spec, act_dim, &mut rng)
+        .map_err(|e| format!("metadata 'actor_net': {e}"))?;
     for t in net.tensors.iter_mut() {
         let want: Vec<Option<usize>> = t.shape.iter().map(|&d| Some(d)).collect();
         t.data = f.f32(&format!("actor.{}", t.name), &want).map_err(|e| e.to_string())?.1;
@@ -78,7 +113,8 @@ pub struct TokenFamily {
 /// The Gaussian token transformer (TokenHSI's policy).
 pub static GAUSSIAN: TokenFamily = TokenFamily { name: "token_transformer", dist: &GaussianMlp };
 /// The categorical token transformer (discrete choices: a multi-task high-level controller).
-pub static CATEGORICAL: TokenFamily = TokenFamily { name: "token_transformer_categorical", dist: &CategoricalMlp };
+pub static CATEGORICAL: TokenFamily =
+    TokenFamily { name: "token_transformer_categorical", dist: &CategoricalMlp };
 
 impl PolicyFamily for TokenFamily {
     fn name(&self) -> &'static str {
@@ -93,22 +129,47 @@ impl PolicyFamily for TokenFamily {
     fn actor_outputs(&self, space: &ActionSpace) -> usize {
         self.dist.actor_outputs(space)
     }
-    fn build_actor(&self, obs_dim: usize, space: &ActionSpace, cfg: &PpoConfig, rng: &mut dyn RngCore) -> Result<Option<ActorNet>, LearnError> {
+    fn build_actor(
+        &self,
+        obs_dim: usize,
+        space: &ActionSpace,
+        cfg: &PpoConfig,
+        rng: &mut dyn RngCore,
+    ) -> Result<Option<ActorNet>, LearnError> {
         let s = spec(&cfg.token, obs_dim)?;
-        let net = TokenTransformer::new(s, self.actor_outputs(space), rng).map_err(|e| LearnError::Config(format!("config field 'ppo.token': {e}")))?;
+        let net = TokenTransformer::new(s, self.actor_outputs(space), rng)
+            .map_err(|e| LearnError::Config(format!("config field 'ppo.token': {e}")))?;
         Ok(Some(ActorNet::Token(net)))
     }
-    fn read_actor(&self, f: &skillmimic_core::tensorfile::TensorFile, obs_dim: usize, space: &ActionSpace) -> Result<Option<ActorNet>, String> {
+    fn read_actor(
+        &self,
+        f: &skillmimic_core::tensorfile::TensorFile,
+        obs_dim: usize,
+        space: &ActionSpace,
+    ) -> Result<Option<ActorNet>, String> {
         let text = f.meta("actor_net").map_err(|e| e.to_string())?;
         Ok(Some(ActorNet::Token(read(f, text, obs_dim, self.actor_outputs(space))?)))
     }
-    fn sample(&self, head: Head<'_>, out: &[f32], n: usize, rng: &mut dyn RngCore, actions: &mut [f32], neglogp: &mut [f32]) {
+    fn sample(
+        &self,
+        head: Head<'_>,
+        out: &[f32],
+        n: usize,
+        rng: &mut dyn RngCore,
+        actions: &mut [f32],
+        neglogp: &mut [f32],
+    ) {
         self.dist.sample(head, out, n, rng, actions, neglogp)
     }
     fn mode(&self, head: Head<'_>, out: &[f32], n: usize, actions: &mut [f32]) {
         self.dist.mode(head, out, n, actions)
     }
-    fn neglogp(&self, head: Head<'_>, out: &Tensor, actions: &Tensor) -> candle_core::Result<Tensor> {
+    fn neglogp(
+        &self,
+        head: Head<'_>,
+        out: &Tensor,
+        actions: &Tensor,
+    ) -> candle_core::Result<Tensor> {
         self.dist.neglogp(head, out, actions)
     }
     fn extra_loss(&self, out: &Tensor, cfg: &PpoConfig) -> candle_core::Result<ExtraLoss> {

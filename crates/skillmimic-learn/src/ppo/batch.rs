@@ -42,4 +42,3 @@ pub struct RawMinibatch<'a> {
     pub advantages: &'a [f32],
     pub returns_n: &'a [f32],
 }
-

@@ -14,15 +14,15 @@
 //! * backward: dW_k = g_kᵀ h_{k−1}, db_k = Σ_rows g_k, g_{k−1} = (g_k W_k) ⊙ [h_{k−1} > 0]; the
 //!   gradient with respect to the (normalised) observations is never formed.
 //!
-//! Matrix products go through [`skillmimic_nn::mlp::gemm_raw`], split over the current rayon pool by
-//! output blocks; with `ppo.precision = "bf16"` the backward products take bf16 inputs
-//! ([`super::mlp_grad::Mm`]; the forward stays float32, see the loss function); reductions use fixed row blocks combined in order, so results do not depend on
-//! scheduling.
+//! Matrix products go through [`skillmimic_nn::mlp::gemm_raw`], split over the current rayon pool
+//! by output blocks; with `ppo.precision = "bf16"` the backward products take bf16 inputs
+//! ([`super::mlp_grad::Mm`]; the forward stays float32, see the loss function); reductions use
+//! fixed row blocks combined in order, so results do not depend on scheduling.
 
 use rayon::prelude::*;
 
-use crate::config::PpoConfig;
 use super::mlp_grad::{Mm, backward, forward_keep};
+use crate::config::PpoConfig;
 
 use super::batch::{LossStats, Minibatch};
 use crate::actor::ActorNet;
@@ -48,14 +48,25 @@ pub struct UpdateWorkspace {
 pub fn applies_to(policy: &Policy) -> bool {
     use crate::policies::PolicyFamily;
     match &policy.actor {
-        ActorNet::Mlp(_) => policy.family.name() == crate::policies::gaussian_mlp::GaussianMlp.name(),
-        ActorNet::Modular(m) => policy.family.name() == "modular_attention" && m.parts.len() <= super::fast_modular::MAX_PARTS,
+        ActorNet::Mlp(_) => {
+            policy.family.name() == crate::policies::gaussian_mlp::GaussianMlp.name()
+        }
+        ActorNet::Modular(m) => {
+            policy.family.name() == "modular_attention"
+                && m.parts.len() <= super::fast_modular::MAX_PARTS
+        }
         ActorNet::Token(_) => false,
     }
 }
 
 /// Losses and gradients of one minibatch (see the module docs); gradients land in `ws.grads`.
-pub fn loss_and_grads_fast(policy: &Policy, mb: &Minibatch<'_>, cfg: &PpoConfig, ws: &mut UpdateWorkspace, threads: usize) -> LossStats {
+pub fn loss_and_grads_fast(
+    policy: &Policy,
+    mb: &Minibatch<'_>,
+    cfg: &PpoConfig,
+    ws: &mut UpdateWorkspace,
+    threads: usize,
+) -> LossStats {
     // `ppo.precision = "bf16"` applies to the backward products only: the forward recomputes the
     // log-probability the PPO ratio compares with the rollout's, and with σ = e^−2.9 over 156
     // action dimensions a bf16 forward would put noise of std ≈ 0.04 (at initialisation) to ≈ 0.3
@@ -66,13 +77,17 @@ pub fn loss_and_grads_fast(policy: &Policy, mb: &Minibatch<'_>, cfg: &PpoConfig,
     match &policy.actor {
         ActorNet::Mlp(actor) => forward_keep(actor, mb.obs_n, n, &mut ws.actor_h, fwd),
         ActorNet::Modular(m) => ws.modular.forward(m, mb.obs_n, n, fwd),
-        ActorNet::Token(_) => unreachable!("the token transformer takes the canonical loss (applies_to)"),
+        ActorNet::Token(_) => {
+            unreachable!("the token transformer takes the canonical loss (applies_to)")
+        }
     }
     forward_keep(&policy.critic, mb.obs_n, n, &mut ws.critic_h, fwd);
     let mu: &[f32] = match &policy.actor {
         ActorNet::Mlp(_) => ws.actor_h.last().expect("actor layers"),
         ActorNet::Modular(_) => &ws.modular.out,
-        ActorNet::Token(_) => unreachable!("the token transformer takes the canonical loss (applies_to)"),
+        ActorNet::Token(_) => {
+            unreachable!("the token transformer takes the canonical loss (applies_to)")
+        }
     };
     let v = ws.critic_h.last().expect("critic layers");
     let inv_var: Vec<f64> = policy.log_std.iter().map(|&l| (-2.0 * l as f64).exp()).collect();
@@ -90,7 +105,8 @@ pub fn loss_and_grads_fast(policy: &Policy, mb: &Minibatch<'_>, cfg: &PpoConfig,
         .zip(ws.g_b.par_iter_mut())
         .enumerate()
         .map(|(i, (ga, gb))| {
-            let (act, m) = (&mb.actions[i * a_dim..(i + 1) * a_dim], &mu[i * a_dim..(i + 1) * a_dim]);
+            let (act, m) =
+                (&mb.actions[i * a_dim..(i + 1) * a_dim], &mu[i * a_dim..(i + 1) * a_dim]);
             let mut sq = 0.0f64;
             let mut bound = 0.0f64;
             for j in 0..a_dim {
@@ -139,7 +155,13 @@ pub fn loss_and_grads_fast(policy: &Policy, mb: &Minibatch<'_>, cfg: &PpoConfig,
 
     // backward
     let na = policy.actor.params().len();
-    let sizes: Vec<usize> = policy.actor.params().iter().chain(policy.critic.params().iter()).map(|p| p.len()).collect();
+    let sizes: Vec<usize> = policy
+        .actor
+        .params()
+        .iter()
+        .chain(policy.critic.params().iter())
+        .map(|p| p.len())
+        .collect();
     ws.grads.resize_with(sizes.len(), Vec::new);
     for (g, &s) in ws.grads.iter_mut().zip(&sizes) {
         g.resize(s, 0.0);
@@ -149,7 +171,9 @@ pub fn loss_and_grads_fast(policy: &Policy, mb: &Minibatch<'_>, cfg: &PpoConfig,
     match &policy.actor {
         ActorNet::Mlp(actor) => backward(actor, mb.obs_n, n, actor_h, g_a, scratch, ga_grads, mm),
         ActorNet::Modular(m) => modular.backward(m, g_a, n, ga_grads, mm),
-        ActorNet::Token(_) => unreachable!("the token transformer takes the canonical loss (applies_to)"),
+        ActorNet::Token(_) => {
+            unreachable!("the token transformer takes the canonical loss (applies_to)")
+        }
     }
     backward(&policy.critic, mb.obs_n, n, critic_h, g_b, scratch, gc_grads, mm);
     stats

@@ -21,7 +21,9 @@ use rayon::prelude::*;
 use skillmimic_nn::mlp::Mlp;
 use skillmimic_nn::modular::{ModularAttention, attend_row, scatter_columns, unit_sphere};
 
-use super::mlp_grad::{Mm, backward, bias_grad, forward_keep, input_grad_plain, linear, weight_grad};
+use super::mlp_grad::{
+    Mm, backward, bias_grad, forward_keep, input_grad_plain, linear, weight_grad,
+};
 
 /// Most parts a network may have on this path (ModSkill: 5 or 7).
 pub const MAX_PARTS: usize = 16;
@@ -89,7 +91,15 @@ impl ModularCache {
             .zip(self.z.par_chunks_mut(np * e).zip(self.norms.par_chunks_mut(np)))
             .enumerate()
             .for_each(|(r, ((a, u), (z, norms)))| {
-                attend_row(|which, part| &qkv[3 * part + which][r * e..(r + 1) * e], np, e, heads, scale, a, u);
+                attend_row(
+                    |which, part| &qkv[3 * part + which][r * e..(r + 1) * e],
+                    np,
+                    e,
+                    heads,
+                    scale,
+                    a,
+                    u,
+                );
                 z.copy_from_slice(u);
                 for i in 0..np {
                     norms[i] = u[i * e..(i + 1) * e].iter().map(|v| v * v).sum::<f32>().sqrt();
@@ -106,13 +116,25 @@ impl ModularCache {
                 dst.copy_from_slice(&src[k * e..(k + 1) * e]);
             }
             forward_keep(&p.controller, &self.zk[k], n, &mut self.ctrl_h[k], mm);
-            scatter_columns(self.ctrl_h[k].last().expect("controller layers"), &p.outputs, &mut self.out, m.act_dim);
+            scatter_columns(
+                self.ctrl_h[k].last().expect("controller layers"),
+                &p.outputs,
+                &mut self.out,
+                m.act_dim,
+            );
         }
     }
 
     /// Parameter gradients for the mean gradient `g` (n × act_dim) into `grads`
     /// ([`ModularAttention::params`] order), after [`ModularCache::forward`] on the same rows.
-    pub fn backward(&mut self, m: &ModularAttention, g: &[f32], n: usize, grads: &mut [Vec<f32>], mm: Mm) {
+    pub fn backward(
+        &mut self,
+        m: &ModularAttention,
+        g: &[f32],
+        n: usize,
+        grads: &mut [Vec<f32>],
+        mm: Mm,
+    ) {
         let (np, e, heads, scale) = (m.parts.len(), m.shape.embed, m.shape.heads, m.score_scale());
         let dh = e / heads;
         // per part: 12 projection tensors, then the controller's
@@ -134,7 +156,16 @@ impl ModularCache {
             }
             let c = &p.controller;
             // leaves the gradient at the first layer's output in g_part
-            backward(c, &self.zk[k], n, &self.ctrl_h[k], &mut self.g_part, &mut self.scratch, &mut grads[offsets[k] + 12..], mm);
+            backward(
+                c,
+                &self.zk[k],
+                n,
+                &self.ctrl_h[k],
+                &mut self.g_part,
+                &mut self.scratch,
+                &mut grads[offsets[k] + 12..],
+                mm,
+            );
             // g_z = g0 · W0 (n × E)
             self.scratch.resize(n * e, 0.0);
             input_grad_plain(&self.g_part, &c.weights[0], n, e, c.dims[1], &mut self.scratch, mm);
@@ -150,46 +181,58 @@ impl ModularCache {
         }
         let (qkv, attn, z, norms) = (&self.qkv, &self.attn, &self.z, &self.norms);
         self.g_rows.resize(n * 3 * np * e, 0.0);
-        self.g_rows.par_chunks_mut(3 * np * e).zip(self.g_u.par_chunks_mut(np * e)).enumerate().for_each(|(r, (out, gu))| {
-            for i in 0..np {
-                let (zi, gi) = (&z[(r * np + i) * e..(r * np + i + 1) * e], &mut gu[i * e..(i + 1) * e]);
-                let nrm = norms[r * np + i];
-                if nrm > 1e-12 {
-                    let dot: f32 = zi.iter().zip(gi.iter()).map(|(a, b)| a * b).sum();
-                    gi.iter_mut().zip(zi).for_each(|(g, &zv)| *g = (*g - zv * dot) / nrm);
-                } else {
-                    gi.iter_mut().for_each(|g| *g /= 1e-12);
-                }
-            }
-            out.fill(0.0);
-            let row_of = |which: usize, part: usize| &qkv[3 * part + which][r * e..(r + 1) * e];
-            let mut ga = [0.0f32; MAX_PARTS];
-            for h in 0..heads {
-                let cols = h * dh..(h + 1) * dh;
+        self.g_rows
+            .par_chunks_mut(3 * np * e)
+            .zip(self.g_u.par_chunks_mut(np * e))
+            .enumerate()
+            .for_each(|(r, (out, gu))| {
                 for i in 0..np {
-                    let a = &attn[((r * heads + h) * np + i) * np..((r * heads + h) * np + i + 1) * np];
-                    let gui = &gu[i * e..(i + 1) * e][cols.clone()];
-                    for j in 0..np {
-                        ga[j] = gui.iter().zip(&row_of(2, j)[cols.clone()]).map(|(x, y)| x * y).sum();
-                        let gv = &mut out[(2 * np + j) * e..(2 * np + j + 1) * e][cols.clone()];
-                        gv.iter_mut().zip(gui).for_each(|(o, &x)| *o += a[j] * x);
-                    }
-                    let mean: f32 = a.iter().zip(&ga).map(|(x, y)| x * y).sum();
-                    for j in 0..np {
-                        let gs = a[j] * (ga[j] - mean) * scale;
-                        let (kj, qi) = (&row_of(1, j)[cols.clone()], &row_of(0, i)[cols.clone()]);
-                        let gq = &mut out[i * e..(i + 1) * e][cols.clone()];
-                        gq.iter_mut().zip(kj).for_each(|(o, &x)| *o += gs * x);
-                        let gk = &mut out[(np + j) * e..(np + j + 1) * e][cols.clone()];
-                        gk.iter_mut().zip(qi).for_each(|(o, &x)| *o += gs * x);
+                    let (zi, gi) =
+                        (&z[(r * np + i) * e..(r * np + i + 1) * e], &mut gu[i * e..(i + 1) * e]);
+                    let nrm = norms[r * np + i];
+                    if nrm > 1e-12 {
+                        let dot: f32 = zi.iter().zip(gi.iter()).map(|(a, b)| a * b).sum();
+                        gi.iter_mut().zip(zi).for_each(|(g, &zv)| *g = (*g - zv * dot) / nrm);
+                    } else {
+                        gi.iter_mut().for_each(|g| *g /= 1e-12);
                     }
                 }
-            }
-        });
+                out.fill(0.0);
+                let row_of = |which: usize, part: usize| &qkv[3 * part + which][r * e..(r + 1) * e];
+                let mut ga = [0.0f32; MAX_PARTS];
+                for h in 0..heads {
+                    let cols = h * dh..(h + 1) * dh;
+                    for i in 0..np {
+                        let a = &attn
+                            [((r * heads + h) * np + i) * np..((r * heads + h) * np + i + 1) * np];
+                        let gui = &gu[i * e..(i + 1) * e][cols.clone()];
+                        for j in 0..np {
+                            ga[j] = gui
+                                .iter()
+                                .zip(&row_of(2, j)[cols.clone()])
+                                .map(|(x, y)| x * y)
+                                .sum();
+                            let gv = &mut out[(2 * np + j) * e..(2 * np + j + 1) * e][cols.clone()];
+                            gv.iter_mut().zip(gui).for_each(|(o, &x)| *o += a[j] * x);
+                        }
+                        let mean: f32 = a.iter().zip(&ga).map(|(x, y)| x * y).sum();
+                        for j in 0..np {
+                            let gs = a[j] * (ga[j] - mean) * scale;
+                            let (kj, qi) =
+                                (&row_of(1, j)[cols.clone()], &row_of(0, i)[cols.clone()]);
+                            let gq = &mut out[i * e..(i + 1) * e][cols.clone()];
+                            gq.iter_mut().zip(kj).for_each(|(o, &x)| *o += gs * x);
+                            let gk = &mut out[(np + j) * e..(np + j + 1) * e][cols.clone()];
+                            gk.iter_mut().zip(qi).for_each(|(o, &x)| *o += gs * x);
+                        }
+                    }
+                }
+            });
         for (r, row) in self.g_rows.chunks_exact(3 * np * e).enumerate() {
             for which in 0..3 {
                 for k in 0..np {
-                    self.g_qkv[3 * k + which][r * e..(r + 1) * e].copy_from_slice(&row[(which * np + k) * e..(which * np + k + 1) * e]);
+                    self.g_qkv[3 * k + which][r * e..(r + 1) * e]
+                        .copy_from_slice(&row[(which * np + k) * e..(which * np + k + 1) * e]);
                 }
             }
         }

@@ -38,9 +38,9 @@ mod tests {
 
     #[test]
     fn hand_computed_two_env_example() {
-        // horizon 3, 2 envs (time-major), gamma 0.5, lambda 0.5
-        // env 0: rewards 1,1,1; values 0,0,0; next values 2 (bootstrap), none done
-        // env 1: rewards 0,1,0; values 1,1,1; next values 0 (terminated at t=1 -> next value 0), done at t=1
+        // horizon 3, 2 envs (time-major), gamma 0.5, lambda 0.5 env 0: rewards 1,1,1; values 0,0,0;
+        // next values 2 (bootstrap), none done env 1: rewards 0,1,0; values 1,1,1; next values 0
+        // (terminated at t=1 -> next value 0), done at t=1
         let rewards = [1.0, 0.0, 1.0, 1.0, 1.0, 0.0];
         let values = [0.0, 1.0, 0.0, 1.0, 0.0, 1.0];
         let next = [2.0, 1.0, 2.0, 0.0, 2.0, 1.0];
@@ -61,7 +61,8 @@ mod tests {
         // episode ends at t = 2 in both: env 0 terminated (next value 0), env 1 truncated (next
         // value V(terminal obs) = 0.7). A new episode with a large advantage follows (t = 3), so
         // an uncut chain would raise every advantage before the end by γλ·A₃ ≈ 3.73.
-        //   r = 1, 0, 2, 2, 0.5;  V = 0.5, 1.0, 0.2, 0.0, 2.0;  V_next = 1.0, 0.2, {0 | 0.7}, 2.0, 1.5
+        //    r = 1, 0, 2, 2, 0.5; V = 0.5, 1.0, 0.2, 0.0, 2.0; V_next = 1.0, 0.2, {0 | 0.7}, 2.0,
+        // 1.5
         //   δ = r + γ·V_next − V = 1.49, −0.802, {1.8 | 2.493}, 3.98, −0.015
         //   A₄ = −0.015
         //   A₃ = 3.98 + 0.9405·(−0.015) = 3.9658925
@@ -75,12 +76,20 @@ mod tests {
         let dones = [0, 0, 0, 0, 1, 1, 0, 0, 0, 0];
         let (mut a, mut ret) = ([0.0f32; 10], [0.0f32; 10]);
         gae(&r, &v, &next, &dones, 2, 0.99, 0.95, &mut a, &mut ret);
-        let want = [[2.32789145, 0.8909, 1.8, 3.9658925, -0.015], [2.940_877_8, 1.5426665, 2.493, 3.9658925, -0.015]];
+        let want = [
+            [2.32789145, 0.8909, 1.8, 3.9658925, -0.015],
+            [2.940_877_8, 1.5426665, 2.493, 3.9658925, -0.015],
+        ];
         for (i, w) in want.iter().enumerate() {
             for (t, &x) in w.iter().enumerate() {
                 let k = t * 2 + i;
                 assert!((a[k] - x).abs() < 1e-5, "env {i} t {t}: advantage {} vs {x}", a[k]);
-                assert!((ret[k] - (x + v[k])).abs() < 1e-5, "env {i} t {t}: return {} vs {}", ret[k], x + v[k]);
+                assert!(
+                    (ret[k] - (x + v[k])).abs() < 1e-5,
+                    "env {i} t {t}: return {} vs {}",
+                    ret[k],
+                    x + v[k]
+                );
             }
         }
     }

@@ -16,9 +16,9 @@ use skillmimic_nn::mlp::Mlp;
 use super::batch::{LossStats, Minibatch};
 use crate::config::PpoConfig;
 use crate::error::LearnError;
-use crate::policy::Policy;
 #[cfg(test)]
 use crate::policy::HALF_LN_2PI;
+use crate::policy::Policy;
 
 /// Gradients in `Policy` parameter order: actor layers, then critic layers.
 pub type Grads = Vec<Vec<f32>>;
@@ -34,7 +34,11 @@ pub fn device(name: &str) -> Result<Device, LearnError> {
 }
 
 /// Losses and gradients of one minibatch with candle autograd.
-pub fn loss_and_grads(policy: &Policy, mb: &Minibatch<'_>, cfg: &PpoConfig) -> Result<(LossStats, Grads), LearnError> {
+pub fn loss_and_grads(
+    policy: &Policy,
+    mb: &Minibatch<'_>,
+    cfg: &PpoConfig,
+) -> Result<(LossStats, Grads), LearnError> {
     let dev = device(&cfg.device)?;
     let (n, d, a_dim) = (mb.n, policy.obs_dim(), policy.act_dim());
     let avars = policy.actor.candle_vars(&dev)?;
@@ -67,11 +71,20 @@ pub fn loss_and_grads(policy: &Policy, mb: &Minibatch<'_>, cfg: &PpoConfig) -> R
             grads.push(g);
         }
         let ratio_v: Vec<f32> = ratio.to_vec1()?;
-        let clip_frac = ratio_v.iter().filter(|&&r| (r - 1.0).abs() > eps).count() as f64 / n as f64;
+        let clip_frac =
+            ratio_v.iter().filter(|&&r| (r - 1.0).abs() > eps).count() as f64 / n as f64;
         let approx_kl = (&neglogp - &old)?.mean_all()?.to_scalar::<f32>()? as f64;
         let s = |t: &Tensor| t.to_scalar::<f32>().map(|x| x as f64);
         let opt = |t: &Option<Tensor>| t.as_ref().map_or(Ok(0.0), s);
-        let stats = LossStats { actor: s(&actor)?, critic: s(&critic)?, bounds: opt(&extra.bounds)?, entropy: opt(&extra.entropy)?, total: s(&total)?, clip_frac, approx_kl };
+        let stats = LossStats {
+            actor: s(&actor)?,
+            critic: s(&critic)?,
+            bounds: opt(&extra.bounds)?,
+            entropy: opt(&extra.entropy)?,
+            total: s(&total)?,
+            clip_frac,
+            approx_kl,
+        };
         Ok((stats, grads))
     };
     Ok(run()?)
@@ -88,7 +101,11 @@ mod tests {
         Policy {
             family: &crate::policies::gaussian_mlp::GaussianMlp,
             space: skillmimic_env::ActionSpace::Box { dim: 1 },
-            actor: crate::actor::ActorNet::Mlp(Mlp::from_parts(vec![1, 1], vec![vec![1.0]], vec![vec![0.0]])),
+            actor: crate::actor::ActorNet::Mlp(Mlp::from_parts(
+                vec![1, 1],
+                vec![vec![1.0]],
+                vec![vec![0.0]],
+            )),
             critic: Mlp::from_parts(vec![1, 1], vec![vec![2.0]], vec![vec![0.0]]),
             log_std: vec![0.0],
             obs_norm: RunningMeanStd::new(1, 1e-5, 5.0),
@@ -101,7 +118,13 @@ mod tests {
     #[test]
     fn loss_terms_match_hand_computed_values() {
         let p = tiny_policy();
-        let cfg = PpoConfig { critic_coef: 5.0, bounds_coef: 10.0, bound: 1.0, clip: 0.2, ..Default::default() };
+        let cfg = PpoConfig {
+            critic_coef: 5.0,
+            bounds_coef: 10.0,
+            bound: 1.0,
+            clip: 0.2,
+            ..Default::default()
+        };
         // samples: s = 0.5 and s = 1.5 (μ = s), actions 0.5 and 1.0, σ = 1
         // neglogp_new = 0.5 (a-μ)^2 + 0.9189: [0.9189, 1.0439]
         // old neglogp chosen so that ratios are e^0.1 (inside) and e^-0.5 (clipped)

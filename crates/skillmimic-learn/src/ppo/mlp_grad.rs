@@ -43,10 +43,22 @@ thread_local! {
 /// # Safety
 /// As [`bf16::gemm`]; `mm.bf16` implies availability.
 #[allow(clippy::too_many_arguments)]
-unsafe fn gemm_bf16(m: usize, n: usize, k: usize, dst: *mut f32, dst_rs: usize, accumulate: bool, lhs: View, rhs: View, mm: Mm) {
+unsafe fn gemm_bf16(
+    m: usize,
+    n: usize,
+    k: usize,
+    dst: *mut f32,
+    dst_rs: usize,
+    accumulate: bool,
+    lhs: View,
+    rhs: View,
+    mm: Mm,
+) {
     debug_assert!(mm.bf16);
     // SAFETY: forwarded from the caller.
-    PACK.with(|ws| unsafe { bf16::gemm(m, n, k, dst, dst_rs, accumulate, lhs, rhs, mm.threads, &mut ws.borrow_mut()) });
+    PACK.with(|ws| unsafe {
+        bf16::gemm(m, n, k, dst, dst_rs, accumulate, lhs, rhs, mm.threads, &mut ws.borrow_mut())
+    });
 }
 
 /// y[n × out] = x[n × in] · Wᵀ + b, in the precision of `mm`.
@@ -83,14 +95,24 @@ pub fn forward_keep(m: &Mlp, x: &[f32], n: usize, h: &mut Vec<Vec<f32>>, mm: Mm)
 }
 
 /// dW = gᵀ · h_in (out × in) over `n` rows, split by output rows over the pool.
-pub fn weight_grad(g: &[f32], h_in: &[f32], n: usize, fan_in: usize, fan_out: usize, dw: &mut [f32], mm: Mm) {
+pub fn weight_grad(
+    g: &[f32],
+    h_in: &[f32],
+    n: usize,
+    fan_in: usize,
+    fan_out: usize,
+    dw: &mut [f32],
+    mm: Mm,
+) {
     assert!(g.len() >= n * fan_out && h_in.len() >= n * fan_in && dw.len() == fan_out * fan_in);
     if mm.bf16 {
         let lhs = View { ptr: g.as_ptr(), rs: 1, cs: fan_out as isize };
         let rhs = View { ptr: h_in.as_ptr(), rs: fan_in as isize, cs: 1 };
         // SAFETY: gᵀ (fan_out × n) is read from g (n × fan_out), h_in is n × fan_in, dW is
         // fan_out × fan_in (asserted above).
-        return unsafe { gemm_bf16(fan_out, fan_in, n, dw.as_mut_ptr(), fan_in, false, lhs, rhs, mm) };
+        return unsafe {
+            gemm_bf16(fan_out, fan_in, n, dw.as_mut_ptr(), fan_in, false, lhs, rhs, mm)
+        };
     }
     let threads = mm.threads;
     let dst = SendPtr(dw.as_mut_ptr());
@@ -151,13 +173,23 @@ pub fn bias_grad(g: &[f32], n: usize, fan_out: usize, db: &mut [f32]) {
 }
 
 /// g_in = g · W (n × in), split by input columns over the pool.
-pub fn input_grad_plain(g: &[f32], w: &[f32], n: usize, fan_in: usize, fan_out: usize, g_in: &mut [f32], mm: Mm) {
+pub fn input_grad_plain(
+    g: &[f32],
+    w: &[f32],
+    n: usize,
+    fan_in: usize,
+    fan_out: usize,
+    g_in: &mut [f32],
+    mm: Mm,
+) {
     assert!(g.len() >= n * fan_out && w.len() == fan_out * fan_in && g_in.len() >= n * fan_in);
     if mm.bf16 {
         let lhs = View { ptr: g.as_ptr(), rs: fan_out as isize, cs: 1 };
         let rhs = View { ptr: w.as_ptr(), rs: fan_in as isize, cs: 1 };
         // SAFETY: g is n × fan_out, W is fan_out × fan_in, g_in is n × fan_in (asserted above).
-        return unsafe { gemm_bf16(n, fan_in, fan_out, g_in.as_mut_ptr(), fan_in, false, lhs, rhs, mm) };
+        return unsafe {
+            gemm_bf16(n, fan_in, fan_out, g_in.as_mut_ptr(), fan_in, false, lhs, rhs, mm)
+        };
     }
     let threads = mm.threads;
     let dst = SendPtr(g_in.as_mut_ptr());
@@ -165,7 +197,21 @@ pub fn input_grad_plain(g: &[f32], w: &[f32], n: usize, fan_in: usize, fan_out: 
         // SAFETY: columns r of g_in (n × fan_in) are written by this task only; lhs = g
         // (n × fan_out); rhs = W (fan_out × fan_in) restricted to columns r.
         unsafe {
-            gemm_raw(n, r.len(), fan_out, dst.get().add(r.start), fan_in as isize, 1, false, g.as_ptr(), fan_out as isize, 1, w.as_ptr().add(r.start), fan_in as isize, 1);
+            gemm_raw(
+                n,
+                r.len(),
+                fan_out,
+                dst.get().add(r.start),
+                fan_in as isize,
+                1,
+                false,
+                g.as_ptr(),
+                fan_out as isize,
+                1,
+                w.as_ptr().add(r.start),
+                fan_in as isize,
+                1,
+            );
         }
     };
     if threads <= 1 {
@@ -177,7 +223,16 @@ pub fn input_grad_plain(g: &[f32], w: &[f32], n: usize, fan_in: usize, fan_out: 
 
 /// g_in = (g · W) ⊙ [h_in > 0] (n × in).
 #[allow(clippy::too_many_arguments)]
-pub fn input_grad(g: &[f32], w: &[f32], h_in: &[f32], n: usize, fan_in: usize, fan_out: usize, g_in: &mut [f32], mm: Mm) {
+pub fn input_grad(
+    g: &[f32],
+    w: &[f32],
+    h_in: &[f32],
+    n: usize,
+    fan_in: usize,
+    fan_out: usize,
+    g_in: &mut [f32],
+    mm: Mm,
+) {
     input_grad_plain(g, w, n, fan_in, fan_out, g_in, mm);
     // a select, not a branch: the ReLU pattern is random, a conditional store mispredicts
     g_in.par_chunks_mut(4096).zip(h_in.par_chunks(4096)).for_each(|(gi, hi)| {
@@ -191,7 +246,16 @@ pub fn input_grad(g: &[f32], w: &[f32], h_in: &[f32], n: usize, fan_in: usize, f
 /// holds the gradient at the first layer's output); parameter gradients go to `grads`
 /// (weight, bias per layer).
 #[allow(clippy::too_many_arguments)]
-pub fn backward(m: &Mlp, x: &[f32], n: usize, h: &[Vec<f32>], g_out: &mut Vec<f32>, scratch: &mut Vec<f32>, grads: &mut [Vec<f32>], mm: Mm) {
+pub fn backward(
+    m: &Mlp,
+    x: &[f32],
+    n: usize,
+    h: &[Vec<f32>],
+    g_out: &mut Vec<f32>,
+    scratch: &mut Vec<f32>,
+    grads: &mut [Vec<f32>],
+    mm: Mm,
+) {
     let layers = m.num_layers();
     for k in (0..layers).rev() {
         let (fan_in, fan_out) = (m.dims[k], m.dims[k + 1]);
@@ -206,4 +270,3 @@ pub fn backward(m: &Mlp, x: &[f32], n: usize, h: &[Vec<f32>], g_out: &mut Vec<f3
         }
     }
 }
-

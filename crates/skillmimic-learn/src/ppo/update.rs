@@ -26,12 +26,21 @@ pub struct UpdateBuffers {
 const STATS: usize = 7;
 
 fn stats_to(l: &LossStats, w: f64) -> [f32; STATS] {
-    [l.actor, l.critic, l.bounds, l.entropy, l.total, l.clip_frac, l.approx_kl].map(|x| (x * w) as f32)
+    [l.actor, l.critic, l.bounds, l.entropy, l.total, l.clip_frac, l.approx_kl]
+        .map(|x| (x * w) as f32)
 }
 
 fn stats_from(s: &[f32]) -> LossStats {
     let s: Vec<f64> = s.iter().map(|&x| x as f64).collect();
-    LossStats { actor: s[0], critic: s[1], bounds: s[2], entropy: s[3], total: s[4], clip_frac: s[5], approx_kl: s[6] }
+    LossStats {
+        actor: s[0],
+        critic: s[1],
+        bounds: s[2],
+        entropy: s[3],
+        total: s[4],
+        clip_frac: s[5],
+        approx_kl: s[6],
+    }
 }
 
 /// One optimisation step on a minibatch, as rl_games does it: update the observation normaliser
@@ -57,7 +66,12 @@ pub fn update_minibatch(
 ) -> Result<LossStats, LearnError> {
     if policy.normalize_input {
         // adaptation: the frozen tokenizers' inputs keep the statistics they were trained with
-        let frozen: Vec<(usize, f64, f64)> = policy.actor.frozen_obs_columns().iter().map(|&c| (c, policy.obs_norm.mean[c], policy.obs_norm.var[c])).collect();
+        let frozen: Vec<(usize, f64, f64)> = policy
+            .actor
+            .frozen_obs_columns()
+            .iter()
+            .map(|&c| (c, policy.obs_norm.mean[c], policy.obs_norm.var[c]))
+            .collect();
         collective::update_normalizer(&mut policy.obs_norm, mb.obs, comm, &mut buf.sums)?;
         for (c, m, v) in frozen {
             policy.obs_norm.mean[c] = m;
@@ -66,7 +80,14 @@ pub fn update_minibatch(
     }
     buf.obs_n.resize(mb.obs.len(), 0.0);
     policy.normalize_obs_into(mb.obs, &mut buf.obs_n);
-    let batch = Minibatch { n: mb.n, obs_n: &buf.obs_n, actions: mb.actions, old_neglogp: mb.old_neglogp, advantages: mb.advantages, returns_n: mb.returns_n };
+    let batch = Minibatch {
+        n: mb.n,
+        obs_n: &buf.obs_n,
+        actions: mb.actions,
+        old_neglogp: mb.old_neglogp,
+        advantages: mb.advantages,
+        returns_n: mb.returns_n,
+    };
     let mut l = LossStats::default();
     let mut owned: Vec<Vec<f32>>;
     // the fast path is the Gaussian-MLP specialisation of the canonical loss
@@ -105,7 +126,11 @@ pub fn update_minibatch(
         grads = &mut buf.reduced;
     }
     // the norm before clipping: a non-finite one means the run diverged (crate::divergence)
-    let norm = if cfg.truncate_grads { crate::adam::clip_global_norm(grads, cfg.grad_norm) } else { crate::adam::global_norm(grads) };
+    let norm = if cfg.truncate_grads {
+        crate::adam::clip_global_norm(grads, cfg.grad_norm)
+    } else {
+        crate::adam::global_norm(grads)
+    };
     crate::divergence::check_minibatch(&l, norm)?;
     let mut params: Vec<&mut Vec<f32>> = policy.actor.params_mut();
     params.extend(policy.critic.params_mut());

@@ -45,21 +45,38 @@ impl Rule for Circling {
     }
     fn sample_goal(&self, root: [f64; 3], rng: &mut ChaCha8Rng) -> Goal {
         let c = &self.0;
-        let radius = if c.radius_max > c.radius_min { rng.random_range(c.radius_min..c.radius_max) } else { c.radius_min };
+        let radius = if c.radius_max > c.radius_min {
+            rng.random_range(c.radius_min..c.radius_max)
+        } else {
+            c.radius_min
+        };
         Goal { xy: [root[0], root[1]], radius, ..Goal::default() }
     }
     fn task_obs(&self, g: &Goal, st: &EnvState<'_>, out: &mut [f32]) {
         loc_bearing(g.xy, st, out);
         out[4] = g.radius as f32;
     }
-    fn reward(&self, g: &mut Goal, _step: u32, st: &EnvState<'_>, terms: &mut [f32], metrics: &mut [f32]) -> f64 {
+    fn reward(
+        &self,
+        g: &mut Goal,
+        _step: u32,
+        st: &EnvState<'_>,
+        terms: &mut [f32],
+        metrics: &mut [f32],
+    ) -> f64 {
         let c = &self.0;
         let b = st.pos(BALL);
         let d = ((b[0] - g.xy[0]).powi(2) + (b[1] - g.xy[1]).powi(2)).sqrt();
         let v = norm(st.linvel(BALL));
         let (ring, gate) = match c.reward {
-            Formula::Code => ((-(d - g.radius).abs()).exp(), if v >= c.speed_threshold { 1.0 } else { c.slow_factor }),
-            Formula::Paper => ((-(d * d - g.radius).abs()).exp(), if v * v > c.speed_threshold { 1.0 } else { c.slow_factor }),
+            Formula::Code => (
+                (-(d - g.radius).abs()).exp(),
+                if v >= c.speed_threshold { 1.0 } else { c.slow_factor },
+            ),
+            Formula::Paper => (
+                (-(d * d - g.radius).abs()).exp(),
+                if v * v > c.speed_threshold { 1.0 } else { c.slow_factor },
+            ),
         };
         let err = (d - g.radius).abs();
         let valid = err < c.success_band && v > c.speed_threshold;
@@ -70,7 +87,12 @@ impl Rule for Circling {
         }
         let r = ring * gate;
         terms.copy_from_slice(&[ring as f32, gate as f32, r as f32]);
-        metrics.copy_from_slice(&[err as f32, f32::from(u8::from(valid)), g.valid_frames as f32 / g.frames as f32, f32::from(u8::from(g.code_success))]);
+        metrics.copy_from_slice(&[
+            err as f32,
+            f32::from(u8::from(valid)),
+            g.valid_frames as f32 / g.frames as f32,
+            f32::from(u8::from(g.code_success)),
+        ]);
         r
     }
     fn info(&self, g: &Goal, out: &mut [f32]) {

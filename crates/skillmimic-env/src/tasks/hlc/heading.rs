@@ -23,7 +23,11 @@ pub struct Heading(pub HeadingConfig);
 
 /// The quadrant offset (U(min, max), U(min, max)), turned by U(0, 2π) when `full` (m).
 pub fn goal_offset(min: f64, max: f64, full: bool, rng: &mut ChaCha8Rng) -> [f64; 2] {
-    let (dx, dy) = if max > min { (rng.random_range(min..max), rng.random_range(min..max)) } else { (min, min) };
+    let (dx, dy) = if max > min {
+        (rng.random_range(min..max), rng.random_range(min..max))
+    } else {
+        (min, min)
+    };
     if !full {
         return [dx, dy];
     }
@@ -53,13 +57,21 @@ impl Rule for Heading {
     }
     fn sample_goal(&self, root: [f64; 3], rng: &mut ChaCha8Rng) -> Goal {
         let c = &self.0;
-        let o = goal_offset(c.goal_min, c.goal_max, c.goal_sampling == GoalSampling::FullCircle, rng);
+        let o =
+            goal_offset(c.goal_min, c.goal_max, c.goal_sampling == GoalSampling::FullCircle, rng);
         Goal { xy: [root[0] + o[0], root[1] + o[1]], ..Goal::default() }
     }
     fn task_obs(&self, g: &Goal, st: &EnvState<'_>, out: &mut [f32]) {
         loc_bearing(g.xy, st, out);
     }
-    fn reward(&self, g: &mut Goal, _step: u32, st: &EnvState<'_>, terms: &mut [f32], metrics: &mut [f32]) -> f64 {
+    fn reward(
+        &self,
+        g: &mut Goal,
+        _step: u32,
+        st: &EnvState<'_>,
+        terms: &mut [f32],
+        metrics: &mut [f32],
+    ) -> f64 {
         let dist = norm(ball_to(st, [g.xy[0], g.xy[1], self.0.target_height]));
         let r = match self.0.reward {
             Formula::Code => (-dist).exp(),

@@ -36,7 +36,15 @@ impl<R: Rule> HoldEnv<R> {
         let n = inner.num_envs();
         let b = inner.buffers();
         let buf = StepBuffers { final_obs: b.obs.clone(), final_mask: vec![0; n], ..b.clone() };
-        let mut env = Self { inner, spec, llc_steps, buf, autoreset: false, counted: vec![0; n], done: vec![false; n] };
+        let mut env = Self {
+            inner,
+            spec,
+            llc_steps,
+            buf,
+            autoreset: false,
+            counted: vec![0; n],
+            done: vec![false; n],
+        };
         env.sync_after_reset(&vec![true; n], true);
         env
     }
@@ -100,9 +108,17 @@ impl<R: Rule> Env for HoldEnv<R> {
     fn step(&mut self, actions: &[f32]) -> Result<(), EnvError> {
         let n = self.num_envs();
         if actions.len() != n * self.spec.act_dim() {
-            return Err(EnvError::ActionShape { expected: n * self.spec.act_dim(), got: actions.len() });
+            return Err(EnvError::ActionShape {
+                expected: n * self.spec.act_dim(),
+                got: actions.len(),
+            });
         }
-        let (d, nt, ni, nm) = (self.spec.obs_dim, self.spec.term_names.len(), self.spec.info_names.len(), self.spec.metric_names.len());
+        let (d, nt, ni, nm) = (
+            self.spec.obs_dim,
+            self.spec.term_names.len(),
+            self.spec.info_names.len(),
+            self.spec.metric_names.len(),
+        );
         self.counted.fill(0);
         self.done.fill(false);
         self.buf.reward.fill(0.0);
@@ -173,7 +189,9 @@ impl<R: Rule> Env for HoldEnv<R> {
         self.reset_mask_inner(mask);
     }
     fn reset_done(&mut self) {
-        let mask: Vec<bool> = (0..self.num_envs()).map(|i| self.buf.terminated[i] != 0 || self.buf.truncated[i] != 0).collect();
+        let mask: Vec<bool> = (0..self.num_envs())
+            .map(|i| self.buf.terminated[i] != 0 || self.buf.truncated[i] != 0)
+            .collect();
         if mask.iter().any(|&m| m) {
             self.reset_mask_inner(&mask);
         }

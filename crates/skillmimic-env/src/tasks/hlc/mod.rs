@@ -12,12 +12,12 @@
 //!   onto the unit sphere and fed to that part's frozen controller
 //!   ([`skillmimic_nn::frozen_parts`]); held for `latent_steps` (1).
 //!
-//! [`hold::HoldEnv`] holds the action for those low-level steps: the high-level reward is the mean of the low-level task
-//! rewards, done if any low-level step is done. An environment that finishes inside the
-//! 3 steps ends its transition there (reward = mean over the steps up to and including the
-//! finishing one, its terminal observation kept); the remaining low-level steps of that
-//! environment are simulated and discarded, and it is reset at the end of the high-level step
-//! (the released code lets the new episode's first steps leak into the old transition).
+//! [`hold::HoldEnv`] holds the action for those low-level steps: the high-level reward is the mean
+//! of the low-level task rewards, done if any low-level step is done. An environment that finishes
+//! inside the 3 steps ends its transition there (reward = mean over the steps up to and including
+//! the finishing one, its terminal observation kept); the remaining low-level steps of that
+//! environment are simulated and discarded, and it is reset at the end of the high-level step (the
+//! released code lets the new episode's first steps leak into the old transition).
 //!
 //! Observation (high level): the 838 state entries (heading frame, see `obs.rs`) | the task part:
 //! * `loc` (2): (goal_xy − root_xy) turned into the heading frame (m);
@@ -100,7 +100,9 @@ pub struct Goal {
 /// `g.next_change`): seeded from the episode's seed and the step, so episodes are reproducible.
 pub fn redraw_rng(g: &Goal, step: u32) -> Option<ChaCha8Rng> {
     use rand::SeedableRng;
-    (step >= g.next_change).then(|| ChaCha8Rng::seed_from_u64(g.seed ^ u64::from(step).wrapping_mul(0x9e37_79b9_7f4a_7c15)))
+    (step >= g.next_change).then(|| {
+        ChaCha8Rng::seed_from_u64(g.seed ^ u64::from(step).wrapping_mul(0x9e37_79b9_7f4a_7c15))
+    })
 }
 
 /// The frozen policy a high-level task drives (see the module doc).
@@ -131,7 +133,14 @@ pub trait Rule: Send + Sync + 'static {
     fn task_obs(&self, g: &Goal, st: &EnvState<'_>, out: &mut [f32]);
     /// Reward of the state after low-level step `step` (1-based) with its terms and metrics;
     /// updates the goal's latches.
-    fn reward(&self, g: &mut Goal, step: u32, st: &EnvState<'_>, terms: &mut [f32], metrics: &mut [f32]) -> f64;
+    fn reward(
+        &self,
+        g: &mut Goal,
+        step: u32,
+        st: &EnvState<'_>,
+        terms: &mut [f32],
+        metrics: &mut [f32],
+    ) -> f64;
     /// The goal entries (`info_names` order).
     fn info(&self, g: &Goal, out: &mut [f32]);
     /// Set the goal from entries in `info_names` order (interactive play); latches and success
@@ -156,7 +165,12 @@ pub fn loc_bearing(goal: [f64; 2], st: &EnvState<'_>, out: &mut [f32]) {
     let hinv: Quat = heading_inverse(st.quat(0));
     let loc = hinv.rotate(d);
     let theta = d[1].atan2(d[0]);
-    out[..4].copy_from_slice(&[loc[0] as f32, loc[1] as f32, theta.cos() as f32, theta.sin() as f32]);
+    out[..4].copy_from_slice(&[
+        loc[0] as f32,
+        loc[1] as f32,
+        theta.cos() as f32,
+        theta.sin() as f32,
+    ]);
 }
 
 /// Euclidean norm.
@@ -196,9 +210,18 @@ pub struct HighLevel<R: Rule> {
 impl<R: Rule> HighLevel<R> {
     /// The task over `lib` with the frozen policy loaded from `cfg.hlc.llc` (a skill policy or
     /// the part controllers of a modular checkpoint, by its `policy` metadata).
-    pub fn new(rule: R, cfg: &EnvConfig, lib: Arc<MotionLibrary>, ball_radius: f64) -> Result<Self, EnvError> {
+    pub fn new(
+        rule: R,
+        cfg: &EnvConfig,
+        lib: Arc<MotionLibrary>,
+        ball_radius: f64,
+    ) -> Result<Self, EnvError> {
         let h = &cfg.hlc;
-        let driver = if policy_family(&h.llc)?.as_deref() == Some("modular_attention") { Driver::Parts(FrozenParts::load(&h.llc)?) } else { Driver::Skills(FrozenActor::load(&h.llc)?) };
+        let driver = if policy_family(&h.llc)?.as_deref() == Some("modular_attention") {
+            Driver::Parts(FrozenParts::load(&h.llc)?)
+        } else {
+            Driver::Skills(FrozenActor::load(&h.llc)?)
+        };
         let (trained_config, (obs_dim, act_dim)) = match &driver {
             Driver::Skills(a) => (&a.config, (a.obs_dim(), a.act_dim())),
             Driver::Parts(p) => (&p.config, (layout::OBS_DIM, p.act_dim)),
@@ -215,15 +238,21 @@ impl<R: Rule> HighLevel<R> {
         }
         // the humanoid must be the one the skill policy was trained on
         let trained: Option<toml::Table> = toml::from_str(trained_config).ok();
-        let hands = trained.as_ref().and_then(|t| t.get("env")?.get("hands")?.as_str().map(str::to_string));
+        let hands =
+            trained.as_ref().and_then(|t| t.get("env")?.get("hands")?.as_str().map(str::to_string));
         if let Some(hands) = hands
             && hands != cfg.hands
         {
-            let msg = format!("the skill policy {} was trained with hands = \"{hands}\"; set env.hands = \"{hands}\" (--set env.hands={hands})", h.llc.display());
+            let msg = format!(
+                "the skill policy {} was trained with hands = \"{hands}\"; set env.hands = \"{hands}\" (--set env.hands={hands})",
+                h.llc.display()
+            );
             return Err(bad("env.hands", msg).into());
         }
         let (action_space, choice_labels) = match &driver {
-            Driver::Skills(_) => (ActionSpace::Discrete { n: rule.labels().len() }, rule.labels().to_vec()),
+            Driver::Skills(_) => {
+                (ActionSpace::Discrete { n: rule.labels().len() }, rule.labels().to_vec())
+            }
             Driver::Parts(p) => (ActionSpace::Box { dim: p.latent_dim() }, Vec::new()),
         };
         let spec = TaskSpec {
@@ -236,10 +265,26 @@ impl<R: Rule> HighLevel<R> {
             info_names: rule.info_names().iter().map(|s| s.to_string()).collect(),
             steps_per_action: 1,
             choice_labels,
-            token_groups: [("state".to_string(), layout::STATE_DIM), (R::NAME.to_string(), rule.task_obs_dim())].into_iter().filter(|g| g.1 > 0).collect(),
+            token_groups: [
+                ("state".to_string(), layout::STATE_DIM),
+                (R::NAME.to_string(), rule.task_obs_dim()),
+            ]
+            .into_iter()
+            .filter(|g| g.1 > 0)
+            .collect(),
         };
         let threads = if cfg.threads == 0 { rayon::current_num_threads() } else { cfg.threads };
-        Ok(Self { rule, cfg: h.clone(), lib, spec, driver, threads, ball_radius, llc_obs: Vec::new(), skills: vec![0; cfg.num_envs] })
+        Ok(Self {
+            rule,
+            cfg: h.clone(),
+            lib,
+            spec,
+            driver,
+            threads,
+            ball_radius,
+            llc_obs: Vec::new(),
+            skills: vec![0; cfg.num_envs],
+        })
     }
 
     /// The frozen policy.
@@ -275,7 +320,13 @@ impl<R: Rule> Task for HighLevel<R> {
         HlSlot::default()
     }
 
-    fn plan_reset(&mut self, _i: usize, slot: &mut HlSlot, rng: &mut ChaCha8Rng, state: &mut ResetState) {
+    fn plan_reset(
+        &mut self,
+        _i: usize,
+        slot: &mut HlSlot,
+        rng: &mut ChaCha8Rng,
+        state: &mut ResetState,
+    ) {
         let clip = self.lib.sample_clip(rng);
         let m = self.lib.get(clip);
         let frame = self.cfg.start_frame.min(m.clip.num_frames - 2);
@@ -298,7 +349,8 @@ impl<R: Rule> Task for HighLevel<R> {
         self.write_obs(slot, st, out.obs);
         let fell = st.pos(0)[2] < self.cfg.termination_height && slot.progress > 1;
         *out.terminated = u8::from(fell || st.unstable);
-        *out.truncated = u8::from(*out.terminated == 0 && slot.progress as usize >= self.cfg.episode_length - 1);
+        *out.truncated =
+            u8::from(*out.terminated == 0 && slot.progress as usize >= self.cfg.episode_length - 1);
     }
 
     fn observe(&self, slot: &HlSlot, st: &EnvState<'_>, obs: &mut [f32]) {
@@ -311,7 +363,13 @@ impl<R: Rule> Task for HighLevel<R> {
 
     /// Choice → skill label → the frozen skill policy's PD targets; or part embeddings → the
     /// frozen part controllers' PD targets.
-    fn actions_to_targets(&mut self, _slots: &[HlSlot], obs: &[f32], actions: &[f32], targets: &mut [f32]) -> Result<(), EnvError> {
+    fn actions_to_targets(
+        &mut self,
+        _slots: &[HlSlot],
+        obs: &[f32],
+        actions: &[f32],
+        targets: &mut [f32],
+    ) -> Result<(), EnvError> {
         let llc = match &mut self.driver {
             Driver::Parts(p) => {
                 let n = actions.len() / p.latent_dim();
@@ -343,7 +401,11 @@ pub fn build<R: Rule>(cfg: &EnvConfig, rule: R) -> Result<Box<dyn Env>, EnvError
     cfg.validate_driver()?;
     cfg.hlc.validate()?;
     if cfg.motion.is_empty() {
-        return Err(bad("env.motion", "no clip file or folder given (the high-level episodes start from clip frames)").into());
+        return Err(bad(
+            "env.motion",
+            "no clip file or folder given (the high-level episodes start from clip frames)",
+        )
+        .into());
     }
     let lib = Arc::new(load_motion_library(&cfg.motion)?);
     let scene = Arc::new(Scene::new(cfg.scene_options()?)?);

@@ -69,7 +69,14 @@ impl Rule for Reach {
         let d = heading_inverse(st.quat(0)).rotate([c[0] - r[0], c[1] - r[1], c[2] - r[2]]);
         out[..3].copy_from_slice(&[d[0] as f32, d[1] as f32, d[2] as f32]);
     }
-    fn reward(&self, g: &mut Goal, step: u32, st: &EnvState<'_>, terms: &mut [f32], metrics: &mut [f32]) -> f64 {
+    fn reward(
+        &self,
+        g: &mut Goal,
+        step: u32,
+        st: &EnvState<'_>,
+        terms: &mut [f32],
+        metrics: &mut [f32],
+    ) -> f64 {
         let (c, p) = (Self::target(g), st.pos(self.1));
         let dist = norm([p[0] - c[0], p[1] - c[1], p[2] - c[2]]);
         let r = (-self.0.scale * dist * dist).exp();
@@ -97,9 +104,19 @@ impl Rule for Reach {
 /// Registry constructor.
 pub fn build(cfg: &EnvConfig) -> Result<Box<dyn Env>, EnvError> {
     cfg.reach.validate()?;
-    let hand = skillmimic_core::skeleton::BODIES.iter().position(|b| b.name == cfg.reach.hand_body).ok_or_else(|| {
-        let names: Vec<&str> = skillmimic_core::skeleton::BODIES.iter().map(|b| b.name).collect();
-        bad("env.reach.hand_body", format!("'{}' is not a body of the humanoid; expected one of {names:?}", cfg.reach.hand_body))
-    })?;
+    let hand = skillmimic_core::skeleton::BODIES
+        .iter()
+        .position(|b| b.name == cfg.reach.hand_body)
+        .ok_or_else(|| {
+            let names: Vec<&str> =
+                skillmimic_core::skeleton::BODIES.iter().map(|b| b.name).collect();
+            bad(
+                "env.reach.hand_body",
+                format!(
+                    "'{}' is not a body of the humanoid; expected one of {names:?}",
+                    cfg.reach.hand_body
+                ),
+            )
+        })?;
     super::build(cfg, Reach(cfg.reach.clone(), hand))
 }

@@ -77,7 +77,11 @@ impl Rule for Scoring {
     }
     fn sample_goal(&self, root: [f64; 3], rng: &mut ChaCha8Rng) -> Goal {
         let c = &self.0;
-        let d = if c.dist_max > c.dist_min { rng.random_range(c.dist_min..c.dist_max) } else { c.dist_min };
+        let d = if c.dist_max > c.dist_min {
+            rng.random_range(c.dist_min..c.dist_max)
+        } else {
+            c.dist_min
+        };
         let phi: f64 = rng.random_range(0.0..std::f64::consts::TAU);
         Goal { xy: [root[0] + d * phi.sin(), root[1] + d * phi.cos()], ..Goal::default() }
     }
@@ -85,14 +89,24 @@ impl Rule for Scoring {
         loc_bearing(g.xy, st, out);
         out[4] = f32::from(u8::from(g.reached));
     }
-    fn reward(&self, g: &mut Goal, _step: u32, st: &EnvState<'_>, terms: &mut [f32], metrics: &mut [f32]) -> f64 {
+    fn reward(
+        &self,
+        g: &mut Goal,
+        _step: u32,
+        st: &EnvState<'_>,
+        terms: &mut [f32],
+        metrics: &mut [f32],
+    ) -> f64 {
         let c = &self.0;
         let (p, v) = (st.pos(BALL), st.linvel(BALL));
         let touching = st.contact_force(BALL).iter().any(|f| f.abs() > c.contact_force);
-        if !g.reached && p[2] > c.reach_height && !touching
+        if !g.reached
+            && p[2] > c.reach_height
+            && !touching
             && let Some(xy) = predict_crossing(p, v, c.reach_height, c.prediction)
         {
-            g.reached = ((xy[0] - g.xy[0]).powi(2) + (xy[1] - g.xy[1]).powi(2)).sqrt() < c.reach_radius;
+            g.reached =
+                ((xy[0] - g.xy[0]).powi(2) + (xy[1] - g.xy[1]).powi(2)).sqrt() < c.reach_radius;
         }
         g.code_success = g.reached;
         let dist = norm(ball_to(st, [g.xy[0], g.xy[1], c.basket_height]));
@@ -101,12 +115,24 @@ impl Rule for Scoring {
         }
         let height = (-(p[2] - c.basket_height).abs()).exp();
         let (gate, basket, bonus) = match c.reward {
-            Formula::Code => (if norm(st.linvel(0)) >= c.speed_threshold { 1.0 } else { c.slow_factor }, (-0.5 * dist).exp(), f64::from(u8::from(g.reached))),
-            Formula::Paper => (if norm(v).powi(2) > c.speed_threshold { 1.0 } else { c.slow_factor }, (-dist * dist).exp(), f64::from(u8::from(g.success))),
+            Formula::Code => (
+                if norm(st.linvel(0)) >= c.speed_threshold { 1.0 } else { c.slow_factor },
+                (-0.5 * dist).exp(),
+                f64::from(u8::from(g.reached)),
+            ),
+            Formula::Paper => (
+                if norm(v).powi(2) > c.speed_threshold { 1.0 } else { c.slow_factor },
+                (-dist * dist).exp(),
+                f64::from(u8::from(g.success)),
+            ),
         };
         let r = gate * (basket + bonus + 0.2 * height);
         terms.copy_from_slice(&[gate as f32, basket as f32, bonus as f32, height as f32, r as f32]);
-        metrics.copy_from_slice(&[dist as f32, f32::from(u8::from(g.success)), f32::from(u8::from(g.code_success))]);
+        metrics.copy_from_slice(&[
+            dist as f32,
+            f32::from(u8::from(g.success)),
+            f32::from(u8::from(g.code_success)),
+        ]);
         r
     }
     fn info(&self, g: &Goal, out: &mut [f32]) {

@@ -38,7 +38,11 @@ impl Steering {
         let c = &self.0;
         let a: f64 = rng.random_range(0.0..std::f64::consts::TAU);
         g.xy = [a.cos(), a.sin()];
-        g.speed = if c.speed_max > c.speed_min { rng.random_range(c.speed_min..c.speed_max) } else { c.speed_min };
+        g.speed = if c.speed_max > c.speed_min {
+            rng.random_range(c.speed_min..c.speed_max)
+        } else {
+            c.speed_min
+        };
         g.next_change = step + rng.random_range(c.change_steps_min..=c.change_steps_max);
     }
 
@@ -75,7 +79,14 @@ impl Rule for Steering {
         let d = heading_inverse(st.quat(0)).rotate([g.xy[0], g.xy[1], 0.0]);
         out[..3].copy_from_slice(&[d[0] as f32, d[1] as f32, g.speed as f32]);
     }
-    fn reward(&self, g: &mut Goal, step: u32, st: &EnvState<'_>, terms: &mut [f32], metrics: &mut [f32]) -> f64 {
+    fn reward(
+        &self,
+        g: &mut Goal,
+        step: u32,
+        st: &EnvState<'_>,
+        terms: &mut [f32],
+        metrics: &mut [f32],
+    ) -> f64 {
         let e = Self::velocity_error(g, st);
         let e2 = e[0] * e[0] + e[1] * e[1];
         let r = (-self.0.error_scale * e2).exp();
@@ -93,7 +104,10 @@ impl Rule for Steering {
     }
     /// Direction (normalised; a zero vector keeps the current one) and speed.
     fn set_info(&self, g: &mut Goal, values: &[f32]) {
-        let (x, y) = (values.first().copied().unwrap_or(0.0) as f64, values.get(1).copied().unwrap_or(0.0) as f64);
+        let (x, y) = (
+            values.first().copied().unwrap_or(0.0) as f64,
+            values.get(1).copied().unwrap_or(0.0) as f64,
+        );
         let n = (x * x + y * y).sqrt();
         if n > 0.0 && n.is_finite() {
             g.xy = [x / n, y / n];

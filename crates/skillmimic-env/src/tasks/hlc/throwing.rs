@@ -45,7 +45,14 @@ impl Rule for Throwing {
         Goal::default()
     }
     fn task_obs(&self, _g: &Goal, _st: &EnvState<'_>, _out: &mut [f32]) {}
-    fn reward(&self, g: &mut Goal, step: u32, st: &EnvState<'_>, terms: &mut [f32], metrics: &mut [f32]) -> f64 {
+    fn reward(
+        &self,
+        g: &mut Goal,
+        step: u32,
+        st: &EnvState<'_>,
+        terms: &mut [f32],
+        metrics: &mut [f32],
+    ) -> f64 {
         let c = &self.0;
         let z = st.pos(BALL)[2];
         let r = (-(z - c.target_height).abs()).exp();
@@ -62,7 +69,11 @@ impl Rule for Throwing {
             g.success = true;
         }
         terms[0] = r as f32;
-        metrics.copy_from_slice(&[z as f32, f32::from(u8::from(g.throw_step.is_some())), f32::from(u8::from(g.success))]);
+        metrics.copy_from_slice(&[
+            z as f32,
+            f32::from(u8::from(g.throw_step.is_some())),
+            f32::from(u8::from(g.success)),
+        ]);
         r
     }
     fn info(&self, _g: &Goal, _out: &mut [f32]) {}

@@ -36,7 +36,9 @@ use skillmimic_core::hsi_character::{HANDS, NUM_BODIES};
 use skillmimic_core::math::{Quat, Vec3};
 use skillmimic_sim::{HsiEnvState, HsiObject, HsiReset, HsiScene, ObjectBox, ObjectState};
 
-use super::geometry::{draw, Local, corners, dir2d, dist2d, dist_sq, put, ring_point, speed_reward, stand_at_origin};
+use super::geometry::{
+    Local, corners, dir2d, dist_sq, dist2d, draw, put, ring_point, speed_reward, stand_at_origin,
+};
 use super::{Ctx, DT, HsiTask, TaskOut, hsi_spec};
 use crate::config::{CarryConfig, EnvConfig};
 use crate::error::EnvError;
@@ -66,8 +68,20 @@ pub struct Carry {
 
 impl Carry {
     pub fn new(cfg: &CarryConfig, random_heading: bool) -> Self {
-        let info_names = ["target_x", "target_y", "target_z", "start_x", "start_y", "start_z", "half_x", "half_y", "half_z"].iter().map(|s| s.to_string()).collect();
-        let spec = hsi_spec("hsi_carry", 42, cfg.episode_length, vec!["walk", "carry", "pick", "put", "total"], info_names);
+        let info_names = [
+            "target_x", "target_y", "target_z", "start_x", "start_y", "start_z", "half_x",
+            "half_y", "half_z",
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+        let spec = hsi_spec(
+            "hsi_carry",
+            42,
+            cfg.episode_length,
+            vec!["walk", "carry", "pick", "put", "total"],
+            info_names,
+        );
         Self { spec, cfg: cfg.clone(), random_heading }
     }
 }
@@ -83,11 +97,25 @@ impl HsiTask for Carry {
     }
     fn objects(&self, rng: &mut ChaCha8Rng) -> Vec<HsiObject> {
         let c = &self.cfg;
-        let half = [0.5 * draw(rng, c.box_size), 0.5 * draw(rng, c.box_size), 0.5 * draw(rng, c.box_size)];
+        let half =
+            [0.5 * draw(rng, c.box_size), 0.5 * draw(rng, c.box_size), 0.5 * draw(rng, c.box_size)];
         let mass = draw(rng, c.box_mass);
-        let slab = |name: &str| HsiObject { name: name.into(), mass: None, boxes: vec![ObjectBox { center: [0.0, 0.0, -SLAB_HALF], half: [half[0] + 0.1, half[1] + 0.1, SLAB_HALF] }], rgba: [0.4, 0.45, 0.5, 1.0] };
+        let slab = |name: &str| HsiObject {
+            name: name.into(),
+            mass: None,
+            boxes: vec![ObjectBox {
+                center: [0.0, 0.0, -SLAB_HALF],
+                half: [half[0] + 0.1, half[1] + 0.1, SLAB_HALF],
+            }],
+            rgba: [0.4, 0.45, 0.5, 1.0],
+        };
         vec![
-            HsiObject { name: "box".into(), mass: Some(mass), boxes: vec![ObjectBox { center: [0.0; 3], half }], rgba: [0.75, 0.55, 0.3, 1.0] },
+            HsiObject {
+                name: "box".into(),
+                mass: Some(mass),
+                boxes: vec![ObjectBox { center: [0.0; 3], half }],
+                rgba: [0.75, 0.55, 0.3, 1.0],
+            },
             slab("support_start"),
             slab("support_target"),
         ]
@@ -104,9 +132,15 @@ impl HsiTask for Carry {
         let yaw_t = rng.random_range(-std::f64::consts::PI..std::f64::consts::PI);
         let start = [p[0], p[1], hs];
         let tgt = [p[0] + q[0], p[1] + q[1], ht];
-        reset.objects[0] = ObjectState { pos: [start[0], start[1], hs + half[2] + 1e-3], quat: Quat::about_z(yaw_s), ..Default::default() };
-        reset.objects[1] = ObjectState { pos: start, quat: Quat::about_z(yaw_s), ..Default::default() };
-        reset.objects[2] = ObjectState { pos: tgt, quat: Quat::about_z(yaw_t), ..Default::default() };
+        reset.objects[0] = ObjectState {
+            pos: [start[0], start[1], hs + half[2] + 1e-3],
+            quat: Quat::about_z(yaw_s),
+            ..Default::default()
+        };
+        reset.objects[1] =
+            ObjectState { pos: start, quat: Quat::about_z(yaw_s), ..Default::default() };
+        reset.objects[2] =
+            ObjectState { pos: tgt, quat: Quat::about_z(yaw_t), ..Default::default() };
         *goal = Goal { target: [tgt[0], tgt[1], ht + half[2]], start, half };
     }
     fn observe(&self, goal: &Goal, st: &HsiEnvState<'_>, _steps: usize, out: &mut [f32]) {
@@ -116,18 +150,30 @@ impl HsiTask for Carry {
         let st = ctx.st;
         let root = st.pos(0);
         let (obj, _) = box_state(st);
-        let walk = if dist2d(obj, root) < 0.5 { 0.2 } else { 0.2 * speed_reward(5.0, 1.5, dir2d(root, obj), root, ctx.prev_root, DT) };
+        let walk = if dist2d(obj, root) < 0.5 {
+            0.2
+        } else {
+            0.2 * speed_reward(5.0, 1.5, dir2d(root, obj), root, ctx.prev_root, DT)
+        };
         let near = (-10.0 * dist_sq(goal.target, obj)).exp();
         let carry = if dist2d(obj, goal.target) > 0.5 {
-            0.2 * near + 0.2 * speed_reward(5.0, 1.5, dir2d(obj, goal.target), obj, ctx.prev_obj, DT)
+            0.2 * near
+                + 0.2 * speed_reward(5.0, 1.5, dir2d(obj, goal.target), obj, ctx.prev_obj, DT)
         } else {
             0.2 * near + 0.2
         };
         let (h0, h1) = (st.pos(HANDS[0]), st.pos(HANDS[1]));
         let hands = [0.5 * (h0[0] + h1[0]), 0.5 * (h0[1] + h1[1]), 0.5 * (h0[2] + h1[2])];
-        let pick = if dist2d(obj, root) > 0.7 { 0.0 } else { 0.2 * (-5.0 * dist_sq(obj, hands)).exp() };
-        let put_r = if dist2d(obj, goal.target) > 0.1 { 0.0 } else { 0.2 * (-10.0 * (obj[2] - goal.target[2]).powi(2)).exp() };
-        for (k, v) in [walk, carry, pick, put_r, walk + carry + pick + put_r].into_iter().enumerate() {
+        let pick =
+            if dist2d(obj, root) > 0.7 { 0.0 } else { 0.2 * (-5.0 * dist_sq(obj, hands)).exp() };
+        let put_r = if dist2d(obj, goal.target) > 0.1 {
+            0.0
+        } else {
+            0.2 * (-10.0 * (obj[2] - goal.target[2]).powi(2)).exp()
+        };
+        for (k, v) in
+            [walk, carry, pick, put_r, walk + carry + pick + put_r].into_iter().enumerate()
+        {
             out.terms[k] = v as f32;
         }
         out.fail = self.cfg.fall_height > 0.0 && obj[2] < self.cfg.fall_height;

@@ -15,7 +15,7 @@ use rand_chacha::ChaCha8Rng;
 use skillmimic_core::hsi_character::FEET;
 use skillmimic_sim::{HsiEnvState, HsiObject, HsiReset, HsiScene, ObjectBox};
 
-use super::geometry::{draw, Local, dir2d, dist2d, dist_sq, put, speed_reward, stand_at_origin};
+use super::geometry::{Local, dir2d, dist_sq, dist2d, draw, put, speed_reward, stand_at_origin};
 use super::sit::{Goal, goal_info_names};
 use super::{Ctx, DT, HsiTask, TaskOut, hsi_spec};
 use crate::config::{ClimbConfig, EnvConfig};
@@ -32,7 +32,13 @@ pub struct Climb {
 
 impl Climb {
     pub fn new(cfg: &ClimbConfig, random_heading: bool) -> Self {
-        let spec = hsi_spec("hsi_climb", 27, cfg.episode_length, vec!["near", "far", "foot", "climb"], goal_info_names());
+        let spec = hsi_spec(
+            "hsi_climb",
+            27,
+            cfg.episode_length,
+            vec!["near", "far", "foot", "climb"],
+            goal_info_names(),
+        );
         Self { spec, cfg: cfg.clone(), random_heading }
     }
 }
@@ -46,7 +52,15 @@ impl HsiTask for Climb {
         let c = &self.cfg;
         let h = draw(rng, c.height);
         let (sx, sy) = (draw(rng, c.size), draw(rng, c.size));
-        vec![HsiObject { name: "platform".into(), mass: None, boxes: vec![ObjectBox { center: [0.0, 0.0, 0.5 * h], half: [0.5 * sx, 0.5 * sy, 0.5 * h] }], rgba: [0.45, 0.45, 0.5, 1.0] }]
+        vec![HsiObject {
+            name: "platform".into(),
+            mass: None,
+            boxes: vec![ObjectBox {
+                center: [0.0, 0.0, 0.5 * h],
+                half: [0.5 * sx, 0.5 * sy, 0.5 * h],
+            }],
+            rgba: [0.45, 0.45, 0.5, 1.0],
+        }]
     }
     fn plan(&self, scene: &HsiScene, rng: &mut ChaCha8Rng, reset: &mut HsiReset, goal: &mut Goal) {
         stand_at_origin(rng, self.random_heading, reset);

@@ -6,12 +6,13 @@
 //! * Objects: the primary task's objects (trajectory: none; sit: the seat; climb: the platform),
 //!   then `hsi_carry`'s box (sizes and mass from `[env.hsi.carry]`) and one support slab. Each
 //!   episode plans the primary task as its own task does, then puts the support 0.55 m from the
-//!   character — follow: in the direction of the path's first move (the first vertex away from
-//!   the start; the path may start at rest); sit / climb: towards the target, or — where the
-//!   support would come within 5 cm of the seat / platform — the first of left, right, behind
-//!   that keeps clear; else along the character's heading — its top at a height from `env.hsi.carry.support_height`, the box
-//!   resting on it (our choice: the supplementary does not say where the box starts; within
-//!   0.7 m the reward is live from the first step, so picking the box up comes first).
+//!   character — follow: in the direction of the path's first move (the first vertex away from the
+//!   start; the path may start at rest); sit / climb: towards the target, or — where the support
+//!   would come within 5 cm of the seat / platform — the first of left, right, behind that keeps
+//!   clear; else along the character's heading — its top at a height from
+//!   `env.hsi.carry.support_height`, the box resting on it (our choice: the supplementary does not
+//!   say where the box starts; within 0.7 m the reward is live from the first step, so picking the
+//!   box up comes first).
 //! * Observation (2·p + 81, p = the primary observation: follow 20, sit 38, climb 27) in three
 //!   groups, the token layout of the composition:
 //!   - the primary group (`hsi_follow` / `hsi_sit` / `hsi_climb`, p): the primary observation;
@@ -39,7 +40,7 @@ use skillmimic_sim::{HsiEnvState, HsiObject, HsiReset, HsiScene, ObjectBox, Obje
 use super::carry::observe_box;
 use super::climb::Climb;
 use super::follow::{Follow, NUM_POINTS, POINT_DT};
-use super::geometry::{dist2d, dist_sq, draw, put};
+use super::geometry::{dist_sq, dist2d, draw, put};
 use super::sit::{Goal as TargetGoal, Sit};
 use super::{Ctx, DT, HsiTask, TaskOut, hsi_spec};
 use crate::config::EnvConfig;
@@ -55,6 +56,9 @@ const CARRY_RADIUS: f64 = 0.7;
 const REVISED: usize = 39;
 
 /// A foundational task that can be composed with carrying.
+/// An object pose and its bounding box in its own frame: position, rotation, lo, hi (m).
+pub type KeepOut = ([f64; 3], Quat, [f64; 3], [f64; 3]);
+
 pub trait Primary: HsiTask {
     /// Registry name of the composition (also its new token group).
     const NAME: &'static str;
@@ -66,7 +70,7 @@ pub trait Primary: HsiTask {
     fn carry_target(&self, goal: &Self::Goal, steps: usize, box_pos: [f64; 3]) -> [f64; 3];
     /// The primary object's pose and bounding box in its own frame (position, rotation, lo, hi;
     /// m), which the box must not start in.
-    fn keep_out(&self, _goal: &Self::Goal) -> Option<([f64; 3], Quat, [f64; 3], [f64; 3])> {
+    fn keep_out(&self, _goal: &Self::Goal) -> Option<KeepOut> {
         None
     }
 }
@@ -107,7 +111,7 @@ fn towards_target(goal: &TargetGoal, reset: &HsiReset) -> Option<[f64; 2]> {
 }
 
 impl Primary for Sit {
-    fn keep_out(&self, goal: &TargetGoal) -> Option<([f64; 3], Quat, [f64; 3], [f64; 3])> {
+    fn keep_out(&self, goal: &TargetGoal) -> Option<KeepOut> {
         Some((goal.obj_pos, goal.obj_quat, goal.lo, goal.hi))
     }
     const NAME: &'static str = "hsi_sit_carry";
@@ -121,7 +125,7 @@ impl Primary for Sit {
 }
 
 impl Primary for Climb {
-    fn keep_out(&self, goal: &TargetGoal) -> Option<([f64; 3], Quat, [f64; 3], [f64; 3])> {
+    fn keep_out(&self, goal: &TargetGoal) -> Option<KeepOut> {
         Some((goal.obj_pos, goal.obj_quat, goal.lo, goal.hi))
     }
     const NAME: &'static str = "hsi_climb_carry";
@@ -164,7 +168,11 @@ impl<P: Primary> WithBox<P> {
         info.extend(["half_x", "half_y", "half_z"].map(String::from));
         let mut spec = hsi_spec(P::NAME, 2 * p + 42 + REVISED, ps.max_episode_steps, terms, info);
         spec.token_groups.truncate(1);
-        spec.token_groups.extend([(ps.name.to_string(), p), ("hsi_carry".to_string(), 42), (P::NAME.to_string(), p + REVISED)]);
+        spec.token_groups.extend([
+            (ps.name.to_string(), p),
+            ("hsi_carry".to_string(), 42),
+            (P::NAME.to_string(), p + REVISED),
+        ]);
         let objects = primary.objects(&mut ChaCha8Rng::seed_from_u64(0)).len();
         Self { spec, primary, p, terms: nt, objects, carry: carry.clone() }
     }
@@ -182,13 +190,33 @@ impl<P: Primary> HsiTask for WithBox<P> {
     fn objects(&self, rng: &mut ChaCha8Rng) -> Vec<HsiObject> {
         let mut v = self.primary.objects(rng);
         let c = &self.carry;
-        let half = [0.5 * draw(rng, c.box_size), 0.5 * draw(rng, c.box_size), 0.5 * draw(rng, c.box_size)];
+        let half =
+            [0.5 * draw(rng, c.box_size), 0.5 * draw(rng, c.box_size), 0.5 * draw(rng, c.box_size)];
         let mass = draw(rng, c.box_mass);
-        v.push(HsiObject { name: "box".into(), mass: Some(mass), boxes: vec![ObjectBox { center: [0.0; 3], half }], rgba: [0.75, 0.55, 0.3, 1.0] });
-        v.push(HsiObject { name: "support".into(), mass: None, boxes: vec![ObjectBox { center: [0.0, 0.0, -0.01], half: [half[0] + 0.1, half[1] + 0.1, 0.01] }], rgba: [0.4, 0.45, 0.5, 1.0] });
+        v.push(HsiObject {
+            name: "box".into(),
+            mass: Some(mass),
+            boxes: vec![ObjectBox { center: [0.0; 3], half }],
+            rgba: [0.75, 0.55, 0.3, 1.0],
+        });
+        v.push(HsiObject {
+            name: "support".into(),
+            mass: None,
+            boxes: vec![ObjectBox {
+                center: [0.0, 0.0, -0.01],
+                half: [half[0] + 0.1, half[1] + 0.1, 0.01],
+            }],
+            rgba: [0.4, 0.45, 0.5, 1.0],
+        });
         v
     }
-    fn plan(&self, scene: &HsiScene, rng: &mut ChaCha8Rng, reset: &mut HsiReset, goal: &mut Self::Goal) {
+    fn plan(
+        &self,
+        scene: &HsiScene,
+        rng: &mut ChaCha8Rng,
+        reset: &mut HsiReset,
+        goal: &mut Self::Goal,
+    ) {
         self.primary.plan(scene, rng, reset, &mut goal.primary);
         let half = scene.objects()[self.objects].boxes[0].half;
         let d = self.primary.box_direction(&goal.primary, reset).unwrap_or_else(|| {
@@ -200,12 +228,20 @@ impl<P: Primary> HsiTask for WithBox<P> {
         // (the object is ≥ 1 m away, so behind always does)
         let reach = (half[0] + 0.1).hypot(half[1] + 0.1);
         let candidates = [d, [-d[1], d[0]], [d[1], -d[0]], [-d[0], -d[1]]];
-        let clear = |c: &[f64; 2]| self.primary.keep_out(&goal.primary).is_none_or(|o| !overlaps([root[0] + BOX_DISTANCE * c[0], root[1] + BOX_DISTANCE * c[1]], reach, &o));
+        let clear = |c: &[f64; 2]| {
+            self.primary.keep_out(&goal.primary).is_none_or(|o| {
+                !overlaps([root[0] + BOX_DISTANCE * c[0], root[1] + BOX_DISTANCE * c[1]], reach, &o)
+            })
+        };
         let [dx, dy] = candidates.iter().copied().find(|c| clear(c)).unwrap_or(candidates[3]);
         let h = draw(rng, self.carry.support_height);
         let at = [root[0] + BOX_DISTANCE * dx, root[1] + BOX_DISTANCE * dy, h];
         let yaw = Quat::about_z(dy.atan2(dx));
-        reset.objects[self.objects] = ObjectState { pos: [at[0], at[1], h + half[2] + 1e-3], quat: yaw, ..Default::default() };
+        reset.objects[self.objects] = ObjectState {
+            pos: [at[0], at[1], h + half[2] + 1e-3],
+            quat: yaw,
+            ..Default::default()
+        };
         reset.objects[self.objects + 1] = ObjectState { pos: at, quat: yaw, ..Default::default() };
         goal.half = half;
     }
@@ -222,7 +258,12 @@ impl<P: Primary> HsiTask for WithBox<P> {
         let nt = self.terms;
         let mut pm = [0.0f32; 2];
         let (fail, finish) = {
-            let mut po = TaskOut { terms: &mut out.terms[..nt], metrics: &mut pm, fail: false, finish: false };
+            let mut po = TaskOut {
+                terms: &mut out.terms[..nt],
+                metrics: &mut pm,
+                fail: false,
+                finish: false,
+            };
             self.primary.step(&mut goal.primary, ctx, &mut po);
             (po.fail, po.finish)
         };
@@ -232,7 +273,11 @@ impl<P: Primary> HsiTask for WithBox<P> {
         let hands = [0.5 * (h0[0] + h1[0]), 0.5 * (h0[1] + h1[1]), 0.5 * (h0[2] + h1[2])];
         let near = dist2d(obj, root) <= CARRY_RADIUS;
         let pick = if near { 0.2 * (-5.0 * dist_sq(obj, hands)).exp() } else { 0.0 };
-        let total = if near { P::WEIGHT * out.terms[nt - 1] as f64 + (1.0 - P::WEIGHT) * pick } else { 0.0 };
+        let total = if near {
+            P::WEIGHT * out.terms[nt - 1] as f64 + (1.0 - P::WEIGHT) * pick
+        } else {
+            0.0
+        };
         out.terms[nt] = pick as f32;
         out.terms[nt + 1] = total as f32;
         out.fail = fail || (self.carry.fall_height > 0.0 && obj[2] < self.carry.fall_height);
@@ -247,11 +292,19 @@ impl<P: Primary> HsiTask for WithBox<P> {
     }
 }
 
-fn build<P: Primary>(primary: P, cfg: &EnvConfig, variants: usize) -> Result<Box<dyn Env>, EnvError> {
+fn build<P: Primary>(
+    primary: P,
+    cfg: &EnvConfig,
+    variants: usize,
+) -> Result<Box<dyn Env>, EnvError> {
     cfg.validate_driver()?;
     cfg.hsi.validate()?;
     if cfg.hsi.carry.support_height[1] > 1.0 {
-        return Err(bad("env.hsi.carry.support_height", format!("{} puts the box within reach: the support must be at most 1 m high", P::NAME)).into());
+        return Err(bad(
+            "env.hsi.carry.support_height",
+            format!("{} puts the box within reach: the support must be at most 1 m high", P::NAME),
+        )
+        .into());
     }
     let task = WithBox::new(primary, &cfg.hsi.carry);
     let len = task.spec.max_episode_steps;

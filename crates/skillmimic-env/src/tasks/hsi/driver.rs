@@ -43,10 +43,25 @@ impl<T: HsiTask> HsiVecEnv<T> {
     /// environments on `threads` simulation threads (0 = one per core) and reset them all
     /// (episode starts seeded with `seed`).
     #[allow(clippy::too_many_arguments)]
-    pub fn new(task: T, variants: usize, object_seed: u64, num_envs: usize, threads: usize, seed: u64, episode_length: usize, termination_height: f64) -> Result<Self, EnvError> {
+    pub fn new(
+        task: T,
+        variants: usize,
+        object_seed: u64,
+        num_envs: usize,
+        threads: usize,
+        seed: u64,
+        episode_length: usize,
+        termination_height: f64,
+    ) -> Result<Self, EnvError> {
         let mut orng = ChaCha8Rng::seed_from_u64(object_seed);
-        let scenes = (0..variants.clamp(1, num_envs.max(1))).map(|_| HsiScene::new(task.objects(&mut orng)).map(Arc::new)).collect::<Result<Vec<_>, _>>()?;
-        let sim = HsiBatch::new(scenes, num_envs, crate::config_range::capped_threads(threads, "env.threads"))?;
+        let scenes = (0..variants.clamp(1, num_envs.max(1)))
+            .map(|_| HsiScene::new(task.objects(&mut orng)).map(Arc::new))
+            .collect::<Result<Vec<_>, _>>()?;
+        let sim = HsiBatch::new(
+            scenes,
+            num_envs,
+            crate::config_range::capped_threads(threads, "env.threads"),
+        )?;
         let spec = task.spec().clone();
         let n = num_envs;
         let buf = StepBuffers::for_spec(n, &spec);
@@ -82,22 +97,27 @@ impl<T: HsiTask> HsiVecEnv<T> {
     }
 
     fn apply_resets(&mut self, clear_flags: bool) {
-        self.sim.reset(&self.reset_mask, &self.reset_states).expect("reset states are planned by the task");
+        self.sim
+            .reset(&self.reset_mask, &self.reset_states)
+            .expect("reset states are planned by the task");
         let d = self.task.spec().obs_dim;
         let ni = self.task.spec().info_names.len();
         let Self { sim, slots, buf, reset_mask, task, .. } = self;
         let (state, task, mask) = (sim.state(), &*task, &*reset_mask);
         sim.install(|| {
-            (slots.par_iter_mut(), buf.obs.par_chunks_mut(d)).into_par_iter().enumerate().for_each(|(i, (slot, obs))| {
-                if mask[i] {
-                    let st = state.env(i);
-                    slot.steps = 0;
-                    slot.prev_root = st.pos(0);
-                    slot.prev_obj = if state.bodies > NUM_BODIES { st.pos(NUM_BODIES) } else { [0.0; 3] };
-                    write_proprio(&st, &mut obs[..PROPRIO_DIM]);
-                    task.observe(&slot.goal, &st, 0, &mut obs[PROPRIO_DIM..]);
-                }
-            });
+            (slots.par_iter_mut(), buf.obs.par_chunks_mut(d)).into_par_iter().enumerate().for_each(
+                |(i, (slot, obs))| {
+                    if mask[i] {
+                        let st = state.env(i);
+                        slot.steps = 0;
+                        slot.prev_root = st.pos(0);
+                        slot.prev_obj =
+                            if state.bodies > NUM_BODIES { st.pos(NUM_BODIES) } else { [0.0; 3] };
+                        write_proprio(&st, &mut obs[..PROPRIO_DIM]);
+                        task.observe(&slot.goal, &st, 0, &mut obs[PROPRIO_DIM..]);
+                    }
+                },
+            );
         });
         for (i, &m) in mask.iter().enumerate() {
             if m {
@@ -115,34 +135,62 @@ impl<T: HsiTask> HsiVecEnv<T> {
     fn step_impl(&mut self, actions: &[f32]) -> Result<(), EnvError> {
         self.sim.step(actions)?;
         let spec = self.task.spec();
-        let (d, nt, ni, nm) = (spec.obs_dim, spec.term_names.len(), spec.info_names.len(), spec.metric_names.len());
+        let (d, nt, ni, nm) =
+            (spec.obs_dim, spec.term_names.len(), spec.info_names.len(), spec.metric_names.len());
         let (limit, th) = (self.episode_length, self.termination_height);
         let Self { sim, slots, buf, task, .. } = self;
         let (state, task) = (sim.state(), &*task);
         let n = slots.len();
-        let (terms, metrics, info) = (rows(&mut buf.terms, n, nt), rows(&mut buf.metrics, n, nm), rows(&mut buf.info, n, ni));
+        let (terms, metrics, info) = (
+            rows(&mut buf.terms, n, nt),
+            rows(&mut buf.metrics, n, nm),
+            rows(&mut buf.info, n, ni),
+        );
         sim.install(|| {
-            (slots.par_iter_mut(), buf.obs.par_chunks_mut(d), buf.reward.par_iter_mut(), terms, metrics, info, buf.terminated.par_iter_mut(), buf.truncated.par_iter_mut())
+            (
+                slots.par_iter_mut(),
+                buf.obs.par_chunks_mut(d),
+                buf.reward.par_iter_mut(),
+                terms,
+                metrics,
+                info,
+                buf.terminated.par_iter_mut(),
+                buf.truncated.par_iter_mut(),
+            )
                 .into_par_iter()
                 .enumerate()
-                .for_each(|(i, (slot, obs, reward, terms, metrics, info, terminated, truncated))| {
-                    let st = state.env(i);
-                    slot.steps += 1;
-                    let fallen = slot.steps > 1 && (0..NUM_BODIES).any(|b| !CONTACT_BODIES.contains(&b) && st.contact[b] != 0 && st.pos(b)[2] < th);
-                    let ctx = Ctx { st: &st, prev_root: slot.prev_root, prev_obj: slot.prev_obj, steps: slot.steps, fallen };
-                    let mut out = TaskOut { terms, metrics, fail: false, finish: false };
-                    task.step(&mut slot.goal, &ctx, &mut out);
-                    *reward = out.terms[nt - 1];
-                    *terminated = u8::from(fallen || out.fail || st.unstable);
-                    *truncated = u8::from(*terminated == 0 && (out.finish || slot.steps >= limit));
-                    slot.prev_root = st.pos(0);
-                    if state.bodies > NUM_BODIES {
-                        slot.prev_obj = st.pos(NUM_BODIES);
-                    }
-                    write_proprio(&st, &mut obs[..PROPRIO_DIM]);
-                    task.observe(&slot.goal, &st, slot.steps, &mut obs[PROPRIO_DIM..]);
-                    task.info(&slot.goal, slot.steps, info);
-                });
+                .for_each(
+                    |(i, (slot, obs, reward, terms, metrics, info, terminated, truncated))| {
+                        let st = state.env(i);
+                        slot.steps += 1;
+                        let fallen = slot.steps > 1
+                            && (0..NUM_BODIES).any(|b| {
+                                !CONTACT_BODIES.contains(&b)
+                                    && st.contact[b] != 0
+                                    && st.pos(b)[2] < th
+                            });
+                        let ctx = Ctx {
+                            st: &st,
+                            prev_root: slot.prev_root,
+                            prev_obj: slot.prev_obj,
+                            steps: slot.steps,
+                            fallen,
+                        };
+                        let mut out = TaskOut { terms, metrics, fail: false, finish: false };
+                        task.step(&mut slot.goal, &ctx, &mut out);
+                        *reward = out.terms[nt - 1];
+                        *terminated = u8::from(fallen || out.fail || st.unstable);
+                        *truncated =
+                            u8::from(*terminated == 0 && (out.finish || slot.steps >= limit));
+                        slot.prev_root = st.pos(0);
+                        if state.bodies > NUM_BODIES {
+                            slot.prev_obj = st.pos(NUM_BODIES);
+                        }
+                        write_proprio(&st, &mut obs[..PROPRIO_DIM]);
+                        task.observe(&slot.goal, &st, slot.steps, &mut obs[PROPRIO_DIM..]);
+                        task.info(&slot.goal, slot.steps, info);
+                    },
+                );
         });
         buf.unstable.copy_from_slice(&state.unstable);
         if self.autoreset {
@@ -154,7 +202,8 @@ impl<T: HsiTask> HsiVecEnv<T> {
                 self.reset_mask[i] = done;
                 if done {
                     any = true;
-                    self.buf.final_obs[i * d..(i + 1) * d].copy_from_slice(&self.buf.obs[i * d..(i + 1) * d]);
+                    self.buf.final_obs[i * d..(i + 1) * d]
+                        .copy_from_slice(&self.buf.obs[i * d..(i + 1) * d]);
                     self.plan(i);
                 }
             }
@@ -226,15 +275,17 @@ impl<T: HsiTask> Env for HsiVecEnv<T> {
         let Self { sim, slots, buf, task, .. } = self;
         let (state, task) = (sim.state(), &*task);
         sim.install(|| {
-            (slots.par_iter_mut(), buf.obs.par_chunks_mut(d)).into_par_iter().enumerate().for_each(|(i, (slot, obs))| {
-                let st = state.env(i);
-                slot.prev_root = st.pos(0);
-                if state.bodies > NUM_BODIES {
-                    slot.prev_obj = st.pos(NUM_BODIES);
-                }
-                write_proprio(&st, &mut obs[..PROPRIO_DIM]);
-                task.observe(&slot.goal, &st, slot.steps, &mut obs[PROPRIO_DIM..]);
-            });
+            (slots.par_iter_mut(), buf.obs.par_chunks_mut(d)).into_par_iter().enumerate().for_each(
+                |(i, (slot, obs))| {
+                    let st = state.env(i);
+                    slot.prev_root = st.pos(0);
+                    if state.bodies > NUM_BODIES {
+                        slot.prev_obj = st.pos(NUM_BODIES);
+                    }
+                    write_proprio(&st, &mut obs[..PROPRIO_DIM]);
+                    task.observe(&slot.goal, &st, slot.steps, &mut obs[PROPRIO_DIM..]);
+                },
+            );
         });
     }
     fn humanoid_sim(&self) -> Option<&BatchSim> {

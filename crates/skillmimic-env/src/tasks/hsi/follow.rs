@@ -64,8 +64,11 @@ pub struct Follow {
 
 impl Follow {
     pub fn new(cfg: &FollowConfig, random_heading: bool) -> Self {
-        let info_names = (0..NUM_POINTS).flat_map(|k| [format!("waypoint{k}_x"), format!("waypoint{k}_y")]).collect();
-        let spec = hsi_spec("hsi_follow", 2 * NUM_POINTS, cfg.episode_length, vec!["follow"], info_names);
+        let info_names = (0..NUM_POINTS)
+            .flat_map(|k| [format!("waypoint{k}_x"), format!("waypoint{k}_y")])
+            .collect();
+        let spec =
+            hsi_spec("hsi_follow", 2 * NUM_POINTS, cfg.episode_length, vec!["follow"], info_names);
         Self { spec, cfg: cfg.clone(), random_heading }
     }
 }
@@ -125,7 +128,9 @@ impl HsiTask for Follow {
             goal.within += 1;
         }
         out.metrics[0] = d as f32;
-        out.metrics[1] = f32::from(!goal.failed && goal.within as f64 >= self.cfg.success_fraction * ctx.steps as f64);
+        out.metrics[1] = f32::from(
+            !goal.failed && goal.within as f64 >= self.cfg.success_fraction * ctx.steps as f64,
+        );
     }
     fn info(&self, goal: &Goal, steps: usize, out: &mut [f32]) {
         let t = steps as f64 * DT;

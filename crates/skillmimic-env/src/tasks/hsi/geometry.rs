@@ -38,7 +38,11 @@ impl Local {
 pub fn corners(pos: Vec3, quat: Quat, lo: Vec3, hi: Vec3) -> [Vec3; 8] {
     let mut out = [[0.0; 3]; 8];
     for (k, c) in out.iter_mut().enumerate() {
-        let p = [if k & 4 == 0 { lo[0] } else { hi[0] }, if k & 2 == 0 { lo[1] } else { hi[1] }, if k & 1 == 0 { lo[2] } else { hi[2] }];
+        let p = [
+            if k & 4 == 0 { lo[0] } else { hi[0] },
+            if k & 2 == 0 { lo[1] } else { hi[1] },
+            if k & 1 == 0 { lo[2] } else { hi[2] },
+        ];
         let r = quat.rotate(p);
         *c = [pos[0] + r[0], pos[1] + r[1], pos[2] + r[2]];
     }
@@ -67,7 +71,14 @@ pub fn dir2d(from: Vec3, to: Vec3) -> [f64; 2] {
 
 /// `exp(−k (v* − d·v)²)`: the speed-towards-a-target reward of the far stage (Eqs. 3, 6, 9, 11),
 /// with the horizontal velocity `v` = finite difference of positions over `dt`.
-pub fn speed_reward(k: f64, target_speed: f64, d: [f64; 2], now: Vec3, before: Vec3, dt: f64) -> f64 {
+pub fn speed_reward(
+    k: f64,
+    target_speed: f64,
+    d: [f64; 2],
+    now: Vec3,
+    before: Vec3,
+    dt: f64,
+) -> f64 {
     let v = [(now[0] - before[0]) / dt, (now[1] - before[1]) / dt];
     (-k * (target_speed - (d[0] * v[0] + d[1] * v[1])).powi(2)).exp()
 }
@@ -82,8 +93,16 @@ pub fn dist_sq(a: Vec3, b: Vec3) -> f64 {
 /// heading (or +x), at rest. (Reference-state initialisation from retargeted clips is not used:
 /// the project ships none for these tasks.)
 pub fn stand_at_origin(rng: &mut ChaCha8Rng, random_heading: bool, reset: &mut HsiReset) -> f64 {
-    let yaw = if random_heading { rng.random_range(-std::f64::consts::PI..std::f64::consts::PI) } else { 0.0 };
-    *reset = HsiReset { root_pos: [0.0, 0.0, STANDING_ROOT_HEIGHT], root_quat: Quat::about_z(yaw), ..Default::default() };
+    let yaw = if random_heading {
+        rng.random_range(-std::f64::consts::PI..std::f64::consts::PI)
+    } else {
+        0.0
+    };
+    *reset = HsiReset {
+        root_pos: [0.0, 0.0, STANDING_ROOT_HEIGHT],
+        root_quat: Quat::about_z(yaw),
+        ..Default::default()
+    };
     yaw
 }
 

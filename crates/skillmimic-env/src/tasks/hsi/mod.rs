@@ -40,26 +40,51 @@ pub const DT: f64 = 1.0 / 30.0;
 
 /// The [`TaskSpec`] of a TokenHSI task: observation `[proprioception 222 | task_obs]`, the
 /// character's 32 actions, one environment step per action.
-pub fn hsi_spec(name: &'static str, task_obs: usize, episode_length: usize, term_names: Vec<&'static str>, info_names: Vec<String>) -> TaskSpec {
+pub fn hsi_spec(
+    name: &'static str,
+    task_obs: usize,
+    episode_length: usize,
+    term_names: Vec<&'static str>,
+    info_names: Vec<String>,
+) -> TaskSpec {
     TaskSpec {
         name,
         obs_dim: proprio::PROPRIO_DIM + task_obs,
-        action_space: crate::task::ActionSpace::Box { dim: skillmimic_core::hsi_character::NUM_DOFS },
+        action_space: crate::task::ActionSpace::Box {
+            dim: skillmimic_core::hsi_character::NUM_DOFS,
+        },
         max_episode_steps: episode_length,
         term_names,
         metric_names: vec!["error_m", "success"],
         info_names,
         steps_per_action: 1,
         choice_labels: Vec::new(),
-        token_groups: vec![("proprio".to_string(), proprio::PROPRIO_DIM), (name.to_string(), task_obs)],
+        token_groups: vec![
+            ("proprio".to_string(), proprio::PROPRIO_DIM),
+            (name.to_string(), task_obs),
+        ],
     }
 }
 
 /// The batched environment of `task` from the `[env]` table (`variants` compiled object
 /// variants): what every TokenHSI registry constructor does after building its task.
-pub fn build_env<T: HsiTask>(task: T, cfg: &crate::config::EnvConfig, variants: usize, episode_length: usize) -> Result<Box<dyn crate::vec_env::Env>, crate::error::EnvError> {
+pub fn build_env<T: HsiTask>(
+    task: T,
+    cfg: &crate::config::EnvConfig,
+    variants: usize,
+    episode_length: usize,
+) -> Result<Box<dyn crate::vec_env::Env>, crate::error::EnvError> {
     let h = &cfg.hsi;
-    Ok(Box::new(HsiVecEnv::new(task, variants, h.object_seed, cfg.num_envs, cfg.threads, cfg.start_seed(0), episode_length, h.termination_height)?))
+    Ok(Box::new(HsiVecEnv::new(
+        task,
+        variants,
+        h.object_seed,
+        cfg.num_envs,
+        cfg.threads,
+        cfg.start_seed(0),
+        episode_length,
+        h.termination_height,
+    )?))
 }
 
 /// What a task sees of one environment after a step.
@@ -97,7 +122,13 @@ pub trait HsiTask: Send + Sync + 'static {
     /// The objects of one compiled variant (sizes drawn from `rng`).
     fn objects(&self, rng: &mut ChaCha8Rng) -> Vec<HsiObject>;
     /// The start of an episode in `scene`: character and object states, and the goal.
-    fn plan(&self, scene: &HsiScene, rng: &mut ChaCha8Rng, reset: &mut HsiReset, goal: &mut Self::Goal);
+    fn plan(
+        &self,
+        scene: &HsiScene,
+        rng: &mut ChaCha8Rng,
+        reset: &mut HsiReset,
+        goal: &mut Self::Goal,
+    );
     /// The task observation (`obs_dim − 222` entries) at `steps` policy steps into the episode.
     fn observe(&self, goal: &Self::Goal, st: &HsiEnvState<'_>, steps: usize, out: &mut [f32]);
     /// Reward terms, metrics and task ends after a step.

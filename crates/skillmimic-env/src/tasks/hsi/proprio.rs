@@ -14,7 +14,8 @@ use skillmimic_core::math::{heading_inverse, sub, tan_norm};
 use skillmimic_sim::HsiEnvState;
 
 /// Width of the proprioception.
-pub const PROPRIO_DIM: usize = 3 * (NUM_BODIES - 1) + 6 * NUM_BODIES + 3 * NUM_BODIES + 3 * NUM_BODIES;
+pub const PROPRIO_DIM: usize =
+    3 * (NUM_BODIES - 1) + 6 * NUM_BODIES + 3 * NUM_BODIES + 3 * NUM_BODIES;
 
 /// Write the proprioception of `st` into `out[..222]`.
 pub fn write_proprio(st: &HsiEnvState<'_>, out: &mut [f32]) {

@@ -17,14 +17,17 @@
 //! * Metrics: `error_m` (root–target distance), `success` (below `success_distance`, not in a
 //!   step where the character fell): their values at an episode's end are the paper's error and
 //!   success.
-//! * Info (13, world): target (3), object position (3), object yaw (1), bounding box lo (3), hi (3).
+//! * Info (13, world): target (3), object position (3), object yaw (1), bounding box lo (3), hi
+//!   (3).
 
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use skillmimic_core::math::{Quat, Vec3, heading};
 use skillmimic_sim::{HsiEnvState, HsiObject, HsiReset, HsiScene, ObjectBox, ObjectState};
 
-use super::geometry::{draw, Local, corners, dir2d, dist2d, dist_sq, put, ring_point, speed_reward, stand_at_origin};
+use super::geometry::{
+    Local, corners, dir2d, dist_sq, dist2d, draw, put, ring_point, speed_reward, stand_at_origin,
+};
 use super::{Ctx, DT, HsiTask, TaskOut, hsi_spec};
 use crate::config::{EnvConfig, SitConfig};
 use crate::error::EnvError;
@@ -48,7 +51,14 @@ pub struct Goal {
 impl Goal {
     /// Place the scene's object 0 at `distance` from the origin with a random yaw; the target
     /// is `above` m over the centre of the object's top face (its bounding box's top).
-    pub fn place(scene: &HsiScene, rng: &mut ChaCha8Rng, distance: [f64; 2], above: f64, top_of: usize, reset: &mut HsiReset) -> Self {
+    pub fn place(
+        scene: &HsiScene,
+        rng: &mut ChaCha8Rng,
+        distance: [f64; 2],
+        above: f64,
+        top_of: usize,
+        reset: &mut HsiReset,
+    ) -> Self {
         let obj = &scene.objects()[0];
         let (lo, hi) = obj.bounds();
         let p = ring_point(rng, distance);
@@ -60,7 +70,14 @@ impl Goal {
         let b = obj.boxes[top_of];
         let local = [b.center[0], b.center[1], b.center[2] + b.half[2] + above];
         let r = q.rotate(local);
-        Self { target: [pos[0] + r[0], pos[1] + r[1], r[2]], obj_pos: pos, obj_quat: q, lo, hi, near_steps: 0 }
+        Self {
+            target: [pos[0] + r[0], pos[1] + r[1], r[2]],
+            obj_pos: pos,
+            obj_quat: q,
+            lo,
+            hi,
+            near_steps: 0,
+        }
     }
 
     /// World corners of the object's bounding box.
@@ -87,7 +104,14 @@ impl Goal {
     /// `error_m` (root–target distance) and `success` (below `success_distance`, and not in a
     /// step where the character fell), and the interaction early termination after `iet_steps`
     /// consecutive steps within `success_distance`.
-    pub fn finish_step(&mut self, root: Vec3, success_distance: f64, iet_steps: usize, fallen: bool, out: &mut TaskOut<'_>) {
+    pub fn finish_step(
+        &mut self,
+        root: Vec3,
+        success_distance: f64,
+        iet_steps: usize,
+        fallen: bool,
+        out: &mut TaskOut<'_>,
+    ) {
         let err = dist_sq(self.target, root).sqrt();
         out.finish = self.interaction_done(err, success_distance, iet_steps);
         out.metrics[0] = err as f32;
@@ -97,7 +121,24 @@ impl Goal {
 
 /// Info names of a [`Goal`].
 pub fn goal_info_names() -> Vec<String> {
-    ["target_x", "target_y", "target_z", "object_x", "object_y", "object_z", "object_yaw", "box_lo_x", "box_lo_y", "box_lo_z", "box_hi_x", "box_hi_y", "box_hi_z"].iter().map(|s| s.to_string()).collect()
+    [
+        "target_x",
+        "target_y",
+        "target_z",
+        "object_x",
+        "object_y",
+        "object_z",
+        "object_yaw",
+        "box_lo_x",
+        "box_lo_y",
+        "box_lo_z",
+        "box_hi_x",
+        "box_hi_y",
+        "box_hi_z",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect()
 }
 
 /// The sitting task.
@@ -109,7 +150,13 @@ pub struct Sit {
 
 impl Sit {
     pub fn new(cfg: &SitConfig, random_heading: bool) -> Self {
-        let spec = hsi_spec("hsi_sit", 38, cfg.episode_length, vec!["near", "far", "sit"], goal_info_names());
+        let spec = hsi_spec(
+            "hsi_sit",
+            38,
+            cfg.episode_length,
+            vec!["near", "far", "sit"],
+            goal_info_names(),
+        );
         Self { spec, cfg: cfg.clone(), random_heading }
     }
 }
@@ -123,9 +170,15 @@ impl HsiTask for Sit {
         let c = &self.cfg;
         let h = draw(rng, c.seat_height);
         let (depth, width) = (draw(rng, c.seat_size), draw(rng, c.seat_size));
-        let mut boxes = vec![ObjectBox { center: [0.0, 0.0, 0.5 * h], half: [0.5 * depth, 0.5 * width, 0.5 * h] }];
+        let mut boxes = vec![ObjectBox {
+            center: [0.0, 0.0, 0.5 * h],
+            half: [0.5 * depth, 0.5 * width, 0.5 * h],
+        }];
         if rng.random::<f64>() < c.backrest_prob {
-            boxes.push(ObjectBox { center: [-0.5 * depth + 0.03, 0.0, h + 0.25], half: [0.03, 0.5 * width, 0.25] });
+            boxes.push(ObjectBox {
+                center: [-0.5 * depth + 0.03, 0.0, h + 0.25],
+                half: [0.03, 0.5 * width, 0.25],
+            });
         }
         vec![HsiObject { name: "seat".into(), mass: None, boxes, rgba: [0.55, 0.4, 0.3, 1.0] }]
     }
@@ -148,7 +201,11 @@ impl HsiTask for Sit {
         let root = ctx.st.pos(0);
         let near = (-10.0 * dist_sq(goal.target, root)).exp();
         let far = speed_reward(2.0, 1.5, dir2d(root, goal.obj_pos), root, ctx.prev_root, DT);
-        let total = if dist2d(goal.obj_pos, root) > 0.5 { 0.7 * near + 0.3 * far } else { 0.7 * near + 0.3 };
+        let total = if dist2d(goal.obj_pos, root) > 0.5 {
+            0.7 * near + 0.3 * far
+        } else {
+            0.7 * near + 0.3
+        };
         out.terms[0] = near as f32;
         out.terms[1] = far as f32;
         out.terms[2] = total as f32;

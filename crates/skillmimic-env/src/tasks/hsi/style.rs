@@ -39,7 +39,9 @@ pub fn load_style_clips(paths: &[PathBuf]) -> Result<Vec<HsiClip>, EnvError> {
         }
     }
     if clips.is_empty() {
-        return Err(bad("env.hsi.style_motion", format!("no .safetensors clips under {paths:?}")).into());
+        return Err(
+            bad("env.hsi.style_motion", format!("no .safetensors clips under {paths:?}")).into()
+        );
     }
     Ok(clips)
 }
@@ -64,7 +66,13 @@ pub fn clip_state(clip: &HsiClip, t: usize) -> HsiReset {
     for b in &BODIES {
         match b.joint {
             JointSpec::Ball { .. } => {
-                let r = |x: &[f32]| skillmimic_core::math::Quat::from_rotvec([x[k] as f64, x[k + 1] as f64, x[k + 2] as f64]);
+                let r = |x: &[f32]| {
+                    skillmimic_core::math::Quat::from_rotvec([
+                        x[k] as f64,
+                        x[k + 1] as f64,
+                        x[k + 2] as f64,
+                    ])
+                };
                 let w = r(d0).conj().mul(r(d1)).normalized().to_rotvec();
                 for a in 0..3 {
                     s.dof_pos[k + a] = d[k + a] as f64;

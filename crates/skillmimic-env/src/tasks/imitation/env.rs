@@ -26,7 +26,8 @@ pub use crate::config::BUILTIN_DEMO;
 /// Load a motion library from clip files/folders; the entry `builtin:demo` stands for the
 /// procedurally synthesised demo clips (identical to the shipped `motions/` files).
 pub fn load_motion_library(paths: &[PathBuf]) -> Result<MotionLibrary, EnvError> {
-    let (builtin, files): (Vec<_>, Vec<_>) = paths.iter().cloned().partition(|p| p.as_os_str() == BUILTIN_DEMO);
+    let (builtin, files): (Vec<_>, Vec<_>) =
+        paths.iter().cloned().partition(|p| p.as_os_str() == BUILTIN_DEMO);
     let mut clips = Vec::new();
     if !builtin.is_empty() {
         clips.extend(crate::synth::demo_clips()?);
@@ -42,7 +43,12 @@ impl Imitation {
     /// The task for `cfg` over `lib` in `scene` (reference history features and the Stitched
     /// Trajectory Graph are computed here when switched on; `threads` sizes the pool that builds
     /// the graph).
-    pub fn new(cfg: EnvConfig, lib: Arc<MotionLibrary>, scene: &Arc<Scene>, threads: usize) -> Result<Self, EnvError> {
+    pub fn new(
+        cfg: EnvConfig,
+        lib: Arc<MotionLibrary>,
+        scene: &Arc<Scene>,
+        threads: usize,
+    ) -> Result<Self, EnvError> {
         cfg.validate()?;
         let (mut encoder, mut ref_features) = (None, Vec::new());
         if cfg.v2.history.enabled {
@@ -51,7 +57,10 @@ impl Imitation {
         }
         let graph = if cfg.v2.stg.enabled {
             // built on a pool of the simulation's size (0 = one thread per core)
-            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().map_err(|e| bad("env.threads", format!("cannot start {threads} threads: {e}")))?;
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .map_err(|e| bad("env.threads", format!("cannot start {threads} threads: {e}")))?;
             Some(pool.install(|| StitchGraph::build(&lib, &cfg.reward, cfg.v2.bridge.tau)))
         } else {
             None
@@ -67,7 +76,11 @@ impl Imitation {
             obs_dim: layout::OBS_DIM + encoder.as_ref().map_or(0, |e| e.embed_dim()),
             action_space: ActionSpace::Box { dim: NUM_DOFS },
             // an episode covers frames start … start + length − 1: length − 1 steps
-            max_episode_steps: if cfg.fixed_horizon > 0 { cfg.fixed_horizon } else { cfg.episode_length - 1 },
+            max_episode_steps: if cfg.fixed_horizon > 0 {
+                cfg.fixed_horizon
+            } else {
+                cfg.episode_length - 1
+            },
             term_names: TERM_NAMES.to_vec(),
             metric_names: FRAME_METRIC_NAMES.to_vec(),
             steps_per_action: 1,
@@ -77,7 +90,18 @@ impl Imitation {
         };
         // random balls of ball-free clips are placed with the radius actually simulated
         let ball_radius = scene.options().ball.radius;
-        Ok(Self { cfg, lib, spec, ball_radius, encoder, ref_features, graph, ats, clip_sums: Vec::new(), skill_override: None })
+        Ok(Self {
+            cfg,
+            lib,
+            spec,
+            ball_radius,
+            encoder,
+            ref_features,
+            graph,
+            ats,
+            clip_sums: Vec::new(),
+            skill_override: None,
+        })
     }
 }
 
@@ -87,7 +111,11 @@ impl VecEnv<Imitation> {
     pub fn new(cfg: EnvConfig, lib: Arc<MotionLibrary>) -> Result<Self, EnvError> {
         cfg.validate()?;
         let scene = Arc::new(Scene::new(cfg.scene_options()?)?);
-        let (n, threads, seed) = (cfg.num_envs, crate::config_range::capped_threads(cfg.threads, "env.threads"), cfg.start_seed(0));
+        let (n, threads, seed) = (
+            cfg.num_envs,
+            crate::config_range::capped_threads(cfg.threads, "env.threads"),
+            cfg.start_seed(0),
+        );
         let task = Imitation::new(cfg, lib, &scene, threads)?;
         VecEnv::with_task(task, scene, n, threads, seed)
     }

@@ -38,12 +38,12 @@ pub use env::{BUILTIN_DEMO, load_motion_library};
 /// The batched environment running the imitation task.
 pub type SkillEnv = VecEnv<Imitation>;
 
-
 /// Per-step evaluation errors stored for every environment.
 pub const NUM_FRAME_METRICS: usize = 4;
 /// Names of the frame metrics: body error (m, mean Euclidean error of root + 17 key bodies),
 /// ball error (m), contact graph matches the reference (0/1), contact-graph squared error.
-pub const FRAME_METRIC_NAMES: [&str; NUM_FRAME_METRICS] = ["body_err", "ball_err", "cg_match", "cg_sq_err"];
+pub const FRAME_METRIC_NAMES: [&str; NUM_FRAME_METRICS] =
+    ["body_err", "ball_err", "cg_match", "cg_sq_err"];
 
 /// How a pending reset starts (SkillMimic-V2 plans; `Plain` otherwise).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -130,7 +130,13 @@ impl Task for Imitation {
     /// probability p_n a perturbed start (connected to the clip after forward kinematics, in
     /// `after_reset`), otherwise with probability p_e the imitation of another skill from this
     /// state through the Stitched Trajectory Graph.
-    fn plan_reset(&mut self, _i: usize, slot: &mut ImitationSlot, rng: &mut ChaCha8Rng, state: &mut ResetState) {
+    fn plan_reset(
+        &mut self,
+        _i: usize,
+        slot: &mut ImitationSlot,
+        rng: &mut ChaCha8Rng,
+        state: &mut ResetState,
+    ) {
         let lib = Arc::clone(&self.lib);
         let (clip, start) = match (self.cfg.state_init, self.ats.as_ref()) {
             (StateInit::Random, Some(ats)) => ats.sample(rng),
@@ -189,10 +195,12 @@ impl Task for Imitation {
     /// reset state's (`paper`) or zero (`code`).
     fn after_reset(&self, _i: usize, slot: &mut ImitationSlot, st: &EnvState<'_>, obs: &mut [f32]) {
         let ImitationSlot { episode: ep, history, plan, source } = slot;
-        let (lib, cfg, enc): (&MotionLibrary, &EnvConfig, _) = (&self.lib, &self.cfg, self.encoder.as_deref());
+        let (lib, cfg, enc): (&MotionLibrary, &EnvConfig, _) =
+            (&self.lib, &self.cfg, self.encoder.as_deref());
         if *plan == ResetPlan::Connect {
             let m = lib.get(ep.clip);
-            let (j, beta) = connect(&HoiState::from_sim(st), m, &cfg.reward, ep.ball_free, cfg.compat);
+            let (j, beta) =
+                connect(&HoiState::from_sim(st), m, &cfg.reward, ep.ball_free, cfg.compat);
             let skill = ep.skill;
             *ep = new_episode(cfg, lib, ep.clip, j);
             ep.skill = skill;
@@ -205,14 +213,16 @@ impl Task for Imitation {
         }
         write_observation(st, ep.skill, &mut obs[..layout::OBS_DIM]);
         if let (Some(enc), Some(h)) = (enc, history.as_mut()) {
-            let (clip, frame) = if cfg.compat.is_code() { (ep.clip, ep.ref_start) } else { *source };
+            let (clip, frame) =
+                if cfg.compat.is_code() { (ep.clip, ep.ref_start) } else { *source };
             h.fill_from_reference(enc, &self.ref_features[clip], frame);
             observe(h, enc, obs, st.dof_pos, !ep.ball_free);
         }
     }
 
     fn step_env(&self, _i: usize, slot: &mut ImitationSlot, st: &EnvState<'_>, out: StepOut<'_>) {
-        let (lib, cfg, enc): (&MotionLibrary, &EnvConfig, _) = (&self.lib, &self.cfg, self.encoder.as_deref());
+        let (lib, cfg, enc): (&MotionLibrary, &EnvConfig, _) =
+            (&self.lib, &self.cfg, self.encoder.as_deref());
         let ep = &mut slot.episode;
         ep.progress += 1;
         let m = lib.get(ep.clip);
@@ -222,7 +232,16 @@ impl Task for Imitation {
         let mode = cfg.reward.contact_graph;
         let cg_sim = ContactGraph::from_sim(st, mode, cfg.reward.force_threshold);
         let cg_ref = ContactGraph::reference(m.clip.contact[frame] as f64, mode);
-        let t = reward::compute(&sim_hoi, &ep.prev_dof_vel, &ref_hoi, &cg_sim, &cg_ref, &cfg.reward, cfg.compat, ep.ball_free);
+        let t = reward::compute(
+            &sim_hoi,
+            &ep.prev_dof_vel,
+            &ref_hoi,
+            &cg_sim,
+            &cg_ref,
+            &cfg.reward,
+            cfg.compat,
+            ep.ball_free,
+        );
         ep.prev_dof_vel = sim_hoi.dof_vel;
         for (o, v) in out.terms.iter_mut().zip(t.as_array()) {
             *o = v as f32;
@@ -267,7 +286,9 @@ impl Task for Imitation {
     /// Reference-code compatibility of the masked steps (their reward becomes the mean reward of
     /// all environments currently on the same clip), then the sampler's update clock.
     fn after_step(&mut self, slots: &[ImitationSlot], reward: &mut [f32], terms: &[f32]) {
-        if self.cfg.v2.bridge.masked_reward(self.cfg.compat) == MaskedReward::ReplaceWithClipMean && slots.iter().any(|s| s.episode.masked_steps > 0 && s.episode.is_masked()) {
+        if self.cfg.v2.bridge.masked_reward(self.cfg.compat) == MaskedReward::ReplaceWithClipMean
+            && slots.iter().any(|s| s.episode.masked_steps > 0 && s.episode.is_masked())
+        {
             let total = TERM_NAMES.len() - 1;
             let sums = &mut self.clip_sums;
             sums.clear();

@@ -79,7 +79,14 @@ pub fn errors(sim: &BodyFrame, r: &BodyFrame, bodies: &[usize]) -> Errors {
         e.angvel2 += dw * dw;
     }
     let k = bodies.len() as f64;
-    Errors { pos2: e.pos2 / k, rot2: e.rot2 / k, vel2: e.vel2 / k, angvel2: e.angvel2 / k, dist: e.dist / k, dist_rel: e.dist_rel / k }
+    Errors {
+        pos2: e.pos2 / k,
+        rot2: e.rot2 / k,
+        vel2: e.vel2 / k,
+        angvel2: e.angvel2 / k,
+        dist: e.dist / k,
+        dist_rel: e.dist_rel / k,
+    }
 }
 
 /// Mechanical power Σ|τ · q̇| (W) of the joint drives at a state, τ per axis =
@@ -105,7 +112,13 @@ pub fn power(st: &EnvState<'_>, targets: &[f32], active: &[bool], force_limit: f
 /// angular velocity, then −power_coef · power, then the total.
 pub fn reward(e: &Errors, power: f64, cfg: &TrackingConfig) -> [f64; 6] {
     let (w, k) = (cfg.weights, cfg.scales);
-    let t = [w[0] * (-k[0] * e.pos2).exp(), w[1] * (-k[1] * e.rot2).exp(), w[2] * (-k[2] * e.vel2).exp(), w[3] * (-k[3] * e.angvel2).exp(), -cfg.power_coef * power];
+    let t = [
+        w[0] * (-k[0] * e.pos2).exp(),
+        w[1] * (-k[1] * e.rot2).exp(),
+        w[2] * (-k[2] * e.vel2).exp(),
+        w[3] * (-k[3] * e.angvel2).exp(),
+        -cfg.power_coef * power,
+    ];
     [t[0], t[1], t[2], t[3], t[4], t.iter().sum()]
 }
 
@@ -131,11 +144,20 @@ pub fn write_reference_obs(sim: &BodyFrame, r: &BodyFrame, bodies: &[usize], out
 /// Mean over `bodies` of ‖(x1 − x0) − (y1 − y0)‖ (velocity error per frame, same units as the
 /// positions) and of ‖(x2 − 2x1 + x0) − (y2 − 2y1 + y0)‖ (acceleration error per frame²), for
 /// simulated positions x0, x1, x2 (oldest first) and reference positions y0, y1, y2.
-pub fn vel_acc_errors(x: [&[[f64; 3]; NUM_BODIES]; 3], y: [&[[f64; 3]; NUM_BODIES]; 3], bodies: &[usize]) -> (f64, f64) {
+pub fn vel_acc_errors(
+    x: [&[[f64; 3]; NUM_BODIES]; 3],
+    y: [&[[f64; 3]; NUM_BODIES]; 3],
+    bodies: &[usize],
+) -> (f64, f64) {
     let (mut ve, mut ae) = (0.0, 0.0);
     for &b in bodies {
-        let v = std::array::from_fn::<f64, 3, _>(|c| (x[2][b][c] - x[1][b][c]) - (y[2][b][c] - y[1][b][c]));
-        let a = std::array::from_fn::<f64, 3, _>(|c| (x[2][b][c] - 2.0 * x[1][b][c] + x[0][b][c]) - (y[2][b][c] - 2.0 * y[1][b][c] + y[0][b][c]));
+        let v = std::array::from_fn::<f64, 3, _>(|c| {
+            (x[2][b][c] - x[1][b][c]) - (y[2][b][c] - y[1][b][c])
+        });
+        let a = std::array::from_fn::<f64, 3, _>(|c| {
+            (x[2][b][c] - 2.0 * x[1][b][c] + x[0][b][c])
+                - (y[2][b][c] - 2.0 * y[1][b][c] + y[0][b][c])
+        });
         ve += norm(v);
         ae += norm(a);
     }

@@ -38,7 +38,8 @@ use crate::tasks::imitation::load_motion_library;
 use crate::vec_env::{Env, VecEnv};
 use formulas::{BodyFrame, METRICS, REF_WIDTH, TERMS};
 
-/// Floats per body per reference frame: position 3, quaternion 4, linear and angular velocity 3 + 3.
+/// Floats per body per reference frame: position 3, quaternion 4, linear and angular velocity 3 +
+/// 3.
 const PACKED: usize = 13;
 
 /// Reference body states of one clip (float32, frame-major, [`PACKED`] per body).
@@ -66,7 +67,9 @@ impl ClipFrames {
         let at = |b: usize, k: usize| row[b * PACKED + k] as f64;
         BodyFrame {
             pos: self.positions(t),
-            quat: std::array::from_fn(|b| Quat::from_wxyz([at(b, 3), at(b, 4), at(b, 5), at(b, 6)])),
+            quat: std::array::from_fn(|b| {
+                Quat::from_wxyz([at(b, 3), at(b, 4), at(b, 5), at(b, 6)])
+            }),
             linvel: std::array::from_fn(|b| [at(b, 7), at(b, 8), at(b, 9)]),
             angvel: std::array::from_fn(|b| [at(b, 10), at(b, 11), at(b, 12)]),
         }
@@ -74,13 +77,26 @@ impl ClipFrames {
 }
 
 /// Every frame of every clip of `lib` posed in `scene` (batched resets, no physics step).
-pub fn reference_frames(scene: Arc<Scene>, lib: &MotionLibrary) -> Result<Vec<ClipFrames>, SimError> {
-    let mut out: Vec<ClipFrames> = lib.clips().iter().map(|m| ClipFrames { frames: m.clip.num_frames, data: vec![0.0; m.clip.num_frames * NUM_BODIES * PACKED] }).collect();
+pub fn reference_frames(
+    scene: Arc<Scene>,
+    lib: &MotionLibrary,
+) -> Result<Vec<ClipFrames>, SimError> {
+    let mut out: Vec<ClipFrames> = lib
+        .clips()
+        .iter()
+        .map(|m| ClipFrames {
+            frames: m.clip.num_frames,
+            data: vec![0.0; m.clip.num_frames * NUM_BODIES * PACKED],
+        })
+        .collect();
     crate::episode::pose_clips(scene, lib, |c, t, st| {
         for b in 0..NUM_BODIES {
             let (p, q, lv, av) = (st.pos(b), st.quat(b).to_wxyz(), st.linvel(b), st.angvel(b));
-            let flat = [p[0], p[1], p[2], q[0], q[1], q[2], q[3], lv[0], lv[1], lv[2], av[0], av[1], av[2]];
-            let dst = &mut out[c].data[(t * NUM_BODIES + b) * PACKED..(t * NUM_BODIES + b + 1) * PACKED];
+            let flat = [
+                p[0], p[1], p[2], q[0], q[1], q[2], q[3], lv[0], lv[1], lv[2], av[0], av[1], av[2],
+            ];
+            let dst =
+                &mut out[c].data[(t * NUM_BODIES + b) * PACKED..(t * NUM_BODIES + b + 1) * PACKED];
             dst.iter_mut().zip(&flat).for_each(|(d, &s)| *d = s as f32);
         }
     })?;
@@ -123,14 +139,20 @@ pub struct Tracking {
 
 impl Tracking {
     /// The task over `lib`, posed in `scene`.
-    pub fn new(cfg: &EnvConfig, lib: Arc<MotionLibrary>, scene: Arc<Scene>) -> Result<Self, EnvError> {
+    pub fn new(
+        cfg: &EnvConfig,
+        lib: Arc<MotionLibrary>,
+        scene: Arc<Scene>,
+    ) -> Result<Self, EnvError> {
         let t = cfg.tracking.clone();
         let bodies = formulas::tracked_bodies(t.fingers);
         let refs = reference_frames(scene.clone(), &lib)?;
         let longest = refs.iter().map(|r| r.frames).max().unwrap_or(2);
         let opts = cfg.scene_options()?;
         let welded = opts.hands == skillmimic_sim::HandModel::Box;
-        let active = (0..NUM_DOFS).map(|j| !(welded && skillmimic_core::skeleton::is_finger(j / 3 + 1))).collect();
+        let active = (0..NUM_DOFS)
+            .map(|j| !(welded && skillmimic_core::skeleton::is_finger(j / 3 + 1)))
+            .collect();
         let spec = TaskSpec {
             name: "tracking",
             obs_dim: layout::HUMANOID_DIM + REF_WIDTH * bodies.len(),
@@ -143,8 +165,19 @@ impl Tracking {
             choice_labels: Vec::new(),
             token_groups: Vec::new(),
         };
-        let cumulative = lib.cumulative_weighted(|c| t.clip_weights.get(&c.name).copied().unwrap_or(1.0));
-        Ok(Self { cfg: t, lib, refs, bodies, spec, force_limit: opts.force_limit, active, targets: vec![0.0; cfg.num_envs * NUM_DOFS], cumulative })
+        let cumulative =
+            lib.cumulative_weighted(|c| t.clip_weights.get(&c.name).copied().unwrap_or(1.0));
+        Ok(Self {
+            cfg: t,
+            lib,
+            refs,
+            bodies,
+            spec,
+            force_limit: opts.force_limit,
+            active,
+            targets: vec![0.0; cfg.num_envs * NUM_DOFS],
+            cumulative,
+        })
     }
 
     /// The probability of each clip (library order) to start an episode.
@@ -178,7 +211,13 @@ impl Task for Tracking {
         TrackSlot::default()
     }
 
-    fn plan_reset(&mut self, _i: usize, slot: &mut TrackSlot, rng: &mut ChaCha8Rng, state: &mut ResetState) {
+    fn plan_reset(
+        &mut self,
+        _i: usize,
+        slot: &mut TrackSlot,
+        rng: &mut ChaCha8Rng,
+        state: &mut ResetState,
+    ) {
         let clip = skillmimic_motion::library::sample_cumulative(&self.cumulative, rng);
         let frames = self.refs[clip].frames;
         let start = if self.cfg.random_start { rng.random_range(0..=frames - 2) } else { 0 };
@@ -187,7 +226,12 @@ impl Task for Tracking {
         state.ball_pos = [50.0, 50.0, 0.5];
         state.ball_linvel = [0.0; 3];
         state.ball_angvel_local = [0.0; 3];
-        *slot = TrackSlot { clip, frame: start, failed: false, hist: [self.refs[clip].positions(start.saturating_sub(1)), [[0.0; 3]; NUM_BODIES]] };
+        *slot = TrackSlot {
+            clip,
+            frame: start,
+            failed: false,
+            hist: [self.refs[clip].positions(start.saturating_sub(1)), [[0.0; 3]; NUM_BODIES]],
+        };
     }
 
     fn after_reset(&self, _i: usize, slot: &mut TrackSlot, st: &EnvState<'_>, obs: &mut [f32]) {
@@ -201,18 +245,34 @@ impl Task for Tracking {
         let refs = &self.refs[slot.clip];
         let (sim, r) = (BodyFrame::from_state(st), refs.frame(slot.frame));
         let e = formulas::errors(&sim, &r, &self.bodies);
-        let power = formulas::power(st, &self.targets[i * NUM_DOFS..(i + 1) * NUM_DOFS], &self.active, self.force_limit);
+        let power = formulas::power(
+            st,
+            &self.targets[i * NUM_DOFS..(i + 1) * NUM_DOFS],
+            &self.active,
+            self.force_limit,
+        );
         let terms = formulas::reward(&e, power, &self.cfg);
         out.terms.iter_mut().zip(&terms).for_each(|(o, &v)| *o = v as f32);
         *out.reward = terms[5] as f32;
-        let (p0, p1) = (refs.positions(slot.frame.saturating_sub(2)), refs.positions(slot.frame - 1));
-        let (ve, ae) = formulas::vel_acc_errors([&slot.hist[0], &slot.hist[1], &sim.pos], [&p0, &p1, &r.pos], &self.bodies);
+        let (p0, p1) =
+            (refs.positions(slot.frame.saturating_sub(2)), refs.positions(slot.frame - 1));
+        let (ve, ae) = formulas::vel_acc_errors(
+            [&slot.hist[0], &slot.hist[1], &sim.pos],
+            [&p0, &p1, &r.pos],
+            &self.bodies,
+        );
         slot.hist = [slot.hist[1], sim.pos];
         slot.failed |= e.dist > self.cfg.success_distance;
         let end = slot.frame + 1 >= refs.frames;
         let terminated = e.dist > self.cfg.termination_distance || st.unstable;
         let success = end && !terminated && !slot.failed;
-        out.metrics.copy_from_slice(&[(1e3 * e.dist) as f32, (1e3 * e.dist_rel) as f32, (1e3 * ve) as f32, (1e3 * ae) as f32, f32::from(u8::from(success))]);
+        out.metrics.copy_from_slice(&[
+            (1e3 * e.dist) as f32,
+            (1e3 * e.dist_rel) as f32,
+            (1e3 * ve) as f32,
+            (1e3 * ae) as f32,
+            f32::from(u8::from(success)),
+        ]);
         out.info.copy_from_slice(&[slot.clip as f32, slot.frame as f32]);
         self.write_obs(slot, &sim, st, out.obs);
         *out.terminated = u8::from(terminated);
@@ -231,7 +291,13 @@ impl Task for Tracking {
         true
     }
     /// The actions are the PD targets; they are kept for the power penalty.
-    fn actions_to_targets(&mut self, _slots: &[TrackSlot], _obs: &[f32], actions: &[f32], targets: &mut [f32]) -> Result<(), EnvError> {
+    fn actions_to_targets(
+        &mut self,
+        _slots: &[TrackSlot],
+        _obs: &[f32],
+        actions: &[f32],
+        targets: &mut [f32],
+    ) -> Result<(), EnvError> {
         targets.copy_from_slice(actions);
         self.targets.resize(actions.len(), 0.0);
         self.targets.copy_from_slice(actions);
@@ -246,7 +312,14 @@ pub fn build(cfg: &EnvConfig) -> Result<Box<dyn Env>, EnvError> {
     cfg.tracking.validate()?;
     let lib = Arc::new(load_motion_library(&cfg.motion)?);
     if let Some(c) = lib.clips().iter().find(|m| m.clip.num_frames < 2) {
-        return Err(bad("env.motion", format!("a clip of skill {} has {} frame(s); tracking needs at least 2", c.clip.skill, c.clip.num_frames)).into());
+        return Err(bad(
+            "env.motion",
+            format!(
+                "a clip of skill {} has {} frame(s); tracking needs at least 2",
+                c.clip.skill, c.clip.num_frames
+            ),
+        )
+        .into());
     }
     let scene = Arc::new(Scene::new(cfg.scene_options()?)?);
     let task = Tracking::new(cfg, lib, scene.clone())?;
