@@ -6,7 +6,7 @@ use std::sync::Arc;
 
 use mujoco_rs::prelude::*;
 use rand::{Rng, SeedableRng};
-use skillmimic_core::skeleton::NUM_DOFS;
+use skillmimic_core::characters::skillmimic::NUM_DOFS;
 use skillmimic_sim::{BatchSim, HandModel, Scene};
 
 #[derive(clap::Args)]
@@ -97,8 +97,8 @@ impl RawLoop {
         use rayon::prelude::*;
         let step_env = |i: usize, d: &mut MjData<Arc<MjModel>>| {
             let row = &a[i * NUM_DOFS..(i + 1) * NUM_DOFS];
-            for (c, &j) in d.ctrl_mut().iter_mut().zip(&scene.actuator_action) {
-                *c = (row[j] as f64).clamp(-1.0, 1.0) * std::f64::consts::PI;
+            for (c, &(j, map)) in d.ctrl_mut().iter_mut().zip(&scene.actuators) {
+                *c = map.target((row[j] as f64).clamp(-1.0, 1.0));
             }
             d.step();
             d.step();

@@ -32,7 +32,7 @@ pub fn run(a: SimArgs) -> anyhow::Result<()> {
             .iter()
             .map(|&solver| {
                 Scene::new(SceneOptions {
-                    hands: h,
+                    character: skillmimic_sim::Character::SkillMimic { hands: h },
                     solver: SolverOptions { solver, ..Default::default() },
                     ..Default::default()
                 })
@@ -60,7 +60,7 @@ pub fn run(a: SimArgs) -> anyhow::Result<()> {
         }
         let n = (a.rounds * w.steps() * a.envs) as f64;
         let scene = &scenes[0];
-        let (root, ball) = (scene.root_qpos.unwrap_or(0), scene.ball_qpos);
+        let (root, ball) = (scene.root_qpos.unwrap_or(0), scene.ball_qpos().unwrap_or(0));
         let drift = |l: &RawLoop, at: usize| {
             l.datas
                 .iter()

@@ -1,10 +1,11 @@
-//! `skillmimic mjcf`: write the shipped scene files.
+//! `skillmimic mjcf`: write the shipped scene files, one per character variant (the SkillMimic
+//! humanoid with its ball and either hand model, the bare TokenHSI character and SMPL humanoid).
 
 use std::path::PathBuf;
 
 use anyhow::Context;
-use skillmimic_sim::mjcf::{default_scene_file, scene_xml};
-use skillmimic_sim::{HandModel, SceneOptions};
+use skillmimic_sim::Character;
+use skillmimic_sim::mjcf::{default_scene, default_scene_file, scene_xml};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -16,9 +17,9 @@ pub struct Args {
 pub fn run(a: Args) -> anyhow::Result<()> {
     std::fs::create_dir_all(&a.out_dir)
         .with_context(|| format!("cannot create {}", a.out_dir.display()))?;
-    for hands in [HandModel::Full, HandModel::Box] {
-        let path = a.out_dir.join(default_scene_file(hands));
-        let xml = scene_xml(&SceneOptions { hands, ..Default::default() });
+    for character in Character::VARIANTS {
+        let path = a.out_dir.join(default_scene_file(character));
+        let xml = scene_xml(&default_scene(character));
         skillmimic_core::tensorfile::write_bytes_atomic(&path, xml.as_bytes())
             .with_context(|| format!("cannot write {}", path.display()))?;
         tracing::info!("wrote {}", path.display());

@@ -3,13 +3,14 @@
 //!   and optionally `--ik`: a motion → a clip of the SkillMimic humanoid in the project format
 //!   (`skillmimic_motion::retarget_bvh`, `retarget_positions`, `retarget_clip`) with a JSON report
 //!   (foot penetration and sliding, joint-speed spikes, scale, IK residuals);
-//! * `--to tokenhsi --motion …`: SkillMimic-skeleton clips (BallPlay-M `.pt` or the project format)
-//!   → clips of the TokenHSI character (`tokenhsi-clip` format, `skillmimic_motion::hsi_clip`), by
-//!   shared joints (`skillmimic_motion::retarget_hsi`), with a JSON report per clip: foot height
-//!   error over the source's stance frames and joint-limit violations.
+//! * `--to tokenhsi|smpl --motion …`: SkillMimic-skeleton clips (BallPlay-M `.pt` or the project
+//!   format) → clips of the TokenHSI character or the SMPL humanoid (`character-clip` format,
+//!   `skillmimic_motion::character_clip`), by shared joints (`skillmimic_motion::retarget_hsi`,
+//!   `retarget_smpl`), with a JSON report per clip (TokenHSI: foot height error over the source's
+//!   stance frames and joint-limit violations; SMPL: scale, ground shift, foot height error).
 //!
 //! Users who bring AMASS / SAMP / OMOMO motions for the sit, climb and carry styles (not
-//! redistributable here) write the `tokenhsi-clip` arrays directly from their SMPL retargets: the
+//! redistributable here) write the `character-clip` arrays directly from their SMPL retargets: the
 //! character's lower body has SMPL's neutral offsets, so SMPL joint rotations of the shared joints
 //! transfer as they are (see docs/tokenhsi.md).
 
@@ -19,10 +20,11 @@ use anyhow::{Context, bail};
 use skillmimic_motion::Clip;
 use skillmimic_motion::library::find_clip_files;
 use skillmimic_motion::retarget_hsi::retarget_to_hsi;
+use skillmimic_motion::retarget_smpl::retarget_to_smpl;
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// Target character (only `tokenhsi`).
+    /// Target character of `--motion`: `tokenhsi` or `smpl`.
     #[arg(long, default_value = "tokenhsi")]
     pub to: String,
     /// Source clip files or folders (repeatable).
@@ -92,8 +94,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     if let Some(csv) = a.positions.clone() {
         return run_positions(&a, &csv);
     }
-    if a.to != "tokenhsi" {
-        bail!("--to '{}': the only target character is 'tokenhsi'", a.to);
+    if a.to != "tokenhsi" && a.to != "smpl" {
+        bail!("--to '{}': the target characters are 'tokenhsi' and 'smpl'", a.to);
     }
     let mut files = Vec::new();
     for m in &a.motion {
@@ -107,6 +109,22 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let mut reports = Vec::new();
     for f in &files {
         let clip = Clip::load_any(f)?;
+        if a.to == "smpl" {
+            let (out, rep) = retarget_to_smpl(&clip);
+            let path = a.out.join(format!("{}.safetensors", clip.name));
+            out.save(&path).with_context(|| format!("cannot write {}", path.display()))?;
+            println!(
+                "{}: {} frames, scale {:.3}, ground shift {:.1} mm, foot height error {:.1} mm mean / {:.1} mm max over the stance frames",
+                clip.name,
+                rep.frames,
+                rep.scale,
+                1000.0 * rep.ground_shift,
+                1000.0 * rep.foot_height_error_mean,
+                1000.0 * rep.foot_height_error_max
+            );
+            reports.push(serde_json::to_value(&rep)?);
+            continue;
+        }
         let (out, rep) = retarget_to_hsi(&clip);
         let path = a.out.join(format!("{}.safetensors", clip.name));
         out.save(&path).with_context(|| format!("cannot write {}", path.display()))?;
@@ -122,7 +140,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             100.0 * rep.frames_with_violation,
             rep.max_violation.to_degrees()
         );
-        reports.push(rep);
+        reports.push(serde_json::to_value(&rep)?);
     }
     let path = a.out.join("retarget_report.json");
     skillmimic_core::tensorfile::write_bytes_atomic(

@@ -9,7 +9,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use rand::{Rng, SeedableRng};
-use skillmimic_core::skeleton::NUM_DOFS;
+use skillmimic_core::characters::skillmimic::NUM_DOFS;
 use skillmimic_sim::{BatchSim, ContactPair, HandModel, ResetState, Scene};
 
 #[derive(clap::Args)]

@@ -27,7 +27,6 @@ mod cmd_play;
 mod cmd_policy;
 mod cmd_retarget;
 mod cmd_trace;
-mod cmd_trace_hsi;
 mod cmd_train;
 mod common;
 mod demo;

@@ -107,8 +107,11 @@ fn joint_positions_csv_retargets_with_ik_and_trains() {
             .join("motions/050_synth_stand_dribble_right.safetensors"),
     )
     .unwrap();
-    let names: Vec<&str> =
-        skillmimic_core::skeleton::BODIES.iter().map(|b| b.name).chain(["Ball"]).collect();
+    let names: Vec<&str> = skillmimic_core::characters::skillmimic::BODIES
+        .iter()
+        .map(|b| b.name)
+        .chain(["Ball"])
+        .collect();
     let mut csv = names
         .iter()
         .flat_map(|n| ["x", "y", "z"].map(|a| format!("{n}_{a}")))

@@ -1,8 +1,9 @@
 //! Shared foundation of skillmimic-rs.
 //!
-//! * [`skeleton`]: the SkillMimic humanoid (53 bodies, depth-first order, offsets, geoms, PD gains,
-//!   named body sets). Every other crate indexes bodies and joint triples through this table.
-//! * [`hsi_character`]: the TokenHSI character (15 bodies, 32 dofs, gains, action scaling).
+//! * [`characters`]: the simulated characters, each one module — the SkillMimic humanoid
+//!   (`characters::skillmimic`: 53 bodies, the clip columns' order), the TokenHSI character
+//!   (`characters::tokenhsi`: 15 bodies, 32 dofs) and the SMPL humanoid (`characters::smpl`: 24
+//!   bodies, 69 dofs) — and the [`characters::CharacterSpec`] the simulation reads;
 //! * [`math`]: rotations in `f64` (quaternions stored **w, x, y, z** as MuJoCo does, rotation
 //!   vectors / exponential maps, heading frame, tan-norm 6D).
 //! * [`tensorfile`]: safetensors reading with validation and atomic writing.
@@ -10,10 +11,9 @@
 //! * [`panic_message`]: the text of a caught panic (the CLI, the Python module and the fuzzer
 //!   report panics with it).
 
-pub mod hsi_character;
+pub mod characters;
 pub mod math;
 pub mod shared_data;
-pub mod skeleton;
 pub mod tensorfile;
 
 /// The message of a panic caught with `std::panic::catch_unwind` (`panic!` payloads are a

@@ -12,7 +12,7 @@
 
 use std::sync::Arc;
 
-use skillmimic_core::skeleton::KEY_BODIES;
+use skillmimic_core::characters::skillmimic::KEY_BODIES;
 use skillmimic_motion::MotionLibrary;
 use skillmimic_sim::{Scene, SimError};
 

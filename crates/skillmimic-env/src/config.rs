@@ -256,7 +256,12 @@ pub struct EnvConfig {
     /// Simulation threads (0 = one per core; a count above four per core is capped to that).
     #[schemars(range(max = crate::config_range::MAX_THREADS))]
     pub threads: usize,
-    /// Hand model: "full" (156 dofs) or "box" (fingers welded).
+    /// The character the task drives: "skillmimic" (the SkillMimic humanoid), "tokenhsi" (the
+    /// TokenHSI character) or "smpl" (the SMPL humanoid); empty = the task's default (its first
+    /// supported character). A task refuses a character it does not run on, naming the ones it
+    /// does.
+    pub character: String,
+    /// Hand model of the SkillMimic humanoid: "full" (156 dofs) or "box" (fingers welded).
     pub hands: String,
     /// Maximum episode length in policy steps (reference frames), 60 = 1 s.
     #[schemars(range(min = 2))]
@@ -316,6 +321,7 @@ impl Default for EnvConfig {
             motion: vec![PathBuf::from(BUILTIN_DEMO)],
             num_envs: 64,
             threads: 0,
+            character: String::new(),
             hands: "full".into(),
             episode_length: 60,
             termination_height: 0.3,
@@ -350,7 +356,9 @@ pub struct StandConfig {
     /// Episode length in policy steps (60 = 1 s).
     #[schemars(range(min = 1))]
     pub episode_length: usize,
-    /// Pelvis height at the start (m); the zero pose's feet then touch the floor.
+    /// Pelvis height at the start (m); 0 = the character's rest height, where the zero pose's
+    /// feet touch the floor (SkillMimic humanoid 0.95, TokenHSI character 0.92, SMPL humanoid
+    /// 0.937).
     pub start_height: f64,
     /// Target pelvis height z* (m).
     pub target_height: f64,
@@ -371,7 +379,7 @@ impl Default for StandConfig {
     fn default() -> Self {
         Self {
             episode_length: 300,
-            start_height: 0.95,
+            start_height: 0.0,
             target_height: 0.9,
             termination_height: 0.5,
             height_weight: 0.5,
@@ -399,8 +407,31 @@ impl EnvConfig {
         }
     }
 
-    /// Scene options after the ball overrides.
+    /// The character named by `character` (empty: the SkillMimic humanoid; the registry fills in
+    /// the task's default before a task is built).
+    pub fn resolved_character(&self) -> Result<skillmimic_sim::Character, ConfigError> {
+        let name = if self.character.is_empty() { "skillmimic" } else { self.character.as_str() };
+        skillmimic_sim::Character::by_name(name, self.hand_model()?).ok_or_else(|| {
+            bad(
+                "env.character",
+                format!(
+                    "'{name}' is not a character; registered: {}",
+                    skillmimic_sim::Character::NAMES.join(", ")
+                ),
+            )
+        })
+    }
+
+    /// The scene of the configured character: the SkillMimic humanoid with the ball (after the
+    /// ball overrides), any other character bare.
     pub fn scene_options(&self) -> Result<SceneOptions, ConfigError> {
+        let character = self.resolved_character()?;
+        if !matches!(character, skillmimic_sim::Character::SkillMimic { .. }) {
+            return Ok(SceneOptions {
+                solver: self.physics.solver_options(),
+                ..SceneOptions::bare(character)
+            });
+        }
         let base = BallParams::default();
         let b = &self.ball;
         let ball = BallParams {
@@ -416,8 +447,8 @@ impl EnvConfig {
             },
         };
         Ok(SceneOptions {
-            hands: self.hand_model()?,
-            ball,
+            character,
+            ball: Some(ball),
             solver: self.physics.solver_options(),
             ..Default::default()
         })
@@ -469,7 +500,7 @@ mod tests {
         assert_eq!(c.reward.variant, RewardVariant::Additive);
         assert_eq!(c.reward.w_p, 10.0);
         assert_eq!(c.reward.w_r, 20.0);
-        assert!((c.scene_options().unwrap().ball.radius - 0.144).abs() < 1e-12);
+        assert!((c.scene_options().unwrap().ball.unwrap().radius - 0.144).abs() < 1e-12);
         let e = toml::from_str::<EnvConfig>("num_env = 8").unwrap_err().to_string();
         assert!(e.contains("unknown field `num_env`"), "{e}");
         let mut c = EnvConfig::default();

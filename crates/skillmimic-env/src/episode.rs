@@ -9,8 +9,8 @@
 //! height after the first step, or when MuJoCo reports an instability.
 
 use rand::Rng;
+use skillmimic_core::characters::skillmimic::NUM_DOFS;
 use skillmimic_core::math::Quat;
-use skillmimic_core::skeleton::NUM_DOFS;
 use skillmimic_motion::MotionClip;
 use skillmimic_motion::reference::vec3_at;
 use skillmimic_sim::ResetState;
@@ -91,43 +91,53 @@ impl Episode {
     }
 }
 
-/// The physical state of frame `t` of a clip: root pose and velocities (root angular velocity in
-/// the root frame), joint exp maps and their finite-difference velocities, ball position and
-/// velocity with the clip's ball orientation and zero angular velocity.
+/// The physical state of frame `t` of a clip (a SkillMimic scene with the ball): root pose and
+/// velocities (root angular velocity in the root frame), joint exp maps and their
+/// finite-difference velocities, ball position and velocity with the clip's ball orientation and
+/// zero angular velocity.
 pub fn reset_state_from_clip(m: &MotionClip, t: usize) -> ResetState {
+    let mut s = ResetState::default();
+    fill_from_clip(&mut s, m, t);
+    s
+}
+
+/// [`reset_state_from_clip`] written into `s` in place (no allocation); `s` holds the
+/// humanoid's 156 dofs and the ball as object 0.
+pub fn fill_from_clip(s: &mut ResetState, m: &MotionClip, t: usize) {
     let (c, r) = (&m.clip, &m.reference);
-    ResetState {
-        root_pos: c.root_pos_at(t),
-        root_quat: c.root_quat_at(t),
-        root_linvel: vec3_at(&r.root_linvel, t),
-        root_angvel_local: vec3_at(&r.root_angvel_local, t),
-        dof_pos: std::array::from_fn(|j| c.dof_at(t)[j] as f64),
-        dof_vel: std::array::from_fn(|j| r.dof_vel[t * NUM_DOFS + j] as f64),
-        ball_pos: c.ball_pos_at(t),
-        ball_quat: c.ball_quat_at(t),
-        ball_linvel: vec3_at(&r.ball_linvel, t),
-        ball_angvel_local: [0.0; 3],
+    s.root_pos = c.root_pos_at(t);
+    s.root_quat = c.root_quat_at(t);
+    s.root_linvel = vec3_at(&r.root_linvel, t);
+    s.root_angvel_local = vec3_at(&r.root_angvel_local, t);
+    for (j, (p, v)) in s.dof_pos.iter_mut().zip(s.dof_vel.iter_mut()).enumerate() {
+        *p = c.dof_at(t)[j] as f64;
+        *v = r.dof_vel[t * NUM_DOFS + j] as f64;
     }
+    let ball = s.ball_mut();
+    ball.pos = c.ball_pos_at(t);
+    ball.quat = c.ball_quat_at(t);
+    ball.linvel = vec3_at(&r.ball_linvel, t);
+    ball.angvel_local = [0.0; 3];
 }
 
 /// Random ball state for clips without a ball: position uniform in [−5, 5]² × [radius, 5] (the
 /// original draws z from [−5, 5], i.e. possibly below the floor; we keep it above), velocity
 /// uniform in [0, 5]³, a uniformly random orientation, angular velocity uniform in [0, 0.1]³.
 pub fn random_ball<R: Rng>(s: &mut ResetState, radius: f64, rng: &mut R) {
-    s.ball_pos =
+    let s = s.ball_mut();
+    s.pos =
         [rng.random_range(-5.0..5.0), rng.random_range(-5.0..5.0), rng.random_range(radius..5.0)];
-    s.ball_linvel =
-        [rng.random_range(0.0..5.0), rng.random_range(0.0..5.0), rng.random_range(0.0..5.0)];
+    s.linvel = [rng.random_range(0.0..5.0), rng.random_range(0.0..5.0), rng.random_range(0.0..5.0)];
     // uniform random rotation (Shoemake)
     let (u1, u2, u3): (f64, f64, f64) = (rng.random(), rng.random(), rng.random());
     let tau = std::f64::consts::TAU;
-    s.ball_quat = Quat {
+    s.quat = Quat {
         w: (1.0 - u1).sqrt() * (tau * u2).sin(),
         x: (1.0 - u1).sqrt() * (tau * u2).cos(),
         y: u1.sqrt() * (tau * u3).sin(),
         z: u1.sqrt() * (tau * u3).cos(),
     };
-    s.ball_angvel_local =
+    s.angvel_local =
         [rng.random_range(0.0..0.1), rng.random_range(0.0..0.1), rng.random_range(0.0..0.1)];
 }
 
@@ -150,7 +160,7 @@ pub fn pose_clips(
             let frames = start..(start + N).min(m.clip.num_frames);
             mask.fill(false);
             for (k, t) in frames.clone().enumerate() {
-                states[k] = reset_state_from_clip(m, t);
+                fill_from_clip(&mut states[k], m, t);
                 mask[k] = true;
             }
             sim.reset(&mask, &states)?;

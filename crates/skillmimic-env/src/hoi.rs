@@ -5,8 +5,8 @@
 //! the same fields; the reference comes from the clip (stored key-body positions, finite-
 //! difference velocities), the simulated one from the state read-out after the step.
 
+use skillmimic_core::characters::skillmimic::{KEY_BODIES, NUM_DOFS, REFERENCE_BODY_NODE};
 use skillmimic_core::math::{Quat, norm};
-use skillmimic_core::skeleton::{KEY_BODIES, NUM_DOFS, REFERENCE_BODY_NODE};
 use skillmimic_motion::reference::vec3_at;
 use skillmimic_motion::{MotionClip, NUM_KEY};
 use skillmimic_sim::{BALL, ContactPair, EnvState};

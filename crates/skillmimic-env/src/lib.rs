@@ -33,6 +33,7 @@ pub mod error;
 pub mod hoi;
 pub mod metrics;
 pub mod obs;
+pub mod proprio;
 pub mod registry;
 pub mod replay;
 pub mod reward;

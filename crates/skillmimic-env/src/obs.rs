@@ -20,8 +20,8 @@
 
 use std::ops::Range;
 
-use skillmimic_core::math::{Quat, heading_inverse, sub, tan_norm};
-use skillmimic_core::skeleton::{FINGERTIPS, NUM_BODIES};
+use skillmimic_core::characters::skillmimic::{NUM_BODIES, PROPRIO};
+use skillmimic_core::math::{Quat, heading_inverse, tan_norm};
 use skillmimic_motion::SKILL_WIDTH;
 use skillmimic_sim::{BALL, EnvState};
 
@@ -74,25 +74,12 @@ fn put3(out: &mut [f32], at: usize, v: [f64; 3]) {
     out[at + 2] = v[2] as f32;
 }
 
-/// Write the 838 state entries (humanoid + ball) of the observation into `out[..838]`.
+/// Write the 838 state entries (humanoid + ball) of the observation into `out[..838]`: the
+/// humanoid's proprioception ([`crate::proprio`], 823), then the ball.
 pub fn write_state_obs(st: &EnvState<'_>, out: &mut [f32]) {
+    crate::proprio::write(&PROPRIO, NUM_BODIES, st, &mut out[..layout::HUMANOID_DIM]);
     let root = st.pos(0);
     let hinv: Quat = heading_inverse(st.quat(0));
-    out[0] = root[2] as f32;
-    for b in 1..NUM_BODIES {
-        put3(out, layout::BODY_POS.start + 3 * (b - 1), hinv.rotate(sub(st.pos(b), root)));
-    }
-    for b in 0..NUM_BODIES {
-        let t = tan_norm(hinv.mul(st.quat(b)));
-        for k in 0..6 {
-            out[layout::BODY_ROT.start + 6 * b + k] = t[k] as f32;
-        }
-        put3(out, layout::BODY_LINVEL.start + 3 * b, hinv.rotate(st.linvel(b)));
-        put3(out, layout::BODY_ANGVEL.start + 3 * b, hinv.rotate(st.angvel(b)));
-    }
-    for (k, &b) in FINGERTIPS.iter().enumerate() {
-        put3(out, layout::FINGERTIP_FORCE.start + 3 * k, st.contact_force(b));
-    }
     let ball = st.pos(BALL);
     put3(out, layout::BALL_POS.start, hinv.rotate([ball[0] - root[0], ball[1] - root[1], ball[2]]));
     let t = tan_norm(hinv.mul(st.quat(BALL)));

@@ -1,19 +1,12 @@
-//! The task registry: name → constructor. Adding a task = one module under `tasks/` and one line
-//! in [`TASKS`] (plus its config table in `EnvConfig`).
+//! The task registry: name → constructor and the characters a task runs on. Adding a task = one
+//! module under `tasks/` and one line in [`TASKS`] (plus its config table in `EnvConfig`).
 
 use crate::config::EnvConfig;
 use crate::error::EnvError;
 use crate::tasks;
 use crate::vec_env::Env;
 
-/// The simulated character a task drives (what its observation's first entries describe).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Character {
-    /// The 53-body SkillMimic humanoid (observation starts with its 823 humanoid entries).
-    SkillMimic,
-    /// The 15-body, 32-DoF TokenHSI character (observation starts with its 222-d proprioception).
-    TokenHsi,
-}
+pub use skillmimic_sim::Character;
 
 /// A registered task.
 pub struct TaskEntry {
@@ -27,12 +20,17 @@ pub struct TaskEntry {
     pub high_level: bool,
     /// Skill label of each discrete choice of a high-level task (empty for the others).
     pub choices: &'static [u32],
-    /// The character (the adversarial motion prior reads its features and reference clips).
-    pub character: Character,
+    /// The characters the task runs on (registry names of `skillmimic_core::characters`), the
+    /// first the default (`env.character` empty).
+    pub characters: &'static [&'static str],
     /// Build the batched environment from the `[env]` table (episode starts seeded with
     /// `cfg.start_seed(0)`; trainers set `env.seed` explicitly first).
     pub build: fn(&EnvConfig) -> Result<Box<dyn Env>, EnvError>,
 }
+
+const SKILLMIMIC: &[&str] = &["skillmimic"];
+const TOKENHSI: &[&str] = &["tokenhsi"];
+const ALL: &[&str] = &skillmimic_sim::Character::NAMES;
 
 /// Every task, in listing order.
 pub const TASKS: &[TaskEntry] = &[
@@ -41,7 +39,7 @@ pub const TASKS: &[TaskEntry] = &[
         summary: "SkillMimic imitation of human–ball clips (+ SkillMimic-V2 parts)",
         high_level: false,
         choices: &[],
-        character: Character::SkillMimic,
+        characters: SKILLMIMIC,
         build: tasks::imitation::env::build,
     },
     TaskEntry {
@@ -49,7 +47,7 @@ pub const TASKS: &[TaskEntry] = &[
         summary: "keep the pelvis height and the start heading (no clip, no ball)",
         high_level: false,
         choices: &[],
-        character: Character::SkillMimic,
+        characters: ALL,
         build: tasks::stand::build,
     },
     TaskEntry {
@@ -57,7 +55,7 @@ pub const TASKS: &[TaskEntry] = &[
         summary: "motion tracking of clips without the ball (ModSkill, PHC): next-frame reference observation",
         high_level: false,
         choices: &[],
-        character: Character::SkillMimic,
+        characters: SKILLMIMIC,
         build: tasks::tracking::build,
     },
     TaskEntry {
@@ -65,7 +63,7 @@ pub const TASKS: &[TaskEntry] = &[
         summary: "TokenHSI: follow a procedural 2-D trajectory (32-DoF TokenHSI character)",
         high_level: false,
         choices: &[],
-        character: Character::TokenHsi,
+        characters: TOKENHSI,
         build: tasks::hsi::follow::build,
     },
     TaskEntry {
@@ -73,7 +71,7 @@ pub const TASKS: &[TaskEntry] = &[
         summary: "TokenHSI: sit on a procedural chair or stool (32-DoF TokenHSI character)",
         high_level: false,
         choices: &[],
-        character: Character::TokenHsi,
+        characters: TOKENHSI,
         build: tasks::hsi::sit::build,
     },
     TaskEntry {
@@ -81,7 +79,7 @@ pub const TASKS: &[TaskEntry] = &[
         summary: "TokenHSI: climb onto a procedural platform (32-DoF TokenHSI character)",
         high_level: false,
         choices: &[],
-        character: Character::TokenHsi,
+        characters: TOKENHSI,
         build: tasks::hsi::climb::build,
     },
     TaskEntry {
@@ -89,7 +87,7 @@ pub const TASKS: &[TaskEntry] = &[
         summary: "TokenHSI: carry a box between two supports (32-DoF TokenHSI character)",
         high_level: false,
         choices: &[],
-        character: Character::TokenHsi,
+        characters: TOKENHSI,
         build: tasks::hsi::carry::build,
     },
     TaskEntry {
@@ -97,7 +95,7 @@ pub const TASKS: &[TaskEntry] = &[
         summary: "TokenHSI composition: follow a trajectory while carrying a box (policy adaptation target)",
         high_level: false,
         choices: &[],
-        character: Character::TokenHsi,
+        characters: TOKENHSI,
         build: tasks::hsi::compose::build_follow_carry,
     },
     TaskEntry {
@@ -105,7 +103,7 @@ pub const TASKS: &[TaskEntry] = &[
         summary: "TokenHSI composition: sit down while carrying a box (policy adaptation target)",
         high_level: false,
         choices: &[],
-        character: Character::TokenHsi,
+        characters: TOKENHSI,
         build: tasks::hsi::compose::build_sit_carry,
     },
     TaskEntry {
@@ -113,7 +111,7 @@ pub const TASKS: &[TaskEntry] = &[
         summary: "TokenHSI composition: climb onto a platform while carrying a box (policy adaptation target)",
         high_level: false,
         choices: &[],
-        character: Character::TokenHsi,
+        characters: TOKENHSI,
         build: tasks::hsi::compose::build_climb_carry,
     },
     TaskEntry {
@@ -121,7 +119,7 @@ pub const TASKS: &[TaskEntry] = &[
         summary: "TokenHSI multi-task: environments split across TokenHSI tasks by [env.multi] (one token policy)",
         high_level: false,
         choices: &[],
-        character: Character::TokenHsi,
+        characters: TOKENHSI,
         build: tasks::multi::build,
     },
     TaskEntry {
@@ -129,7 +127,7 @@ pub const TASKS: &[TaskEntry] = &[
         summary: "skill reuse: dribble the ball to a target (frozen skill policy, --llc)",
         high_level: true,
         choices: tasks::hlc::heading::LABELS,
-        character: Character::SkillMimic,
+        characters: SKILLMIMIC,
         build: tasks::hlc::heading::build,
     },
     TaskEntry {
@@ -137,7 +135,7 @@ pub const TASKS: &[TaskEntry] = &[
         summary: "skill reuse: dribble around a point at a radius (frozen skill policy, --llc)",
         high_level: true,
         choices: tasks::hlc::circling::LABELS,
-        character: Character::SkillMimic,
+        characters: SKILLMIMIC,
         build: tasks::hlc::circling::build,
     },
     TaskEntry {
@@ -145,7 +143,7 @@ pub const TASKS: &[TaskEntry] = &[
         summary: "skill reuse: throw the ball up to 2.5 m and catch it (frozen skill policy, --llc)",
         high_level: true,
         choices: tasks::hlc::throwing::LABELS,
-        character: Character::SkillMimic,
+        characters: SKILLMIMIC,
         build: tasks::hlc::throwing::build,
     },
     TaskEntry {
@@ -153,7 +151,7 @@ pub const TASKS: &[TaskEntry] = &[
         summary: "skill reuse: dribble to a basket and score with layups (frozen skill policy, --llc)",
         high_level: true,
         choices: tasks::hlc::scoring::LABELS,
-        character: Character::SkillMimic,
+        characters: SKILLMIMIC,
         build: tasks::hlc::scoring::build,
     },
     TaskEntry {
@@ -161,7 +159,7 @@ pub const TASKS: &[TaskEntry] = &[
         summary: "skill reuse: move in a commanded direction at a commanded speed (ModSkill; skill or modular policy, --llc)",
         high_level: true,
         choices: tasks::hlc::steering::LABELS,
-        character: Character::SkillMimic,
+        characters: SKILLMIMIC,
         build: tasks::hlc::steering::build,
     },
     TaskEntry {
@@ -169,7 +167,7 @@ pub const TASKS: &[TaskEntry] = &[
         summary: "skill reuse: bring the right hand to a 3-D target (ModSkill; skill or modular policy, --llc)",
         high_level: true,
         choices: tasks::hlc::reach::LABELS,
-        character: Character::SkillMimic,
+        characters: SKILLMIMIC,
         build: tasks::hlc::reach::build,
     },
     TaskEntry {
@@ -177,7 +175,7 @@ pub const TASKS: &[TaskEntry] = &[
         summary: "skill reuse, multi-task: environments split across high-level tasks by [env.multi] (one token policy)",
         high_level: true,
         choices: tasks::hlc::heading::LABELS,
-        character: Character::SkillMimic,
+        characters: SKILLMIMIC,
         build: tasks::multi::build,
     },
 ];
@@ -192,9 +190,29 @@ pub fn is_high_level(name: &str) -> bool {
     TASKS.iter().any(|t| t.name == name && t.high_level)
 }
 
-/// The character of the registered task `name` (`None` for an unknown name).
-pub fn character(name: &str) -> Option<Character> {
-    entry(name).map(|t| t.character)
+/// The character `cfg` asks for: `env.character`, or the task's default when it is empty; an
+/// unknown character, or one the task does not run on, is an error listing the task's.
+pub fn character(cfg: &EnvConfig) -> Result<Character, EnvError> {
+    let entry = entry(&cfg.task).ok_or_else(|| EnvError::UnknownTask {
+        name: cfg.task.clone(),
+        known: names().join(", "),
+    })?;
+    let name = if cfg.character.is_empty() { entry.characters[0] } else { cfg.character.as_str() };
+    let hands = cfg.hand_model()?;
+    let supported = entry.characters.contains(&name);
+    match Character::by_name(name, hands) {
+        Some(c) if supported => Ok(c),
+        _ => Err(crate::error::bad(
+            "env.character",
+            format!(
+                "task '{}' runs on {} (registered characters: {}); got '{name}'",
+                cfg.task,
+                entry.characters.join(", "),
+                Character::NAMES.join(", ")
+            ),
+        )
+        .into()),
+    }
 }
 
 /// The registered task called `name`.
@@ -202,10 +220,12 @@ pub fn entry(name: &str) -> Option<&'static TaskEntry> {
     TASKS.iter().find(|t| t.name == name)
 }
 
-/// Build the environment of the task named by `cfg.task`.
+/// Build the environment of the task named by `cfg.task` on the character `cfg` asks for
+/// ([`character`]; the constructor sees `env.character` filled in).
 pub fn make(cfg: &EnvConfig) -> Result<Box<dyn Env>, EnvError> {
-    match entry(&cfg.task) {
-        Some(t) => (t.build)(cfg),
-        None => Err(EnvError::UnknownTask { name: cfg.task.clone(), known: names().join(", ") }),
-    }
+    let character = character(cfg)?;
+    let entry = entry(&cfg.task).expect("checked by character()");
+    let mut c = cfg.clone();
+    c.character = character.name().to_string();
+    (entry.build)(&c)
 }

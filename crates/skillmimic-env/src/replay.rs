@@ -7,7 +7,7 @@
 
 use std::sync::Arc;
 
-use skillmimic_core::skeleton::NUM_DOFS;
+use skillmimic_core::characters::skillmimic::NUM_DOFS;
 use skillmimic_motion::MotionLibrary;
 use skillmimic_sim::{BatchSim, ResetState, Scene, SimError};
 
@@ -74,11 +74,12 @@ pub fn kinematic_replay(
     const N: usize = 32;
     let mut sim = BatchSim::new(scene, N, 0)?;
     let mut rep = ReplayReport::default();
-    let hands = skillmimic_core::skeleton::BODIES
+    let hands = skillmimic_core::characters::skillmimic::BODIES
         .iter()
         .enumerate()
         .filter(|(b, _)| {
-            skillmimic_core::skeleton::body_part(*b) == skillmimic_core::skeleton::BodyPart::Hand
+            skillmimic_core::characters::skillmimic::body_part(*b)
+                == skillmimic_core::characters::BodyPart::Hand
         })
         .map(|(b, _)| b)
         .collect::<Vec<_>>();
@@ -146,7 +147,7 @@ pub fn kinematic_replay(
                     rep.label1_frames += 1;
                     rep.label1_detected += usize::from(detected);
                     rep.force_ball_label1 += usize::from(ball_node);
-                    let radius = sim.scene().options().ball.radius;
+                    let radius = sim.scene().options().ball.map_or(0.0, |b| b.radius);
                     let gap = hands
                         .iter()
                         .map(|&b| dist(st.pos(b), s.ball_pos))

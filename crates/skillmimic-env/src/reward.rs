@@ -20,7 +20,7 @@
 //! r = r_b · r_o · r_ig · r_cg with r_b = r_p r_r r_pv r_rv r_reg and r_o = r_op r_or r_opv r_orv.
 //! For clips without a ball (skill labels 0 and 10) only r_b counts.
 
-use skillmimic_core::skeleton::NUM_DOFS;
+use skillmimic_core::characters::skillmimic::NUM_DOFS;
 use skillmimic_motion::NUM_KEY;
 
 use crate::compat::Compat;

@@ -23,8 +23,10 @@
 use std::sync::Arc;
 
 use mujoco_rs::prelude::*;
+use skillmimic_core::characters::skillmimic::{
+    BODIES, NUM_BODIES, NUM_DOFS, body_index, dof_range,
+};
 use skillmimic_core::math::{Quat, Vec3, add, norm, sub};
-use skillmimic_core::skeleton::{BODIES, NUM_BODIES, NUM_DOFS, body_index, dof_range};
 use skillmimic_motion::{Clip, PT_WIDTH};
 use skillmimic_sim::{HandModel, Scene, SimError};
 
@@ -148,12 +150,12 @@ fn hermite(p0: f64, v0: f64, p1: f64, v1: f64, d: f64, t: f64) -> (f64, f64) {
 
 /// Set the joint of skeleton body `b` to rotation vector `v` in a qpos array.
 fn set_joint(scene: &Scene, qpos: &mut [f64], b: usize, v: Vec3) {
-    let a = scene.joint_qpos[b - 1].expect("articulated body");
+    let a = scene.joint_addr(b).expect("articulated body").qpos;
     qpos[a..a + 4].copy_from_slice(&Quat::from_rotvec(v).to_wxyz());
 }
 
 fn joint_quat(scene: &Scene, qpos: &[f64], b: usize) -> Quat {
-    let a = scene.joint_qpos[b - 1].expect("articulated body");
+    let a = scene.joint_addr(b).expect("articulated body").qpos;
     Quat::from_wxyz([qpos[a], qpos[a + 1], qpos[a + 2], qpos[a + 3]])
 }
 
@@ -225,7 +227,7 @@ fn solve_arm(
     let wrist_id = scene.body_ids[wrist];
     let dofs: Vec<usize> = chain
         .iter()
-        .flat_map(|&b| (0..3).map(move |k| scene.joint_dof[b - 1].unwrap() + k))
+        .flat_map(|&b| (0..3).map(move |k| scene.joint_addr(b).unwrap().qvel + k))
         .collect();
     for _ in 0..200 {
         d.kinematics();
@@ -276,7 +278,7 @@ fn solve_arm(
                 dq = dq.map(|x| x * MAX_IK_STEP / step);
             }
             let q = joint_quat(scene, &qpos, b).mul(Quat::from_rotvec(dq)).normalized();
-            let a = scene.joint_qpos[b - 1].unwrap();
+            let a = scene.joint_addr(b).unwrap().qpos;
             qpos[a..a + 4].copy_from_slice(&q.to_wxyz());
         }
         d.qpos_mut().copy_from_slice(&qpos);

@@ -1,5 +1,5 @@
-//! The task seam: what a task (imitation, stand, the high-level tasks to come) supplies to the
-//! batched driver [`VecEnv`](crate::vec_env::VecEnv).
+//! The task seam: what every task (imitation, stand, tracking, the high-level tasks, the
+//! TokenHSI tasks) supplies to the one batched driver [`VecEnv`](crate::vec_env::VecEnv).
 //!
 //! The driver owns the simulation batch, the random stream of episode starts, the output buffers
 //! and the reset/autoreset logic; a task owns its per-environment state (`Slot`: episode
@@ -14,9 +14,13 @@
 //!   [`Task::step_env`] after every physics step;
 //! * sequential, once per step: [`Task::after_step`] (batch-level edits such as a reward shared by
 //!   all environments on the same clip).
+//!
+//! A task whose spec declares `steps_per_action = k > 1` (the high-level tasks) has each of its
+//! actions held for `k` physics steps by the driver ([`crate::vec_env`]); the calls above then
+//! happen once per physics step.
 
 use rand_chacha::ChaCha8Rng;
-use skillmimic_sim::{EnvState, ResetState, SceneOptions};
+use skillmimic_sim::{EnvState, ResetState, Scene};
 
 /// Sizes and names a task declares; every buffer of the driver is sized from it.
 #[derive(Clone, Debug, PartialEq)]
@@ -102,13 +106,15 @@ pub trait Task: Send + Sync + 'static {
     fn spec(&self) -> &TaskSpec;
     /// The initial state of one environment's slot (before its first reset).
     fn new_slot(&self) -> Self::Slot;
-    /// Choose the start of a new episode of environment `i`: fill `state` (the simulation state
-    /// to reset to) and `slot`. Random draws come from `rng`, the driver's seeded stream.
+    /// Choose the start of a new episode of environment `i` in `scene` (its scene variant): fill
+    /// `state` (the simulation state to reset to, preallocated for the scene: write it in place)
+    /// and `slot`. Random draws come from `rng`, the driver's seeded stream.
     fn plan_reset(
         &mut self,
         i: usize,
         slot: &mut Self::Slot,
         rng: &mut ChaCha8Rng,
+        scene: &Scene,
         state: &mut ResetState,
     );
     /// Bookkeeping of environment `i`'s finished episode, before its next reset is planned.
@@ -122,15 +128,22 @@ pub trait Task: Send + Sync + 'static {
     /// After a physics step: observation, reward, terms, info, metrics and done flags.
     fn step_env(&self, i: usize, slot: &mut Self::Slot, st: &EnvState<'_>, out: StepOut<'_>);
     /// Recompute the observation from the current state (after raw state edits), keeping any
-    /// entries that only a step can compute.
-    fn observe(&self, slot: &Self::Slot, st: &EnvState<'_>, obs: &mut [f32]);
+    /// entries that only a step can compute; bookkeeping that describes "the state before the
+    /// next step" (e.g. previous positions for finite differences) is taken anew.
+    fn observe(&self, slot: &mut Self::Slot, st: &EnvState<'_>, obs: &mut [f32]);
+    /// Set the episode's task information (`TaskSpec::info_names` order; e.g. move the goal in
+    /// interactive play). Returns `false` for a task without settable information (the
+    /// default).
+    fn set_info(&self, _slot: &mut Self::Slot, _values: &[f32]) -> bool {
+        false
+    }
     /// Whether [`Task::actions_to_targets`] is used (default: no — the actions are the PD targets,
-    /// which needs a `Box` action space of width 156).
+    /// which needs a `Box` action space as wide as the character's dof vector).
     fn transforms_actions(&self) -> bool {
         false
     }
-    /// Turn the policy's actions (`N × act_dim`) into PD targets of the humanoid (`N × 156`,
-    /// [−1, 1]) before the physics step; `obs` (`N × obs_dim`) are the current observations.
+    /// Turn the policy's actions (`N × act_dim`) into PD targets of the character (`N × dofs`,
+    /// [−1, 1]) before each physics step; `obs` (`N × obs_dim`) are the current observations.
     /// Tasks that run a frozen skill policy inside the step, or take discrete actions, do it here
     /// (and return `true` from `transforms_actions`); invalid actions are an error.
     fn actions_to_targets(
@@ -144,10 +157,4 @@ pub trait Task: Send + Sync + 'static {
     }
     /// Batch-level work after every environment stepped.
     fn after_step(&mut self, _slots: &[Self::Slot], _reward: &mut [f32], _terms: &[f32]) {}
-}
-
-/// The scene a task asks for and the task itself, as built by a registry constructor.
-pub struct Built<T> {
-    pub task: T,
-    pub scene: SceneOptions,
 }

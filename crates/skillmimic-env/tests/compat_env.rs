@@ -3,8 +3,8 @@
 
 use std::sync::Arc;
 
+use skillmimic_core::characters::skillmimic::NUM_DOFS;
 use skillmimic_core::shared_data::workspace_root;
-use skillmimic_core::skeleton::NUM_DOFS;
 use skillmimic_env::config::NoiseEps;
 use skillmimic_env::obs::layout;
 use skillmimic_env::reward::{NUM_TERMS, TERM_NAMES};

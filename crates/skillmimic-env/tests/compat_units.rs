@@ -3,8 +3,8 @@
 
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
+use skillmimic_core::characters::skillmimic::NUM_DOFS;
 use skillmimic_core::math::{Quat, wrap_angle};
-use skillmimic_core::skeleton::NUM_DOFS;
 use skillmimic_env::Compat;
 use skillmimic_env::config::{AtsConfig, ContactGraphMode, NoiseEps, RewardConfig, RewardVariant};
 use skillmimic_env::hoi::{ContactGraph, HoiState};
@@ -20,17 +20,19 @@ use skillmimic_motion::{Clip, MotionLibrary, NUM_KEY};
 use skillmimic_sim::ResetState;
 
 fn base_state() -> ResetState {
-    ResetState {
+    let mut s = ResetState {
         root_pos: [0.4, -0.3, 0.9],
         root_quat: from_roll_pitch_yaw([0.3, -0.2, 1.1]),
         root_linvel: [0.5, 0.1, 0.0],
         root_angvel_local: [0.0, 0.2, -0.1],
-        ball_pos: [0.8, 0.2, 1.0],
-        ball_quat: from_roll_pitch_yaw([-0.4, 0.25, 2.0]),
-        ball_linvel: [1.0, -0.5, 2.0],
-        ball_angvel_local: [3.0, 0.0, 0.0],
         ..Default::default()
-    }
+    };
+    let b = s.ball_mut();
+    b.pos = [0.8, 0.2, 1.0];
+    b.quat = from_roll_pitch_yaw([-0.4, 0.25, 2.0]);
+    b.linvel = [1.0, -0.5, 2.0];
+    b.angvel_local = [3.0, 0.0, 0.0];
+    s
 }
 
 /// Mean and standard deviation.
@@ -64,12 +66,12 @@ fn code_noise_is_the_released_codes_biased_gaussian_without_xy_noise() {
         perturb(&mut s, &eps, true, Compat::Code, false, &mut rng);
         // no x/y noise on the root or the ball
         assert_eq!(
-            (s.root_pos[0], s.root_pos[1], s.ball_pos[0], s.ball_pos[1]),
-            (base.root_pos[0], base.root_pos[1], base.ball_pos[0], base.ball_pos[1])
+            (s.root_pos[0], s.root_pos[1], s.ball().pos[0], s.ball().pos[1]),
+            (base.root_pos[0], base.root_pos[1], base.ball().pos[0], base.ball().pos[1])
         );
         dz.push(s.root_pos[2] - base.root_pos[2]);
-        bz.push(s.ball_pos[2] - base.ball_pos[2]);
-        for (q, b) in [(s.root_quat, base.root_quat), (s.ball_quat, base.ball_quat)] {
+        bz.push(s.ball().pos[2] - base.ball().pos[2]);
+        for (q, b) in [(s.root_quat, base.root_quat), (s.ball().quat, base.ball().quat)] {
             let (a, c) = (to_roll_pitch_yaw(q), to_roll_pitch_yaw(b));
             for k in 0..3 {
                 max_euler = max_euler.max(wrap_angle(a[k] - c[k]).abs());
@@ -78,7 +80,7 @@ fn code_noise_is_the_released_codes_biased_gaussian_without_xy_noise() {
         dof.extend(s.dof_pos.iter().zip(&base.dof_pos).map(|(a, b)| a - b));
         dof_v.extend(s.dof_vel.iter().zip(&base.dof_vel).map(|(a, b)| a - b));
         lin.extend(s.root_linvel.iter().zip(&base.root_linvel).map(|(a, b)| a - b));
-        ball_v.extend(s.ball_linvel.iter().zip(&base.ball_linvel).map(|(a, b)| a - b));
+        ball_v.extend(s.ball().linvel.iter().zip(&base.ball().linvel).map(|(a, b)| a - b));
     }
     // heights: upward only, uniform on [0, 0.1] (mean 0.05)
     for h in [&dz, &bz] {

@@ -150,9 +150,9 @@ fn observation_sizes_values_and_frames() {
     s1.root_pos = mv(s0.root_pos);
     s1.root_quat = yaw.mul(s0.root_quat);
     s1.root_linvel = yaw.rotate(s0.root_linvel);
-    s1.ball_pos = mv(s0.ball_pos);
-    s1.ball_quat = yaw.mul(s0.ball_quat);
-    s1.ball_linvel = yaw.rotate(s0.ball_linvel);
+    s1.ball_mut().pos = mv(s0.ball().pos);
+    s1.ball_mut().quat = yaw.mul(s0.ball().quat);
+    s1.ball_mut().linvel = yaw.rotate(s0.ball().linvel);
     sim.reset(&[true, true], &[s0, s1]).unwrap();
     let mut o = vec![vec![0.0f32; layout::OBS_DIM]; 2];
     for (i, out) in o.iter_mut().enumerate() {

@@ -7,7 +7,7 @@
 use std::sync::Arc;
 
 use rand::SeedableRng;
-use skillmimic_core::skeleton::{
+use skillmimic_core::characters::skillmimic::{
     NUM_BODIES, NUM_DOFS, body_parts, dof_range, forward_kinematics, mirror_body,
 };
 use skillmimic_env::episode::reset_state_from_clip;
@@ -62,7 +62,7 @@ fn mirror_time_warp_and_recombination() {
         for b in 0..NUM_BODIES {
             let (p, q) = (c.body_pos_at(t, b), m.body_pos_at(t, mirror_body(b)));
             let d = (p[0] - q[0]).abs().max((p[1] + q[1]).abs()).max((p[2] - q[2]).abs());
-            if skillmimic_core::skeleton::is_finger(b) {
+            if skillmimic_core::characters::skillmimic::is_finger(b) {
                 finger_worst = finger_worst.max(d);
             } else {
                 assert!(d < 1e-5, "frame {t} body {b}: {d}");

@@ -3,8 +3,8 @@
 
 use std::f64::consts::{FRAC_PI_2, PI};
 
+use skillmimic_core::characters::skillmimic::NUM_DOFS;
 use skillmimic_core::math::{Quat, heading, heading_inverse, tan_norm};
-use skillmimic_core::skeleton::NUM_DOFS;
 use skillmimic_env::Compat;
 use skillmimic_env::config::{ContactGraphMode, RewardConfig, RewardVariant};
 use skillmimic_env::hoi::{ContactGraph, HoiState};

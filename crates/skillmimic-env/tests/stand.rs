@@ -3,7 +3,6 @@
 
 use skillmimic_core::math::{heading, wrap_angle};
 use skillmimic_env::registry;
-use skillmimic_env::tasks::stand::OBS_DIM;
 use skillmimic_env::{Env, EnvConfig};
 
 fn stand_env(n: usize) -> Box<dyn Env> {
@@ -15,15 +14,15 @@ fn stand_env(n: usize) -> Box<dyn Env> {
 fn start_state_observation_and_reward_follow_the_definition() {
     let mut env = stand_env(6);
     assert_eq!(env.spec().name, "stand");
+    const OBS_DIM: usize = 823 + 3;
     assert_eq!((env.obs_dim(), env.act_dim()), (OBS_DIM, 156));
     env.reset_all(Some(4));
     let c = EnvConfig::default().stand;
-    let headings: Vec<f64> =
-        (0..6).map(|i| heading(env.humanoid_sim().unwrap().state().env(i).quat(0))).collect();
+    let headings: Vec<f64> = (0..6).map(|i| heading(env.mujoco().env_state(i).quat(0))).collect();
     // random headings, pelvis at the start height, heading error zero
     assert!(headings.iter().any(|h| h.abs() > 0.3), "{headings:?}");
     for i in 0..6 {
-        let st = env.humanoid_sim().unwrap().state().env(i);
+        let st = env.mujoco().env_state(i);
         assert!((st.pos(0)[2] - c.start_height).abs() < 1e-9);
         let o = &env.buffers().obs[i * OBS_DIM..(i + 1) * OBS_DIM];
         assert!((o[823] as f64 - (c.start_height - c.target_height)).abs() < 1e-6);
@@ -39,7 +38,7 @@ fn start_state_observation_and_reward_follow_the_definition() {
         env.step(&zeros).unwrap();
         let b = env.buffers();
         for (i, &psi0) in headings.iter().enumerate() {
-            let st = env.humanoid_sim().unwrap().state().env(i);
+            let st = env.mujoco().env_state(i);
             let (dz, dpsi) =
                 (st.pos(0)[2] - c.target_height, wrap_angle(psi0 - heading(st.quat(0))));
             let rh = (-c.height_scale * dz * dz).exp();

@@ -199,7 +199,7 @@ const LEGS: [&str; 7] = ["Pelvis", "L_Hip", "L_Knee", "L_Ankle", "R_Hip", "R_Kne
 
 /// A small valid positions CSV: the humanoid's rest legs (centimetres), three frames walking +z.
 fn positions_seed() -> String {
-    use skillmimic_core::skeleton;
+    use skillmimic_core::characters::skillmimic as skeleton;
     let rest = skeleton::forward_kinematics(
         [0.0, 95.0, 0.0],
         skillmimic_core::math::Quat::IDENTITY,

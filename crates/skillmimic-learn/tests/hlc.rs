@@ -10,7 +10,8 @@ use std::path::PathBuf;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use skillmimic_env::EnvConfig;
-use skillmimic_env::tasks::hlc::HoldEnv;
+use skillmimic_env::VecEnv;
+use skillmimic_env::tasks::hlc::HighLevel;
 use skillmimic_env::tasks::hlc::heading::Heading;
 use skillmimic_learn::checkpoint::{self, Progress};
 use skillmimic_learn::config::PpoConfig;
@@ -60,8 +61,8 @@ fn the_skill_policy_inside_the_task_equals_standalone_inference_bit_for_bit() {
         let actions: Vec<f32> = (0..6).map(|_| rng.random_range(0..3) as f32).collect();
         env.step(&actions).unwrap();
         env.reset_done();
-        let hold = env.as_any().downcast_ref::<HoldEnv<Heading>>().unwrap();
-        let obs = hold.inner().task().llc_observations().to_vec();
+        let hold = env.as_any().downcast_ref::<VecEnv<HighLevel<Heading>>>().unwrap();
+        let obs = hold.task().llc_observations().to_vec();
         // the observation: state part of the high-level observation | one-hot of the label
         for i in 0..6 {
             let label = [12, 13, 11][actions[i] as usize];

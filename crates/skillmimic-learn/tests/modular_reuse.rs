@@ -162,7 +162,6 @@ fn steering_commands_rewards_and_redraws() {
         let before = env.buffers().info.to_vec();
         env.step(&zeros).unwrap();
         let b = env.buffers();
-        let st = env.humanoid_sim().expect("a humanoid task").state();
         for i in 0..n {
             if b.terminated[i] != 0 || b.truncated[i] != 0 {
                 continue;
@@ -174,7 +173,7 @@ fn steering_commands_rewards_and_redraws() {
                 "command {dx} {dy} {s}"
             );
             // reward with the command in force during the step, from the pelvis's world velocity
-            let v = st.env(i).linvel(0);
+            let v = env.mujoco().env_state(i).linvel(0);
             let e2 = (s * dx - v[0]).powi(2) + (s * dy - v[1]).powi(2);
             let want = (-0.25 * e2).exp();
             assert!(

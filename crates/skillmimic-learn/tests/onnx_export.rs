@@ -11,7 +11,8 @@ mod common;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use skillmimic_env::EnvConfig;
-use skillmimic_env::tasks::hlc::HoldEnv;
+use skillmimic_env::VecEnv;
+use skillmimic_env::tasks::hlc::HighLevel;
 use skillmimic_env::tasks::hlc::heading::Heading;
 use skillmimic_learn::checkpoint::{self, Progress};
 use skillmimic_learn::config::{PpoConfig, TrainConfig};
@@ -174,7 +175,7 @@ fn high_level_and_fused_graphs_give_the_choice_and_the_tasks_pd_targets() {
         let out = run_tract(&fused, &now, 6);
         let choice: Vec<f32> = i64s(&out[1]).iter().map(|&c| c as f32).collect();
         env.step(&choice).unwrap();
-        let hold = env.as_any().downcast_ref::<HoldEnv<Heading>>().unwrap();
+        let hold = env.as_any().downcast_ref::<VecEnv<HighLevel<Heading>>>().unwrap();
         worst = worst.max(max_diff(&f32s(&out[3]), hold.last_targets()));
         env.reset_done();
     }

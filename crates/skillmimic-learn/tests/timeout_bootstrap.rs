@@ -15,7 +15,7 @@ use skillmimic_env::{Env, EnvError, StepBuffers, TaskSpec, registry};
 use skillmimic_learn::config::TrainConfig;
 use skillmimic_learn::policy::InferenceBuffers;
 use skillmimic_learn::trainer::Trainer;
-use skillmimic_sim::{BatchSim, MjBatch};
+use skillmimic_sim::MjBatch;
 
 /// How environment `i`'s episode ends after step `t` (0-based step of the rollout), if it does.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -97,9 +97,6 @@ impl Env for Scripted {
     fn refresh_observations(&mut self) {
         self.inner.refresh_observations();
         self.buf.obs.copy_from_slice(&self.inner.buffers().obs);
-    }
-    fn humanoid_sim(&self) -> Option<&BatchSim> {
-        self.inner.humanoid_sim()
     }
     fn mujoco(&self) -> &dyn MjBatch {
         self.inner.mujoco()

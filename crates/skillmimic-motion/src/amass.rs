@@ -26,8 +26,8 @@
 use std::io::Read;
 use std::path::Path;
 
+use skillmimic_core::characters::skillmimic as skeleton;
 use skillmimic_core::math::{Quat, Vec3};
-use skillmimic_core::skeleton;
 
 use crate::bvh::{Bvh, BvhJoint, Channel};
 use crate::error::ClipError;

@@ -4,8 +4,8 @@
 
 use std::path::Path;
 
+use skillmimic_core::characters::skillmimic::{NUM_BODIES, NUM_DOFS};
 use skillmimic_core::math::Quat;
-use skillmimic_core::skeleton::{NUM_BODIES, NUM_DOFS};
 
 use crate::error::ClipError;
 

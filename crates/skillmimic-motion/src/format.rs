@@ -18,13 +18,13 @@
 //! Loading checks every rule of [`crate::validate`] (at least 4 frames, finite and plausible
 //! values, unit quaternions, contact exactly 0 or 1).
 //!
-//! Body order, skeleton frames and bone offsets are those of `skillmimic_core::skeleton`; bring
+//! Body order, skeleton frames and bone offsets are those of `skillmimic_core::characters::skillmimic`; bring
 //! your own clips by filling these arrays for the same skeleton.
 
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use skillmimic_core::skeleton::{NUM_BODIES, NUM_JOINTS};
+use skillmimic_core::characters::skillmimic::{NUM_BODIES, NUM_JOINTS};
 use skillmimic_core::tensorfile::{OwnedTensor, TensorFile, TensorFileError, write_atomic};
 
 use crate::clip::{BALLPLAY_FPS, Clip, PT_WIDTH, SKILL_WIDTH, skill_label_from_name};

@@ -21,10 +21,10 @@
 use std::path::{Path, PathBuf};
 
 use rand::{Rng, RngCore};
-use skillmimic_core::math::Quat;
-use skillmimic_core::skeleton::{
+use skillmimic_core::characters::skillmimic::{
     NUM_BODIES, NUM_DOFS, NUM_JOINTS, body_parts, dof_range, forward_kinematics, mirror_body,
 };
+use skillmimic_core::math::Quat;
 
 use crate::clip::Clip;
 
@@ -418,7 +418,7 @@ pub fn check_validity(c: &Clip, floor_tol: f64, max_speed: f64) -> Result<(), In
             if z < -floor_tol {
                 return Err(Invalid::BelowFloor {
                     clip,
-                    body: skillmimic_core::skeleton::BODIES[b].name,
+                    body: skillmimic_core::characters::skillmimic::BODIES[b].name,
                     depth: -z,
                     frame: t,
                 });
@@ -437,7 +437,7 @@ pub fn check_validity(c: &Clip, floor_tol: f64, max_speed: f64) -> Result<(), In
             if speed > max_speed {
                 return Err(Invalid::TooFast {
                     clip,
-                    joint: skillmimic_core::skeleton::BODIES[b].name,
+                    joint: skillmimic_core::characters::skillmimic::BODIES[b].name,
                     speed,
                     frame: t,
                     limit: max_speed,

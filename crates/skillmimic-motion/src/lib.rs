@@ -10,8 +10,9 @@
 //! * [`clip`]: the project's clip representation and its decoding from the 337-column layout;
 //! * [`format`]: the project's clip file format (safetensors, documented field by field);
 //! * [`reference`]: reference quantities derived once per clip (velocities, key bodies);
-//! * [`hsi_clip`], [`retarget_hsi`]: clips of the TokenHSI character (file format, forward
-//!   kinematics) and retargeting SkillMimic-skeleton clips onto it;
+//! * [`character_clip`]: clips of any character (file format, validation);
+//! * [`retarget_hsi`], [`retarget_smpl`]: SkillMimic-skeleton clips onto the TokenHSI character
+//!   and onto the SMPL humanoid;
 //! * [`retarget_bvh`]: retargeting BVH motions onto the SkillMimic humanoid (rest-pose alignment of
 //!   mapped bones, scaling, resampling, ground alignment);
 //! * [`retarget_clip`]: a retargeted motion as a project clip (ball track, contact label) with
@@ -22,11 +23,11 @@
 
 pub mod amass;
 pub mod bvh;
+pub mod character_clip;
 pub mod clip;
 pub mod error;
 pub mod format;
 pub mod generate;
-pub mod hsi_clip;
 pub mod layout;
 pub mod library;
 pub mod limb_ik;
@@ -37,6 +38,7 @@ pub mod retarget_bvh;
 pub mod retarget_clip;
 pub mod retarget_hsi;
 pub mod retarget_positions;
+pub mod retarget_smpl;
 pub mod testing;
 pub mod torch_zip;
 pub mod validate;

@@ -25,8 +25,8 @@
 //! scale), and without the shift a standing source's ankles would lie beyond the humanoid's
 //! straight legs. The body's shape is unchanged by the shift; only its position is.
 
+use skillmimic_core::characters::skillmimic::{self as skeleton, BODIES, NUM_BODIES};
 use skillmimic_core::math::{Quat, Vec3, add, cross, dot, norm, scale, sub};
-use skillmimic_core::skeleton::{self, BODIES, NUM_BODIES};
 
 /// The IK chains: upper, middle and end body, and the middle body's flexion axis (body frame).
 pub const LIMBS: [([&str; 3], Vec3); 4] = [

@@ -12,8 +12,8 @@
 //! The root exp map is recomputed from the (sign-continuous) quaternion with angle in (−π, π].
 //! Arrays are float32 like the clip (the differences are taken in f64 first).
 
+use skillmimic_core::characters::skillmimic::{KEY_BODIES, NUM_BODIES, NUM_DOFS};
 use skillmimic_core::math::Quat;
-use skillmimic_core::skeleton::{KEY_BODIES, NUM_BODIES, NUM_DOFS};
 
 use crate::clip::Clip;
 

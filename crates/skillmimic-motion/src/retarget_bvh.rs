@@ -1,7 +1,7 @@
 //! Retargeting a BVH motion onto the SkillMimic humanoid (issue 23, first version: body motion).
 //!
 //! Frames: the humanoid's skeleton is Y-up with no rest rotations (T-pose, facing +z, left = +x;
-//! [`skillmimic_core::skeleton`]); clips put the Y-up → Z-up turn `T` = Rx(+90°) into the root
+//! [`skillmimic_core::characters::skillmimic`]); clips put the Y-up → Z-up turn `T` = Rx(+90°) into the root
 //! rotation. Retargeting works in the skeleton's Y-up frame and applies `T` at the end.
 //!
 //! Method, per source frame:
@@ -25,8 +25,8 @@
 use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
+use skillmimic_core::characters::skillmimic::{self as skeleton, BODIES, NUM_BODIES, NUM_JOINTS};
 use skillmimic_core::math::{Quat, Vec3, add, norm, scale};
-use skillmimic_core::skeleton::{self, BODIES, NUM_BODIES, NUM_JOINTS};
 
 use crate::bvh::Bvh;
 use crate::error::ClipError;

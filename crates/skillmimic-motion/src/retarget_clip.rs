@@ -15,8 +15,10 @@
 use std::path::Path;
 
 use serde::Serialize;
+use skillmimic_core::characters::skillmimic::{
+    self as skeleton, FINGERTIPS, L_WRIST, NUM_BODIES, R_WRIST,
+};
 use skillmimic_core::math::{Quat, Vec3, add, norm, scale, sub};
-use skillmimic_core::skeleton::{self, FINGERTIPS, L_WRIST, NUM_BODIES, R_WRIST};
 
 use crate::clip::Clip;
 use crate::error::ClipError;

@@ -25,12 +25,13 @@
 //! over the source's stance frames and joint-limit violations of the character's per-axis limits.
 
 use serde::Serialize;
-use skillmimic_core::hsi_character::{self as hsi, BODIES, JointSpec, NUM_DOFS};
-use skillmimic_core::math::{Quat, norm};
-use skillmimic_core::skeleton::{self, GeomSpec};
+use skillmimic_core::characters::GeomSpec;
+use skillmimic_core::characters::skillmimic as skeleton;
+use skillmimic_core::characters::tokenhsi::{self as hsi, BODIES, JointSpec, NUM_BODIES, NUM_DOFS};
+use skillmimic_core::math::{Quat, add, norm};
 
+use crate::character_clip::CharacterClip;
 use crate::clip::Clip;
-use crate::hsi_clip::{HsiClip, hsi_forward_kinematics};
 
 /// Target body → source body name (None: no counterpart; the hands follow their forearms).
 const MAP: [Option<&str>; hsi::NUM_BODIES] = [
@@ -109,8 +110,32 @@ fn lowest_sole(pos: &[[f64; 3]; hsi::NUM_BODIES], rot: &[Quat; hsi::NUM_BODIES])
     z
 }
 
+/// World positions and orientations of the 15 bodies for a root pose and 32 joint coordinates.
+fn hsi_forward_kinematics(
+    root_pos: [f64; 3],
+    root_quat: Quat,
+    dof: &[f64],
+) -> ([[f64; 3]; NUM_BODIES], [Quat; NUM_BODIES]) {
+    let mut pos = [[0.0; 3]; NUM_BODIES];
+    let mut rot = [root_quat; NUM_BODIES];
+    pos[0] = root_pos;
+    let mut k = 0;
+    for b in 1..NUM_BODIES {
+        let p = BODIES[b].parent.expect("non-root bodies have a parent");
+        let local = match BODIES[b].joint {
+            JointSpec::Ball { .. } => Quat::from_rotvec([dof[k], dof[k + 1], dof[k + 2]]),
+            JointSpec::HingeY { .. } => Quat::from_rotvec([0.0, dof[k], 0.0]),
+            _ => Quat::IDENTITY,
+        };
+        k += BODIES[b].joint.dofs();
+        pos[b] = add(pos[p], rot[p].rotate(BODIES[b].offset));
+        rot[b] = rot[p].mul(local);
+    }
+    (pos, rot)
+}
+
 /// Retarget `clip` (SkillMimic skeleton) onto the TokenHSI character.
-pub fn retarget_to_hsi(clip: &Clip) -> (HsiClip, RetargetReport) {
+pub fn retarget_to_hsi(clip: &Clip) -> (CharacterClip, RetargetReport) {
     let t_frames = clip.num_frames;
     let src_index: Vec<Option<usize>> = MAP
         .iter()
@@ -126,7 +151,10 @@ pub fn retarget_to_hsi(clip: &Clip) -> (HsiClip, RetargetReport) {
     let scale = leg_length_target() / leg_length_source();
     let mut rep =
         RetargetReport { name: clip.name.clone(), frames: t_frames, scale, ..Default::default() };
-    let mut out = HsiClip {
+    let mut out = CharacterClip {
+        character: "tokenhsi".to_string(),
+        num_dofs: NUM_DOFS,
+        num_bodies: hsi::NUM_BODIES,
         name: clip.name.clone(),
         source: format!(
             "retargeted from {} (SkillMimic skeleton) by skillmimic retarget",

@@ -32,8 +32,8 @@
 
 use std::path::{Path, PathBuf};
 
+use skillmimic_core::characters::skillmimic::{self as skeleton, BODIES, NUM_BODIES};
 use skillmimic_core::math::{Quat, Vec3, cross, norm, scale, sub};
-use skillmimic_core::skeleton::{self, BODIES, NUM_BODIES};
 
 use crate::error::ClipError;
 use crate::retarget_bvh::{

@@ -29,7 +29,7 @@
 use std::f64::consts::PI;
 use std::path::Path;
 
-use skillmimic_core::skeleton::{BODIES, NUM_BODIES, NUM_DOFS};
+use skillmimic_core::characters::skillmimic::{BODIES, NUM_BODIES, NUM_DOFS};
 
 use crate::clip::Clip;
 use crate::error::ClipError;

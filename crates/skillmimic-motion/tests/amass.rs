@@ -3,8 +3,8 @@
 //! root orientation come through unchanged — with its feet on the floor (≤ 2 cm) and no joint-speed
 //! spikes; broken archives are refused by name.
 
+use skillmimic_core::characters::skillmimic as skeleton;
 use skillmimic_core::math::Quat;
-use skillmimic_core::skeleton;
 use skillmimic_motion::amass::{self, Rest, SMPLH_JOINTS};
 use skillmimic_motion::retarget_bvh::{self, JointMap, Options};
 use skillmimic_motion::testing::write_synthetic_amass;

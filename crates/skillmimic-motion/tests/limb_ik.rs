@@ -4,8 +4,8 @@
 //! midpoint sits on the source's, the torso keeps its shape, planted feet slide no more than
 //! without IK, and the clip stays free of penetration and speed spikes.
 
+use skillmimic_core::characters::skillmimic as skeleton;
 use skillmimic_core::math::{norm, sub};
-use skillmimic_core::skeleton;
 use skillmimic_motion::bvh;
 use skillmimic_motion::retarget_bvh::{self, JointMap, Options};
 use skillmimic_motion::retarget_clip::{Ball, to_clip};

@@ -7,9 +7,9 @@
 use std::fmt::Write;
 use std::path::Path;
 
+use skillmimic_core::characters::skillmimic::{self as skeleton, BODIES, NUM_BODIES};
 use skillmimic_core::math::Quat;
 use skillmimic_core::shared_data::workspace_root;
-use skillmimic_core::skeleton::{self, BODIES, NUM_BODIES};
 use skillmimic_motion::Clip;
 use skillmimic_motion::amass::zxy_degrees;
 use skillmimic_motion::bvh;

@@ -3,8 +3,8 @@
 //! the identity map, against the clip's own joint rotations and positions; and the light IK on a
 //! real mocap file.
 
+use skillmimic_core::characters::skillmimic::{self as skeleton, BODIES, NUM_BODIES};
 use skillmimic_core::math::{Quat, Vec3, norm, sub};
-use skillmimic_core::skeleton::{self, BODIES, NUM_BODIES};
 use skillmimic_motion::Clip;
 use skillmimic_motion::retarget_bvh::{self, JointMap, Options};
 use skillmimic_motion::retarget_positions::{JointPositions, retarget_positions};

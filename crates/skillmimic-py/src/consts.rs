@@ -47,7 +47,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("OBS_BLOCKS", blocks)?;
     m.add("HUMANOID_DIM", skillmimic_env::obs::layout::HUMANOID_DIM)?;
     m.add("STATE_DIM", skillmimic_env::obs::layout::STATE_DIM)?;
-    m.add("ACT_DIM", skillmimic_core::skeleton::NUM_DOFS)?;
+    m.add("ACT_DIM", skillmimic_core::characters::skillmimic::NUM_DOFS)?;
     m.add("HISTORY_FEATURE_DIM", skillmimic_env::v2::history::FEATURE_DIM)?;
     m.add("TERM_NAMES", PyTuple::new(py, skillmimic_env::reward::TERM_NAMES)?)?;
     m.add("FRAME_METRIC_NAMES", PyTuple::new(py, skillmimic_env::FRAME_METRIC_NAMES)?)?;

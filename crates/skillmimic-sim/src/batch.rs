@@ -1,9 +1,12 @@
-//! The batched simulation core: N independent MuJoCo environments stepped in parallel.
+//! The batched simulation core: N independent MuJoCo environments of one character stepped in
+//! parallel.
 //!
-//! One [`BatchSim::step`] call applies an `N × 156` action matrix (PD target = π·action, clamped
-//! to [−1, 1]), runs the physics sub-steps of one policy step in every environment, computes the
-//! kinematics and velocities of the new state, and writes the state into the contiguous
-//! buffers of [`BatchState`]. Environments run on a rayon pool of a fixed size; each owns its
+//! One [`BatchSim::step`] call applies an `N × dofs` action matrix (each entry clamped to
+//! [−1, 1] and mapped to its PD target by the character's action map), runs the physics
+//! sub-steps of one policy step in every environment, computes the kinematics and velocities of
+//! the new state, and writes the state into the contiguous buffers of [`BatchState`].
+//! Environment `i` uses scene variant `i % variants` (the same character and object names with,
+//! e.g., different object sizes). Environments run on a rayon pool of a fixed size; each owns its
 //! `MjData`, so results are bit-identical for any thread count. The step and reset paths do not
 //! allocate (checked by a test with a counting allocator).
 
@@ -13,20 +16,20 @@ use mujoco_rs::mujoco_c::mjtWarning;
 use mujoco_rs::prelude::*;
 use rayon::prelude::*;
 use skillmimic_core::math::Quat;
-use skillmimic_core::skeleton::{NUM_DOFS, NUM_JOINTS};
 
 use crate::bounce::BounceState;
-use crate::contacts::ContactPair;
+use crate::contacts::{ContactPair, NUM_CONTACT_PAIRS};
 use crate::error::SimError;
-use crate::scene::{GeomOwner, NUM_STATE_BODIES, Scene};
-use crate::state::{BatchState, ResetState, width};
+use crate::scene::{GeomOwner, ObjectAddr, Scene};
+use crate::state::{BatchState, ResetState};
 
-/// Physics sub-steps per policy step (1/120 s each → 60 Hz policy).
+/// Physics sub-steps per policy step of the SkillMimic humanoid (1/120 s each → 60 Hz policy).
 pub const DEFAULT_SUBSTEPS: usize = 2;
 
 type Data = MjData<Arc<MjModel>>;
 
 struct EnvSlot {
+    variant: usize,
     data: Data,
     /// The floor bounce-threshold rule's state (`crate::bounce`).
     bounce: BounceState,
@@ -42,12 +45,13 @@ struct Rows<'a> {
     dof_vel: &'a mut [f64],
     contact_force: &'a mut [f64],
     contact_pairs: &'a mut [u8],
+    touch: &'a mut [u8],
     unstable: &'a mut u8,
 }
 
-/// N environments of one scene, stepped in parallel.
+/// N environments of one character, stepped in parallel.
 pub struct BatchSim {
-    scene: Arc<Scene>,
+    variants: Vec<Arc<Scene>>,
     envs: Vec<EnvSlot>,
     pool: rayon::ThreadPool,
     state: BatchState,
@@ -55,11 +59,35 @@ pub struct BatchSim {
 }
 
 impl BatchSim {
-    /// `num_envs` environments on a pool of `num_threads` worker threads (0 = one per core).
-    /// Every environment starts in [`ResetState::default`].
+    /// `num_envs` environments of `scene` on a pool of `num_threads` worker threads (0 = one per
+    /// core). Every environment starts in the scene's rest state ([`ResetState::rest`]).
     pub fn new(scene: Arc<Scene>, num_envs: usize, num_threads: usize) -> Result<Self, SimError> {
+        Self::with_variants(vec![scene], num_envs, num_threads)
+    }
+
+    /// `num_envs` environments; environment `i` uses `variants[i % variants.len()]`. Every
+    /// variant must have the same character and the same objects (names and kinds; sizes may
+    /// differ).
+    pub fn with_variants(
+        variants: Vec<Arc<Scene>>,
+        num_envs: usize,
+        num_threads: usize,
+    ) -> Result<Self, SimError> {
         if num_envs == 0 {
             return Err(SimError::Config("num_envs must be at least 1".into()));
+        }
+        let Some(first) = variants.first() else {
+            return Err(SimError::Config("a batch needs at least one scene".into()));
+        };
+        let same = |s: &Scene| {
+            s.character() == first.character()
+                && s.objects.len() == first.objects.len()
+                && s.sizes() == first.sizes()
+        };
+        if !variants.iter().all(|s| same(s)) {
+            return Err(SimError::Config(
+                "every scene variant of a batch must hold the same character and objects".into(),
+            ));
         }
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(num_threads)
@@ -68,30 +96,23 @@ impl BatchSim {
             .map_err(|e| {
                 SimError::Config(format!("cannot start {num_threads} simulation threads: {e}"))
             })?;
-        let make = || {
-            MjData::try_new(Arc::clone(scene.model()))
-                .map(|data| EnvSlot { data, bounce: BounceState::default() })
+        let make = |i: usize| {
+            let variant = i % variants.len();
+            MjData::try_new(Arc::clone(variants[variant].model()))
+                .map(|data| EnvSlot { variant, data, bounce: BounceState::default() })
                 .map_err(|e| SimError::Config(format!("cannot allocate MuJoCo data: {e}")))
         };
-        let first = make()?;
-        crate::memory::check_batch(
-            num_envs,
-            crate::memory::data_bytes(first.data.ffi()),
-            "the SkillMimic scene",
-        )?;
-        let envs = std::iter::once(Ok(first))
-            .chain((1..num_envs).map(|_| make()))
+        let probe = make(0)?;
+        let what = format!("the {} scene", first.character().name);
+        crate::memory::check_batch(num_envs, crate::memory::data_bytes(probe.data.ffi()), &what)?;
+        let envs = std::iter::once(Ok(probe))
+            .chain((1..num_envs).map(make))
             .collect::<Result<Vec<_>, _>>()?;
-        let mut sim = Self {
-            scene,
-            envs,
-            pool,
-            state: BatchState::new(num_envs),
-            substeps: DEFAULT_SUBSTEPS,
-        };
-        let mask = vec![true; num_envs];
-        let init = vec![ResetState::default(); num_envs];
-        sim.reset(&mask, &init)?;
+        let state = BatchState::new(num_envs, first);
+        let substeps = first.substeps();
+        let rest = ResetState::rest(first);
+        let mut sim = Self { variants, envs, pool, state, substeps };
+        sim.reset(&vec![true; num_envs], &vec![rest; num_envs])?;
         Ok(sim)
     }
 
@@ -103,9 +124,21 @@ impl BatchSim {
     pub fn num_threads(&self) -> usize {
         self.pool.current_num_threads()
     }
-    /// The scene shared by all environments.
+    /// The scene of environment 0 (every environment's, for a batch of one variant).
     pub fn scene(&self) -> &Arc<Scene> {
-        &self.scene
+        &self.variants[0]
+    }
+    /// The scene of environment `i`.
+    pub fn scene_of(&self, i: usize) -> &Arc<Scene> {
+        &self.variants[self.envs[i].variant]
+    }
+    /// The scene variants.
+    pub fn variants(&self) -> &[Arc<Scene>] {
+        &self.variants
+    }
+    /// Width of the dof (action) vector.
+    pub fn num_dofs(&self) -> usize {
+        self.state.dofs
     }
     /// State after the last step or reset.
     pub fn state(&self) -> &BatchState {
@@ -148,26 +181,21 @@ impl BatchSim {
 
     /// Advance every environment by one policy step.
     ///
-    /// `actions` is `N × 156` (row-major, skeleton dof order); each entry is clamped to [−1, 1]
-    /// and scaled by π to the exp-map PD target. Entries of welded joints are ignored.
+    /// `actions` is `N × dofs` (row-major, the character's dof order); each entry is clamped to
+    /// [−1, 1] and mapped to its PD target. Entries of welded joints are ignored.
     pub fn step(&mut self, actions: &[f32]) -> Result<(), SimError> {
-        let n = self.num_envs();
-        check_len("actions", actions.len(), n * NUM_DOFS, || format!("{n} x {NUM_DOFS}"))?;
+        let (n, nd) = (self.num_envs(), self.num_dofs());
+        check_len("actions", actions.len(), n * nd, || format!("{n} x {nd}"))?;
         if let Some(k) = actions.iter().position(|a| !a.is_finite()) {
-            return Err(SimError::NonFinite {
-                what: "actions",
-                env: k / NUM_DOFS,
-                index: k % NUM_DOFS,
-            });
+            return Err(SimError::NonFinite { what: "actions", env: k / nd, index: k % nd });
         }
-        let scene = &*self.scene;
-        let substeps = self.substeps;
+        let (variants, substeps) = (&self.variants, self.substeps);
         Self::for_each_env(&self.pool, &mut self.envs, &mut self.state, |i, slot, mut rows| {
-            let row = &actions[i * NUM_DOFS..(i + 1) * NUM_DOFS];
+            let scene = &*variants[slot.variant];
+            let row = &actions[i * nd..(i + 1) * nd];
             let d = &mut slot.data;
-            let ctrl = d.ctrl_mut();
-            for (c, &k) in ctrl.iter_mut().zip(&scene.actuator_action) {
-                *c = (row[k] as f64).clamp(-1.0, 1.0) * std::f64::consts::PI;
+            for (c, &(k, map)) in d.ctrl_mut().iter_mut().zip(&scene.actuators) {
+                *c = map.target((row[k] as f64).clamp(-1.0, 1.0));
             }
             clear_bad_state(d);
             let bounce = &mut slot.bounce;
@@ -202,16 +230,18 @@ impl BatchSim {
         let n = self.num_envs();
         check_len("reset mask", mask.len(), n, || n.to_string())?;
         check_len("reset states", states.len(), n, || n.to_string())?;
+        let (nd, no) = (self.num_dofs(), self.variants[0].objects.len());
         for (i, s) in states.iter().enumerate() {
             if mask[i] {
-                check_reset_state(i, s)?;
+                check_reset_state(i, s, nd, no)?;
             }
         }
-        let scene = &*self.scene;
+        let variants = &self.variants;
         Self::for_each_env(&self.pool, &mut self.envs, &mut self.state, |i, slot, mut rows| {
             if !mask[i] {
                 return;
             }
+            let scene = &*variants[slot.variant];
             slot.bounce = BounceState::default();
             let d = &mut slot.data;
             write_reset_state(scene, d, &states[i]);
@@ -224,8 +254,7 @@ impl BatchSim {
         Ok(())
     }
 
-    /// Overwrite the raw MuJoCo `qpos`/`qvel` of environment `i` (same clearing as
-    /// [`reset`](Self::reset)).
+    /// Overwrite the raw MuJoCo `qpos`/`qvel` of environment `i` (same clearing as [`reset`](Self::reset)).
     pub fn set_qpos_qvel(&mut self, i: usize, qpos: &[f64], qvel: &[f64]) -> Result<(), SimError> {
         let n = self.num_envs();
         if i >= n {
@@ -233,17 +262,18 @@ impl BatchSim {
                 "environment index {i} out of range (num_envs = {n})"
             )));
         }
-        let (nq, nv, _) = self.scene.sizes();
+        let (nq, nv, _) = self.scene_of(i).sizes();
         check_len("qpos", qpos.len(), nq, || nq.to_string())?;
         check_len("qvel", qvel.len(), nv, || nv.to_string())?;
         if let Some(k) = qpos.iter().chain(qvel).position(|x| !x.is_finite()) {
             return Err(SimError::NonFinite { what: "qpos/qvel", env: i, index: k });
         }
-        let scene = &*self.scene;
+        let variants = &self.variants;
         Self::for_each_env(&self.pool, &mut self.envs, &mut self.state, |j, slot, mut rows| {
             if j != i {
                 return;
             }
+            let scene = &*variants[slot.variant];
             slot.bounce = BounceState::default();
             let d = &mut slot.data;
             clear_for_reset(d);
@@ -263,35 +293,40 @@ impl BatchSim {
     where
         F: Fn(usize, &mut EnvSlot, Rows<'_>) + Sync,
     {
+        let (b, d, c) = (st.bodies, st.dofs, st.character_bodies);
         pool.install(|| {
             (
                 envs.par_iter_mut(),
-                st.body_pos.par_chunks_mut(width::BODY_POS),
-                st.body_quat.par_chunks_mut(width::BODY_QUAT),
-                st.body_linvel.par_chunks_mut(width::BODY_VEL),
-                st.body_angvel.par_chunks_mut(width::BODY_VEL),
-                st.dof_pos.par_chunks_mut(width::DOF),
-                st.dof_vel.par_chunks_mut(width::DOF),
-                st.contact_force.par_chunks_mut(width::CONTACT_FORCE),
-                st.contact_pairs.par_chunks_mut(width::CONTACT_PAIRS),
+                st.body_pos.par_chunks_mut(3 * b),
+                st.body_quat.par_chunks_mut(4 * b),
+                st.body_linvel.par_chunks_mut(3 * b),
+                st.body_angvel.par_chunks_mut(3 * b),
+                st.dof_pos.par_chunks_mut(d),
+                st.dof_vel.par_chunks_mut(d),
+                st.contact_force.par_chunks_mut(3 * b),
+                st.contact_pairs.par_chunks_mut(NUM_CONTACT_PAIRS),
+                st.touch.par_chunks_mut(c),
                 st.unstable.par_iter_mut(),
             )
                 .into_par_iter()
                 .enumerate()
-                .for_each(|(i, (slot, bp, bq, blv, bav, dp, dv, cf, cp, un))| {
-                    let rows = Rows {
-                        body_pos: bp,
-                        body_quat: bq,
-                        body_linvel: blv,
-                        body_angvel: bav,
-                        dof_pos: dp,
-                        dof_vel: dv,
-                        contact_force: cf,
-                        contact_pairs: cp,
-                        unstable: un,
-                    };
-                    f(i, slot, rows)
-                });
+                .for_each(
+                    |(i, (slot, bp, bq, blv, bav, dp, dv, cf, cp, touch, un))| {
+                        let rows = Rows {
+                            body_pos: bp,
+                            body_quat: bq,
+                            body_linvel: blv,
+                            body_angvel: bav,
+                            dof_pos: dp,
+                            dof_vel: dv,
+                            contact_force: cf,
+                            contact_pairs: cp,
+                            touch,
+                            unstable: un,
+                        };
+                        f(i, slot, rows)
+                    },
+                );
         });
     }
 }
@@ -310,20 +345,22 @@ fn check_len(
     }
 }
 
-fn check_reset_state(env: usize, s: &ResetState) -> Result<(), SimError> {
-    let (rq, bq) = (s.root_quat.to_wxyz(), s.ball_quat.to_wxyz());
-    let all = s
-        .root_pos
-        .iter()
-        .chain(&rq)
-        .chain(&s.root_linvel)
-        .chain(&s.root_angvel_local)
-        .chain(&s.dof_pos)
-        .chain(&s.dof_vel)
-        .chain(&s.ball_pos)
-        .chain(&bq)
-        .chain(&s.ball_linvel)
-        .chain(&s.ball_angvel_local);
+fn check_reset_state(
+    env: usize,
+    s: &ResetState,
+    dofs: usize,
+    objects: usize,
+) -> Result<(), SimError> {
+    check_len("reset state dof_pos", s.dof_pos.len(), dofs, || dofs.to_string())?;
+    check_len("reset state dof_vel", s.dof_vel.len(), dofs, || dofs.to_string())?;
+    check_len("reset state objects", s.objects.len(), objects, || objects.to_string())?;
+    let rq = s.root_quat.to_wxyz();
+    let root = s.root_pos.iter().chain(&rq).chain(&s.root_linvel).chain(&s.root_angvel_local);
+    let objs = s.objects.iter().flat_map(|o| {
+        o.pos.into_iter().chain(o.quat.to_wxyz()).chain(o.linvel).chain(o.angvel_local)
+    });
+    let all =
+        root.copied().chain(s.dof_pos.iter().copied()).chain(s.dof_vel.iter().copied()).chain(objs);
     for (index, x) in all.enumerate() {
         if !x.is_finite() {
             return Err(SimError::NonFinite { what: "reset state", env, index });
@@ -338,7 +375,7 @@ const BAD_STATE: [mjtWarning; 3] =
     [mjtWarning::mjWARN_BADQPOS, mjtWarning::mjWARN_BADQVEL, mjtWarning::mjWARN_BADQACC];
 
 /// Zero the [`BAD_STATE`] warning counters before a step, reset or forward pass.
-pub(crate) fn clear_bad_state(d: &mut Data) {
+fn clear_bad_state(d: &mut Data) {
     for w in BAD_STATE {
         // SAFETY: the warning statistics are plain counters of mjData, read only by callers.
         unsafe { d.ffi_mut().warning[w as usize].number = 0 };
@@ -348,7 +385,7 @@ pub(crate) fn clear_bad_state(d: &mut Data) {
 /// Whether MuJoCo reported a bad state since [`clear_bad_state`] (the environment's `unstable`
 /// flag). Clearing first, rather than comparing counts, also catches a repeat of the same
 /// warning after MuJoCo's auto-reset set its counter back to 1.
-pub(crate) fn bad_state(d: &Data) -> bool {
+fn bad_state(d: &Data) -> bool {
     BAD_STATE.iter().any(|&w| d.ffi().warning[w as usize].number > 0)
 }
 
@@ -363,13 +400,13 @@ fn clear_for_reset(d: &mut Data) {
 /// The floor bounce-threshold rule after one sub-step (`crate::bounce`).
 #[inline]
 fn apply_bounce(scene: &Scene, d: &mut Data, b: &mut BounceState) {
-    let ball = &scene.options().ball;
-    if ball.bounce_threshold <= 0.0 {
+    let Some(r) = scene.bounce else { return };
+    if r.threshold <= 0.0 {
         return;
     }
-    let z = d.qpos()[scene.ball_qpos + 2];
-    let vz = &mut d.qvel_mut()[scene.ball_dof + 2];
-    b.apply(z, vz, ball.radius, ball.bounce_threshold);
+    let z = d.qpos()[r.z];
+    let vz = &mut d.qvel_mut()[r.vz];
+    b.apply(z, vz, r.radius, r.threshold);
 }
 
 fn write_reset_state(scene: &Scene, d: &mut Data, s: &ResetState) {
@@ -379,30 +416,41 @@ fn write_reset_state(scene: &Scene, d: &mut Data, s: &ResetState) {
         qpos[a..a + 3].copy_from_slice(&s.root_pos);
         qpos[a + 3..a + 7].copy_from_slice(&s.root_quat.normalized().to_wxyz());
     }
-    for j in 0..NUM_JOINTS {
-        if let Some(a) = scene.joint_qpos[j] {
-            let v = [s.dof_pos[3 * j], s.dof_pos[3 * j + 1], s.dof_pos[3 * j + 2]];
-            qpos[a..a + 4].copy_from_slice(&Quat::from_rotvec(v).to_wxyz());
+    for j in &scene.joints {
+        let k = j.dof;
+        if j.ball {
+            let v = [s.dof_pos[k], s.dof_pos[k + 1], s.dof_pos[k + 2]];
+            qpos[j.qpos..j.qpos + 4].copy_from_slice(&Quat::from_rotvec(v).to_wxyz());
+        } else {
+            qpos[j.qpos] = s.dof_pos[k];
         }
     }
-    let b = scene.ball_qpos;
-    qpos[b..b + 3].copy_from_slice(&s.ball_pos);
-    qpos[b + 3..b + 7].copy_from_slice(&s.ball_quat.normalized().to_wxyz());
-
     let qvel = d.qvel_mut();
     qvel.fill(0.0);
     if let Some(a) = scene.root_dof {
         qvel[a..a + 3].copy_from_slice(&s.root_linvel);
         qvel[a + 3..a + 6].copy_from_slice(&s.root_angvel_local);
     }
-    for j in 0..NUM_JOINTS {
-        if let Some(a) = scene.joint_dof[j] {
-            qvel[a..a + 3].copy_from_slice(&s.dof_vel[3 * j..3 * j + 3]);
+    for j in &scene.joints {
+        let n = if j.ball { 3 } else { 1 };
+        qvel[j.qvel..j.qvel + n].copy_from_slice(&s.dof_vel[j.dof..j.dof + n]);
+    }
+    for (o, addr) in s.objects.iter().zip(&scene.objects) {
+        match *addr {
+            ObjectAddr::Mocap(m) => {
+                d.mocap_pos_mut()[m] = o.pos;
+                d.mocap_quat_mut()[m] = o.quat.normalized().to_wxyz();
+            }
+            ObjectAddr::Free { qpos, qvel } => {
+                let q = d.qpos_mut();
+                q[qpos..qpos + 3].copy_from_slice(&o.pos);
+                q[qpos + 3..qpos + 7].copy_from_slice(&o.quat.normalized().to_wxyz());
+                let v = d.qvel_mut();
+                v[qvel..qvel + 3].copy_from_slice(&o.linvel);
+                v[qvel + 3..qvel + 6].copy_from_slice(&o.angvel_local);
+            }
         }
     }
-    let b = scene.ball_dof;
-    qvel[b..b + 3].copy_from_slice(&s.ball_linvel);
-    qvel[b + 3..b + 6].copy_from_slice(&s.ball_angvel_local);
 }
 
 /// Copy one environment's kinematic state into its buffer rows (no allocation). Requires the
@@ -410,8 +458,7 @@ fn write_reset_state(scene: &Scene, d: &mut Data, s: &ResetState) {
 fn read_kinematics(scene: &Scene, d: &Data, rows: &mut Rows<'_>) {
     let (xpos, xquat, xipos) = (d.xpos(), d.xquat(), d.xipos());
     let (cvel, subtree_com) = (d.cvel(), d.subtree_com());
-    for b in 0..NUM_STATE_BODIES {
-        let id = scene.body_ids[b];
+    for (b, &id) in scene.body_ids.iter().enumerate() {
         rows.body_pos[3 * b..3 * b + 3].copy_from_slice(&xpos[id]);
         rows.body_quat[4 * b..4 * b + 4].copy_from_slice(&xquat[id]);
         // cvel = [ω; v] of the body, linear part at its tree's subtree centre of mass c, world
@@ -428,42 +475,44 @@ fn read_kinematics(scene: &Scene, d: &Data, rows: &mut Rows<'_>) {
         rows.body_angvel[3 * b..3 * b + 3].copy_from_slice(w);
         rows.body_linvel[3 * b..3 * b + 3].copy_from_slice(&lin);
     }
-
-    let qpos = d.qpos();
-    let qvel = d.qvel();
-    for j in 0..NUM_JOINTS {
-        let (p, v) = (&mut rows.dof_pos[3 * j..3 * j + 3], &mut rows.dof_vel[3 * j..3 * j + 3]);
-        match (scene.joint_qpos[j], scene.joint_dof[j]) {
-            (Some(a), Some(dv)) => {
-                let q =
-                    Quat::from_wxyz([qpos[a], qpos[a + 1], qpos[a + 2], qpos[a + 3]]).normalized();
-                p.copy_from_slice(&q.to_rotvec());
-                v.copy_from_slice(&qvel[dv..dv + 3]);
-            }
-            _ => {
-                p.fill(0.0);
-                v.fill(0.0);
-            }
+    let (qpos, qvel) = (d.qpos(), d.qvel());
+    for j in &scene.joints {
+        let k = j.dof;
+        if j.ball {
+            let a = j.qpos;
+            let q = Quat::from_wxyz([qpos[a], qpos[a + 1], qpos[a + 2], qpos[a + 3]]).normalized();
+            rows.dof_pos[k..k + 3].copy_from_slice(&q.to_rotvec());
+            rows.dof_vel[k..k + 3].copy_from_slice(&qvel[j.qvel..j.qvel + 3]);
+        } else {
+            rows.dof_pos[k] = qpos[j.qpos];
+            rows.dof_vel[k] = qvel[j.qvel];
         }
     }
 }
 
-/// Classify the active contacts and accumulate per-body net contact forces (world frame) from the
-/// last constraint solve (no allocation).
+/// Classify the active contacts, flag the character bodies that touch something else and
+/// accumulate per-body net contact forces (world frame) from the last constraint solve (no
+/// allocation).
 fn read_contacts(scene: &Scene, d: &Data, rows: &mut Rows<'_>) {
     rows.contact_force.fill(0.0);
     rows.contact_pairs.fill(0);
+    rows.touch.fill(0);
     for (c, con) in d.contact().iter().enumerate() {
         if con.efc_address < 0 {
             continue; // excluded or inactive: no constraint force
         }
         let (g1, g2) = (con.geom[0], con.geom[1]);
         if g1 < 0 || g2 < 0 {
-            continue; // flex contacts (none in this scene)
+            continue; // flex contacts (none in these scenes)
         }
         let (o1, o2) = (scene.geom_owner[g1 as usize], scene.geom_owner[g2 as usize]);
-        if let Some(kind) = ContactPair::classify(o1, o2) {
+        if let Some(kind) = ContactPair::classify(o1, o2, &scene.body_part) {
             rows.contact_pairs[kind as usize] = 1;
+        }
+        match (o1, o2) {
+            (GeomOwner::Body(_), GeomOwner::Body(_)) => {}
+            (GeomOwner::Body(x), _) | (_, GeomOwner::Body(x)) => rows.touch[x] = 1,
+            _ => {}
         }
         // force of geom1 on geom2, contact frame -> world (frame rows: normal, tangent, tangent)
         let f = d.contact_force(c);
@@ -476,7 +525,8 @@ fn read_contacts(scene: &Scene, d: &Data, rows: &mut Rows<'_>) {
         for (owner, sign) in [(o2, 1.0), (o1, -1.0)] {
             let b = match owner {
                 GeomOwner::Body(b) => b,
-                GeomOwner::Ball => crate::scene::BALL,
+                GeomOwner::Ball => scene.num_character_bodies(),
+                GeomOwner::Object(k) => scene.object_body(k),
                 GeomOwner::Floor => continue,
             };
             for k in 0..3 {

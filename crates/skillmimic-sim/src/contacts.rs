@@ -1,10 +1,11 @@
 //! Contact classification from MuJoCo's exact contact pairs.
 //!
-//! Humanoid bodies are grouped by [`BodyPart`]: *hand* = wrist + fingers, *foot* = ankle + toe,
-//! *trunk* = every other body. The pair kinds below are what the contact graph and the
+//! Character bodies are grouped by their [`BodyPart`] (the character's table: the SkillMimic
+//! humanoid's *hand* = wrist + fingers, *foot* = ankle + toe, *trunk* = every other body).
+//! Contacts with box objects are not classified. The pair kinds below are what the contact graph and the
 //! evaluation need; each is 1 when at least one active contact of that kind exists.
 
-use skillmimic_core::skeleton::{BodyPart, body_part};
+use skillmimic_core::characters::BodyPart;
 
 use crate::scene::GeomOwner;
 
@@ -56,9 +57,11 @@ impl ContactPair {
         }
     }
 
-    /// The kind of a contact between two geoms, if it is one we record.
-    pub fn classify(a: GeomOwner, b: GeomOwner) -> Option<ContactPair> {
+    /// The kind of a contact between two geoms, if it is one we record; `parts` = the
+    /// character bodies' anatomical parts.
+    pub fn classify(a: GeomOwner, b: GeomOwner, parts: &[BodyPart]) -> Option<ContactPair> {
         use GeomOwner::*;
+        let body_part = |x: usize| parts[x];
         let (a, b) = if rank(a) <= rank(b) { (a, b) } else { (b, a) };
         match (a, b) {
             (Floor, Ball) => Some(ContactPair::BallFloor),
@@ -86,7 +89,8 @@ fn rank(o: GeomOwner) -> u8 {
     match o {
         GeomOwner::Floor => 0,
         GeomOwner::Ball => 1,
-        GeomOwner::Body(_) => 2,
+        GeomOwner::Object(_) => 2,
+        GeomOwner::Body(_) => 3,
     }
 }
 
@@ -97,17 +101,24 @@ mod tests {
 
     #[test]
     fn pairs_are_classified_symmetrically() {
+        let parts: Vec<_> = skillmimic_core::characters::skillmimic::spec(Default::default())
+            .bodies
+            .iter()
+            .map(|b| b.part)
+            .collect();
+        let classify = |a, b| ContactPair::classify(a, b, &parts);
         // 21 = L_Index3 (hand), 3 = L_Ankle (foot), 0 = Pelvis (trunk), 18 = L_Wrist, 37 = R_Wrist
-        assert_eq!(ContactPair::classify(Ball, Body(21)), Some(ContactPair::HandBall));
-        assert_eq!(ContactPair::classify(Body(21), Ball), Some(ContactPair::HandBall));
-        assert_eq!(ContactPair::classify(Body(3), Ball), Some(ContactPair::BodyBall));
-        assert_eq!(ContactPair::classify(Body(0), Body(18)), Some(ContactPair::HandBody));
-        assert_eq!(ContactPair::classify(Body(18), Body(37)), None);
-        assert_eq!(ContactPair::classify(Body(0), Body(3)), None);
-        assert_eq!(ContactPair::classify(Ball, Floor), Some(ContactPair::BallFloor));
-        assert_eq!(ContactPair::classify(Floor, Body(0)), Some(ContactPair::BodyFloor));
-        assert_eq!(ContactPair::classify(Floor, Body(4)), Some(ContactPair::FootFloor));
-        assert_eq!(ContactPair::classify(Body(52), Floor), Some(ContactPair::HandFloor));
+        assert_eq!(classify(Ball, Body(21)), Some(ContactPair::HandBall));
+        assert_eq!(classify(Body(21), Ball), Some(ContactPair::HandBall));
+        assert_eq!(classify(Body(3), Ball), Some(ContactPair::BodyBall));
+        assert_eq!(classify(Body(0), Body(18)), Some(ContactPair::HandBody));
+        assert_eq!(classify(Body(18), Body(37)), None);
+        assert_eq!(classify(Body(0), Body(3)), None);
+        assert_eq!(classify(Ball, Floor), Some(ContactPair::BallFloor));
+        assert_eq!(classify(Floor, Body(0)), Some(ContactPair::BodyFloor));
+        assert_eq!(classify(Floor, Body(4)), Some(ContactPair::FootFloor));
+        assert_eq!(classify(Body(52), Floor), Some(ContactPair::HandFloor));
+        assert_eq!(classify(Object(0), Body(52)), None);
         assert!(ContactPair::ALL.iter().enumerate().all(|(i, p)| *p as usize == i));
     }
 }

@@ -1,37 +1,35 @@
-//! Simulation layer of skillmimic-rs.
+//! Simulation layer of skillmimic-rs: one stack for every character.
 //!
-//! * [`mjcf`]: generator of the humanoid + ball MJCF (full or box hands), with the modelling
-//!   choices documented;
-//! * [`scene`]: a compiled scene and its index tables (skeleton body → MuJoCo ids, joint
-//!   addresses, actuator → action index, geom owners);
+//! * [`mjcf`]: the MJCF generator — a character (`skillmimic_core::characters`) plus the ball,
+//!   box objects and props a task asks for, with the modelling choices documented;
+//! * [`ball`]: the basketball's parameters and its PhysX-like restitution;
+//! * [`scene`]: a compiled scene and its index tables (character body → MuJoCo ids, joint
+//!   addresses, actuator → dof and action map, geom owners, objects);
 //! * [`batch`]: N environments stepped in parallel with rayon (PD targets, sub-steps, state and
 //!   contact read-out into contiguous buffers, resets), deterministic for any thread count;
-//! * [`hsi_mjcf`], [`hsi_scene`], [`hsi_batch`]: the same three layers for the TokenHSI
-//!   character (15 bodies, 32 dofs) and its task objects;
-//! * [`state`], [`contacts`]: the read-out layout and the contact-pair kinds.
+//! * [`state`], [`contacts`]: the read-out layout and the contact-pair kinds;
+//! * [`bounce`]: PhysX's ball bounce threshold; [`memory`]: the memory check before a batch is
+//!   allocated; [`mj_batch`]: raw MuJoCo access.
 
+pub mod ball;
 pub mod batch;
 pub mod bounce;
 pub mod contacts;
 pub mod error;
-pub mod hsi_batch;
-pub mod hsi_mjcf;
-pub mod hsi_scene;
 pub mod memory;
 pub mod mj_batch;
 pub mod mjcf;
 pub mod scene;
 pub mod state;
 
+pub use ball::{BallParams, BodyContact};
 pub use batch::BatchSim;
 pub use contacts::{ContactPair, NUM_CONTACT_PAIRS};
 pub use error::SimError;
-pub use hsi_batch::{HsiBatch, HsiEnvState, HsiReset, HsiState, ObjectState};
-pub use hsi_mjcf::{HsiObject, ObjectBox};
-pub use hsi_scene::{HsiScene, MAX_OBJECTS};
 pub use mj_batch::MjBatch;
 pub use mjcf::{
-    BallParams, BodyContact, HandModel, RootJoint, SceneOptions, Solver, SolverOptions,
+    BoxObject, ObjectBox, Prop, PropKind, RootJoint, SceneOptions, Solver, SolverOptions,
 };
 pub use scene::{BALL, NUM_STATE_BODIES, Scene};
-pub use state::{BatchState, EnvState, ResetState};
+pub use skillmimic_core::characters::{Character, HandModel};
+pub use state::{BatchState, EnvState, ObjectState, ResetState};

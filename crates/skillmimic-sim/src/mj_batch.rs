@@ -1,7 +1,8 @@
-//! What every batch of MuJoCo environments offers, whatever its character: the model and MJCF
-//! text of each environment and raw `qpos`/`qvel` access (rendering, recording, the Python
-//! package's state edits). [`BatchSim`](crate::BatchSim) (SkillMimic humanoid + ball) and
-//! [`HsiBatch`](crate::HsiBatch) (TokenHSI character + objects) implement it.
+//! Raw MuJoCo access to a batch of environments, whatever its character: the model and MJCF text
+//! of each environment, its state read-out and raw `qpos`/`qvel` access (rendering, recording,
+//! the Python package's state edits). [`BatchSim`](crate::BatchSim) implements it; an
+//! environment made of several batches (the multi-task environment) routes each index to its
+//! batch.
 
 use std::sync::Arc;
 
@@ -17,6 +18,8 @@ pub trait MjBatch: Send + Sync {
     fn env_model(&self, i: usize) -> &Arc<MjModel>;
     /// The MJCF text environment `i`'s model was compiled from.
     fn env_xml(&self, i: usize) -> &str;
+    /// The state read-out of environment `i`.
+    fn env_state(&self, i: usize) -> crate::EnvState<'_>;
     /// Generalised positions of environment `i`.
     fn env_qpos(&self, i: usize) -> &[f64];
     /// Generalised velocities of environment `i`.
@@ -29,38 +32,20 @@ impl MjBatch for crate::BatchSim {
     fn num_envs(&self) -> usize {
         crate::BatchSim::num_envs(self)
     }
-    fn env_model(&self, _i: usize) -> &Arc<MjModel> {
-        self.scene().model()
+    fn env_model(&self, i: usize) -> &Arc<MjModel> {
+        self.scene_of(i).model()
     }
-    fn env_xml(&self, _i: usize) -> &str {
-        self.scene().xml()
+    fn env_xml(&self, i: usize) -> &str {
+        self.scene_of(i).xml()
+    }
+    fn env_state(&self, i: usize) -> crate::EnvState<'_> {
+        self.state().env(i)
     }
     fn env_qpos(&self, i: usize) -> &[f64] {
         self.qpos(i)
     }
     fn env_qvel(&self, i: usize) -> &[f64] {
         self.qvel(i)
-    }
-    fn set_env_qpos_qvel(&mut self, i: usize, qpos: &[f64], qvel: &[f64]) -> Result<(), SimError> {
-        self.set_qpos_qvel(i, qpos, qvel)
-    }
-}
-
-impl MjBatch for crate::HsiBatch {
-    fn num_envs(&self) -> usize {
-        crate::HsiBatch::num_envs(self)
-    }
-    fn env_model(&self, i: usize) -> &Arc<MjModel> {
-        self.scene(i).model()
-    }
-    fn env_xml(&self, i: usize) -> &str {
-        self.scene(i).xml()
-    }
-    fn env_qpos(&self, i: usize) -> &[f64] {
-        self.data(i).qpos()
-    }
-    fn env_qvel(&self, i: usize) -> &[f64] {
-        self.data(i).qvel()
     }
     fn set_env_qpos_qvel(&mut self, i: usize, qpos: &[f64], qvel: &[f64]) -> Result<(), SimError> {
         self.set_qpos_qvel(i, qpos, qvel)

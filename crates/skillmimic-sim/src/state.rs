@@ -1,104 +1,162 @@
-//! Batched state buffers read out after every step, and the state used to reset an environment.
+//! The per-environment state read-out of a batch (`f64`, environment-major) and the state a reset
+//! writes.
 //!
-//! All arrays are `f64`, contiguous, environment-major (`[env][…]`). Rigid bodies are indexed
-//! 0…52 for the humanoid (skeleton order) and 53 ([`BALL`](crate::scene::BALL)) for the ball.
-//! Frames and units:
-//! * positions: world frame, metres (body frame origin);
-//! * rotations: world frame quaternions **(w, x, y, z)**;
-//! * linear velocities: world frame, m/s, of the body's **centre of mass** (PhysX link semantics;
-//!   for the pelvis and the ball the centre of mass is the frame origin);
+//! State bodies are the character's bodies followed by the scene's objects ([`crate::scene`]):
+//! * positions: world frame, m, of each body frame's origin;
+//! * rotations: world frame, quaternion **w, x, y, z**;
+//! * linear velocities: world frame, m/s, of the body's **centre of mass** (PhysX link
+//!   semantics; for the SkillMimic pelvis and the ball the centre of mass is the frame origin);
 //! * angular velocities: world frame, rad/s;
-//! * joint positions: 52 × 3 rotation-vector (exp-map) components of each body relative to its
-//!   parent, angle in (−π, π] (what the position actuators measure); joint velocities: 52 × 3
-//!   local angular velocities (the ball joints' `qvel`); zero for welded fingers;
+//! * joint positions: the character's dof vector — a ball joint's three rotation-vector
+//!   (exp-map) components of the body relative to its parent, angle in (−π, π]; a hinge's angle;
+//!   joint velocities: a ball joint's local angular velocity, a hinge's rate (rad/s); zero in the
+//!   slots of welded bodies;
 //! * contact forces: net force (N, world frame) that all contacts of the last physics sub-step
-//!   exerted on each body;
-//! * contact pairs: one 0/1 flag per [`ContactPair`](crate::contacts::ContactPair) kind.
+//!   exerted on each state body;
+//! * contact pairs: one 0/1 flag per [`ContactPair`](crate::contacts::ContactPair) kind;
+//! * touch: per character body, 1 if it touched anything that is not the character (the floor,
+//!   a prop, the ball, an object) in the last physics sub-step.
 //!
 //! Timing: kinematic quantities describe the state *after* the step (forward kinematics and
 //! velocities are recomputed); contacts and their forces are those solved in the last sub-step.
 
+use skillmimic_core::characters::skillmimic::NUM_DOFS;
 use skillmimic_core::math::Quat;
-use skillmimic_core::skeleton::NUM_DOFS;
 
 use crate::contacts::NUM_CONTACT_PAIRS;
-use crate::scene::NUM_STATE_BODIES;
+use crate::scene::Scene;
+
+/// Pose and velocity of one object (world frame; angular velocity in the object frame, MuJoCo's
+/// free-joint convention; only the pose applies to a static object).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ObjectState {
+    pub pos: [f64; 3],
+    pub quat: Quat,
+    pub linvel: [f64; 3],
+    pub angvel_local: [f64; 3],
+}
+
+impl Default for ObjectState {
+    /// Parked below the floor, out of the way.
+    fn default() -> Self {
+        Self {
+            pos: [0.0, 0.0, -10.0],
+            quat: Quat::IDENTITY,
+            linvel: [0.0; 3],
+            angvel_local: [0.0; 3],
+        }
+    }
+}
 
 /// Full physical state used to (re)initialise one environment.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ResetState {
-    /// Root (pelvis) position, world (m).
+    /// Root position, world (m).
     pub root_pos: [f64; 3],
-    /// Root orientation, world, (w, x, y, z).
+    /// Root orientation, world.
     pub root_quat: Quat,
     /// Root linear velocity, world (m/s).
     pub root_linvel: [f64; 3],
     /// Root angular velocity in the **root body frame** (rad/s) — MuJoCo's free-joint convention.
     pub root_angvel_local: [f64; 3],
-    /// 52 × 3 joint rotation vectors (rad), skeleton order.
-    pub dof_pos: [f64; NUM_DOFS],
-    /// 52 × 3 joint local angular velocities (rad/s).
-    pub dof_vel: [f64; NUM_DOFS],
-    /// Ball centre, world (m).
-    pub ball_pos: [f64; 3],
-    /// Ball orientation (w, x, y, z).
-    pub ball_quat: Quat,
-    /// Ball linear velocity, world (m/s).
-    pub ball_linvel: [f64; 3],
-    /// Ball angular velocity in the ball frame (rad/s).
-    pub ball_angvel_local: [f64; 3],
+    /// The character's dof vector (see the module doc; rad).
+    pub dof_pos: Vec<f64>,
+    /// Its velocities (rad/s).
+    pub dof_vel: Vec<f64>,
+    /// The objects in state-body order (the ball first where there is one).
+    pub objects: Vec<ObjectState>,
 }
 
-impl Default for ResetState {
-    /// Upright zero pose (skeleton Y-up turned to Z-up), pelvis at 0.95 m, ball on the floor in
-    /// front of the character, everything at rest.
-    fn default() -> Self {
+impl ResetState {
+    /// The scene's rest state: the character's MJCF rest pose (every joint at 0) at rest, the
+    /// ball (if any) on the floor in front of it, the other objects parked.
+    pub fn rest(scene: &Scene) -> Self {
+        let mut s = Self::of(scene.character(), scene.objects.len());
+        if let Some(b) = scene.options().ball {
+            s.objects[0] = ObjectState { pos: [0.0, 0.6, b.radius], ..ObjectState::default() };
+        }
+        s
+    }
+
+    /// The rest pose of `character` at rest, with `objects` parked objects.
+    pub fn of(character: &skillmimic_core::characters::CharacterSpec, objects: usize) -> Self {
         Self {
-            root_pos: [0.0, 0.0, 0.95],
-            root_quat: Quat::from_rotvec([std::f64::consts::FRAC_PI_2, 0.0, 0.0]),
+            root_pos: character.root_pos,
+            root_quat: character.root_quat,
             root_linvel: [0.0; 3],
             root_angvel_local: [0.0; 3],
-            dof_pos: [0.0; NUM_DOFS],
-            dof_vel: [0.0; NUM_DOFS],
-            ball_pos: [0.0, 0.6, 0.12],
-            ball_quat: Quat::IDENTITY,
-            ball_linvel: [0.0; 3],
-            ball_angvel_local: [0.0; 3],
+            dof_pos: vec![0.0; character.num_dofs],
+            dof_vel: vec![0.0; character.num_dofs],
+            objects: vec![ObjectState::default(); objects],
         }
+    }
+
+    /// Back to the state `rest` describes without reallocating: the root at `root_pos` /
+    /// `root_quat`, joints and velocities zero; the objects keep their count and are parked.
+    pub fn clear(&mut self, root_pos: [f64; 3], root_quat: Quat) {
+        self.root_pos = root_pos;
+        self.root_quat = root_quat;
+        self.root_linvel = [0.0; 3];
+        self.root_angvel_local = [0.0; 3];
+        self.dof_pos.fill(0.0);
+        self.dof_vel.fill(0.0);
+        self.objects.fill(ObjectState::default());
+    }
+
+    /// The ball (object 0 of a scene with a ball).
+    pub fn ball(&self) -> &ObjectState {
+        &self.objects[0]
+    }
+    /// The ball, mutably.
+    pub fn ball_mut(&mut self) -> &mut ObjectState {
+        &mut self.objects[0]
     }
 }
 
-/// Widths of one environment's rows in each buffer.
-pub mod width {
-    use super::*;
-    pub const BODY_POS: usize = NUM_STATE_BODIES * 3;
-    pub const BODY_QUAT: usize = NUM_STATE_BODIES * 4;
-    pub const BODY_VEL: usize = NUM_STATE_BODIES * 3;
-    pub const DOF: usize = NUM_DOFS;
-    pub const CONTACT_FORCE: usize = NUM_STATE_BODIES * 3;
-    pub const CONTACT_PAIRS: usize = NUM_CONTACT_PAIRS;
+impl Default for ResetState {
+    /// The SkillMimic scene's rest state: upright zero pose (skeleton Y-up turned to Z-up),
+    /// pelvis at 0.95 m, the ball on the floor in front of the character, everything at rest.
+    fn default() -> Self {
+        Self {
+            root_pos: [0.0, 0.0, 0.95],
+            root_quat: skillmimic_core::characters::skillmimic::upright(),
+            root_linvel: [0.0; 3],
+            root_angvel_local: [0.0; 3],
+            dof_pos: vec![0.0; NUM_DOFS],
+            dof_vel: vec![0.0; NUM_DOFS],
+            objects: vec![ObjectState { pos: [0.0, 0.6, 0.12], ..ObjectState::default() }],
+        }
+    }
 }
 
 /// Batched read-out buffers (see the module docs for frames and units).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct BatchState {
     pub num_envs: usize,
-    /// `[N][54][3]`
+    /// State bodies per environment (character bodies, then objects).
+    pub bodies: usize,
+    /// Character bodies per environment.
+    pub character_bodies: usize,
+    /// Dof slots per environment.
+    pub dofs: usize,
+    /// `[N][bodies][3]`
     pub body_pos: Vec<f64>,
-    /// `[N][54][4]` (w, x, y, z)
+    /// `[N][bodies][4]` (w, x, y, z)
     pub body_quat: Vec<f64>,
-    /// `[N][54][3]`
+    /// `[N][bodies][3]`
     pub body_linvel: Vec<f64>,
-    /// `[N][54][3]`
+    /// `[N][bodies][3]`
     pub body_angvel: Vec<f64>,
-    /// `[N][156]`
+    /// `[N][dofs]`
     pub dof_pos: Vec<f64>,
-    /// `[N][156]`
+    /// `[N][dofs]`
     pub dof_vel: Vec<f64>,
-    /// `[N][54][3]`
+    /// `[N][bodies][3]`
     pub contact_force: Vec<f64>,
     /// `[N][7]`
     pub contact_pairs: Vec<u8>,
+    /// `[N][character bodies]`
+    pub touch: Vec<u8>,
     /// `[N]`: 1 if MuJoCo reported a numerical instability (a non-finite or huge `qpos`, `qvel`
     /// or `qacc`) during the last step or reset (MuJoCo then resets that environment's data to
     /// the model default pose).
@@ -106,35 +164,41 @@ pub struct BatchState {
 }
 
 impl BatchState {
-    /// Zeroed buffers for `n` environments.
-    pub fn new(n: usize) -> Self {
+    /// Zeroed buffers for `n` environments of `scene`.
+    pub fn new(n: usize, scene: &Scene) -> Self {
+        let (b, c, d) = (scene.num_state_bodies(), scene.num_character_bodies(), scene.num_dofs());
         Self {
             num_envs: n,
-            body_pos: vec![0.0; n * width::BODY_POS],
-            body_quat: vec![0.0; n * width::BODY_QUAT],
-            body_linvel: vec![0.0; n * width::BODY_VEL],
-            body_angvel: vec![0.0; n * width::BODY_VEL],
-            dof_pos: vec![0.0; n * width::DOF],
-            dof_vel: vec![0.0; n * width::DOF],
-            contact_force: vec![0.0; n * width::CONTACT_FORCE],
-            contact_pairs: vec![0; n * width::CONTACT_PAIRS],
+            bodies: b,
+            character_bodies: c,
+            dofs: d,
+            body_pos: vec![0.0; n * b * 3],
+            body_quat: vec![0.0; n * b * 4],
+            body_linvel: vec![0.0; n * b * 3],
+            body_angvel: vec![0.0; n * b * 3],
+            dof_pos: vec![0.0; n * d],
+            dof_vel: vec![0.0; n * d],
+            contact_force: vec![0.0; n * b * 3],
+            contact_pairs: vec![0; n * NUM_CONTACT_PAIRS],
+            touch: vec![0; n * c],
             unstable: vec![0; n],
         }
     }
 
     /// Read-only view of environment `i`.
     pub fn env(&self, i: usize) -> EnvState<'_> {
+        let (b3, b4, d, c, p) =
+            (3 * self.bodies, 4 * self.bodies, self.dofs, self.character_bodies, NUM_CONTACT_PAIRS);
         EnvState {
-            body_pos: &self.body_pos[i * width::BODY_POS..(i + 1) * width::BODY_POS],
-            body_quat: &self.body_quat[i * width::BODY_QUAT..(i + 1) * width::BODY_QUAT],
-            body_linvel: &self.body_linvel[i * width::BODY_VEL..(i + 1) * width::BODY_VEL],
-            body_angvel: &self.body_angvel[i * width::BODY_VEL..(i + 1) * width::BODY_VEL],
-            dof_pos: &self.dof_pos[i * width::DOF..(i + 1) * width::DOF],
-            dof_vel: &self.dof_vel[i * width::DOF..(i + 1) * width::DOF],
-            contact_force: &self.contact_force
-                [i * width::CONTACT_FORCE..(i + 1) * width::CONTACT_FORCE],
-            contact_pairs: &self.contact_pairs
-                [i * width::CONTACT_PAIRS..(i + 1) * width::CONTACT_PAIRS],
+            body_pos: &self.body_pos[i * b3..(i + 1) * b3],
+            body_quat: &self.body_quat[i * b4..(i + 1) * b4],
+            body_linvel: &self.body_linvel[i * b3..(i + 1) * b3],
+            body_angvel: &self.body_angvel[i * b3..(i + 1) * b3],
+            dof_pos: &self.dof_pos[i * d..(i + 1) * d],
+            dof_vel: &self.dof_vel[i * d..(i + 1) * d],
+            contact_force: &self.contact_force[i * b3..(i + 1) * b3],
+            contact_pairs: &self.contact_pairs[i * p..(i + 1) * p],
+            touch: &self.touch[i * c..(i + 1) * c],
             unstable: self.unstable[i] != 0,
         }
     }
@@ -151,16 +215,17 @@ pub struct EnvState<'a> {
     pub dof_vel: &'a [f64],
     pub contact_force: &'a [f64],
     pub contact_pairs: &'a [u8],
+    pub touch: &'a [u8],
     pub unstable: bool,
 }
 
 impl EnvState<'_> {
-    /// Position of body `b` (0…53).
+    /// Position of state body `b`.
     #[inline]
     pub fn pos(&self, b: usize) -> [f64; 3] {
         [self.body_pos[3 * b], self.body_pos[3 * b + 1], self.body_pos[3 * b + 2]]
     }
-    /// Orientation of body `b`.
+    /// Orientation of state body `b`.
     #[inline]
     pub fn quat(&self, b: usize) -> Quat {
         Quat::from_wxyz([
@@ -170,17 +235,17 @@ impl EnvState<'_> {
             self.body_quat[4 * b + 3],
         ])
     }
-    /// Linear velocity of body `b`.
+    /// Linear velocity of state body `b`.
     #[inline]
     pub fn linvel(&self, b: usize) -> [f64; 3] {
         [self.body_linvel[3 * b], self.body_linvel[3 * b + 1], self.body_linvel[3 * b + 2]]
     }
-    /// Angular velocity of body `b`.
+    /// Angular velocity of state body `b`.
     #[inline]
     pub fn angvel(&self, b: usize) -> [f64; 3] {
         [self.body_angvel[3 * b], self.body_angvel[3 * b + 1], self.body_angvel[3 * b + 2]]
     }
-    /// Net contact force on body `b`.
+    /// Net contact force on state body `b`.
     #[inline]
     pub fn contact_force(&self, b: usize) -> [f64; 3] {
         [self.contact_force[3 * b], self.contact_force[3 * b + 1], self.contact_force[3 * b + 2]]
@@ -189,5 +254,10 @@ impl EnvState<'_> {
     #[inline]
     pub fn has_contact(&self, kind: crate::contacts::ContactPair) -> bool {
         self.contact_pairs[kind as usize] != 0
+    }
+    /// Whether character body `b` touched something that is not the character.
+    #[inline]
+    pub fn touches(&self, b: usize) -> bool {
+        self.touch[b] != 0
     }
 }

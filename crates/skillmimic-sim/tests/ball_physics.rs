@@ -4,23 +4,35 @@
 
 use std::sync::Arc;
 
+use skillmimic_core::characters::skillmimic::NUM_DOFS;
 use skillmimic_core::math::Quat;
-use skillmimic_core::skeleton::NUM_DOFS;
 use skillmimic_sim::{
-    BALL, BallParams, BatchSim, BodyContact, ContactPair, HandModel, ResetState, RootJoint, Scene,
-    SceneOptions,
+    BALL, BallParams, BatchSim, BodyContact, Character, ContactPair, HandModel, ResetState,
+    RootJoint, Scene, SceneOptions,
 };
 
 fn sim_with(ball: BallParams, root: RootJoint) -> BatchSim {
     let scene = Arc::new(
-        Scene::new(SceneOptions { hands: HandModel::Box, root, ball, ..Default::default() })
-            .unwrap(),
+        Scene::new(SceneOptions {
+            character: Character::SkillMimic { hands: HandModel::Box },
+            root,
+            ball: Some(ball),
+            ..Default::default()
+        })
+        .unwrap(),
     );
     BatchSim::new(scene, 1, 1).unwrap()
 }
 
 fn away() -> ResetState {
     ResetState { root_pos: [5.0, 0.0, 0.95], ..Default::default() }
+}
+
+/// [`away`] with the ball at `pos`.
+fn ball_at(pos: [f64; 3]) -> ResetState {
+    let mut s = away();
+    s.ball_mut().pos = pos;
+    s
 }
 
 /// Highest ball centre (m) over `steps` policy steps after a reset to `s`, counted once the ball
@@ -44,7 +56,7 @@ fn apex_after_touch(sim: &mut BatchSim, s: ResetState, steps: usize) -> f64 {
 fn slow_floor_impacts_do_not_bounce_below_the_threshold() {
     let r = 0.12;
     // released 1.5 mm above the floor: impact at 0.17 m/s, below PhysX's 0.2 m/s
-    let s = ResetState { ball_pos: [0.0, 0.0, r + 0.0015], ..away() };
+    let s = ball_at([0.0, 0.0, r + 0.0015]);
     let with =
         apex_after_touch(&mut sim_with(BallParams::default(), RootJoint::Free), s.clone(), 120);
     let without = apex_after_touch(
@@ -65,7 +77,7 @@ fn slow_floor_impacts_do_not_bounce_below_the_threshold() {
     );
     // a fast impact still bounces with the floor's combined restitution (0.81 + 0.8)/2
     let h = 1.0;
-    let fast = ResetState { ball_pos: [0.0, 0.0, h], ..away() };
+    let fast = ball_at([0.0, 0.0, h]);
     let apex = apex_after_touch(&mut sim_with(BallParams::default(), RootJoint::Free), fast, 90);
     let e = ((apex - r) / (h - r)).sqrt();
     println!("drop from {h} m: restitution from the apex {e:.3} (target 0.805)");
@@ -74,13 +86,10 @@ fn slow_floor_impacts_do_not_bounce_below_the_threshold() {
 
 #[test]
 fn damping_slows_the_flying_ball_by_one_percent_per_second() {
-    let mut s = ResetState {
-        ball_pos: [0.0, 0.0, 5.0],
-        ball_linvel: [5.0, 0.0, 0.0],
-        ball_angvel_local: [0.0, 0.0, 20.0],
-        ..away()
-    };
-    s.ball_quat = Quat::IDENTITY;
+    let mut s = ball_at([0.0, 0.0, 5.0]);
+    s.ball_mut().linvel = [5.0, 0.0, 0.0];
+    s.ball_mut().angvel_local = [0.0, 0.0, 20.0];
+    s.ball_mut().quat = Quat::IDENTITY;
     let run = |ball: BallParams| {
         let mut sim = sim_with(ball, RootJoint::Free);
         sim.reset(&[true], &[s.clone()]).unwrap();
@@ -115,11 +124,8 @@ fn body_bounce(body_contact: BodyContact, drop: f64) -> (f64, f64) {
     let mut sim = sim_with(BallParams { body_contact, ..Default::default() }, root);
     let zero = vec![0.0f32; NUM_DOFS];
     let top = 0.5 + 0.0985 + 0.12;
-    let s = ResetState {
-        root_pos: [0.0, 0.0, 0.5],
-        ball_pos: [0.0, 0.0, top + drop],
-        ..Default::default()
-    };
+    let mut s = ResetState { root_pos: [0.0, 0.0, 0.5], ..Default::default() };
+    s.ball_mut().pos = [0.0, 0.0, top + drop];
     sim.reset(&[true], &[s]).unwrap();
     let (mut v_in, mut prev, mut up) = (None, 0.0, f64::NEG_INFINITY);
     for _ in 0..90 {

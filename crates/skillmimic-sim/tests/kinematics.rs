@@ -4,8 +4,8 @@
 
 use std::sync::Arc;
 
+use skillmimic_core::characters::skillmimic::{BODIES, NUM_BODIES};
 use skillmimic_core::shared_data::{ballplay_clips, shared_dir_or_skip};
-use skillmimic_core::skeleton::{BODIES, NUM_BODIES};
 use skillmimic_motion::Clip;
 use skillmimic_sim::{BatchSim, HandModel, ResetState, Scene};
 
@@ -16,7 +16,7 @@ fn reset_state(clip: &Clip, t: usize) -> ResetState {
     for (d, &v) in s.dof_pos.iter_mut().zip(clip.dof_at(t)) {
         *d = v as f64;
     }
-    s.ball_pos = clip.ball_pos_at(t);
+    s.ball_mut().pos = clip.ball_pos_at(t);
     s
 }
 

@@ -4,7 +4,7 @@ use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use skillmimic_core::skeleton::NUM_DOFS;
+use skillmimic_core::characters::skillmimic::NUM_DOFS;
 use skillmimic_sim::{BatchSim, HandModel, ResetState, Scene};
 
 struct Counting;

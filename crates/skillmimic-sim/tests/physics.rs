@@ -3,8 +3,8 @@
 
 use std::sync::Arc;
 
+use skillmimic_core::characters::skillmimic::{BODIES, JointGroup, NUM_DOFS, dof_range};
 use skillmimic_core::math::Quat;
-use skillmimic_core::skeleton::{BODIES, JointGroup, NUM_DOFS, dof_range};
 use skillmimic_sim::mjcf::scene_xml;
 use skillmimic_sim::{
     BALL, BatchSim, ContactPair, HandModel, ResetState, RootJoint, Scene, SceneOptions,
@@ -27,7 +27,7 @@ fn ball_dropped_from_1_5_m_bounces_with_the_combined_floor_restitution_0_805() {
     let h = 1.5; // height of the ball centre at release
     let mut s = ResetState::default();
     s.root_pos = [5.0, 0.0, 0.95]; // humanoid out of the way
-    s.ball_pos = [0.0, 0.0, h];
+    s.ball_mut().pos = [0.0, 0.0, h];
     sim.reset(&[true], &[s]).unwrap();
     let zero = vec![0.0f32; NUM_DOFS];
     let (mut in_contact_seen, mut left_floor, mut apex) = (false, false, 0.0f64);
@@ -72,7 +72,7 @@ fn ball_resting_on_floor_carries_its_weight() {
     let mut sim = BatchSim::new(scene, 1, 1).unwrap();
     let mut s = ResetState::default();
     s.root_pos = [5.0, 0.0, 0.95];
-    s.ball_pos = [0.0, 0.0, 0.11];
+    s.ball_mut().pos = [0.0, 0.0, 0.11];
     sim.reset(&[true], &[s]).unwrap();
     // the resting ball micro-bounces (see mjcf::ball_floor_solref), so average the vertical
     // contact force over 2 s: it must carry the weight, sideways forces stay zero
@@ -222,7 +222,7 @@ fn bad_inputs_are_errors_not_panics() {
     let e = sim.step(&a).unwrap_err().to_string();
     assert!(e.contains("environment 1, entry 5"), "{e}");
     let mut s = ResetState::default();
-    s.ball_pos[2] = f64::INFINITY;
+    s.ball_mut().pos[2] = f64::INFINITY;
     assert!(sim.reset(&[false, true], &[ResetState::default(), s]).is_err());
     assert!(BatchSim::new(sim.scene().clone(), 0, 1).is_err());
 }
@@ -249,7 +249,7 @@ fn read_out_matches_mujoco_object_velocity_and_joint_quaternions() {
         }
         // joint rotation vectors rebuild the joint quaternions
         for j in 0..52 {
-            let a = scene.joint_qpos[j].unwrap();
+            let a = scene.joint_addr(j + 1).unwrap().qpos;
             let q = Quat::from_rotvec([
                 st.dof_pos[3 * j],
                 st.dof_pos[3 * j + 1],

@@ -1,17 +1,18 @@
-//! The MJCF files shipped in `mjcf/` are exactly the generator's output for the defaults
-//! (regenerate with `skillmimic mjcf`), and they compile to the expected model sizes and masses.
+//! The MJCF files shipped in `mjcf/` are exactly the generator's output for every character's
+//! plain scene (regenerate with `skillmimic mjcf`), and they compile to the expected model sizes
+//! and masses.
 
 use skillmimic_core::shared_data::workspace_root;
-use skillmimic_sim::mjcf::{default_scene_file, scene_xml};
-use skillmimic_sim::{BALL, HandModel, Scene, SceneOptions};
+use skillmimic_sim::mjcf::{default_scene, default_scene_file, scene_xml};
+use skillmimic_sim::{BALL, Character, HandModel, Scene};
 
 #[test]
 fn shipped_files_equal_the_generator_output() {
-    for hands in [HandModel::Full, HandModel::Box] {
-        let path = workspace_root().join("mjcf").join(default_scene_file(hands));
+    for c in Character::VARIANTS {
+        let path = workspace_root().join("mjcf").join(default_scene_file(c));
         let shipped =
             std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-        let generated = scene_xml(&SceneOptions { hands, ..Default::default() });
+        let generated = scene_xml(&default_scene(c));
         assert!(shipped == generated, "{} is stale: run `skillmimic mjcf`", path.display());
     }
 }

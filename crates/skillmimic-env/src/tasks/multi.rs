@@ -20,15 +20,14 @@
 //! values on its environments and 0 elsewhere (not rescaled). Info entries likewise prefixed.
 //!
 //! **MuJoCo access** (`mujoco()`: state reads and edits, rendering) is routed to the sub-batch
-//! holding environment i. Not multiplexed: `humanoid_sim()` gives the first task's batch;
-//! `pd_targets` is empty.
+//! holding environment i. Not multiplexed: `pd_targets` is empty.
 
 use std::any::Any;
 
 use std::sync::Arc;
 
 use mujoco_rs::prelude::MjModel;
-use skillmimic_sim::{BatchSim, MjBatch, SimError};
+use skillmimic_sim::{MjBatch, SimError};
 
 use crate::config::EnvConfig;
 use crate::config_multi::split;
@@ -358,9 +357,6 @@ impl Env for MultiEnv {
         }
         self.gather();
     }
-    fn humanoid_sim(&self) -> Option<&BatchSim> {
-        self.subs[0].env.humanoid_sim()
-    }
     fn mujoco(&self) -> &dyn MjBatch {
         self
     }
@@ -396,6 +392,10 @@ impl MjBatch for MultiEnv {
     fn env_xml(&self, i: usize) -> &str {
         let (k, j) = self.locate(i);
         self.subs[k].env.mujoco().env_xml(j)
+    }
+    fn env_state(&self, i: usize) -> skillmimic_sim::EnvState<'_> {
+        let (k, j) = self.locate(i);
+        self.subs[k].env.mujoco().env_state(j)
     }
     fn env_qpos(&self, i: usize) -> &[f64] {
         let (k, j) = self.locate(i);

@@ -1,14 +1,15 @@
 //! `stand`: keep the pelvis at a target height and the heading the episode started with — no
-//! clip, no ball. The worked example of adding a task (README "Adding a task"): this module plus
-//! one line in [`crate::registry::TASKS`] and one config table, `[env.stand]`
-//! ([`StandConfig`] in `config.rs`, where every task's table lives).
+//! clip, no ball, on any character. The worked example of adding a task (README "Adding a
+//! task"): this module plus one line in [`crate::registry::TASKS`] and one config table,
+//! `[env.stand]` ([`StandConfig`](crate::config::StandConfig)).
 //!
-//! * Start: the zero pose (every joint rotation 0, upright root) at `start_height`, turned to a
-//!   uniformly random heading ψ₀ ∈ [−π, π); zero velocities. The ball rests out of the way at
-//!   (5, 5) m and plays no part.
-//! * Observation (826): the humanoid part of the skill observation (entries 0..823 of
-//!   `obs::layout`, heading frame) | z − z* (m) | cos Δψ | sin Δψ, with Δψ = ψ₀ − ψ the heading
-//!   still to turn (rad, wrapped to (−π, π]).
+//! * Start: the character's rest pose (every joint at 0, upright root) at `start_height` (0 = the
+//!   character's rest height: SkillMimic humanoid 0.95 m, TokenHSI character 0.92 m, SMPL
+//!   humanoid 0.937 m), turned to a uniformly random heading ψ₀ ∈ [−π, π); zero velocities. On
+//!   the SkillMimic humanoid the ball rests out of the way at (5, 5) m and plays no part.
+//! * Observation: the character's proprioception ([`crate::proprio`]; 823, 222 or 358 wide) |
+//!   z − z* (m) | cos Δψ | sin Δψ, with Δψ = ψ₀ − ψ the heading still to turn (rad, wrapped to
+//!   (−π, π]).
 //! * Reward: r = w_h·exp(−k_h (z − z*)²) + (1 − w_h)·exp(−k_ψ Δψ²) ∈ [0, 1]; terms
 //!   `height`, `heading`, `total`.
 //! * Done: terminated when the pelvis falls below `termination_height` or the simulation is
@@ -19,18 +20,14 @@ use std::sync::Arc;
 
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
+use skillmimic_core::characters::CharacterSpec;
 use skillmimic_core::math::{Quat, heading, wrap_angle};
-use skillmimic_core::skeleton::NUM_DOFS;
 use skillmimic_sim::{EnvState, ResetState, Scene};
 
 use crate::config::{EnvConfig, StandConfig};
 use crate::error::{EnvError, bad};
-use crate::obs::{layout, write_state_obs};
 use crate::task::{ActionSpace, StepOut, Task, TaskSpec};
 use crate::vec_env::{Env, VecEnv};
-
-/// Observation width: humanoid state (823) + height error + cos/sin of the heading error.
-pub const OBS_DIM: usize = layout::HUMANOID_DIM + 3;
 
 /// Per-environment state: steps taken and the heading to keep (rad).
 #[derive(Clone, Debug, Default)]
@@ -43,15 +40,16 @@ pub struct StandSlot {
 pub struct Stand {
     cfg: StandConfig,
     spec: TaskSpec,
+    character: CharacterSpec,
 }
 
 impl Stand {
-    /// The task with options `cfg`.
-    pub fn new(cfg: StandConfig) -> Self {
+    /// The task with options `cfg` on `character`.
+    pub fn new(cfg: StandConfig, character: CharacterSpec) -> Self {
         let spec = TaskSpec {
             name: "stand",
-            obs_dim: OBS_DIM,
-            action_space: ActionSpace::Box { dim: NUM_DOFS },
+            obs_dim: character.proprio_dim() + 3,
+            action_space: ActionSpace::Box { dim: character.num_dofs },
             max_episode_steps: cfg.episode_length,
             term_names: vec!["height", "heading", "total"],
             metric_names: vec!["height_err", "heading_err"],
@@ -60,7 +58,7 @@ impl Stand {
             token_groups: Vec::new(),
             info_names: Vec::new(),
         };
-        Self { cfg, spec }
+        Self { cfg, spec, character }
     }
 
     /// (z − z*, Δψ) of a state.
@@ -72,15 +70,10 @@ impl Stand {
     }
 
     fn write_obs(&self, slot: &StandSlot, st: &EnvState<'_>, obs: &mut [f32]) {
-        let mut state = [0.0f32; layout::STATE_DIM];
-        write_state_obs(st, &mut state);
-        obs[..layout::HUMANOID_DIM].copy_from_slice(&state[..layout::HUMANOID_DIM]);
+        let p = self.character.proprio_dim();
+        crate::proprio::write_for(&self.character, st, &mut obs[..p]);
         let (dz, dpsi) = self.errors(slot, st);
-        obs[layout::HUMANOID_DIM..].copy_from_slice(&[
-            dz as f32,
-            dpsi.cos() as f32,
-            dpsi.sin() as f32,
-        ]);
+        obs[p..].copy_from_slice(&[dz as f32, dpsi.cos() as f32, dpsi.sin() as f32]);
     }
 }
 
@@ -99,19 +92,22 @@ impl Task for Stand {
         _i: usize,
         slot: &mut StandSlot,
         rng: &mut ChaCha8Rng,
+        scene: &Scene,
         state: &mut ResetState,
     ) {
         let psi = rng.random_range(-std::f64::consts::PI..std::f64::consts::PI);
-        // skeleton Y-up → world Z-up, then the heading about world z
-        let upright = Quat::from_rotvec([std::f64::consts::FRAC_PI_2, 0.0, 0.0]);
-        let root_quat = Quat::about_z(psi).mul(upright);
-        *state = ResetState {
-            root_pos: [0.0, 0.0, self.cfg.start_height],
-            root_quat,
-            dof_pos: [0.0; NUM_DOFS],
-            ball_pos: [5.0, 5.0, 0.12],
-            ..ResetState::default()
+        // the rest orientation (the SkillMimic skeleton's Y-up → Z-up turn), then the heading
+        let root_quat = Quat::about_z(psi).mul(self.character.root_quat);
+        let z = if self.cfg.start_height > 0.0 {
+            self.cfg.start_height
+        } else {
+            self.character.root_pos[2]
         };
+        state.clear([0.0, 0.0, z], root_quat);
+        if let Some(ball) = scene.ball() {
+            let k = ball - scene.num_character_bodies();
+            state.objects[k].pos = [5.0, 5.0, 0.12];
+        }
         *slot = StandSlot { steps: 0, target_heading: heading(root_quat) };
     }
 
@@ -135,12 +131,13 @@ impl Task for Stand {
         *out.truncated = u8::from(*out.terminated == 0 && slot.steps >= c.episode_length);
     }
 
-    fn observe(&self, slot: &StandSlot, st: &EnvState<'_>, obs: &mut [f32]) {
+    fn observe(&self, slot: &mut StandSlot, st: &EnvState<'_>, obs: &mut [f32]) {
         self.write_obs(slot, st, obs);
     }
 }
 
-/// Registry constructor: the `stand` task from `[env]` (driver keys) and `[env.stand]`.
+/// Registry constructor: the `stand` task from `[env]` (driver keys, the character) and
+/// `[env.stand]`.
 pub fn build(cfg: &EnvConfig) -> Result<Box<dyn Env>, EnvError> {
     cfg.validate_driver()?;
     let s = &cfg.stand;
@@ -155,11 +152,6 @@ pub fn build(cfg: &EnvConfig) -> Result<Box<dyn Env>, EnvError> {
         .into());
     }
     let scene = Arc::new(Scene::new(cfg.scene_options()?)?);
-    Ok(Box::new(VecEnv::with_task(
-        Stand::new(cfg.stand.clone()),
-        scene,
-        cfg.num_envs,
-        cfg.threads,
-        cfg.start_seed(0),
-    )?))
+    let task = Stand::new(s.clone(), scene.character().clone());
+    Ok(Box::new(VecEnv::with_task(task, scene, cfg.num_envs, cfg.threads, cfg.start_seed(0))?))
 }

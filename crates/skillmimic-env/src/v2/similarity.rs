@@ -10,8 +10,8 @@
 //! With `env.compat = "code"` the connection uses the released code's similarity instead
 //! ([`code_similarity`]) and its step count ([`masked_steps_code`]).
 
+use skillmimic_core::characters::skillmimic::NUM_JOINTS;
 use skillmimic_core::math::Quat;
-use skillmimic_core::skeleton::NUM_JOINTS;
 use skillmimic_motion::NUM_KEY;
 
 use crate::compat::Compat;
@@ -146,8 +146,8 @@ pub fn masked_steps(beta: f64, n_max: usize, tau: f64) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use skillmimic_core::characters::skillmimic::NUM_DOFS;
     use skillmimic_core::math::Quat;
-    use skillmimic_core::skeleton::NUM_DOFS;
     use skillmimic_motion::NUM_KEY;
 
     fn state() -> HoiState {

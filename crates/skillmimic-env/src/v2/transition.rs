@@ -31,7 +31,7 @@ fn up<R: Rng>(rng: &mut R, eps: f64) -> f64 {
     if eps > 0.0 { rng.random_range(0.0..=eps) } else { 0.0 }
 }
 
-fn add_sym<R: Rng, const N: usize>(v: &mut [f64; N], rng: &mut R, eps: f64) {
+fn add_sym<R: Rng>(v: &mut [f64], rng: &mut R, eps: f64) {
     for x in v.iter_mut() {
         *x += sym(rng, eps);
     }
@@ -155,10 +155,11 @@ pub fn perturb_code<R: Rng>(
     add_gauss(&mut s.dof_pos, rng, wd);
     add_gauss(&mut s.dof_vel, rng, eps.dof_vel);
     if with_ball {
-        s.ball_pos[2] += up(rng, eps.ball_height);
-        s.ball_quat = euler_noise(s.ball_quat, rng, eps.ball_rot);
-        add_gauss(&mut s.ball_linvel, rng, eps.ball_linvel);
-        add_gauss(&mut s.ball_angvel_local, rng, eps.ball_angvel);
+        let b = s.ball_mut();
+        b.pos[2] += up(rng, eps.ball_height);
+        b.quat = euler_noise(b.quat, rng, eps.ball_rot);
+        add_gauss(&mut b.linvel, rng, eps.ball_linvel);
+        add_gauss(&mut b.angvel_local, rng, eps.ball_angvel);
     }
 }
 
@@ -190,14 +191,8 @@ pub fn perturb_uniform<R: Rng>(s: &mut ResetState, eps: &NoiseEps, with_ball: bo
             linvel: eps.ball_linvel,
             angvel: eps.ball_angvel,
         };
-        perturb_body(
-            &mut s.ball_pos,
-            &mut s.ball_quat,
-            &mut s.ball_linvel,
-            &mut s.ball_angvel_local,
-            ball,
-            rng,
-        );
+        let b = s.ball_mut();
+        perturb_body(&mut b.pos, &mut b.quat, &mut b.linvel, &mut b.angvel_local, ball, rng);
     }
 }
 
@@ -260,11 +255,9 @@ mod tests {
             ball_linvel: 0.2,
             ball_angvel: 0.3,
         };
-        let base = ResetState {
-            root_quat: Quat::from_rotvec([0.3, -1.0, 2.0]),
-            ball_quat: Quat::from_rotvec([1.0, 0.5, 0.0]),
-            ..Default::default()
-        };
+        let mut base =
+            ResetState { root_quat: Quat::from_rotvec([0.3, -1.0, 2.0]), ..Default::default() };
+        base.ball_mut().quat = Quat::from_rotvec([1.0, 0.5, 0.0]);
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
         let (mut max_dof, mut min_h) = (0.0f64, f64::INFINITY);
         for _ in 0..2000 {
@@ -287,18 +280,23 @@ mod tests {
             ));
             assert!(within(&s.dof_pos, &base.dof_pos, -eps.dof_pos, eps.dof_pos));
             assert!(within(&s.dof_vel, &base.dof_vel, -eps.dof_vel, eps.dof_vel));
-            assert!(within(&s.ball_pos[..2], &base.ball_pos[..2], -eps.ball_pos, eps.ball_pos));
-            assert!(within(&s.ball_pos[2..], &base.ball_pos[2..], 0.0, eps.ball_height));
+            assert!(within(&s.ball().pos[..2], &base.ball().pos[..2], -eps.ball_pos, eps.ball_pos));
+            assert!(within(&s.ball().pos[2..], &base.ball().pos[2..], 0.0, eps.ball_height));
             assert!(within(
-                &rel_rotvec(s.ball_quat, base.ball_quat),
+                &rel_rotvec(s.ball().quat, base.ball().quat),
                 &[0.0; 3],
                 -eps.ball_rot,
                 eps.ball_rot
             ));
-            assert!(within(&s.ball_linvel, &base.ball_linvel, -eps.ball_linvel, eps.ball_linvel));
             assert!(within(
-                &s.ball_angvel_local,
-                &base.ball_angvel_local,
+                &s.ball().linvel,
+                &base.ball().linvel,
+                -eps.ball_linvel,
+                eps.ball_linvel
+            ));
+            assert!(within(
+                &s.ball().angvel_local,
+                &base.ball().angvel_local,
                 -eps.ball_angvel,
                 eps.ball_angvel
             ));
@@ -313,10 +311,7 @@ mod tests {
         // the ball is left alone when asked
         let mut s = base.clone();
         perturb_uniform(&mut s, &eps, false, &mut rng);
-        assert_eq!(
-            (s.ball_pos, s.ball_quat, s.ball_linvel),
-            (base.ball_pos, base.ball_quat, base.ball_linvel)
-        );
+        assert_eq!(s.ball(), base.ball());
         // zero widths leave the state unchanged
         let zero = NoiseEps::zero();
         let mut s = base.clone();

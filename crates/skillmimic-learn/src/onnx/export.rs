@@ -41,7 +41,7 @@ pub fn export_checkpoint(
     let act = c.policy.actor.output_dim();
     let mut meta =
         DeployMeta::new("", c.policy.family.name(), &cfg, c.policy.obs_dim(), act, source)?;
-    if skillmimic_env::registry::character(&cfg.env.task)
+    if skillmimic_env::registry::character(&cfg.env).ok()
         == Some(skillmimic_env::registry::Character::TokenHsi)
     {
         super::meta_hsi::describe_tokenhsi(&mut meta, c.policy.obs_dim());

@@ -8,7 +8,7 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
-use skillmimic_core::skeleton::{BODIES, NUM_BODIES, is_finger};
+use skillmimic_core::characters::skillmimic::{BODIES, NUM_BODIES, is_finger};
 use skillmimic_env::obs::{BLOCKS, OBS_LAYOUT_VERSION, layout};
 use skillmimic_motion::clip::skill_name;
 use skillmimic_sim::batch::DEFAULT_SUBSTEPS;
@@ -193,6 +193,7 @@ impl DeployMeta {
         source: Source,
     ) -> Result<Self, LearnError> {
         let scene = cfg.env.scene_options().map_err(|e| LearnError::Config(e.to_string()))?;
+        let timestep = scene.character.spec().timestep;
         let box_hands = cfg.env.hand_model().map_err(|e| LearnError::Config(e.to_string()))?
             == skillmimic_sim::HandModel::Box;
         let joints = &BODIES[1..NUM_BODIES];
@@ -229,9 +230,9 @@ impl DeployMeta {
                 .filter(|&b| box_hands && is_finger(b))
                 .map(|b| BODIES[b].name.to_string())
                 .collect(),
-            force_limit_nm: scene.force_limit,
-            control_dt: scene.timestep * DEFAULT_SUBSTEPS as f64,
-            sim_dt: scene.timestep,
+            force_limit_nm: skillmimic_core::characters::skillmimic::FORCE_LIMIT,
+            control_dt: timestep * DEFAULT_SUBSTEPS as f64,
+            sim_dt: timestep,
             substeps: DEFAULT_SUBSTEPS,
             skill_labels: skillmimic_motion::clip::SKILL_NAMES
                 .iter()

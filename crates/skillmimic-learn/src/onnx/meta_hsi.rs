@@ -5,8 +5,7 @@
 //! per-entry offset and scale, gains and torque limits per joint, and the time steps (1/120 s
 //! physics, 4 steps per 30 Hz action).
 
-use skillmimic_core::hsi_character::{BODIES, JointSpec, action_offset_scale};
-use skillmimic_sim::hsi_mjcf::{HSI_SUBSTEPS, HSI_TIMESTEP};
+use skillmimic_core::characters::tokenhsi::{BODIES, JointSpec, action_offset_scale};
 
 use super::meta::{Block, DeployMeta, Gain};
 
@@ -64,8 +63,9 @@ pub fn describe_tokenhsi(m: &mut DeployMeta, obs_dim: usize) {
     m.welded_joints = Vec::new();
     // the largest per-joint limit (each joint's own is in pd_gains)
     m.force_limit_nm = m.pd_gains.iter().filter_map(|g| g.force_limit_nm).fold(0.0, f64::max);
-    m.sim_dt = HSI_TIMESTEP;
-    m.substeps = HSI_SUBSTEPS;
-    m.control_dt = HSI_TIMESTEP * HSI_SUBSTEPS as f64;
+    m.sim_dt = skillmimic_core::characters::tokenhsi::spec().timestep;
+    m.substeps = skillmimic_core::characters::tokenhsi::spec().substeps;
+    m.control_dt = skillmimic_core::characters::tokenhsi::spec().timestep
+        * skillmimic_core::characters::tokenhsi::spec().substeps as f64;
     m.skill_labels.clear();
 }

@@ -23,7 +23,7 @@
 
 use candle_core::Tensor;
 use rand::RngCore;
-use skillmimic_core::skeleton::{BODIES, FINGERTIPS, dof_range};
+use skillmimic_core::characters::skillmimic::{BODIES, FINGERTIPS, dof_range};
 use skillmimic_env::ActionSpace;
 use skillmimic_env::obs::layout;
 use skillmimic_nn::modular::{ModularAttention, ModularShape};
@@ -38,9 +38,9 @@ use crate::error::LearnError;
 /// environment, where the frozen part controllers of skill reuse read it).
 pub use skillmimic_nn::modular::ModularSpec;
 
-/// Bodies of each part of a split (`five` / `seven`; `skillmimic_core::skeleton::body_parts`).
+/// Bodies of each part of a split (`five` / `seven`; `skillmimic_core::characters::skillmimic::body_parts`).
 pub fn part_bodies(split: &str) -> Result<Vec<(&'static str, Vec<usize>)>, LearnError> {
-    skillmimic_core::skeleton::body_parts(split).ok_or_else(|| LearnError::Config(format!("config field 'ppo.modular.parts': '{split}' is not a body split, expected \"five\" or \"seven\"")))
+    skillmimic_core::characters::skillmimic::body_parts(split).ok_or_else(|| LearnError::Config(format!("config field 'ppo.modular.parts': '{split}' is not a body split, expected \"five\" or \"seven\"")))
 }
 
 /// Observation columns of body `b`'s own blocks (see the module doc).
@@ -126,7 +126,7 @@ impl PolicyFamily for ModularAttentionFamily {
         "modular_attention"
     }
     fn supports(&self, space: &ActionSpace) -> bool {
-        matches!(space, ActionSpace::Box { dim } if *dim == skillmimic_core::skeleton::NUM_DOFS)
+        matches!(space, ActionSpace::Box { dim } if *dim == skillmimic_core::characters::skillmimic::NUM_DOFS)
     }
     fn uses_log_std(&self) -> bool {
         true

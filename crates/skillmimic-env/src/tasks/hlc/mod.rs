@@ -35,7 +35,6 @@
 
 pub mod circling;
 pub mod heading;
-pub mod hold;
 pub mod reach;
 pub mod scoring;
 pub mod steering;
@@ -44,22 +43,20 @@ pub mod throwing;
 use std::sync::Arc;
 
 use rand_chacha::ChaCha8Rng;
+use skillmimic_core::characters::skillmimic::NUM_DOFS;
 use skillmimic_core::math::{Quat, heading_inverse};
-use skillmimic_core::skeleton::NUM_DOFS;
 use skillmimic_motion::{MotionLibrary, SKILL_WIDTH};
 use skillmimic_nn::frozen::FrozenActor;
 use skillmimic_nn::frozen_parts::{FrozenParts, policy_family};
 use skillmimic_sim::{BALL, EnvState, ResetState, Scene};
 
 use crate::config::EnvConfig;
-use crate::episode::{BALL_FREE_SKILLS, random_ball, reset_state_from_clip};
+use crate::episode::{BALL_FREE_SKILLS, fill_from_clip, random_ball};
 use crate::error::{EnvError, bad};
 use crate::obs::{layout, write_skill, write_state_obs};
 use crate::task::{ActionSpace, StepOut, Task, TaskSpec};
 use crate::tasks::imitation::load_motion_library;
 use crate::vec_env::{Env, VecEnv};
-
-pub use hold::HoldEnv;
 
 /// Low-level steps per second (policy rate).
 pub const LL_HZ: f64 = 60.0;
@@ -191,8 +188,8 @@ pub struct HlSlot {
     pub goal: Goal,
 }
 
-/// A high-level task at low-level granularity (one physics step per call; [`HoldEnv`] repeats
-/// it `llc_steps` times per high-level step).
+/// A high-level task: its calls happen once per low-level (physics) step; the driver holds
+/// each high-level action for [`HighLevel::hold_steps`] of them.
 pub struct HighLevel<R: Rule> {
     pub rule: R,
     cfg: crate::config::HlcConfig,
@@ -255,15 +252,16 @@ impl<R: Rule> HighLevel<R> {
             }
             Driver::Parts(p) => (ActionSpace::Box { dim: p.latent_dim() }, Vec::new()),
         };
+        let hold = if matches!(driver, Driver::Parts(_)) { h.latent_steps } else { h.llc_steps };
         let spec = TaskSpec {
             name: R::NAME,
             obs_dim: layout::STATE_DIM + rule.task_obs_dim(),
             action_space,
-            max_episode_steps: h.episode_length - 1,
+            max_episode_steps: (h.episode_length - 1).div_ceil(hold),
             term_names: rule.term_names(),
             metric_names: rule.metric_names(),
             info_names: rule.info_names().iter().map(|s| s.to_string()).collect(),
-            steps_per_action: 1,
+            steps_per_action: hold,
             choice_labels,
             token_groups: [
                 ("state".to_string(), layout::STATE_DIM),
@@ -325,12 +323,13 @@ impl<R: Rule> Task for HighLevel<R> {
         _i: usize,
         slot: &mut HlSlot,
         rng: &mut ChaCha8Rng,
+        _scene: &Scene,
         state: &mut ResetState,
     ) {
         let clip = self.lib.sample_clip(rng);
         let m = self.lib.get(clip);
         let frame = self.cfg.start_frame.min(m.clip.num_frames - 2);
-        *state = reset_state_from_clip(m, frame);
+        fill_from_clip(state, m, frame);
         if BALL_FREE_SKILLS.contains(&m.clip.skill) {
             random_ball(state, self.ball_radius, rng);
         }
@@ -339,6 +338,16 @@ impl<R: Rule> Task for HighLevel<R> {
 
     fn after_reset(&self, _i: usize, slot: &mut HlSlot, st: &EnvState<'_>, obs: &mut [f32]) {
         self.write_obs(slot, st, obs);
+    }
+
+    /// The new episode's goal.
+    fn reset_info(&self, slot: &HlSlot, info: &mut [f32]) {
+        self.rule.info(&slot.goal, info);
+    }
+
+    fn set_info(&self, slot: &mut HlSlot, values: &[f32]) -> bool {
+        self.rule.set_info(&mut slot.goal, values);
+        true
     }
 
     fn step_env(&self, _i: usize, slot: &mut HlSlot, st: &EnvState<'_>, out: StepOut<'_>) {
@@ -353,7 +362,7 @@ impl<R: Rule> Task for HighLevel<R> {
             u8::from(*out.terminated == 0 && slot.progress as usize >= self.cfg.episode_length - 1);
     }
 
-    fn observe(&self, slot: &HlSlot, st: &EnvState<'_>, obs: &mut [f32]) {
+    fn observe(&self, slot: &mut HlSlot, st: &EnvState<'_>, obs: &mut [f32]) {
         self.write_obs(slot, st, obs);
     }
 
@@ -409,9 +418,7 @@ pub fn build<R: Rule>(cfg: &EnvConfig, rule: R) -> Result<Box<dyn Env>, EnvError
     }
     let lib = Arc::new(load_motion_library(&cfg.motion)?);
     let scene = Arc::new(Scene::new(cfg.scene_options()?)?);
-    let ball_radius = scene.options().ball.radius;
+    let ball_radius = scene.options().ball.map_or(0.12, |b| b.radius);
     let task = HighLevel::new(rule, cfg, lib, ball_radius)?;
-    let hold = task.hold_steps();
-    let inner = VecEnv::with_task(task, scene, cfg.num_envs, cfg.threads, cfg.start_seed(0))?;
-    Ok(Box::new(HoldEnv::new(inner, hold)))
+    Ok(Box::new(VecEnv::with_task(task, scene, cfg.num_envs, cfg.threads, cfg.start_seed(0))?))
 }

@@ -104,12 +104,12 @@ impl Rule for Reach {
 /// Registry constructor.
 pub fn build(cfg: &EnvConfig) -> Result<Box<dyn Env>, EnvError> {
     cfg.reach.validate()?;
-    let hand = skillmimic_core::skeleton::BODIES
+    let hand = skillmimic_core::characters::skillmimic::BODIES
         .iter()
         .position(|b| b.name == cfg.reach.hand_body)
         .ok_or_else(|| {
             let names: Vec<&str> =
-                skillmimic_core::skeleton::BODIES.iter().map(|b| b.name).collect();
+                skillmimic_core::characters::skillmimic::BODIES.iter().map(|b| b.name).collect();
             bad(
                 "env.reach.hand_body",
                 format!(

@@ -32,14 +32,14 @@
 
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
-use skillmimic_core::hsi_character::{HANDS, NUM_BODIES};
+use skillmimic_core::characters::tokenhsi::{HANDS, NUM_BODIES};
 use skillmimic_core::math::{Quat, Vec3};
-use skillmimic_sim::{HsiEnvState, HsiObject, HsiReset, HsiScene, ObjectBox, ObjectState};
+use skillmimic_sim::{BoxObject, EnvState, ObjectBox, ObjectState, ResetState, Scene};
 
 use super::geometry::{
     Local, corners, dir2d, dist_sq, dist2d, draw, put, ring_point, speed_reward, stand_at_origin,
 };
-use super::{Ctx, DT, HsiTask, TaskOut, hsi_spec};
+use super::{Ctx, DT, Rule, TaskOut, hsi_spec};
 use crate::config::{CarryConfig, EnvConfig};
 use crate::error::EnvError;
 use crate::task::TaskSpec;
@@ -86,21 +86,21 @@ impl Carry {
     }
 }
 
-fn box_state(st: &HsiEnvState<'_>) -> (Vec3, Quat) {
+fn box_state(st: &EnvState<'_>) -> (Vec3, Quat) {
     (st.pos(NUM_BODIES), st.quat(NUM_BODIES))
 }
 
-impl HsiTask for Carry {
+impl Rule for Carry {
     type Goal = Goal;
     fn spec(&self) -> &TaskSpec {
         &self.spec
     }
-    fn objects(&self, rng: &mut ChaCha8Rng) -> Vec<HsiObject> {
+    fn objects(&self, rng: &mut ChaCha8Rng) -> Vec<BoxObject> {
         let c = &self.cfg;
         let half =
             [0.5 * draw(rng, c.box_size), 0.5 * draw(rng, c.box_size), 0.5 * draw(rng, c.box_size)];
         let mass = draw(rng, c.box_mass);
-        let slab = |name: &str| HsiObject {
+        let slab = |name: &str| BoxObject {
             name: name.into(),
             mass: None,
             boxes: vec![ObjectBox {
@@ -110,7 +110,7 @@ impl HsiTask for Carry {
             rgba: [0.4, 0.45, 0.5, 1.0],
         };
         vec![
-            HsiObject {
+            BoxObject {
                 name: "box".into(),
                 mass: Some(mass),
                 boxes: vec![ObjectBox { center: [0.0; 3], half }],
@@ -120,10 +120,10 @@ impl HsiTask for Carry {
             slab("support_target"),
         ]
     }
-    fn plan(&self, scene: &HsiScene, rng: &mut ChaCha8Rng, reset: &mut HsiReset, goal: &mut Goal) {
+    fn plan(&self, scene: &Scene, rng: &mut ChaCha8Rng, reset: &mut ResetState, goal: &mut Goal) {
         stand_at_origin(rng, self.random_heading, reset);
         let c = &self.cfg;
-        let half = scene.objects()[0].boxes[0].half;
+        let half = scene.box_objects()[0].boxes[0].half;
         let p = ring_point(rng, c.distance);
         let hs = draw(rng, c.support_height);
         let yaw_s = rng.random_range(-std::f64::consts::PI..std::f64::consts::PI);
@@ -143,7 +143,7 @@ impl HsiTask for Carry {
             ObjectState { pos: tgt, quat: Quat::about_z(yaw_t), ..Default::default() };
         *goal = Goal { target: [tgt[0], tgt[1], ht + half[2]], start, half };
     }
-    fn observe(&self, goal: &Goal, st: &HsiEnvState<'_>, _steps: usize, out: &mut [f32]) {
+    fn observe(&self, goal: &Goal, st: &EnvState<'_>, _steps: usize, out: &mut [f32]) {
         observe_box(goal.target, goal.half, st, NUM_BODIES, out);
     }
     fn step(&self, goal: &mut Goal, ctx: &Ctx<'_>, out: &mut TaskOut<'_>) {
@@ -190,7 +190,7 @@ impl HsiTask for Carry {
 
 /// The 42-d carry observation (see the module doc) of the box whose body is `body` (object k of
 /// the scene: `NUM_BODIES + k`) with half sizes `half` and target location `target` (world, m).
-pub fn observe_box(target: Vec3, half: Vec3, st: &HsiEnvState<'_>, body: usize, out: &mut [f32]) {
+pub fn observe_box(target: Vec3, half: Vec3, st: &EnvState<'_>, body: usize, out: &mut [f32]) {
     let l = Local::of(st);
     let (pos, quat) = (st.pos(body), st.quat(body));
     let at = put(out, 0, &l.point(target));

@@ -12,12 +12,12 @@
 //! * Ends, metrics and info: as the sit task's.
 
 use rand_chacha::ChaCha8Rng;
-use skillmimic_core::hsi_character::FEET;
-use skillmimic_sim::{HsiEnvState, HsiObject, HsiReset, HsiScene, ObjectBox};
+use skillmimic_core::characters::tokenhsi::FEET;
+use skillmimic_sim::{BoxObject, EnvState, ObjectBox, ResetState, Scene};
 
 use super::geometry::{Local, dir2d, dist_sq, dist2d, draw, put, speed_reward, stand_at_origin};
 use super::sit::{Goal, goal_info_names};
-use super::{Ctx, DT, HsiTask, TaskOut, hsi_spec};
+use super::{Ctx, DT, Rule, TaskOut, hsi_spec};
 use crate::config::{ClimbConfig, EnvConfig};
 use crate::error::EnvError;
 use crate::task::TaskSpec;
@@ -43,16 +43,16 @@ impl Climb {
     }
 }
 
-impl HsiTask for Climb {
+impl Rule for Climb {
     type Goal = Goal;
     fn spec(&self) -> &TaskSpec {
         &self.spec
     }
-    fn objects(&self, rng: &mut ChaCha8Rng) -> Vec<HsiObject> {
+    fn objects(&self, rng: &mut ChaCha8Rng) -> Vec<BoxObject> {
         let c = &self.cfg;
         let h = draw(rng, c.height);
         let (sx, sy) = (draw(rng, c.size), draw(rng, c.size));
-        vec![HsiObject {
+        vec![BoxObject {
             name: "platform".into(),
             mass: None,
             boxes: vec![ObjectBox {
@@ -62,11 +62,11 @@ impl HsiTask for Climb {
             rgba: [0.45, 0.45, 0.5, 1.0],
         }]
     }
-    fn plan(&self, scene: &HsiScene, rng: &mut ChaCha8Rng, reset: &mut HsiReset, goal: &mut Goal) {
+    fn plan(&self, scene: &Scene, rng: &mut ChaCha8Rng, reset: &mut ResetState, goal: &mut Goal) {
         stand_at_origin(rng, self.random_heading, reset);
         *goal = Goal::place(scene, rng, self.cfg.distance, self.cfg.target_above_top, 0, reset);
     }
-    fn observe(&self, goal: &Goal, st: &HsiEnvState<'_>, _steps: usize, out: &mut [f32]) {
+    fn observe(&self, goal: &Goal, st: &EnvState<'_>, _steps: usize, out: &mut [f32]) {
         let l = Local::of(st);
         let mut at = put(out, 0, &l.point(goal.target));
         for c in goal.corners() {

@@ -33,16 +33,16 @@
 
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use skillmimic_core::hsi_character::{HANDS, NUM_BODIES};
+use skillmimic_core::characters::tokenhsi::{HANDS, NUM_BODIES};
 use skillmimic_core::math::Quat;
-use skillmimic_sim::{HsiEnvState, HsiObject, HsiReset, HsiScene, ObjectBox, ObjectState};
+use skillmimic_sim::{BoxObject, EnvState, ObjectBox, ObjectState, ResetState, Scene};
 
 use super::carry::observe_box;
 use super::climb::Climb;
 use super::follow::{Follow, NUM_POINTS, POINT_DT};
 use super::geometry::{dist_sq, dist2d, draw, put};
 use super::sit::{Goal as TargetGoal, Sit};
-use super::{Ctx, DT, HsiTask, TaskOut, hsi_spec};
+use super::{Ctx, DT, Rule, TaskOut, hsi_spec};
 use crate::config::EnvConfig;
 use crate::error::{EnvError, bad};
 use crate::task::TaskSpec;
@@ -59,13 +59,13 @@ const REVISED: usize = 39;
 /// An object pose and its bounding box in its own frame: position, rotation, lo, hi (m).
 pub type KeepOut = ([f64; 3], Quat, [f64; 3], [f64; 3]);
 
-pub trait Primary: HsiTask {
+pub trait Primary: Rule {
     /// Registry name of the composition (also its new token group).
     const NAME: &'static str;
     /// Weight w of the primary reward (the pick reward gets 1 − w).
     const WEIGHT: f64;
     /// Horizontal direction (world) from the root in which the box starts, if the goal gives one.
-    fn box_direction(&self, goal: &Self::Goal, reset: &HsiReset) -> Option<[f64; 2]>;
+    fn box_direction(&self, goal: &Self::Goal, reset: &ResetState) -> Option<[f64; 2]>;
     /// The target location the frozen carry token reads (world, m); `box_pos` the box's centre.
     fn carry_target(&self, goal: &Self::Goal, steps: usize, box_pos: [f64; 3]) -> [f64; 3];
     /// The primary object's pose and bounding box in its own frame (position, rotation, lo, hi;
@@ -96,7 +96,7 @@ fn unit(d: [f64; 2]) -> Option<[f64; 2]> {
 impl Primary for Follow {
     const NAME: &'static str = "hsi_follow_carry";
     const WEIGHT: f64 = 0.5;
-    fn box_direction(&self, goal: &Self::Goal, _reset: &HsiReset) -> Option<[f64; 2]> {
+    fn box_direction(&self, goal: &Self::Goal, _reset: &ResetState) -> Option<[f64; 2]> {
         let a = goal.verts[0];
         goal.verts.iter().find_map(|v| unit([v[0] - a[0], v[1] - a[1]]))
     }
@@ -106,7 +106,7 @@ impl Primary for Follow {
     }
 }
 
-fn towards_target(goal: &TargetGoal, reset: &HsiReset) -> Option<[f64; 2]> {
+fn towards_target(goal: &TargetGoal, reset: &ResetState) -> Option<[f64; 2]> {
     unit([goal.target[0] - reset.root_pos[0], goal.target[1] - reset.root_pos[1]])
 }
 
@@ -116,7 +116,7 @@ impl Primary for Sit {
     }
     const NAME: &'static str = "hsi_sit_carry";
     const WEIGHT: f64 = 0.7;
-    fn box_direction(&self, goal: &TargetGoal, reset: &HsiReset) -> Option<[f64; 2]> {
+    fn box_direction(&self, goal: &TargetGoal, reset: &ResetState) -> Option<[f64; 2]> {
         towards_target(goal, reset)
     }
     fn carry_target(&self, goal: &TargetGoal, _steps: usize, _box_pos: [f64; 3]) -> [f64; 3] {
@@ -130,7 +130,7 @@ impl Primary for Climb {
     }
     const NAME: &'static str = "hsi_climb_carry";
     const WEIGHT: f64 = 0.7;
-    fn box_direction(&self, goal: &TargetGoal, reset: &HsiReset) -> Option<[f64; 2]> {
+    fn box_direction(&self, goal: &TargetGoal, reset: &ResetState) -> Option<[f64; 2]> {
         towards_target(goal, reset)
     }
     fn carry_target(&self, goal: &TargetGoal, _steps: usize, _box_pos: [f64; 3]) -> [f64; 3] {
@@ -182,24 +182,24 @@ impl<P: Primary> WithBox<P> {
     }
 }
 
-impl<P: Primary> HsiTask for WithBox<P> {
+impl<P: Primary> Rule for WithBox<P> {
     type Goal = Goal<P::Goal>;
     fn spec(&self) -> &TaskSpec {
         &self.spec
     }
-    fn objects(&self, rng: &mut ChaCha8Rng) -> Vec<HsiObject> {
+    fn objects(&self, rng: &mut ChaCha8Rng) -> Vec<BoxObject> {
         let mut v = self.primary.objects(rng);
         let c = &self.carry;
         let half =
             [0.5 * draw(rng, c.box_size), 0.5 * draw(rng, c.box_size), 0.5 * draw(rng, c.box_size)];
         let mass = draw(rng, c.box_mass);
-        v.push(HsiObject {
+        v.push(BoxObject {
             name: "box".into(),
             mass: Some(mass),
             boxes: vec![ObjectBox { center: [0.0; 3], half }],
             rgba: [0.75, 0.55, 0.3, 1.0],
         });
-        v.push(HsiObject {
+        v.push(BoxObject {
             name: "support".into(),
             mass: None,
             boxes: vec![ObjectBox {
@@ -212,13 +212,13 @@ impl<P: Primary> HsiTask for WithBox<P> {
     }
     fn plan(
         &self,
-        scene: &HsiScene,
+        scene: &Scene,
         rng: &mut ChaCha8Rng,
-        reset: &mut HsiReset,
+        reset: &mut ResetState,
         goal: &mut Self::Goal,
     ) {
         self.primary.plan(scene, rng, reset, &mut goal.primary);
-        let half = scene.objects()[self.objects].boxes[0].half;
+        let half = scene.box_objects()[self.objects].boxes[0].half;
         let d = self.primary.box_direction(&goal.primary, reset).unwrap_or_else(|| {
             let f = reset.root_quat.rotate([1.0, 0.0, 0.0]);
             unit([f[0], f[1]]).unwrap_or([1.0, 0.0])
@@ -245,7 +245,7 @@ impl<P: Primary> HsiTask for WithBox<P> {
         reset.objects[self.objects + 1] = ObjectState { pos: at, quat: yaw, ..Default::default() };
         goal.half = half;
     }
-    fn observe(&self, goal: &Self::Goal, st: &HsiEnvState<'_>, steps: usize, out: &mut [f32]) {
+    fn observe(&self, goal: &Self::Goal, st: &EnvState<'_>, steps: usize, out: &mut [f32]) {
         let p = self.p;
         self.primary.observe(&goal.primary, st, steps, &mut out[..p]);
         let body = self.box_body();

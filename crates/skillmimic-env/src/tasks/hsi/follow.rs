@@ -17,10 +17,10 @@
 
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
-use skillmimic_sim::{HsiEnvState, HsiObject, HsiReset, HsiScene};
+use skillmimic_sim::{BoxObject, EnvState, ResetState, Scene};
 
 use super::geometry::{Local, put, stand_at_origin};
-use super::{Ctx, DT, HsiTask, TaskOut, hsi_spec};
+use super::{Ctx, DT, Rule, TaskOut, hsi_spec};
 use crate::config::{EnvConfig, FollowConfig};
 use crate::error::EnvError;
 use crate::task::TaskSpec;
@@ -73,15 +73,15 @@ impl Follow {
     }
 }
 
-impl HsiTask for Follow {
+impl Rule for Follow {
     type Goal = Goal;
     fn spec(&self) -> &TaskSpec {
         &self.spec
     }
-    fn objects(&self, _rng: &mut ChaCha8Rng) -> Vec<HsiObject> {
+    fn objects(&self, _rng: &mut ChaCha8Rng) -> Vec<BoxObject> {
         Vec::new()
     }
-    fn plan(&self, _scene: &HsiScene, rng: &mut ChaCha8Rng, reset: &mut HsiReset, goal: &mut Goal) {
+    fn plan(&self, _scene: &Scene, rng: &mut ChaCha8Rng, reset: &mut ResetState, goal: &mut Goal) {
         stand_at_origin(rng, self.random_heading, reset);
         let c = &self.cfg;
         let dt = c.vertex_dt;
@@ -108,7 +108,7 @@ impl HsiTask for Follow {
         goal.within = 0;
         goal.failed = false;
     }
-    fn observe(&self, goal: &Goal, st: &HsiEnvState<'_>, steps: usize, out: &mut [f32]) {
+    fn observe(&self, goal: &Goal, st: &EnvState<'_>, steps: usize, out: &mut [f32]) {
         let l = Local::of(st);
         let t = steps as f64 * DT;
         for k in 0..NUM_POINTS {

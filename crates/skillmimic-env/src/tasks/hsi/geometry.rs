@@ -3,9 +3,9 @@
 
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
-use skillmimic_core::hsi_character::STANDING_ROOT_HEIGHT;
+use skillmimic_core::characters::tokenhsi::STANDING_ROOT_HEIGHT;
 use skillmimic_core::math::{Quat, Vec3, heading_inverse, sub, tan_norm};
-use skillmimic_sim::{HsiEnvState, HsiReset};
+use skillmimic_sim::{EnvState, ResetState};
 
 /// The character's heading frame: origin at the root, rotated about +z by −heading.
 #[derive(Clone, Copy, Debug)]
@@ -16,7 +16,7 @@ pub struct Local {
 
 impl Local {
     /// The heading frame of the root (body 0) of `st`.
-    pub fn of(st: &HsiEnvState<'_>) -> Self {
+    pub fn of(st: &EnvState<'_>) -> Self {
         Self { root: st.pos(0), inv: heading_inverse(st.quat(0)) }
     }
     /// A world point in the heading frame (m).
@@ -92,17 +92,13 @@ pub fn dist_sq(a: Vec3, b: Vec3) -> f64 {
 /// The start of the character: the rest pose standing at the origin, facing a uniformly random
 /// heading (or +x), at rest. (Reference-state initialisation from retargeted clips is not used:
 /// the project ships none for these tasks.)
-pub fn stand_at_origin(rng: &mut ChaCha8Rng, random_heading: bool, reset: &mut HsiReset) -> f64 {
+pub fn stand_at_origin(rng: &mut ChaCha8Rng, random_heading: bool, reset: &mut ResetState) -> f64 {
     let yaw = if random_heading {
         rng.random_range(-std::f64::consts::PI..std::f64::consts::PI)
     } else {
         0.0
     };
-    *reset = HsiReset {
-        root_pos: [0.0, 0.0, STANDING_ROOT_HEIGHT],
-        root_quat: Quat::about_z(yaw),
-        ..Default::default()
-    };
+    reset.clear([0.0, 0.0, STANDING_ROOT_HEIGHT], Quat::about_z(yaw));
     yaw
 }
 

@@ -1,39 +1,45 @@
 //! The TokenHSI tasks (TokenHSI supplementary §B.2): `hsi_follow`, `hsi_sit`, `hsi_climb`,
-//! `hsi_carry` on the 32-DoF TokenHSI character ([`skillmimic_core::hsi_character`]), and the
-//! skill-composition tasks `hsi_follow_carry`, `hsi_sit_carry`, `hsi_climb_carry` (§B.3,
+//! `hsi_carry` on the 32-DoF TokenHSI character ([`skillmimic_core::characters::tokenhsi`]), and
+//! the skill-composition tasks `hsi_follow_carry`, `hsi_sit_carry`, `hsi_climb_carry` (§B.3,
 //! [`compose`]).
 //!
-//! [`HsiVecEnv<T>`] is the batched driver of these tasks, the TokenHSI character's counterpart of
-//! [`VecEnv`](crate::VecEnv) with the same [`Env`] face and the same semantics (buffers, explicit
-//! or SAME_STEP autoreset, terminal observations). It owns what every TokenHSI task shares:
+//! Every one of them is an [`Hsi<R>`]: a [`Task`] of the one batched driver
+//! ([`crate::vec_env::VecEnv`]) that owns what the TokenHSI tasks share, over a [`Rule`] that says
+//! what the task itself is (the way the skill-reuse tasks are `hlc::Rule`s run by
+//! `hlc::HighLevel`). Shared ([`Hsi`]):
 //! * the observation `[proprioception 222 | task observation]` ([`proprio`]);
 //! * the character-fall termination (a body other than the feet touching the floor or an object
 //!   below `env.hsi.termination_height`, from the second step on — ASE's rule);
-//! * the time limit (`episode_length` of the task's table, truncation) and the random stream of
-//!   episode starts (seeded, sequential over environments: independent of the thread count);
+//! * the time limit (`episode_length` of the task's table, truncation);
 //! * the previous root and object positions, from which the rewards' velocities are the finite
 //!   differences over one 1/30 s policy step (as the released InterPhys/TokenHSI code computes
 //!   them).
 //!
-//! A task ([`HsiTask`]) supplies its objects (one set of sizes per compiled variant), the start of
-//! an episode, its observation, reward terms, metrics and task-specific ends.
+//! A [`Rule`] supplies its objects (one set of sizes per compiled scene variant), the start of an
+//! episode, its observation, reward terms, metrics and task-specific ends; rules compose (a
+//! foundational rule plus carrying a box, [`compose`]).
 
 pub mod carry;
 pub mod climb;
 pub mod compose;
-pub mod driver;
 pub mod follow;
 pub mod geometry;
 pub mod proprio;
 pub mod sit;
 pub mod style;
 
+use std::sync::Arc;
+
+use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use skillmimic_sim::{HsiEnvState, HsiObject, HsiReset, HsiScene};
+use skillmimic_core::characters::Character;
+use skillmimic_core::characters::tokenhsi::{CONTACT_BODIES, NUM_BODIES};
+use skillmimic_sim::{BoxObject, EnvState, ResetState, Scene, SceneOptions};
 
-pub use driver::HsiVecEnv;
+use proprio::{PROPRIO_DIM, write_proprio};
 
-use crate::task::TaskSpec;
+use crate::task::{StepOut, Task, TaskSpec};
+use crate::vec_env::{Env, VecEnv};
 
 /// Policy step (s): 4 physics steps of 1/120 s.
 pub const DT: f64 = 1.0 / 30.0;
@@ -49,9 +55,9 @@ pub fn hsi_spec(
 ) -> TaskSpec {
     TaskSpec {
         name,
-        obs_dim: proprio::PROPRIO_DIM + task_obs,
+        obs_dim: PROPRIO_DIM + task_obs,
         action_space: crate::task::ActionSpace::Box {
-            dim: skillmimic_core::hsi_character::NUM_DOFS,
+            dim: skillmimic_core::characters::tokenhsi::NUM_DOFS,
         },
         max_episode_steps: episode_length,
         term_names,
@@ -59,37 +65,36 @@ pub fn hsi_spec(
         info_names,
         steps_per_action: 1,
         choice_labels: Vec::new(),
-        token_groups: vec![
-            ("proprio".to_string(), proprio::PROPRIO_DIM),
-            (name.to_string(), task_obs),
-        ],
+        token_groups: vec![("proprio".to_string(), PROPRIO_DIM), (name.to_string(), task_obs)],
     }
 }
 
-/// The batched environment of `task` from the `[env]` table (`variants` compiled object
-/// variants): what every TokenHSI registry constructor does after building its task.
-pub fn build_env<T: HsiTask>(
-    task: T,
+/// The batched environment of `rule` from the `[env]` table: `variants` scene variants whose
+/// object sizes the rule draws from `env.hsi.object_seed`, the time limit `episode_length`.
+pub fn build_env<R: Rule>(
+    rule: R,
     cfg: &crate::config::EnvConfig,
     variants: usize,
     episode_length: usize,
-) -> Result<Box<dyn crate::vec_env::Env>, crate::error::EnvError> {
+) -> Result<Box<dyn Env>, crate::error::EnvError> {
     let h = &cfg.hsi;
-    Ok(Box::new(HsiVecEnv::new(
-        task,
-        variants,
-        h.object_seed,
-        cfg.num_envs,
-        cfg.threads,
-        cfg.start_seed(0),
-        episode_length,
-        h.termination_height,
-    )?))
+    let mut orng = ChaCha8Rng::seed_from_u64(h.object_seed);
+    let scenes = (0..variants.clamp(1, cfg.num_envs.max(1)))
+        .map(|_| {
+            let options = SceneOptions {
+                objects: rule.objects(&mut orng),
+                ..SceneOptions::bare(Character::TokenHsi)
+            };
+            Scene::new(options).map(Arc::new)
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let task = Hsi { rule, episode_length, termination_height: h.termination_height };
+    Ok(Box::new(VecEnv::with_variants(task, scenes, cfg.num_envs, cfg.threads, cfg.start_seed(0))?))
 }
 
-/// What a task sees of one environment after a step.
+/// What a rule sees of one environment after a step.
 pub struct Ctx<'a> {
-    pub st: &'a HsiEnvState<'a>,
+    pub st: &'a EnvState<'a>,
     /// Root position before the step (world, m).
     pub prev_root: [f64; 3],
     /// Position of object 0 before the step (world, m).
@@ -101,7 +106,7 @@ pub struct Ctx<'a> {
     pub fallen: bool,
 }
 
-/// What a task writes for one environment after a step.
+/// What a rule writes for one environment after a step.
 pub struct TaskOut<'a> {
     /// `[terms]` reward terms (`TaskSpec::term_names`, the last one the total).
     pub terms: &'a mut [f32],
@@ -113,27 +118,124 @@ pub struct TaskOut<'a> {
     pub finish: bool,
 }
 
-/// One TokenHSI task.
-pub trait HsiTask: Send + Sync + 'static {
+/// What one TokenHSI task is (see the module doc).
+pub trait Rule: Send + Sync + 'static {
     /// Per-environment goal of the current episode.
     type Goal: Send + Sync + Clone + Default;
     /// Sizes and names (`obs_dim` = 222 + the task observation).
     fn spec(&self) -> &TaskSpec;
-    /// The objects of one compiled variant (sizes drawn from `rng`).
-    fn objects(&self, rng: &mut ChaCha8Rng) -> Vec<HsiObject>;
+    /// The objects of one compiled scene variant (sizes drawn from `rng`).
+    fn objects(&self, rng: &mut ChaCha8Rng) -> Vec<BoxObject>;
     /// The start of an episode in `scene`: character and object states, and the goal.
     fn plan(
         &self,
-        scene: &HsiScene,
+        scene: &Scene,
         rng: &mut ChaCha8Rng,
-        reset: &mut HsiReset,
+        reset: &mut ResetState,
         goal: &mut Self::Goal,
     );
     /// The task observation (`obs_dim − 222` entries) at `steps` policy steps into the episode.
-    fn observe(&self, goal: &Self::Goal, st: &HsiEnvState<'_>, steps: usize, out: &mut [f32]);
+    fn observe(&self, goal: &Self::Goal, st: &EnvState<'_>, steps: usize, out: &mut [f32]);
     /// Reward terms, metrics and task ends after a step.
     fn step(&self, goal: &mut Self::Goal, ctx: &Ctx<'_>, out: &mut TaskOut<'_>);
     /// Task information at `steps` policy steps into the episode (`TaskSpec::info_names`:
     /// targets, object poses and sizes, in world coordinates).
     fn info(&self, goal: &Self::Goal, steps: usize, out: &mut [f32]);
+}
+
+/// Per-environment state of a TokenHSI task.
+#[derive(Clone, Default)]
+pub struct HsiSlot<G> {
+    pub goal: G,
+    /// Policy steps taken in this episode.
+    pub steps: usize,
+    prev_root: [f64; 3],
+    prev_obj: [f64; 3],
+}
+
+impl<G> HsiSlot<G> {
+    /// Take the current root and object 0 positions as "before the next step".
+    fn remember(&mut self, st: &EnvState<'_>) {
+        self.prev_root = st.pos(0);
+        if st.body_pos.len() > 3 * NUM_BODIES {
+            self.prev_obj = st.pos(NUM_BODIES);
+        }
+    }
+}
+
+/// A TokenHSI task: `rule` with the shared mechanics (see the module doc).
+pub struct Hsi<R: Rule> {
+    pub rule: R,
+    /// Time limit (policy steps).
+    pub episode_length: usize,
+    /// Bodies other than the feet touching something below this height end the episode (m).
+    pub termination_height: f64,
+}
+
+impl<R: Rule> Hsi<R> {
+    fn write_obs(&self, slot: &HsiSlot<R::Goal>, st: &EnvState<'_>, obs: &mut [f32]) {
+        write_proprio(st, &mut obs[..PROPRIO_DIM]);
+        self.rule.observe(&slot.goal, st, slot.steps, &mut obs[PROPRIO_DIM..]);
+    }
+}
+
+impl<R: Rule> Task for Hsi<R> {
+    type Slot = HsiSlot<R::Goal>;
+
+    fn spec(&self) -> &TaskSpec {
+        self.rule.spec()
+    }
+    fn new_slot(&self) -> Self::Slot {
+        HsiSlot::default()
+    }
+    fn plan_reset(
+        &mut self,
+        _i: usize,
+        slot: &mut Self::Slot,
+        rng: &mut ChaCha8Rng,
+        scene: &Scene,
+        state: &mut ResetState,
+    ) {
+        self.rule.plan(scene, rng, state, &mut slot.goal);
+    }
+    fn after_reset(&self, _i: usize, slot: &mut Self::Slot, st: &EnvState<'_>, obs: &mut [f32]) {
+        slot.steps = 0;
+        slot.prev_obj = [0.0; 3];
+        slot.remember(st);
+        self.write_obs(slot, st, obs);
+    }
+    fn reset_info(&self, slot: &Self::Slot, info: &mut [f32]) {
+        self.rule.info(&slot.goal, 0, info);
+    }
+    fn step_env(&self, _i: usize, slot: &mut Self::Slot, st: &EnvState<'_>, out: StepOut<'_>) {
+        slot.steps += 1;
+        let th = self.termination_height;
+        let fallen = slot.steps > 1
+            && (0..NUM_BODIES)
+                .any(|b| !CONTACT_BODIES.contains(&b) && st.touches(b) && st.pos(b)[2] < th);
+        let ctx = Ctx {
+            st,
+            prev_root: slot.prev_root,
+            prev_obj: slot.prev_obj,
+            steps: slot.steps,
+            fallen,
+        };
+        let mut o = TaskOut { terms: out.terms, metrics: out.metrics, fail: false, finish: false };
+        self.rule.step(&mut slot.goal, &ctx, &mut o);
+        *out.reward = o.terms[o.terms.len() - 1];
+        *out.terminated = u8::from(fallen || o.fail || st.unstable);
+        *out.truncated =
+            u8::from(*out.terminated == 0 && (o.finish || slot.steps >= self.episode_length));
+        slot.remember(st);
+        self.write_obs(slot, st, out.obs);
+        self.rule.info(&slot.goal, slot.steps, out.info);
+    }
+    /// Recompute the observation from the current state (after raw state edits). The previous
+    /// root and object positions — between steps always the current ones — are taken anew, so
+    /// the next step's finite-difference velocities start from an edited state, not from where
+    /// the character was before the edit.
+    fn observe(&self, slot: &mut Self::Slot, st: &EnvState<'_>, obs: &mut [f32]) {
+        slot.remember(st);
+        self.write_obs(slot, st, obs);
+    }
 }

@@ -23,12 +23,12 @@
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use skillmimic_core::math::{Quat, Vec3, heading};
-use skillmimic_sim::{HsiEnvState, HsiObject, HsiReset, HsiScene, ObjectBox, ObjectState};
+use skillmimic_sim::{BoxObject, EnvState, ObjectBox, ObjectState, ResetState, Scene};
 
 use super::geometry::{
     Local, corners, dir2d, dist_sq, dist2d, draw, put, ring_point, speed_reward, stand_at_origin,
 };
-use super::{Ctx, DT, HsiTask, TaskOut, hsi_spec};
+use super::{Ctx, DT, Rule, TaskOut, hsi_spec};
 use crate::config::{EnvConfig, SitConfig};
 use crate::error::EnvError;
 use crate::task::TaskSpec;
@@ -52,14 +52,14 @@ impl Goal {
     /// Place the scene's object 0 at `distance` from the origin with a random yaw; the target
     /// is `above` m over the centre of the object's top face (its bounding box's top).
     pub fn place(
-        scene: &HsiScene,
+        scene: &Scene,
         rng: &mut ChaCha8Rng,
         distance: [f64; 2],
         above: f64,
         top_of: usize,
-        reset: &mut HsiReset,
+        reset: &mut ResetState,
     ) -> Self {
-        let obj = &scene.objects()[0];
+        let obj = &scene.box_objects()[0];
         let (lo, hi) = obj.bounds();
         let p = ring_point(rng, distance);
         let yaw = rng.random_range(-std::f64::consts::PI..std::f64::consts::PI);
@@ -161,12 +161,12 @@ impl Sit {
     }
 }
 
-impl HsiTask for Sit {
+impl Rule for Sit {
     type Goal = Goal;
     fn spec(&self) -> &TaskSpec {
         &self.spec
     }
-    fn objects(&self, rng: &mut ChaCha8Rng) -> Vec<HsiObject> {
+    fn objects(&self, rng: &mut ChaCha8Rng) -> Vec<BoxObject> {
         let c = &self.cfg;
         let h = draw(rng, c.seat_height);
         let (depth, width) = (draw(rng, c.seat_size), draw(rng, c.seat_size));
@@ -180,13 +180,13 @@ impl HsiTask for Sit {
                 half: [0.03, 0.5 * width, 0.25],
             });
         }
-        vec![HsiObject { name: "seat".into(), mass: None, boxes, rgba: [0.55, 0.4, 0.3, 1.0] }]
+        vec![BoxObject { name: "seat".into(), mass: None, boxes, rgba: [0.55, 0.4, 0.3, 1.0] }]
     }
-    fn plan(&self, scene: &HsiScene, rng: &mut ChaCha8Rng, reset: &mut HsiReset, goal: &mut Goal) {
+    fn plan(&self, scene: &Scene, rng: &mut ChaCha8Rng, reset: &mut ResetState, goal: &mut Goal) {
         stand_at_origin(rng, self.random_heading, reset);
         *goal = Goal::place(scene, rng, self.cfg.distance, self.cfg.target_above_seat, 0, reset);
     }
-    fn observe(&self, goal: &Goal, st: &HsiEnvState<'_>, _steps: usize, out: &mut [f32]) {
+    fn observe(&self, goal: &Goal, st: &EnvState<'_>, _steps: usize, out: &mut [f32]) {
         let l = Local::of(st);
         let at = put(out, 0, &l.point(goal.target));
         let at = put(out, at, &l.point(goal.obj_pos));

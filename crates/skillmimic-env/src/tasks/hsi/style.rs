@@ -11,10 +11,10 @@
 use std::path::PathBuf;
 use std::sync::Arc;
 
-use skillmimic_core::hsi_character::{BODIES, JointSpec, NUM_DOFS};
-use skillmimic_motion::hsi_clip::HsiClip;
+use skillmimic_core::characters::tokenhsi::{BODIES, JointSpec, NUM_DOFS};
+use skillmimic_motion::character_clip::CharacterClip;
 use skillmimic_motion::library::find_clip_files;
-use skillmimic_sim::{HsiBatch, HsiReset, HsiScene};
+use skillmimic_sim::{BatchSim, Character, ResetState, Scene, SceneOptions};
 
 use super::proprio::{PROPRIO_DIM, write_proprio};
 use crate::error::{EnvError, bad};
@@ -27,15 +27,25 @@ pub fn frame_features(obs: &[f32], out: &mut [f32]) {
     out[..STYLE_DIM].copy_from_slice(&obs[..STYLE_DIM]);
 }
 
-/// Load every `tokenhsi-clip` below `paths` (errors name the file).
-pub fn load_style_clips(paths: &[PathBuf]) -> Result<Vec<HsiClip>, EnvError> {
+/// Load every TokenHSI `character-clip` below `paths` (errors name the file and a clip of another
+/// character).
+pub fn load_style_clips(paths: &[PathBuf]) -> Result<Vec<CharacterClip>, EnvError> {
     if paths.is_empty() {
         return Err(bad("env.hsi.style_motion", "the motion prior of a TokenHSI task needs reference clips of the character (skillmimic retarget writes them)").into());
     }
     let mut clips = Vec::new();
     for p in paths {
         for f in find_clip_files(p)? {
-            clips.push(HsiClip::load(&f)?);
+            let c = CharacterClip::load(&f)?;
+            if c.character != "tokenhsi" {
+                let msg = format!(
+                    "{}: a clip of the {} character, not of the TokenHSI character",
+                    f.display(),
+                    c.character
+                );
+                return Err(bad("env.hsi.style_motion", msg).into());
+            }
+            clips.push(c);
         }
     }
     if clips.is_empty() {
@@ -48,19 +58,17 @@ pub fn load_style_clips(paths: &[PathBuf]) -> Result<Vec<HsiClip>, EnvError> {
 
 /// The reset state of frame `t` of `clip` (velocities: finite differences to the next frame,
 /// the last frame uses the previous interval).
-pub fn clip_state(clip: &HsiClip, t: usize) -> HsiReset {
+pub fn clip_state(clip: &CharacterClip, t: usize) -> ResetState {
     let t0 = t.min(clip.num_frames - 2);
     let dt = 1.0 / clip.fps;
     let (p0, p1) = (clip.root_pos_at(t0), clip.root_pos_at(t0 + 1));
     let (q0, q1) = (clip.root_quat_at(t0), clip.root_quat_at(t0 + 1));
     let w = q0.conj().mul(q1).normalized().to_rotvec();
-    let mut s = HsiReset {
-        root_pos: clip.root_pos_at(t),
-        root_quat: clip.root_quat_at(t).normalized(),
-        root_linvel: [(p1[0] - p0[0]) / dt, (p1[1] - p0[1]) / dt, (p1[2] - p0[2]) / dt],
-        root_angvel_local: [w[0] / dt, w[1] / dt, w[2] / dt],
-        ..Default::default()
-    };
+    let mut s = ResetState::of(&skillmimic_core::characters::tokenhsi::spec(), 0);
+    s.root_pos = clip.root_pos_at(t);
+    s.root_quat = clip.root_quat_at(t).normalized();
+    s.root_linvel = [(p1[0] - p0[0]) / dt, (p1[1] - p0[1]) / dt, (p1[2] - p0[2]) / dt];
+    s.root_angvel_local = [w[0] / dt, w[1] / dt, w[2] / dt];
     let (d, d0, d1) = (clip.dof_at(t), clip.dof_at(t0), clip.dof_at(t0 + 1));
     let mut k = 0;
     for b in &BODIES {
@@ -93,9 +101,9 @@ pub fn clip_state(clip: &HsiClip, t: usize) -> HsiReset {
 
 /// Style features of every frame of every clip (`[clip][T × STYLE_DIM]`), posed in the bare
 /// character scene (no physics step).
-pub fn clip_features(clips: &[HsiClip]) -> Result<Vec<Vec<f32>>, EnvError> {
-    let scene = Arc::new(HsiScene::new(Vec::new())?);
-    let mut sim = HsiBatch::new(vec![scene], 1, 1)?;
+pub fn clip_features(clips: &[CharacterClip]) -> Result<Vec<Vec<f32>>, EnvError> {
+    let scene = Arc::new(Scene::new(SceneOptions::bare(Character::TokenHsi))?);
+    let mut sim = BatchSim::new(scene, 1, 1)?;
     let mut out = Vec::with_capacity(clips.len());
     for c in clips {
         let mut rows = vec![0.0f32; c.num_frames * STYLE_DIM];

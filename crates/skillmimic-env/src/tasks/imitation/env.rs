@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 use std::sync::Arc;
 
-use skillmimic_core::skeleton::NUM_DOFS;
+use skillmimic_core::characters::skillmimic::NUM_DOFS;
 use skillmimic_motion::MotionLibrary;
 use skillmimic_sim::Scene;
 
@@ -89,7 +89,7 @@ impl Imitation {
             info_names: cg_names(cfg.reward.contact_graph).iter().map(|s| s.to_string()).collect(),
         };
         // random balls of ball-free clips are placed with the radius actually simulated
-        let ball_radius = scene.options().ball.radius;
+        let ball_radius = scene.options().ball.map_or(0.0, |b| b.radius);
         Ok(Self {
             cfg,
             lib,

@@ -18,10 +18,10 @@ use std::sync::Arc;
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use skillmimic_motion::MotionLibrary;
-use skillmimic_sim::{EnvState, ResetState};
+use skillmimic_sim::{EnvState, ResetState, Scene};
 
 use crate::config::{EnvConfig, MaskedReward, StateInit};
-use crate::episode::{Episode, random_ball, reset_state_from_clip};
+use crate::episode::{Episode, fill_from_clip, random_ball};
 use crate::hoi::{ContactGraph, HoiState, dist};
 use crate::obs::{layout, write_observation};
 use crate::reward::{self, NUM_TERMS, TERM_NAMES};
@@ -135,6 +135,7 @@ impl Task for Imitation {
         _i: usize,
         slot: &mut ImitationSlot,
         rng: &mut ChaCha8Rng,
+        _scene: &Scene,
         state: &mut ResetState,
     ) {
         let lib = Arc::clone(&self.lib);
@@ -152,7 +153,7 @@ impl Task for Imitation {
         let m = lib.get(clip);
         let after_getup = slot.episode.skill == 0;
         let mut ep = new_episode(&self.cfg, &lib, clip, start);
-        *state = reset_state_from_clip(m, start);
+        fill_from_clip(state, m, start);
         if ep.ball_free {
             random_ball(state, self.ball_radius, rng);
         }
@@ -278,7 +279,7 @@ impl Task for Imitation {
         *out.truncated = u8::from(*out.terminated == 0 && ep.progress >= ep.horizon());
     }
 
-    fn observe(&self, slot: &ImitationSlot, st: &EnvState<'_>, obs: &mut [f32]) {
+    fn observe(&self, slot: &mut ImitationSlot, st: &EnvState<'_>, obs: &mut [f32]) {
         // the history embedding entries keep the value computed at the last step or reset
         write_observation(st, slot.episode.skill, &mut obs[..layout::OBS_DIM]);
     }

@@ -2,8 +2,8 @@
 //! (w, x, y, z), centre-of-mass linear velocities in m/s, angular velocities in rad/s; skeleton
 //! body order). One definition shared by the task, evaluation and the tests.
 
+use skillmimic_core::characters::skillmimic::{BODIES, NUM_BODIES};
 use skillmimic_core::math::{Quat, heading_inverse, norm, sub, tan_norm};
-use skillmimic_core::skeleton::{BODIES, NUM_BODIES};
 use skillmimic_sim::EnvState;
 
 use crate::config::TrackingConfig;
@@ -41,7 +41,9 @@ impl BodyFrame {
 
 /// The tracked bodies: all 53, or the 23 that are not fingers.
 pub fn tracked_bodies(fingers: bool) -> Vec<usize> {
-    (0..NUM_BODIES).filter(|&b| fingers || !skillmimic_core::skeleton::is_finger(b)).collect()
+    (0..NUM_BODIES)
+        .filter(|&b| fingers || !skillmimic_core::characters::skillmimic::is_finger(b))
+        .collect()
 }
 
 /// Errors of a simulated frame against the reference frame over `bodies`.

@@ -24,13 +24,13 @@ use std::sync::Arc;
 
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
+use skillmimic_core::characters::skillmimic::{NUM_BODIES, NUM_DOFS};
 use skillmimic_core::math::Quat;
-use skillmimic_core::skeleton::{NUM_BODIES, NUM_DOFS};
 use skillmimic_motion::MotionLibrary;
 use skillmimic_sim::{EnvState, ResetState, Scene, SimError};
 
 use crate::config::{EnvConfig, TrackingConfig};
-use crate::episode::reset_state_from_clip;
+use crate::episode::fill_from_clip;
 use crate::error::{EnvError, bad};
 use crate::obs::{layout, write_state_obs};
 use crate::task::{ActionSpace, StepOut, Task, TaskSpec};
@@ -149,9 +149,10 @@ impl Tracking {
         let refs = reference_frames(scene.clone(), &lib)?;
         let longest = refs.iter().map(|r| r.frames).max().unwrap_or(2);
         let opts = cfg.scene_options()?;
-        let welded = opts.hands == skillmimic_sim::HandModel::Box;
+        let welded = opts.character
+            == skillmimic_sim::Character::SkillMimic { hands: skillmimic_sim::HandModel::Box };
         let active = (0..NUM_DOFS)
-            .map(|j| !(welded && skillmimic_core::skeleton::is_finger(j / 3 + 1)))
+            .map(|j| !(welded && skillmimic_core::characters::skillmimic::is_finger(j / 3 + 1)))
             .collect();
         let spec = TaskSpec {
             name: "tracking",
@@ -173,7 +174,7 @@ impl Tracking {
             refs,
             bodies,
             spec,
-            force_limit: opts.force_limit,
+            force_limit: skillmimic_core::characters::skillmimic::FORCE_LIMIT,
             active,
             targets: vec![0.0; cfg.num_envs * NUM_DOFS],
             cumulative,
@@ -216,16 +217,18 @@ impl Task for Tracking {
         _i: usize,
         slot: &mut TrackSlot,
         rng: &mut ChaCha8Rng,
+        _scene: &Scene,
         state: &mut ResetState,
     ) {
         let clip = skillmimic_motion::library::sample_cumulative(&self.cumulative, rng);
         let frames = self.refs[clip].frames;
         let start = if self.cfg.random_start { rng.random_range(0..=frames - 2) } else { 0 };
-        *state = reset_state_from_clip(self.lib.get(clip), start);
+        fill_from_clip(state, self.lib.get(clip), start);
         // the ball plays no part: parked at rest far from the humanoid
-        state.ball_pos = [50.0, 50.0, 0.5];
-        state.ball_linvel = [0.0; 3];
-        state.ball_angvel_local = [0.0; 3];
+        let ball = state.ball_mut();
+        ball.pos = [50.0, 50.0, 0.5];
+        ball.linvel = [0.0; 3];
+        ball.angvel_local = [0.0; 3];
         *slot = TrackSlot {
             clip,
             frame: start,
@@ -283,7 +286,7 @@ impl Task for Tracking {
         info.copy_from_slice(&[slot.clip as f32, slot.frame as f32]);
     }
 
-    fn observe(&self, slot: &TrackSlot, st: &EnvState<'_>, obs: &mut [f32]) {
+    fn observe(&self, slot: &mut TrackSlot, st: &EnvState<'_>, obs: &mut [f32]) {
         self.write_obs(slot, &BodyFrame::from_state(st), st, obs);
     }
 

@@ -27,7 +27,10 @@
 //! The feet are the original's box-foot variant (a sole box and a toe box per foot): the mesh
 //! feet come from SMPL and cannot be redistributed.
 
-use crate::skeleton::GeomSpec;
+use super::{
+    ActionMap, BodyDef, BodyPart, CharacterSpec, Drive, GeomDef, GeomSpec, Hinge, JointDef,
+    Proprioception,
+};
 
 /// Number of rigid bodies.
 pub const NUM_BODIES: usize = 15;
@@ -41,6 +44,10 @@ pub const HANDS: [usize; 2] = [5, 8];
 pub const FEET: [usize; 2] = [11, 14];
 /// Key bodies of the adversarial motion prior's features (hands and feet, as in AMP/ASE).
 pub const KEY_BODIES: [usize; 4] = [5, 8, 11, 14];
+/// TokenHSI's 222-d proprioception: ASE's observation without the root height, the root
+/// rotation in the world frame.
+pub const PROPRIO: Proprioception =
+    Proprioception { root_height: false, root_rotation_world: true, contact_force_bodies: &[] };
 /// Pelvis height (m) of the rest pose standing on the floor (box-foot soles at z ≈ 0).
 pub const STANDING_ROOT_HEIGHT: f64 = 0.92;
 
@@ -356,6 +363,92 @@ pub fn action_offset_scale() -> [(f64, f64); NUM_DOFS] {
         }
     }
     out
+}
+
+/// Anatomical part of body `b` (hands 5, 8; feet 11, 14).
+pub fn body_part(b: usize) -> BodyPart {
+    if HANDS.contains(&b) {
+        BodyPart::Hand
+    } else if FEET.contains(&b) {
+        BodyPart::Foot
+    } else {
+        BodyPart::Trunk
+    }
+}
+
+/// The character as a [`CharacterSpec`]: the ten 3-DoF joints are MuJoCo `ball` joints driven
+/// per rotation-vector component by position actuators (`ctrlrange` ±π); the elbows are hinges
+/// about y with their range [−160°, 0°] (`ctrlrange` ±2π); gains, armature and torque limits
+/// (the original's motor gears) per joint; targets `offset + scale · a` from the joint limits
+/// ([`JointSpec::action_map`]); the hands are welded. The original's per-axis limits of the
+/// 3-DoF joints (PhysX D6 joints) have no MuJoCo counterpart on a ball joint (only a cone); they
+/// bound the action scale only. 1/120 s physics, four steps per 30 Hz policy step.
+pub fn spec() -> CharacterSpec {
+    let pi = std::f64::consts::PI;
+    let mut k = 0;
+    let bodies = BODIES
+        .iter()
+        .enumerate()
+        .map(|(i, b)| {
+            let n = b.joint.dofs();
+            let dofs = k..k + n;
+            k += n;
+            let joint = match b.joint {
+                JointSpec::Free => JointDef::Free,
+                JointSpec::Welded => JointDef::Welded,
+                JointSpec::Ball { kp, kd, armature, effort, .. } => {
+                    let (offset, scale) = b.joint.action_map().expect("a driven joint");
+                    JointDef::Ball {
+                        name: b.joint_name.to_string(),
+                        drive: Drive { kp, kd, armature, effort, ctrlrange: [-pi, pi] },
+                        action: ActionMap::Affine { offset, scale },
+                    }
+                }
+                JointSpec::HingeY { range_deg: [lo, hi], kp, kd, armature, effort } => {
+                    let (offset, scale) = b.joint.action_map().expect("a driven joint");
+                    JointDef::Hinges {
+                        hinges: vec![Hinge {
+                            name: b.joint_name.to_string(),
+                            axis: [0.0, 1.0, 0.0],
+                            range: Some([lo.to_radians(), hi.to_radians()]),
+                            action: ActionMap::Affine { offset, scale },
+                        }],
+                        drive: Drive { kp, kd, armature, effort, ctrlrange: [-2.0 * pi, 2.0 * pi] },
+                    }
+                }
+            };
+            let geoms = b
+                .geoms
+                .iter()
+                .map(|(name, g)| GeomDef { name: name.to_string(), spec: *g, material: None })
+                .collect();
+            BodyDef {
+                name: b.name,
+                parent: b.parent,
+                offset: b.offset,
+                part: body_part(i),
+                joint,
+                dofs,
+                geoms,
+            }
+        })
+        .collect();
+    CharacterSpec {
+        name: "tokenhsi",
+        model_name: "tokenhsi_character".into(),
+        title: "TokenHSI character",
+        bodies,
+        num_dofs: NUM_DOFS,
+        root_pos: [0.0, 0.0, STANDING_ROOT_HEIGHT],
+        root_quat: crate::math::Quat::IDENTITY,
+        rgba: [0.55, 0.62, 0.78, 1.0],
+        hand_rgba: None,
+        excludes: Vec::new(),
+        timestep: 1.0 / 120.0,
+        substeps: 4,
+        proprio: PROPRIO,
+        ground_bodies: CONTACT_BODIES.to_vec(),
+    }
 }
 
 /// Index of the body called `name`.

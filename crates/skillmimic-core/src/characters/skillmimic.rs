@@ -12,6 +12,11 @@
 //! Lengths are metres, densities kg/m³, gains N·m/rad and N·m·s/rad. The numbers are facts of the
 //! SkillMimic humanoid (BallPlay-M mocap skeleton); the table layout is ours.
 
+use super::{
+    ActionMap, BodyDef, BodyPart, CharacterSpec, Drive, GeomDef, GeomSpec, HandModel, JointDef,
+    Proprioception,
+};
+
 /// Number of rigid bodies of the humanoid (root included).
 pub const NUM_BODIES: usize = 53;
 /// Number of non-root bodies, each with one 3-dof rotational joint.
@@ -74,15 +79,87 @@ impl JointGroup {
 /// Armature (reflected rotor inertia, kg·m²) of every joint axis.
 pub const JOINT_ARMATURE: f64 = 0.02;
 
-/// Collision/visual geometry of one body, in the body frame (metres).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum GeomSpec {
-    /// Sphere of `radius` centred at `center`.
-    Sphere { radius: f64, center: [f64; 3], density: f64 },
-    /// Capsule of `radius` whose axis runs `from` → `to`.
-    Capsule { radius: f64, from: [f64; 3], to: [f64; 3], density: f64 },
-    /// Box with half extents `half_extents`, axis-aligned in the body frame, centred at `center`.
-    Box { half_extents: [f64; 3], center: [f64; 3], density: f64 },
+/// Symmetric force limit of every P actuator (N·m). The original code sets no explicit limit,
+/// but the reference model's motors have `gear = 500` with `ctrlrange ±1`, the effort limit the
+/// Isaac Gym MJCF importer derives for each dof — our choice for a careful port.
+pub const FORCE_LIMIT: f64 = 500.0;
+
+/// The skill observation's humanoid part (823): root height, heading-local root rotation, the
+/// ten fingertips' contact forces.
+pub const PROPRIO: Proprioception = Proprioception {
+    root_height: true,
+    root_rotation_world: false,
+    contact_force_bodies: &FINGERTIPS,
+};
+
+/// Pelvis height (m) of the MJCF rest pose (the upright zero pose's feet on the floor).
+pub const REST_ROOT_HEIGHT: f64 = 0.95;
+
+/// The MJCF root orientation: the skeleton is authored Y-up; a quarter turn about x stands it
+/// up in MuJoCo's Z-up world.
+pub fn upright() -> crate::math::Quat {
+    crate::math::Quat::from_rotvec([std::f64::consts::FRAC_PI_2, 0.0, 0.0])
+}
+
+/// The humanoid as a [`CharacterSpec`]: one ball joint per non-root body (armature 0.02,
+/// damping kd of its group), driven by three force-limited position actuators with the
+/// group's kp (PD target = π · a, `ctrlrange` ±π); box hands weld the 30 finger bodies (their
+/// dof slots stay in the 156-wide action and are ignored); the two permanently overlapping
+/// Thumb1–Thumb3 pairs of the articulated hands are excluded from collisions; 1/120 s physics,
+/// two steps per 60 Hz policy step.
+pub fn spec(hands: HandModel) -> CharacterSpec {
+    let pi = std::f64::consts::PI;
+    let bodies = BODIES
+        .iter()
+        .enumerate()
+        .map(|(i, b)| {
+            let (kp, kd) = b.group.gains();
+            let joint = if i == 0 {
+                JointDef::Free
+            } else if hands == HandModel::Box && is_finger(i) {
+                JointDef::Welded
+            } else {
+                let drive = Drive {
+                    kp,
+                    kd,
+                    armature: JOINT_ARMATURE,
+                    effort: FORCE_LIMIT,
+                    ctrlrange: [-pi, pi],
+                };
+                JointDef::Ball { name: b.name.to_string(), drive, action: ActionMap::Scaled(pi) }
+            };
+            let material = (body_part(i) == BodyPart::Hand).then_some("hand");
+            BodyDef {
+                name: b.name,
+                parent: b.parent,
+                offset: b.offset,
+                part: body_part(i),
+                joint,
+                dofs: if i == 0 { 0..0 } else { dof_range(i) },
+                geoms: vec![GeomDef { name: b.name.to_string(), spec: b.geom, material }],
+            }
+        })
+        .collect();
+    let excludes = match hands {
+        HandModel::Full => vec![("L_Thumb1", "L_Thumb3"), ("R_Thumb1", "R_Thumb3")],
+        HandModel::Box => Vec::new(),
+    };
+    CharacterSpec {
+        name: "skillmimic",
+        model_name: format!("skillmimic_humanoid_ball_{}", hands.name()),
+        title: "SkillMimic humanoid",
+        bodies,
+        num_dofs: NUM_DOFS,
+        root_pos: [0.0, 0.0, REST_ROOT_HEIGHT],
+        root_quat: upright(),
+        rgba: [0.78, 0.62, 0.5, 1.0],
+        hand_rgba: Some([0.85, 0.7, 0.58, 1.0]),
+        excludes,
+        timestep: 1.0 / 120.0,
+        substeps: 2,
+        proprio: PROPRIO,
+        ground_bodies: vec![3, 4, 7, 8],
+    }
 }
 
 /// One body of the skeleton.
@@ -729,17 +806,6 @@ pub const REFERENCE_BODY_NODE: [usize; 17] =
 pub const L_WRIST: usize = 18;
 /// Right wrist body index; the right hand is bodies `37..=52`.
 pub const R_WRIST: usize = 37;
-
-/// Coarse anatomical part of a body, used to classify contacts.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum BodyPart {
-    /// Wrist or finger body (either hand).
-    Hand,
-    /// Ankle or toe body.
-    Foot,
-    /// Any other humanoid body (pelvis, legs, spine, head, arms up to the elbow).
-    Trunk,
-}
 
 /// Anatomical part of body `b`.
 pub const fn body_part(b: usize) -> BodyPart {

@@ -1,0 +1,60 @@
+//! [`Env`]: the object-safe face of a batched environment, used by the learner, evaluation and
+//! the Python package for any registered task (`Box<dyn Env>` from
+//! [`crate::registry::make`]).
+
+use std::any::Any;
+
+use skillmimic_sim::MjBatch;
+
+use super::StepBuffers;
+use crate::error::EnvError;
+use crate::task::TaskSpec;
+
+/// A batched environment of any task.
+pub trait Env: Send + Sync {
+    /// The task's sizes and names.
+    fn spec(&self) -> &TaskSpec;
+    fn num_envs(&self) -> usize;
+    fn obs_dim(&self) -> usize {
+        self.spec().obs_dim
+    }
+    fn act_dim(&self) -> usize {
+        self.spec().act_dim()
+    }
+    fn buffers(&self) -> &StepBuffers;
+    fn step(&mut self, actions: &[f32]) -> Result<(), EnvError>;
+    fn reset_all(&mut self, seed: Option<u64>);
+    fn reset_envs(&mut self, mask: &[bool]);
+    fn reset_done(&mut self);
+    /// Close the episodes of the environments in `mask` without resetting them: the task's
+    /// end-of-episode bookkeeping (SkillMimic-V2's ATS statistics), as `reset_done` and SAME_STEP
+    /// autoreset do before a reset. For callers that reset through
+    /// [`reset_envs`](Env::reset_envs) (gymnasium's NEXT_STEP and DISABLED modes).
+    fn end_episodes(&mut self, _mask: &[bool]) {}
+    fn set_autoreset(&mut self, on: bool);
+    fn refresh_observations(&mut self);
+    /// Raw MuJoCo access and the state read-out, whatever the character (rendering, recording,
+    /// state edits).
+    fn mujoco(&self) -> &dyn MjBatch;
+    fn mujoco_mut(&mut self) -> &mut dyn MjBatch;
+    /// Overwrite environment `i`'s task information entries (`TaskSpec::info_names`; the
+    /// high-level tasks: move the goal, e.g. in interactive play) and recompute its observation.
+    fn set_task_info(&mut self, _i: usize, _values: &[f32]) -> Result<(), EnvError> {
+        Err(EnvError::Unsupported(format!(
+            "task '{}' has no settable task information",
+            self.spec().name
+        )))
+    }
+    /// PD targets (`N × dofs`, [−1, 1]) a task's action transform gave in the last simulation
+    /// step (high-level tasks: the frozen skill policy's actions); empty when the actions are the
+    /// targets.
+    fn pd_targets(&self) -> &[f32];
+    /// The tasks of a multi-task environment with their environment rows (empty: one task); the
+    /// motion prior keeps one discriminator per entry.
+    fn task_rows(&self) -> Vec<(String, std::ops::Range<usize>)> {
+        Vec::new()
+    }
+    /// Downcast to the concrete `VecEnv<T>` (task-specific accessors).
+    fn as_any(&self) -> &dyn Any;
+    fn as_any_mut(&mut self) -> &mut dyn Any;
+}

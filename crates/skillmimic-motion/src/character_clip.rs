@@ -1,0 +1,202 @@
+//! Clips of any character ([`skillmimic_core::characters`]; the SkillMimic humanoid's own clips
+//! with the ball are [`crate::Clip`]) and their file format (`.safetensors`, version 1):
+//!
+//! | tensor | dtype | shape | content |
+//! |---|---|---|---|
+//! | `root_pos` | F32 | (T, 3) | root position, world, m, Z-up |
+//! | `root_rot` | F32 | (T, 4) | root orientation **(w, x, y, z)**, unit norm |
+//! | `dof_pos` | F32 | (T, dofs) | the character's dof vector: rotation vectors (rad) of ball joints relative to the parent, hinge angles (three hinges x, y, z: intrinsic x-y-z angles) |
+//! | `body_pos` | F32 | (T, bodies, 3) | world positions of the body frames, m |
+//!
+//! Metadata: `format = "character-clip"`, `format_version = "1"`, `character` (the registry name:
+//! `tokenhsi`, `smpl`, …), `fps` (> 0), `name`, `source`. Files written before the characters
+//! shared one stack (`format = "tokenhsi-clip"`, no `character`) load as TokenHSI clips. Bring your
+//! own motions (AMASS, SAMP, OMOMO retargets) by filling these arrays for the character's bodies;
+//! `skillmimic retarget --to <character>` writes them from SkillMimic-skeleton clips.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use skillmimic_core::characters::{Character, CharacterSpec, HandModel};
+use skillmimic_core::math::Quat;
+use skillmimic_core::tensorfile::{OwnedTensor, TensorFile, write_atomic};
+
+use crate::error::ClipError;
+
+/// Value of the `format` metadata field.
+pub const FORMAT_NAME: &str = "character-clip";
+/// The format of TokenHSI clips written before `character-clip` (read as `character = tokenhsi`).
+pub const LEGACY_TOKENHSI_FORMAT: &str = "tokenhsi-clip";
+
+/// A clip of one character (arrays float32, frame-major).
+#[derive(Clone, Debug, PartialEq)]
+pub struct CharacterClip {
+    /// The character's registry name.
+    pub character: String,
+    pub name: String,
+    pub source: String,
+    pub fps: f64,
+    pub num_frames: usize,
+    /// Dofs and bodies of the character.
+    pub num_dofs: usize,
+    pub num_bodies: usize,
+    /// `(T, 3)`
+    pub root_pos: Vec<f32>,
+    /// `(T, 4)` (w, x, y, z)
+    pub root_rot: Vec<f32>,
+    /// `(T, dofs)`
+    pub dof_pos: Vec<f32>,
+    /// `(T, bodies, 3)`
+    pub body_pos: Vec<f32>,
+}
+
+impl CharacterClip {
+    /// A clip of `spec` from per-frame root poses and dof vectors; `body_pos` from the
+    /// character's forward kinematics.
+    pub fn from_frames(
+        spec: &CharacterSpec,
+        name: &str,
+        source: &str,
+        fps: f64,
+        frames: &[([f64; 3], Quat, Vec<f64>)],
+    ) -> Self {
+        let (nd, nb) = (spec.num_dofs, spec.bodies.len());
+        let mut c = Self {
+            character: spec.name.to_string(),
+            name: name.to_string(),
+            source: source.to_string(),
+            fps,
+            num_frames: frames.len(),
+            num_dofs: nd,
+            num_bodies: nb,
+            root_pos: Vec::with_capacity(3 * frames.len()),
+            root_rot: Vec::with_capacity(4 * frames.len()),
+            dof_pos: Vec::with_capacity(nd * frames.len()),
+            body_pos: Vec::with_capacity(3 * nb * frames.len()),
+        };
+        for (p, q, dof) in frames {
+            c.root_pos.extend(p.iter().map(|&x| x as f32));
+            c.root_rot.extend(q.to_wxyz().iter().map(|&x| x as f32));
+            c.dof_pos.extend(dof.iter().map(|&x| x as f32));
+            let (pos, _) = spec.forward_kinematics(*p, *q, dof);
+            c.body_pos.extend(pos.iter().flatten().map(|&x| x as f32));
+        }
+        c
+    }
+
+    /// Root position at frame `t`.
+    pub fn root_pos_at(&self, t: usize) -> [f64; 3] {
+        let r = &self.root_pos[3 * t..3 * t + 3];
+        [r[0] as f64, r[1] as f64, r[2] as f64]
+    }
+    /// Root orientation at frame `t`.
+    pub fn root_quat_at(&self, t: usize) -> Quat {
+        let r = &self.root_rot[4 * t..4 * t + 4];
+        Quat::from_wxyz([r[0] as f64, r[1] as f64, r[2] as f64, r[3] as f64])
+    }
+    /// The dof vector at frame `t`.
+    pub fn dof_at(&self, t: usize) -> &[f32] {
+        &self.dof_pos[self.num_dofs * t..self.num_dofs * (t + 1)]
+    }
+    /// World position of body `b` at frame `t`.
+    pub fn body_pos_at(&self, t: usize, b: usize) -> [f64; 3] {
+        let r = &self.body_pos[3 * (t * self.num_bodies + b)..3 * (t * self.num_bodies + b) + 3];
+        [r[0] as f64, r[1] as f64, r[2] as f64]
+    }
+
+    /// Save (atomic write).
+    pub fn save(&self, path: &Path) -> std::io::Result<()> {
+        let t = self.num_frames;
+        let mut meta = BTreeMap::new();
+        meta.insert("format".into(), FORMAT_NAME.into());
+        meta.insert("format_version".into(), "1".into());
+        meta.insert("character".into(), self.character.clone());
+        meta.insert("fps".into(), self.fps.to_string());
+        meta.insert("name".into(), self.name.clone());
+        meta.insert("source".into(), self.source.clone());
+        let tensors = [
+            OwnedTensor::f32("root_pos", &[t, 3], &self.root_pos),
+            OwnedTensor::f32("root_rot", &[t, 4], &self.root_rot),
+            OwnedTensor::f32("dof_pos", &[t, self.num_dofs], &self.dof_pos),
+            OwnedTensor::f32("body_pos", &[t, self.num_bodies, 3], &self.body_pos),
+        ];
+        write_atomic(path, &tensors, &meta)
+    }
+
+    /// Load and validate a clip file (errors name the file and the field): a registered
+    /// character, its dof and body counts, at least two frames, finite values, unit root
+    /// quaternions.
+    pub fn load(path: &Path) -> Result<Self, ClipError> {
+        let bad = |detail: String| ClipError::Format { path: path.to_path_buf(), detail };
+        let f = TensorFile::open(path).map_err(|e| bad(e.to_string()))?;
+        let meta = f.metadata();
+        let character = match meta.get("format").map(String::as_str) {
+            Some(FORMAT_NAME) => meta
+                .get("character")
+                .cloned()
+                .ok_or_else(|| bad("metadata 'character' is missing".into()))?,
+            Some(LEGACY_TOKENHSI_FORMAT) => "tokenhsi".to_string(),
+            other => {
+                return Err(bad(format!(
+                    "metadata 'format' is {other:?}, expected \"{FORMAT_NAME}\""
+                )));
+            }
+        };
+        let spec = Character::by_name(&character, HandModel::Full)
+            .ok_or_else(|| {
+                bad(format!(
+                    "metadata 'character' is \"{character}\", expected one of {}",
+                    Character::NAMES.join(", ")
+                ))
+            })?
+            .spec();
+        let fps: f64 = meta
+            .get("fps")
+            .and_then(|s| s.parse().ok())
+            .filter(|v: &f64| v.is_finite() && *v > 0.0)
+            .ok_or_else(|| bad("metadata 'fps' must be a positive number".into()))?;
+        let read = |name: &str, tail: &[usize]| -> Result<(usize, Vec<f32>), ClipError> {
+            let spec: Vec<Option<usize>> =
+                std::iter::once(None).chain(tail.iter().map(|&d| Some(d))).collect();
+            let (shape, data) = f.f32(name, &spec).map_err(|e| bad(e.to_string()))?;
+            if let Some(k) = data.iter().position(|x| !x.is_finite()) {
+                return Err(bad(format!(
+                    "tensor '{name}' holds a non-finite value at flat index {k}"
+                )));
+            }
+            Ok((shape[0], data))
+        };
+        let (nd, nb) = (spec.num_dofs, spec.bodies.len());
+        let (t, root_pos) = read("root_pos", &[3])?;
+        let (t2, root_rot) = read("root_rot", &[4])?;
+        let (t3, dof_pos) = read("dof_pos", &[nd])?;
+        let (t4, body_pos) = read("body_pos", &[nb, 3])?;
+        if t < 2 || [t2, t3, t4].iter().any(|&x| x != t) {
+            return Err(bad(format!(
+                "tensors disagree on the frame count or hold fewer than 2 frames ({t}, {t2}, {t3}, {t4})"
+            )));
+        }
+        if let Some(k) = root_rot.chunks_exact(4).position(|q| {
+            let n = q.iter().map(|&x| (x as f64) * (x as f64)).sum::<f64>().sqrt();
+            (n - 1.0).abs() > 1e-3
+        }) {
+            return Err(bad(format!("tensor 'root_rot' frame {k} is not a unit quaternion")));
+        }
+        let name = meta.get("name").cloned().unwrap_or_else(|| {
+            path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default()
+        });
+        Ok(Self {
+            character,
+            name,
+            source: meta.get("source").cloned().unwrap_or_default(),
+            fps,
+            num_frames: t,
+            num_dofs: nd,
+            num_bodies: nb,
+            root_pos,
+            root_rot,
+            dof_pos,
+            body_pos,
+        })
+    }
+}
