@@ -105,7 +105,7 @@ def test_retargeted_ballplay_clips_replay_with_feet_on_the_floor(shared_dir, tmp
     for f in files:
         meta, clip = _read(out / f"{f.stem}.safetensors")
         src = ref.load_clip(f)
-        assert meta["format"] == "tokenhsi-clip" and float(meta["fps"]) == src["fps"]
+        assert meta["format"] == "character-clip" and meta["character"] == "tokenhsi" and float(meta["fps"]) == src["fps"]
         rep = reports[f.stem]
         T = clip["root_pos"].shape[0]
         assert T == src["num_frames"] == rep["frames"]
@@ -150,5 +150,5 @@ def test_retarget_refuses_bad_input(tmp_path, skillmimic_bin):
     bad.write_bytes(b"not a zip")
     r = subprocess.run([str(skillmimic_bin), "retarget", "--motion", str(bad), "--out", str(tmp_path / "o")], capture_output=True, text=True)
     assert r.returncode != 0 and "bad.pt" in r.stderr, r.stderr
-    r = subprocess.run([str(skillmimic_bin), "retarget", "--to", "smpl", "--motion", str(bad), "--out", str(tmp_path / "o")], capture_output=True, text=True)
-    assert r.returncode != 0 and "tokenhsi" in r.stderr, r.stderr
+    r = subprocess.run([str(skillmimic_bin), "retarget", "--to", "robot", "--motion", str(bad), "--out", str(tmp_path / "o")], capture_output=True, text=True)
+    assert r.returncode != 0 and "tokenhsi" in r.stderr and "smpl" in r.stderr, r.stderr

@@ -119,7 +119,7 @@ fn varied_starts(scene: &Scene, n: usize, rng: &mut ChaCha8Rng) -> Vec<ResetStat
 
 /// Frames of a BallPlay-M clip, with a little motion so that velocities matter from the first
 /// step.
-fn clip_starts(path: &PathBuf, n: usize) -> anyhow::Result<Vec<ResetState>> {
+fn clip_starts(path: &std::path::Path, n: usize) -> anyhow::Result<Vec<ResetState>> {
     let clip = Clip::from_pt(path)?;
     Ok((0..n)
         .map(|i| {

@@ -32,6 +32,7 @@ mod common;
 mod demo;
 mod markers;
 mod plot;
+mod plot_draw;
 mod video;
 
 #[derive(Parser)]

@@ -55,7 +55,7 @@ pub const TASKS: &[TaskEntry] = &[
         summary: "motion tracking of clips without the ball (ModSkill, PHC): next-frame reference observation",
         high_level: false,
         choices: &[],
-        characters: SKILLMIMIC,
+        characters: &["skillmimic", "smpl"],
         build: tasks::tracking::build,
     },
     TaskEntry {

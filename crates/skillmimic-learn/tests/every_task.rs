@@ -1,19 +1,25 @@
-//! Every registered task × every compatible policy family: build, reset, 30 steps with the
-//! policy's sampled actions (checking shapes against the declared spaces and that nothing is
-//! NaN), then one PPO iteration through the trainer (MuJoCo Playground style). High-level tasks
-//! drive a small skill policy written for the test.
+//! Every registered task on every character it declares × every policy family that can act in
+//! its action space, each its own named case (`task/character/family`; MuJoCo Playground style):
+//! build, reset, 30 steps with the policy's sampled actions (checking shapes against the declared
+//! spaces and that nothing is NaN), then one PPO iteration through the trainer. High-level tasks
+//! drive a small skill policy written for the test. Also: an unknown task, and a character a
+//! task does not run on, are clear errors listing the registered ones.
+//!
+//! A custom harness (libtest-mimic) so that `cargo test` lists and filters the cases by name.
 
 mod common;
 use common::{skill_policy, workspace_root};
-use skillmimic_env::registry::TASKS;
+use libtest_mimic::{Arguments, Failed, Trial};
+use skillmimic_env::registry::{self, TASKS};
 use skillmimic_learn::config::TrainConfig;
 use skillmimic_learn::policies::FAMILIES;
 use skillmimic_learn::policy::{InferenceBuffers, Policy};
 use skillmimic_learn::trainer::Trainer;
 
-fn config(task: &str, out: &str) -> TrainConfig {
+fn config(task: &str, character: &str, out: &str, llc: &std::path::Path) -> TrainConfig {
     let mut c = TrainConfig::preset("tiny").unwrap();
     c.env.task = task.to_string();
+    c.env.character = character.to_string();
     c.env.motion = vec![workspace_root().join("motions")];
     c.env.num_envs = 4;
     c.env.threads = 1;
@@ -22,8 +28,8 @@ fn config(task: &str, out: &str) -> TrainConfig {
     c.ppo.mini_epochs = 1;
     c.run.out_dir =
         std::env::temp_dir().join(format!("skillmimic-every-task-{out}-{}", std::process::id()));
-    if skillmimic_env::registry::is_high_level(task) {
-        c.env.hlc.llc = skill_policy("every-task");
+    if registry::is_high_level(task) {
+        c.env.hlc.llc = llc.to_path_buf();
     }
     // the token transformer at test sizes
     c.ppo.token.tokenizer = vec![32];
@@ -34,103 +40,148 @@ fn config(task: &str, out: &str) -> TrainConfig {
     c
 }
 
-#[test]
-fn every_task_steps_with_every_compatible_policy_family() {
-    assert!(
-        TASKS.len() >= 6,
-        "imitation, the worked example and the four high-level tasks are registered"
-    );
-    let mut pairs = 0;
-    for (entry, family) in TASKS.iter().flat_map(|e| FAMILIES.iter().map(move |f| (e, *f))) {
-        let mut c = config(entry.name, entry.name);
-        let space = skillmimic_env::registry::make(&c.env)
-            .unwrap_or_else(|e| panic!("{}: {e}", entry.name))
-            .spec()
-            .action_space;
-        if !family.supports(&space) {
-            continue;
-        }
-        pairs += 1;
-        c.ppo.policy = family.name().to_string();
-        let mut env = skillmimic_env::registry::make(&c.env)
-            .unwrap_or_else(|e| panic!("{}: {e}", entry.name));
-        let spec = env.spec().clone();
-        assert_eq!(spec.name, entry.name);
-        let (n, d, a) = (env.num_envs(), spec.obs_dim, spec.act_dim());
-        let mut rng = <rand_chacha::ChaCha8Rng as rand::SeedableRng>::seed_from_u64(1);
-        let ppo = skillmimic_learn::policies::token_transformer::with_task_groups(&c.ppo, &spec);
-        let policy = Policy::build(d, space, &ppo, &mut rng).unwrap();
-        let mut buf = InferenceBuffers::default();
-        let o = policy.actor_outputs();
-        let (mut mu, mut values, mut actions, mut neglogp) =
-            (vec![0.0; n * o], vec![0.0; n], vec![0.0; n * a], vec![0.0; n]);
-        env.reset_all(Some(3));
-        let (mut dones, mut reward_sum) = (0, 0.0f64);
-        for step in 0..30 {
-            let b = env.buffers();
-            assert_eq!(b.obs.len(), n * d, "{}: observation buffer", entry.name);
-            assert_eq!(b.terms.len(), n * spec.term_names.len());
-            assert_eq!(b.metrics.len(), n * spec.metric_names.len());
-            assert_eq!(b.info.len(), n * spec.info_names.len());
-            assert!(
-                b.obs.iter().all(|v| v.is_finite()),
-                "{} step {step}: non-finite observation",
-                entry.name
-            );
-            let obs = b.obs.clone();
-            policy.infer(&obs, n, &mut buf, &mut mu, &mut values, 1);
-            policy.sample(&mu, n, &mut rng, &mut actions, &mut neglogp);
-            assert!(actions.iter().chain(&neglogp).chain(&values).all(|v| v.is_finite()));
-            env.step(&actions).unwrap();
-            let b = env.buffers();
-            for (name, xs) in [
-                ("reward", &b.reward),
-                ("terms", &b.terms),
-                ("metrics", &b.metrics),
-                ("info", &b.info),
-            ] {
-                assert!(
-                    xs.iter().all(|v| v.is_finite()),
-                    "{} step {step}: non-finite {name}",
-                    entry.name
+/// Build, step and train one task × character × family.
+fn run_case(mut c: TrainConfig, family: &str) -> Result<(), Failed> {
+    let name = format!("{}/{}/{family}", c.env.task, c.env.character);
+    c.ppo.policy = family.to_string();
+    let mut env = registry::make(&c.env).map_err(|e| format!("{name}: {e}"))?;
+    let spec = env.spec().clone();
+    if spec.name != c.env.task {
+        return Err(format!("{name}: the environment says it is '{}'", spec.name).into());
+    }
+    let (n, d, a) = (env.num_envs(), spec.obs_dim, spec.act_dim());
+    let mut rng = <rand_chacha::ChaCha8Rng as rand::SeedableRng>::seed_from_u64(1);
+    let ppo = skillmimic_learn::policies::token_transformer::with_task_groups(&c.ppo, &spec);
+    let policy = Policy::build(d, spec.action_space, &ppo, &mut rng)?;
+    let mut buf = InferenceBuffers::default();
+    let o = policy.actor_outputs();
+    let (mut mu, mut values, mut actions, mut neglogp) =
+        (vec![0.0; n * o], vec![0.0; n], vec![0.0; n * a], vec![0.0; n]);
+    env.reset_all(Some(3));
+    let mut reward_sum = 0.0f64;
+    for step in 0..30 {
+        let b = env.buffers();
+        let shapes = [
+            ("observation", b.obs.len(), n * d),
+            ("terms", b.terms.len(), n * spec.term_names.len()),
+            ("metrics", b.metrics.len(), n * spec.metric_names.len()),
+            ("info", b.info.len(), n * spec.info_names.len()),
+        ];
+        for (what, got, want) in shapes {
+            if got != want {
+                return Err(
+                    format!("{name}: {what} buffer of {got}, the spec declares {want}").into()
                 );
             }
-            reward_sum += b.reward.iter().map(|&r| r.abs() as f64).sum::<f64>();
-            dones +=
-                b.terminated.iter().zip(&b.truncated).filter(|(t, u)| **t != 0 || **u != 0).count();
-            env.reset_done();
         }
-        let _ = dones;
-        // every environment was stepped by its task (a zero-width buffer once stopped them all)
-        assert!(reward_sum > 0.0, "{}: no reward in 30 steps", entry.name);
-        // one PPO iteration through the trainer on the same task
-        let mut t = Trainer::new(c.clone(), None).unwrap_or_else(|e| panic!("{}: {e}", entry.name));
-        assert_eq!((t.env.obs_dim(), t.env.act_dim()), (d, a));
-        let s = t.iteration().unwrap();
-        assert!(
-            s.mean_reward.is_finite() && s.actor_loss.is_finite() && s.critic_loss.is_finite(),
-            "{}: {s:?}",
-            entry.name
-        );
-        assert_eq!(s.reward_terms.len(), spec.term_names.len());
-        assert_eq!(s.low_level_samples, s.samples * spec.steps_per_action as u64);
-        let _ = std::fs::remove_dir_all(&c.run.out_dir);
+        if !b.obs.iter().all(|v| v.is_finite()) {
+            return Err(format!("{name} step {step}: non-finite observation").into());
+        }
+        let obs = b.obs.clone();
+        policy.infer(&obs, n, &mut buf, &mut mu, &mut values, 1);
+        policy.sample(&mu, n, &mut rng, &mut actions, &mut neglogp);
+        env.step(&actions).map_err(|e| format!("{name} step {step}: {e}"))?;
+        let b = env.buffers();
+        for (what, xs) in
+            [("reward", &b.reward), ("terms", &b.terms), ("metrics", &b.metrics), ("info", &b.info)]
+        {
+            if !xs.iter().all(|v| v.is_finite()) {
+                return Err(format!("{name} step {step}: non-finite {what}").into());
+            }
+        }
+        reward_sum += b.reward.iter().map(|&r| r.abs() as f64).sum::<f64>();
+        env.reset_done();
     }
-    assert!(pairs >= TASKS.len(), "every task has a compatible family");
+    // every environment was stepped by its task (a zero-width buffer once stopped them all)
+    if reward_sum <= 0.0 {
+        return Err(format!("{name}: no reward in 30 steps").into());
+    }
+    // one PPO iteration through the trainer on the same task
+    let mut t = Trainer::new(c.clone(), None).map_err(|e| format!("{name}: {e}"))?;
+    if (t.env.obs_dim(), t.env.act_dim()) != (d, a) {
+        return Err(format!("{name}: the trainer's environment differs from the registry's").into());
+    }
+    let s = t.iteration().map_err(|e| format!("{name}: {e}"))?;
+    let _ = std::fs::remove_dir_all(&c.run.out_dir);
+    if !(s.mean_reward.is_finite() && s.actor_loss.is_finite() && s.critic_loss.is_finite()) {
+        return Err(format!("{name}: {s:?}").into());
+    }
+    if s.reward_terms.len() != spec.term_names.len()
+        || s.low_level_samples != s.samples * spec.steps_per_action as u64
+    {
+        return Err(format!("{name}: iteration statistics do not follow the spec: {s:?}").into());
+    }
+    Ok(())
 }
 
-#[test]
-fn an_unknown_task_is_a_clear_error() {
-    let c = config("juggle", "unknown");
-    let e =
-        skillmimic_env::registry::make(&c.env).err().expect("unknown task rejected").to_string();
-    assert!(
-        e.contains("env.task")
-            && e.contains("juggle")
-            && e.contains("imitation")
-            && e.contains("stand")
-            && e.contains("heading")
-            && e.contains("scoring"),
-        "{e}"
-    );
+fn errors_are_clear(llc: &std::path::Path) -> Result<(), Failed> {
+    let c = config("juggle", "", "unknown", llc);
+    let e = registry::make(&c.env).err().ok_or("an unknown task was accepted")?.to_string();
+    if !(e.contains("env.task")
+        && e.contains("juggle")
+        && e.contains("imitation")
+        && e.contains("stand")
+        && e.contains("heading"))
+    {
+        return Err(format!("unknown task: {e}").into());
+    }
+    let c = config("imitation", "smpl", "character", llc);
+    let e = registry::make(&c.env)
+        .err()
+        .ok_or("imitation on the SMPL humanoid was accepted")?
+        .to_string();
+    if !(e.contains("env.character")
+        && e.contains("imitation")
+        && e.contains("skillmimic")
+        && e.contains("tokenhsi"))
+    {
+        return Err(format!("unsupported character: {e}").into());
+    }
+    let c = config("stand", "robot", "character", llc);
+    let e = registry::make(&c.env).err().ok_or("an unknown character was accepted")?.to_string();
+    if !(e.contains("env.character") && e.contains("robot") && e.contains("smpl")) {
+        return Err(format!("unknown character: {e}").into());
+    }
+    Ok(())
+}
+
+fn main() {
+    let args = Arguments::from_args();
+    let llc = skill_policy("every-task");
+    let mut trials = Vec::new();
+    for entry in TASKS {
+        for &character in entry.characters {
+            // the action space decides the compatible families
+            let probe = config(entry.name, character, "probe", &llc);
+            let space = match registry::make(&probe.env) {
+                Ok(env) => env.spec().action_space,
+                Err(e) => {
+                    let name = format!("{}/{character}/build", entry.name);
+                    let msg = e.to_string();
+                    trials.push(Trial::test(name, move || Err(msg.into())));
+                    continue;
+                }
+            };
+            for family in FAMILIES.iter().filter(|f| f.supports(&space)) {
+                let c = config(
+                    entry.name,
+                    character,
+                    &format!("{}-{character}-{}", entry.name, family.name()),
+                    &llc,
+                );
+                let fam = family.name();
+                trials.push(Trial::test(format!("{}/{character}/{fam}", entry.name), move || {
+                    run_case(c, fam)
+                }));
+            }
+        }
+    }
+    let llc2 = llc.clone();
+    trials.push(Trial::test("errors/unknown_task_and_character", move || errors_are_clear(&llc2)));
+    let covered: std::collections::BTreeSet<&str> =
+        trials.iter().filter_map(|t| t.name().split('/').next()).collect();
+    let missing: Vec<&str> =
+        TASKS.iter().map(|e| e.name).filter(|n| !covered.contains(n)).collect();
+    assert!(missing.is_empty(), "tasks without a compatible policy family: {missing:?}");
+    libtest_mimic::run(&args, trials).exit();
 }

@@ -25,7 +25,7 @@
 //! * 1/120 s physics (PhysX's 1/60 s with two substeps), four physics steps per 30 Hz policy
 //!   step (`controlFrequencyInv: 2`).
 
-use super::{
+use super::spec::{
     ActionMap, BodyDef, BodyPart, CharacterSpec, Drive, GeomDef, GeomSpec, Hinge, JointDef,
     Proprioception,
 };

@@ -27,7 +27,7 @@
 //! The feet are the original's box-foot variant (a sole box and a toe box per foot): the mesh
 //! feet come from SMPL and cannot be redistributed.
 
-use super::{
+use super::spec::{
     ActionMap, BodyDef, BodyPart, CharacterSpec, Drive, GeomDef, GeomSpec, Hinge, JointDef,
     Proprioception,
 };

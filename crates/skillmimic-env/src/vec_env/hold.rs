@@ -13,9 +13,8 @@
 //!   SkillMimic code lets the next episode's first steps leak into the old transition instead);
 //! * the transition stops early when every environment has finished.
 
-use super::{StepBuffers, VecEnv, copy_row};
-use crate::error::EnvError;
-use crate::task::{Task, TaskSpec};
+use super::{StepBuffers, copy_row};
+use crate::task::TaskSpec;
 
 /// The aggregation state and the buffers the caller sees.
 pub(super) struct Hold {
@@ -55,61 +54,56 @@ impl Hold {
         }
     }
 
-    /// One transition of `k` physics steps of `env` (whose hold this is; taken out of it for
-    /// the call).
-    pub(super) fn step<T: Task>(
-        &mut self,
-        env: &mut VecEnv<T>,
-        actions: &[f32],
-    ) -> Result<(), EnvError> {
-        let n = env.num_envs();
-        let spec = env.task.spec();
-        if actions.len() != n * spec.act_dim() {
-            return Err(EnvError::ActionShape { expected: n * spec.act_dim(), got: actions.len() });
-        }
-        let (d, nt, ni, nm) =
-            (spec.obs_dim, spec.term_names.len(), spec.info_names.len(), spec.metric_names.len());
-        let out = &mut self.out;
+    /// Physics steps per action.
+    pub(super) fn steps(&self) -> usize {
+        self.steps
+    }
+
+    /// Start a transition.
+    pub(super) fn begin(&mut self) {
         self.counted.fill(0);
         self.done.fill(false);
-        out.reward.fill(0.0);
-        out.terms.fill(0.0);
-        out.unstable.fill(0);
-        for k in 0..self.steps {
-            let last = k + 1 == self.steps;
-            env.physics_step(actions)?;
-            let b = &env.buf;
-            for i in 0..n {
-                if self.done[i] {
-                    continue;
-                }
-                self.counted[i] += 1;
-                out.reward[i] += b.reward[i];
-                for k in 0..nt {
-                    out.terms[i * nt + k] += b.terms[i * nt + k];
-                }
-                out.terminated[i] = b.terminated[i];
-                out.truncated[i] = b.truncated[i];
-                out.unstable[i] |= b.unstable[i];
-                self.done[i] = b.done(i);
-                // the rows of the transition's last counted step only
-                if self.done[i] || last {
-                    copy_row(&mut out.obs, &b.obs, i, d);
-                    copy_row(&mut out.metrics, &b.metrics, i, nm);
-                    copy_row(&mut out.info, &b.info, i, ni);
-                }
+        self.out.reward.fill(0.0);
+        self.out.terms.fill(0.0);
+        self.out.unstable.fill(0);
+    }
+
+    /// Count physics step `b` of the transition (`last`: its final one); `widths` = (obs, terms,
+    /// info, metrics). Returns whether every environment has finished.
+    pub(super) fn accumulate(&mut self, b: &StepBuffers, widths: [usize; 4], last: bool) -> bool {
+        let [d, nt, ni, nm] = widths;
+        let out = &mut self.out;
+        for i in 0..self.done.len() {
+            if self.done[i] {
+                continue;
             }
-            if self.done.iter().all(|&x| x) {
-                break;
-            }
-        }
-        for i in 0..n {
-            let c = self.counted[i].max(1) as f32;
-            out.reward[i] /= c;
+            self.counted[i] += 1;
+            out.reward[i] += b.reward[i];
             for k in 0..nt {
-                out.terms[i * nt + k] /= c;
+                out.terms[i * nt + k] += b.terms[i * nt + k];
+            }
+            out.terminated[i] = b.terminated[i];
+            out.truncated[i] = b.truncated[i];
+            out.unstable[i] |= b.unstable[i];
+            self.done[i] = b.done(i);
+            // the rows of the transition's last counted step only
+            if self.done[i] || last {
+                copy_row(&mut out.obs, &b.obs, i, d);
+                copy_row(&mut out.metrics, &b.metrics, i, nm);
+                copy_row(&mut out.info, &b.info, i, ni);
             }
         }
-        Ok(())
+        self.done.iter().all(|&x| x)
+    }
+
+    /// End a transition: rewards and terms become means over the counted steps.
+    pub(super) fn finish(&mut self, nt: usize) {
+        for i in 0..self.counted.len() {
+            let c = self.counted[i].max(1) as f32;
+            self.out.reward[i] /= c;
+            for k in 0..nt {
+                self.out.terms[i * nt + k] /= c;
+            }
+        }
     }
 }

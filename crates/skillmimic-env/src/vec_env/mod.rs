@@ -335,13 +335,33 @@ impl<T: Task> VecEnv<T> {
         Ok(())
     }
 
+    /// One transition of a held action: `h.steps()` physics steps aggregated by `h`.
+    fn held_step(&mut self, h: &mut Hold, actions: &[f32]) -> Result<(), EnvError> {
+        let n = self.num_envs();
+        let spec = self.task.spec();
+        if actions.len() != n * spec.act_dim() {
+            return Err(EnvError::ActionShape { expected: n * spec.act_dim(), got: actions.len() });
+        }
+        let widths =
+            [spec.obs_dim, spec.term_names.len(), spec.info_names.len(), spec.metric_names.len()];
+        h.begin();
+        for k in 0..h.steps() {
+            self.physics_step(actions)?;
+            if h.accumulate(&self.buf, widths, k + 1 == h.steps()) {
+                break;
+            }
+        }
+        h.finish(widths[1]);
+        Ok(())
+    }
+
     /// Advance all environments by one policy step with `actions` (`N × act_dim`, clamped to
     /// [−1, 1]).
     pub fn step(&mut self, actions: &[f32]) -> Result<(), EnvError> {
         match self.hold.take() {
             None => self.physics_step(actions)?,
             Some(mut h) => {
-                let r = h.step(self, actions);
+                let r = self.held_step(&mut h, actions);
                 self.hold = Some(h);
                 r?;
             }

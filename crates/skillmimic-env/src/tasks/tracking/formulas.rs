@@ -1,8 +1,9 @@
-//! The tracking task's formulas, over world-frame body states (positions in m, quaternions
-//! (w, x, y, z), centre-of-mass linear velocities in m/s, angular velocities in rad/s; skeleton
-//! body order). One definition shared by the task, evaluation and the tests.
+//! The tracking task's formulas, over world-frame body states of any character (positions in m,
+//! quaternions (w, x, y, z), centre-of-mass linear velocities in m/s, angular velocities in
+//! rad/s; the character's body order). One definition shared by the task, evaluation and the
+//! tests.
 
-use skillmimic_core::characters::skillmimic::{BODIES, NUM_BODIES};
+use skillmimic_core::characters::{ActionMap, CharacterSpec};
 use skillmimic_core::math::{Quat, heading_inverse, norm, sub, tan_norm};
 use skillmimic_sim::EnvState;
 
@@ -18,31 +19,37 @@ pub const TERMS: [&str; 6] = ["pos", "rot", "vel", "angvel", "power", "total"];
 /// exceeding `success_distance`, else 0).
 pub const METRICS: [&str; 5] = ["g_mpjpe_mm", "mpjpe_mm", "vel_err_mm", "acc_err_mm", "success"];
 
-/// World-frame states of the 53 bodies at one instant.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct BodyFrame {
-    pub pos: [[f64; 3]; NUM_BODIES],
-    pub quat: [Quat; NUM_BODIES],
-    pub linvel: [[f64; 3]; NUM_BODIES],
-    pub angvel: [[f64; 3]; NUM_BODIES],
+/// World-frame states of a character's bodies at one instant.
+pub trait Bodies {
+    fn pos(&self, b: usize) -> [f64; 3];
+    fn quat(&self, b: usize) -> Quat;
+    fn linvel(&self, b: usize) -> [f64; 3];
+    fn angvel(&self, b: usize) -> [f64; 3];
 }
 
-impl BodyFrame {
-    /// The humanoid bodies of a simulation state.
-    pub fn from_state(st: &EnvState<'_>) -> Self {
-        Self {
-            pos: std::array::from_fn(|b| st.pos(b)),
-            quat: std::array::from_fn(|b| st.quat(b)),
-            linvel: std::array::from_fn(|b| st.linvel(b)),
-            angvel: std::array::from_fn(|b| st.angvel(b)),
-        }
+impl Bodies for EnvState<'_> {
+    fn pos(&self, b: usize) -> [f64; 3] {
+        EnvState::pos(self, b)
+    }
+    fn quat(&self, b: usize) -> Quat {
+        EnvState::quat(self, b)
+    }
+    fn linvel(&self, b: usize) -> [f64; 3] {
+        EnvState::linvel(self, b)
+    }
+    fn angvel(&self, b: usize) -> [f64; 3] {
+        EnvState::angvel(self, b)
     }
 }
 
-/// The tracked bodies: all 53, or the 23 that are not fingers.
-pub fn tracked_bodies(fingers: bool) -> Vec<usize> {
-    (0..NUM_BODIES)
-        .filter(|&b| fingers || !skillmimic_core::characters::skillmimic::is_finger(b))
+/// The tracked bodies of `spec`: all of them; on the SkillMimic humanoid the 30 finger bodies
+/// only when `fingers` (the 23 others are the counterpart of the SMPL bodies ModSkill tracks).
+pub fn tracked_bodies(spec: &CharacterSpec, fingers: bool) -> Vec<usize> {
+    let skillmimic = spec.name == "skillmimic";
+    (0..spec.bodies.len())
+        .filter(|&b| {
+            fingers || !skillmimic || !skillmimic_core::characters::skillmimic::is_finger(b)
+        })
         .collect()
 }
 
@@ -64,20 +71,20 @@ pub struct Errors {
 }
 
 /// Errors of `sim` against `r` over `bodies`.
-pub fn errors(sim: &BodyFrame, r: &BodyFrame, bodies: &[usize]) -> Errors {
+pub fn errors(sim: &impl Bodies, r: &impl Bodies, bodies: &[usize]) -> Errors {
     let mut e = Errors::default();
     for &b in bodies {
-        let dp = sub(r.pos[b], sim.pos[b]);
+        let dp = sub(r.pos(b), sim.pos(b));
         let d = norm(dp);
         e.pos2 += d * d;
         e.dist += d;
-        let rel = sub(sub(sim.pos[b], sim.pos[0]), sub(r.pos[b], r.pos[0]));
+        let rel = sub(sub(sim.pos(b), sim.pos(0)), sub(r.pos(b), r.pos(0)));
         e.dist_rel += norm(rel);
-        let th = r.quat[b].mul(sim.quat[b].conj()).angle();
+        let th = r.quat(b).mul(sim.quat(b).conj()).angle();
         e.rot2 += th * th;
-        let dv = norm(sub(r.linvel[b], sim.linvel[b]));
+        let dv = norm(sub(r.linvel(b), sim.linvel(b)));
         e.vel2 += dv * dv;
-        let dw = norm(sub(r.angvel[b], sim.angvel[b]));
+        let dw = norm(sub(r.angvel(b), sim.angvel(b)));
         e.angvel2 += dw * dw;
     }
     let k = bodies.len() as f64;
@@ -91,20 +98,41 @@ pub fn errors(sim: &BodyFrame, r: &BodyFrame, bodies: &[usize]) -> Errors {
     }
 }
 
-/// Mechanical power Σ|τ · q̇| (W) of the joint drives at a state, τ per axis =
-/// clamp(kp · (π · clamp(a, −1, 1) − q), ±force_limit) − kd · q̇ (the position actuator and the
-/// joint damping); `targets` = the action row applied in the step (156), `active[j]` = whether
-/// joint coordinate j is actuated (welded fingers are not).
-pub fn power(st: &EnvState<'_>, targets: &[f32], active: &[bool], force_limit: f64) -> f64 {
-    let mut p = 0.0;
-    for (j, (&a, &on)) in targets.iter().zip(active).enumerate() {
-        if !on {
-            continue;
+/// The PD drive of one dof, for the power penalty: kp, kd (N·m/rad, N·m·s/rad), the action →
+/// target map, the force limit (N·m).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DofDrive {
+    pub kp: f64,
+    pub kd: f64,
+    pub map: ActionMap,
+    pub effort: f64,
+}
+
+/// The drive of every dof of `spec` (`None` for the slots of welded bodies).
+pub fn dof_drives(spec: &CharacterSpec) -> Vec<Option<DofDrive>> {
+    let maps = spec.action_maps();
+    let mut out = vec![None; spec.num_dofs];
+    for b in &spec.bodies {
+        if let Some(d) = b.joint.drive() {
+            for k in b.dofs.clone() {
+                let map = maps[k].expect("a driven dof has an action map");
+                out[k] = Some(DofDrive { kp: d.kp, kd: d.kd, map, effort: d.effort });
+            }
         }
-        let (kp, kd) = BODIES[j / 3 + 1].group.gains();
+    }
+    out
+}
+
+/// Mechanical power Σ|τ · q̇| (W) of the joint drives at a state, τ per dof =
+/// clamp(kp · (target(clamp(a, −1, 1)) − q), ±effort) − kd · q̇ (the position actuator and the
+/// joint damping); `targets` = the action row applied in the step.
+pub fn power(st: &EnvState<'_>, targets: &[f32], drives: &[Option<DofDrive>]) -> f64 {
+    let mut p = 0.0;
+    for (j, (&a, d)) in targets.iter().zip(drives).enumerate() {
+        let Some(d) = d else { continue };
         let (q, qd) = (st.dof_pos[j], st.dof_vel[j]);
-        let target = (a as f64).clamp(-1.0, 1.0) * std::f64::consts::PI;
-        let tau = (kp * (target - q)).clamp(-force_limit, force_limit) - kd * qd;
+        let target = d.map.target((a as f64).clamp(-1.0, 1.0));
+        let tau = (d.kp * (target - q)).clamp(-d.effort, d.effort) - d.kd * qd;
         p += (tau * qd).abs();
     }
     p
@@ -127,38 +155,37 @@ pub fn reward(e: &Errors, power: f64, cfg: &TrackingConfig) -> [f64; 6] {
 /// The reference block of the observation: per tracked body, in the simulated root's heading
 /// frame (world rotated about +z by −heading): Δp = p_ref − p (3), Δrot = tan-norm 6D of
 /// q_ref · q⁻¹ (6), Δv (3), Δω (3), p_ref − p_root (3), tan-norm 6D of q_ref (6).
-pub fn write_reference_obs(sim: &BodyFrame, r: &BodyFrame, bodies: &[usize], out: &mut [f32]) {
-    let h = heading_inverse(sim.quat[0]);
+pub fn write_reference_obs(sim: &impl Bodies, r: &impl Bodies, bodies: &[usize], out: &mut [f32]) {
+    let h = heading_inverse(sim.quat(0));
     let hc = h.conj();
     for (k, &b) in bodies.iter().enumerate() {
         let o = &mut out[k * REF_WIDTH..(k + 1) * REF_WIDTH];
         let v3 = |v: [f64; 3]| h.rotate(v).map(|x| x as f32);
         let r6 = |q: Quat| tan_norm(q).map(|x| x as f32);
-        o[0..3].copy_from_slice(&v3(sub(r.pos[b], sim.pos[b])));
-        o[3..9].copy_from_slice(&r6(h.mul(r.quat[b].mul(sim.quat[b].conj())).mul(hc)));
-        o[9..12].copy_from_slice(&v3(sub(r.linvel[b], sim.linvel[b])));
-        o[12..15].copy_from_slice(&v3(sub(r.angvel[b], sim.angvel[b])));
-        o[15..18].copy_from_slice(&v3(sub(r.pos[b], sim.pos[0])));
-        o[18..24].copy_from_slice(&r6(h.mul(r.quat[b])));
+        o[0..3].copy_from_slice(&v3(sub(r.pos(b), sim.pos(b))));
+        o[3..9].copy_from_slice(&r6(h.mul(r.quat(b).mul(sim.quat(b).conj())).mul(hc)));
+        o[9..12].copy_from_slice(&v3(sub(r.linvel(b), sim.linvel(b))));
+        o[12..15].copy_from_slice(&v3(sub(r.angvel(b), sim.angvel(b))));
+        o[15..18].copy_from_slice(&v3(sub(r.pos(b), sim.pos(0))));
+        o[18..24].copy_from_slice(&r6(h.mul(r.quat(b))));
     }
 }
 
 /// Mean over `bodies` of ‖(x1 − x0) − (y1 − y0)‖ (velocity error per frame, same units as the
 /// positions) and of ‖(x2 − 2x1 + x0) − (y2 − 2y1 + y0)‖ (acceleration error per frame²), for
-/// simulated positions x0, x1, x2 (oldest first) and reference positions y0, y1, y2.
+/// simulated positions x0, x1, x2 (oldest first) and reference positions y0, y1, y2, each given
+/// by body index.
 pub fn vel_acc_errors(
-    x: [&[[f64; 3]; NUM_BODIES]; 3],
-    y: [&[[f64; 3]; NUM_BODIES]; 3],
+    x: [&dyn Fn(usize) -> [f64; 3]; 3],
+    y: [&dyn Fn(usize) -> [f64; 3]; 3],
     bodies: &[usize],
 ) -> (f64, f64) {
     let (mut ve, mut ae) = (0.0, 0.0);
     for &b in bodies {
-        let v = std::array::from_fn::<f64, 3, _>(|c| {
-            (x[2][b][c] - x[1][b][c]) - (y[2][b][c] - y[1][b][c])
-        });
+        let (xb, yb) = ([x[0](b), x[1](b), x[2](b)], [y[0](b), y[1](b), y[2](b)]);
+        let v = std::array::from_fn::<f64, 3, _>(|c| (xb[2][c] - xb[1][c]) - (yb[2][c] - yb[1][c]));
         let a = std::array::from_fn::<f64, 3, _>(|c| {
-            (x[2][b][c] - 2.0 * x[1][b][c] + x[0][b][c])
-                - (y[2][b][c] - 2.0 * y[1][b][c] + y[0][b][c])
+            (xb[2][c] - 2.0 * xb[1][c] + xb[0][c]) - (yb[2][c] - 2.0 * yb[1][c] + yb[0][c])
         });
         ve += norm(v);
         ae += norm(a);

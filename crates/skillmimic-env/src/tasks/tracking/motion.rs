@@ -1,0 +1,229 @@
+//! The motion a tracking episode follows, for any character: its clips, how an episode starts
+//! in a clip's frame, and every frame posed in the task's own scene.
+//!
+//! * The SkillMimic humanoid tracks project / BallPlay-M clips ([`MotionLibrary`]); episodes
+//!   start in a frame's state with the clip's reference velocities; the ball is parked at rest
+//!   50 m away.
+//! * Any other character tracks [`CharacterClip`]s of it from `env.motion`: `character-clip`
+//!   files of the character, or SkillMimic-skeleton clips (the built-in demo clips, project or
+//!   BallPlay-M files) retargeted by joint name on load (the SMPL humanoid,
+//!   `skillmimic_motion::retarget_smpl`); episodes start in a frame's state with finite-difference
+//!   velocities ([`clip_state`]).
+
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use skillmimic_core::characters::{Character, CharacterSpec, JointDef};
+use skillmimic_motion::MotionLibrary;
+use skillmimic_motion::character_clip::CharacterClip;
+use skillmimic_motion::library::find_clip_files;
+use skillmimic_sim::{BatchSim, EnvState, ResetState, Scene, SimError};
+
+use crate::episode::fill_from_clip;
+use crate::error::{EnvError, bad};
+
+/// The clips of a tracking task.
+pub enum Motion {
+    SkillMimic(Arc<MotionLibrary>),
+    Clips(Vec<CharacterClip>),
+}
+
+impl Motion {
+    /// The clips of `env.motion` for `character`.
+    pub fn load(paths: &[PathBuf], character: Character) -> Result<Self, EnvError> {
+        if matches!(character, Character::SkillMimic { .. }) {
+            return Ok(Motion::SkillMimic(Arc::new(crate::tasks::imitation::load_motion_library(
+                paths,
+            )?)));
+        }
+        let spec = character.spec();
+        let mut clips = Vec::new();
+        let retarget =
+            |lib: &MotionLibrary, clips: &mut Vec<CharacterClip>| -> Result<(), EnvError> {
+                for m in lib.clips() {
+                    clips.push(match character {
+                        Character::Smpl => {
+                            skillmimic_motion::retarget_smpl::retarget_to_smpl(&m.clip).0
+                        }
+                        Character::TokenHsi => {
+                            skillmimic_motion::retarget_hsi::retarget_to_hsi(&m.clip).0
+                        }
+                        Character::SkillMimic { .. } => unreachable!("handled above"),
+                    });
+                }
+                Ok(())
+            };
+        for p in paths {
+            if p.as_os_str() == crate::config::BUILTIN_DEMO {
+                retarget(
+                    &crate::tasks::imitation::load_motion_library(std::slice::from_ref(p))?,
+                    &mut clips,
+                )?;
+                continue;
+            }
+            for f in find_clip_files(p)? {
+                match CharacterClip::load(&f) {
+                    Ok(c) if c.character == spec.name => clips.push(c),
+                    Ok(c) => {
+                        let msg = format!(
+                            "{}: a clip of the {} character, the task runs on {}",
+                            f.display(),
+                            c.character,
+                            spec.name
+                        );
+                        return Err(bad("env.motion", msg).into());
+                    }
+                    // not a character clip: a SkillMimic-skeleton clip, retargeted
+                    Err(_) => retarget(
+                        &crate::tasks::imitation::load_motion_library(std::slice::from_ref(&f))?,
+                        &mut clips,
+                    )?,
+                }
+            }
+        }
+        if clips.is_empty() {
+            return Err(bad(
+                "env.motion",
+                format!("no clips of the {} character under {paths:?}", spec.name),
+            )
+            .into());
+        }
+        Ok(Motion::Clips(clips))
+    }
+
+    /// Number of clips.
+    pub fn len(&self) -> usize {
+        match self {
+            Motion::SkillMimic(lib) => lib.len(),
+            Motion::Clips(c) => c.len(),
+        }
+    }
+    /// Whether there is no clip.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+    /// Frames of clip `c`.
+    pub fn frames(&self, c: usize) -> usize {
+        match self {
+            Motion::SkillMimic(lib) => lib.get(c).clip.num_frames,
+            Motion::Clips(clips) => clips[c].num_frames,
+        }
+    }
+    /// Name of clip `c`.
+    pub fn name(&self, c: usize) -> &str {
+        match self {
+            Motion::SkillMimic(lib) => &lib.get(c).clip.name,
+            Motion::Clips(clips) => &clips[c].name,
+        }
+    }
+    /// Cumulative sampling weights: the library's weights (one per clip for character clips) ×
+    /// `weight(name)`.
+    pub fn cumulative(&self, weight: impl Fn(&str) -> f64) -> Vec<f64> {
+        match self {
+            Motion::SkillMimic(lib) => lib.cumulative_weighted(|c| weight(&c.name)),
+            Motion::Clips(clips) => clips
+                .iter()
+                .scan(0.0, |acc, c| {
+                    *acc += weight(&c.name);
+                    Some(*acc)
+                })
+                .collect(),
+        }
+    }
+    /// The SkillMimic library (`None` for another character's clips).
+    pub fn library(&self) -> Option<&Arc<MotionLibrary>> {
+        match self {
+            Motion::SkillMimic(lib) => Some(lib),
+            Motion::Clips(_) => None,
+        }
+    }
+
+    /// Write the state of frame `t` of clip `c` into `s` (a state of `spec`'s scene).
+    pub fn fill_state(&self, spec: &CharacterSpec, c: usize, t: usize, s: &mut ResetState) {
+        match self {
+            Motion::SkillMimic(lib) => {
+                fill_from_clip(s, lib.get(c), t);
+                // the ball plays no part: parked at rest far from the humanoid
+                let ball = s.ball_mut();
+                ball.pos = [50.0, 50.0, 0.5];
+                ball.linvel = [0.0; 3];
+                ball.angvel_local = [0.0; 3];
+            }
+            Motion::Clips(clips) => clip_state(spec, &clips[c], t, s),
+        }
+    }
+
+    /// Pose every frame of every clip in `scene` (batched resets, no physics step) and call
+    /// `f(clip, frame, state)` for each, clips in order and frames ascending.
+    pub fn pose(
+        &self,
+        scene: Arc<Scene>,
+        mut f: impl FnMut(usize, usize, &EnvState<'_>),
+    ) -> Result<(), SimError> {
+        const N: usize = 32;
+        let spec = scene.character().clone();
+        let mut states = vec![ResetState::rest(&scene); N];
+        let mut sim = BatchSim::new(scene, N, 1)?;
+        let mut mask = vec![false; N];
+        for c in 0..self.len() {
+            for start in (0..self.frames(c)).step_by(N) {
+                let frames = start..(start + N).min(self.frames(c));
+                mask.fill(false);
+                for (k, t) in frames.clone().enumerate() {
+                    self.fill_state(&spec, c, t, &mut states[k]);
+                    mask[k] = true;
+                }
+                sim.reset(&mask, &states)?;
+                for (k, t) in frames.enumerate() {
+                    f(c, t, &sim.state().env(k));
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The state of frame `t` of a character clip: its root pose and dof vector, velocities by finite
+/// differences to the next frame (the last frame uses the previous interval): root linear
+/// velocity in the world frame, root and ball-joint angular velocities from the relative rotation
+/// of consecutive frames (in the body frame, MuJoCo's convention), hinge rates.
+pub fn clip_state(spec: &CharacterSpec, clip: &CharacterClip, t: usize, s: &mut ResetState) {
+    let t0 = t.min(clip.num_frames - 2);
+    let dt = 1.0 / clip.fps;
+    let (p0, p1) = (clip.root_pos_at(t0), clip.root_pos_at(t0 + 1));
+    let (q0, q1) = (clip.root_quat_at(t0), clip.root_quat_at(t0 + 1));
+    let w = q0.conj().mul(q1).normalized().to_rotvec();
+    s.root_pos = clip.root_pos_at(t);
+    s.root_quat = clip.root_quat_at(t).normalized();
+    s.root_linvel = [(p1[0] - p0[0]) / dt, (p1[1] - p0[1]) / dt, (p1[2] - p0[2]) / dt];
+    s.root_angvel_local = [w[0] / dt, w[1] / dt, w[2] / dt];
+    s.dof_vel.fill(0.0);
+    let (d, d0, d1) = (clip.dof_at(t), clip.dof_at(t0), clip.dof_at(t0 + 1));
+    for (k, &x) in d.iter().enumerate() {
+        s.dof_pos[k] = x as f64;
+    }
+    for body in &spec.bodies {
+        let k = body.dofs.start;
+        match &body.joint {
+            JointDef::Ball { .. } => {
+                let r = |x: &[f32]| {
+                    skillmimic_core::math::Quat::from_rotvec([
+                        x[k] as f64,
+                        x[k + 1] as f64,
+                        x[k + 2] as f64,
+                    ])
+                };
+                let w = r(d0).conj().mul(r(d1)).normalized().to_rotvec();
+                for a in 0..3 {
+                    s.dof_vel[k + a] = w[a] / dt;
+                }
+            }
+            JointDef::Hinges { hinges, .. } => {
+                for j in k..k + hinges.len() {
+                    s.dof_vel[j] = (d1[j] - d0[j]) as f64 / dt;
+                }
+            }
+            JointDef::Free | JointDef::Welded => {}
+        }
+    }
+}
