@@ -15,6 +15,7 @@ use skillmimic_sim::{BatchSim, Scene};
 use crate::common::{ConfigFlags, load_checkpoint};
 use crate::markers::{Marker, task_markers};
 use crate::video::{Frames, SceneRenderer, write_video};
+use skillmimic_env::tasks::hlc::config::HlcConfig;
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -79,7 +80,7 @@ fn interactive(ckpt: &Path, flags: &ConfigFlags) -> anyhow::Result<()> {
         .unwrap_or_else(|| PathBuf::from("python3"));
     let mut cmd = std::process::Command::new(&python);
     cmd.args(["-m", "skillmimic_rs.interactive", "--task", &cfg.env.task, "--llc"])
-        .arg(&cfg.env.hlc.llc)
+        .arg(&cfg.env.table::<HlcConfig>().llc)
         .arg("--checkpoint")
         .arg(ckpt);
     for m in &cfg.env.motion {

@@ -12,6 +12,7 @@ use skillmimic_learn::eval::{EvalReport, evaluate};
 use skillmimic_learn::policy::InferenceBuffers;
 
 use crate::common::{ConfigFlags, init_learner_threads, load_checkpoint};
+use skillmimic_env::tasks::tracking::config::TrackingConfig;
 
 /// File format of `skillmimic export`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -203,7 +204,7 @@ pub fn eval(a: EvalArgs) -> anyhow::Result<()> {
             }
         }
         // tracking episodes run to the clip's end from frame 0 or from random frames
-        ("tracking", None, Some(0)) => cfg.env.tracking.random_start = false,
+        ("tracking", None, Some(0)) => cfg.env.table_mut::<TrackingConfig>().random_start = false,
         ("tracking", None, Some(f)) => bail!(
             "--start-frame {f}: the tracking task evaluates from frame 0 (--start-frame 0, whole clips) or from random frames (no flag)"
         ),

@@ -5,6 +5,8 @@
 //! (`goal_x`, `goal_y`, `radius`: world metres) of the filmed environment.
 
 use skillmimic_env::EnvConfig;
+use skillmimic_env::tasks::hlc::config::HeadingConfig;
+use skillmimic_env::tasks::hlc::config::ScoringConfig;
 
 /// A visual geom: a sphere (`radius`) or a line segment (`from` → `to`, `radius` = thickness).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -42,13 +44,13 @@ pub fn task_markers(cfg: &EnvConfig, names: &[String], info: &[f32]) -> Vec<Mark
     match cfg.task.as_str() {
         "heading" => {
             out.push(Marker::Sphere {
-                pos: [x, y, cfg.heading.target_height],
+                pos: [x, y, cfg.table::<HeadingConfig>().target_height],
                 radius: 0.12,
                 rgba: [0.9, 0.1, 0.1, 0.8],
             });
             out.push(Marker::Segment {
                 from: [x, y, 0.0],
-                to: [x, y, cfg.heading.target_height],
+                to: [x, y, cfg.table::<HeadingConfig>().target_height],
                 radius: 0.01,
                 rgba: [0.9, 0.1, 0.1, 0.6],
             });
@@ -64,7 +66,7 @@ pub fn task_markers(cfg: &EnvConfig, names: &[String], info: &[f32]) -> Vec<Mark
             }
         }
         "scoring" => {
-            let h = cfg.scoring.basket_height;
+            let h = cfg.table::<ScoringConfig>().basket_height;
             let orange = [1.0, 0.45, 0.0, 1.0];
             ring([x, y, h], RIM, 24, 0.012, orange, &mut out);
             // backboard behind the rim (on the far side seen from the origin of the goal's

@@ -8,12 +8,7 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 use skillmimic_sim::{BallParams, HandModel, SceneOptions};
 
-pub use crate::config_hlc::{
-    CirclingConfig, Formula, GoalSampling, HeadingConfig, HlcConfig, Prediction, ReachConfig,
-    ScoringConfig, SteeringConfig, ThrowingConfig,
-};
-pub use crate::config_hsi::{CarryConfig, ClimbConfig, FollowConfig, HsiConfig, SitConfig};
-pub use crate::config_tracking::TrackingConfig;
+pub use crate::config_table::{TableEntry, TaskConfig, TaskTables};
 pub use crate::config_v2::{
     AtsConfig, BridgeConfig, HistoryConfig, MaskedReward, NoiseEps, StfConfig, StgConfig, V2Config,
 };
@@ -237,9 +232,12 @@ pub enum StateInit {
 /// loaded by `tasks::imitation::load_motion_library`); the default of `env.motion`.
 pub const BUILTIN_DEMO: &str = "builtin:demo";
 
-/// Environment configuration.
+/// Environment configuration: the driver's keys, the keys of the imitation task (the default
+/// task, whose options stay in `[env]` itself) and one table per registered task or family of
+/// tasks (`[env.<key>]`, defined next to the task's code). Unknown keys are refused.
+// (the refusal is `TaskTables`'s deserialiser, which receives every key that is not a field)
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
-#[serde(deny_unknown_fields, default)]
+#[serde(default)]
 pub struct EnvConfig {
     /// The task to train (a name of the task registry: "imitation", "stand"). `[env]` holds the
     /// driver's keys and, for historical reasons, the imitation task's; every other task has its
@@ -290,29 +288,11 @@ pub struct EnvConfig {
     pub physics: crate::config_physics::PhysicsConfig,
     /// SkillMimic-V2 options (all off by default = SkillMimic).
     pub v2: V2Config,
-    /// Options of the `stand` task (the worked example of adding a task).
-    pub stand: StandConfig,
-    /// Options shared by the high-level tasks (heading, circling, throwing, scoring, steering,
-    /// reach).
-    pub hlc: HlcConfig,
-    /// Options of the `heading` task.
-    pub heading: HeadingConfig,
-    /// Options of the `circling` task.
-    pub circling: CirclingConfig,
-    /// Options of the `throwing` task.
-    pub throwing: ThrowingConfig,
-    /// Options of the `scoring` task.
-    pub scoring: ScoringConfig,
-    /// Options of the `steering` task (ModSkill's downstream task).
-    pub steering: SteeringConfig,
-    /// Options of the `reach` task (ModSkill's downstream task).
-    pub reach: ReachConfig,
-    /// Options of the `tracking` task (motion tracking without the ball; ModSkill).
-    pub tracking: TrackingConfig,
-    /// Options of the TokenHSI tasks (`hsi_follow`, `hsi_sit`, `hsi_climb`, `hsi_carry`).
-    pub hsi: HsiConfig,
-    /// Options of the multi-task environments (`hsi_multi`, `hlc_multi`).
-    pub multi: crate::config_multi::MultiConfig,
+    /// The tables of the registered tasks, `[env.<key>]` each: every task (or family of tasks)
+    /// owns its table next to its code (`crate::config_table`); the configuration reference
+    /// lists their keys under their own headings.
+    #[serde(flatten)]
+    pub tables: TaskTables,
 }
 
 impl Default for EnvConfig {
@@ -334,62 +314,21 @@ impl Default for EnvConfig {
             physics: Default::default(),
             v2: V2Config::default(),
             task: "imitation".into(),
-            stand: Default::default(),
-            tracking: Default::default(),
-            hsi: Default::default(),
-            multi: Default::default(),
-            hlc: Default::default(),
-            heading: Default::default(),
-            steering: Default::default(),
-            reach: Default::default(),
-            circling: Default::default(),
-            throwing: Default::default(),
-            scoring: Default::default(),
-        }
-    }
-}
-
-/// Options of the `stand` task (`[env.stand]`).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
-#[serde(deny_unknown_fields, default)]
-pub struct StandConfig {
-    /// Episode length in policy steps (60 = 1 s).
-    #[schemars(range(min = 1))]
-    pub episode_length: usize,
-    /// Pelvis height at the start (m); 0 = the character's rest height, where the zero pose's
-    /// feet touch the floor (SkillMimic humanoid 0.95, TokenHSI character 0.92, SMPL humanoid
-    /// 0.937).
-    pub start_height: f64,
-    /// Target pelvis height z* (m).
-    pub target_height: f64,
-    /// Early termination below this pelvis height (m).
-    pub termination_height: f64,
-    /// Weight w_h of the height term (the heading term gets 1 − w_h).
-    #[schemars(range(min = 0, max = 1))]
-    pub height_weight: f64,
-    /// Height error scale k_h (1/m²).
-    #[schemars(range(min = 0))]
-    pub height_scale: f64,
-    /// Heading error scale k_ψ (1/rad²).
-    #[schemars(range(min = 0))]
-    pub heading_scale: f64,
-}
-
-impl Default for StandConfig {
-    fn default() -> Self {
-        Self {
-            episode_length: 300,
-            start_height: 0.0,
-            target_height: 0.9,
-            termination_height: 0.5,
-            height_weight: 0.5,
-            height_scale: 20.0,
-            heading_scale: 2.0,
+            tables: TaskTables::default(),
         }
     }
 }
 
 impl EnvConfig {
+    /// The registered table of type `T` (`[env.<T::KEY>]`).
+    pub fn table<T: TaskConfig>(&self) -> &T {
+        self.tables.get::<T>()
+    }
+    /// The registered table of type `T`, mutably.
+    pub fn table_mut<T: TaskConfig>(&mut self) -> &mut T {
+        self.tables.get_mut::<T>()
+    }
+
     /// The seed of episode starts: `seed` when set, else `derived` (the run seed in training).
     pub fn start_seed(&self, derived: u64) -> u64 {
         self.seed.unwrap_or(derived)
@@ -488,6 +427,29 @@ impl EnvConfig {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn task_tables_load_from_their_keys_and_unknown_keys_are_named() {
+        use crate::tasks::hlc::config::HlcConfig;
+        use crate::tasks::hsi::config::HsiConfig;
+        use crate::tasks::stand::StandConfig;
+        // the layout saved configurations of every earlier version use
+        let c: EnvConfig = toml::from_str(
+            "task = \"stand\"\n[stand]\nstart_height = 0.95\nepisode_length = 7\n[hlc]\nllc_steps = 2\n[hsi.follow]\nepisode_length = 9\n",
+        )
+        .unwrap();
+        assert_eq!(c.table::<StandConfig>().episode_length, 7);
+        assert_eq!(c.table::<StandConfig>().start_height, 0.95);
+        assert_eq!(c.table::<HlcConfig>().llc_steps, 2);
+        assert_eq!(c.table::<HsiConfig>().follow.episode_length, 9);
+        // written back and read again: the same configuration
+        let text = toml::to_string(&c).unwrap();
+        assert_eq!(toml::from_str::<EnvConfig>(&text).unwrap(), c);
+        let e = toml::from_str::<EnvConfig>("[juggle]\nballs = 3\n").unwrap_err().to_string();
+        assert!(e.contains("unknown field `juggle`") && e.contains("stand") && e.contains("hlc"), "{e}");
+        let e = toml::from_str::<EnvConfig>("[stand]\nhieght = 3\n").unwrap_err().to_string();
+        assert!(e.contains("[env.stand]") && e.contains("hieght"), "{e}");
+    }
 
     #[test]
     fn toml_overrides_and_rejects_unknown_keys() {

@@ -6,7 +6,8 @@
 //! * [`registry`]: task name → constructor ([`registry::make`]);
 //! * [`tasks`]: `imitation` (SkillMimic + V2), `stand` (the worked example) and the high-level
 //!   tasks of skill reuse over a frozen skill policy (`heading`, `circling`, `throwing`, `scoring`);
-//! * [`config`], [`config_v2`], [`config_hlc`]: typed configuration with the papers' defaults;
+//! * [`config`], [`config_v2`], [`config_table`]: typed configuration with the papers' defaults —
+//!   the driver's and the imitation task's keys, and the tables each task owns;
 //! * [`compat`]: the `env.compat` profile (paper vs released code where they differ);
 //! * [`obs`]: the 902-wide skill-policy observation and its index table;
 //! * [`hoi`]: HOI states (simulated and reference) and contact-graph states;
@@ -21,12 +22,9 @@
 pub mod amp;
 pub mod compat;
 pub mod config;
-pub mod config_hlc;
-pub mod config_hsi;
-pub mod config_multi;
 pub mod config_physics;
 pub mod config_range;
-pub mod config_tracking;
+pub mod config_table;
 pub mod config_v2;
 pub mod episode;
 pub mod error;

@@ -2,6 +2,7 @@
 //! module under `tasks/` and one line in [`TASKS`] (plus its config table in `EnvConfig`).
 
 use crate::config::EnvConfig;
+use crate::config_table::{TableEntry, TaskTables};
 use crate::error::EnvError;
 use crate::tasks;
 use crate::vec_env::Env;
@@ -23,12 +24,18 @@ pub struct TaskEntry {
     /// The characters the task runs on (registry names of `skillmimic_core::characters`), the
     /// first the default (`env.character` empty).
     pub characters: &'static [&'static str],
+    /// The configuration tables the task reads (`[env.<key>]`, defined next to the task's
+    /// code); the imitation task's keys are `[env]`'s own.
+    pub tables: &'static [TableEntry],
     /// Build the batched environment from the `[env]` table (episode starts seeded with
     /// `cfg.start_seed(0)`; trainers set `env.seed` explicitly first).
     pub build: fn(&EnvConfig) -> Result<Box<dyn Env>, EnvError>,
 }
 
+use tasks::hlc;
+
 const SKILLMIMIC: &[&str] = &["skillmimic"];
+const HSI: &[TableEntry] = &[tasks::hsi::TABLE];
 const TOKENHSI: &[&str] = &["tokenhsi"];
 const ALL: &[&str] = &skillmimic_sim::Character::NAMES;
 
@@ -40,6 +47,7 @@ pub const TASKS: &[TaskEntry] = &[
         high_level: false,
         choices: &[],
         characters: SKILLMIMIC,
+        tables: &[],
         build: tasks::imitation::env::build,
     },
     TaskEntry {
@@ -48,6 +56,7 @@ pub const TASKS: &[TaskEntry] = &[
         high_level: false,
         choices: &[],
         characters: ALL,
+        tables: &[tasks::stand::TABLE],
         build: tasks::stand::build,
     },
     TaskEntry {
@@ -56,6 +65,7 @@ pub const TASKS: &[TaskEntry] = &[
         high_level: false,
         choices: &[],
         characters: &["skillmimic", "smpl"],
+        tables: &[tasks::tracking::TABLE],
         build: tasks::tracking::build,
     },
     TaskEntry {
@@ -64,6 +74,7 @@ pub const TASKS: &[TaskEntry] = &[
         high_level: false,
         choices: &[],
         characters: TOKENHSI,
+        tables: HSI,
         build: tasks::hsi::follow::build,
     },
     TaskEntry {
@@ -72,6 +83,7 @@ pub const TASKS: &[TaskEntry] = &[
         high_level: false,
         choices: &[],
         characters: TOKENHSI,
+        tables: HSI,
         build: tasks::hsi::sit::build,
     },
     TaskEntry {
@@ -80,6 +92,7 @@ pub const TASKS: &[TaskEntry] = &[
         high_level: false,
         choices: &[],
         characters: TOKENHSI,
+        tables: HSI,
         build: tasks::hsi::climb::build,
     },
     TaskEntry {
@@ -88,6 +101,7 @@ pub const TASKS: &[TaskEntry] = &[
         high_level: false,
         choices: &[],
         characters: TOKENHSI,
+        tables: HSI,
         build: tasks::hsi::carry::build,
     },
     TaskEntry {
@@ -96,6 +110,7 @@ pub const TASKS: &[TaskEntry] = &[
         high_level: false,
         choices: &[],
         characters: TOKENHSI,
+        tables: HSI,
         build: tasks::hsi::compose::build_follow_carry,
     },
     TaskEntry {
@@ -104,6 +119,7 @@ pub const TASKS: &[TaskEntry] = &[
         high_level: false,
         choices: &[],
         characters: TOKENHSI,
+        tables: HSI,
         build: tasks::hsi::compose::build_sit_carry,
     },
     TaskEntry {
@@ -112,6 +128,7 @@ pub const TASKS: &[TaskEntry] = &[
         high_level: false,
         choices: &[],
         characters: TOKENHSI,
+        tables: HSI,
         build: tasks::hsi::compose::build_climb_carry,
     },
     TaskEntry {
@@ -120,6 +137,7 @@ pub const TASKS: &[TaskEntry] = &[
         high_level: false,
         choices: &[],
         characters: TOKENHSI,
+        tables: &[tasks::hsi::TABLE, tasks::multi::TABLE],
         build: tasks::multi::build,
     },
     TaskEntry {
@@ -128,6 +146,7 @@ pub const TASKS: &[TaskEntry] = &[
         high_level: true,
         choices: tasks::hlc::heading::LABELS,
         characters: SKILLMIMIC,
+        tables: &[hlc::TABLE, hlc::heading::TABLE],
         build: tasks::hlc::heading::build,
     },
     TaskEntry {
@@ -136,6 +155,7 @@ pub const TASKS: &[TaskEntry] = &[
         high_level: true,
         choices: tasks::hlc::circling::LABELS,
         characters: SKILLMIMIC,
+        tables: &[hlc::TABLE, hlc::circling::TABLE],
         build: tasks::hlc::circling::build,
     },
     TaskEntry {
@@ -144,6 +164,7 @@ pub const TASKS: &[TaskEntry] = &[
         high_level: true,
         choices: tasks::hlc::throwing::LABELS,
         characters: SKILLMIMIC,
+        tables: &[hlc::TABLE, hlc::throwing::TABLE],
         build: tasks::hlc::throwing::build,
     },
     TaskEntry {
@@ -152,6 +173,7 @@ pub const TASKS: &[TaskEntry] = &[
         high_level: true,
         choices: tasks::hlc::scoring::LABELS,
         characters: SKILLMIMIC,
+        tables: &[hlc::TABLE, hlc::scoring::TABLE],
         build: tasks::hlc::scoring::build,
     },
     TaskEntry {
@@ -160,6 +182,7 @@ pub const TASKS: &[TaskEntry] = &[
         high_level: true,
         choices: tasks::hlc::steering::LABELS,
         characters: SKILLMIMIC,
+        tables: &[hlc::TABLE, hlc::steering::TABLE],
         build: tasks::hlc::steering::build,
     },
     TaskEntry {
@@ -168,6 +191,7 @@ pub const TASKS: &[TaskEntry] = &[
         high_level: true,
         choices: tasks::hlc::reach::LABELS,
         characters: SKILLMIMIC,
+        tables: &[hlc::TABLE, hlc::reach::TABLE],
         build: tasks::hlc::reach::build,
     },
     TaskEntry {
@@ -176,6 +200,7 @@ pub const TASKS: &[TaskEntry] = &[
         high_level: true,
         choices: tasks::hlc::heading::LABELS,
         characters: SKILLMIMIC,
+        tables: &[hlc::TABLE, tasks::multi::TABLE],
         build: tasks::multi::build,
     },
 ];
@@ -228,4 +253,66 @@ pub fn make(cfg: &EnvConfig) -> Result<Box<dyn Env>, EnvError> {
     let mut c = cfg.clone();
     c.character = character.name().to_string();
     (entry.build)(&c)
+}
+
+/// Every registered configuration table, once each, in listing order of the tasks that read it.
+pub fn tables() -> Vec<&'static TableEntry> {
+    let mut out: Vec<&'static TableEntry> = Vec::new();
+    for t in TASKS.iter().flat_map(|e| e.tables) {
+        if !out.iter().any(|o| o.key == t.key) {
+            out.push(t);
+        }
+    }
+    out
+}
+
+/// Every registered table at its defaults.
+impl Default for TaskTables {
+    fn default() -> Self {
+        TaskTables(tables().into_iter().map(|e| (e.key, (e.default)())).collect())
+    }
+}
+
+/// The `[env]` keys that are not the driver's or the imitation task's: each must be a registered
+/// table (the message lists them); a table's own keys are checked by its type.
+impl<'de> serde::Deserialize<'de> for TaskTables {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        use serde::de::Error;
+        let given = toml::Table::deserialize(d)?;
+        let mut out = TaskTables::default();
+        let all = tables();
+        for (key, value) in given {
+            let Some(entry) = all.iter().find(|e| e.key == key) else {
+                let keys: Vec<&str> = all.iter().map(|e| e.key).collect();
+                return Err(D::Error::custom(format!(
+                    "unknown field `{key}`: not a key of [env] nor a task's table ({})",
+                    keys.join(", ")
+                )));
+            };
+            let table =
+                (entry.parse)(value).map_err(|e| D::Error::custom(format!("[env.{key}]: {e}")))?;
+            let slot = out.0.iter_mut().find(|(k, _)| *k == key).expect("every table is defaulted");
+            slot.1 = table;
+        }
+        Ok(out)
+    }
+}
+
+/// One property per registered table (with its one-line description), for the configuration
+/// reference and the range checks.
+impl schemars::JsonSchema for TaskTables {
+    fn schema_name() -> std::borrow::Cow<'static, str> {
+        "TaskTables".into()
+    }
+    fn json_schema(generator: &mut schemars::SchemaGenerator) -> schemars::Schema {
+        let mut props = serde_json::Map::new();
+        for e in tables() {
+            let mut s = (e.schema)(generator).to_value();
+            if let Some(o) = s.as_object_mut() {
+                o.insert("description".into(), e.doc.into());
+            }
+            props.insert(e.key.to_string(), s);
+        }
+        schemars::json_schema!({ "type": "object", "properties": props })
+    }
 }

@@ -3,6 +3,7 @@
 
 use skillmimic_core::math::{heading, wrap_angle};
 use skillmimic_env::registry;
+use skillmimic_env::tasks::stand::StandConfig;
 use skillmimic_env::{Env, EnvConfig};
 
 fn stand_env(n: usize) -> Box<dyn Env> {
@@ -17,15 +18,18 @@ fn start_state_observation_and_reward_follow_the_definition() {
     const OBS_DIM: usize = 823 + 3;
     assert_eq!((env.obs_dim(), env.act_dim()), (OBS_DIM, 156));
     env.reset_all(Some(4));
-    let c = EnvConfig::default().stand;
+    let c = EnvConfig::default().table::<StandConfig>().clone();
+    // start_height 0: the SkillMimic humanoid's rest height
+    let start = skillmimic_core::characters::skillmimic::REST_ROOT_HEIGHT;
+    assert_eq!(c.start_height, 0.0);
     let headings: Vec<f64> = (0..6).map(|i| heading(env.mujoco().env_state(i).quat(0))).collect();
     // random headings, pelvis at the start height, heading error zero
     assert!(headings.iter().any(|h| h.abs() > 0.3), "{headings:?}");
     for i in 0..6 {
         let st = env.mujoco().env_state(i);
-        assert!((st.pos(0)[2] - c.start_height).abs() < 1e-9);
+        assert!((st.pos(0)[2] - start).abs() < 1e-9);
         let o = &env.buffers().obs[i * OBS_DIM..(i + 1) * OBS_DIM];
-        assert!((o[823] as f64 - (c.start_height - c.target_height)).abs() < 1e-6);
+        assert!((o[823] as f64 - (start - c.target_height)).abs() < 1e-6);
         assert!(
             (o[824] - 1.0).abs() < 1e-6 && o[825].abs() < 1e-6,
             "cos/sin of a zero heading error: {:?}",
@@ -70,39 +74,23 @@ fn start_state_observation_and_reward_follow_the_definition() {
 
 #[test]
 fn episodes_end_at_the_time_limit_and_when_the_pelvis_falls() {
-    let cfg = EnvConfig {
-        task: "stand".into(),
-        num_envs: 2,
-        threads: 1,
-        stand: skillmimic_env::config::StandConfig {
-            episode_length: 5,
-            termination_height: 2.0,
-            ..Default::default()
-        },
-        ..Default::default()
-    };
+    let mut cfg = EnvConfig { task: "stand".into(), num_envs: 2, threads: 1, ..Default::default() };
+    *cfg.table_mut::<StandConfig>() =
+        StandConfig { episode_length: 5, termination_height: 2.0, ..Default::default() };
     let mut env = registry::make(&cfg).unwrap();
     env.step(&vec![0.0; 2 * 156]).unwrap();
     // pelvis (≈0.95 m) below the 2 m termination height: terminated at once
     assert!(env.buffers().terminated.iter().all(|&t| t == 1));
-    let cfg = EnvConfig {
-        task: "stand".into(),
-        num_envs: 2,
-        threads: 1,
-        stand: skillmimic_env::config::StandConfig { episode_length: 5, ..Default::default() },
-        ..Default::default()
-    };
+    let mut cfg = EnvConfig { task: "stand".into(), num_envs: 2, threads: 1, ..Default::default() };
+    cfg.table_mut::<StandConfig>().episode_length = 5;
     let mut env = registry::make(&cfg).unwrap();
     for k in 1..=5 {
         env.step(&vec![0.0; 2 * 156]).unwrap();
         let want = u8::from(k == 5);
         assert!(env.buffers().truncated.iter().all(|&t| t == want), "step {k}");
     }
-    let bad = EnvConfig {
-        task: "stand".into(),
-        stand: skillmimic_env::config::StandConfig { height_weight: 1.5, ..Default::default() },
-        ..Default::default()
-    };
+    let mut bad = EnvConfig { task: "stand".into(), ..Default::default() };
+    bad.table_mut::<StandConfig>().height_weight = 1.5;
     let e = registry::make(&bad).err().unwrap().to_string();
     assert!(e.contains("env.stand.height_weight"), "{e}");
 }

@@ -6,6 +6,7 @@
 use std::sync::Arc;
 
 use skillmimic_env::EnvConfig;
+use skillmimic_env::tasks::tracking::config::TrackingConfig;
 use skillmimic_env::tasks::tracking::motion::Motion;
 use skillmimic_env::tasks::tracking::{Tracking, formulas};
 use skillmimic_sim::{BatchSim, ResetState, Scene};
@@ -14,7 +15,7 @@ fn config(n: usize) -> EnvConfig {
     let mut c =
         EnvConfig { task: "tracking".into(), num_envs: n, threads: 1, ..Default::default() };
     c.motion = vec![std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../motions")];
-    c.tracking.random_start = false;
+    c.table_mut::<TrackingConfig>().random_start = false;
     c
 }
 
@@ -44,7 +45,7 @@ fn kinematic_replay_scores_one_with_zero_error_on_every_character() {
                 sim.reset(&[true], std::slice::from_ref(&state)).unwrap();
                 let st = sim.state().env(0);
                 let e = formulas::errors(&st, &task.reference(clip).frame(t), &bodies);
-                let r = formulas::reward(&e, 0.0, &c.tracking);
+                let r = formulas::reward(&e, 0.0, &c.table::<TrackingConfig>());
                 worst = worst
                     .max(e.dist)
                     .max(e.dist_rel)
@@ -80,8 +81,8 @@ fn kinematic_replay_scores_one_with_zero_error_on_every_character() {
 fn episodes_end_at_the_clip_end_or_on_the_distance() {
     // thresholds out of reach: the episode runs to the clip's end and succeeds
     let mut c = config(2);
-    c.tracking.termination_distance = 1e6;
-    c.tracking.success_distance = 1e6;
+    c.table_mut::<TrackingConfig>().termination_distance = 1e6;
+    c.table_mut::<TrackingConfig>().success_distance = 1e6;
     let mut env = skillmimic_env::registry::make(&c).unwrap();
     assert_eq!(env.obs_dim(), 823 + 24 * 23);
     env.reset_all(Some(0));
@@ -105,7 +106,7 @@ fn episodes_end_at_the_clip_end_or_on_the_distance() {
     println!("zero actions ran {steps} steps to the end of clip {clip}");
     // a 5 cm threshold: zero actions drift from the reference and terminate early
     let mut c = config(1);
-    c.tracking.termination_distance = 0.05;
+    c.table_mut::<TrackingConfig>().termination_distance = 0.05;
     let mut env = skillmimic_env::registry::make(&c).unwrap();
     env.reset_all(Some(0));
     let mut ended = false;

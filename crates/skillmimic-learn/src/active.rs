@@ -33,6 +33,7 @@ pub use crate::config_active::ActiveConfig;
 use crate::error::{LearnError, io};
 use crate::policy::{InferenceBuffers, Policy};
 use crate::trainer::Trainer;
+use skillmimic_env::tasks::tracking::config::TrackingConfig;
 
 /// What a round did.
 #[derive(Clone, Debug, Default, serde::Serialize)]
@@ -54,9 +55,10 @@ pub fn evaluate_clip(policy: &Policy, cfg: &TrainConfig, path: &Path) -> Result<
     e.motion = vec![path.to_path_buf()];
     e.num_envs = 1;
     e.threads = 1;
-    e.tracking.random_start = false;
-    e.tracking.termination_distance = e.tracking.success_distance;
-    e.tracking.clip_weights.clear();
+    e.table_mut::<TrackingConfig>().random_start = false;
+    e.table_mut::<TrackingConfig>().termination_distance =
+        e.table::<TrackingConfig>().success_distance;
+    e.table_mut::<TrackingConfig>().clip_weights.clear();
     let mut env = skillmimic_env::registry::make(&e)?;
     env.reset_all(Some(0));
     let (mut buf, mut mu, mut v, mut a) = (
@@ -125,8 +127,10 @@ pub fn round(
         .map_err(|e| LearnError::Config(e.to_string()))?;
     let dir = cfg.run.out_dir.join("generated");
     std::fs::create_dir_all(&dir).map_err(io(&dir))?;
-    let mut r =
-        RoundReport { clip_weights: cfg.env.tracking.clip_weights.clone(), ..Default::default() };
+    let mut r = RoundReport {
+        clip_weights: cfg.env.table::<TrackingConfig>().clip_weights.clone(),
+        ..Default::default()
+    };
     for (c, path) in clips.iter().zip(&files) {
         r.evaluated += 1;
         if evaluate_clip(policy, cfg, path)? {
@@ -226,6 +230,6 @@ pub fn apply(t: &mut Trainer, report: &RoundReport) -> Result<(), LearnError> {
     if !report.accepted.is_empty() && !t.cfg.env.motion.contains(&dir) {
         t.cfg.env.motion.push(dir);
     }
-    t.cfg.env.tracking.clip_weights = report.clip_weights.clone();
+    t.cfg.env.table_mut::<TrackingConfig>().clip_weights = report.clip_weights.clone();
     t.rebuild_env()
 }

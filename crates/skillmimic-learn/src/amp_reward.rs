@@ -39,6 +39,7 @@ use crate::amp::{DiscLoss, Discriminator};
 use crate::collective::Collective;
 use crate::config::{AmpConfig, TrainConfig};
 use crate::error::LearnError;
+use skillmimic_env::tasks::hsi::config::HsiConfig;
 
 /// Maps one observation row to its frame's prior features.
 type FrameFeatures = fn(&[f32], &mut [f32]);
@@ -112,7 +113,7 @@ impl AmpReward {
             references.push(if hsi {
                 // TokenHSI character: the proprioception, references of the task's clips
                 let task = if name.is_empty() { cfg.env.task.as_str() } else { name.as_str() };
-                let clips = style::load_style_clips(&cfg.env.hsi.style_motion_of(task))?;
+                let clips = style::load_style_clips(&cfg.env.table::<HsiConfig>().style_motion_of(task))?;
                 style::clip_features(&clips)?
             } else {
                 if obs_dim < layout::HUMANOID_DIM {

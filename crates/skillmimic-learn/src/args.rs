@@ -5,6 +5,7 @@
 use std::path::{Path, PathBuf};
 
 use crate::config::TrainConfig;
+use skillmimic_env::tasks::hlc::config::HlcConfig;
 
 /// Flags that override configuration fields (shared by train / eval / play).
 #[derive(clap::Args, Clone, Debug, Default)]
@@ -64,7 +65,7 @@ impl ConfigFlags {
             cfg.env.task = t.clone();
         }
         if let Some(p) = &self.llc {
-            cfg.env.hlc.llc = p.clone();
+            cfg.env.table_mut::<HlcConfig>().llc = p.clone();
         }
         if let Some(p) = &self.policy {
             cfg.ppo.policy = p.clone();

@@ -8,6 +8,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::LearnError;
 use skillmimic_env::EnvConfig;
+use skillmimic_env::tasks::hlc::config::HlcConfig;
 
 /// How the PPO gradients are computed.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
@@ -386,9 +387,11 @@ impl TrainConfig {
     /// [2048, 1024, 512]: `--set 'ppo.hidden=[2048, 1024, 512]'`). An unreadable `env.hlc.llc`
     /// is reported when the environment is built.
     pub fn use_high_level_defaults(&mut self) {
-        let latent =
-            skillmimic_nn::frozen_parts::policy_family(&self.env.hlc.llc).ok().flatten().as_deref()
-                == Some("modular_attention");
+        let latent = skillmimic_nn::frozen_parts::policy_family(&self.env.table::<HlcConfig>().llc)
+            .ok()
+            .flatten()
+            .as_deref()
+            == Some("modular_attention");
         self.ppo.policy = if latent { "gaussian_mlp" } else { "categorical_mlp" }.into();
         if self.ppo.hidden == PpoConfig::default().hidden {
             self.ppo.hidden = vec![1024, 512];

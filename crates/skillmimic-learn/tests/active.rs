@@ -7,6 +7,7 @@ use std::sync::{Arc, Mutex};
 
 use rand::{RngCore, SeedableRng};
 use skillmimic_env::tasks::tracking::Tracking;
+use skillmimic_env::tasks::tracking::config::TrackingConfig;
 use skillmimic_env::vec_env::VecEnv;
 use skillmimic_learn::active::{ActiveConfig, apply, round};
 use skillmimic_learn::config::TrainConfig;
@@ -114,7 +115,7 @@ fn training_runs_rounds_with_the_model_free_generator() {
     cfg.env.motion = vec![std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../motions")];
     cfg.env.num_envs = 8;
     cfg.env.threads = 1;
-    cfg.env.tracking.success_distance = 0.02; // every clip fails: the generator is called for each
+    cfg.env.table_mut::<TrackingConfig>().success_distance = 0.02; // every clip fails: the generator is called for each
     cfg.ppo.hidden = vec![32];
     cfg.run.iterations = 2;
     cfg.run.active.enabled = true;
@@ -153,7 +154,7 @@ fn the_discriminator_filter_scores_generated_clips() {
     cfg.env.motion = vec![std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../motions")];
     cfg.env.num_envs = 8;
     cfg.env.threads = 1;
-    cfg.env.tracking.success_distance = 0.02; // every clip fails
+    cfg.env.table_mut::<TrackingConfig>().success_distance = 0.02; // every clip fails
     cfg.ppo.hidden = vec![32];
     cfg.ppo.amp.enabled = true;
     cfg.ppo.amp.hidden = vec![16];

@@ -6,6 +6,7 @@
 mod common;
 use common::{skill_policy, workspace_root};
 use skillmimic_env::registry::TASKS;
+use skillmimic_env::tasks::hlc::config::HlcConfig;
 use skillmimic_learn::collective::threads::ThreadGroup;
 use skillmimic_learn::config::TrainConfig;
 use skillmimic_learn::policies::FAMILIES;
@@ -188,7 +189,7 @@ fn every_task_and_family_trains_on_two_ranks() {
         c.ppo.mini_epochs = 1;
         c.ppo.hidden = vec![32];
         if skillmimic_env::registry::is_high_level(entry.name) {
-            c.env.hlc.llc = llc.clone();
+            c.env.table_mut::<HlcConfig>().llc = llc.clone();
         }
         let space = skillmimic_env::registry::make(&c.env).unwrap().spec().action_space;
         if !family.supports(&space) {

@@ -11,6 +11,7 @@ mod common;
 use common::{skill_policy, workspace_root};
 use libtest_mimic::{Arguments, Failed, Trial};
 use skillmimic_env::registry::{self, TASKS};
+use skillmimic_env::tasks::hlc::config::HlcConfig;
 use skillmimic_learn::config::TrainConfig;
 use skillmimic_learn::policies::FAMILIES;
 use skillmimic_learn::policy::{InferenceBuffers, Policy};
@@ -29,7 +30,7 @@ fn config(task: &str, character: &str, out: &str, llc: &std::path::Path) -> Trai
     c.run.out_dir =
         std::env::temp_dir().join(format!("skillmimic-every-task-{out}-{}", std::process::id()));
     if registry::is_high_level(task) {
-        c.env.hlc.llc = llc.to_path_buf();
+        c.env.table_mut::<HlcConfig>().llc = llc.to_path_buf();
     }
     // the token transformer at test sizes
     c.ppo.token.tokenizer = vec![32];

@@ -12,6 +12,7 @@ use rand_chacha::ChaCha8Rng;
 use skillmimic_env::EnvConfig;
 use skillmimic_env::VecEnv;
 use skillmimic_env::tasks::hlc::HighLevel;
+use skillmimic_env::tasks::hlc::config::HlcConfig;
 use skillmimic_env::tasks::hlc::heading::Heading;
 use skillmimic_learn::checkpoint::{self, Progress};
 use skillmimic_learn::config::PpoConfig;
@@ -42,7 +43,7 @@ pub fn write_llc(tag: &str) -> PathBuf {
 fn config(task: &str, llc: &std::path::Path, n: usize) -> EnvConfig {
     let mut c = EnvConfig { task: task.into(), num_envs: n, threads: 2, ..Default::default() };
     c.motion = vec![workspace_root().join("motions")];
-    c.hlc.llc = llc.to_path_buf();
+    c.table_mut::<HlcConfig>().llc = llc.to_path_buf();
     c
 }
 
@@ -91,10 +92,10 @@ fn holding_a_choice_equals_three_single_steps_also_across_a_reset() {
     for term_h in [0.25, 5.0] {
         // 5 m: every episode terminates at its second low-level step (inside the first hold)
         let mut c3 = config("heading", &llc, 4);
-        c3.hlc.termination_height = term_h;
+        c3.table_mut::<HlcConfig>().termination_height = term_h;
         c3.threads = 1;
         let mut c1 = c3.clone();
-        c1.hlc.llc_steps = 1;
+        c1.table_mut::<HlcConfig>().llc_steps = 1;
         let (mut e3, mut e1) = (heading(&c3), heading(&c1));
         assert_eq!(e3.spec().max_episode_steps, 799usize.div_ceil(3));
         assert_eq!(e3.spec().steps_per_action, 3);

@@ -11,9 +11,11 @@ use rand_chacha::ChaCha8Rng;
 use skillmimic_core::shared_data::shared_dir_or_skip;
 use skillmimic_env::EnvConfig;
 use skillmimic_env::amp::window_of;
+use skillmimic_env::tasks::hsi::config::HsiConfig;
 use skillmimic_env::tasks::hsi::style::{
     STYLE_DIM, clip_features, frame_features, load_style_clips,
 };
+use skillmimic_env::tasks::multi::config::MultiConfig;
 use skillmimic_learn::amp::{DiscConfig, Discriminator};
 use skillmimic_motion::Clip;
 use skillmimic_motion::retarget_hsi::retarget_to_hsi;
@@ -135,8 +137,8 @@ fn the_style_reward_mixes_into_ppo_on_a_tokenhsi_task() {
     c.env.task = "hsi_sit".into();
     c.env.num_envs = 8;
     c.env.threads = 2;
-    c.env.hsi.object_variants = 2;
-    c.env.hsi.style_motion = vec![dir.clone()];
+    c.env.table_mut::<HsiConfig>().object_variants = 2;
+    c.env.table_mut::<HsiConfig>().style_motion = vec![dir.clone()];
     c.ppo.hidden = vec![32];
     c.ppo.amp.enabled = true;
     c.ppo.amp.hidden = vec![32];
@@ -168,7 +170,7 @@ fn the_style_reward_mixes_into_ppo_on_a_tokenhsi_task() {
     assert!(style.is_finite() && style >= 0.0 && s.disc_loss > 0.0);
     assert_ne!(t.amp.as_ref().unwrap().disc().mlp, before, "the discriminator trains");
     // a TokenHSI task without reference clips is refused with the key named
-    c.env.hsi.style_motion.clear();
+    c.env.table_mut::<HsiConfig>().style_motion.clear();
     let err = Trainer::new(c, None).err().expect("no style clips").to_string();
     assert!(err.contains("env.hsi.style_motion"), "{err}");
     std::fs::remove_dir_all(dir).ok();
@@ -185,14 +187,15 @@ fn multi_task_training_keeps_one_discriminator_per_task() {
     let dir = retargeted(&shared, "multi");
     let mut c = TrainConfig::preset("tiny").unwrap();
     c.env.task = "hsi_multi".into();
-    c.env.multi.tasks = vec!["hsi_follow".into(), "hsi_sit".into()];
-    c.env.multi.mix = vec![0.25, 0.75];
+    c.env.table_mut::<MultiConfig>().tasks = vec!["hsi_follow".into(), "hsi_sit".into()];
+    c.env.table_mut::<MultiConfig>().mix = vec![0.25, 0.75];
     c.env.num_envs = 8;
     c.env.threads = 2;
-    c.env.hsi.object_variants = 2;
+    c.env.table_mut::<HsiConfig>().object_variants = 2;
     // follow's discriminator reads the run clip only, sit's all three
-    c.env.hsi.follow.style_motion = vec![dir.join("013_018pickle_run_3.safetensors")];
-    c.env.hsi.style_motion = vec![dir.clone()];
+    c.env.table_mut::<HsiConfig>().follow.style_motion =
+        vec![dir.join("013_018pickle_run_3.safetensors")];
+    c.env.table_mut::<HsiConfig>().style_motion = vec![dir.clone()];
     c.ppo.policy = "token_transformer".into();
     c.ppo.token.tokenizer = vec![32];
     c.ppo.token.embed = 16;

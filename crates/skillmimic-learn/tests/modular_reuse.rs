@@ -6,6 +6,9 @@
 mod common;
 use common::workspace_root;
 use skillmimic_env::ActionSpace;
+use skillmimic_env::tasks::hlc::config::HlcConfig;
+use skillmimic_env::tasks::hlc::config::ReachConfig;
+use skillmimic_env::tasks::hlc::config::SteeringConfig;
 use skillmimic_learn::actor::ActorNet;
 use skillmimic_learn::checkpoint::{self, Progress};
 use skillmimic_learn::config::{PpoConfig, TrainConfig};
@@ -31,7 +34,7 @@ fn modular_llc(tag: &str) -> (std::path::PathBuf, Policy) {
 fn config(task: &str, llc: &std::path::Path, out: &str) -> TrainConfig {
     let mut c = TrainConfig::preset("tiny").unwrap();
     c.env.task = task.into();
-    c.env.hlc.llc = llc.to_path_buf();
+    c.env.table_mut::<HlcConfig>().llc = llc.to_path_buf();
     c.env.motion = vec![workspace_root().join("motions")];
     c.env.num_envs = 4;
     c.env.threads = 1;
@@ -146,10 +149,10 @@ fn the_learner_trains_a_gaussian_high_level_policy_over_modular_skills() {
 fn steering_commands_rewards_and_redraws() {
     let (llc, _) = modular_llc("steer");
     let mut c = config("steering", &llc, "steer");
-    c.env.steering.change_steps_min = 5;
-    c.env.steering.change_steps_max = 5;
-    c.env.steering.speed_min = 1.0;
-    c.env.steering.speed_max = 2.0;
+    c.env.table_mut::<SteeringConfig>().change_steps_min = 5;
+    c.env.table_mut::<SteeringConfig>().change_steps_max = 5;
+    c.env.table_mut::<SteeringConfig>().speed_min = 1.0;
+    c.env.table_mut::<SteeringConfig>().speed_max = 2.0;
     let mut env = skillmimic_env::registry::make(&c.env).unwrap();
     let spec = env.spec().clone();
     assert_eq!(spec.info_names, ["dir_x", "dir_y", "speed"]);
@@ -192,13 +195,13 @@ fn steering_commands_rewards_and_redraws() {
     assert_ne!(commands[9], commands[8]);
     let bad = {
         let mut c = c.clone();
-        c.env.steering.change_steps_min = 0;
+        c.env.table_mut::<SteeringConfig>().change_steps_min = 0;
         skillmimic_env::registry::make(&c.env).err().unwrap().to_string()
     };
     assert!(bad.contains("env.steering.change_steps_min"), "{bad}");
     let mut r = c.clone();
     r.env.task = "reach".into();
-    r.env.reach.hand_body = "R_Hand".into();
+    r.env.table_mut::<ReachConfig>().hand_body = "R_Hand".into();
     let bad = skillmimic_env::registry::make(&r.env).err().unwrap().to_string();
     assert!(bad.contains("env.reach.hand_body") && bad.contains("R_Middle1"), "{bad}");
 }

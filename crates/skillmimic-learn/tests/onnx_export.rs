@@ -22,6 +22,7 @@ use skillmimic_learn::policy::{InferenceBuffers, Policy};
 use tract_onnx::prelude::*;
 
 use common::workspace_root;
+use skillmimic_env::tasks::hlc::config::HlcConfig;
 
 fn env_config(task: &str, n: usize) -> EnvConfig {
     let mut c = EnvConfig { task: task.into(), num_envs: n, threads: 2, ..Default::default() };
@@ -134,8 +135,8 @@ fn high_level_and_fused_graphs_give_the_choice_and_the_tasks_pd_targets() {
     checkpoint::save(&llc_path, &skill, None, &Progress::default(), "").unwrap();
 
     let mut c = env_config("heading", 6);
-    c.hlc.llc = llc_path.clone();
-    c.hlc.llc_steps = 1;
+    c.table_mut::<HlcConfig>().llc = llc_path.clone();
+    c.table_mut::<HlcConfig>().llc_steps = 1;
     let mut env = skillmimic_env::registry::make(&c).unwrap();
     let d = env.obs_dim();
     let obs = observations(env.as_mut(), 8, |r| r.random_range(0..3) as f32);

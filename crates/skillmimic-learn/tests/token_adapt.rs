@@ -5,6 +5,8 @@
 //! observation statistics are bit-identical to the base checkpoint, the gated adapters leave the
 //! base tasks' actions unchanged, while the new parameters and the new task's actions moved.
 
+use skillmimic_env::tasks::hlc::config::HlcConfig;
+use skillmimic_env::tasks::multi::config::MultiConfig;
 use skillmimic_learn::actor::ActorNet;
 use skillmimic_learn::checkpoint;
 use skillmimic_learn::config::TrainConfig;
@@ -14,7 +16,7 @@ use skillmimic_learn::trainer::Trainer;
 fn config(tag: &str) -> TrainConfig {
     let mut c = TrainConfig::preset("tiny").unwrap();
     c.env.task = "hsi_multi".into();
-    c.env.multi.tasks = vec!["hsi_follow".into(), "hsi_sit".into()];
+    c.env.table_mut::<MultiConfig>().tasks = vec!["hsi_follow".into(), "hsi_sit".into()];
     c.env.num_envs = 4;
     c.env.threads = 1;
     c.ppo.policy = "token_transformer".into();
@@ -78,8 +80,9 @@ fn adaptation_freezes_the_base_and_starts_from_its_actions() {
     let d0 = base.env.obs_dim();
 
     let mut c = config("adapt");
-    c.env.multi.tasks = vec!["hsi_carry".into()];
-    c.env.multi.groups = vec!["hsi_follow".into(), "hsi_sit".into(), "hsi_carry".into()];
+    c.env.table_mut::<MultiConfig>().tasks = vec!["hsi_carry".into()];
+    c.env.table_mut::<MultiConfig>().groups =
+        vec!["hsi_follow".into(), "hsi_sit".into(), "hsi_carry".into()];
     c.ppo.token.adapt_from = base_path.clone();
     let mut t = Trainer::new(c.clone(), None).unwrap();
     let d1 = t.env.obs_dim();
@@ -192,9 +195,9 @@ fn a_new_high_level_task_is_added_by_adaptation() {
     mod common;
     let mut c = config("hlc-base");
     c.env.task = "hlc_multi".into();
-    c.env.multi.tasks = vec!["heading".into(), "circling".into()];
+    c.env.table_mut::<MultiConfig>().tasks = vec!["heading".into(), "circling".into()];
     c.env.motion = vec![common::workspace_root().join("motions")];
-    c.env.hlc.llc = common::skill_policy("token-adapt");
+    c.env.table_mut::<HlcConfig>().llc = common::skill_policy("token-adapt");
     c.ppo.policy = "token_transformer_categorical".into();
     let mut base = Trainer::new(c.clone(), None).unwrap();
     let groups: Vec<String> = token(&base.policy).spec.groups.iter().map(|g| g.0.clone()).collect();
@@ -205,14 +208,16 @@ fn a_new_high_level_task_is_added_by_adaptation() {
     base.save(&path).unwrap();
 
     let mut a = c.clone();
-    a.env.multi.tasks = vec!["scoring".into()];
-    a.env.multi.groups = vec!["heading".into(), "circling".into(), "scoring".into()];
+    a.env.table_mut::<MultiConfig>().tasks = vec!["scoring".into()];
+    a.env.table_mut::<MultiConfig>().groups =
+        vec!["heading".into(), "circling".into(), "scoring".into()];
     a.ppo.token.adapt_from = path.clone();
     a.run.out_dir = c.run.out_dir.join("adapt");
     let err = Trainer::new(a.clone(), None).err().expect("another action space").to_string();
     assert!(err.contains("Discrete { n: 3 }") && err.contains("Discrete { n: 7 }"), "{err}");
-    a.env.multi.tasks = vec!["steering".into()];
-    a.env.multi.groups = vec!["heading".into(), "circling".into(), "steering".into()];
+    a.env.table_mut::<MultiConfig>().tasks = vec!["steering".into()];
+    a.env.table_mut::<MultiConfig>().groups =
+        vec!["heading".into(), "circling".into(), "steering".into()];
     let mut t = Trainer::new(a, None).unwrap();
     let spec = &token(&t.policy).spec;
     assert!(spec.adapters && spec.groups.len() == 4 && spec.groups[3].0 == "steering");

@@ -25,6 +25,7 @@ use rand_chacha::ChaCha8Rng;
 use sha2::{Digest, Sha256};
 use skillmimic_env::ActionSpace;
 use skillmimic_env::registry::TASKS;
+use skillmimic_env::tasks::hlc::config::HlcConfig;
 use skillmimic_learn::config::TrainConfig;
 use skillmimic_learn::trainer::Trainer;
 
@@ -49,7 +50,7 @@ fn config(task: &str, tag: &str) -> TrainConfig {
     c.run.out_dir =
         std::env::temp_dir().join(format!("skillmimic-traces-{tag}-{}", std::process::id()));
     if skillmimic_env::registry::is_high_level(task) {
-        c.env.hlc.llc = skill_policy(&format!("traces-{tag}"));
+        c.env.table_mut::<HlcConfig>().llc = skill_policy(&format!("traces-{tag}"));
     }
     c.ppo.token.tokenizer = vec![32];
     c.ppo.token.embed = 16;

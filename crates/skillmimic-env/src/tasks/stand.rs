@@ -1,7 +1,7 @@
 //! `stand`: keep the pelvis at a target height and the heading the episode started with — no
 //! clip, no ball, on any character. The worked example of adding a task (README "Adding a
 //! task"): this module plus one line in [`crate::registry::TASKS`] and one config table,
-//! `[env.stand]` ([`StandConfig`](crate::config::StandConfig)).
+//! `[env.stand]` ([`StandConfig`], defined here and listed in the registry line).
 //!
 //! * Start: the character's rest pose (every joint at 0, upright root) at `start_height` (0 = the
 //!   character's rest height: SkillMimic humanoid 0.95 m, TokenHSI character 0.92 m, SMPL
@@ -24,10 +24,62 @@ use skillmimic_core::characters::CharacterSpec;
 use skillmimic_core::math::{Quat, heading, wrap_angle};
 use skillmimic_sim::{EnvState, ResetState, Scene};
 
-use crate::config::{EnvConfig, StandConfig};
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+
+use crate::config::EnvConfig;
+use crate::config_table::TableEntry;
 use crate::error::{EnvError, bad};
 use crate::task::{ActionSpace, StepOut, Task, TaskSpec};
 use crate::vec_env::{Env, VecEnv};
+
+/// Options of the `stand` task (`[env.stand]`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct StandConfig {
+    /// Episode length in policy steps (60 = 1 s).
+    #[schemars(range(min = 1))]
+    pub episode_length: usize,
+    /// Pelvis height at the start (m); 0 = the character's rest height, where the zero pose's
+    /// feet touch the floor (SkillMimic humanoid 0.95, TokenHSI character 0.92, SMPL humanoid
+    /// 0.937).
+    pub start_height: f64,
+    /// Target pelvis height z* (m).
+    pub target_height: f64,
+    /// Early termination below this pelvis height (m).
+    pub termination_height: f64,
+    /// Weight w_h of the height term (the heading term gets 1 − w_h).
+    #[schemars(range(min = 0, max = 1))]
+    pub height_weight: f64,
+    /// Height error scale k_h (1/m²).
+    #[schemars(range(min = 0))]
+    pub height_scale: f64,
+    /// Heading error scale k_ψ (1/rad²).
+    #[schemars(range(min = 0))]
+    pub heading_scale: f64,
+}
+
+impl crate::config_table::TaskConfig for StandConfig {
+    const KEY: &'static str = "stand";
+    const DOC: &'static str = "Options of the `stand` task (the worked example of adding a task).";
+}
+
+impl Default for StandConfig {
+    fn default() -> Self {
+        Self {
+            episode_length: 300,
+            start_height: 0.0,
+            target_height: 0.9,
+            termination_height: 0.5,
+            height_weight: 0.5,
+            height_scale: 20.0,
+            heading_scale: 2.0,
+        }
+    }
+}
+
+/// The `[env.stand]` table.
+pub const TABLE: TableEntry = TableEntry::of::<StandConfig>();
 
 /// Per-environment state: steps taken and the heading to keep (rad).
 #[derive(Clone, Debug, Default)]
@@ -140,7 +192,7 @@ impl Task for Stand {
 /// `[env.stand]`.
 pub fn build(cfg: &EnvConfig) -> Result<Box<dyn Env>, EnvError> {
     cfg.validate_driver()?;
-    let s = &cfg.stand;
+    let s = cfg.table::<StandConfig>();
     if s.episode_length == 0 {
         return Err(bad("env.stand.episode_length", "must be at least 1").into());
     }

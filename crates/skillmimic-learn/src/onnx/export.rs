@@ -8,6 +8,7 @@ use crate::error::LearnError;
 
 use super::meta::{DeployMeta, source_of};
 use super::{Exported, fused_model, policy_model, write};
+use skillmimic_env::tasks::hlc::config::HlcConfig;
 
 /// What an export wrote.
 pub struct Written {
@@ -49,13 +50,13 @@ pub fn export_checkpoint(
     let exported = if fused {
         let llc_path = match llc {
             Some(p) => p.to_path_buf(),
-            None if cfg.env.hlc.llc.as_os_str().is_empty() => {
+            None if cfg.env.table::<HlcConfig>().llc.as_os_str().is_empty() => {
                 return Err(LearnError::Config(format!(
                     "{}: its configuration names no skill policy (env.hlc.llc); pass --llc",
                     ckpt.display()
                 )));
             }
-            None => resolve_path(&cfg.env.hlc.llc, config_dir(ckpt)),
+            None => resolve_path(&cfg.env.table::<HlcConfig>().llc, config_dir(ckpt)),
         };
         let skill = checkpoint::load(&llc_path, None)?;
         let skill_source = source_of(&llc_path, skill.progress.iteration, skill.progress.samples)?;

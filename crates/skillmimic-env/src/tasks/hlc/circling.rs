@@ -15,10 +15,15 @@ use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use skillmimic_sim::{BALL, EnvState};
 
+use super::config::{CirclingConfig, Formula};
 use super::{Goal, Rule, loc_bearing, norm};
-use crate::config::{CirclingConfig, EnvConfig, Formula};
+use crate::config::EnvConfig;
 use crate::error::EnvError;
 use crate::vec_env::Env;
+
+/// The `[env.circling]` table.
+pub const TABLE: crate::config_table::TableEntry =
+    crate::config_table::TableEntry::of::<super::config::CirclingConfig>();
 
 /// The circling task's rule.
 pub struct Circling(pub CirclingConfig);
@@ -102,6 +107,6 @@ impl Rule for Circling {
 
 /// Registry constructor.
 pub fn build(cfg: &EnvConfig) -> Result<Box<dyn Env>, EnvError> {
-    cfg.circling.validate()?;
-    super::build(cfg, Circling(cfg.circling.clone()))
+    cfg.table::<CirclingConfig>().validate()?;
+    super::build(cfg, Circling(cfg.table::<CirclingConfig>().clone()))
 }

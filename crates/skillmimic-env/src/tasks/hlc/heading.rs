@@ -13,10 +13,15 @@ use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use skillmimic_sim::EnvState;
 
+use super::config::{Formula, GoalSampling, HeadingConfig};
 use super::{Goal, Rule, ball_to, loc_bearing, norm};
-use crate::config::{EnvConfig, Formula, GoalSampling, HeadingConfig};
+use crate::config::EnvConfig;
 use crate::error::EnvError;
 use crate::vec_env::Env;
+
+/// The `[env.heading]` table.
+pub const TABLE: crate::config_table::TableEntry =
+    crate::config_table::TableEntry::of::<super::config::HeadingConfig>();
 
 /// The heading task's rule.
 pub struct Heading(pub HeadingConfig);
@@ -94,6 +99,6 @@ impl Rule for Heading {
 
 /// Registry constructor.
 pub fn build(cfg: &EnvConfig) -> Result<Box<dyn Env>, EnvError> {
-    cfg.heading.validate()?;
-    super::build(cfg, Heading(cfg.heading.clone()))
+    cfg.table::<HeadingConfig>().validate()?;
+    super::build(cfg, Heading(cfg.table::<HeadingConfig>().clone()))
 }

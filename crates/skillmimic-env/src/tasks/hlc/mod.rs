@@ -34,6 +34,7 @@
 //! success bookkeeping) and a `build` line in the registry.
 
 pub mod circling;
+pub mod config;
 pub mod heading;
 pub mod reach;
 pub mod scoring;
@@ -57,6 +58,11 @@ use crate::obs::{layout, write_skill, write_state_obs};
 use crate::task::{ActionSpace, StepOut, Task, TaskSpec};
 use crate::tasks::imitation::load_motion_library;
 use crate::vec_env::{Env, VecEnv};
+use config::HlcConfig;
+
+/// The `[env.hlc]` table.
+pub const TABLE: crate::config_table::TableEntry =
+    crate::config_table::TableEntry::of::<config::HlcConfig>();
 
 /// Low-level steps per second (policy rate).
 pub const LL_HZ: f64 = 60.0;
@@ -192,7 +198,7 @@ pub struct HlSlot {
 /// each high-level action for [`HighLevel::hold_steps`] of them.
 pub struct HighLevel<R: Rule> {
     pub rule: R,
-    cfg: crate::config::HlcConfig,
+    cfg: config::HlcConfig,
     lib: Arc<MotionLibrary>,
     spec: TaskSpec,
     driver: Driver,
@@ -213,7 +219,7 @@ impl<R: Rule> HighLevel<R> {
         lib: Arc<MotionLibrary>,
         ball_radius: f64,
     ) -> Result<Self, EnvError> {
-        let h = &cfg.hlc;
+        let h = cfg.table::<HlcConfig>();
         let driver = if policy_family(&h.llc)?.as_deref() == Some("modular_attention") {
             Driver::Parts(FrozenParts::load(&h.llc)?)
         } else {
@@ -408,7 +414,7 @@ impl<R: Rule> Task for HighLevel<R> {
 /// Build the high-level environment of `rule` from `[env]` (driver keys, `motion`), `[env.hlc]`.
 pub fn build<R: Rule>(cfg: &EnvConfig, rule: R) -> Result<Box<dyn Env>, EnvError> {
     cfg.validate_driver()?;
-    cfg.hlc.validate()?;
+    cfg.table::<HlcConfig>().validate()?;
     if cfg.motion.is_empty() {
         return Err(bad(
             "env.motion",

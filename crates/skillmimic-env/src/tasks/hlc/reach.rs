@@ -16,10 +16,15 @@ use rand_chacha::ChaCha8Rng;
 use skillmimic_core::math::heading_inverse;
 use skillmimic_sim::EnvState;
 
+use super::config::ReachConfig;
 use super::{Goal, Rule, norm, redraw_rng};
-use crate::config::{EnvConfig, ReachConfig};
+use crate::config::EnvConfig;
 use crate::error::{EnvError, bad};
 use crate::vec_env::Env;
+
+/// The `[env.reach]` table.
+pub const TABLE: crate::config_table::TableEntry =
+    crate::config_table::TableEntry::of::<super::config::ReachConfig>();
 
 /// The reach task's rule, with the hand's body index.
 pub struct Reach(pub ReachConfig, pub usize);
@@ -103,10 +108,10 @@ impl Rule for Reach {
 
 /// Registry constructor.
 pub fn build(cfg: &EnvConfig) -> Result<Box<dyn Env>, EnvError> {
-    cfg.reach.validate()?;
+    cfg.table::<ReachConfig>().validate()?;
     let hand = skillmimic_core::characters::skillmimic::BODIES
         .iter()
-        .position(|b| b.name == cfg.reach.hand_body)
+        .position(|b| b.name == cfg.table::<ReachConfig>().hand_body)
         .ok_or_else(|| {
             let names: Vec<&str> =
                 skillmimic_core::characters::skillmimic::BODIES.iter().map(|b| b.name).collect();
@@ -114,9 +119,9 @@ pub fn build(cfg: &EnvConfig) -> Result<Box<dyn Env>, EnvError> {
                 "env.reach.hand_body",
                 format!(
                     "'{}' is not a body of the humanoid; expected one of {names:?}",
-                    cfg.reach.hand_body
+                    cfg.table::<ReachConfig>().hand_body
                 ),
             )
         })?;
-    super::build(cfg, Reach(cfg.reach.clone(), hand))
+    super::build(cfg, Reach(cfg.table::<ReachConfig>().clone(), hand))
 }

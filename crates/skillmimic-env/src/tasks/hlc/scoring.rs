@@ -25,10 +25,15 @@ use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use skillmimic_sim::{BALL, EnvState};
 
+use super::config::{Formula, Prediction, ScoringConfig};
 use super::{Goal, Rule, ball_to, loc_bearing, norm};
-use crate::config::{EnvConfig, Formula, Prediction, ScoringConfig};
+use crate::config::EnvConfig;
 use crate::error::EnvError;
 use crate::vec_env::Env;
+
+/// The `[env.scoring]` table.
+pub const TABLE: crate::config_table::TableEntry =
+    crate::config_table::TableEntry::of::<super::config::ScoringConfig>();
 
 /// Gravity of the prediction (m/s²).
 pub const G: f64 = 9.8;
@@ -142,6 +147,6 @@ impl Rule for Scoring {
 
 /// Registry constructor.
 pub fn build(cfg: &EnvConfig) -> Result<Box<dyn Env>, EnvError> {
-    cfg.scoring.validate()?;
-    super::build(cfg, Scoring(cfg.scoring.clone()))
+    cfg.table::<ScoringConfig>().validate()?;
+    super::build(cfg, Scoring(cfg.table::<ScoringConfig>().clone()))
 }

@@ -21,10 +21,15 @@ use rand_chacha::ChaCha8Rng;
 use skillmimic_core::math::heading_inverse;
 use skillmimic_sim::EnvState;
 
+use super::config::SteeringConfig;
 use super::{Goal, Rule, redraw_rng};
-use crate::config::{EnvConfig, SteeringConfig};
+use crate::config::EnvConfig;
 use crate::error::EnvError;
 use crate::vec_env::Env;
+
+/// The `[env.steering]` table.
+pub const TABLE: crate::config_table::TableEntry =
+    crate::config_table::TableEntry::of::<super::config::SteeringConfig>();
 
 /// The steering task's rule.
 pub struct Steering(pub SteeringConfig);
@@ -122,6 +127,6 @@ impl Rule for Steering {
 
 /// Registry constructor.
 pub fn build(cfg: &EnvConfig) -> Result<Box<dyn Env>, EnvError> {
-    cfg.steering.validate()?;
-    super::build(cfg, Steering(cfg.steering.clone()))
+    cfg.table::<SteeringConfig>().validate()?;
+    super::build(cfg, Steering(cfg.table::<SteeringConfig>().clone()))
 }

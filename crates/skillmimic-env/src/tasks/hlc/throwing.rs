@@ -13,10 +13,15 @@
 use rand_chacha::ChaCha8Rng;
 use skillmimic_sim::{BALL, EnvState};
 
+use super::config::ThrowingConfig;
 use super::{Goal, LL_HZ, Rule};
-use crate::config::{EnvConfig, ThrowingConfig};
+use crate::config::EnvConfig;
 use crate::error::EnvError;
 use crate::vec_env::Env;
+
+/// The `[env.throwing]` table.
+pub const TABLE: crate::config_table::TableEntry =
+    crate::config_table::TableEntry::of::<super::config::ThrowingConfig>();
 
 /// The throwing task's rule.
 pub struct Throwing(pub ThrowingConfig);
@@ -81,6 +86,6 @@ impl Rule for Throwing {
 
 /// Registry constructor.
 pub fn build(cfg: &EnvConfig) -> Result<Box<dyn Env>, EnvError> {
-    cfg.throwing.validate()?;
-    super::build(cfg, Throwing(cfg.throwing.clone()))
+    cfg.table::<ThrowingConfig>().validate()?;
+    super::build(cfg, Throwing(cfg.table::<ThrowingConfig>().clone()))
 }

@@ -36,13 +36,15 @@ use skillmimic_core::characters::tokenhsi::{HANDS, NUM_BODIES};
 use skillmimic_core::math::{Quat, Vec3};
 use skillmimic_sim::{BoxObject, EnvState, ObjectBox, ObjectState, ResetState, Scene};
 
+use super::config::CarryConfig;
 use super::geometry::{
     Local, corners, dir2d, dist_sq, dist2d, draw, put, ring_point, speed_reward, stand_at_origin,
 };
 use super::{Ctx, DT, Rule, TaskOut, hsi_spec};
-use crate::config::{CarryConfig, EnvConfig};
+use crate::config::EnvConfig;
 use crate::error::EnvError;
 use crate::task::TaskSpec;
+use crate::tasks::hsi::config::HsiConfig;
 use crate::vec_env::Env;
 
 /// Half thickness of a support slab (m).
@@ -207,8 +209,8 @@ pub fn observe_box(target: Vec3, half: Vec3, st: &EnvState<'_>, body: usize, out
 /// Registry constructor.
 pub fn build(cfg: &EnvConfig) -> Result<Box<dyn Env>, EnvError> {
     cfg.validate_driver()?;
-    cfg.hsi.validate()?;
-    let h = &cfg.hsi;
+    cfg.table::<HsiConfig>().validate()?;
+    let h = cfg.table::<HsiConfig>();
     let task = Carry::new(&h.carry, h.random_heading);
     super::build_env(task, cfg, h.object_variants, h.carry.episode_length)
 }

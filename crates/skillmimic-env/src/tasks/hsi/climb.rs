@@ -15,12 +15,14 @@ use rand_chacha::ChaCha8Rng;
 use skillmimic_core::characters::tokenhsi::FEET;
 use skillmimic_sim::{BoxObject, EnvState, ObjectBox, ResetState, Scene};
 
+use super::config::ClimbConfig;
 use super::geometry::{Local, dir2d, dist_sq, dist2d, draw, put, speed_reward, stand_at_origin};
 use super::sit::{Goal, goal_info_names};
 use super::{Ctx, DT, Rule, TaskOut, hsi_spec};
-use crate::config::{ClimbConfig, EnvConfig};
+use crate::config::EnvConfig;
 use crate::error::EnvError;
 use crate::task::TaskSpec;
+use crate::tasks::hsi::config::HsiConfig;
 use crate::vec_env::Env;
 
 /// The climbing task.
@@ -95,8 +97,8 @@ impl Rule for Climb {
 /// Registry constructor.
 pub fn build(cfg: &EnvConfig) -> Result<Box<dyn Env>, EnvError> {
     cfg.validate_driver()?;
-    cfg.hsi.validate()?;
-    let h = &cfg.hsi;
+    cfg.table::<HsiConfig>().validate()?;
+    let h = cfg.table::<HsiConfig>();
     let task = Climb::new(&h.climb, h.random_heading);
     super::build_env(task, cfg, h.object_variants, h.climb.episode_length)
 }

@@ -46,6 +46,7 @@ use super::{Ctx, DT, Rule, TaskOut, hsi_spec};
 use crate::config::EnvConfig;
 use crate::error::{EnvError, bad};
 use crate::task::TaskSpec;
+use crate::tasks::hsi::config::HsiConfig;
 use crate::vec_env::Env;
 
 /// Distance from the character of the box's support (m).
@@ -154,11 +155,11 @@ pub struct WithBox<P: Primary> {
     p: usize,
     terms: usize,
     objects: usize,
-    carry: crate::config_hsi::CarryConfig,
+    carry: super::config::CarryConfig,
 }
 
 impl<P: Primary> WithBox<P> {
-    pub fn new(primary: P, carry: &crate::config_hsi::CarryConfig) -> Self {
+    pub fn new(primary: P, carry: &super::config::CarryConfig) -> Self {
         let ps = primary.spec().clone();
         let p = ps.obs_dim - super::proprio::PROPRIO_DIM;
         let mut terms = ps.term_names.clone();
@@ -298,28 +299,40 @@ fn build<P: Primary>(
     variants: usize,
 ) -> Result<Box<dyn Env>, EnvError> {
     cfg.validate_driver()?;
-    cfg.hsi.validate()?;
-    if cfg.hsi.carry.support_height[1] > 1.0 {
+    cfg.table::<HsiConfig>().validate()?;
+    if cfg.table::<HsiConfig>().carry.support_height[1] > 1.0 {
         return Err(bad(
             "env.hsi.carry.support_height",
             format!("{} puts the box within reach: the support must be at most 1 m high", P::NAME),
         )
         .into());
     }
-    let task = WithBox::new(primary, &cfg.hsi.carry);
+    let task = WithBox::new(primary, &cfg.table::<HsiConfig>().carry);
     let len = task.spec.max_episode_steps;
     super::build_env(task, cfg, variants, len)
 }
 
 /// Registry constructor of `hsi_follow_carry`.
 pub fn build_follow_carry(cfg: &EnvConfig) -> Result<Box<dyn Env>, EnvError> {
-    build(Follow::new(&cfg.hsi.follow, cfg.hsi.random_heading), cfg, cfg.hsi.object_variants)
+    build(
+        Follow::new(&cfg.table::<HsiConfig>().follow, cfg.table::<HsiConfig>().random_heading),
+        cfg,
+        cfg.table::<HsiConfig>().object_variants,
+    )
 }
 /// Registry constructor of `hsi_sit_carry`.
 pub fn build_sit_carry(cfg: &EnvConfig) -> Result<Box<dyn Env>, EnvError> {
-    build(Sit::new(&cfg.hsi.sit, cfg.hsi.random_heading), cfg, cfg.hsi.object_variants)
+    build(
+        Sit::new(&cfg.table::<HsiConfig>().sit, cfg.table::<HsiConfig>().random_heading),
+        cfg,
+        cfg.table::<HsiConfig>().object_variants,
+    )
 }
 /// Registry constructor of `hsi_climb_carry`.
 pub fn build_climb_carry(cfg: &EnvConfig) -> Result<Box<dyn Env>, EnvError> {
-    build(Climb::new(&cfg.hsi.climb, cfg.hsi.random_heading), cfg, cfg.hsi.object_variants)
+    build(
+        Climb::new(&cfg.table::<HsiConfig>().climb, cfg.table::<HsiConfig>().random_heading),
+        cfg,
+        cfg.table::<HsiConfig>().object_variants,
+    )
 }

@@ -19,11 +19,13 @@ use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use skillmimic_sim::{BoxObject, EnvState, ResetState, Scene};
 
+use super::config::FollowConfig;
 use super::geometry::{Local, put, stand_at_origin};
 use super::{Ctx, DT, Rule, TaskOut, hsi_spec};
-use crate::config::{EnvConfig, FollowConfig};
+use crate::config::EnvConfig;
 use crate::error::EnvError;
 use crate::task::TaskSpec;
+use crate::tasks::hsi::config::HsiConfig;
 use crate::vec_env::Env;
 
 /// Waypoints in the observation.
@@ -143,7 +145,8 @@ impl Rule for Follow {
 /// Registry constructor.
 pub fn build(cfg: &EnvConfig) -> Result<Box<dyn Env>, EnvError> {
     cfg.validate_driver()?;
-    cfg.hsi.validate()?;
-    let task = Follow::new(&cfg.hsi.follow, cfg.hsi.random_heading);
-    super::build_env(task, cfg, 1, cfg.hsi.follow.episode_length)
+    cfg.table::<HsiConfig>().validate()?;
+    let task =
+        Follow::new(&cfg.table::<HsiConfig>().follow, cfg.table::<HsiConfig>().random_heading);
+    super::build_env(task, cfg, 1, cfg.table::<HsiConfig>().follow.episode_length)
 }

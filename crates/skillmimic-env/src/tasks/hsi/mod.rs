@@ -22,6 +22,7 @@
 pub mod carry;
 pub mod climb;
 pub mod compose;
+pub mod config;
 pub mod follow;
 pub mod geometry;
 pub mod proprio;
@@ -39,7 +40,12 @@ use skillmimic_sim::{BoxObject, EnvState, ResetState, Scene, SceneOptions};
 use proprio::{PROPRIO_DIM, write_proprio};
 
 use crate::task::{StepOut, Task, TaskSpec};
+use crate::tasks::hsi::config::HsiConfig;
 use crate::vec_env::{Env, VecEnv};
+
+/// The `[env.hsi]` table.
+pub const TABLE: crate::config_table::TableEntry =
+    crate::config_table::TableEntry::of::<config::HsiConfig>();
 
 /// Policy step (s): 4 physics steps of 1/120 s.
 pub const DT: f64 = 1.0 / 30.0;
@@ -77,7 +83,7 @@ pub fn build_env<R: Rule>(
     variants: usize,
     episode_length: usize,
 ) -> Result<Box<dyn Env>, crate::error::EnvError> {
-    let h = &cfg.hsi;
+    let h = cfg.table::<HsiConfig>();
     let mut orng = ChaCha8Rng::seed_from_u64(h.object_seed);
     let scenes = (0..variants.clamp(1, cfg.num_envs.max(1)))
         .map(|_| {

@@ -25,13 +25,15 @@ use rand_chacha::ChaCha8Rng;
 use skillmimic_core::math::{Quat, Vec3, heading};
 use skillmimic_sim::{BoxObject, EnvState, ObjectBox, ObjectState, ResetState, Scene};
 
+use super::config::SitConfig;
 use super::geometry::{
     Local, corners, dir2d, dist_sq, dist2d, draw, put, ring_point, speed_reward, stand_at_origin,
 };
 use super::{Ctx, DT, Rule, TaskOut, hsi_spec};
-use crate::config::{EnvConfig, SitConfig};
+use crate::config::EnvConfig;
 use crate::error::EnvError;
 use crate::task::TaskSpec;
+use crate::tasks::hsi::config::HsiConfig;
 use crate::vec_env::Env;
 
 /// A static object with a target on it (sit and climb).
@@ -219,8 +221,8 @@ impl Rule for Sit {
 /// Registry constructor.
 pub fn build(cfg: &EnvConfig) -> Result<Box<dyn Env>, EnvError> {
     cfg.validate_driver()?;
-    cfg.hsi.validate()?;
-    let h = &cfg.hsi;
+    cfg.table::<HsiConfig>().validate()?;
+    let h = cfg.table::<HsiConfig>();
     let task = Sit::new(&h.sit, h.random_heading);
     super::build_env(task, cfg, h.object_variants, h.sit.episode_length)
 }

@@ -7,7 +7,7 @@ use skillmimic_core::characters::{ActionMap, CharacterSpec};
 use skillmimic_core::math::{Quat, heading_inverse, norm, sub, tan_norm};
 use skillmimic_sim::EnvState;
 
-use crate::config::TrackingConfig;
+use super::config::TrackingConfig;
 
 /// Values per tracked body in the observation's reference block.
 pub const REF_WIDTH: usize = 24;

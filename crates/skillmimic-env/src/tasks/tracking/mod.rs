@@ -20,6 +20,7 @@
 //!   errors of the body positions (mm/frame, mm/frame²; before the episode start the simulated
 //!   trajectory counts as the reference's), success. Info: `clip`, `ref_frame`.
 
+pub mod config;
 pub mod formulas;
 pub mod motion;
 
@@ -32,12 +33,17 @@ use skillmimic_core::math::Quat;
 use skillmimic_motion::MotionLibrary;
 use skillmimic_sim::{EnvState, ResetState, Scene, SimError};
 
-use crate::config::{EnvConfig, TrackingConfig};
+use crate::config::EnvConfig;
 use crate::error::{EnvError, bad};
 use crate::task::{ActionSpace, StepOut, Task, TaskSpec};
 use crate::vec_env::{Env, VecEnv};
+use config::TrackingConfig;
 use formulas::{Bodies, DofDrive, METRICS, REF_WIDTH, TERMS};
 use motion::Motion;
+
+/// The `[env.tracking]` table.
+pub const TABLE: crate::config_table::TableEntry =
+    crate::config_table::TableEntry::of::<config::TrackingConfig>();
 
 /// Floats per body per reference frame: position 3, quaternion 4, linear and angular velocity 3 +
 /// 3.
@@ -141,7 +147,7 @@ pub struct Tracking {
 impl Tracking {
     /// The task over `motion`, posed in `scene`.
     pub fn new(cfg: &EnvConfig, motion: Motion, scene: Arc<Scene>) -> Result<Self, EnvError> {
-        let t = cfg.tracking.clone();
+        let t = cfg.table::<TrackingConfig>().clone();
         let character = scene.character().clone();
         let bodies = formulas::tracked_bodies(&character, t.fingers);
         let refs = reference_frames(scene, &motion)?;
@@ -311,7 +317,7 @@ impl Task for Tracking {
 /// `motion`) and `[env.tracking]`.
 pub fn build(cfg: &EnvConfig) -> Result<Box<dyn Env>, EnvError> {
     cfg.validate_driver()?;
-    cfg.tracking.validate()?;
+    cfg.table::<TrackingConfig>().validate()?;
     let scene = Arc::new(Scene::new(cfg.scene_options()?)?);
     let character = cfg.resolved_character()?;
     let motion = Motion::load(&cfg.motion, character)?;

@@ -53,6 +53,11 @@ pub struct HlcConfig {
     pub start_frame: usize,
 }
 
+impl crate::config_table::TaskConfig for HlcConfig {
+    const KEY: &'static str = "hlc";
+    const DOC: &'static str = "Options shared by the high-level tasks (heading, circling, throwing, scoring, steering, reach).";
+}
+
 impl Default for HlcConfig {
     fn default() -> Self {
         Self {
@@ -98,6 +103,11 @@ pub struct HeadingConfig {
     pub success_radius: f64,
 }
 
+impl crate::config_table::TaskConfig for HeadingConfig {
+    const KEY: &'static str = "heading";
+    const DOC: &'static str = "Options of the `heading` task.";
+}
+
 impl Default for HeadingConfig {
     fn default() -> Self {
         Self {
@@ -131,6 +141,11 @@ pub struct SteeringConfig {
     /// k in the reward exp(−k·‖v*·d − v_root,xy‖²) (1/(m/s)², ASE's velocity-error scale 0.25).
     #[schemars(extend("exclusiveMinimum" = 0))]
     pub error_scale: f64,
+}
+
+impl crate::config_table::TaskConfig for SteeringConfig {
+    const KEY: &'static str = "steering";
+    const DOC: &'static str = "Options of the `steering` task (ModSkill's downstream task).";
 }
 
 impl Default for SteeringConfig {
@@ -173,6 +188,11 @@ pub struct ReachConfig {
     /// Most low-level steps before a new target is drawn.
     #[schemars(range(min = 1))]
     pub change_steps_max: u32,
+}
+
+impl crate::config_table::TaskConfig for ReachConfig {
+    const KEY: &'static str = "reach";
+    const DOC: &'static str = "Options of the `reach` task (ModSkill's downstream task).";
 }
 
 impl Default for ReachConfig {
@@ -223,6 +243,11 @@ pub struct CirclingConfig {
     pub code_latch_radius: f64,
 }
 
+impl crate::config_table::TaskConfig for CirclingConfig {
+    const KEY: &'static str = "circling";
+    const DOC: &'static str = "Options of the `circling` task.";
+}
+
 impl Default for CirclingConfig {
     fn default() -> Self {
         Self {
@@ -253,6 +278,11 @@ pub struct ThrowingConfig {
     /// Seconds after the first throw (60 low-level steps per second).
     #[schemars(extend("exclusiveMinimum" = 0))]
     pub success_seconds: f64,
+}
+
+impl crate::config_table::TaskConfig for ThrowingConfig {
+    const KEY: &'static str = "throwing";
+    const DOC: &'static str = "Options of the `throwing` task.";
 }
 
 impl Default for ThrowingConfig {
@@ -311,6 +341,11 @@ pub struct ScoringConfig {
     /// within this distance (m) of it.
     #[schemars(extend("exclusiveMinimum" = 0))]
     pub success_radius: f64,
+}
+
+impl crate::config_table::TaskConfig for ScoringConfig {
+    const KEY: &'static str = "scoring";
+    const DOC: &'static str = "Options of the `scoring` task.";
 }
 
 impl Default for ScoringConfig {

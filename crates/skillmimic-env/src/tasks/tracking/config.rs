@@ -42,6 +42,12 @@ pub struct TrackingConfig {
     pub clip_weights: BTreeMap<String, f64>,
 }
 
+impl crate::config_table::TaskConfig for TrackingConfig {
+    const KEY: &'static str = "tracking";
+    const DOC: &'static str =
+        "Options of the `tracking` task (motion tracking without the ball; ModSkill).";
+}
+
 impl Default for TrackingConfig {
     fn default() -> Self {
         Self {

@@ -22,6 +22,8 @@
 //! **MuJoCo access** (`mujoco()`: state reads and edits, rendering) is routed to the sub-batch
 //! holding environment i. Not multiplexed: `pd_targets` is empty.
 
+pub mod config;
+
 use std::any::Any;
 
 use std::sync::Arc;
@@ -30,11 +32,16 @@ use mujoco_rs::prelude::MjModel;
 use skillmimic_sim::{MjBatch, SimError};
 
 use crate::config::EnvConfig;
-use crate::config_multi::split;
 use crate::error::{EnvError, bad};
 use crate::registry;
 use crate::task::TaskSpec;
+use crate::tasks::multi::config::MultiConfig;
 use crate::vec_env::{Env, StepBuffers};
+use config::split;
+
+/// The `[env.multi]` table.
+pub const TABLE: crate::config_table::TableEntry =
+    crate::config_table::TableEntry::of::<config::MultiConfig>();
 
 /// One task's sub-batch and where its columns go.
 struct Sub {
@@ -72,7 +79,7 @@ impl MultiEnv {
     /// Build every task's sub-batch (environment counts from `env.multi.mix`; sub-batch k's episode
     /// starts of batch row r seeded with `start_seed(0) + r`) and lay out the combined observation.
     pub fn new(cfg: &EnvConfig) -> Result<Self, EnvError> {
-        let m = &cfg.multi;
+        let m = cfg.table::<MultiConfig>();
         let (tasks, mix) = m.effective(&cfg.task);
         let counts = split(cfg.num_envs, tasks.len(), &mix)?;
         let base_seed = cfg.start_seed(0);

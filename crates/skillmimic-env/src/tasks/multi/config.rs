@@ -24,6 +24,11 @@ pub struct MultiConfig {
     pub groups: Vec<String>,
 }
 
+impl crate::config_table::TaskConfig for MultiConfig {
+    const KEY: &'static str = "multi";
+    const DOC: &'static str = "Options of the multi-task environments (`hsi_multi`, `hlc_multi`).";
+}
+
 impl MultiConfig {
     /// The tasks and mix in effect for the registered multi-task environment `name`.
     pub fn effective(&self, name: &str) -> (Vec<String>, Vec<f64>) {
