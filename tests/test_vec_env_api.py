@@ -201,7 +201,11 @@ def test_every_registered_task_runs_through_the_python_vecenv(tmp_path):
             env.close()
     stand = skillmimic_rs.VecEnv(num_envs=2, task="stand")
     assert stand.single_observation_space.shape == (826,) and stand.reward_term_names == ["height", "heading", "total"]
-    with pytest.raises(ValueError, match="only the imitation task"):
-        stand.episode_info()
+    # the episode fields come from the task's declaration: stand declares none
+    assert stand.episode_names == [] and stand.episode_info() == {}
+    # bounds from the declared blocks: the proprioception's rotation columns, nothing else
+    rot = [(a, b) for name, a, b, lo, hi in stand._core.obs_blocks if name == "body_rot"]
+    (a, b), = rot
+    assert (stand.single_observation_space.low[a:b] == -1).all() and np.isinf(stand.single_observation_space.low[:a]).all()
     with pytest.raises(ValueError, match="env.task"):
         skillmimic_rs.VecEnv(num_envs=2, task="juggle")

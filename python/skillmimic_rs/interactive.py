@@ -87,24 +87,24 @@ def has_display() -> bool:
     return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
 
 
-def _draw_goal(scene: Any, task: str, info: dict[str, float], cfg: dict[str, Any]) -> None:
+def _draw_markers(scene: Any, markers: Sequence[dict[str, Any]]) -> None:
+    """Draw the task's markers (``VecEnv.task_markers``: goal spheres, rings, hoops) into the
+    viewer's user scene."""
     import mujoco
 
     scene.ngeom = 0
-    if "goal_x" not in info:
-        return
-    x, y = info["goal_x"], info["goal_y"]
-    z = {"heading": cfg.get("heading", {}).get("target_height", 1.0), "scoring": cfg.get("scoring", {}).get("basket_height", 2.5)}.get(task, 0.05)
-    mujoco.mjv_initGeom(scene.geoms[0], mujoco.mjtGeom.mjGEOM_SPHERE, [0.12, 0, 0], [x, y, z], np.eye(3).ravel(), np.array([0.9, 0.1, 0.1, 0.8], np.float32))
-    scene.ngeom = 1
-    if "radius" in info:
-        r, k = info["radius"], 40
-        for i in range(k):
-            a0, a1 = 2 * np.pi * i / k, 2 * np.pi * (i + 1) / k
-            g = scene.geoms[scene.ngeom]
-            mujoco.mjv_initGeom(g, mujoco.mjtGeom.mjGEOM_CAPSULE, np.zeros(3), np.zeros(3), np.eye(3).ravel(), np.array([0.1, 0.3, 0.9, 0.7], np.float32))
-            mujoco.mjv_connector(g, mujoco.mjtGeom.mjGEOM_CAPSULE, 0.015, [x + r * np.cos(a0), y + r * np.sin(a0), 0.01], [x + r * np.cos(a1), y + r * np.sin(a1), 0.01])
-            scene.ngeom += 1
+    eye = np.eye(3).ravel()
+    for m in markers[: scene.maxgeom]:
+        g = scene.geoms[scene.ngeom]
+        rgba = np.asarray(m["rgba"], np.float32)
+        if m["kind"] == "sphere":
+            mujoco.mjv_initGeom(g, mujoco.mjtGeom.mjGEOM_SPHERE, [m["radius"], 0, 0], np.asarray(m["pos"]), eye, rgba)
+        elif m["kind"] == "box":
+            mujoco.mjv_initGeom(g, mujoco.mjtGeom.mjGEOM_BOX, np.asarray(m["half"]), np.asarray(m["pos"]), eye, rgba)
+        else:
+            mujoco.mjv_initGeom(g, mujoco.mjtGeom.mjGEOM_CAPSULE, np.zeros(3), np.zeros(3), eye, rgba)
+            mujoco.mjv_connector(g, mujoco.mjtGeom.mjGEOM_CAPSULE, m["radius"], np.asarray(m["from"]), np.asarray(m["to"]))
+        scene.ngeom += 1
 
 
 def play(task: str, llc: str | os.PathLike, checkpoint: str | os.PathLike | None = None, *, seed: int = 0, realtime: bool = True, **config: Any) -> None:
@@ -157,7 +157,7 @@ def play(task: str, llc: str | os.PathLike, checkpoint: str | os.PathLike | None
             data.qpos[:], data.qvel[:] = qpos, qvel
             mujoco.mj_forward(model, data)
             with v.lock():
-                _draw_goal(v.user_scn, task, dict(zip(names, env.task_info()[0].tolist())), env.config)
+                _draw_markers(v.user_scn, env.task_markers(0))
             v.sync()
             if realtime:
                 time.sleep(max(0.0, dt - (time.perf_counter() - t0)))

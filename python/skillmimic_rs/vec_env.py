@@ -29,7 +29,7 @@ import os
 import pathlib
 import tempfile
 import threading
-from typing import Any, Mapping
+from typing import Any, Mapping, Sequence
 
 import gymnasium as gym
 import numpy as np
@@ -75,19 +75,14 @@ def _parse_mode(mode: str | AutoresetMode) -> AutoresetMode:
     raise ValueError(f"autoreset_mode {mode!r} is not supported: use 'same_step', 'next_step' or 'disabled' (or the AutoresetMode members)")
 
 
-def _observation_space(task: str, dim: int) -> gym.spaces.Box:
-    """One environment's observation space: finite bounds where the values are bounded by
-    construction (the imitation observation's rotation-matrix columns in [-1, 1] and its skill
-    one-hot in [0, 1]; ``OBS_BLOCKS``), unbounded elsewhere."""
+def _observation_space(blocks: Sequence[tuple[str, int, int, float, float]], dim: int) -> gym.spaces.Box:
+    """One environment's observation space: finite bounds where the task declares its values
+    bounded by construction (rotation-matrix columns in [-1, 1], one-hot entries in [0, 1]; the
+    core's ``obs_blocks``), unbounded elsewhere."""
     low = np.full(dim, -np.inf, np.float32)
     high = np.full(dim, np.inf, np.float32)
-    if task == "imitation" and dim >= _core.OBS_DIM:
-        blocks = _core.OBS_BLOCKS
-        for name in ("body_rot", "ball_rot"):
-            a, b = blocks[name]
-            low[a:b], high[a:b] = -1.0, 1.0
-        a, b = blocks["skill"]
-        low[a:b], high[a:b] = 0.0, 1.0
+    for _, a, b, lo, hi in blocks:
+        low[a:b], high[a:b] = lo, hi
     return gym.spaces.Box(low, high, (dim,), np.float32)
 
 
@@ -183,7 +178,7 @@ class VecEnv(gym.vector.VectorEnv):
         self.render_mode = render_mode
         self.copy = copy
         n, d, a = num_envs, self._core.obs_dim, self._core.act_dim
-        self.single_observation_space = _observation_space(self._core.task, d)
+        self.single_observation_space = _observation_space(self._core.obs_blocks, d)
         kind, size = self._core.action_space
         if kind == "discrete":
             self.single_action_space = gym.spaces.Discrete(size)
@@ -192,6 +187,8 @@ class VecEnv(gym.vector.VectorEnv):
         self.observation_space = batch_space(self.single_observation_space, n)
         self.action_space = batch_space(self.single_action_space, n)
         self._obs = np.zeros((n, d), np.float32)
+        # the episode fields reported in every info dict (of those the task declares)
+        self._episode_keys = [k for k in ("clip", "ref_frame", "progress", "skill") if k in self._core.episode_names]
         self._rew = np.zeros(n, np.float32)
         self._term = np.zeros(n, bool)
         self._trunc = np.zeros(n, bool)
@@ -457,9 +454,21 @@ class VecEnv(gym.vector.VectorEnv):
         self._check_open()
         return self._core.history_window(i)
 
+    @property
+    def episode_names(self) -> list[str]:
+        """Keys of ``episode_info()``."""
+        return list(self._core.episode_names)
+
+    def task_markers(self, i: int = 0) -> list[dict[str, Any]]:
+        """The task's visual markers for environment ``i``'s current information row (goal
+        spheres, rings, hoops: dicts with ``kind``, world-metre positions and ``rgba``)."""
+        self._check_open()
+        return self._core.markers(np.ascontiguousarray(self.task_info()[int(i)], dtype=np.float32))
+
     def episode_info(self) -> dict[str, np.ndarray]:
-        """Per-environment clip index, start/reference frame, progress, length and skill label
-        (imitation task; other tasks raise ``ValueError``)."""
+        """The per-environment episode fields the task declares (``episode_names``; imitation:
+        clip index, start/reference frame, progress, length and skill label; tracking: clip and
+        reference frame; an empty dict for the other tasks)."""
         self._check_open()
         return self._core.episode_info()
 
@@ -485,9 +494,9 @@ class VecEnv(gym.vector.VectorEnv):
         n = self.num_envs
         every = np.ones(n, bool)
         info: dict[str, Any] = {}
-        if self._core.task == "imitation":
+        if self._episode_keys:
             ep = self._core.episode_info()
-            for k in ("clip", "ref_frame", "progress", "skill"):
+            for k in self._episode_keys:
                 info[k], info["_" + k] = ep[k], every
         if step:
             # columns: reward_term_names, contact_graph_names (task info), frame_metric_names;
@@ -495,10 +504,9 @@ class VecEnv(gym.vector.VectorEnv):
             any_reset = bool(self._reset_rows.any())
             stepped = ~self._reset_rows if any_reset else every
             res: dict[str, np.ndarray] = {"reward_terms": self._core.reward_terms()}
-            if self._core.cg_names and self._core.task == "imitation":
-                res["contact_graph"] = self.contact_graph()
-            elif self._core.cg_names:
-                res["task_info"] = self.task_info()
+            if self._core.cg_names:
+                label = self._core.info_label
+                res[label] = self.contact_graph() if label == "contact_graph" else self.task_info()
             res["frame_metrics"] = self._core.frame_metrics()
             # MuJoCo's instability warnings (physics reset, episode terminated) per environment
             res["unstable"] = self._core.unstable()

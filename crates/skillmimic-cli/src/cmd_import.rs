@@ -48,7 +48,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                 "--task: '{t}' is not a high-level task ({})",
                 skillmimic_env::registry::TASKS
                     .iter()
-                    .filter(|e| e.high_level)
+                    .filter(|e| e.high_level.is_some())
                     .map(|e| e.name)
                     .collect::<Vec<_>>()
                     .join(", ")

@@ -13,8 +13,8 @@ use skillmimic_learn::policy::{InferenceBuffers, Policy};
 use skillmimic_sim::{BatchSim, Scene};
 
 use crate::common::{ConfigFlags, load_checkpoint};
-use crate::markers::{Marker, task_markers};
 use crate::video::{Frames, SceneRenderer, write_video};
+use skillmimic_env::markers::Marker;
 use skillmimic_env::tasks::hlc::config::HlcConfig;
 
 #[derive(clap::Args)]
@@ -65,7 +65,7 @@ fn interactive(ckpt: &Path, flags: &ConfigFlags) -> anyhow::Result<()> {
     if !skillmimic_env::registry::is_high_level(&cfg.env.task) {
         let high: Vec<&str> = skillmimic_env::registry::TASKS
             .iter()
-            .filter(|t| t.high_level)
+            .filter(|t| t.high_level.is_some())
             .map(|t| t.name)
             .collect();
         bail!(
@@ -194,15 +194,12 @@ pub fn video_rate(steps_per_action: usize, fps: u32) -> (usize, u32) {
 /// Render a rollout of a task's environment: its markers from the information rows.
 fn render_rollout(
     env: &dyn Env,
-    cfg: &skillmimic_env::EnvConfig,
     r: &Rollout,
     fps: u32,
     w: usize,
     h: usize,
 ) -> anyhow::Result<Frames> {
-    let names = &env.spec().info_names;
-    let markers: Vec<Vec<Marker>> =
-        r.info.iter().map(|row| task_markers(cfg, names, row)).collect();
+    let markers: Vec<Vec<Marker>> = r.info.iter().map(|row| env.markers(row)).collect();
     let (stride, fps) = video_rate(env.spec().steps_per_action, fps);
     render_states(env.mujoco().env_model(0), &r.qpos, Some(&markers), stride, w, h, fps)
 }
@@ -212,14 +209,13 @@ fn render_rollout(
 pub fn render_policy_video(
     policy: &Policy,
     mut env: Box<dyn Env>,
-    cfg: &skillmimic_env::EnvConfig,
     seed: u64,
     steps: usize,
     path: &Path,
     (w, h): (usize, usize),
 ) -> anyhow::Result<()> {
     let states = rollout_states(policy, env.as_mut(), steps, false, seed)?;
-    let frames = render_rollout(env.as_ref(), cfg, &states, 30, w, h)?;
+    let frames = render_rollout(env.as_ref(), &states, 30, w, h)?;
     write_video(path, &frames)
 }
 
@@ -265,7 +261,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                 println!("states {} ({} steps)", p.display(), r.qpos.len());
             }
             if let Some(p) = &a.video {
-                let frames = render_rollout(env.as_ref(), &cfg.env, &r, a.fps, a.width, a.height)?;
+                let frames = render_rollout(env.as_ref(), &r, a.fps, a.width, a.height)?;
                 write_video(p, &frames)?;
                 println!(
                     "video  {} ({} frames at {} fps)",

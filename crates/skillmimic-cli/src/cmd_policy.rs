@@ -6,13 +6,11 @@ use std::path::PathBuf;
 use anyhow::{Context, bail};
 use serde::Serialize;
 use skillmimic_core::tensorfile::{OwnedTensor, TensorFile, write_atomic};
-use skillmimic_env::SkillEnv;
 use skillmimic_learn::checkpoint;
 use skillmimic_learn::eval::{EvalReport, evaluate};
 use skillmimic_learn::policy::InferenceBuffers;
 
 use crate::common::{ConfigFlags, init_learner_threads, load_checkpoint};
-use skillmimic_env::tasks::tracking::config::TrackingConfig;
 
 /// File format of `skillmimic export`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -194,25 +192,16 @@ pub fn eval(a: EvalArgs) -> anyhow::Result<()> {
         ),
     };
     a.flags.apply(&mut cfg)?;
-    match (cfg.env.task.as_str(), a.horizon, a.start_frame) {
-        ("imitation", h, f) => {
-            if let Some(h) = h {
-                cfg.env.fixed_horizon = h;
-            }
-            if let Some(f) = f {
-                cfg.env.state_init = skillmimic_env::StateInit::Frame(f);
-            }
-        }
-        // tracking episodes run to the clip's end from frame 0 or from random frames
-        ("tracking", None, Some(0)) => cfg.env.table_mut::<TrackingConfig>().random_start = false,
-        ("tracking", None, Some(f)) => bail!(
-            "--start-frame {f}: the tracking task evaluates from frame 0 (--start-frame 0, whole clips) or from random frames (no flag)"
-        ),
-        (task, Some(_), _) | (task, _, Some(_)) => bail!(
-            "--horizon and --start-frame set up imitation episodes (and --start-frame 0 tracking ones); task '{task}' starts and ends its episodes by its own rules"
-        ),
-        _ => {}
-    }
+    let entry = skillmimic_env::registry::entry(&cfg.env.task).ok_or_else(|| {
+        anyhow::anyhow!(
+            "task '{}' is not registered; registered: {}",
+            cfg.env.task,
+            skillmimic_env::registry::names().join(", ")
+        )
+    })?;
+    let starts =
+        skillmimic_env::task::EpisodeStarts { horizon: a.horizon, start_frame: a.start_frame };
+    (entry.episode_starts)(&mut cfg.env, starts).map_err(anyhow::Error::msg)?;
     if a.episodes == 0 {
         bail!("--episodes must be at least 1");
     }
@@ -221,7 +210,8 @@ pub fn eval(a: EvalArgs) -> anyhow::Result<()> {
     }
     // more environments than episodes would only burn time (each env contributes its first ones)
     cfg.env.num_envs = cfg.env.num_envs.min(a.episodes);
-    if cfg.env.task != "imitation" || a.baselines {
+    let skillmimic = entry.evaluation == skillmimic_env::registry::Evaluation::SkillMimic;
+    if !skillmimic || a.baselines {
         // tasks other than imitation: the task-independent episode report (and baselines)
         if a.sweep || a.v2 || a.init_noise.is_some() {
             bail!(
@@ -243,7 +233,7 @@ pub fn eval(a: EvalArgs) -> anyhow::Result<()> {
         a.checkpoint.clone().unwrap_or_default(),
     );
     let run_one = |env_cfg: skillmimic_env::EnvConfig| -> anyhow::Result<EvalReport> {
-        let mut env = SkillEnv::from_config(env_cfg)?;
+        let mut env = skillmimic_env::registry::make(&env_cfg)?;
         if (env.obs_dim(), env.act_dim()) != (c.policy.obs_dim(), c.policy.act_dim()) {
             bail!(
                 "{}: the policy expects observations of {} and actions of {}",
@@ -252,7 +242,7 @@ pub fn eval(a: EvalArgs) -> anyhow::Result<()> {
                 c.policy.act_dim()
             );
         }
-        Ok(evaluate(&c.policy, &mut env, a.episodes, a.seed, a.stochastic, 0))
+        Ok(evaluate(&c.policy, env.as_mut(), a.episodes, a.seed, a.stochastic, 0))
     };
     let mut eval_env = cfg.env.clone();
     if let Some(e) = a.init_noise {

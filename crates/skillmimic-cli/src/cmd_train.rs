@@ -5,7 +5,6 @@ use std::io::IsTerminal;
 use std::path::Path;
 
 use indicatif::{ProgressBar, ProgressStyle};
-use skillmimic_env::{Env, SkillEnv};
 use skillmimic_learn::runner::{HookOutput, RunHook, Runner};
 use skillmimic_learn::trainer::{IterationStats, Trainer};
 
@@ -39,17 +38,13 @@ impl RunHook for VideoHook {
         let mut c = t.cfg.env.clone();
         c.num_envs = 1;
         c.threads = 1;
-        // the imitation task reuses the trainer's motion library
-        let env: Box<dyn Env> = match t.env.as_any().downcast_ref::<SkillEnv>() {
-            Some(e) => Box::new(SkillEnv::new(c, e.library().clone())?),
-            None => skillmimic_env::registry::make(&c)?,
-        };
+        // the imitation task reuses the trainer's motion library (`build_sharing`)
+        let env = skillmimic_env::registry::make_sharing(&c, t.env.as_ref())?;
         let path = out.join("video.gif");
         Ok(
             match crate::cmd_play::render_policy_video(
                 &t.policy,
                 env,
-                &t.cfg.env,
                 t.cfg.run.seed,
                 180,
                 &path,

@@ -30,7 +30,6 @@ mod cmd_trace;
 mod cmd_train;
 mod common;
 mod demo;
-mod markers;
 mod plot;
 mod plot_draw;
 mod video;

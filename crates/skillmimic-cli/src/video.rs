@@ -15,7 +15,7 @@ use mujoco_rs::prelude::*;
 use mujoco_rs::renderer::MjRenderer;
 use mujoco_rs::wrappers::mj_model::MjtObjBase;
 
-use crate::markers::Marker;
+use skillmimic_env::markers::{MAX_MARKERS, Marker};
 
 /// RGB frames of one size.
 pub struct Frames {
@@ -42,7 +42,7 @@ impl SceneRenderer {
             .width(width as u32)
             .height(height as u32)
             .rgb(true)
-            .num_visual_user_geom(crate::markers::MAX_MARKERS as u32)
+            .num_visual_user_geom(MAX_MARKERS as u32)
             .camera(camera)
             .build(model)
             .map_err(|e| {
@@ -58,7 +58,7 @@ impl SceneRenderer {
     pub fn render_marked(&mut self, qpos: &[f64], markers: &[Marker]) -> anyhow::Result<Vec<u8>> {
         let scene = self.renderer.user_scene_mut();
         scene.clear_geom();
-        for m in markers.iter().take(crate::markers::MAX_MARKERS) {
+        for m in markers.iter().take(MAX_MARKERS) {
             // SAFETY: the created geoms keep the "none" material, texture and object ids.
             match *m {
                 Marker::Sphere { pos, radius, rgba } => unsafe {

@@ -429,29 +429,6 @@ mod tests {
     use super::*;
 
     #[test]
-    fn task_tables_load_from_their_keys_and_unknown_keys_are_named() {
-        use crate::tasks::hlc::config::HlcConfig;
-        use crate::tasks::hsi::config::HsiConfig;
-        use crate::tasks::stand::StandConfig;
-        // the layout saved configurations of every earlier version use
-        let c: EnvConfig = toml::from_str(
-            "task = \"stand\"\n[stand]\nstart_height = 0.95\nepisode_length = 7\n[hlc]\nllc_steps = 2\n[hsi.follow]\nepisode_length = 9\n",
-        )
-        .unwrap();
-        assert_eq!(c.table::<StandConfig>().episode_length, 7);
-        assert_eq!(c.table::<StandConfig>().start_height, 0.95);
-        assert_eq!(c.table::<HlcConfig>().llc_steps, 2);
-        assert_eq!(c.table::<HsiConfig>().follow.episode_length, 9);
-        // written back and read again: the same configuration
-        let text = toml::to_string(&c).unwrap();
-        assert_eq!(toml::from_str::<EnvConfig>(&text).unwrap(), c);
-        let e = toml::from_str::<EnvConfig>("[juggle]\nballs = 3\n").unwrap_err().to_string();
-        assert!(e.contains("unknown field `juggle`") && e.contains("stand") && e.contains("hlc"), "{e}");
-        let e = toml::from_str::<EnvConfig>("[stand]\nhieght = 3\n").unwrap_err().to_string();
-        assert!(e.contains("[env.stand]") && e.contains("hieght"), "{e}");
-    }
-
-    #[test]
     fn toml_overrides_and_rejects_unknown_keys() {
         let c: EnvConfig = toml::from_str(
             "num_envs = 8\nstate_init = { frame = 5 }\n[reward]\nvariant = \"additive\"\nw_p = 10.0\n[ball]\nradius_scale = 1.2\n",

@@ -9,6 +9,9 @@
 //! * [`config`], [`config_v2`], [`config_table`]: typed configuration with the papers' defaults —
 //!   the driver's and the imitation task's keys, and the tables each task owns;
 //! * [`compat`]: the `env.compat` profile (paper vs released code where they differ);
+//! * [`markers`]: visual-only task markers (goal spheres, rings, hoops) for videos and viewers;
+//! * [`obs_blocks`]: named observation blocks and the layouts tasks declare (ONNX metadata,
+//!   gymnasium bounds);
 //! * [`obs`]: the 902-wide skill-policy observation and its index table;
 //! * [`hoi`]: HOI states (simulated and reference) and contact-graph states;
 //! * [`reward`]: the unified HOI imitation reward, every sub-term and the ablation variants;
@@ -29,8 +32,10 @@ pub mod config_v2;
 pub mod episode;
 pub mod error;
 pub mod hoi;
+pub mod markers;
 pub mod metrics;
 pub mod obs;
+pub mod obs_blocks;
 pub mod proprio;
 pub mod registry;
 pub mod replay;

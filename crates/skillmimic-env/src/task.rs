@@ -34,9 +34,9 @@ pub struct TaskSpec {
     /// Longest episode in policy steps (time limit; gymnasium's `max_episode_steps`).
     pub max_episode_steps: usize,
     /// Names of the reward terms written per step (the last one is usually the total).
-    pub term_names: Vec<&'static str>,
+    pub term_names: Vec<String>,
     /// Names of the per-step metrics (units in each task's doc).
-    pub metric_names: Vec<&'static str>,
+    pub metric_names: Vec<String>,
     /// Names of the per-step task information entries (imitation: the contact-graph states;
     /// high-level tasks: the goal of the current episode).
     pub info_names: Vec<String>,
@@ -51,6 +51,66 @@ pub struct TaskSpec {
     /// group is active). A token policy gives each group but the mask one token. Empty: the
     /// task declares no groups.
     pub token_groups: Vec<(String, usize)>,
+    /// The observation's named blocks in column order, with their bounds where the values are
+    /// bounded by construction (rotation columns, one-hot entries): documentation, the ONNX
+    /// metadata and the gymnasium observation space read them. Empty: one unnamed block.
+    pub obs_blocks: Vec<crate::obs_blocks::ObsBlock>,
+    /// The key under which the per-step task information (`info_names`) is reported to Python:
+    /// `"contact_graph"` (the imitation task's simulated contact-graph states) or `"task_info"`.
+    pub info_label: &'static str,
+    /// Per-environment episode fields a task reports ([`crate::vec_env::Env::episode_info`],
+    /// e.g. the clip, frame and skill of the imitation task); empty: none.
+    pub episode_names: Vec<&'static str>,
+}
+
+impl Default for TaskSpec {
+    fn default() -> Self {
+        Self {
+            name: "",
+            obs_dim: 0,
+            action_space: ActionSpace::Box { dim: 0 },
+            max_episode_steps: 0,
+            term_names: Vec::new(),
+            metric_names: Vec::new(),
+            info_names: Vec::new(),
+            steps_per_action: 1,
+            choice_labels: Vec::new(),
+            token_groups: Vec::new(),
+            obs_blocks: Vec::new(),
+            info_label: "task_info",
+            episode_names: Vec::new(),
+        }
+    }
+}
+
+/// What an evaluation asks of the episode starts (`skillmimic eval --horizon H --start-frame
+/// F`): each task applies it to its configuration in its own terms, or refuses it
+/// (`TaskEntry::episode_starts`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct EpisodeStarts {
+    /// Episode length in policy steps.
+    pub horizon: Option<usize>,
+    /// The reference frame every episode starts from.
+    pub start_frame: Option<usize>,
+}
+
+impl EpisodeStarts {
+    /// The refusal of a task whose episodes start and end by its own rules (the default of
+    /// tasks that declare nothing).
+    pub fn refuse(cfg: &mut crate::config::EnvConfig, s: EpisodeStarts) -> Result<(), String> {
+        if s == EpisodeStarts::default() {
+            return Ok(());
+        }
+        Err(format!(
+            "--horizon and --start-frame set up episodes of the tasks that start from clip frames (imitation, tracking); task '{}' starts and ends its episodes by its own rules",
+            cfg.task
+        ))
+    }
+}
+
+/// Owned names from literals (term, metric names).
+pub fn names(v: &[&str]) -> Vec<String> {
+    v.iter().map(|s| s.to_string()).collect()
 }
 
 /// The action space of a task.
@@ -157,4 +217,20 @@ pub trait Task: Send + Sync + 'static {
     }
     /// Batch-level work after every environment stepped.
     fn after_step(&mut self, _slots: &[Self::Slot], _reward: &mut [f32], _terms: &[f32]) {}
+    /// The episode fields of one environment in [`TaskSpec::episode_names`] order (`out` is as
+    /// long as those names; default: none declared).
+    fn episode_info(&self, _slot: &Self::Slot, _out: &mut [i64]) {}
+    /// The motion library the task plays, where it loads one: environments of the same task
+    /// built for evaluation or videos share it ([`crate::registry::make_sharing`]).
+    fn library(&self) -> Option<&std::sync::Arc<skillmimic_motion::MotionLibrary>> {
+        None
+    }
+    /// The SkillMimic-V2 history window (`k × 316`, oldest first) of one environment, where the
+    /// task keeps one (default: none).
+    fn history_window(&self, _slot: &Self::Slot) -> Option<Vec<f32>> {
+        None
+    }
+    /// Append the visual markers of an information row (`info_names` order; world metres) to
+    /// `out`: what videos and the interactive viewer draw for the task (default: none).
+    fn markers(&self, _info: &[f32], _out: &mut Vec<crate::markers::Marker>) {}
 }

@@ -64,7 +64,7 @@ fn start_state_observation_and_reward_follow_the_definition() {
                 st.pos(0)[2]
             );
             assert!(
-                (st.pos(0)[2] - c.start_height).abs() < 0.1,
+                (st.pos(0)[2] - start).abs() < 0.1,
                 "step {step} env {i}: pelvis {:.3} m",
                 st.pos(0)[2]
             );

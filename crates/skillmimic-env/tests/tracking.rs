@@ -45,7 +45,7 @@ fn kinematic_replay_scores_one_with_zero_error_on_every_character() {
                 sim.reset(&[true], std::slice::from_ref(&state)).unwrap();
                 let st = sim.state().env(0);
                 let e = formulas::errors(&st, &task.reference(clip).frame(t), &bodies);
-                let r = formulas::reward(&e, 0.0, &c.table::<TrackingConfig>());
+                let r = formulas::reward(&e, 0.0, c.table::<TrackingConfig>());
                 worst = worst
                     .max(e.dist)
                     .max(e.dist_rel)

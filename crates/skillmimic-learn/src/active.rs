@@ -50,8 +50,8 @@ pub struct RoundReport {
 
 /// Whether `policy` tracks the clip file `path` to its end (see the module doc).
 pub fn evaluate_clip(policy: &Policy, cfg: &TrainConfig, path: &Path) -> Result<bool, LearnError> {
+    // the run's task: one that declares active learning (checked by `ActiveConfig::validate`)
     let mut e = cfg.env.clone();
-    e.task = "tracking".into();
     e.motion = vec![path.to_path_buf()];
     e.num_envs = 1;
     e.threads = 1;

@@ -396,7 +396,8 @@ impl TrainConfig {
         if self.ppo.hidden == PpoConfig::default().hidden {
             self.ppo.hidden = vec![1024, 512];
         }
-        let parts = if self.env.task == "scoring" { 4 } else { 2 };
+        let entry = skillmimic_env::registry::entry(&self.env.task);
+        let parts = entry.and_then(|e| e.high_level).map_or(2, |h| h.minibatches);
         self.ppo.minibatch = (self.batch_size() / parts).max(1);
     }
 

@@ -59,9 +59,15 @@ impl ActiveConfig {
         if !self.enabled {
             return Ok(());
         }
-        if task != "tracking" {
+        if !skillmimic_env::registry::entry(task).is_some_and(|e| e.active_learning) {
+            let able: Vec<&str> = skillmimic_env::registry::TASKS
+                .iter()
+                .filter(|e| e.active_learning)
+                .map(|e| e.name)
+                .collect();
             return Err(format!(
-                "config field 'run.active.enabled': active skill learning runs on the tracking task, not '{task}'"
+                "config field 'run.active.enabled': active skill learning runs on the task(s) {}, not '{task}'",
+                able.join(", ")
             ));
         }
         match self.generator.as_str() {

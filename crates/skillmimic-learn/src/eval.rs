@@ -11,7 +11,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 use skillmimic_env::metrics::{FrameState, ImitationMetrics, V1Success, V2Success, skill_kind};
-use skillmimic_env::{EnvConfig, EnvError, SkillEnv, StateInit};
+use skillmimic_env::{Env, EnvConfig, EnvError, SkillEnv, StateInit};
 use skillmimic_motion::MotionLibrary;
 use skillmimic_sim::BALL;
 use std::sync::Arc;
@@ -194,25 +194,50 @@ pub fn target_heights(lib: &MotionLibrary) -> BTreeMap<u32, f64> {
     m
 }
 
-fn tracker(env: &SkillEnv, i: usize, heights: &BTreeMap<u32, f64>) -> EpisodeTracker {
-    let ep = env.episode(i);
-    let target = heights
-        .get(&ep.skill)
-        .copied()
-        .unwrap_or_else(|| max_ball_height(&env.library().get(ep.clip).clip));
-    EpisodeTracker::new(ep.skill, target)
+/// The imitation episode fields the evaluation reads ([`Env::episode_info`]: `clip`,
+/// `progress`, `skill`).
+struct Fields {
+    at: [Option<usize>; 3],
+}
+
+impl Fields {
+    fn of(env: &dyn Env) -> Self {
+        let names = &env.spec().episode_names;
+        let at = ["clip", "progress", "skill"].map(|k| names.iter().position(|n| *n == k));
+        Self { at }
+    }
+    /// (clip, progress, skill) of environment `i` (0 where the task does not report one).
+    fn get(&self, env: &dyn Env, i: usize) -> (usize, usize, u32) {
+        // evaluation only: one small vector per episode start and end
+        let v = env.episode_info(i);
+        let f = |k: Option<usize>| k.and_then(|k| v.get(k)).map_or(0, |&x| x.max(0) as usize);
+        (f(self.at[0]), f(self.at[1]), f(self.at[2]) as u32)
+    }
+}
+
+fn tracker(
+    env: &dyn Env,
+    fields: &Fields,
+    i: usize,
+    heights: &BTreeMap<u32, f64>,
+) -> EpisodeTracker {
+    let (clip, _, skill) = fields.get(env, i);
+    let target = heights.get(&skill).copied().unwrap_or_else(|| {
+        env.library().filter(|l| clip < l.len()).map_or(0.0, |l| max_ball_height(&l.get(clip).clip))
+    });
+    EpisodeTracker::new(skill, target)
 }
 
 /// Evaluate `policy` on `env` for `episodes` finished episodes.
 pub fn evaluate(
     policy: &Policy,
-    env: &mut SkillEnv,
+    env: &mut dyn Env,
     episodes: usize,
     seed: u64,
     stochastic: bool,
     threads: usize,
 ) -> EvalReport {
-    let heights = target_heights(env.library());
+    let heights = env.library().map(|l| target_heights(l)).unwrap_or_default();
     evaluate_with(policy, env, episodes, seed, stochastic, threads, &heights)
 }
 
@@ -220,7 +245,7 @@ pub fn evaluate(
 /// library holds only the source skill's clips).
 pub fn evaluate_with(
     policy: &Policy,
-    env: &mut SkillEnv,
+    env: &mut dyn Env,
     episodes: usize,
     seed: u64,
     stochastic: bool,
@@ -234,7 +259,10 @@ pub fn evaluate_with(
     let mut buf = InferenceBuffers::default();
     let (mut mu, mut values, mut actions, mut neglogp) =
         (vec![0.0; n * a], vec![0.0; n], vec![0.0; n * a], vec![0.0; n]);
-    let mut trackers: Vec<EpisodeTracker> = (0..n).map(|i| tracker(env, i, heights)).collect();
+    let fields = Fields::of(env);
+    let mut trackers: Vec<EpisodeTracker> =
+        (0..n).map(|i| tracker(env, &fields, i, heights)).collect();
+    let mut restart = vec![false; n];
     let mut imitation = ImitationMetrics::default();
     let mut rep = EvalReport { seed, deterministic: !stochastic, ..Default::default() };
     let mut tally = EpisodeTally::default();
@@ -245,8 +273,10 @@ pub fn evaluate_with(
     while tally.episodes < episodes {
         env.reset_done();
         for i in 0..n {
-            if env.episode(i).progress == 0 && trackers[i].steps > 0 {
-                trackers[i] = tracker(env, i, heights);
+            // a finished episode was reset by `reset_done`: a new tracker for the new episode
+            if restart[i] {
+                trackers[i] = tracker(env, &fields, i, heights);
+                restart[i] = false;
             }
         }
         policy.infer(&env.buffers().obs, n, &mut buf, &mut mu, &mut values, threads);
@@ -258,7 +288,7 @@ pub fn evaluate_with(
         env.step(&actions).expect("policy actions are finite");
         let b = env.buffers();
         for i in 0..n {
-            let st = env.sim().state().env(i);
+            let st = env.mujoco().env_state(i);
             let fs = FrameState {
                 root_pos: st.pos(0),
                 ball_pos: st.pos(BALL),
@@ -273,9 +303,10 @@ pub fn evaluate_with(
             let done = b.terminated[i] != 0 || b.truncated[i] != 0;
             if done {
                 finished[i] += 1;
+                restart[i] = true;
             }
             if done && counted {
-                tally.finish(env.episode(i).skill, tr, b.terminated[i] != 0);
+                tally.finish(fields.get(env, i).2, tr, b.terminated[i] != 0);
             }
         }
     }

@@ -12,7 +12,6 @@ use std::time::Instant;
 
 use serde::Serialize;
 use skillmimic_core::tensorfile::write_bytes_atomic;
-use skillmimic_env::SkillEnv;
 
 use crate::episode_eval::{EpisodeReport, evaluate_episodes};
 use crate::error::{LearnError, io};
@@ -299,26 +298,22 @@ pub enum TaskEval {
 /// The task's end-of-run evaluation with the deterministic policy, `run.eval_episodes` episodes
 /// on at most 16 environments, seed `run.seed`.
 pub fn evaluate_task(t: &Trainer) -> Result<TaskEval, LearnError> {
+    use skillmimic_env::registry::{self, Evaluation};
     let mut c = t.cfg.env.clone();
     c.num_envs = c.num_envs.min(16);
-    if let Some(env) = t.env.as_any().downcast_ref::<SkillEnv>() {
-        let mut eval_env = SkillEnv::new(c, env.library().clone())?;
-        return Ok(TaskEval::Imitation(evaluate(
+    let mut env = registry::make_sharing(&c, t.env.as_ref())?;
+    let (episodes, seed) = (t.cfg.run.eval_episodes, t.cfg.run.seed);
+    Ok(match registry::entry(&c.task).map(|e| e.evaluation) {
+        Some(Evaluation::SkillMimic) => {
+            TaskEval::Imitation(evaluate(&t.policy, env.as_mut(), episodes, seed, false, 0))
+        }
+        _ => TaskEval::Episodes(evaluate_episodes(
             &t.policy,
-            &mut eval_env,
-            t.cfg.run.eval_episodes,
-            t.cfg.run.seed,
+            env.as_mut(),
+            episodes,
+            seed,
             false,
             0,
-        )));
-    }
-    let mut eval_env = skillmimic_env::registry::make(&c)?;
-    Ok(TaskEval::Episodes(evaluate_episodes(
-        &t.policy,
-        eval_env.as_mut(),
-        t.cfg.run.eval_episodes,
-        t.cfg.run.seed,
-        false,
-        0,
-    )?))
+        )?),
+    })
 }

@@ -10,6 +10,7 @@
 mod common;
 use common::{skill_policy, workspace_root};
 use libtest_mimic::{Arguments, Failed, Trial};
+use skillmimic_env::Env;
 use skillmimic_env::registry::{self, TASKS};
 use skillmimic_env::tasks::hlc::config::HlcConfig;
 use skillmimic_learn::config::TrainConfig;
@@ -51,6 +52,7 @@ fn run_case(mut c: TrainConfig, family: &str) -> Result<(), Failed> {
         return Err(format!("{name}: the environment says it is '{}'", spec.name).into());
     }
     let (n, d, a) = (env.num_envs(), spec.obs_dim, spec.act_dim());
+    declarations_agree(&name, &c, env.as_ref())?;
     let mut rng = <rand_chacha::ChaCha8Rng as rand::SeedableRng>::seed_from_u64(1);
     let ppo = skillmimic_learn::policies::token_transformer::with_task_groups(&c.ppo, &spec);
     let policy = Policy::build(d, spec.action_space, &ppo, &mut rng)?;
@@ -111,6 +113,43 @@ fn run_case(mut c: TrainConfig, family: &str) -> Result<(), Failed> {
         || s.low_level_samples != s.samples * spec.steps_per_action as u64
     {
         return Err(format!("{name}: iteration statistics do not follow the spec: {s:?}").into());
+    }
+    Ok(())
+}
+
+/// What the registry declares about the task (observation layout, episode fields) agrees with
+/// the built environment: the layout's blocks are the spec's, except that a multi-task
+/// environment's task part is one block of the layout; both tile the observation.
+fn declarations_agree(name: &str, c: &TrainConfig, env: &dyn Env) -> Result<(), Failed> {
+    let spec = env.spec();
+    let declared =
+        registry::obs_blocks(&c.env, spec.obs_dim).map_err(|e| format!("{name}: {e}"))?;
+    let tiles = |b: &[skillmimic_env::obs_blocks::ObsBlock]| {
+        b.first().is_some_and(|f| f.range.start == 0)
+            && b.windows(2).all(|w| w[0].range.end == w[1].range.start)
+            && b.last().is_some_and(|l| l.range.end == spec.obs_dim)
+    };
+    if !tiles(&declared) || !tiles(&spec.obs_blocks) {
+        return Err(format!("{name}: observation blocks do not tile 0..{}", spec.obs_dim).into());
+    }
+    let k = declared.len() - 1;
+    // a multi-task environment details its task part (groups, mask) where its layout has one block
+    let same = declared == spec.obs_blocks
+        || (declared[k].name == spec.name
+            && spec.obs_blocks.len() > k
+            && declared[..k] == spec.obs_blocks[..k]);
+    if !same {
+        return Err(format!(
+            "{name}: the registry's layout {declared:?} differs from the environment's {:?}",
+            spec.obs_blocks
+        )
+        .into());
+    }
+    let info = env.episode_info(0);
+    if info.len() != spec.episode_names.len() {
+        return Err(
+            format!("{name}: {} episode fields for {:?}", info.len(), spec.episode_names).into()
+        );
     }
     Ok(())
 }

@@ -200,6 +200,7 @@ fn metadata_sidecar_and_refusals() {
     assert_eq!(meta.joint_order.len(), 52);
     let names = |cfg: &TrainConfig, d: usize| {
         skillmimic_learn::onnx::meta::obs_blocks(cfg, d)
+            .unwrap()
             .iter()
             .map(|b| format!("{}:{}-{}", b.name, b.start, b.end))
             .collect::<Vec<_>>()
@@ -210,11 +211,11 @@ fn metadata_sidecar_and_refusals() {
     );
     assert_eq!(
         names(&train_config("heading"), 842)[9..],
-        ["ball_angvel:835-838", "task (heading):838-842"]
+        ["ball_angvel:835-838", "heading:838-842"]
     );
     assert_eq!(
         names(&train_config("tracking"), 1375)[5..],
-        ["fingertip_force:793-823", "task (tracking):823-1375"]
+        ["fingertip_force:793-823", "reference:823-1375"]
     );
     assert_eq!((meta.control_dt, meta.sim_dt, meta.substeps), (1.0 / 60.0, 1.0 / 120.0, 2));
     let e = policy_model(&p, meta).unwrap();

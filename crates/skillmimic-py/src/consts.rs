@@ -52,8 +52,11 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("TERM_NAMES", PyTuple::new(py, skillmimic_env::reward::TERM_NAMES)?)?;
     m.add("FRAME_METRIC_NAMES", PyTuple::new(py, skillmimic_env::FRAME_METRIC_NAMES)?)?;
     m.add("TASKS", PyTuple::new(py, skillmimic_env::registry::names())?)?;
-    let high: Vec<&str> =
-        skillmimic_env::registry::TASKS.iter().filter(|t| t.high_level).map(|t| t.name).collect();
+    let high: Vec<&str> = skillmimic_env::registry::TASKS
+        .iter()
+        .filter(|t| t.high_level.is_some())
+        .map(|t| t.name)
+        .collect();
     m.add("HIGH_LEVEL_TASKS", PyTuple::new(py, high)?)?;
     m.add(
         "POLICY_FAMILIES",

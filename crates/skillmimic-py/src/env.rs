@@ -9,7 +9,7 @@ use numpy::{
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use skillmimic_env::{Env, EnvConfig, SkillEnv};
+use skillmimic_env::{Env, EnvConfig};
 
 use crate::convert::{check_shape, detach_guarded, to_2d, value_error};
 
@@ -49,16 +49,20 @@ impl CoreEnv {
             }
         }
     }
-    /// The imitation task's environment (task-specific accessors).
-    fn imitation(&self) -> PyResult<&SkillEnv> {
-        self.env()?.as_any().downcast_ref::<SkillEnv>().ok_or_else(|| {
-            PyValueError::new_err(format!(
-                "only the imitation task has this (task is '{}')",
-                self.cfg.task
-            ))
-        })
+    /// Refuse an environment index out of range.
+    fn check_index(&self, i: usize) -> PyResult<()> {
+        let n = self.env()?.num_envs();
+        if i >= n {
+            return Err(PyValueError::new_err(format!(
+                "environment index {i} out of range (num_envs = {n})"
+            )));
+        }
+        Ok(())
     }
 }
+
+/// One observation block for Python: `(name, start, end, low, high)`.
+type BlockRow = (String, usize, usize, f32, f32);
 
 fn copy_obs(env: &dyn Env, mut out: PyReadwriteArray2<'_, f32>) -> PyResult<()> {
     check_shape("obs buffer", out.shape(), &[env.num_envs(), env.obs_dim()])?;
@@ -126,7 +130,7 @@ impl CoreEnv {
     }
     /// Names of the reward terms (columns of `reward_terms()`).
     #[getter]
-    fn term_names(&self) -> PyResult<Vec<&'static str>> {
+    fn term_names(&self) -> PyResult<Vec<String>> {
         Ok(self.env()?.spec().term_names.clone())
     }
     /// Names of the task information entries (imitation: the contact-graph entries of the
@@ -137,7 +141,7 @@ impl CoreEnv {
     }
     /// Names of the columns of `frame_metrics()`.
     #[getter]
-    fn frame_metric_names(&self) -> PyResult<Vec<&'static str>> {
+    fn frame_metric_names(&self) -> PyResult<Vec<String>> {
         Ok(self.env()?.spec().metric_names.clone())
     }
     /// MJCF text of the compiled scene.
@@ -164,9 +168,14 @@ impl CoreEnv {
         let (nq, nv) = (m.nq as usize, m.nv as usize);
         Ok((nq, nv))
     }
-    /// Names and skill labels of the clips of the motion library.
+    /// Names, skill labels and frame counts of the clips of the task's motion library.
     fn clips(&self) -> PyResult<Vec<(String, u32, usize)>> {
-        let lib = self.imitation()?.library();
+        let lib = self.env()?.library().ok_or_else(|| {
+            PyValueError::new_err(format!(
+                "task '{}' keeps no motion library of its own",
+                self.cfg.task
+            ))
+        })?;
         Ok(lib
             .clips()
             .iter()
@@ -307,21 +316,83 @@ impl CoreEnv {
         let env = self.env()?;
         to_2d(py, &env.buffers().metrics, env.num_envs(), env.spec().metric_names.len())
     }
-    /// Per-environment episode state: clip index, start frame, reference frame, progress,
-    /// length, skill label (int64 arrays).
+    /// Per-environment episode fields the task declares (`episode_names`; the imitation task:
+    /// clip index, start frame, reference frame, progress, length, skill label), int64 arrays;
+    /// empty for a task that declares none.
     fn episode_info<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let env = self.imitation()?;
+        let env = self.env()?;
+        let names = &env.spec().episode_names;
+        let rows: Vec<Vec<i64>> = (0..env.num_envs()).map(|i| env.episode_info(i)).collect();
         let d = PyDict::new(py);
-        let col = |f: &dyn Fn(&skillmimic_env::episode::Episode) -> i64| -> Vec<i64> {
-            env.episodes().map(f).collect()
-        };
-        d.set_item("clip", PyArray1::from_vec(py, col(&|e| e.clip as i64)))?;
-        d.set_item("ref_start", PyArray1::from_vec(py, col(&|e| e.ref_start as i64)))?;
-        d.set_item("ref_frame", PyArray1::from_vec(py, col(&|e| e.ref_frame() as i64)))?;
-        d.set_item("progress", PyArray1::from_vec(py, col(&|e| e.progress as i64)))?;
-        d.set_item("length", PyArray1::from_vec(py, col(&|e| e.length as i64)))?;
-        d.set_item("skill", PyArray1::from_vec(py, col(&|e| e.skill as i64)))?;
+        for (k, name) in names.iter().enumerate() {
+            let col: Vec<i64> = rows.iter().map(|r| r[k]).collect();
+            d.set_item(*name, PyArray1::from_vec(py, col))?;
+        }
         Ok(d)
+    }
+    /// Names of `episode_info()`'s entries.
+    #[getter]
+    fn episode_names(&self) -> PyResult<Vec<&'static str>> {
+        Ok(self.env()?.spec().episode_names.clone())
+    }
+    /// The key under which the task information is reported (`"contact_graph"` for the
+    /// imitation task, `"task_info"` otherwise).
+    #[getter]
+    fn info_label(&self) -> PyResult<&'static str> {
+        Ok(self.env()?.spec().info_label)
+    }
+    /// The observation's named blocks: `(name, start, end, low, high)`, with ±inf where a block
+    /// is not bounded by construction.
+    #[getter]
+    fn obs_blocks(&self) -> PyResult<Vec<BlockRow>> {
+        Ok(self
+            .env()?
+            .spec()
+            .obs_blocks
+            .iter()
+            .map(|b| {
+                let (lo, hi) = b.bounds.unwrap_or((f32::NEG_INFINITY, f32::INFINITY));
+                (b.name.clone(), b.range.start, b.range.end, lo, hi)
+            })
+            .collect())
+    }
+    /// The task's visual markers for one information row (`task_info_names` order): a list of
+    /// dicts with `kind` ("sphere", "segment", "box"), positions in world metres and `rgba`.
+    fn markers<'py>(
+        &self,
+        py: Python<'py>,
+        info: PyReadonlyArray1<'_, f32>,
+    ) -> PyResult<Vec<Bound<'py, PyDict>>> {
+        use skillmimic_env::markers::Marker;
+        let env = self.env()?;
+        let row = info.as_slice().map_err(value_error)?;
+        let mut out = Vec::new();
+        for m in env.markers(row) {
+            let d = PyDict::new(py);
+            match m {
+                Marker::Sphere { pos, radius, rgba } => {
+                    d.set_item("kind", "sphere")?;
+                    d.set_item("pos", pos)?;
+                    d.set_item("radius", radius)?;
+                    d.set_item("rgba", rgba)?;
+                }
+                Marker::Segment { from, to, radius, rgba } => {
+                    d.set_item("kind", "segment")?;
+                    d.set_item("from", from)?;
+                    d.set_item("to", to)?;
+                    d.set_item("radius", radius)?;
+                    d.set_item("rgba", rgba)?;
+                }
+                Marker::Box { pos, half, rgba } => {
+                    d.set_item("kind", "box")?;
+                    d.set_item("pos", pos)?;
+                    d.set_item("half", half)?;
+                    d.set_item("rgba", rgba)?;
+                }
+            }
+            out.push(d);
+        }
+        Ok(out)
     }
 
     /// MuJoCo `qpos` of environment `i`.
@@ -370,14 +441,8 @@ impl CoreEnv {
         py: Python<'py>,
         i: usize,
     ) -> PyResult<Option<Bound<'py, PyArray2<f32>>>> {
-        let env = self.imitation()?;
-        if i >= env.num_envs() {
-            return Err(PyValueError::new_err(format!(
-                "environment index {i} out of range (num_envs {})",
-                env.num_envs()
-            )));
-        }
-        match env.history_window(i) {
+        self.check_index(i)?;
+        match self.env()?.history_window(i) {
             None => Ok(None),
             Some(w) => {
                 let f = skillmimic_env::v2::history::FEATURE_DIM;

@@ -81,6 +81,10 @@ impl Default for StandConfig {
 /// The `[env.stand]` table.
 pub const TABLE: TableEntry = TableEntry::of::<StandConfig>();
 
+/// The observation: the character's proprioception, then the stand part (3).
+pub const LAYOUT: crate::obs_blocks::ObsLayout =
+    crate::obs_blocks::ObsLayout::Proprio { part: "stand" };
+
 /// Per-environment state: steps taken and the heading to keep (rad).
 #[derive(Clone, Debug, Default)]
 pub struct StandSlot {
@@ -98,17 +102,17 @@ pub struct Stand {
 impl Stand {
     /// The task with options `cfg` on `character`.
     pub fn new(cfg: StandConfig, character: CharacterSpec) -> Self {
+        let p = character.proprio_dim();
+        let obs_blocks = LAYOUT.blocks(&character, p + 3);
         let spec = TaskSpec {
             name: "stand",
-            obs_dim: character.proprio_dim() + 3,
+            obs_dim: p + 3,
             action_space: ActionSpace::Box { dim: character.num_dofs },
             max_episode_steps: cfg.episode_length,
-            term_names: vec!["height", "heading", "total"],
-            metric_names: vec!["height_err", "heading_err"],
-            steps_per_action: 1,
-            choice_labels: Vec::new(),
-            token_groups: Vec::new(),
-            info_names: Vec::new(),
+            term_names: crate::task::names(&["height", "heading", "total"]),
+            metric_names: crate::task::names(&["height_err", "heading_err"]),
+            obs_blocks,
+            ..TaskSpec::default()
         };
         Self { cfg, spec, character }
     }

@@ -54,6 +54,23 @@ pub trait Env: Send + Sync {
     fn task_rows(&self) -> Vec<(String, std::ops::Range<usize>)> {
         Vec::new()
     }
+    /// Environment `i`'s episode fields in [`TaskSpec::episode_names`] order (empty when the
+    /// task declares none). `i` < `num_envs()`.
+    fn episode_info(&self, _i: usize) -> Vec<i64> {
+        Vec::new()
+    }
+    /// The motion library the task plays, where it loads one.
+    fn library(&self) -> Option<&std::sync::Arc<skillmimic_motion::MotionLibrary>> {
+        None
+    }
+    /// Environment `i`'s SkillMimic-V2 history window (`k × 316`), where the task keeps one.
+    fn history_window(&self, _i: usize) -> Option<Vec<f32>> {
+        None
+    }
+    /// The task's visual markers for an information row (`spec().info_names` order).
+    fn markers(&self, _info: &[f32]) -> Vec<crate::markers::Marker> {
+        Vec::new()
+    }
     /// Downcast to the concrete `VecEnv<T>` (task-specific accessors).
     fn as_any(&self) -> &dyn Any;
     fn as_any_mut(&mut self) -> &mut dyn Any;

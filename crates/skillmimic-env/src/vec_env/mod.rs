@@ -442,6 +442,23 @@ impl<T: Task> Env for VecEnv<T> {
     fn pd_targets(&self) -> &[f32] {
         &self.targets
     }
+    fn episode_info(&self, i: usize) -> Vec<i64> {
+        let mut v = vec![0; self.task.spec().episode_names.len()];
+        self.task.episode_info(&self.slots[i], &mut v);
+        v
+    }
+    fn library(&self) -> Option<&std::sync::Arc<skillmimic_motion::MotionLibrary>> {
+        self.task.library()
+    }
+    fn history_window(&self, i: usize) -> Option<Vec<f32>> {
+        self.task.history_window(&self.slots[i])
+    }
+    fn markers(&self, info: &[f32]) -> Vec<crate::markers::Marker> {
+        let mut out = Vec::new();
+        self.task.markers(info, &mut out);
+        out.truncate(crate::markers::MAX_MARKERS);
+        out
+    }
     fn as_any(&self) -> &dyn Any {
         self
     }

@@ -45,7 +45,7 @@ pub fn export_checkpoint(
     if skillmimic_env::registry::character(&cfg.env).ok()
         == Some(skillmimic_env::registry::Character::TokenHsi)
     {
-        super::meta_hsi::describe_tokenhsi(&mut meta, c.policy.obs_dim());
+        super::meta_hsi::describe_tokenhsi(&mut meta);
     }
     let exported = if fused {
         let llc_path = match llc {

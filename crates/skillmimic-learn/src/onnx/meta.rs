@@ -9,7 +9,7 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 use skillmimic_core::characters::skillmimic::{BODIES, NUM_BODIES, is_finger};
-use skillmimic_env::obs::{BLOCKS, OBS_LAYOUT_VERSION, layout};
+use skillmimic_env::obs::OBS_LAYOUT_VERSION;
 use skillmimic_motion::clip::skill_name;
 use skillmimic_sim::batch::DEFAULT_SUBSTEPS;
 
@@ -149,37 +149,15 @@ pub fn source_of(path: &Path, iteration: u64, samples: u64) -> Result<Source, Le
     Ok(Source { file, sha256, iteration, samples })
 }
 
-/// The observation blocks of a policy with `obs_dim` inputs trained with `cfg`: the humanoid
-/// blocks (0..823) always; then the imitation task's ball, skill and (SkillMimic-V2) history
-/// embedding, a high-level task's ball and task part, or any other task's own part.
-pub fn obs_blocks(cfg: &TrainConfig, obs_dim: usize) -> Vec<Block> {
-    let block = |name: &str, r: std::ops::Range<usize>| Block {
-        name: name.to_string(),
-        start: r.start,
-        end: r.end,
-    };
-    let task = cfg.env.task.as_str();
-    let high_level = skillmimic_env::registry::is_high_level(task);
-    let with_ball = task == "imitation" || high_level;
-    let used = match (task, high_level) {
-        ("imitation", _) => layout::OBS_DIM,
-        (_, true) => layout::STATE_DIM,
-        _ => layout::HUMANOID_DIM,
-    };
-    let mut v: Vec<Block> = BLOCKS
-        .iter()
-        .filter(|(_, r)| r.end <= used && (with_ball || r.end <= layout::HUMANOID_DIM))
-        .map(|(n, r)| block(n, r.clone()))
-        .collect();
-    if obs_dim > used {
-        let name = if task == "imitation" {
-            "history_embedding".to_string()
-        } else {
-            format!("task ({task})")
-        };
-        v.push(block(&name, used..obs_dim));
-    }
-    v
+/// The observation blocks of a policy with `obs_dim` inputs trained with `cfg`: the layout its
+/// task declares in the registry, on the character it was trained on.
+pub fn obs_blocks(cfg: &TrainConfig, obs_dim: usize) -> Result<Vec<Block>, LearnError> {
+    let blocks = skillmimic_env::registry::obs_blocks(&cfg.env, obs_dim)
+        .map_err(|e| LearnError::Config(e.to_string()))?;
+    Ok(blocks
+        .into_iter()
+        .map(|b| Block { name: b.name, start: b.range.start, end: b.range.end })
+        .collect())
 }
 
 impl DeployMeta {
@@ -198,7 +176,7 @@ impl DeployMeta {
             == skillmimic_sim::HandModel::Box;
         let joints = &BODIES[1..NUM_BODIES];
         let entry = skillmimic_env::registry::entry(&cfg.env.task);
-        let choices = entry.map(|e| e.choices).unwrap_or(&[]);
+        let choices = entry.and_then(|e| e.high_level).map_or(&[][..], |h| h.choices);
         let name_of = |l: u32| skill_name(l).unwrap_or("unnamed").to_string();
         let m = Self {
             format: FORMAT.to_string(),
@@ -209,7 +187,7 @@ impl DeployMeta {
             obs_layout_version: OBS_LAYOUT_VERSION.to_string(),
             obs_dim,
             act_dim,
-            obs_blocks: obs_blocks(cfg, obs_dim),
+            obs_blocks: obs_blocks(cfg, obs_dim)?,
             inputs: Vec::new(),
             outputs: Vec::new(),
             normalizer: Normalizer { in_graph: false, eps: 0.0, clip: 0.0, formula: String::new() },

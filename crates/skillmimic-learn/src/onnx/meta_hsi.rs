@@ -1,35 +1,20 @@
 //! Deployment metadata of a policy of a TokenHSI task
 //! ([`skillmimic_env::registry::Character::TokenHsi`]): the 32-DoF TokenHSI character replaces the
-//! SkillMimic humanoid in every character-specific field of [`DeployMeta`] — observation blocks
-//! (the 222-d proprioception and the task part), joint order, the action → PD target map with its
+//! SkillMimic humanoid in every character-specific field of [`DeployMeta`] — joint order, the action → PD target map with its
 //! per-entry offset and scale, gains and torque limits per joint, and the time steps (1/120 s
 //! physics, 4 steps per 30 Hz action).
 
 use skillmimic_core::characters::tokenhsi::{BODIES, JointSpec, action_offset_scale};
 
-use super::meta::{Block, DeployMeta, Gain};
+use super::meta::{DeployMeta, Gain};
 
 /// Value of `obs_layout_version` for the TokenHSI tasks.
 pub const HSI_OBS_LAYOUT_VERSION: &str = "tokenhsi-obs-1";
 
 /// Rewrite the character-specific fields of `m` (built for the SkillMimic humanoid) for the
-/// TokenHSI character; `obs_dim` is the policy's observation width (222 + the task part).
-pub fn describe_tokenhsi(m: &mut DeployMeta, obs_dim: usize) {
-    let block = |name: &str, start: usize, end: usize| Block { name: name.to_string(), start, end };
+/// TokenHSI character (the observation blocks come from the task's declared layout).
+pub fn describe_tokenhsi(m: &mut DeployMeta) {
     m.obs_layout_version = HSI_OBS_LAYOUT_VERSION.to_string();
-    m.obs_blocks = vec![
-        block("body_pos (bodies 1-14 minus the root, heading frame, m)", 0, 42),
-        block(
-            "body_rot (15 bodies, tan-norm 6D; the root in the world frame, the others in the heading frame)",
-            42,
-            132,
-        ),
-        block("body_linvel (15 bodies' centres of mass, heading frame, m/s)", 132, 177),
-        block("body_angvel (15 bodies, heading frame, rad/s)", 177, 222),
-    ];
-    if obs_dim > 222 {
-        m.obs_blocks.push(block(&format!("task ({})", m.task), 222, obs_dim));
-    }
     let joints: Vec<_> = BODIES.iter().filter(|b| b.joint.dofs() > 0).collect();
     let mut ranges = Vec::new();
     let mut k = 0;

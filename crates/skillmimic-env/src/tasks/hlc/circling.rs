@@ -16,9 +16,10 @@ use rand_chacha::ChaCha8Rng;
 use skillmimic_sim::{BALL, EnvState};
 
 use super::config::{CirclingConfig, Formula};
-use super::{Goal, Rule, loc_bearing, norm};
+use super::{Rule, loc_bearing, norm};
 use crate::config::EnvConfig;
 use crate::error::EnvError;
+use crate::markers::{Marker, ring};
 use crate::vec_env::Env;
 
 /// The `[env.circling]` table.
@@ -28,11 +29,26 @@ pub const TABLE: crate::config_table::TableEntry =
 /// The circling task's rule.
 pub struct Circling(pub CirclingConfig);
 
+/// A circling episode's goal and success bookkeeping.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct CirclingGoal {
+    /// Centre, world xy (m).
+    pub xy: [f64; 2],
+    /// Radius (m).
+    pub radius: f64,
+    /// The released code's success latch.
+    pub code_success: bool,
+    /// Valid frames and frames so far (the paper's success = their ratio).
+    pub valid_frames: u32,
+    pub frames: u32,
+}
+
 /// Skill label of each choice (the released code's `control_mapping`).
 pub const LABELS: &[u32] = &[12, 13, 11];
 
 impl Rule for Circling {
     const NAME: &'static str = "circling";
+    type Goal = CirclingGoal;
     fn labels(&self) -> &'static [u32] {
         LABELS
     }
@@ -48,22 +64,22 @@ impl Rule for Circling {
     fn info_names(&self) -> Vec<&'static str> {
         vec!["goal_x", "goal_y", "radius"]
     }
-    fn sample_goal(&self, root: [f64; 3], rng: &mut ChaCha8Rng) -> Goal {
+    fn sample_goal(&self, root: [f64; 3], rng: &mut ChaCha8Rng) -> CirclingGoal {
         let c = &self.0;
         let radius = if c.radius_max > c.radius_min {
             rng.random_range(c.radius_min..c.radius_max)
         } else {
             c.radius_min
         };
-        Goal { xy: [root[0], root[1]], radius, ..Goal::default() }
+        CirclingGoal { xy: [root[0], root[1]], radius, ..CirclingGoal::default() }
     }
-    fn task_obs(&self, g: &Goal, st: &EnvState<'_>, out: &mut [f32]) {
+    fn task_obs(&self, g: &CirclingGoal, st: &EnvState<'_>, out: &mut [f32]) {
         loc_bearing(g.xy, st, out);
         out[4] = g.radius as f32;
     }
     fn reward(
         &self,
-        g: &mut Goal,
+        g: &mut CirclingGoal,
         _step: u32,
         st: &EnvState<'_>,
         terms: &mut [f32],
@@ -100,8 +116,23 @@ impl Rule for Circling {
         ]);
         r
     }
-    fn info(&self, g: &Goal, out: &mut [f32]) {
+    fn info(&self, g: &CirclingGoal, out: &mut [f32]) {
         out.copy_from_slice(&[g.xy[0] as f32, g.xy[1] as f32, g.radius as f32]);
+    }
+    fn set_info(&self, g: &mut CirclingGoal, values: &[f32]) {
+        if let [x, y, ..] = *values {
+            g.xy = [x as f64, y as f64];
+        }
+        if let Some(&r) = values.get(2) {
+            g.radius = r as f64;
+        }
+    }
+    /// The centre (a blue sphere) and the circle on the floor.
+    fn markers(&self, info: &[f32], out: &mut Vec<Marker>) {
+        let [x, y, r, ..] = *info else { return };
+        let (x, y, blue) = (x as f64, y as f64, [0.1, 0.3, 0.9, 0.8]);
+        out.push(Marker::Sphere { pos: [x, y, 0.05], radius: 0.08, rgba: blue });
+        ring([x, y, 0.01], r as f64, 40, 0.015, [0.1, 0.3, 0.9, 0.7], out);
     }
 }
 
@@ -109,4 +140,30 @@ impl Rule for Circling {
 pub fn build(cfg: &EnvConfig) -> Result<Box<dyn Env>, EnvError> {
     cfg.table::<CirclingConfig>().validate()?;
     super::build(cfg, Circling(cfg.table::<CirclingConfig>().clone()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::Rule;
+    use super::super::config::{ScoringConfig, ThrowingConfig};
+    use super::super::scoring::Scoring;
+    use super::super::throwing::Throwing;
+    use super::*;
+    use crate::markers::Marker;
+
+    #[test]
+    fn markers_follow_the_goal_entries() {
+        let mut m = Vec::new();
+        Circling(CirclingConfig::default()).markers(&[1.0, 2.0, 3.0], &mut m);
+        assert_eq!(m.len(), 41, "the centre and a ring of 40 segments");
+        let Marker::Segment { from, .. } = m[1] else { panic!("ring segment") };
+        assert!(((from[0] - 1.0).hypot(from[1] - 2.0) - 3.0).abs() < 1e-9);
+        m.clear();
+        Scoring(ScoringConfig::default()).markers(&[1.0, 2.0, 0.0], &mut m);
+        let h = ScoringConfig::default().basket_height;
+        assert!(matches!(m[0], Marker::Segment { from, .. } if (from[2] - h).abs() < 1e-12));
+        m.clear();
+        Throwing(ThrowingConfig::default()).markers(&[], &mut m);
+        assert!(m.is_empty());
+    }
 }

@@ -14,9 +14,10 @@ use rand_chacha::ChaCha8Rng;
 use skillmimic_sim::EnvState;
 
 use super::config::{Formula, GoalSampling, HeadingConfig};
-use super::{Goal, Rule, ball_to, loc_bearing, norm};
+use super::{Rule, ball_to, loc_bearing, norm};
 use crate::config::EnvConfig;
 use crate::error::EnvError;
+use crate::markers::Marker;
 use crate::vec_env::Env;
 
 /// The `[env.heading]` table.
@@ -25,6 +26,15 @@ pub const TABLE: crate::config_table::TableEntry =
 
 /// The heading task's rule.
 pub struct Heading(pub HeadingConfig);
+
+/// A heading episode's goal.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct HeadingGoal {
+    /// Target point, world xy (m; its height is `target_height`).
+    pub xy: [f64; 2],
+    /// The success rule, latched (paper and code agree here).
+    pub success: bool,
+}
 
 /// The quadrant offset (U(min, max), U(min, max)), turned by U(0, 2π) when `full` (m).
 pub fn goal_offset(min: f64, max: f64, full: bool, rng: &mut ChaCha8Rng) -> [f64; 2] {
@@ -45,6 +55,7 @@ pub const LABELS: &[u32] = &[12, 13, 11];
 
 impl Rule for Heading {
     const NAME: &'static str = "heading";
+    type Goal = HeadingGoal;
     fn labels(&self) -> &'static [u32] {
         LABELS
     }
@@ -60,18 +71,18 @@ impl Rule for Heading {
     fn info_names(&self) -> Vec<&'static str> {
         vec!["goal_x", "goal_y"]
     }
-    fn sample_goal(&self, root: [f64; 3], rng: &mut ChaCha8Rng) -> Goal {
+    fn sample_goal(&self, root: [f64; 3], rng: &mut ChaCha8Rng) -> HeadingGoal {
         let c = &self.0;
         let o =
             goal_offset(c.goal_min, c.goal_max, c.goal_sampling == GoalSampling::FullCircle, rng);
-        Goal { xy: [root[0] + o[0], root[1] + o[1]], ..Goal::default() }
+        HeadingGoal { xy: [root[0] + o[0], root[1] + o[1]], success: false }
     }
-    fn task_obs(&self, g: &Goal, st: &EnvState<'_>, out: &mut [f32]) {
+    fn task_obs(&self, g: &HeadingGoal, st: &EnvState<'_>, out: &mut [f32]) {
         loc_bearing(g.xy, st, out);
     }
     fn reward(
         &self,
-        g: &mut Goal,
+        g: &mut HeadingGoal,
         _step: u32,
         st: &EnvState<'_>,
         terms: &mut [f32],
@@ -84,16 +95,29 @@ impl Rule for Heading {
         };
         if dist < self.0.success_radius {
             g.success = true;
-            g.code_success = true;
         }
         terms[0] = r as f32;
         metrics[0] = dist as f32;
         metrics[1] = f32::from(u8::from(g.success));
         r
     }
-    fn info(&self, g: &Goal, out: &mut [f32]) {
+    fn info(&self, g: &HeadingGoal, out: &mut [f32]) {
         out[0] = g.xy[0] as f32;
         out[1] = g.xy[1] as f32;
+    }
+    fn set_info(&self, g: &mut HeadingGoal, values: &[f32]) {
+        if let [x, y, ..] = *values {
+            g.xy = [x as f64, y as f64];
+        }
+    }
+    /// A red sphere at the target point on a thin pole.
+    fn markers(&self, info: &[f32], out: &mut Vec<Marker>) {
+        let [x, y, ..] = *info else { return };
+        let (x, y, h) = (x as f64, y as f64, self.0.target_height);
+        let red = [0.9, 0.1, 0.1, 0.8];
+        out.push(Marker::Sphere { pos: [x, y, h], radius: 0.12, rgba: red });
+        let pole = [0.9, 0.1, 0.1, 0.6];
+        out.push(Marker::Segment { from: [x, y, 0.0], to: [x, y, h], radius: 0.01, rgba: pole });
     }
 }
 

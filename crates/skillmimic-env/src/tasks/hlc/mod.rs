@@ -67,45 +67,26 @@ pub const TABLE: crate::config_table::TableEntry =
 /// Low-level steps per second (policy rate).
 pub const LL_HZ: f64 = 60.0;
 
-/// Per-episode goal and success bookkeeping (the fields a task does not use stay at default).
+/// The goal redraw clock of the tasks whose command changes within an episode (steering,
+/// reach): the low-level step of the next redraw and the episode's seed for the redraws.
 #[derive(Clone, Debug, Default, PartialEq)]
-pub struct Goal {
-    /// Target (heading), centre (circling) or basket (scoring) position, world xy (m).
-    pub xy: [f64; 2],
-    /// Circling radius (m).
-    pub radius: f64,
-    /// Scoring: the code's "reached" latch (also its task observation flag).
-    pub reached: bool,
-    /// The paper's success rule, latched (heading, throwing, scoring).
-    pub success: bool,
-    /// The released code's success latch (heading, circling, scoring).
-    pub code_success: bool,
-    /// Circling: valid frames and frames so far (paper success = their ratio).
-    pub valid_frames: u32,
-    pub frames: u32,
-    /// Throwing: low-level step of the first throw, and whether the ball went below the floor
-    /// height since.
-    pub throw_step: Option<u32>,
-    pub dropped: bool,
-    /// Steering: commanded speed (m/s; the direction is `xy`). Reach: target height (m; the
-    /// target's world xy is `xy`).
-    pub speed: f64,
-    pub target_z: f64,
-    /// Reach: the world xy its targets are drawn around (the root's start position, m).
-    pub anchor: [f64; 2],
-    /// Steering and reach: the low-level step of the next redraw and the episode's seed for the
-    /// redraws ([`redraw_rng`]).
+pub struct Redraw {
     pub next_change: u32,
     pub seed: u64,
 }
 
-/// The random stream of a goal redraw due at low-level step `step` (`None` before
-/// `g.next_change`): seeded from the episode's seed and the step, so episodes are reproducible.
-pub fn redraw_rng(g: &Goal, step: u32) -> Option<ChaCha8Rng> {
-    use rand::SeedableRng;
-    (step >= g.next_change).then(|| {
-        ChaCha8Rng::seed_from_u64(g.seed ^ u64::from(step).wrapping_mul(0x9e37_79b9_7f4a_7c15))
-    })
+impl Redraw {
+    /// The random stream of a redraw due at low-level step `step` (`None` before
+    /// `next_change`): seeded from the episode's seed and the step, so episodes are
+    /// reproducible.
+    pub fn rng(&self, step: u32) -> Option<ChaCha8Rng> {
+        use rand::SeedableRng;
+        (step >= self.next_change).then(|| {
+            ChaCha8Rng::seed_from_u64(
+                self.seed ^ u64::from(step).wrapping_mul(0x9e37_79b9_7f4a_7c15),
+            )
+        })
+    }
 }
 
 /// The frozen policy a high-level task drives (see the module doc).
@@ -120,6 +101,8 @@ pub enum Driver {
 pub trait Rule: Send + Sync + 'static {
     /// Registry name.
     const NAME: &'static str;
+    /// The task's per-episode goal and success bookkeeping (world metres).
+    type Goal: Clone + std::fmt::Debug + Default + Send + Sync + 'static;
     /// Skill label of each choice (`control_mapping`).
     fn labels(&self) -> &'static [u32];
     /// Width of the task part of the observation.
@@ -131,34 +114,26 @@ pub trait Rule: Send + Sync + 'static {
     /// Goal entries written as task information.
     fn info_names(&self) -> Vec<&'static str>;
     /// The goal of an episode starting with the root at `root` (world, m).
-    fn sample_goal(&self, root: [f64; 3], rng: &mut ChaCha8Rng) -> Goal;
+    fn sample_goal(&self, root: [f64; 3], rng: &mut ChaCha8Rng) -> Self::Goal;
     /// The task part of the observation.
-    fn task_obs(&self, g: &Goal, st: &EnvState<'_>, out: &mut [f32]);
+    fn task_obs(&self, g: &Self::Goal, st: &EnvState<'_>, out: &mut [f32]);
     /// Reward of the state after low-level step `step` (1-based) with its terms and metrics;
     /// updates the goal's latches.
     fn reward(
         &self,
-        g: &mut Goal,
+        g: &mut Self::Goal,
         step: u32,
         st: &EnvState<'_>,
         terms: &mut [f32],
         metrics: &mut [f32],
     ) -> f64;
     /// The goal entries (`info_names` order).
-    fn info(&self, g: &Goal, out: &mut [f32]);
+    fn info(&self, g: &Self::Goal, out: &mut [f32]);
     /// Set the goal from entries in `info_names` order (interactive play); latches and success
-    /// bookkeeping are left as they are. Default: `goal_x`, `goal_y`, then the radius if named.
-    fn set_info(&self, g: &mut Goal, values: &[f32]) {
-        let names = self.info_names();
-        for (name, &v) in names.iter().zip(values) {
-            match *name {
-                "goal_x" => g.xy[0] = v as f64,
-                "goal_y" => g.xy[1] = v as f64,
-                "radius" => g.radius = v as f64,
-                _ => {}
-            }
-        }
-    }
+    /// bookkeeping are left as they are.
+    fn set_info(&self, g: &mut Self::Goal, values: &[f32]);
+    /// Append the task's visual markers for an information row (`info_names` order).
+    fn markers(&self, _info: &[f32], _out: &mut Vec<crate::markers::Marker>) {}
 }
 
 /// `loc` and `bearing` of a goal (4 values; see the module doc).
@@ -189,9 +164,9 @@ pub fn ball_to(st: &EnvState<'_>, p: [f64; 3]) -> [f64; 3] {
 
 /// Per-environment state: low-level steps of the episode and its goal.
 #[derive(Clone, Debug, Default)]
-pub struct HlSlot {
+pub struct HlSlot<G> {
     pub progress: u32,
-    pub goal: Goal,
+    pub goal: G,
 }
 
 /// A high-level task: its calls happen once per low-level (physics) step; the driver holds
@@ -259,13 +234,14 @@ impl<R: Rule> HighLevel<R> {
             Driver::Parts(p) => (ActionSpace::Box { dim: p.latent_dim() }, Vec::new()),
         };
         let hold = if matches!(driver, Driver::Parts(_)) { h.latent_steps } else { h.llc_steps };
+        let humanoid = skillmimic_core::characters::skillmimic::spec(Default::default());
         let spec = TaskSpec {
             name: R::NAME,
             obs_dim: layout::STATE_DIM + rule.task_obs_dim(),
             action_space,
             max_episode_steps: (h.episode_length - 1).div_ceil(hold),
-            term_names: rule.term_names(),
-            metric_names: rule.metric_names(),
+            term_names: crate::task::names(&rule.term_names()),
+            metric_names: crate::task::names(&rule.metric_names()),
             info_names: rule.info_names().iter().map(|s| s.to_string()).collect(),
             steps_per_action: hold,
             choice_labels,
@@ -276,6 +252,9 @@ impl<R: Rule> HighLevel<R> {
             .into_iter()
             .filter(|g| g.1 > 0)
             .collect(),
+            obs_blocks: crate::obs_blocks::ObsLayout::BallState { part: R::NAME }
+                .blocks(&humanoid, layout::STATE_DIM + rule.task_obs_dim()),
+            ..TaskSpec::default()
         };
         let threads = if cfg.threads == 0 { rayon::current_num_threads() } else { cfg.threads };
         Ok(Self {
@@ -308,26 +287,26 @@ impl<R: Rule> HighLevel<R> {
         &self.llc_obs
     }
 
-    fn write_obs(&self, slot: &HlSlot, st: &EnvState<'_>, obs: &mut [f32]) {
+    fn write_obs(&self, slot: &HlSlot<R::Goal>, st: &EnvState<'_>, obs: &mut [f32]) {
         write_state_obs(st, &mut obs[..layout::STATE_DIM]);
         self.rule.task_obs(&slot.goal, st, &mut obs[layout::STATE_DIM..]);
     }
 }
 
 impl<R: Rule> Task for HighLevel<R> {
-    type Slot = HlSlot;
+    type Slot = HlSlot<R::Goal>;
 
     fn spec(&self) -> &TaskSpec {
         &self.spec
     }
-    fn new_slot(&self) -> HlSlot {
+    fn new_slot(&self) -> HlSlot<R::Goal> {
         HlSlot::default()
     }
 
     fn plan_reset(
         &mut self,
         _i: usize,
-        slot: &mut HlSlot,
+        slot: &mut HlSlot<R::Goal>,
         rng: &mut ChaCha8Rng,
         _scene: &Scene,
         state: &mut ResetState,
@@ -342,21 +321,31 @@ impl<R: Rule> Task for HighLevel<R> {
         *slot = HlSlot { progress: 0, goal: self.rule.sample_goal(state.root_pos, rng) };
     }
 
-    fn after_reset(&self, _i: usize, slot: &mut HlSlot, st: &EnvState<'_>, obs: &mut [f32]) {
+    fn after_reset(
+        &self,
+        _i: usize,
+        slot: &mut HlSlot<R::Goal>,
+        st: &EnvState<'_>,
+        obs: &mut [f32],
+    ) {
         self.write_obs(slot, st, obs);
     }
 
     /// The new episode's goal.
-    fn reset_info(&self, slot: &HlSlot, info: &mut [f32]) {
+    fn reset_info(&self, slot: &HlSlot<R::Goal>, info: &mut [f32]) {
         self.rule.info(&slot.goal, info);
     }
 
-    fn set_info(&self, slot: &mut HlSlot, values: &[f32]) -> bool {
+    fn set_info(&self, slot: &mut HlSlot<R::Goal>, values: &[f32]) -> bool {
         self.rule.set_info(&mut slot.goal, values);
         true
     }
 
-    fn step_env(&self, _i: usize, slot: &mut HlSlot, st: &EnvState<'_>, out: StepOut<'_>) {
+    fn markers(&self, info: &[f32], out: &mut Vec<crate::markers::Marker>) {
+        self.rule.markers(info, out);
+    }
+
+    fn step_env(&self, _i: usize, slot: &mut HlSlot<R::Goal>, st: &EnvState<'_>, out: StepOut<'_>) {
         slot.progress += 1;
         let r = self.rule.reward(&mut slot.goal, slot.progress, st, out.terms, out.metrics);
         *out.reward = r as f32;
@@ -368,7 +357,7 @@ impl<R: Rule> Task for HighLevel<R> {
             u8::from(*out.terminated == 0 && slot.progress as usize >= self.cfg.episode_length - 1);
     }
 
-    fn observe(&self, slot: &mut HlSlot, st: &EnvState<'_>, obs: &mut [f32]) {
+    fn observe(&self, slot: &mut HlSlot<R::Goal>, st: &EnvState<'_>, obs: &mut [f32]) {
         self.write_obs(slot, st, obs);
     }
 
@@ -380,7 +369,7 @@ impl<R: Rule> Task for HighLevel<R> {
     /// frozen part controllers' PD targets.
     fn actions_to_targets(
         &mut self,
-        _slots: &[HlSlot],
+        _slots: &[HlSlot<R::Goal>],
         obs: &[f32],
         actions: &[f32],
         targets: &mut [f32],

@@ -17,9 +17,10 @@ use skillmimic_core::math::heading_inverse;
 use skillmimic_sim::EnvState;
 
 use super::config::ReachConfig;
-use super::{Goal, Rule, norm, redraw_rng};
+use super::{Redraw, Rule, norm};
 use crate::config::EnvConfig;
 use crate::error::{EnvError, bad};
+use crate::markers::Marker;
 use crate::vec_env::Env;
 
 /// The `[env.reach]` table.
@@ -29,26 +30,39 @@ pub const TABLE: crate::config_table::TableEntry =
 /// The reach task's rule, with the hand's body index.
 pub struct Reach(pub ReachConfig, pub usize);
 
+/// A reach episode's current target.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ReachGoal {
+    /// Target, world xy (m).
+    pub xy: [f64; 2],
+    /// Target height (m).
+    pub target_z: f64,
+    /// The world xy the targets are drawn around (the root's start position, m).
+    pub anchor: [f64; 2],
+    pub redraw: Redraw,
+}
+
 /// Skill label of each choice (as `heading`).
 pub const LABELS: &[u32] = &[12, 13, 11];
 
 impl Reach {
-    fn draw(&self, g: &mut Goal, step: u32, rng: &mut ChaCha8Rng) {
+    fn draw(&self, g: &mut ReachGoal, step: u32, rng: &mut ChaCha8Rng) {
         let c = &self.0;
         let h = 0.5 * c.box_size;
         let mut u = || if h > 0.0 { rng.random_range(-h..h) } else { 0.0 };
         let (dx, dy, dz) = (u(), u(), u());
         g.xy = [g.anchor[0] + dx, g.anchor[1] + dy];
         g.target_z = c.center_height + dz;
-        g.next_change = step + rng.random_range(c.change_steps_min..=c.change_steps_max);
+        g.redraw.next_change = step + rng.random_range(c.change_steps_min..=c.change_steps_max);
     }
-    fn target(g: &Goal) -> [f64; 3] {
+    fn target(g: &ReachGoal) -> [f64; 3] {
         [g.xy[0], g.xy[1], g.target_z]
     }
 }
 
 impl Rule for Reach {
     const NAME: &'static str = "reach";
+    type Goal = ReachGoal;
     fn labels(&self) -> &'static [u32] {
         LABELS
     }
@@ -64,19 +78,23 @@ impl Rule for Reach {
     fn info_names(&self) -> Vec<&'static str> {
         vec!["target_x", "target_y", "target_z"]
     }
-    fn sample_goal(&self, root: [f64; 3], rng: &mut ChaCha8Rng) -> Goal {
-        let mut g = Goal { seed: rng.random(), anchor: [root[0], root[1]], ..Goal::default() };
+    fn sample_goal(&self, root: [f64; 3], rng: &mut ChaCha8Rng) -> ReachGoal {
+        let mut g = ReachGoal {
+            anchor: [root[0], root[1]],
+            redraw: Redraw { seed: rng.random(), next_change: 0 },
+            ..ReachGoal::default()
+        };
         self.draw(&mut g, 0, rng);
         g
     }
-    fn task_obs(&self, g: &Goal, st: &EnvState<'_>, out: &mut [f32]) {
+    fn task_obs(&self, g: &ReachGoal, st: &EnvState<'_>, out: &mut [f32]) {
         let (c, r) = (Self::target(g), st.pos(0));
         let d = heading_inverse(st.quat(0)).rotate([c[0] - r[0], c[1] - r[1], c[2] - r[2]]);
         out[..3].copy_from_slice(&[d[0] as f32, d[1] as f32, d[2] as f32]);
     }
     fn reward(
         &self,
-        g: &mut Goal,
+        g: &mut ReachGoal,
         step: u32,
         st: &EnvState<'_>,
         terms: &mut [f32],
@@ -87,15 +105,15 @@ impl Rule for Reach {
         let r = (-self.0.scale * dist * dist).exp();
         terms[0] = r as f32;
         metrics[0] = dist as f32;
-        if let Some(mut rng) = redraw_rng(g, step) {
+        if let Some(mut rng) = g.redraw.rng(step) {
             self.draw(g, step, &mut rng);
         }
         r
     }
-    fn info(&self, g: &Goal, out: &mut [f32]) {
+    fn info(&self, g: &ReachGoal, out: &mut [f32]) {
         out[..3].copy_from_slice(&[g.xy[0] as f32, g.xy[1] as f32, g.target_z as f32]);
     }
-    fn set_info(&self, g: &mut Goal, values: &[f32]) {
+    fn set_info(&self, g: &mut ReachGoal, values: &[f32]) {
         for (k, v) in values.iter().take(3).enumerate().filter(|(_, v)| v.is_finite()) {
             match k {
                 0 => g.xy[0] = *v as f64,
@@ -103,6 +121,12 @@ impl Rule for Reach {
                 _ => g.target_z = *v as f64,
             }
         }
+    }
+    /// A green sphere at the target.
+    fn markers(&self, info: &[f32], out: &mut Vec<Marker>) {
+        let [x, y, z, ..] = *info else { return };
+        let pos = [x as f64, y as f64, z as f64];
+        out.push(Marker::Sphere { pos, radius: 0.06, rgba: [0.1, 0.8, 0.2, 0.8] });
     }
 }
 

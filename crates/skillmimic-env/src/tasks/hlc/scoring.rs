@@ -26,9 +26,10 @@ use rand_chacha::ChaCha8Rng;
 use skillmimic_sim::{BALL, EnvState};
 
 use super::config::{Formula, Prediction, ScoringConfig};
-use super::{Goal, Rule, ball_to, loc_bearing, norm};
+use super::{Rule, ball_to, loc_bearing, norm};
 use crate::config::EnvConfig;
 use crate::error::EnvError;
+use crate::markers::{Marker, ring};
 use crate::vec_env::Env;
 
 /// The `[env.scoring]` table.
@@ -40,6 +41,22 @@ pub const G: f64 = 9.8;
 
 /// The scoring task's rule.
 pub struct Scoring(pub ScoringConfig);
+
+/// A scoring episode's basket and success latches.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ScoringGoal {
+    /// Basket position, world xy (m; its height is `basket_height`).
+    pub xy: [f64; 2],
+    /// The code's "reached" latch (also its task observation flag).
+    pub reached: bool,
+    /// The paper's success rule, latched.
+    pub success: bool,
+    /// The released code's success latch.
+    pub code_success: bool,
+}
+
+/// Rim radius of a basketball hoop (m; markers only).
+const RIM: f64 = 0.23;
 
 /// Predicted xy where the ball crosses height `h` (see the module doc), `None` when the ballistic
 /// prediction finds no crossing. `p`, `v`: ball position (m) and velocity (m/s), world.
@@ -65,6 +82,7 @@ pub const LABELS: &[u32] = &[31, 1, 2, 12, 13, 11, 31];
 
 impl Rule for Scoring {
     const NAME: &'static str = "scoring";
+    type Goal = ScoringGoal;
     fn labels(&self) -> &'static [u32] {
         LABELS
     }
@@ -80,7 +98,7 @@ impl Rule for Scoring {
     fn info_names(&self) -> Vec<&'static str> {
         vec!["goal_x", "goal_y", "reached"]
     }
-    fn sample_goal(&self, root: [f64; 3], rng: &mut ChaCha8Rng) -> Goal {
+    fn sample_goal(&self, root: [f64; 3], rng: &mut ChaCha8Rng) -> ScoringGoal {
         let c = &self.0;
         let d = if c.dist_max > c.dist_min {
             rng.random_range(c.dist_min..c.dist_max)
@@ -88,15 +106,16 @@ impl Rule for Scoring {
             c.dist_min
         };
         let phi: f64 = rng.random_range(0.0..std::f64::consts::TAU);
-        Goal { xy: [root[0] + d * phi.sin(), root[1] + d * phi.cos()], ..Goal::default() }
+        let xy = [root[0] + d * phi.sin(), root[1] + d * phi.cos()];
+        ScoringGoal { xy, ..ScoringGoal::default() }
     }
-    fn task_obs(&self, g: &Goal, st: &EnvState<'_>, out: &mut [f32]) {
+    fn task_obs(&self, g: &ScoringGoal, st: &EnvState<'_>, out: &mut [f32]) {
         loc_bearing(g.xy, st, out);
         out[4] = f32::from(u8::from(g.reached));
     }
     fn reward(
         &self,
-        g: &mut Goal,
+        g: &mut ScoringGoal,
         _step: u32,
         st: &EnvState<'_>,
         terms: &mut [f32],
@@ -140,8 +159,28 @@ impl Rule for Scoring {
         ]);
         r
     }
-    fn info(&self, g: &Goal, out: &mut [f32]) {
+    fn info(&self, g: &ScoringGoal, out: &mut [f32]) {
         out.copy_from_slice(&[g.xy[0] as f32, g.xy[1] as f32, f32::from(u8::from(g.reached))]);
+    }
+    fn set_info(&self, g: &mut ScoringGoal, values: &[f32]) {
+        if let [x, y, ..] = *values {
+            g.xy = [x as f64, y as f64];
+        }
+    }
+    /// The hoop: a rim-sized ring at the basket point, a backboard behind it (on its +x side:
+    /// the direction the ball comes from is not part of the goal) and a pole.
+    fn markers(&self, info: &[f32], out: &mut Vec<Marker>) {
+        let [x, y, ..] = *info else { return };
+        let (x, y, h) = (x as f64, y as f64, self.0.basket_height);
+        ring([x, y, h], RIM, 24, 0.012, [1.0, 0.45, 0.0, 1.0], out);
+        let board = [0.95, 0.95, 0.95, 0.6];
+        out.push(Marker::Box {
+            pos: [x + RIM + 0.15, y, h + 0.3],
+            half: [0.015, 0.9, 0.55],
+            rgba: board,
+        });
+        let (from, to) = ([x + RIM + 0.2, y, 0.0], [x + RIM + 0.2, y, h + 0.3]);
+        out.push(Marker::Segment { from, to, radius: 0.04, rgba: [0.3, 0.3, 0.3, 1.0] });
     }
 }
 

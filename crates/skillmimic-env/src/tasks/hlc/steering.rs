@@ -22,7 +22,7 @@ use skillmimic_core::math::heading_inverse;
 use skillmimic_sim::EnvState;
 
 use super::config::SteeringConfig;
-use super::{Goal, Rule, redraw_rng};
+use super::{Redraw, Rule};
 use crate::config::EnvConfig;
 use crate::error::EnvError;
 use crate::vec_env::Env;
@@ -34,12 +34,22 @@ pub const TABLE: crate::config_table::TableEntry =
 /// The steering task's rule.
 pub struct Steering(pub SteeringConfig);
 
+/// A steering episode's current command.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SteeringGoal {
+    /// Commanded direction, world xy (unit vector).
+    pub xy: [f64; 2],
+    /// Commanded speed (m/s).
+    pub speed: f64,
+    pub redraw: Redraw,
+}
+
 /// Skill label of each choice (dribbling right, forward, left; as `heading`).
 pub const LABELS: &[u32] = &[12, 13, 11];
 
 impl Steering {
     /// Draw a command into `g` and the low-level step of the next one (after `step`).
-    fn draw(&self, g: &mut Goal, step: u32, rng: &mut ChaCha8Rng) {
+    fn draw(&self, g: &mut SteeringGoal, step: u32, rng: &mut ChaCha8Rng) {
         let c = &self.0;
         let a: f64 = rng.random_range(0.0..std::f64::consts::TAU);
         g.xy = [a.cos(), a.sin()];
@@ -48,11 +58,11 @@ impl Steering {
         } else {
             c.speed_min
         };
-        g.next_change = step + rng.random_range(c.change_steps_min..=c.change_steps_max);
+        g.redraw.next_change = step + rng.random_range(c.change_steps_min..=c.change_steps_max);
     }
 
     /// v*·d − v_xy (world, m/s).
-    pub fn velocity_error(g: &Goal, st: &EnvState<'_>) -> [f64; 2] {
+    pub fn velocity_error(g: &SteeringGoal, st: &EnvState<'_>) -> [f64; 2] {
         let v = st.linvel(0);
         [g.speed * g.xy[0] - v[0], g.speed * g.xy[1] - v[1]]
     }
@@ -60,6 +70,7 @@ impl Steering {
 
 impl Rule for Steering {
     const NAME: &'static str = "steering";
+    type Goal = SteeringGoal;
     fn labels(&self) -> &'static [u32] {
         LABELS
     }
@@ -75,18 +86,21 @@ impl Rule for Steering {
     fn info_names(&self) -> Vec<&'static str> {
         vec!["dir_x", "dir_y", "speed"]
     }
-    fn sample_goal(&self, _root: [f64; 3], rng: &mut ChaCha8Rng) -> Goal {
-        let mut g = Goal { seed: rng.random(), ..Goal::default() };
+    fn sample_goal(&self, _root: [f64; 3], rng: &mut ChaCha8Rng) -> SteeringGoal {
+        let mut g = SteeringGoal {
+            redraw: Redraw { seed: rng.random(), next_change: 0 },
+            ..Default::default()
+        };
         self.draw(&mut g, 0, rng);
         g
     }
-    fn task_obs(&self, g: &Goal, st: &EnvState<'_>, out: &mut [f32]) {
+    fn task_obs(&self, g: &SteeringGoal, st: &EnvState<'_>, out: &mut [f32]) {
         let d = heading_inverse(st.quat(0)).rotate([g.xy[0], g.xy[1], 0.0]);
         out[..3].copy_from_slice(&[d[0] as f32, d[1] as f32, g.speed as f32]);
     }
     fn reward(
         &self,
-        g: &mut Goal,
+        g: &mut SteeringGoal,
         step: u32,
         st: &EnvState<'_>,
         terms: &mut [f32],
@@ -99,16 +113,16 @@ impl Rule for Steering {
         terms[0] = r as f32;
         metrics[0] = e2.sqrt() as f32;
         metrics[1] = (g.xy[0] * v[0] + g.xy[1] * v[1]) as f32;
-        if let Some(mut rng) = redraw_rng(g, step) {
+        if let Some(mut rng) = g.redraw.rng(step) {
             self.draw(g, step, &mut rng);
         }
         r
     }
-    fn info(&self, g: &Goal, out: &mut [f32]) {
+    fn info(&self, g: &SteeringGoal, out: &mut [f32]) {
         out[..3].copy_from_slice(&[g.xy[0] as f32, g.xy[1] as f32, g.speed as f32]);
     }
     /// Direction (normalised; a zero vector keeps the current one) and speed.
-    fn set_info(&self, g: &mut Goal, values: &[f32]) {
+    fn set_info(&self, g: &mut SteeringGoal, values: &[f32]) {
         let (x, y) = (
             values.first().copied().unwrap_or(0.0) as f64,
             values.get(1).copied().unwrap_or(0.0) as f64,

@@ -14,7 +14,7 @@ use rand_chacha::ChaCha8Rng;
 use skillmimic_sim::{BALL, EnvState};
 
 use super::config::ThrowingConfig;
-use super::{Goal, LL_HZ, Rule};
+use super::{LL_HZ, Rule};
 use crate::config::EnvConfig;
 use crate::error::EnvError;
 use crate::vec_env::Env;
@@ -26,11 +26,23 @@ pub const TABLE: crate::config_table::TableEntry =
 /// The throwing task's rule.
 pub struct Throwing(pub ThrowingConfig);
 
+/// A throwing episode's success bookkeeping.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ThrowGoal {
+    /// Low-level step of the first throw.
+    pub throw_step: Option<u32>,
+    /// Whether the ball went below the floor height since.
+    pub dropped: bool,
+    /// The success rule, latched.
+    pub success: bool,
+}
+
 /// Skill label of each choice (the released code's `control_mapping`).
 pub const LABELS: &[u32] = &[34, 1, 13];
 
 impl Rule for Throwing {
     const NAME: &'static str = "throwing";
+    type Goal = ThrowGoal;
     fn labels(&self) -> &'static [u32] {
         LABELS
     }
@@ -46,13 +58,13 @@ impl Rule for Throwing {
     fn info_names(&self) -> Vec<&'static str> {
         Vec::new()
     }
-    fn sample_goal(&self, _root: [f64; 3], _rng: &mut ChaCha8Rng) -> Goal {
-        Goal::default()
+    fn sample_goal(&self, _root: [f64; 3], _rng: &mut ChaCha8Rng) -> ThrowGoal {
+        ThrowGoal::default()
     }
-    fn task_obs(&self, _g: &Goal, _st: &EnvState<'_>, _out: &mut [f32]) {}
+    fn task_obs(&self, _g: &ThrowGoal, _st: &EnvState<'_>, _out: &mut [f32]) {}
     fn reward(
         &self,
-        g: &mut Goal,
+        g: &mut ThrowGoal,
         step: u32,
         st: &EnvState<'_>,
         terms: &mut [f32],
@@ -81,7 +93,8 @@ impl Rule for Throwing {
         ]);
         r
     }
-    fn info(&self, _g: &Goal, _out: &mut [f32]) {}
+    fn info(&self, _g: &ThrowGoal, _out: &mut [f32]) {}
+    fn set_info(&self, _g: &mut ThrowGoal, _values: &[f32]) {}
 }
 
 /// Registry constructor.

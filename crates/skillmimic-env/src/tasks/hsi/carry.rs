@@ -81,7 +81,7 @@ impl Carry {
             "hsi_carry",
             42,
             cfg.episode_length,
-            vec!["walk", "carry", "pick", "put", "total"],
+            crate::task::names(&["walk", "carry", "pick", "put", "total"]),
             info_names,
         );
         Self { spec, cfg: cfg.clone(), random_heading }

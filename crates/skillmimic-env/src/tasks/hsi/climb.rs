@@ -38,7 +38,7 @@ impl Climb {
             "hsi_climb",
             27,
             cfg.episode_length,
-            vec!["near", "far", "foot", "climb"],
+            crate::task::names(&["near", "far", "foot", "climb"]),
             goal_info_names(),
         );
         Self { spec, cfg: cfg.clone(), random_heading }

@@ -164,7 +164,7 @@ impl<P: Primary> WithBox<P> {
         let p = ps.obs_dim - super::proprio::PROPRIO_DIM;
         let mut terms = ps.term_names.clone();
         let nt = terms.len();
-        terms.extend(["pick", "total"]);
+        terms.extend(["pick".to_string(), "total".to_string()]);
         let mut info = ps.info_names.clone();
         info.extend(["half_x", "half_y", "half_z"].map(String::from));
         let mut spec = hsi_spec(P::NAME, 2 * p + 42 + REVISED, ps.max_episode_steps, terms, info);

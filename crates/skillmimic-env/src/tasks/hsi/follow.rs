@@ -69,8 +69,13 @@ impl Follow {
         let info_names = (0..NUM_POINTS)
             .flat_map(|k| [format!("waypoint{k}_x"), format!("waypoint{k}_y")])
             .collect();
-        let spec =
-            hsi_spec("hsi_follow", 2 * NUM_POINTS, cfg.episode_length, vec!["follow"], info_names);
+        let spec = hsi_spec(
+            "hsi_follow",
+            2 * NUM_POINTS,
+            cfg.episode_length,
+            crate::task::names(&["follow"]),
+            info_names,
+        );
         Self { spec, cfg: cfg.clone(), random_heading }
     }
 }

@@ -56,22 +56,23 @@ pub fn hsi_spec(
     name: &'static str,
     task_obs: usize,
     episode_length: usize,
-    term_names: Vec<&'static str>,
+    term_names: Vec<String>,
     info_names: Vec<String>,
 ) -> TaskSpec {
+    use skillmimic_core::characters::tokenhsi;
+    let obs_blocks = crate::obs_blocks::ObsLayout::Proprio { part: name }
+        .blocks(&tokenhsi::spec(), PROPRIO_DIM + task_obs);
     TaskSpec {
         name,
         obs_dim: PROPRIO_DIM + task_obs,
-        action_space: crate::task::ActionSpace::Box {
-            dim: skillmimic_core::characters::tokenhsi::NUM_DOFS,
-        },
+        action_space: crate::task::ActionSpace::Box { dim: tokenhsi::NUM_DOFS },
         max_episode_steps: episode_length,
         term_names,
-        metric_names: vec!["error_m", "success"],
+        metric_names: crate::task::names(&["error_m", "success"]),
         info_names,
-        steps_per_action: 1,
-        choice_labels: Vec::new(),
         token_groups: vec![("proprio".to_string(), PROPRIO_DIM), (name.to_string(), task_obs)],
+        obs_blocks,
+        ..TaskSpec::default()
     }
 }
 

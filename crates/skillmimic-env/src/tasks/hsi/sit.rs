@@ -156,7 +156,7 @@ impl Sit {
             "hsi_sit",
             38,
             cfg.episode_length,
-            vec!["near", "far", "sit"],
+            crate::task::names(&["near", "far", "sit"]),
             goal_info_names(),
         );
         Self { spec, cfg: cfg.clone(), random_heading }

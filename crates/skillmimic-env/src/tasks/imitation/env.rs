@@ -8,7 +8,7 @@ use skillmimic_core::characters::skillmimic::NUM_DOFS;
 use skillmimic_motion::MotionLibrary;
 use skillmimic_sim::Scene;
 
-use super::{FRAME_METRIC_NAMES, Imitation, ResetPlan, SkillEnv};
+use super::{EPISODE_NAMES, FRAME_METRIC_NAMES, Imitation, ResetPlan, SkillEnv};
 use crate::config::EnvConfig;
 use crate::episode::Episode;
 use crate::error::{EnvError, bad};
@@ -81,12 +81,16 @@ impl Imitation {
             } else {
                 cfg.episode_length - 1
             },
-            term_names: TERM_NAMES.to_vec(),
-            metric_names: FRAME_METRIC_NAMES.to_vec(),
-            steps_per_action: 1,
-            choice_labels: Vec::new(),
-            token_groups: Vec::new(),
+            term_names: crate::task::names(&TERM_NAMES),
+            metric_names: crate::task::names(&FRAME_METRIC_NAMES),
             info_names: cg_names(cfg.reward.contact_graph).iter().map(|s| s.to_string()).collect(),
+            obs_blocks: crate::obs_blocks::skillmimic_blocks(
+                crate::obs::layout::OBS_DIM,
+                encoder.as_ref().map_or(0, |e| e.embed_dim()),
+            ),
+            info_label: "contact_graph",
+            episode_names: EPISODE_NAMES.to_vec(),
+            ..TaskSpec::default()
         };
         // random balls of ball-free clips are placed with the radius actually simulated
         let ball_radius = scene.options().ball.map_or(0.0, |b| b.radius);
@@ -178,4 +182,25 @@ impl VecEnv<Imitation> {
 /// Registry constructor: the imitation task from the `[env]` table.
 pub fn build(cfg: &EnvConfig) -> Result<Box<dyn crate::vec_env::Env>, EnvError> {
     Ok(Box::new(SkillEnv::from_config(cfg.clone())?))
+}
+
+/// Registry constructor over an already loaded motion library (evaluation and video
+/// environments of a training run).
+pub fn build_sharing(
+    cfg: &EnvConfig,
+    lib: Arc<MotionLibrary>,
+) -> Result<Box<dyn crate::vec_env::Env>, EnvError> {
+    Ok(Box::new(SkillEnv::new(cfg.clone(), lib)?))
+}
+
+/// Evaluation episode starts: `horizon` → `fixed_horizon` (steps), `start_frame` → every
+/// episode from that reference frame.
+pub fn episode_starts(cfg: &mut EnvConfig, s: crate::task::EpisodeStarts) -> Result<(), String> {
+    if let Some(h) = s.horizon {
+        cfg.fixed_horizon = h;
+    }
+    if let Some(f) = s.start_frame {
+        cfg.state_init = crate::config::StateInit::Frame(f);
+    }
+    Ok(())
 }

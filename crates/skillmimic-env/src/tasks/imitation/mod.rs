@@ -42,6 +42,12 @@ pub type SkillEnv = VecEnv<Imitation>;
 pub const NUM_FRAME_METRICS: usize = 4;
 /// Names of the frame metrics: body error (m, mean Euclidean error of root + 17 key bodies),
 /// ball error (m), contact graph matches the reference (0/1), contact-graph squared error.
+/// Per-environment episode fields of the imitation task (`Env::episode_info`): the clip (library
+/// index), the reference frame the episode started at, the current reference frame, the steps
+/// taken, the episode's length in steps and the skill label.
+pub const EPISODE_NAMES: [&str; 6] =
+    ["clip", "ref_start", "ref_frame", "progress", "length", "skill"];
+
 pub const FRAME_METRIC_NAMES: [&str; NUM_FRAME_METRICS] =
     ["body_err", "ball_err", "cg_match", "cg_sq_err"];
 
@@ -309,5 +315,20 @@ impl Task for Imitation {
         if let Some(ats) = self.ats.as_mut() {
             ats.tick();
         }
+    }
+
+    /// [`EPISODE_NAMES`] of the slot's episode.
+    fn episode_info(&self, slot: &ImitationSlot, out: &mut [i64]) {
+        let e = &slot.episode;
+        let v = [e.clip, e.ref_start, e.ref_frame(), e.progress, e.length, e.skill as usize];
+        for (o, x) in out.iter_mut().zip(v) {
+            *o = x as i64;
+        }
+    }
+    fn library(&self) -> Option<&Arc<MotionLibrary>> {
+        Some(&self.lib)
+    }
+    fn history_window(&self, slot: &ImitationSlot) -> Option<Vec<f32>> {
+        slot.history.as_ref().map(|h| h.window())
     }
 }

@@ -29,18 +29,41 @@ impl crate::config_table::TaskConfig for MultiConfig {
     const DOC: &'static str = "Options of the multi-task environments (`hsi_multi`, `hlc_multi`).";
 }
 
+/// A registered multi-task environment: its name, the kind of tasks it splits its batch
+/// across, and its defaults when `[env.multi]` names no tasks.
+pub struct Kind {
+    pub name: &'static str,
+    /// High-level tasks (over a frozen skill policy) rather than low-level ones.
+    pub high_level: bool,
+    pub default_tasks: &'static [&'static str],
+    /// Empty: equal shares.
+    pub default_mix: &'static [f64],
+}
+
+/// `hsi_multi`: TokenHSI's four tasks with its mix (follow 0.1, sit 0.3, carry 0.3, climb 0.3).
+pub const HSI: Kind = Kind {
+    name: "hsi_multi",
+    high_level: false,
+    default_tasks: &["hsi_follow", "hsi_sit", "hsi_carry", "hsi_climb"],
+    default_mix: &[0.1, 0.3, 0.3, 0.3],
+};
+
+/// `hlc_multi`: heading and circling, equal shares.
+pub const HLC: Kind = Kind {
+    name: "hlc_multi",
+    high_level: true,
+    default_tasks: &["heading", "circling"],
+    default_mix: &[],
+};
+
 impl MultiConfig {
-    /// The tasks and mix in effect for the registered multi-task environment `name`.
-    pub fn effective(&self, name: &str) -> (Vec<String>, Vec<f64>) {
+    /// The tasks and mix in effect for a multi-task environment whose defaults are `kind`'s.
+    pub fn effective(&self, kind: &Kind) -> (Vec<String>, Vec<f64>) {
         if !self.tasks.is_empty() {
             return (self.tasks.clone(), self.mix.clone());
         }
-        if name == "hlc_multi" {
-            (vec!["heading".into(), "circling".into()], self.mix.clone())
-        } else {
-            let mix = if self.mix.is_empty() { vec![0.1, 0.3, 0.3, 0.3] } else { self.mix.clone() };
-            (["hsi_follow", "hsi_sit", "hsi_carry", "hsi_climb"].map(String::from).to_vec(), mix)
-        }
+        let mix = if self.mix.is_empty() { kind.default_mix.to_vec() } else { self.mix.clone() };
+        (kind.default_tasks.iter().map(|s| s.to_string()).collect(), mix)
     }
 }
 

@@ -33,11 +33,12 @@ use skillmimic_sim::{MjBatch, SimError};
 
 use crate::config::EnvConfig;
 use crate::error::{EnvError, bad};
-use crate::registry;
+use crate::obs_blocks::ObsBlock;
 use crate::task::TaskSpec;
 use crate::tasks::multi::config::MultiConfig;
 use crate::vec_env::{Env, StepBuffers};
 use config::split;
+pub use config::{HLC, HSI, Kind};
 
 /// The `[env.multi]` table.
 pub const TABLE: crate::config_table::TableEntry =
@@ -69,41 +70,55 @@ pub struct MultiEnv {
     buf: StepBuffers,
 }
 
-/// Build the multi-task environment of `cfg.multi` (registry constructor of `hsi_multi` and
-/// `hlc_multi`).
-pub fn build(cfg: &EnvConfig) -> Result<Box<dyn Env>, EnvError> {
-    Ok(Box::new(MultiEnv::new(cfg)?))
+/// What the multi-task environment needs of the task registry, handed in by the registry (so
+/// this module does not import it).
+pub struct Tasks {
+    /// Build a registered task's environment.
+    pub make: fn(&EnvConfig) -> Result<Box<dyn Env>, EnvError>,
+    /// `Some(high_level)` for a registered single task, `Some(..)` also for multi-task ones
+    /// (refused separately), `None` for an unknown name.
+    pub high_level: fn(&str) -> Option<bool>,
+    /// Whether a registered name is itself a multi-task environment.
+    pub is_multi: fn(&str) -> bool,
+    /// Every registered name (error messages).
+    pub names: fn() -> Vec<&'static str>,
+}
+
+/// Build the multi-task environment `kind` from `cfg.multi` (registry constructor of
+/// `hsi_multi` and `hlc_multi`).
+pub fn build(cfg: &EnvConfig, kind: &Kind, tasks: &Tasks) -> Result<Box<dyn Env>, EnvError> {
+    Ok(Box::new(MultiEnv::new(cfg, kind, tasks)?))
 }
 
 impl MultiEnv {
     /// Build every task's sub-batch (environment counts from `env.multi.mix`; sub-batch k's episode
     /// starts of batch row r seeded with `start_seed(0) + r`) and lay out the combined observation.
-    pub fn new(cfg: &EnvConfig) -> Result<Self, EnvError> {
+    pub fn new(cfg: &EnvConfig, kind: &Kind, reg: &Tasks) -> Result<Self, EnvError> {
         let m = cfg.table::<MultiConfig>();
-        let (tasks, mix) = m.effective(&cfg.task);
+        let (tasks, mix) = m.effective(kind);
         let counts = split(cfg.num_envs, tasks.len(), &mix)?;
         let base_seed = cfg.start_seed(0);
         let mut envs = Vec::new();
         for (k, (task, &n)) in tasks.iter().zip(&counts).enumerate() {
-            if registry::entry(task).is_none() {
+            let Some(high_level) = (reg.high_level)(task) else {
                 return Err(bad(
                     "env.multi.tasks",
                     format!(
                         "'{task}' is not a registered task; registered: {}",
-                        registry::names().join(", ")
+                        (reg.names)().join(", ")
                     ),
                 )
                 .into());
-            }
-            if task.ends_with("_multi") {
+            };
+            if (reg.is_multi)(task) {
                 return Err(bad(
                     "env.multi.tasks",
                     format!("'{task}' is itself a multi-task environment"),
                 )
                 .into());
             }
-            let want_hl = cfg.task == "hlc_multi";
-            if registry::entry(task).is_some_and(|e| e.high_level != want_hl) {
+            let want_hl = kind.high_level;
+            if high_level != want_hl {
                 let kind = if want_hl {
                     "high-level (heading, circling, …)"
                 } else {
@@ -120,7 +135,7 @@ impl MultiEnv {
             c.num_envs = n;
             // row r of the batch draws from the stream `seed + r`, as in one task's batch
             c.seed = Some(base_seed.wrapping_add(counts[..k].iter().sum::<usize>() as u64));
-            envs.push(registry::make(&c)?);
+            envs.push((reg.make)(&c)?);
         }
         let first = envs[0].spec().clone();
         let Some(shared) = first.token_groups.first().cloned() else {
@@ -155,7 +170,7 @@ impl MultiEnv {
                     .iter()
                     .find(|g| &g.0 == name)
                     .map(|g| g.1)
-                    .or_else(|| group_width(cfg, name));
+                    .or_else(|| group_width(cfg, reg, name));
                 let Some(w) = width else {
                     return Err(bad(
                         "env.multi.groups",
@@ -195,12 +210,11 @@ impl MultiEnv {
                 active.push(j);
                 src += g.1;
             }
-            let leak = |v: String| -> &'static str { Box::leak(v.into_boxed_str()) };
             let (term_at, metric_at, info_at) =
                 (term_names.len(), metric_names.len(), info_names.len());
-            term_names.push(leak(format!("{}/reward", s.name)));
-            term_names.extend(s.term_names.iter().map(|t| leak(format!("{}/{t}", s.name))));
-            metric_names.extend(s.metric_names.iter().map(|t| leak(format!("{}/{t}", s.name))));
+            term_names.push(format!("{}/reward", s.name));
+            term_names.extend(s.term_names.iter().map(|t| format!("{}/{t}", s.name)));
+            metric_names.extend(s.metric_names.iter().map(|t| format!("{}/{t}", s.name)));
             info_names.extend(s.info_names.iter().map(|t| format!("{}/{t}", s.name)));
             let nt = env.num_envs();
             subs.push(Sub {
@@ -215,12 +229,19 @@ impl MultiEnv {
             });
             start += nt;
         }
+        // blocks: the shared part's as the first task declares them, one per task group, the mask
+        let mut obs_blocks: Vec<ObsBlock> =
+            first.obs_blocks.iter().filter(|b| b.range.end <= shared.1).cloned().collect();
+        for (g, &at) in groups.iter().zip(&offsets) {
+            obs_blocks.push(ObsBlock::new(g.0.clone(), at..at + g.1));
+        }
+        obs_blocks.push(ObsBlock::bounded("mask", mask_at..mask_at + k, 0.0, 1.0));
         let mut token_groups = vec![shared];
         token_groups.extend(groups);
         token_groups.push(("mask".to_string(), k));
         let obs_dim = mask_at + k;
         let spec = TaskSpec {
-            name: registry::entry(&cfg.task).map_or("hsi_multi", |e| e.name),
+            name: kind.name,
             obs_dim,
             action_space: first.action_space,
             max_episode_steps: subs
@@ -234,6 +255,8 @@ impl MultiEnv {
             steps_per_action: first.steps_per_action,
             choice_labels: first.choice_labels.clone(),
             token_groups,
+            obs_blocks,
+            ..TaskSpec::default()
         };
         let buf = StepBuffers::for_spec(n, &spec);
         let mut me = Self { spec, subs, n, mask_at, buf };
@@ -297,12 +320,12 @@ impl MultiEnv {
 
 /// The task observation width of group `name` (a registered task's own group) when no
 /// configured task fills it: built from a one-environment instance of that task.
-fn group_width(cfg: &EnvConfig, name: &str) -> Option<usize> {
-    registry::entry(name)?;
+fn group_width(cfg: &EnvConfig, reg: &Tasks, name: &str) -> Option<usize> {
+    (reg.high_level)(name)?;
     let mut c = cfg.clone();
     c.task = name.to_string();
     c.num_envs = 1;
-    let env = registry::make(&c).ok()?;
+    let env = (reg.make)(&c).ok()?;
     env.spec().token_groups.iter().find(|g| g.0 == name).map(|g| g.1)
 }
 

@@ -49,6 +49,29 @@ pub const TABLE: crate::config_table::TableEntry =
 /// 3.
 const PACKED: usize = 13;
 
+/// Evaluation episode starts: tracking episodes run to the clip's end, from frame 0
+/// (`start_frame` 0: whole clips, `random_start` off) or from random frames (nothing given).
+pub fn episode_starts(cfg: &mut EnvConfig, s: crate::task::EpisodeStarts) -> Result<(), String> {
+    match (s.horizon, s.start_frame) {
+        (None, None) => Ok(()),
+        (None, Some(0)) => {
+            cfg.table_mut::<TrackingConfig>().random_start = false;
+            Ok(())
+        }
+        (None, Some(f)) => Err(format!(
+            "--start-frame {f}: the tracking task evaluates from frame 0 (--start-frame 0, whole clips) or from random frames (no flag)"
+        )),
+        (Some(h), _) => {
+            Err(format!("--horizon {h}: tracking episodes run to the end of their clip"))
+        }
+    }
+}
+
+/// The observation: the character's proprioception, then the reference part
+/// ([`formulas::REF_WIDTH`] per tracked body).
+pub const LAYOUT: crate::obs_blocks::ObsLayout =
+    crate::obs_blocks::ObsLayout::Proprio { part: "reference" };
+
 /// Reference body states of one clip (float32, frame-major, [`PACKED`] per body).
 #[derive(Clone, Debug, PartialEq)]
 pub struct ClipFrames {
@@ -153,17 +176,19 @@ impl Tracking {
         let refs = reference_frames(scene, &motion)?;
         let longest = refs.iter().map(|r| r.frames).max().unwrap_or(2);
         let nd = character.num_dofs;
+        let p = character.proprio_dim();
+        let obs_blocks = LAYOUT.blocks(&character, p + REF_WIDTH * bodies.len());
         let spec = TaskSpec {
             name: "tracking",
-            obs_dim: character.proprio_dim() + REF_WIDTH * bodies.len(),
+            obs_dim: p + REF_WIDTH * bodies.len(),
             action_space: ActionSpace::Box { dim: nd },
             max_episode_steps: longest - 1,
-            term_names: TERMS.to_vec(),
-            metric_names: METRICS.to_vec(),
+            term_names: crate::task::names(&TERMS),
+            metric_names: crate::task::names(&METRICS),
             info_names: vec!["clip".into(), "ref_frame".into()],
-            steps_per_action: 1,
-            choice_labels: Vec::new(),
-            token_groups: Vec::new(),
+            obs_blocks,
+            episode_names: vec!["clip", "ref_frame"],
+            ..TaskSpec::default()
         };
         let cumulative = motion.cumulative(|name| t.clip_weights.get(name).copied().unwrap_or(1.0));
         Ok(Self {
@@ -222,6 +247,11 @@ impl Task for Tracking {
     fn new_slot(&self) -> TrackSlot {
         let n = self.character.bodies.len();
         TrackSlot { older: vec![[0.0; 3]; n], old: vec![[0.0; 3]; n], ..TrackSlot::default() }
+    }
+    /// `clip` and `ref_frame` of the slot.
+    fn episode_info(&self, slot: &TrackSlot, out: &mut [i64]) {
+        out[0] = slot.clip as i64;
+        out[1] = slot.frame as i64;
     }
 
     fn plan_reset(
