@@ -191,6 +191,28 @@ pub fn generator(a: &ActiveConfig, work_dir: &Path) -> Box<dyn Generator> {
     }
 }
 
+/// Active learning rounds every `run.active.every` iterations of a training run (the runner's
+/// iteration hook).
+pub struct Rounds {
+    every: u64,
+}
+
+impl Rounds {
+    /// The hook, when `run.active.enabled`.
+    pub fn for_config(cfg: &crate::config::TrainConfig) -> Option<Self> {
+        cfg.run.active.enabled.then_some(Self { every: cfg.run.active.every as u64 })
+    }
+}
+
+impl crate::trainer::IterationHook for Rounds {
+    fn after_iteration(&mut self, t: &mut Trainer) -> Result<(), LearnError> {
+        if t.progress.iteration.is_multiple_of(self.every) {
+            train_round(t)?;
+        }
+        Ok(())
+    }
+}
+
 /// A round inside training (rank 0 of one process): evaluate, generate, re-weight, rebuild the
 /// environment; the report is appended to `<run.out_dir>/active.jsonl`.
 pub fn train_round(t: &mut Trainer) -> Result<RoundReport, LearnError> {
@@ -200,8 +222,8 @@ pub fn train_round(t: &mut Trainer) -> Result<RoundReport, LearnError> {
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(
         t.cfg.run.seed ^ t.progress.iteration.wrapping_mul(0x9e37_79b9_7f4a_7c15),
     );
-    let report =
-        round(&t.policy, &t.cfg, g.as_mut(), &a, t.amp.as_mut().map(|x| x.disc_mut()), &mut rng)?;
+    let (policy, cfg, amp) = t.policy_and_extension_mut::<crate::amp_reward::AmpReward>();
+    let report = round(policy, cfg, g.as_mut(), &a, amp.map(|x| x.disc_mut()), &mut rng)?;
     apply(t, &report)?;
     let path = out.join("active.jsonl");
     let line = serde_json::json!({"iteration": t.progress.iteration, "report": &report});

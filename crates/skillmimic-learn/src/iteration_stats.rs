@@ -48,3 +48,29 @@ pub struct IterationStats {
     pub disc_ref: f64,
     pub disc_sim: f64,
 }
+
+impl IterationStats {
+    /// The TensorBoard scalars of the iteration (tag, value): rewards, episodes, instability,
+    /// losses, PPO diagnostics, throughput, then every reward term as `reward_terms/<name>`.
+    pub fn scalars(&self) -> Vec<(String, f32)> {
+        let mut v: Vec<(String, f32)> = [
+            ("reward/mean_step", self.mean_reward),
+            ("episode/length", self.episode_length),
+            ("episode/return", self.episode_return),
+            ("episode/early_termination", self.early_terminations),
+            ("sim/unstable_steps", self.unstable_steps as f64),
+            ("loss/actor", self.actor_loss),
+            ("loss/critic", self.critic_loss),
+            ("loss/bounds", self.bounds_loss),
+            ("ppo/clip_frac", self.clip_frac),
+            ("ppo/approx_kl", self.approx_kl),
+            ("perf/samples_per_s", self.samples_per_s),
+            ("perf/allreduce_s", self.allreduce_s),
+        ]
+        .into_iter()
+        .map(|(k, x)| (k.to_string(), x as f32))
+        .collect();
+        v.extend(self.reward_terms.iter().map(|(k, x)| (format!("reward_terms/{k}"), *x as f32)));
+        v
+    }
+}

@@ -17,7 +17,7 @@ use crate::episode_eval::{EpisodeReport, evaluate_episodes};
 use crate::error::{LearnError, io};
 use crate::eval::{EvalReport, evaluate};
 use crate::tblog::EventWriter;
-use crate::trainer::{IterationStats, Trainer};
+use crate::trainer::{IterationHook, IterationStats, Trainer};
 
 /// Train for the configured iterations, writing logs and checkpoints into `run.out_dir`;
 /// `on_iteration` sees every iteration's statistics (progress bars). Returns the path of the
@@ -78,6 +78,7 @@ pub fn train_loop_until(
     let mut tb = EventWriter::create(&out.join("tb")).map_err(io(&out.join("tb")))?;
     let mut last = out.join("latest.safetensors");
     let mut last_good = t.resumed_from.clone();
+    let mut hooks = iteration_hooks(&t.cfg);
     while t.progress.iteration < target {
         let s = t
             .iteration()
@@ -85,33 +86,16 @@ pub fn train_loop_until(
         use std::io::Write;
         writeln!(log, "{}", serde_json::to_string(&s).expect("serialisable stats"))
             .map_err(io(&log_path))?;
-        let mut scalars: Vec<(String, f32)> = vec![
-            ("reward/mean_step".into(), s.mean_reward as f32),
-            ("episode/length".into(), s.episode_length as f32),
-            ("episode/return".into(), s.episode_return as f32),
-            ("episode/early_termination".into(), s.early_terminations as f32),
-            ("sim/unstable_steps".into(), s.unstable_steps as f32),
-            ("loss/actor".into(), s.actor_loss as f32),
-            ("loss/critic".into(), s.critic_loss as f32),
-            ("loss/bounds".into(), s.bounds_loss as f32),
-            ("ppo/clip_frac".into(), s.clip_frac as f32),
-            ("ppo/approx_kl".into(), s.approx_kl as f32),
-            ("perf/samples_per_s".into(), s.samples_per_s as f32),
-            ("perf/allreduce_s".into(), s.allreduce_s as f32),
-        ];
-        scalars
-            .extend(s.reward_terms.iter().map(|(k, v)| (format!("reward_terms/{k}"), *v as f32)));
+        let scalars = s.scalars();
         let refs: Vec<(&str, f32)> = scalars.iter().map(|(k, v)| (k.as_str(), *v)).collect();
         tb.scalars(s.samples as i64, &refs).map_err(io(tb.path()))?;
         let go_on = on_iteration(&s);
         let it = t.progress.iteration;
-        if t.cfg.run.active.enabled
-            && it.is_multiple_of(t.cfg.run.active.every as u64)
-            && it < target
-            && go_on
-        {
-            crate::active::train_round(t)
-                .map_err(|e| crate::divergence::with_last_good(e, last_good.as_deref()))?;
+        if it < target && go_on {
+            for h in hooks.iter_mut() {
+                h.after_iteration(t)
+                    .map_err(|e| crate::divergence::with_last_good(e, last_good.as_deref()))?;
+            }
         }
         if it.is_multiple_of(t.cfg.run.save_every as u64) || it == target || !go_on {
             let p = ckpt_dir.join(format!("iter_{it:06}.safetensors"));
@@ -125,6 +109,16 @@ pub fn train_loop_until(
         }
     }
     Ok((last, false))
+}
+
+/// The iteration hooks the configuration asks for (one line each): active skill learning
+/// (`run.active`).
+fn iteration_hooks(cfg: &crate::config::TrainConfig) -> Vec<Box<dyn IterationHook>> {
+    let mut hooks: Vec<Box<dyn IterationHook>> = Vec::new();
+    hooks.extend(
+        crate::active::Rounds::for_config(cfg).map(|h| Box::new(h) as Box<dyn IterationHook>),
+    );
+    hooks
 }
 
 /// What an end-of-run hook produced: a file, or why it could not.

@@ -3,6 +3,7 @@
 //! library, the invalid one is rejected with the filter's reason, and the rebuilt environment
 //! samples the failed clip more often.
 
+use skillmimic_learn::amp_reward::AmpReward;
 use std::sync::{Arc, Mutex};
 
 use rand::{RngCore, SeedableRng};
@@ -160,7 +161,7 @@ fn the_discriminator_filter_scores_generated_clips() {
     cfg.ppo.amp.hidden = vec![16];
     cfg.run.out_dir = root.clone();
     let t = Trainer::new(cfg.clone(), None).unwrap();
-    let mut disc = t.amp.as_ref().unwrap().disc().clone();
+    let mut disc = t.extension::<AmpReward>().unwrap().disc().clone();
     // the score against windows cut by hand from the posed clip's features
     let clip =
         Clip::load(&skillmimic_motion::library::find_clip_files(&cfg.env.motion[0]).unwrap()[0])

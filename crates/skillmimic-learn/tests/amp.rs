@@ -3,6 +3,7 @@
 //! reference windows above simulated ones and their style reward is higher; its gradient-penalty
 //! gradients equal central finite differences of the loss.
 
+use skillmimic_learn::amp_reward::AmpReward;
 use std::sync::Arc;
 
 use rand::{Rng, SeedableRng};
@@ -146,7 +147,7 @@ fn motion_prior_trains_inside_ppo_and_resumes_from_the_checkpoint() {
     c.run.eval_episodes = 2;
     c.run.out_dir = std::env::temp_dir().join(format!("sm-amp-{}", std::process::id()));
     let mut t = Trainer::new(c.clone(), None).unwrap();
-    let before = t.amp.as_ref().unwrap().disc().mlp.clone();
+    let before = t.extension::<AmpReward>().unwrap().disc().mlp.clone();
     let mut seen = Vec::new();
     let last = skillmimic_learn::runner::train_loop(&mut t, |s| seen.push(s.clone())).unwrap();
     let s = &seen[1];
@@ -160,9 +161,10 @@ fn motion_prior_trains_inside_ppo_and_resumes_from_the_checkpoint() {
     );
     assert!((s.mean_reward - 0.5 * (task + style)).abs() < 1e-5);
     assert!(s.disc_loss > 0.0 && style.is_finite() && style >= 0.0);
-    assert_ne!(t.amp.as_ref().unwrap().disc().mlp, before, "the discriminator trains");
+    assert_ne!(t.extension::<AmpReward>().unwrap().disc().mlp, before, "the discriminator trains");
     let t2 = Trainer::new(c, Some(&last)).unwrap();
-    let (a, b) = (&t.amp.as_ref().unwrap().disc(), &t2.amp.as_ref().unwrap().disc());
+    let (a, b) =
+        (&t.extension::<AmpReward>().unwrap().disc(), &t2.extension::<AmpReward>().unwrap().disc());
     assert_eq!(a.mlp, b.mlp);
     assert_eq!(
         (a.norm.mean.clone(), a.adam.step, a.adam.m.clone()),
@@ -274,7 +276,7 @@ fn motion_prior_trains_data_parallel() {
                                 .map(|(_, v)| *v)
                                 .unwrap();
                         }
-                        Ok((t.amp.as_ref().unwrap().disc().clone(), style))
+                        Ok((t.extension::<AmpReward>().unwrap().disc().clone(), style))
                     })
                 })
                 .collect();

@@ -4,6 +4,7 @@
 //! reference above the policy and gives it the higher style reward. Inside PPO on `hsi_sit` the
 //! per-term breakdown shows the task and style parts mixed 0.5 / 0.5, and the discriminator trains.
 
+use skillmimic_learn::amp_reward::AmpReward;
 use std::path::PathBuf;
 
 use rand::{Rng, SeedableRng};
@@ -149,8 +150,8 @@ fn the_style_reward_mixes_into_ppo_on_a_tokenhsi_task() {
     c.run.eval_episodes = 2;
     c.run.out_dir = std::env::temp_dir().join(format!("sm-hsi-amp-{}", std::process::id()));
     let mut t = Trainer::new(c.clone(), None).unwrap();
-    let before = t.amp.as_ref().unwrap().disc().mlp.clone();
-    assert_eq!(t.amp.as_ref().unwrap().disc().input_dim(), K * STYLE_DIM);
+    let before = t.extension::<AmpReward>().unwrap().disc().mlp.clone();
+    assert_eq!(t.extension::<AmpReward>().unwrap().disc().input_dim(), K * STYLE_DIM);
     let mut seen = Vec::new();
     skillmimic_learn::runner::train_loop(&mut t, |s| seen.push(s.clone())).unwrap();
     let s = &seen[1];
@@ -168,7 +169,7 @@ fn the_style_reward_mixes_into_ppo_on_a_tokenhsi_task() {
     );
     assert!((s.mean_reward - 0.5 * (task + style)).abs() < 1e-5);
     assert!(style.is_finite() && style >= 0.0 && s.disc_loss > 0.0);
-    assert_ne!(t.amp.as_ref().unwrap().disc().mlp, before, "the discriminator trains");
+    assert_ne!(t.extension::<AmpReward>().unwrap().disc().mlp, before, "the discriminator trains");
     // a TokenHSI task without reference clips is refused with the key named
     c.env.table_mut::<HsiConfig>().style_motion.clear();
     let err = Trainer::new(c, None).err().expect("no style clips").to_string();
@@ -209,16 +210,16 @@ fn multi_task_training_keeps_one_discriminator_per_task() {
     c.ppo.amp.buffer = 256;
     c.run.out_dir = std::env::temp_dir().join(format!("sm-hsi-multi-amp-{}", std::process::id()));
     let mut t = Trainer::new(c.clone(), None).unwrap();
-    let amp = t.amp.as_ref().unwrap();
+    let amp = t.extension::<AmpReward>().unwrap();
     let names: Vec<&str> = amp.priors.iter().map(|p| p.name.as_str()).collect();
     assert_eq!(names, ["hsi_follow", "hsi_sit"]);
     let before: Vec<_> = amp.priors.iter().map(|p| p.disc.mlp.clone()).collect();
     let s = t.iteration().unwrap();
     assert!(s.disc_loss > 0.0 && s.mean_reward.is_finite());
-    for (p, b) in t.amp.as_ref().unwrap().priors.iter().zip(&before) {
+    for (p, b) in t.extension::<AmpReward>().unwrap().priors.iter().zip(&before) {
         assert_ne!(&p.disc.mlp, b, "{}'s discriminator trains", p.name);
     }
-    let a = t.amp.as_ref().unwrap();
+    let a = t.extension::<AmpReward>().unwrap();
     assert_ne!(a.priors[0].disc.mlp, a.priors[1].disc.mlp);
     // per-task tensors survive a checkpoint round trip
     let path = c.run.out_dir.join("c.safetensors");
@@ -229,7 +230,13 @@ fn multi_task_training_keeps_one_discriminator_per_task() {
             && f.names().iter().any(|n| n == "amp.hsi_follow.norm.mean")
     );
     let t2 = Trainer::new(c.clone(), Some(&path)).unwrap();
-    for (p, q) in t.amp.as_ref().unwrap().priors.iter().zip(&t2.amp.as_ref().unwrap().priors) {
+    for (p, q) in t
+        .extension::<AmpReward>()
+        .unwrap()
+        .priors
+        .iter()
+        .zip(&t2.extension::<AmpReward>().unwrap().priors)
+    {
         assert_eq!(p.disc.mlp, q.disc.mlp, "{} restored", p.name);
     }
     std::fs::remove_dir_all(&c.run.out_dir).ok();

@@ -1,0 +1,36 @@
+//! The trainer's state: the run's configuration, environment, policy and optimiser, and its
+//! parts (rollout buffers, update buffers, extensions, the collective). The behaviour is in
+//! [`super`] (the iteration), [`super::setup`] (building) and the parts' own modules.
+
+use std::path::PathBuf;
+
+use skillmimic_env::Env;
+
+use super::extension::Extension;
+use super::rollout::Rollouts;
+use super::update::Updater;
+use crate::adam::Adam;
+use crate::checkpoint::Progress;
+use crate::collective::Timed;
+use crate::config::TrainConfig;
+use crate::policy::Policy;
+use crate::shard::Shard;
+
+/// PPO trainer.
+pub struct Trainer {
+    pub cfg: TrainConfig,
+    pub env: Box<dyn Env>,
+    pub policy: Policy,
+    pub adam: Adam,
+    pub progress: Progress,
+    /// This rank's environments and samples.
+    pub shard: Shard,
+    /// The checkpoint this run resumed from (rank 0; the last good checkpoint until it saves one).
+    pub resumed_from: Option<PathBuf>,
+    pub(super) rollouts: Rollouts,
+    pub(super) updater: Updater,
+    pub(super) extensions: Vec<Box<dyn Extension>>,
+    pub(super) comm: Timed,
+    /// The effective configuration saved with checkpoints.
+    pub(super) config_toml: String,
+}
