@@ -1,59 +1,64 @@
-//! The actor network of a policy: an MLP (every `*_mlp` family), ModSkill's modular attention
-//! network (`modular_attention`) or TokenHSI's token transformer (`token_transformer*`). One
-//! interface for inference, the candle gradient graph, the optimiser's parameter list and the
-//! checkpoint names.
+//! The actor network of a policy: any [`PolicyNet`] — an MLP (every `*_mlp` family), ModSkill's
+//! modular attention network (`modular_attention`) or TokenHSI's token transformer
+//! (`token_transformer*`), built by the policy family. The learner reaches it only through that
+//! interface (parameters with their `state_dict` names, batched and candle forwards, what the
+//! network declares); architecture-specific code (ONNX graphs, checkpoint descriptions,
+//! adaptation) asks for the concrete type with [`ActorNet::downcast_ref`].
 
 use candle_core::{Device, Tensor, Var};
-use skillmimic_nn::mlp::{Mlp, Workspace};
-use skillmimic_nn::modular::{ModularAttention, ModularWorkspace};
-use skillmimic_nn::token::{TokenTransformer, TokenWorkspace};
+use skillmimic_nn::mlp::Mlp;
+use skillmimic_nn::policy_net::{FastGradient, PolicyNet, Scratch};
 
 /// The actor network.
-#[derive(Clone, Debug, PartialEq)]
-pub enum ActorNet {
-    Mlp(Mlp),
-    Modular(ModularAttention),
-    Token(TokenTransformer),
-}
+#[derive(Debug)]
+pub struct ActorNet(Box<dyn PolicyNet>);
 
 /// Buffers of [`ActorNet::forward_into`].
 #[derive(Clone, Debug, Default)]
-pub struct ActorWorkspace {
-    mlp: Workspace,
-    modular: ModularWorkspace,
-    token: TokenWorkspace,
+pub struct ActorWorkspace(Scratch);
+
+impl Clone for ActorNet {
+    fn clone(&self) -> Self {
+        ActorNet(self.0.clone_box())
+    }
+}
+
+impl PartialEq for ActorNet {
+    fn eq(&self, o: &Self) -> bool {
+        self.0.same_as(o.0.as_ref())
+    }
+}
+
+impl<N: PolicyNet> From<N> for ActorNet {
+    fn from(net: N) -> Self {
+        ActorNet(Box::new(net))
+    }
 }
 
 impl ActorNet {
+    /// The network as its concrete type `N`, when it is one.
+    pub fn downcast_ref<N: PolicyNet>(&self) -> Option<&N> {
+        self.0.as_any().downcast_ref::<N>()
+    }
+    /// The network as its concrete type `N`, mutably, when it is one.
+    pub fn downcast_mut<N: PolicyNet>(&mut self) -> Option<&mut N> {
+        self.0.as_any_mut().downcast_mut::<N>()
+    }
     /// Input width (the observation).
     pub fn input_dim(&self) -> usize {
-        match self {
-            ActorNet::Mlp(m) => m.input_dim(),
-            ActorNet::Modular(m) => m.obs_dim,
-            ActorNet::Token(t) => t.obs_dim(),
-        }
+        self.0.input_dim()
     }
     /// Output width (Gaussian means or logits).
     pub fn output_dim(&self) -> usize {
-        match self {
-            ActorNet::Mlp(m) => m.output_dim(),
-            ActorNet::Modular(m) => m.act_dim,
-            ActorNet::Token(t) => t.act_dim,
-        }
+        self.0.output_dim()
     }
     /// The MLP, when the actor is one.
     pub fn as_mlp(&self) -> Option<&Mlp> {
-        match self {
-            ActorNet::Mlp(m) => Some(m),
-            _ => None,
-        }
+        self.downcast_ref::<Mlp>()
     }
     /// The MLP, mutably, when the actor is one.
     pub fn as_mlp_mut(&mut self) -> Option<&mut Mlp> {
-        match self {
-            ActorNet::Mlp(m) => Some(m),
-            _ => None,
-        }
+        self.0.as_any_mut().downcast_mut::<Mlp>()
     }
     /// Hidden widths of an MLP actor (`None` for the other networks).
     pub fn mlp_hidden(&self) -> Option<&[usize]> {
@@ -61,27 +66,15 @@ impl ActorNet {
     }
     /// `(name, shape)` of every parameter under `prefix`, in [`ActorNet::params`] order.
     pub fn param_names(&self, prefix: &str) -> Vec<(String, Vec<usize>)> {
-        match self {
-            ActorNet::Mlp(m) => m.param_names(prefix),
-            ActorNet::Modular(m) => m.param_names(prefix),
-            ActorNet::Token(t) => t.param_names(prefix),
-        }
+        self.0.param_names(prefix)
     }
     /// Parameters in optimiser order.
     pub fn params(&self) -> Vec<&[f32]> {
-        match self {
-            ActorNet::Mlp(m) => m.params(),
-            ActorNet::Modular(m) => m.params(),
-            ActorNet::Token(t) => t.params(),
-        }
+        self.0.params()
     }
     /// Mutable parameters in optimiser order.
     pub fn params_mut(&mut self) -> Vec<&mut Vec<f32>> {
-        match self {
-            ActorNet::Mlp(m) => m.params_mut(),
-            ActorNet::Modular(m) => m.params_mut(),
-            ActorNet::Token(t) => t.params_mut(),
-        }
+        self.0.params_mut()
     }
     /// Batched inference of `n` normalised observation rows; returns `n × output_dim`.
     pub fn forward_into<'w>(
@@ -91,47 +84,30 @@ impl ActorNet {
         ws: &'w mut ActorWorkspace,
         threads: usize,
     ) -> &'w [f32] {
-        match self {
-            ActorNet::Mlp(m) => m.forward_into(x, n, &mut ws.mlp, threads),
-            ActorNet::Modular(m) => m.forward_into(x, n, &mut ws.modular, threads),
-            ActorNet::Token(t) => t.forward_into(x, n, &mut ws.token),
-        }
+        self.0.forward_into(x, n, &mut ws.0, threads)
     }
     /// Candle variables of the parameters ([`ActorNet::params`] order).
     pub fn candle_vars(&self, dev: &Device) -> candle_core::Result<Vec<Var>> {
-        match self {
-            ActorNet::Mlp(m) => m.candle_vars(dev),
-            ActorNet::Modular(m) => m.candle_vars(dev),
-            ActorNet::Token(t) => t.candle_vars(dev),
-        }
+        self.0.candle_vars(dev)
     }
     /// Candle forward of `x` (B, input) through `vars`.
     pub fn candle_forward(&self, vars: &[Var], x: &Tensor) -> candle_core::Result<Tensor> {
-        match self {
-            ActorNet::Mlp(_) => Mlp::candle_forward(vars, x),
-            ActorNet::Modular(m) => m.candle_forward(vars, x),
-            ActorNet::Token(t) => t.candle_forward(vars, x),
-        }
+        self.0.candle_forward(vars, x)
     }
     /// Tensors that are saved but not trained (`(name under prefix, shape, data)`; adaptation).
     pub fn frozen_tensors(&self, prefix: &str) -> Vec<(String, Vec<usize>, &[f32])> {
-        match self {
-            ActorNet::Token(t) => t.frozen_tensors(prefix),
-            _ => Vec::new(),
-        }
+        self.0.frozen_tensors(prefix)
     }
     /// Observation columns the policy passes to the actor unnormalised (the token mask).
     pub fn raw_columns(&self) -> std::ops::Range<usize> {
-        match self {
-            ActorNet::Token(t) => t.spec.mask_columns(),
-            _ => 0..0,
-        }
+        self.0.raw_columns()
     }
     /// Observation columns whose normaliser statistics stay fixed (adaptation).
     pub fn frozen_obs_columns(&self) -> &[usize] {
-        match self {
-            ActorNet::Token(t) => &t.spec.frozen_obs,
-            _ => &[],
-        }
+        self.0.frozen_obs_columns()
+    }
+    /// The hand-derived gradient of the fast update, when the network declares one.
+    pub fn fast_gradient(&self) -> Option<FastGradient<'_>> {
+        self.0.fast_gradient()
     }
 }

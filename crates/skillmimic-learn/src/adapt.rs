@@ -37,7 +37,10 @@ pub fn adapt(
 ) -> Result<(), LearnError> {
     let err = |m: String| bad_checkpoint(from)(format!("{}: {m}", from.display()));
     let base = checkpoint::load(from, None)?.policy;
-    let (ActorNet::Token(old), ActorNet::Token(new)) = (&base.actor, &policy.actor) else {
+    let (Some(old), Some(new)) = (
+        base.actor.downcast_ref::<TokenTransformer>(),
+        policy.actor.downcast_ref::<TokenTransformer>(),
+    ) else {
         return Err(err(format!(
             "policy adaptation needs a token transformer checkpoint and ppo.policy = \"token_transformer\"; the checkpoint's policy is '{}'",
             base.family.name()
@@ -86,6 +89,6 @@ pub fn adapt(
     policy.obs_norm = norm;
     policy.log_std.clone_from(&base.log_std);
     policy.normalize_input = base.normalize_input;
-    policy.actor = ActorNet::Token(net);
+    policy.actor = ActorNet::from(net);
     Ok(())
 }

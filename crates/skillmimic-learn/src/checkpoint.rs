@@ -154,17 +154,8 @@ pub fn save_with(
     // the critic's widths (an MLP actor has the same ones)
     let hidden = &policy.critic.dims[1..policy.critic.dims.len() - 1];
     meta.insert("hidden".to_string(), serde_json::to_string(hidden).unwrap());
-    match &policy.actor {
-        ActorNet::Modular(m) => {
-            meta.insert(
-                "actor_net".to_string(),
-                serde_json::to_string(&crate::policies::modular_attention::spec_of(m)).unwrap(),
-            );
-        }
-        ActorNet::Token(t) => {
-            meta.insert("actor_net".to_string(), serde_json::to_string(&t.spec).unwrap());
-        }
-        ActorNet::Mlp(_) => {}
+    if let Some(description) = policy.family.describe_actor(&policy.actor) {
+        meta.insert("actor_net".to_string(), description);
     }
     meta.insert("iteration".to_string(), progress.iteration.to_string());
     meta.insert("samples".to_string(), progress.samples.to_string());
@@ -337,7 +328,7 @@ fn load_raw(path: &Path, expect: Option<(usize, usize)>) -> Result<Checkpoint, S
         .map_err(|x| format!("{}: {x}", path.display()))?
     {
         Some(net) => net,
-        None => ActorNet::Mlp(mlp("actor", family.actor_outputs(&space))?),
+        None => ActorNet::from(mlp("actor", family.actor_outputs(&space))?),
     };
     let critic = mlp("critic", 1)?;
     let policy = Policy {

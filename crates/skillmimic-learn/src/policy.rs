@@ -95,7 +95,7 @@ impl Policy {
             (Some(net), _) => net,
             (None, Some(mut m)) => {
                 family.init_output_layer(&mut m, rng);
-                ActorNet::Mlp(m)
+                ActorNet::from(m)
             }
             (None, None) => {
                 unreachable!("an MLP is built when the family has no network of its own")

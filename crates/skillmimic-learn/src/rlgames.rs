@@ -280,7 +280,7 @@ pub fn import(path: &Path, kind: Kind) -> Result<Imported, LearnError> {
     let policy = Policy {
         family,
         space,
-        actor: crate::actor::ActorNet::Mlp(actor),
+        actor: crate::actor::ActorNet::from(actor),
         critic,
         log_std,
         obs_norm,

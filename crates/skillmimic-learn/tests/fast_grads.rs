@@ -156,7 +156,7 @@ fn setup_modular(n: usize, variant: &[&str]) -> (Policy, Case, PpoConfig) {
     p.normalize_input = false;
     p.normalize_value = false;
     // larger controller outputs so that the bounds loss is active
-    if let skillmimic_learn::actor::ActorNet::Modular(m) = &mut p.actor {
+    if let Some(m) = p.actor.downcast_mut::<skillmimic_nn::modular::ModularAttention>() {
         for part in m.parts.iter_mut() {
             let last = part.controller.num_layers() - 1;
             part.controller.weights[last].iter_mut().for_each(|w| *w *= 30.0);

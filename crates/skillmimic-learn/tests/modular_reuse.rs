@@ -9,11 +9,11 @@ use skillmimic_env::ActionSpace;
 use skillmimic_env::tasks::hlc::config::HlcConfig;
 use skillmimic_env::tasks::hlc::config::ReachConfig;
 use skillmimic_env::tasks::hlc::config::SteeringConfig;
-use skillmimic_learn::actor::ActorNet;
 use skillmimic_learn::checkpoint::{self, Progress};
 use skillmimic_learn::config::{PpoConfig, TrainConfig};
 use skillmimic_learn::policy::Policy;
 use skillmimic_learn::trainer::Trainer;
+use skillmimic_nn::modular::ModularAttention;
 
 /// A small modular checkpoint (observation 902, 156 actions, 5 parts × 16-wide embeddings).
 fn modular_llc(tag: &str) -> (std::path::PathBuf, Policy) {
@@ -46,7 +46,9 @@ fn config(task: &str, llc: &std::path::Path, out: &str) -> TrainConfig {
 
 /// The controllers applied by hand: unit-sphere projection per part, controller, clamp.
 fn by_hand(p: &Policy, latent: &[f32]) -> Vec<f32> {
-    let ActorNet::Modular(m) = &p.actor else { panic!("modular actor expected") };
+    let Some(m) = p.actor.downcast_ref::<ModularAttention>() else {
+        panic!("modular actor expected")
+    };
     let e = m.shape.embed;
     let mut out = vec![0.0f32; 156];
     for (k, part) in m.parts.iter().enumerate() {

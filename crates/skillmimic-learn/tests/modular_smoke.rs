@@ -4,10 +4,10 @@
 //! clear error.
 
 use skillmimic_core::shared_data::workspace_root;
-use skillmimic_learn::actor::ActorNet;
 use skillmimic_learn::checkpoint;
 use skillmimic_learn::config::TrainConfig;
 use skillmimic_learn::trainer::Trainer;
+use skillmimic_nn::modular::ModularAttention;
 
 fn tiny(out: &str, iterations: usize) -> TrainConfig {
     let mut c = TrainConfig::preset("tiny").unwrap();
@@ -30,7 +30,7 @@ fn tiny(out: &str, iterations: usize) -> TrainConfig {
 fn modular_attention_trains_saves_loads_and_resumes() {
     let cfg = tiny("a", 2);
     let mut t = Trainer::new(cfg.clone(), None).unwrap();
-    assert!(matches!(t.policy.actor, ActorNet::Modular(ref m) if m.parts.len() == 5));
+    assert!(t.policy.actor.downcast_ref::<ModularAttention>().is_some_and(|m| m.parts.len() == 5));
     let before = t.policy.clone();
     let mut seen = Vec::new();
     let last = skillmimic_learn::runner::train_loop(&mut t, |s| seen.push(s.clone())).unwrap();

@@ -7,11 +7,11 @@
 
 use skillmimic_env::tasks::hlc::config::HlcConfig;
 use skillmimic_env::tasks::multi::config::MultiConfig;
-use skillmimic_learn::actor::ActorNet;
 use skillmimic_learn::checkpoint;
 use skillmimic_learn::config::TrainConfig;
 use skillmimic_learn::policy::{InferenceBuffers, Policy};
 use skillmimic_learn::trainer::Trainer;
+use skillmimic_nn::token::TokenTransformer;
 
 fn config(tag: &str) -> TrainConfig {
     let mut c = TrainConfig::preset("tiny").unwrap();
@@ -45,7 +45,7 @@ fn actions(p: &Policy, obs: &[f32], n: usize) -> Vec<f32> {
 /// as far as the new task's actions go).
 fn perturbed_free(p: &Policy, w0: &[f32]) -> Policy {
     let mut q = p.clone();
-    if let ActorNet::Token(t) = &mut q.actor {
+    if let Some(t) = q.actor.downcast_mut::<TokenTransformer>() {
         for x in t.tensors.iter_mut() {
             if x.name.starts_with("adapters.") {
                 x.data.iter_mut().for_each(|v| *v = 0.0);
@@ -59,10 +59,7 @@ fn perturbed_free(p: &Policy, w0: &[f32]) -> Policy {
 }
 
 fn token(p: &Policy) -> &skillmimic_nn::token::TokenTransformer {
-    match &p.actor {
-        ActorNet::Token(t) => t,
-        _ => panic!("not a token transformer"),
-    }
+    p.actor.downcast_ref::<TokenTransformer>().expect("a token transformer")
 }
 
 #[test]
@@ -118,7 +115,7 @@ fn adaptation_freezes_the_base_and_starts_from_its_actions() {
     // the check can fail: non-zero adapters change the actions where the new task is active
     // (and, gated, nowhere else)
     let mut perturbed = t.policy.clone();
-    if let ActorNet::Token(tt) = &mut perturbed.actor {
+    if let Some(tt) = perturbed.actor.downcast_mut::<TokenTransformer>() {
         tt.tensors
             .iter_mut()
             .filter(|x| x.name == "adapters.0.weight")

@@ -27,6 +27,7 @@ pub mod mlp;
 pub mod modular;
 pub mod network;
 pub mod normalizer;
+pub mod policy_net;
 pub mod token;
 
 pub use network::{NamedTensor, Network};

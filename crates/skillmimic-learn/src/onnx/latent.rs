@@ -6,7 +6,6 @@ use skillmimic_nn::modular::ModularAttention;
 use super::graph::{Elem, Graph};
 use super::meta::{DeployMeta, Source};
 use super::{Exported, Ports, actor, check_exportable, normalizer_meta};
-use crate::actor::ActorNet;
 use crate::error::LearnError;
 use crate::policy::Policy;
 
@@ -31,7 +30,7 @@ pub fn fused_latent_model(
     skill_source: Source,
 ) -> Result<Exported, LearnError> {
     check_exportable(hl, &meta.source.file)?;
-    let ActorNet::Modular(m) = &skill.actor else {
+    let Some(m) = skill.actor.downcast_ref::<skillmimic_nn::modular::ModularAttention>() else {
         return Err(LearnError::Config(format!(
             "{}: a high-level policy over part embeddings needs a modular_attention skill policy, not a '{}' one",
             skill_source.file,

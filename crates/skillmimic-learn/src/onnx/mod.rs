@@ -36,11 +36,11 @@ use skillmimic_core::tensorfile::write_bytes_atomic;
 use skillmimic_env::obs::layout;
 use skillmimic_motion::SKILL_WIDTH;
 
-use crate::actor::ActorNet;
 use crate::error::{LearnError, io};
 use crate::policy::Policy;
 use graph::{Elem, Graph};
 use meta::{DeployMeta, Dim, Io, Normalizer};
+use skillmimic_nn::modular::ModularAttention;
 
 /// A model ready to be written and the metadata it carries.
 pub struct Exported {
@@ -79,7 +79,7 @@ impl Ports<'_> {
 /// `p` has an MLP actor and every weight and normaliser statistic is finite (a file with NaN
 /// weights is refused).
 fn check_exportable(p: &Policy, what: &str) -> Result<(), LearnError> {
-    if !matches!(p.actor, ActorNet::Mlp(_) | ActorNet::Modular(_)) {
+    if p.actor.as_mlp().is_none() && p.actor.downcast_ref::<ModularAttention>().is_none() {
         return Err(LearnError::Config(format!(
             "{what}: ONNX export covers MLP and modular attention actors; a '{}' actor is not supported yet",
             p.family.name()
@@ -111,12 +111,12 @@ fn actor(g: &mut Graph, prefix: &str, x: &str, p: &Policy, out: Option<&str>) ->
     } else {
         x.to_string()
     };
-    match &p.actor {
-        ActorNet::Modular(m) => modular::modular_actor(g, &format!("{prefix}.actor"), &xn, m, out),
-        other => g.mlp(
+    match p.actor.downcast_ref::<ModularAttention>() {
+        Some(m) => modular::modular_actor(g, &format!("{prefix}.actor"), &xn, m, out),
+        None => g.mlp(
             &format!("{prefix}.actor"),
             &xn,
-            other.as_mlp().expect("checked by check_exportable"),
+            p.actor.as_mlp().expect("checked by check_exportable"),
             out,
         ),
     }

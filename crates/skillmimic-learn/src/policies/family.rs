@@ -59,6 +59,12 @@ pub trait PolicyFamily: Send + Sync + 'static {
     ) -> Result<Option<crate::actor::ActorNet>, String> {
         Ok(None)
     }
+    /// The description of a non-MLP actor saved as the checkpoint's `actor_net` metadata (what
+    /// [`PolicyFamily::read_actor`] rebuilds it from); default: none (an MLP, rebuilt from its
+    /// tensors).
+    fn describe_actor(&self, _actor: &crate::actor::ActorNet) -> Option<String> {
+        None
+    }
     /// Re-initialise the actor's output layer after the default initialisation (default: keep
     /// it). `rng` continues the policy's initialisation stream.
     fn init_output_layer(&self, _actor: &mut skillmimic_nn::mlp::Mlp, _rng: &mut dyn RngCore) {}

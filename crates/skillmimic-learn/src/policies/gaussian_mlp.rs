@@ -20,7 +20,15 @@ pub const HALF_LN_2PI: f64 = 0.918_938_533_204_672_8;
 /// The fixed-σ Gaussian family.
 pub struct GaussianMlp;
 
-/// Negative log-probability of `a` under N(μ, diag(exp(log_std))²).
+/// The action-independent part of the negative log-probability, Σ_j (ln σ_j + ½ ln 2π): the
+/// loss (candle graph) and the fast update add it to ½ Σ z² (float64 sum in dimension order).
+pub fn neglogp_offset(log_std: &[f32]) -> f64 {
+    log_std.iter().map(|&l| l as f64 + HALF_LN_2PI).sum()
+}
+
+/// Negative log-probability of `a` under N(μ, diag(exp(log_std))²), summed per dimension as
+/// ½ z² + ln σ + ½ ln 2π (the rollout's recorded values; the same density as
+/// [`neglogp_offset`] + ½ Σ z², in another summation order that recorded runs keep).
 pub fn neglogp_row(a: &[f32], mu: &[f32], log_std: &[f32]) -> f64 {
     let mut s = 0.0f64;
     for k in 0..a.len() {
@@ -81,7 +89,7 @@ impl PolicyFamily for GaussianMlp {
         let dev = mu.device();
         let inv_sigma: Vec<f32> = head.log_std.iter().map(|l| (-l).exp()).collect();
         let inv_sigma = Tensor::from_vec(inv_sigma, head.log_std.len(), dev)?;
-        let konst: f64 = head.log_std.iter().map(|&l| l as f64 + HALF_LN_2PI).sum();
+        let konst = neglogp_offset(head.log_std);
         let z = (actions - mu)?.broadcast_mul(&inv_sigma)?;
         (z.sqr()?.sum(1)? * 0.5)?.affine(1.0, konst)
     }

@@ -142,7 +142,7 @@ impl PolicyFamily for ModularAttentionFamily {
         rng: &mut dyn RngCore,
     ) -> Result<Option<ActorNet>, LearnError> {
         let s = spec(&cfg.modular, obs_dim)?;
-        Ok(Some(ActorNet::Modular(build(&s, obs_dim, space.width(), rng)?)))
+        Ok(Some(ActorNet::from(build(&s, obs_dim, space.width(), rng)?)))
     }
     fn read_actor(
         &self,
@@ -151,7 +151,12 @@ impl PolicyFamily for ModularAttentionFamily {
         space: &ActionSpace,
     ) -> Result<Option<ActorNet>, String> {
         let text = f.meta("actor_net").map_err(|e| e.to_string())?;
-        Ok(Some(ActorNet::Modular(read(f, text, obs_dim, space.width())?)))
+        Ok(Some(ActorNet::from(read(f, text, obs_dim, space.width())?)))
+    }
+    /// The network's description ([`spec_of`]) as JSON.
+    fn describe_actor(&self, actor: &ActorNet) -> Option<String> {
+        let m = actor.downcast_ref::<ModularAttention>()?;
+        Some(serde_json::to_string(&spec_of(m)).expect("a serialisable description"))
     }
     fn sample(
         &self,

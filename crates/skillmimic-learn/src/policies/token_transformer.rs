@@ -139,7 +139,7 @@ impl PolicyFamily for TokenFamily {
         let s = spec(&cfg.token, obs_dim)?;
         let net = TokenTransformer::new(s, self.actor_outputs(space), rng)
             .map_err(|e| LearnError::Config(format!("config field 'ppo.token': {e}")))?;
-        Ok(Some(ActorNet::Token(net)))
+        Ok(Some(ActorNet::from(net)))
     }
     fn read_actor(
         &self,
@@ -148,7 +148,12 @@ impl PolicyFamily for TokenFamily {
         space: &ActionSpace,
     ) -> Result<Option<ActorNet>, String> {
         let text = f.meta("actor_net").map_err(|e| e.to_string())?;
-        Ok(Some(ActorNet::Token(read(f, text, obs_dim, self.actor_outputs(space))?)))
+        Ok(Some(ActorNet::from(read(f, text, obs_dim, self.actor_outputs(space))?)))
+    }
+    /// The network's [`TokenSpec`](skillmimic_nn::token::TokenSpec) as JSON.
+    fn describe_actor(&self, actor: &ActorNet) -> Option<String> {
+        let t = actor.downcast_ref::<skillmimic_nn::token::TokenTransformer>()?;
+        Some(serde_json::to_string(&t.spec).expect("a serialisable description"))
     }
     fn sample(
         &self,

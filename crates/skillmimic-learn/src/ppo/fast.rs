@@ -25,8 +25,8 @@ use super::mlp_grad::{Mm, backward, forward_keep};
 use crate::config::PpoConfig;
 
 use super::batch::{LossStats, Minibatch};
-use crate::actor::ActorNet;
-use crate::policy::{HALF_LN_2PI, Policy};
+use crate::policy::Policy;
+use skillmimic_nn::policy_net::FastGradient;
 
 /// Reusable buffers of the fast update.
 #[derive(Default)]
@@ -42,21 +42,24 @@ pub struct UpdateWorkspace {
     pub grads: Vec<Vec<f32>>,
 }
 
-/// Whether the fast path computes `policy`'s loss: the Gaussian families over an MLP actor
-/// (`gaussian_mlp`) or a modular attention actor (`modular_attention`, [`super::fast_modular`]);
-/// other families always take the canonical candle loss.
+/// Whether the fast path computes `policy`'s loss, by what the policy declares: a family with
+/// the fixed-σ Gaussian head ([`PolicyFamily::uses_log_std`](crate::policies::PolicyFamily))
+/// over an actor network with a hand-derived gradient
+/// ([`skillmimic_nn::policy_net::PolicyNet::fast_gradient`]: the ReLU MLP, or the modular
+/// attention network of at most [`super::fast_modular::MAX_PARTS`] parts). Everything else takes
+/// the canonical candle loss.
 pub fn applies_to(policy: &Policy) -> bool {
-    use crate::policies::PolicyFamily;
-    match &policy.actor {
-        ActorNet::Mlp(_) => {
-            policy.family.name() == crate::policies::gaussian_mlp::GaussianMlp.name()
+    policy.family.uses_log_std()
+        && match policy.actor.fast_gradient() {
+            Some(FastGradient::Mlp(_)) => true,
+            Some(FastGradient::Modular(m)) => m.parts.len() <= super::fast_modular::MAX_PARTS,
+            None => false,
         }
-        ActorNet::Modular(m) => {
-            policy.family.name() == "modular_attention"
-                && m.parts.len() <= super::fast_modular::MAX_PARTS
-        }
-        ActorNet::Token(_) => false,
-    }
+}
+
+/// The declared hand-derived gradient of a policy the fast path applies to.
+fn fast_gradient(policy: &Policy) -> FastGradient<'_> {
+    policy.actor.fast_gradient().expect("checked by applies_to")
 }
 
 /// Losses and gradients of one minibatch (see the module docs); gradients land in `ws.grads`.
@@ -74,25 +77,19 @@ pub fn loss_and_grads_fast(
     let mm = Mm::new(threads, cfg.precision);
     let fwd = Mm::f32(threads);
     let (n, a_dim) = (mb.n, policy.act_dim());
-    match &policy.actor {
-        ActorNet::Mlp(actor) => forward_keep(actor, mb.obs_n, n, &mut ws.actor_h, fwd),
-        ActorNet::Modular(m) => ws.modular.forward(m, mb.obs_n, n, fwd),
-        ActorNet::Token(_) => {
-            unreachable!("the token transformer takes the canonical loss (applies_to)")
-        }
+    match fast_gradient(policy) {
+        FastGradient::Mlp(actor) => forward_keep(actor, mb.obs_n, n, &mut ws.actor_h, fwd),
+        FastGradient::Modular(m) => ws.modular.forward(m, mb.obs_n, n, fwd),
     }
     forward_keep(&policy.critic, mb.obs_n, n, &mut ws.critic_h, fwd);
-    let mu: &[f32] = match &policy.actor {
-        ActorNet::Mlp(_) => ws.actor_h.last().expect("actor layers"),
-        ActorNet::Modular(_) => &ws.modular.out,
-        ActorNet::Token(_) => {
-            unreachable!("the token transformer takes the canonical loss (applies_to)")
-        }
+    let mu: &[f32] = match fast_gradient(policy) {
+        FastGradient::Mlp(_) => ws.actor_h.last().expect("actor layers"),
+        FastGradient::Modular(_) => &ws.modular.out,
     };
     let v = ws.critic_h.last().expect("critic layers");
     let inv_var: Vec<f64> = policy.log_std.iter().map(|&l| (-2.0 * l as f64).exp()).collect();
     let inv_sigma: Vec<f64> = policy.log_std.iter().map(|&l| (-(l as f64)).exp()).collect();
-    let konst: f64 = policy.log_std.iter().map(|&l| l as f64 + HALF_LN_2PI).sum();
+    let konst = crate::policies::gaussian_mlp::neglogp_offset(&policy.log_std);
     let (eps, b, cb, cv) = (cfg.clip, cfg.bound, cfg.bounds_coef, cfg.critic_coef);
     let inv_n = 1.0 / n as f64;
 
@@ -168,12 +165,11 @@ pub fn loss_and_grads_fast(
     }
     let UpdateWorkspace { actor_h, critic_h, g_a, g_b, scratch, grads, modular } = ws;
     let (ga_grads, gc_grads) = grads.split_at_mut(na);
-    match &policy.actor {
-        ActorNet::Mlp(actor) => backward(actor, mb.obs_n, n, actor_h, g_a, scratch, ga_grads, mm),
-        ActorNet::Modular(m) => modular.backward(m, g_a, n, ga_grads, mm),
-        ActorNet::Token(_) => {
-            unreachable!("the token transformer takes the canonical loss (applies_to)")
+    match fast_gradient(policy) {
+        FastGradient::Mlp(actor) => {
+            backward(actor, mb.obs_n, n, actor_h, g_a, scratch, ga_grads, mm)
         }
+        FastGradient::Modular(m) => modular.backward(m, g_a, n, ga_grads, mm),
     }
     backward(&policy.critic, mb.obs_n, n, critic_h, g_b, scratch, gc_grads, mm);
     stats

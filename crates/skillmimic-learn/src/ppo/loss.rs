@@ -101,7 +101,7 @@ mod tests {
         Policy {
             family: &crate::policies::gaussian_mlp::GaussianMlp,
             space: skillmimic_env::ActionSpace::Box { dim: 1 },
-            actor: crate::actor::ActorNet::Mlp(Mlp::from_parts(
+            actor: crate::actor::ActorNet::from(Mlp::from_parts(
                 vec![1, 1],
                 vec![vec![1.0]],
                 vec![vec![0.0]],
