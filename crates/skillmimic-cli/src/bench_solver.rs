@@ -32,7 +32,7 @@ pub fn run(a: SimArgs) -> anyhow::Result<()> {
             .iter()
             .map(|&solver| {
                 Scene::new(SceneOptions {
-                    character: skillmimic_sim::Character::SkillMimic { hands: h },
+                    character: skillmimic_core::characters::skillmimic::humanoid(h),
                     solver: SolverOptions { solver, ..Default::default() },
                     ..Default::default()
                 })

@@ -17,7 +17,7 @@ pub struct Args {
 pub fn run(a: Args) -> anyhow::Result<()> {
     std::fs::create_dir_all(&a.out_dir)
         .with_context(|| format!("cannot create {}", a.out_dir.display()))?;
-    for character in Character::VARIANTS {
+    for character in Character::variants() {
         let path = a.out_dir.join(default_scene_file(character));
         let xml = scene_xml(&default_scene(character));
         skillmimic_core::tensorfile::write_bytes_atomic(&path, xml.as_bytes())

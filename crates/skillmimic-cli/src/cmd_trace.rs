@@ -22,6 +22,7 @@ use std::sync::Arc;
 use anyhow::Context;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use skillmimic_core::characters::tokenhsi;
 use skillmimic_core::math::Quat;
 use skillmimic_core::tensorfile::{OwnedTensor, write_atomic};
 use skillmimic_motion::Clip;
@@ -148,14 +149,14 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             Character::NAMES.join(", ")
         );
     };
-    if a.clip.is_some() && !matches!(character, Character::SkillMimic { .. }) {
+    if a.clip.is_some() && !character.plays_ballplay() {
         anyhow::bail!(
             "--clip starts the SkillMimic humanoid from a BallPlay-M clip; it does not apply to --character {}",
             a.character
         );
     }
     let mut options = default_scene(character);
-    if character == Character::TokenHsi {
+    if character == tokenhsi::CHARACTER {
         options.objects = carry_objects();
     }
     let scene = Arc::new(Scene::new(options)?);
@@ -163,15 +164,15 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let nd = scene.num_dofs();
     let mut sim = BatchSim::new(scene.clone(), a.envs, a.threads)?;
     // the TokenHSI trace keeps the stream of its earlier dedicated command
-    let mut rng = ChaCha8Rng::seed_from_u64(if character == Character::TokenHsi {
+    let mut rng = ChaCha8Rng::seed_from_u64(if character == tokenhsi::CHARACTER {
         a.seed ^ 0x5eed
     } else {
         a.seed
     });
-    let states = match (&a.clip, character) {
-        (Some(path), _) => clip_starts(path, a.envs)?,
-        (None, Character::SkillMimic { .. }) => vec![ResetState::default(); a.envs],
-        (None, _) => varied_starts(&scene, a.envs, &mut rng),
+    let states = match &a.clip {
+        Some(path) => clip_starts(path, a.envs)?,
+        None if character.plays_ballplay() => vec![ResetState::default(); a.envs],
+        None => varied_starts(&scene, a.envs, &mut rng),
     };
     sim.reset(&vec![true; a.envs], &states)?;
     let grab = |sim: &BatchSim, q: &mut Vec<f64>, v: &mut Vec<f64>| {
@@ -203,7 +204,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     meta.insert("xml".to_string(), scene.xml().to_string());
     meta.insert("substeps".to_string(), sim.substeps().to_string());
     meta.insert("character".to_string(), character.name().to_string());
-    if let Character::SkillMimic { hands } = character {
+    if let Some(hands) = character.hands() {
         meta.insert("hands".to_string(), hands.name().to_string());
     }
     meta.insert("unstable_steps".to_string(), unstable.to_string());

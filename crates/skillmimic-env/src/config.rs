@@ -365,7 +365,7 @@ impl EnvConfig {
     /// ball overrides), any other character bare.
     pub fn scene_options(&self) -> Result<SceneOptions, ConfigError> {
         let character = self.resolved_character()?;
-        if !matches!(character, skillmimic_sim::Character::SkillMimic { .. }) {
+        if !character.plays_ballplay() {
             return Ok(SceneOptions {
                 solver: self.physics.solver_options(),
                 ..SceneOptions::bare(character)

@@ -102,7 +102,7 @@ impl AmpReward {
         let groups: Vec<(String, std::ops::Range<usize>)> =
             if tasks.is_empty() { vec![(String::new(), 0..n)] } else { tasks.to_vec() };
         let hsi = skillmimic_env::registry::character(&cfg.env).ok()
-            == Some(skillmimic_env::registry::Character::TokenHsi);
+            == Some(skillmimic_core::characters::tokenhsi::CHARACTER);
         let (fdim, features): (usize, FrameFeatures) = if hsi {
             (style::STYLE_DIM, style::frame_features)
         } else {

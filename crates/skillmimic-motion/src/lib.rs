@@ -12,7 +12,7 @@
 //! * [`reference`]: reference quantities derived once per clip (velocities, key bodies);
 //! * [`character_clip`]: clips of any character (file format, validation);
 //! * [`retarget_hsi`], [`retarget_smpl`]: SkillMimic-skeleton clips onto the TokenHSI character
-//!   and onto the SMPL humanoid;
+//!   and onto the SMPL humanoid; [`retarget_onto`]: which character has which retarget;
 //! * [`retarget_bvh`]: retargeting BVH motions onto the SkillMimic humanoid (rest-pose alignment of
 //!   mapped bones, scaling, resampling, ground alignment);
 //! * [`retarget_clip`]: a retargeted motion as a project clip (ball track, contact label) with
@@ -37,6 +37,7 @@ pub mod reference;
 pub mod retarget_bvh;
 pub mod retarget_clip;
 pub mod retarget_hsi;
+pub mod retarget_onto;
 pub mod retarget_positions;
 pub mod retarget_smpl;
 pub mod testing;

@@ -504,25 +504,26 @@ fn write_actuators(x: &mut String, ch: &CharacterSpec) {
 /// File name of a character's shipped plain scene inside `mjcf/` (`skillmimic_full.xml`,
 /// `skillmimic_boxhand.xml` with the ball; `tokenhsi.xml`, `smpl.xml` bare).
 pub fn default_scene_file(character: Character) -> String {
-    match character {
-        Character::SkillMimic { hands } => format!("skillmimic_{}.xml", hands.name()),
-        other => format!("{}.xml", other.name()),
+    match character.hands() {
+        Some(hands) => format!("{}_{}.xml", character.name(), hands.name()),
+        None => format!("{}.xml", character.name()),
     }
 }
 
 /// The shipped plain scene of a character: the SkillMimic humanoid with its ball, the others
 /// bare.
 pub fn default_scene(character: Character) -> SceneOptions {
-    match character {
-        Character::SkillMimic { .. } => SceneOptions { character, ..SceneOptions::default() },
-        other => SceneOptions::bare(other),
+    if character.plays_ballplay() {
+        SceneOptions { character, ..SceneOptions::default() }
+    } else {
+        SceneOptions::bare(character)
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use skillmimic_core::characters::HandModel;
+    use skillmimic_core::characters::{HandModel, skillmimic, smpl, tokenhsi};
 
     #[test]
     fn xml_is_deterministic_and_counts_actuators() {
@@ -533,16 +534,16 @@ mod tests {
         assert_eq!(a.matches("type=\"ball\"").count(), 53);
         assert_eq!(a.matches("type=\"slide\"").count(), 3);
         let boxed = scene_xml(&SceneOptions {
-            character: Character::SkillMimic { hands: HandModel::Box },
+            character: skillmimic::humanoid(HandModel::Box),
             ..Default::default()
         });
         assert_eq!(boxed.matches("<position ").count(), 66);
         assert_eq!(boxed.matches("type=\"ball\"").count(), 23);
-        let hsi = scene_xml(&SceneOptions::bare(Character::TokenHsi));
+        let hsi = scene_xml(&SceneOptions::bare(tokenhsi::CHARACTER));
         assert_eq!(hsi.matches("type=\"ball\"").count(), 10);
         assert_eq!(hsi.matches("type=\"hinge\"").count(), 2);
         assert_eq!(hsi.matches("<position ").count(), 32);
-        let smpl = scene_xml(&SceneOptions::bare(Character::Smpl));
+        let smpl = scene_xml(&SceneOptions::bare(smpl::CHARACTER));
         assert_eq!(smpl.matches("type=\"hinge\"").count(), 69);
         assert_eq!(smpl.matches("<position ").count(), 69);
         assert_eq!(smpl.matches("<exclude ").count(), 10);

@@ -112,7 +112,7 @@ impl Scene {
     /// The shipped default scene of the SkillMimic humanoid with a hand model.
     pub fn default_for(hands: skillmimic_core::characters::HandModel) -> Result<Self, SimError> {
         Self::new(SceneOptions {
-            character: skillmimic_core::characters::Character::SkillMimic { hands },
+            character: skillmimic_core::characters::skillmimic::humanoid(hands),
             ..Default::default()
         })
     }

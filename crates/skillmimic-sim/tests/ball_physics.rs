@@ -7,14 +7,14 @@ use std::sync::Arc;
 use skillmimic_core::characters::skillmimic::NUM_DOFS;
 use skillmimic_core::math::Quat;
 use skillmimic_sim::{
-    BALL, BallParams, BatchSim, BodyContact, Character, ContactPair, HandModel, ResetState,
-    RootJoint, Scene, SceneOptions,
+    BALL, BallParams, BatchSim, BodyContact, ContactPair, HandModel, ResetState, RootJoint, Scene,
+    SceneOptions,
 };
 
 fn sim_with(ball: BallParams, root: RootJoint) -> BatchSim {
     let scene = Arc::new(
         Scene::new(SceneOptions {
-            character: Character::SkillMimic { hands: HandModel::Box },
+            character: skillmimic_core::characters::skillmimic::humanoid(HandModel::Box),
             root,
             ball: Some(ball),
             ..Default::default()

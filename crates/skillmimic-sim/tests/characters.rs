@@ -9,7 +9,7 @@ use skillmimic_sim::{BatchSim, Character, ResetState, Scene};
 
 #[test]
 fn every_character_stands_under_pd_control_in_its_rest_pose() {
-    for c in Character::VARIANTS {
+    for c in Character::variants() {
         let scene = Arc::new(Scene::new(default_scene(c)).unwrap());
         let spec = scene.character().clone();
         let (_, nv, nu) = scene.sizes();

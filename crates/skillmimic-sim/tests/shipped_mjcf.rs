@@ -8,7 +8,7 @@ use skillmimic_sim::{BALL, Character, HandModel, Scene};
 
 #[test]
 fn shipped_files_equal_the_generator_output() {
-    for c in Character::VARIANTS {
+    for c in Character::variants() {
         let path = workspace_root().join("mjcf").join(default_scene_file(c));
         let shipped =
             std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));

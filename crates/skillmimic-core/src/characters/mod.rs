@@ -4,7 +4,8 @@
 //! A character module holds its skeleton table and builds a [`CharacterSpec`] from it
 //! ([`Character::spec`]); the MJCF generator, the simulation batch, the state read-out and the
 //! environments' character-level rules (proprioception, fall rule) read only the spec, so adding
-//! a character is one module here plus one line in [`Character`]:
+//! a character is one module here declaring its [`CharacterEntry`] plus one line in
+//! [`REGISTERED`]:
 //!
 //! * [`skillmimic`]: the 53-body SkillMimic humanoid (BallPlay-M skeleton, 52 ball joints, 156
 //!   dofs; articulated or welded fingers);
@@ -26,59 +27,114 @@ pub use spec::{
     JointDef, Proprioception, intrinsic_xyz,
 };
 
-/// The registered characters (with their variant options).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Character {
-    /// The SkillMimic humanoid ([`skillmimic`]).
-    SkillMimic { hands: HandModel },
-    /// The TokenHSI character ([`tokenhsi`]).
-    TokenHsi,
-    /// The SMPL humanoid ([`smpl`]).
-    Smpl,
+/// What a character module declares about itself; its entry in [`REGISTERED`] is the one line
+/// that makes it selectable (`env.character`, the `mjcf/` scenes, every task that lists it).
+#[derive(Debug)]
+pub struct CharacterEntry {
+    /// Registry name (the value of `env.character`).
+    pub name: &'static str,
+    /// One line for listings.
+    pub summary: &'static str,
+    /// The hand models it comes in (`env.hands`): several for the SkillMimic humanoid, the single
+    /// [`HandModel::Full`] for a character without variants.
+    pub hands: &'static [HandModel],
+    /// Whether it is the BallPlay-M character: its default scene holds the ball and it plays
+    /// BallPlay-M clips as they are. Other characters get those clips retargeted or play their
+    /// own character clips.
+    pub ballplay: bool,
+    /// The character's description for one of its hand models.
+    pub spec: fn(HandModel) -> CharacterSpec,
+}
+
+/// The registered characters, in listing order.
+pub const REGISTERED: &[&CharacterEntry] = &[&skillmimic::ENTRY, &tokenhsi::ENTRY, &smpl::ENTRY];
+
+/// A registered character with its variant (hand model); characters without variants carry
+/// their single hand model, so two values are equal exactly when they build the same spec.
+#[derive(Clone, Copy)]
+pub struct Character {
+    entry: &'static CharacterEntry,
+    hands: HandModel,
+}
+
+impl PartialEq for Character {
+    fn eq(&self, other: &Self) -> bool {
+        self.entry.name == other.entry.name && self.hands == other.hands
+    }
+}
+
+impl Eq for Character {}
+
+impl std::fmt::Debug for Character {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self.hands() {
+            Some(h) => write!(f, "Character({}, {})", self.entry.name, h.name()),
+            None => write!(f, "Character({})", self.entry.name),
+        }
+    }
 }
 
 impl Default for Character {
+    /// The SkillMimic humanoid with articulated hands.
     fn default() -> Self {
-        Character::SkillMimic { hands: HandModel::Full }
+        skillmimic::humanoid(HandModel::Full)
     }
 }
 
 impl Character {
-    /// Registry names, in listing order (the value of `env.character`).
-    pub const NAMES: [&'static str; 3] = ["skillmimic", "tokenhsi", "smpl"];
+    /// Registry names, in listing order.
+    pub const NAMES: [&'static str; REGISTERED.len()] = {
+        let mut names = [""; REGISTERED.len()];
+        let mut i = 0;
+        while i < names.len() {
+            names[i] = REGISTERED[i].name;
+            i += 1;
+        }
+        names
+    };
 
+    /// `entry` with `hands`; a hand model the character does not come in is replaced by its
+    /// first one.
+    pub const fn new(entry: &'static CharacterEntry, hands: HandModel) -> Self {
+        let mut i = 0;
+        while i < entry.hands.len() {
+            if entry.hands[i] as u8 == hands as u8 {
+                return Character { entry, hands };
+            }
+            i += 1;
+        }
+        Character { entry, hands: entry.hands[0] }
+    }
     /// Every character with every variant, in listing order (the shipped scenes of `mjcf/`).
-    pub const VARIANTS: [Character; 4] = [
-        Character::SkillMimic { hands: HandModel::Full },
-        Character::SkillMimic { hands: HandModel::Box },
-        Character::TokenHsi,
-        Character::Smpl,
-    ];
-
+    pub fn variants() -> Vec<Character> {
+        REGISTERED
+            .iter()
+            .flat_map(|e| e.hands.iter().map(move |&h| Character { entry: e, hands: h }))
+            .collect()
+    }
+    /// The character called `name` (`hands` applies to characters with hand variants).
+    pub fn by_name(name: &str, hands: HandModel) -> Option<Self> {
+        REGISTERED.iter().find(|e| e.name == name).map(|e| Character::new(e, hands))
+    }
     /// Registry name.
     pub fn name(self) -> &'static str {
-        match self {
-            Character::SkillMimic { .. } => "skillmimic",
-            Character::TokenHsi => "tokenhsi",
-            Character::Smpl => "smpl",
-        }
+        self.entry.name
     }
-    /// The character called `name` (`hands` applies to the SkillMimic humanoid).
-    pub fn by_name(name: &str, hands: HandModel) -> Option<Self> {
-        match name {
-            "skillmimic" => Some(Character::SkillMimic { hands }),
-            "tokenhsi" => Some(Character::TokenHsi),
-            "smpl" => Some(Character::Smpl),
-            _ => None,
-        }
+    /// What the character's module declares.
+    pub fn entry(self) -> &'static CharacterEntry {
+        self.entry
+    }
+    /// The hand model, for a character that comes in several (`None` otherwise).
+    pub fn hands(self) -> Option<HandModel> {
+        (self.entry.hands.len() > 1).then_some(self.hands)
+    }
+    /// Whether it is the BallPlay-M character ([`CharacterEntry::ballplay`]).
+    pub fn plays_ballplay(self) -> bool {
+        self.entry.ballplay
     }
     /// The character's description.
     pub fn spec(self) -> CharacterSpec {
-        match self {
-            Character::SkillMimic { hands } => skillmimic::spec(hands),
-            Character::TokenHsi => tokenhsi::spec(),
-            Character::Smpl => smpl::spec(),
-        }
+        (self.entry.spec)(self.hands)
     }
 }
 
@@ -88,7 +144,7 @@ mod tests {
 
     #[test]
     fn every_character_spec_is_consistent() {
-        for c in Character::VARIANTS {
+        for c in Character::variants() {
             let s = c.spec();
             s.check().unwrap_or_else(|e| panic!("{}: {e}", c.name()));
             assert_eq!(
@@ -98,12 +154,12 @@ mod tests {
             let driven: usize = s.bodies.iter().map(|b| b.joint.dofs()).sum();
             assert!(driven <= s.num_dofs && driven > 0, "{}", c.name());
         }
-        assert_eq!(Character::TokenHsi.spec().num_dofs, 32);
+        assert_eq!(tokenhsi::CHARACTER.spec().num_dofs, 32);
         assert_eq!(Character::default().spec().proprio_dim(), 823);
-        assert_eq!(Character::TokenHsi.spec().proprio_dim(), 222);
-        assert_eq!(Character::Smpl.spec().proprio_dim(), 358);
+        assert_eq!(tokenhsi::CHARACTER.spec().proprio_dim(), 222);
+        assert_eq!(smpl::CHARACTER.spec().proprio_dim(), 358);
         // local rotations round-trip through the dof coordinates of every joint kind
-        for c in [Character::default(), Character::TokenHsi, Character::Smpl] {
+        for c in [Character::default(), tokenhsi::CHARACTER, smpl::CHARACTER] {
             let s = c.spec();
             let dof: Vec<f64> = (0..s.num_dofs).map(|k| 0.6 * ((k as f64) * 1.7).sin()).collect();
             let mut back = vec![0.0; s.num_dofs];
@@ -117,7 +173,7 @@ mod tests {
                 assert!(single_hinge || angle < 1e-12, "{} body {b}: {angle}", c.name());
             }
         }
-        assert_eq!(Character::Smpl.spec().num_dofs, 69);
+        assert_eq!(smpl::CHARACTER.spec().num_dofs, 69);
         assert_eq!(Character::default().spec().num_dofs, 156);
     }
 }

@@ -101,6 +101,20 @@ pub fn upright() -> crate::math::Quat {
     crate::math::Quat::from_rotvec([std::f64::consts::FRAC_PI_2, 0.0, 0.0])
 }
 
+/// The registry entry ([`super::REGISTERED`]).
+pub const ENTRY: super::CharacterEntry = super::CharacterEntry {
+    name: "skillmimic",
+    summary: "SkillMimic humanoid: 53 bodies (BallPlay-M skeleton), 156 dofs, articulated or box hands",
+    hands: &[HandModel::Full, HandModel::Box],
+    ballplay: true,
+    spec,
+};
+
+/// The humanoid with a hand model.
+pub const fn humanoid(hands: HandModel) -> super::Character {
+    super::Character::new(&ENTRY, hands)
+}
+
 /// The humanoid as a [`CharacterSpec`]: one ball joint per non-root body (armature 0.02,
 /// damping kd of its group), driven by three force-limited position actuators with the
 /// group's kp (PD target = π · a, `ctrlrange` ±π); box hands weld the 30 finger bodies (their

@@ -149,6 +149,18 @@ fn geom(g: YupGeom, density: f64) -> GeomSpec {
     }
 }
 
+/// The registry entry ([`super::REGISTERED`]).
+pub const ENTRY: super::CharacterEntry = super::CharacterEntry {
+    name: "smpl",
+    summary: "SMPL humanoid of PHC/ModSkill: 24 bodies, 23 joints of three hinges, 69 dofs",
+    hands: &[super::HandModel::Full],
+    ballplay: false,
+    spec: |_| spec(),
+};
+
+/// The humanoid.
+pub const CHARACTER: super::Character = super::Character::new(&ENTRY, super::HandModel::Full);
+
 /// The humanoid as a [`CharacterSpec`] (see the module doc).
 pub fn spec() -> CharacterSpec {
     let pi = std::f64::consts::PI;

@@ -376,6 +376,18 @@ pub fn body_part(b: usize) -> BodyPart {
     }
 }
 
+/// The registry entry ([`super::REGISTERED`]).
+pub const ENTRY: super::CharacterEntry = super::CharacterEntry {
+    name: "tokenhsi",
+    summary: "TokenHSI character: 15 bodies, ten 3-DoF joints and two elbow hinges, 32 dofs",
+    hands: &[super::HandModel::Full],
+    ballplay: false,
+    spec: |_| spec(),
+};
+
+/// The character.
+pub const CHARACTER: super::Character = super::Character::new(&ENTRY, super::HandModel::Full);
+
 /// The character as a [`CharacterSpec`]: the ten 3-DoF joints are MuJoCo `ball` joints driven
 /// per rotation-vector component by position actuators (`ctrlrange` ±π); the elbows are hinges
 /// about y with their range [−160°, 0°] (`ctrlrange` ±2π); gains, armature and torque limits

@@ -105,6 +105,7 @@ const MULTI: multi::Tasks = multi::Tasks {
     make,
     high_level: |name| entry(name).map(|e| e.high_level.is_some()),
     is_multi: |name| name == multi::HSI.name || name == multi::HLC.name,
+    characters: |name| entry(name).map_or(&[], |e| e.characters),
     names,
 };
 

@@ -43,7 +43,7 @@ pub fn export_checkpoint(
     let mut meta =
         DeployMeta::new("", c.policy.family.name(), &cfg, c.policy.obs_dim(), act, source)?;
     if skillmimic_env::registry::character(&cfg.env).ok()
-        == Some(skillmimic_env::registry::Character::TokenHsi)
+        == Some(skillmimic_core::characters::tokenhsi::CHARACTER)
     {
         super::meta_hsi::describe_tokenhsi(&mut meta);
     }

@@ -1,5 +1,5 @@
 //! Deployment metadata of a policy of a TokenHSI task
-//! ([`skillmimic_env::registry::Character::TokenHsi`]): the 32-DoF TokenHSI character replaces the
+//! ([`skillmimic_core::characters::tokenhsi::CHARACTER`]): the 32-DoF TokenHSI character replaces the
 //! SkillMimic humanoid in every character-specific field of [`DeployMeta`] — joint order, the action → PD target map with its
 //! per-entry offset and scale, gains and torque limits per joint, and the time steps (1/120 s
 //! physics, 4 steps per 30 Hz action).

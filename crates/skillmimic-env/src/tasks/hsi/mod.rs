@@ -33,8 +33,7 @@ use std::sync::Arc;
 
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use skillmimic_core::characters::Character;
-use skillmimic_core::characters::tokenhsi::{CONTACT_BODIES, NUM_BODIES};
+use skillmimic_core::characters::tokenhsi::{self, CONTACT_BODIES, NUM_BODIES};
 use skillmimic_sim::{BoxObject, EnvState, ResetState, Scene, SceneOptions};
 
 use proprio::{PROPRIO_DIM, write_proprio};
@@ -90,7 +89,7 @@ pub fn build_env<R: Rule>(
         .map(|_| {
             let options = SceneOptions {
                 objects: rule.objects(&mut orng),
-                ..SceneOptions::bare(Character::TokenHsi)
+                ..SceneOptions::bare(tokenhsi::CHARACTER)
             };
             Scene::new(options).map(Arc::new)
         })

@@ -11,10 +11,10 @@
 use std::path::PathBuf;
 use std::sync::Arc;
 
-use skillmimic_core::characters::tokenhsi::{BODIES, JointSpec, NUM_DOFS};
+use skillmimic_core::characters::tokenhsi::{self, BODIES, JointSpec, NUM_DOFS};
 use skillmimic_motion::character_clip::CharacterClip;
 use skillmimic_motion::library::find_clip_files;
-use skillmimic_sim::{BatchSim, Character, ResetState, Scene, SceneOptions};
+use skillmimic_sim::{BatchSim, ResetState, Scene, SceneOptions};
 
 use super::proprio::{PROPRIO_DIM, write_proprio};
 use crate::error::{EnvError, bad};
@@ -102,7 +102,7 @@ pub fn clip_state(clip: &CharacterClip, t: usize) -> ResetState {
 /// Style features of every frame of every clip (`[clip][T × STYLE_DIM]`), posed in the bare
 /// character scene (no physics step).
 pub fn clip_features(clips: &[CharacterClip]) -> Result<Vec<Vec<f32>>, EnvError> {
-    let scene = Arc::new(Scene::new(SceneOptions::bare(Character::TokenHsi))?);
+    let scene = Arc::new(Scene::new(SceneOptions::bare(tokenhsi::CHARACTER))?);
     let mut sim = BatchSim::new(scene, 1, 1)?;
     let mut out = Vec::with_capacity(clips.len());
     for c in clips {

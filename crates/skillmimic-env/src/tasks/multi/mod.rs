@@ -80,6 +80,8 @@ pub struct Tasks {
     pub high_level: fn(&str) -> Option<bool>,
     /// Whether a registered name is itself a multi-task environment.
     pub is_multi: fn(&str) -> bool,
+    /// The characters a registered task runs on (empty for an unknown name).
+    pub characters: fn(&str) -> &'static [&'static str],
     /// Every registered name (error messages).
     pub names: fn() -> Vec<&'static str>,
 }
@@ -127,6 +129,20 @@ impl MultiEnv {
                 return Err(bad(
                     "env.multi.tasks",
                     format!("'{task}' cannot run in '{}': it takes {kind} tasks", cfg.task),
+                )
+                .into());
+            }
+            // the registry's constructor filled in the multi-task environment's character
+            let runs_on = (reg.characters)(task);
+            if !runs_on.contains(&cfg.character.as_str()) {
+                return Err(bad(
+                    "env.multi.tasks",
+                    format!(
+                        "'{task}' cannot run in '{}': it runs on {}, this environment on '{}'",
+                        cfg.task,
+                        runs_on.join(", "),
+                        cfg.character
+                    ),
                 )
                 .into());
             }

@@ -31,26 +31,25 @@ pub enum Motion {
 impl Motion {
     /// The clips of `env.motion` for `character`.
     pub fn load(paths: &[PathBuf], character: Character) -> Result<Self, EnvError> {
-        if matches!(character, Character::SkillMimic { .. }) {
+        if character.plays_ballplay() {
             return Ok(Motion::SkillMimic(Arc::new(crate::tasks::imitation::load_motion_library(
                 paths,
             )?)));
         }
         let spec = character.spec();
         let mut clips = Vec::new();
+        let onto = skillmimic_motion::retarget_onto::onto(character.name());
         let retarget =
             |lib: &MotionLibrary, clips: &mut Vec<CharacterClip>| -> Result<(), EnvError> {
-                for m in lib.clips() {
-                    clips.push(match character {
-                        Character::Smpl => {
-                            skillmimic_motion::retarget_smpl::retarget_to_smpl(&m.clip).0
-                        }
-                        Character::TokenHsi => {
-                            skillmimic_motion::retarget_hsi::retarget_to_hsi(&m.clip).0
-                        }
-                        Character::SkillMimic { .. } => unreachable!("handled above"),
-                    });
-                }
+                let Some(onto) = onto else {
+                    let msg = format!(
+                        "SkillMimic-skeleton clips have no retarget onto the {} character \
+                         (skillmimic_motion::retarget_onto); give clips of the character",
+                        character.name()
+                    );
+                    return Err(bad("env.motion", msg).into());
+                };
+                clips.extend(lib.clips().iter().map(|m| onto(&m.clip)));
                 Ok(())
             };
         for p in paths {
