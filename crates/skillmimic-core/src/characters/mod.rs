@@ -17,62 +17,20 @@
 //! quaternions w, x, y, z (MuJoCo's order). A 3-DoF ball joint's coordinates are the rotation
 //! vector (exponential map) of the body relative to its parent; a hinge's its angle.
 
+mod entry;
 pub mod skillmimic;
 pub mod smpl;
 mod spec;
 pub mod tokenhsi;
 
+pub use entry::{Character, CharacterEntry};
 pub use spec::{
     ActionMap, BodyDef, BodyPart, CharacterSpec, Drive, GeomDef, GeomSpec, HandModel, Hinge,
     JointDef, Proprioception, intrinsic_xyz,
 };
 
-/// What a character module declares about itself; its entry in [`REGISTERED`] is the one line
-/// that makes it selectable (`env.character`, the `mjcf/` scenes, every task that lists it).
-#[derive(Debug)]
-pub struct CharacterEntry {
-    /// Registry name (the value of `env.character`).
-    pub name: &'static str,
-    /// One line for listings.
-    pub summary: &'static str,
-    /// The hand models it comes in (`env.hands`): several for the SkillMimic humanoid, the single
-    /// [`HandModel::Full`] for a character without variants.
-    pub hands: &'static [HandModel],
-    /// Whether it is the BallPlay-M character: its default scene holds the ball and it plays
-    /// BallPlay-M clips as they are. Other characters get those clips retargeted or play their
-    /// own character clips.
-    pub ballplay: bool,
-    /// The character's description for one of its hand models.
-    pub spec: fn(HandModel) -> CharacterSpec,
-}
-
 /// The registered characters, in listing order.
 pub const REGISTERED: &[&CharacterEntry] = &[&skillmimic::ENTRY, &tokenhsi::ENTRY, &smpl::ENTRY];
-
-/// A registered character with its variant (hand model); characters without variants carry
-/// their single hand model, so two values are equal exactly when they build the same spec.
-#[derive(Clone, Copy)]
-pub struct Character {
-    entry: &'static CharacterEntry,
-    hands: HandModel,
-}
-
-impl PartialEq for Character {
-    fn eq(&self, other: &Self) -> bool {
-        self.entry.name == other.entry.name && self.hands == other.hands
-    }
-}
-
-impl Eq for Character {}
-
-impl std::fmt::Debug for Character {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self.hands() {
-            Some(h) => write!(f, "Character({}, {})", self.entry.name, h.name()),
-            None => write!(f, "Character({})", self.entry.name),
-        }
-    }
-}
 
 impl Default for Character {
     /// The SkillMimic humanoid with articulated hands.
@@ -81,6 +39,7 @@ impl Default for Character {
     }
 }
 
+/// Listing and lookup over [`REGISTERED`].
 impl Character {
     /// Registry names, in listing order.
     pub const NAMES: [&'static str; REGISTERED.len()] = {
@@ -93,48 +52,13 @@ impl Character {
         names
     };
 
-    /// `entry` with `hands`; a hand model the character does not come in is replaced by its
-    /// first one.
-    pub const fn new(entry: &'static CharacterEntry, hands: HandModel) -> Self {
-        let mut i = 0;
-        while i < entry.hands.len() {
-            if entry.hands[i] as u8 == hands as u8 {
-                return Character { entry, hands };
-            }
-            i += 1;
-        }
-        Character { entry, hands: entry.hands[0] }
-    }
     /// Every character with every variant, in listing order (the shipped scenes of `mjcf/`).
     pub fn variants() -> Vec<Character> {
-        REGISTERED
-            .iter()
-            .flat_map(|e| e.hands.iter().map(move |&h| Character { entry: e, hands: h }))
-            .collect()
+        REGISTERED.iter().flat_map(|e| e.hands.iter().map(move |&h| Character::new(e, h))).collect()
     }
     /// The character called `name` (`hands` applies to characters with hand variants).
     pub fn by_name(name: &str, hands: HandModel) -> Option<Self> {
         REGISTERED.iter().find(|e| e.name == name).map(|e| Character::new(e, hands))
-    }
-    /// Registry name.
-    pub fn name(self) -> &'static str {
-        self.entry.name
-    }
-    /// What the character's module declares.
-    pub fn entry(self) -> &'static CharacterEntry {
-        self.entry
-    }
-    /// The hand model, for a character that comes in several (`None` otherwise).
-    pub fn hands(self) -> Option<HandModel> {
-        (self.entry.hands.len() > 1).then_some(self.hands)
-    }
-    /// Whether it is the BallPlay-M character ([`CharacterEntry::ballplay`]).
-    pub fn plays_ballplay(self) -> bool {
-        self.entry.ballplay
-    }
-    /// The character's description.
-    pub fn spec(self) -> CharacterSpec {
-        (self.entry.spec)(self.hands)
     }
 }
 

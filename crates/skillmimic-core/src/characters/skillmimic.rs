@@ -12,6 +12,7 @@
 //! Lengths are metres, densities kg/m³, gains N·m/rad and N·m·s/rad. The numbers are facts of the
 //! SkillMimic humanoid (BallPlay-M mocap skeleton); the table layout is ours.
 
+use super::entry::{Character, CharacterEntry};
 use super::spec::{
     ActionMap, BodyDef, BodyPart, CharacterSpec, Drive, GeomDef, GeomSpec, HandModel, JointDef,
     Proprioception,
@@ -101,8 +102,8 @@ pub fn upright() -> crate::math::Quat {
     crate::math::Quat::from_rotvec([std::f64::consts::FRAC_PI_2, 0.0, 0.0])
 }
 
-/// The registry entry ([`super::REGISTERED`]).
-pub const ENTRY: super::CharacterEntry = super::CharacterEntry {
+/// The registry entry (listed in `REGISTERED` of the characters module).
+pub const ENTRY: CharacterEntry = CharacterEntry {
     name: "skillmimic",
     summary: "SkillMimic humanoid: 53 bodies (BallPlay-M skeleton), 156 dofs, articulated or box hands",
     hands: &[HandModel::Full, HandModel::Box],
@@ -111,8 +112,8 @@ pub const ENTRY: super::CharacterEntry = super::CharacterEntry {
 };
 
 /// The humanoid with a hand model.
-pub const fn humanoid(hands: HandModel) -> super::Character {
-    super::Character::new(&ENTRY, hands)
+pub const fn humanoid(hands: HandModel) -> Character {
+    Character::new(&ENTRY, hands)
 }
 
 /// The humanoid as a [`CharacterSpec`]: one ball joint per non-root body (armature 0.02,

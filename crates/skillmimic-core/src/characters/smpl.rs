@@ -25,9 +25,10 @@
 //! * 1/120 s physics (PhysX's 1/60 s with two substeps), four physics steps per 30 Hz policy
 //!   step (`controlFrequencyInv: 2`).
 
+use super::entry::{Character, CharacterEntry};
 use super::spec::{
-    ActionMap, BodyDef, BodyPart, CharacterSpec, Drive, GeomDef, GeomSpec, Hinge, JointDef,
-    Proprioception,
+    ActionMap, BodyDef, BodyPart, CharacterSpec, Drive, GeomDef, GeomSpec, HandModel, Hinge,
+    JointDef, Proprioception,
 };
 
 /// Number of rigid bodies.
@@ -149,17 +150,17 @@ fn geom(g: YupGeom, density: f64) -> GeomSpec {
     }
 }
 
-/// The registry entry ([`super::REGISTERED`]).
-pub const ENTRY: super::CharacterEntry = super::CharacterEntry {
+/// The registry entry (listed in `REGISTERED` of the characters module).
+pub const ENTRY: CharacterEntry = CharacterEntry {
     name: "smpl",
     summary: "SMPL humanoid of PHC/ModSkill: 24 bodies, 23 joints of three hinges, 69 dofs",
-    hands: &[super::HandModel::Full],
+    hands: &[HandModel::Full],
     ballplay: false,
     spec: |_| spec(),
 };
 
 /// The humanoid.
-pub const CHARACTER: super::Character = super::Character::new(&ENTRY, super::HandModel::Full);
+pub const CHARACTER: Character = Character::new(&ENTRY, HandModel::Full);
 
 /// The humanoid as a [`CharacterSpec`] (see the module doc).
 pub fn spec() -> CharacterSpec {

@@ -27,9 +27,10 @@
 //! The feet are the original's box-foot variant (a sole box and a toe box per foot): the mesh
 //! feet come from SMPL and cannot be redistributed.
 
+use super::entry::{Character, CharacterEntry};
 use super::spec::{
-    ActionMap, BodyDef, BodyPart, CharacterSpec, Drive, GeomDef, GeomSpec, Hinge, JointDef,
-    Proprioception,
+    ActionMap, BodyDef, BodyPart, CharacterSpec, Drive, GeomDef, GeomSpec, HandModel, Hinge,
+    JointDef, Proprioception,
 };
 
 /// Number of rigid bodies.
@@ -376,17 +377,17 @@ pub fn body_part(b: usize) -> BodyPart {
     }
 }
 
-/// The registry entry ([`super::REGISTERED`]).
-pub const ENTRY: super::CharacterEntry = super::CharacterEntry {
+/// The registry entry (listed in `REGISTERED` of the characters module).
+pub const ENTRY: CharacterEntry = CharacterEntry {
     name: "tokenhsi",
     summary: "TokenHSI character: 15 bodies, ten 3-DoF joints and two elbow hinges, 32 dofs",
-    hands: &[super::HandModel::Full],
+    hands: &[HandModel::Full],
     ballplay: false,
     spec: |_| spec(),
 };
 
 /// The character.
-pub const CHARACTER: super::Character = super::Character::new(&ENTRY, super::HandModel::Full);
+pub const CHARACTER: Character = Character::new(&ENTRY, HandModel::Full);
 
 /// The character as a [`CharacterSpec`]: the ten 3-DoF joints are MuJoCo `ball` joints driven
 /// per rotation-vector component by position actuators (`ctrlrange` ±π); the elbows are hinges
