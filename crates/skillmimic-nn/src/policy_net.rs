@@ -56,7 +56,7 @@ pub enum FastGradient<'a> {
 }
 
 /// A trainable policy network (see the module doc).
-pub trait PolicyNet: Any + Send + Sync + std::fmt::Debug {
+pub trait PolicyNet: NetObject + Any + Send + Sync + std::fmt::Debug {
     /// Input width (the observation).
     fn input_dim(&self) -> usize;
     /// Output width (Gaussian means or logits).
@@ -95,11 +95,31 @@ pub trait PolicyNet: Any + Send + Sync + std::fmt::Debug {
     fn fast_gradient(&self) -> Option<FastGradient<'_>> {
         None
     }
+}
+
+/// What a boxed network needs besides its architecture (comparison, cloning, downcasts); every
+/// `PolicyNet + Clone + PartialEq` has it.
+pub trait NetObject {
     /// Whether `other` is the same network with the same parameters.
     fn same_as(&self, other: &dyn PolicyNet) -> bool;
     fn clone_box(&self) -> Box<dyn PolicyNet>;
     fn as_any(&self) -> &dyn Any;
     fn as_any_mut(&mut self) -> &mut dyn Any;
+}
+
+impl<T: PolicyNet + Clone + PartialEq> NetObject for T {
+    fn same_as(&self, other: &dyn PolicyNet) -> bool {
+        other.as_any().downcast_ref::<T>() == Some(self)
+    }
+    fn clone_box(&self) -> Box<dyn PolicyNet> {
+        Box::new(self.clone())
+    }
+    fn as_any(&self) -> &dyn Any {
+        self
+    }
+    fn as_any_mut(&mut self) -> &mut dyn Any {
+        self
+    }
 }
 
 impl PolicyNet for Mlp {
@@ -136,18 +156,6 @@ impl PolicyNet for Mlp {
     fn fast_gradient(&self) -> Option<FastGradient<'_>> {
         Some(FastGradient::Mlp(self))
     }
-    fn same_as(&self, other: &dyn PolicyNet) -> bool {
-        other.as_any().downcast_ref::<Self>() == Some(self)
-    }
-    fn clone_box(&self) -> Box<dyn PolicyNet> {
-        Box::new(self.clone())
-    }
-    fn as_any(&self) -> &dyn Any {
-        self
-    }
-    fn as_any_mut(&mut self) -> &mut dyn Any {
-        self
-    }
 }
 
 impl PolicyNet for ModularAttention {
@@ -183,18 +191,6 @@ impl PolicyNet for ModularAttention {
     }
     fn fast_gradient(&self) -> Option<FastGradient<'_>> {
         Some(FastGradient::Modular(self))
-    }
-    fn same_as(&self, other: &dyn PolicyNet) -> bool {
-        other.as_any().downcast_ref::<Self>() == Some(self)
-    }
-    fn clone_box(&self) -> Box<dyn PolicyNet> {
-        Box::new(self.clone())
-    }
-    fn as_any(&self) -> &dyn Any {
-        self
-    }
-    fn as_any_mut(&mut self) -> &mut dyn Any {
-        self
     }
 }
 
@@ -239,17 +235,5 @@ impl PolicyNet for TokenTransformer {
     }
     fn frozen_obs_columns(&self) -> &[usize] {
         &self.spec.frozen_obs
-    }
-    fn same_as(&self, other: &dyn PolicyNet) -> bool {
-        other.as_any().downcast_ref::<Self>() == Some(self)
-    }
-    fn clone_box(&self) -> Box<dyn PolicyNet> {
-        Box::new(self.clone())
-    }
-    fn as_any(&self) -> &dyn Any {
-        self
-    }
-    fn as_any_mut(&mut self) -> &mut dyn Any {
-        self
     }
 }
