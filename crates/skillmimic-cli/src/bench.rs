@@ -41,7 +41,8 @@ fn bench_sim(a: SimArgs) -> anyhow::Result<()> {
     let hands = a.hand_models()?;
     let w = Workload::new(a.envs, a.steps);
     println!(
-        "bench sim: {} envs, {} policy steps (2 x mj_step each) x {} rounds, variants interleaved every {} steps; unit: policy steps/s",
+        "bench sim: {} envs, {} policy steps (2 x mj_step each) x {} rounds, variants interleaved \
+            every {} steps; unit: policy steps/s",
         a.envs, a.steps, a.rounds, a.chunk
     );
     println!(

@@ -81,7 +81,9 @@ impl TorchWorker {
             let stdin = child.stdin.take()?;
             let stdout = BufReader::new(child.stdout.take()?);
             let mut w = Self { child, stdin, stdout, version: String::new() };
-            let r = w.ask(&serde_json::json!({"op": "setup", "obs_dim": OBS, "act_dim": ACT, "hidden": hidden, "threads": threads}))?;
+            let r = w.ask(&serde_json::json!({
+                "op": "setup", "obs_dim": OBS, "act_dim": ACT, "hidden": hidden, "threads": threads
+            }))?;
             w.version =
                 format!("torch {} ({} threads)", r["torch"].as_str().unwrap_or("?"), r["threads"]);
             return Some(w);
@@ -218,7 +220,8 @@ pub fn run(op: &str, a: NetArgs) -> anyhow::Result<()> {
     };
     let mut torch = if a.no_torch { None } else { TorchWorker::start(&a.hidden, threads) };
     println!(
-        "bench {op}: obs {OBS} -> {:?} -> {ACT} (actor) / 1 (critic), {threads} threads, {} interleaved rounds, medians",
+        "bench {op}: obs {OBS} -> {:?} -> {ACT} (actor) / 1 (critic), {threads} threads, {} \
+            interleaved rounds, medians",
         a.hidden, a.rounds
     );
     match &torch {

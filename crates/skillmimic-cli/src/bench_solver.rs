@@ -20,7 +20,8 @@ pub fn run(a: SimArgs) -> anyhow::Result<()> {
     let hands = a.hand_models()?;
     let w = Workload::new(a.envs, a.steps);
     println!(
-        "bench solver: {} envs on 2 threads, {} policy steps (2 x mj_step each) x {} rounds, solvers interleaved every {} steps; unit: policy steps/s",
+        "bench solver: {} envs on 2 threads, {} policy steps (2 x mj_step each) x {} rounds, \
+            solvers interleaved every {} steps; unit: policy steps/s",
         a.envs, a.steps, a.rounds, a.chunk
     );
     println!(
@@ -83,7 +84,9 @@ pub fn run(a: SimArgs) -> anyhow::Result<()> {
         }
     }
     println!(
-        "drift: largest |Δ position| from the Newton trajectory after the run; chaotic contact dynamics make any change of solver drift over time, so the fidelity checks (replay, restitution, PD tracking, a training curve) decide, not this number"
+        "drift: largest |Δ position| from the Newton trajectory after the run; chaotic contact \
+            dynamics make any change of solver drift over time, so the fidelity checks (replay, \
+            restitution, PD tracking, a training curve) decide, not this number"
     );
     Ok(())
 }

@@ -68,7 +68,8 @@ pub fn run(a: TrainArgs) -> anyhow::Result<()> {
         batch / t0.elapsed().as_secs_f64()
     };
     println!(
-        "bench train: preset '{}', {} envs x horizon {} = {} samples/iteration, network {:?}, minibatch {}, {} mini-epochs, backend {:?}, precision {:?} (runs in {}), {} hands",
+        "bench train: preset '{}', {} envs x horizon {} = {} samples/iteration, network {:?}, \
+            minibatch {}, {} mini-epochs, backend {:?}, precision {:?} (runs in {}), {} hands",
         a.base.preset,
         cfg.env.num_envs,
         cfg.ppo.horizon,
@@ -131,7 +132,8 @@ pub fn run(a: TrainArgs) -> anyhow::Result<()> {
         upd_ms.push(per(s.update_s));
     }
     println!(
-        "median: end-to-end {:.0} samples/s, simulation-only {:.0} samples/s, ratio {:.3}; per sample env {:.4} ms, inference {:.4} ms, update {:.4} ms",
+        "median: end-to-end {:.0} samples/s, simulation-only {:.0} samples/s, ratio {:.3}; per \
+            sample env {:.4} ms, inference {:.4} ms, update {:.4} ms",
         median(&mut e2e),
         median(&mut sim),
         median(&mut ratio),
@@ -140,7 +142,8 @@ pub fn run(a: TrainArgs) -> anyhow::Result<()> {
         median(&mut upd_ms)
     );
     println!(
-        "raw mj_step anchor ({threads} threads, {n} envs): {:.0} policy steps/s; end-to-end / raw {:.3}",
+        "raw mj_step anchor ({threads} threads, {n} envs): {:.0} policy steps/s; end-to-end / raw \
+            {:.3}",
         median(&mut raw_rate),
         median(&mut raw_ratio)
     );
@@ -150,7 +153,9 @@ pub fn run(a: TrainArgs) -> anyhow::Result<()> {
             .and_then(|l| l.split_whitespace().nth(1)?.parse::<f64>().ok())
     });
     println!(
-        "memory per environment: MjData {:.0} KB allocated (mostly the `<size memory>` arena, resident only where touched); process resident {} (learner, rollout storage and the anchor's second set of MjData included)",
+        "memory per environment: MjData {:.0} KB allocated (mostly the `<size memory>` arena, \
+            resident only where touched); process resident {} (learner, rollout storage and the \
+            anchor's second set of MjData included)",
         raw.data_bytes() as f64 / 1e3,
         rss.map_or("unknown".into(), |kb| format!("{:.0} KB", kb * 1.024 / n as f64))
     );

@@ -32,7 +32,8 @@ pub fn run(a: &Options, policy: Option<&Policy>, cfg: &TrainConfig) -> anyhow::R
         let n = match env.spec().action_space {
             ActionSpace::Discrete { n } => n,
             ActionSpace::Box { .. } => bail!(
-                "--baselines needs a task with discrete choices (a high-level task over a skill policy); '{}' has continuous actions here",
+                "--baselines needs a task with discrete choices (a high-level task over a skill \
+                    policy); '{}' has continuous actions here",
                 cfg.env.task
             ),
         };
@@ -59,7 +60,8 @@ pub fn run(a: &Options, policy: Option<&Policy>, cfg: &TrainConfig) -> anyhow::R
             if hits.is_empty() { "-".to_string() } else { hits.join(", ") }
         };
         println!(
-            "{:<9} {} episodes: return {:.3}, reward/step {:.4}, length {:.1} ({:.0} sim steps), early end {:.1} %, success {} (code latch {})",
+            "{:<9} {} episodes: return {:.3}, reward/step {:.4}, length {:.1} ({:.0} sim steps), \
+                early end {:.1} %, success {} (code latch {})",
             actor.label(),
             r.episodes,
             r.mean_return,

@@ -139,7 +139,8 @@ fn run_pretrain(a: PretrainArgs) -> anyhow::Result<()> {
     )
     .with_context(|| format!("cannot write {}", report_path.display()))?;
     println!(
-        "pre-trained on {} samples, {} epochs in {:.1} s: next-state MSE {:.6} -> {:.6} ({:.1}x lower); epoch loss {:.6} -> {:.6}",
+        "pre-trained on {} samples, {} epochs in {:.1} s: next-state MSE {:.6} -> {:.6} ({:.1}x \
+            lower); epoch loss {:.6} -> {:.6}",
         rep.samples,
         rep.epochs,
         rep.seconds,

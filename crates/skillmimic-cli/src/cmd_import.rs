@@ -83,7 +83,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     );
     if imp.policy.obs_dim() == 905 {
         println!(
-            "note: 905 observations = a SkillMimic-V2 policy; evaluate it with env.v2.history.enabled = true and the history encoder it was trained with"
+            "note: 905 observations = a SkillMimic-V2 policy; evaluate it with \
+                env.v2.history.enabled = true and the history encoder it was trained with"
         );
     }
     Ok(())

@@ -90,7 +90,8 @@ impl InputFiles {
         let hit = self.paths.get(&out).or_else(|| file_id(&out).and_then(|id| self.ids.get(&id)));
         if let Some(input) = hit {
             anyhow::bail!(
-                "{}: output is the input file {}; converting would overwrite the source clip, give another output path",
+                "{}: output is the input file {}; converting would overwrite the source clip, \
+                    give another output path",
                 output.display(),
                 input.display()
             );

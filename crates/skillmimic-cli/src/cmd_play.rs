@@ -125,15 +125,19 @@ pub fn rollout_states(
         let base = skillmimic_env::obs::layout::OBS_DIM;
         let hint = match (policy.obs_dim(), env.obs_dim()) {
             (p, e) if p == e + 3 && e == base => {
-                " (the policy was trained with SkillMimic-V2's history embedding, 902 + 3: enable env.v2.history with its encoder file, or play with the checkpoint's own configuration)"
+                " (the policy was trained with SkillMimic-V2's history embedding, 902 + 3: enable \
+                    env.v2.history with its encoder file, or play with the checkpoint's own \
+                    configuration)"
             }
             (p, e) if e == p + 3 && p == base => {
-                " (the environment appends SkillMimic-V2's history embedding, 902 + 3, but the policy was trained without it: set env.v2.history.enabled = false)"
+                " (the environment appends SkillMimic-V2's history embedding, 902 + 3, but the \
+                    policy was trained without it: set env.v2.history.enabled = false)"
             }
             _ => "",
         };
         bail!(
-            "the policy takes observations of {} and gives actions of {}; task '{}' has observations of {} and actions of {}{hint}",
+            "the policy takes observations of {} and gives actions of {}; task '{}' has \
+                observations of {} and actions of {}{hint}",
             policy.obs_dim(),
             policy.act_dim(),
             env.spec().name,

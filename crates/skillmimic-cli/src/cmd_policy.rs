@@ -215,7 +215,8 @@ pub fn eval(a: EvalArgs) -> anyhow::Result<()> {
         // tasks other than imitation: the task-independent episode report (and baselines)
         if a.sweep || a.v2 || a.init_noise.is_some() {
             bail!(
-                "--sweep, --v2 and --init-noise are SkillMimic evaluations of the imitation task; this run's task is '{}'",
+                "--sweep, --v2 and --init-noise are SkillMimic evaluations of the imitation task; \
+                    this run's task is '{}'",
                 cfg.env.task
             );
         }
@@ -294,7 +295,8 @@ pub fn eval(a: EvalArgs) -> anyhow::Result<()> {
         let lib = std::sync::Arc::new(skillmimic_env::load_motion_library(&cfg.env.motion)?);
         let r = skillmimic_learn::eval::evaluate_v2(&c.policy, &cfg.env, &lib, &vcfg, 0)?;
         println!(
-            "SkillMimic-V2 ({} episodes per case, {} steps from frame {}): SR {:.3}, TSR {:.3}, eps-NSR {:.3}, NR {:.4}",
+            "SkillMimic-V2 ({} episodes per case, {} steps from frame {}): SR {:.3}, TSR {:.3}, \
+                eps-NSR {:.3}, NR {:.4}",
             vcfg.episodes,
             vcfg.horizon,
             vcfg.start_frame,

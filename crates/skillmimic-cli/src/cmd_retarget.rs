@@ -114,7 +114,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             let path = a.out.join(format!("{}.safetensors", clip.name));
             out.save(&path).with_context(|| format!("cannot write {}", path.display()))?;
             println!(
-                "{}: {} frames, scale {:.3}, ground shift {:.1} mm, foot height error {:.1} mm mean / {:.1} mm max over the stance frames",
+                "{}: {} frames, scale {:.3}, ground shift {:.1} mm, foot height error {:.1} mm \
+                    mean / {:.1} mm max over the stance frames",
                 clip.name,
                 rep.frames,
                 rep.scale,
@@ -129,7 +130,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         let path = a.out.join(format!("{}.safetensors", clip.name));
         out.save(&path).with_context(|| format!("cannot write {}", path.display()))?;
         println!(
-            "{}: {} frames, foot height error {:.1} mm mean / {:.1} mm max over {} stance frames, {} 3-DoF axes beyond their limits and {} elbow angles clamped ({:.1} % of frames, max excess {:.1} deg)",
+            "{}: {} frames, foot height error {:.1} mm mean / {:.1} mm max over {} stance frames, \
+                {} 3-DoF axes beyond their limits and {} elbow angles clamped ({:.1} % of frames, \
+                max excess {:.1} deg)",
             clip.name,
             rep.frames,
             1000.0 * rep.foot_height_error_mean,
@@ -273,7 +276,8 @@ fn write_clip(
     let ik = if a.ik {
         let r = rep.ik;
         format!(
-            ", IK: ankles within {:.1} mm mean / {:.1} mm max of their targets, wrists {:.1} / {:.1} mm (targets beyond the straight limb)",
+            ", IK: ankles within {:.1} mm mean / {:.1} mm max of their targets, wrists {:.1} / \
+                {:.1} mm (targets beyond the straight limb)",
             1000.0 * r.feet_mean_m,
             1000.0 * r.feet_max_m,
             1000.0 * r.hands_mean_m,
@@ -283,7 +287,10 @@ fn write_clip(
         String::new()
     };
     println!(
-        "{name}: {} frames at 60 fps (from {frames} at {:.1} fps), scale {:.4}, ground shift {:.3} m; feet: deepest {:.1} mm below the floor, {} frames > 1 cm, sliding {:.3} m/s; fastest joint {:.1} rad/s ({} at frame {}), {} frames with spikes > 20 rad/s; {} contact frames{ik}",
+        "{name}: {} frames at 60 fps (from {frames} at {:.1} fps), scale {:.4}, ground shift \
+            {:.3} m; feet: deepest {:.1} mm below the floor, {} frames > 1 cm, sliding {:.3} m/s; \
+            fastest joint {:.1} rad/s ({} at frame {}), {} frames with spikes > 20 rad/s; {} \
+            contact frames{ik}",
         rep.frames,
         1.0 / frame_time,
         rep.scale,

@@ -151,7 +151,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     };
     if a.clip.is_some() && !character.plays_ballplay() {
         anyhow::bail!(
-            "--clip starts the SkillMimic humanoid from a BallPlay-M clip; it does not apply to --character {}",
+            "--clip starts the SkillMimic humanoid from a BallPlay-M clip; it does not apply to \
+                --character {}",
             a.character
         );
     }

@@ -108,7 +108,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     }
     let trainer = Trainer::new(cfg.clone(), resume.as_deref())?;
     tracing::info!(
-        "training task '{}': {} envs x horizon {} = {} samples/iteration, network {:?}, {} iterations -> {}",
+        "training task '{}': {} envs x horizon {} = {} samples/iteration, network {:?}, {} \
+            iterations -> {}",
         cfg.env.task,
         cfg.env.num_envs,
         cfg.ppo.horizon,
@@ -150,7 +151,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         (None, None) => String::new(),
     };
     println!(
-        "trained {} iterations ({} samples) in {:.1} s; mean reward/step over the first {w} iterations {:.4} -> last {w} {:.4}{eval}",
+        "trained {} iterations ({} samples) in {:.1} s; mean reward/step over the first {w} \
+            iterations {:.4} -> last {w} {:.4}{eval}",
         summary.iterations,
         summary.samples,
         summary.wall_s,

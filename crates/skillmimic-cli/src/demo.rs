@@ -61,7 +61,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     }
     let secs = t.elapsed().as_secs_f64();
     println!(
-        "simulated {} env-steps ({:.1} s of motion each) in {secs:.2} s: {:.0} policy steps/s; {falls} falls (pelvis below 0.3 m) reset",
+        "simulated {} env-steps ({:.1} s of motion each) in {secs:.2} s: {:.0} policy steps/s; \
+            {falls} falls (pelvis below 0.3 m) reset",
         a.envs * a.steps,
         a.steps as f64 / 60.0,
         (a.envs * a.steps) as f64 / secs

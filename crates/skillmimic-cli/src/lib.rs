@@ -141,7 +141,8 @@ where
                 .take()
                 .unwrap_or_else(|| skillmimic_core::panic_message(&*payload));
             eprintln!(
-                "error: internal error: {what} (a bug of skillmimic-rs, not of your input; please report it with the command line)"
+                "error: internal error: {what} (a bug of skillmimic-rs, not of your input; please \
+                    report it with the command line)"
             );
             1
         }

@@ -304,7 +304,17 @@ mod tests {
         let dir = temp_dir("evals");
         let files: Vec<(String, PathBuf)> = (0..2)
             .map(|r| {
-                let text: String = (1..=6).map(|k| format!("{}\n", serde_json::json!({"iteration": 25 * k, "samples": 204800 * k, "start_sampled_completed_pct": 10.0 * (k + r) as f64, "falls_pct": 40.0 - 5.0 * k as f64, "acc_pct": 5.0 + k as f64, "e_b_mm": 500.0 - 20.0 * k as f64}))).collect();
+                let row = |k: usize| {
+                    serde_json::json!({
+                        "iteration": 25 * k,
+                        "samples": 204800 * k,
+                        "start_sampled_completed_pct": 10.0 * (k + r) as f64,
+                        "falls_pct": 40.0 - 5.0 * k as f64,
+                        "acc_pct": 5.0 + k as f64,
+                        "e_b_mm": 500.0 - 20.0 * k as f64
+                    })
+                };
+                let text: String = (1..=6).map(|k| format!("{}\n", row(k))).collect();
                 let p = dir.join(format!("run{r}.jsonl"));
                 std::fs::write(&p, text).unwrap();
                 (format!("run {r}"), p)

@@ -169,7 +169,8 @@ pub fn find_ffmpeg() -> Option<PathBuf> {
 
 fn write_mp4(path: &Path, f: &Frames) -> anyhow::Result<()> {
     let ffmpeg = find_ffmpeg().context(
-        "MP4 output needs ffmpeg: install it, `pip install imageio-ffmpeg`, or set SKILLMIMIC_FFMPEG; or write a .gif instead",
+        "MP4 output needs ffmpeg: install it, `pip install imageio-ffmpeg`, or set \
+            SKILLMIMIC_FFMPEG; or write a .gif instead",
     )?;
     let tmp = path.with_extension("tmp.mp4");
     let mut child = Command::new(&ffmpeg)

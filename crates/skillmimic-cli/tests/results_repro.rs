@@ -91,7 +91,8 @@ fn documented_command_reproduces_the_first_20_iterations() {
         println!("20 iterations bit-identical to the published run's log");
     } else {
         println!(
-            "this machine ({here}) is not of the reference's class ({}): float results may differ in the last bits, comparing to 2 %",
+            "this machine ({here}) is not of the reference's class ({}): float results may differ \
+                in the last bits, comparing to 2 %",
             meta["machine"]
         );
         for (i, (g, r)) in got.iter().zip(&reference).enumerate() {

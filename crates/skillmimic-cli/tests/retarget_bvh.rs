@@ -262,7 +262,13 @@ fn bad_maps_and_missing_labels_are_refused() {
     let dir = std::env::temp_dir().join(format!("sm-retarget-bad-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let bvh = dir.join("a.bvh");
-    std::fs::write(&bvh, "HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n End Site\n {\n  OFFSET 0 1 0\n }\n}\nMOTION\nFrames: 2\nFrame Time: 0.0333\n0 90 0 0 0 0\n0 90 0 0 0 0\n").unwrap();
+    std::fs::write(
+        &bvh,
+        "HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 6 Xposition Yposition \
+        Zposition Zrotation Xrotation Yrotation\n End Site\n {\n  OFFSET 0 1 0\n \
+        }\n}\nMOTION\nFrames: 2\nFrame Time: 0.0333\n0 90 0 0 0 0\n0 90 0 0 0 0\n",
+    )
+    .unwrap();
     let run = |extra: &[&str]| {
         let r = bin()
             .args(["retarget", "--bvh"])

@@ -65,11 +65,13 @@ pub fn registry_file_or_skip(test: &str, crate_dir: &str, rel: &str) -> Option<P
     match found {
         Some(p) => Some(p),
         None if std::env::var_os("CI").is_some() => panic!(
-            "{test}: {crate_dir}/{rel} is not in the cargo registry and CI is set (scripts/setup.sh --tests fetches it)"
+            "{test}: {crate_dir}/{rel} is not in the cargo registry and CI is set \
+                (scripts/setup.sh --tests fetches it)"
         ),
         None => {
             eprintln!(
-                "SKIPPED {test}: {crate_dir}/{rel} is not in the cargo registry (run scripts/setup.sh --tests)"
+                "SKIPPED {test}: {crate_dir}/{rel} is not in the cargo registry (run \
+                    scripts/setup.sh --tests)"
             );
             None
         }

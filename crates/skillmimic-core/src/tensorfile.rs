@@ -113,7 +113,8 @@ pub fn to_bytes(tensors: &[OwnedTensor], metadata: &BTreeMap<String, String>) ->
             "tensor '{}'",
             t.name
         );
-        let info = serde_json::json!({ "dtype": dtype, "shape": t.shape, "data_offsets": [offset, offset + t.bytes.len()] });
+        let offsets = [offset, offset + t.bytes.len()];
+        let info = serde_json::json!({ "dtype": dtype, "shape": t.shape, "data_offsets": offsets });
         header.insert(t.name.clone(), info);
         offset += t.bytes.len();
     }
@@ -199,12 +200,14 @@ fn explain(bytes: &[u8], header_len: u64) -> Option<String> {
         };
         if end > data_len || start > end {
             return Some(format!(
-                "tensor '{name}': data_offsets [{start}, {end}] lie outside the {data_len} data bytes of the file"
+                "tensor '{name}': data_offsets [{start}, {end}] lie outside the {data_len} data \
+                    bytes of the file"
             ));
         }
         if end - start != bytes_needed {
             return Some(format!(
-                "tensor '{name}': data_offsets [{start}, {end}] hold {} bytes, its shape {shape:?} needs {bytes_needed}",
+                "tensor '{name}': data_offsets [{start}, {end}] hold {} bytes, its shape \
+                    {shape:?} needs {bytes_needed}",
                 end - start
             ));
         }
@@ -238,7 +241,8 @@ impl TensorFile {
         let len = meta.len();
         if !meta.is_file() || len < 8 {
             return Err(format(format!(
-                "{len} bytes; a safetensors file is a regular file starting with an 8-byte header length"
+                "{len} bytes; a safetensors file is a regular file starting with an 8-byte header \
+                    length"
             )));
         }
         let mut head = [0u8; 8];

@@ -431,7 +431,8 @@ mod tests {
     #[test]
     fn toml_overrides_and_rejects_unknown_keys() {
         let c: EnvConfig = toml::from_str(
-            "num_envs = 8\nstate_init = { frame = 5 }\n[reward]\nvariant = \"additive\"\nw_p = 10.0\n[ball]\nradius_scale = 1.2\n",
+            "num_envs = 8\nstate_init = { frame = 5 }\n[reward]\nvariant = \"additive\"\nw_p = \
+                10.0\n[ball]\nradius_scale = 1.2\n",
         )
         .unwrap();
         assert_eq!(c.num_envs, 8);

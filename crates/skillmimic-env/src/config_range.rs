@@ -218,7 +218,8 @@ pub fn capped_threads(requested: usize, key: &str) -> usize {
     let cap = 4 * cores;
     if requested > cap {
         eprintln!(
-            "warning: {key} = {requested} is far above the {cores} cores of this machine; using {cap} threads"
+            "warning: {key} = {requested} is far above the {cores} cores of this machine; using \
+                {cap} threads"
         );
         cap
     } else {

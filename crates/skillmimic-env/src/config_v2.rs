@@ -238,7 +238,8 @@ impl V2Config {
         if self.history.enabled && self.history.encoder.as_os_str().is_empty() {
             return Err(bad(
                 "env.v2.history.encoder",
-                "history is enabled but no encoder file is given (write one with `skillmimic history pretrain`)",
+                "history is enabled but no encoder file is given (write one with `skillmimic \
+                    history pretrain`)",
             ));
         }
         Ok(())

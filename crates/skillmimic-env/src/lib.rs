@@ -23,6 +23,7 @@
 //!   Adaptive Trajectory Sampling (the history encoder network is `skillmimic_nn::history`).
 
 pub mod amp;
+pub mod clip_state;
 pub mod compat;
 pub mod config;
 pub mod config_physics;

@@ -412,7 +412,8 @@ fn synthesise(hand: Hand) -> Result<(Clip, f64), SimError> {
         if hand == Hand::Right { "right" } else { "left" }
     );
     let source = format!(
-        "skillmimic synth-motions: IK stand-and-dribble, {} hand, {FRAMES} frames at {FPS} fps, cycle {PERIOD} s, contact {CONTACT} s",
+        "skillmimic synth-motions: IK stand-and-dribble, {} hand, {FRAMES} frames at {FPS} fps, \
+            cycle {PERIOD} s, contact {CONTACT} s",
         if hand == Hand::Right { "right" } else { "left" }
     );
     Ok((Clip::from_rows(name, source, label, FPS, FRAMES, &rows), worst_residual))
@@ -468,7 +469,8 @@ mod tests {
                 }
             }
             println!(
-                "{hand:?}: IK residual {residual:.2e} m, largest joint angle {max_angle:.3} rad, largest per-frame joint rotation {max_step:.3} rad"
+                "{hand:?}: IK residual {residual:.2e} m, largest joint angle {max_angle:.3} rad, \
+                    largest per-frame joint rotation {max_step:.3} rad"
             );
             assert!(max_angle < 2.5, "{hand:?}: joint angle {max_angle} rad");
             assert!(max_step < 0.35, "{hand:?}: a joint turns {max_step} rad between frames");

@@ -102,7 +102,8 @@ impl EpisodeStarts {
             return Ok(());
         }
         Err(format!(
-            "--horizon and --start-frame set up episodes of the tasks that start from clip frames (imitation, tracking); task '{}' starts and ends its episodes by its own rules",
+            "--horizon and --start-frame set up episodes of the tasks that start from clip frames \
+                (imitation, tracking); task '{}' starts and ends its episodes by its own rules",
             cfg.task
         ))
     }

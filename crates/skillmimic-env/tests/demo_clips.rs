@@ -39,7 +39,8 @@ fn demo_clips_replay_exactly_and_touch_the_ball_in_contact_frames() {
     let det = rep.label1_detected as f64 / rep.label1_frames as f64;
     let fp = rep.label0_detected as f64 / rep.label0_frames as f64;
     println!(
-        "demo replay: r_p {:.5}, r_r {:.5}, r_ig {:.5}, hand-ball detected in {:.1} % of label-1 frames, {:.1} % of label-0 frames",
+        "demo replay: r_p {:.5}, r_r {:.5}, r_ig {:.5}, hand-ball detected in {:.1} % of label-1 \
+            frames, {:.1} % of label-0 frames",
         rep.term_mean("p"),
         rep.term_mean("r"),
         rep.term_mean("ig"),

@@ -43,7 +43,8 @@ fn kinematic_replay_scores_real_clips_against_themselves() {
     gaps.sort_by(|a, b| a.total_cmp(b));
     let q = |p: f64| gaps[((gaps.len() - 1) as f64 * p) as usize];
     println!(
-        "  hand-ball: label 1 in {} frames, MuJoCo contact in {} ({:.1} %); label 0 in {} frames, MuJoCo contact in {} ({:.1} %); agreement {:.1} %",
+        "  hand-ball: label 1 in {} frames, MuJoCo contact in {} ({:.1} %); label 0 in {} frames, \
+            MuJoCo contact in {} ({:.1} %); agreement {:.1} %",
         rep.label1_frames,
         rep.label1_detected,
         100.0 * rep.label1_detected as f64 / rep.label1_frames as f64,
@@ -53,7 +54,8 @@ fn kinematic_replay_scores_real_clips_against_themselves() {
         100.0 * rep.contact_agreement()
     );
     println!(
-        "  label-1 frames: gap ball surface -> nearest hand body origin: median {:.3} m, 90th pct {:.3} m",
+        "  label-1 frames: gap ball surface -> nearest hand body origin: median {:.3} m, 90th pct \
+            {:.3} m",
         q(0.5),
         q(0.9)
     );
@@ -82,7 +84,8 @@ fn kinematic_replay_scores_real_clips_against_themselves() {
     // any contact, floor included; body node: any force component ≥ 0.1 N on the 17 body-node
     // bodies, target 0).
     println!(
-        "  force-threshold graph: ball node = label in {:.1} % of frames (on in {:.1} % of label-1, {:.1} % of label-0 frames); body node = 0 in {:.1} % of frames",
+        "  force-threshold graph: ball node = label in {:.1} % of frames (on in {:.1} % of \
+            label-1, {:.1} % of label-0 frames); body node = 0 in {:.1} % of frames",
         100.0 * rep.force_ball_agreement(),
         100.0 * rep.force_ball_label1 as f64 / rep.label1_frames as f64,
         100.0 * rep.force_ball_label0 as f64 / rep.label0_frames as f64,

@@ -69,7 +69,9 @@ fn kinematic_replay_scores_one_with_zero_error_on_every_character() {
             }
         }
         println!(
-            "{character}: kinematic replay of {} clips, largest error {worst:.2e} (m, rad, m/s, rad/s; float32 storage of the reference); body positions vs the clips' {worst_fk:.2e} m",
+            "{character}: kinematic replay of {} clips, largest error {worst:.2e} (m, rad, m/s, \
+                rad/s; float32 storage of the reference); body positions vs the clips' \
+                {worst_fk:.2e} m",
             frames.len()
         );
         assert!(worst < 1e-5);

@@ -369,7 +369,8 @@ fn history_buffer_feeds_the_observation_with_the_embedding_of_past_frames() {
             for (k, (&x, &y)) in obs[902..].iter().zip(&h).enumerate() {
                 assert!(
                     (x - y).abs() <= 1e-4 * (1.0 + y.abs()),
-                    "env {i} embedding {k}: {x} vs hand-written {y}: the embedding summarises the frames before the step"
+                    "env {i} embedding {k}: {x} vs hand-written {y}: the embedding summarises the \
+                        frames before the step"
                 );
             }
             let w = env.history_window(i).unwrap();

@@ -8,7 +8,8 @@ use skillmimic_fuzz::{Options, Target, run, targets::ALL};
 
 fn usage() -> ! {
     eprintln!(
-        "usage: skillmimic-fuzz --target pt|clip|checkpoint|config|all [--seconds N (60)] [--seed S (0)] [--time-limit-ms MS (1000)] [--findings DIR (fuzz-findings)]"
+        "usage: skillmimic-fuzz --target pt|clip|checkpoint|config|all [--seconds N (60)] [--seed \
+            S (0)] [--time-limit-ms MS (1000)] [--findings DIR (fuzz-findings)]"
     );
     std::process::exit(2)
 }
@@ -50,7 +51,8 @@ fn main() {
         };
         let r = run(&opts);
         println!(
-            "target {:<10} {:>9} executions in {:.0} s ({:.0}/s), {} accepted, {} error kinds, corpus {}, {} findings",
+            "target {:<10} {:>9} executions in {:.0} s ({:.0}/s), {} accepted, {} error kinds, \
+                corpus {}, {} findings",
             t.name(),
             r.executions,
             r.seconds,

@@ -226,7 +226,12 @@ fn positions_seed() -> String {
 }
 
 /// A small valid BVH: a root with a position, two chained joints, an End Site, three frames.
-const BVH_SEED: &str = "HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n  JOINT Spine\n  {\n    OFFSET 0 10 0\n    CHANNELS 3 Zrotation Xrotation Yrotation\n    JOINT Head\n    {\n      OFFSET 0 20 0\n      CHANNELS 3 Zrotation Xrotation Yrotation\n      End Site\n      {\n        OFFSET 0 5 0\n      }\n    }\n  }\n}\nMOTION\nFrames: 3\nFrame Time: 0.0333333\n0 90 0 0 0 0 0 0 0 0 0 0\n1 90 0 10 0 0 5 0 0 0 0 0\n2 90 0 20 0 0 10 0 0 0 0 5\n";
+const BVH_SEED: &str = "HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n  CHANNELS 6 Xposition Yposition \
+    Zposition Zrotation Xrotation Yrotation\n  JOINT Spine\n  {\n    OFFSET 0 10 0\n    CHANNELS \
+    3 Zrotation Xrotation Yrotation\n    JOINT Head\n    {\n      OFFSET 0 20 0\n      CHANNELS 3 \
+    Zrotation Xrotation Yrotation\n      End Site\n      {\n        OFFSET 0 5 0\n      }\n    \
+    }\n  }\n}\nMOTION\nFrames: 3\nFrame Time: 0.0333333\n0 90 0 0 0 0 0 0 0 0 0 0\n1 90 0 10 0 0 \
+    5 0 0 0 0 0\n2 90 0 20 0 0 10 0 0 0 0 5\n";
 
 /// Keep the first `t` frames of `c`.
 fn trim(c: &mut Clip, t: usize) {

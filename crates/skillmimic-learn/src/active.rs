@@ -114,7 +114,11 @@ pub fn round(
     rng: &mut dyn RngCore,
 ) -> Result<RoundReport, LearnError> {
     if a.disc_score_min > 0.0 && disc.is_none() {
-        return Err(LearnError::Config("config field 'run.active.disc_score_min': the discriminator filter needs the motion prior (--set ppo.amp.enabled=true)".into()));
+        return Err(LearnError::Config(
+            "config field 'run.active.disc_score_min': the \
+            discriminator filter needs the motion prior (--set ppo.amp.enabled=true)"
+                .into(),
+        ));
     }
     let mut files = Vec::new();
     for p in cfg.env.motion.iter().filter(|p| p.as_os_str() != skillmimic_env::BUILTIN_DEMO) {
@@ -155,7 +159,8 @@ pub fn round(
                 let score = disc_score(d, &g, cfg)?;
                 if score < a.disc_score_min {
                     verdict = Err(format!(
-                        "clip '{}': motion-prior score {score:.3} is below run.active.disc_score_min = {}",
+                        "clip '{}': motion-prior score {score:.3} is below \
+                            run.active.disc_score_min = {}",
                         g.name, a.disc_score_min
                     ));
                 }
@@ -232,7 +237,8 @@ pub fn train_round(t: &mut Trainer) -> Result<RoundReport, LearnError> {
         std::fs::OpenOptions::new().create(true).append(true).open(&path).map_err(io(&path))?;
     writeln!(f, "{line}").map_err(io(&path))?;
     tracing::info!(
-        "active learning at iteration {}: {} clips evaluated, {} failed, {} generated clips joined, {} rejected",
+        "active learning at iteration {}: {} clips evaluated, {} failed, {} generated clips \
+            joined, {} rejected",
         t.progress.iteration,
         report.evaluated,
         report.failed.len(),

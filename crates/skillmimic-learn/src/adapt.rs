@@ -42,7 +42,8 @@ pub fn adapt(
         policy.actor.downcast_ref::<TokenTransformer>(),
     ) else {
         return Err(err(format!(
-            "policy adaptation needs a token transformer checkpoint and ppo.policy = \"token_transformer\"; the checkpoint's policy is '{}'",
+            "policy adaptation needs a token transformer checkpoint and ppo.policy = \
+                \"token_transformer\"; the checkpoint's policy is '{}'",
             base.family.name()
         )));
     };
@@ -58,7 +59,9 @@ pub fn adapt(
     let (g0, g1) = (&old.spec.groups, &new.spec.groups);
     if g1.len() <= g0.len() || g1[..g0.len()] != g0[..] {
         return Err(err(format!(
-            "the task's observation groups {g1:?} must start with the checkpoint's {g0:?} and add at least one new group (set env.multi.groups to the old groups followed by the new task's)"
+            "the task's observation groups {g1:?} must start with the checkpoint's {g0:?} and add \
+                at least one new group (set env.multi.groups to the old groups followed by the \
+                new task's)"
         )));
     }
     // the new groups' mask entries switch the adapters on (group g ≥ 1 is mask entry g − 1)

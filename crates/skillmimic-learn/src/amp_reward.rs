@@ -113,15 +113,31 @@ impl AmpReward {
             references.push(if hsi {
                 // TokenHSI character: the proprioception, references of the task's clips
                 let task = if name.is_empty() { cfg.env.task.as_str() } else { name.as_str() };
-                let clips = style::load_style_clips(&cfg.env.table::<HsiConfig>().style_motion_of(task))?;
+                let clips =
+                    style::load_style_clips(&cfg.env.table::<HsiConfig>().style_motion_of(task))?;
                 style::clip_features(&clips)?
             } else {
                 if obs_dim < layout::HUMANOID_DIM {
-                    return Err(LearnError::Config(format!("ppo.amp needs an observation that starts with the {} humanoid entries; task '{}' has {obs_dim}", layout::HUMANOID_DIM, cfg.env.task)));
+                    return Err(LearnError::Config(format!(
+                        "ppo.amp needs an observation that \
+                        starts with the {} humanoid entries; task '{}' has {obs_dim}",
+                        layout::HUMANOID_DIM,
+                        cfg.env.task
+                    )));
                 }
                 let lib = load_motion_library(&cfg.env.motion)?;
-                let scene = Arc::new(Scene::new(cfg.env.scene_options().map_err(|e| LearnError::Config(e.to_string()))?).map_err(|e| LearnError::Config(e.to_string()))?);
-                clip_features(scene, &lib).map_err(|e| LearnError::Config(format!("ppo.amp reference clips: {e}")))?
+                let scene = Arc::new(
+                    Scene::new(
+                        cfg.env.scene_options().map_err(|e| LearnError::Config(e.to_string()))?,
+                    )
+                    .map_err(|e| LearnError::Config(e.to_string()))?,
+                );
+                clip_features(scene, &lib).map_err(|e| {
+                    LearnError::Config(format!(
+                        "ppo.amp reference \
+                    clips: {e}"
+                    ))
+                })?
             });
         }
         let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x616d_705f_7265_6621);
@@ -176,7 +192,9 @@ impl AmpReward {
                 || a.batch / world < 2
             {
                 return Err(LearnError::Config(format!(
-                    "config fields 'ppo.amp.batch' ({}) and 'ppo.amp.buffer' ({}): in a data-parallel run of {world} ranks both must be multiples of {world}, with at least 2 windows per rank",
+                    "config fields 'ppo.amp.batch' ({}) and 'ppo.amp.buffer' ({}): in a \
+                        data-parallel run of {world} ranks both must be multiples of {world}, \
+                        with at least 2 windows per rank",
                     a.batch, a.buffer
                 )));
             }

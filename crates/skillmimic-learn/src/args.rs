@@ -42,7 +42,9 @@ fn task_help() -> String {
     let all: Vec<&str> = tasks.iter().map(|t| t.name).collect();
     let high: Vec<&str> = tasks.iter().filter(|t| t.high_level.is_some()).map(|t| t.name).collect();
     format!(
-        "Task of the registry (`env.task`): {} (default imitation). A high-level task ({}) without `--policy` trains the high-level controller's `categorical_mlp` [1024, 512] over a skill policy, a `gaussian_mlp` over a modular one",
+        "Task of the registry (`env.task`): {} (default imitation). A high-level task ({}) \
+            without `--policy` trains the high-level controller's `categorical_mlp` [1024, 512] \
+            over a skill policy, a `gaussian_mlp` over a modular one",
         all.join(", "),
         high.join(", ")
     )

@@ -87,11 +87,18 @@ fn norm_tensors(prefix: &str, n: &RunningMeanStd, out: &mut Vec<OwnedTensor>) {
 }
 
 /// Metadata `network`: layer order and activation.
-pub const NETWORK_DOC: &str = "actor and critic are separate MLPs over the normalised observation: actor.{0,2,..,2L}.weight (out, in) / .bias, critic likewise; y = x W^T + b; ReLU after every layer but the last; actor output = Gaussian means (gaussian_mlp, sigma = exp(log_std), fixed) or categorical logits (categorical_mlp); critic output = 1 value in normalised space";
+pub const NETWORK_DOC: &str = "actor and critic are separate MLPs over the normalised \
+    observation: actor.{0,2,..,2L}.weight (out, in) / .bias, critic likewise; y = x W^T + b; ReLU \
+    after every layer but the last; actor output = Gaussian means (gaussian_mlp, sigma = \
+    exp(log_std), fixed) or categorical logits (categorical_mlp); critic output = 1 value in \
+    normalised space";
 /// Metadata `obs_normalizer`: the formula and its precision.
-pub const OBS_NORM_DOC: &str = "if normalize_input: x_n = clamp((x - obs_norm.mean) / sqrt(obs_norm.var + norm_eps), -norm_clip, norm_clip), computed in float64 from the float64 statistics, then cast to float32 (rl_games computes the same in float32)";
+pub const OBS_NORM_DOC: &str = "if normalize_input: x_n = clamp((x - obs_norm.mean) / \
+    sqrt(obs_norm.var + norm_eps), -norm_clip, norm_clip), computed in float64 from the float64 \
+    statistics, then cast to float32 (rl_games computes the same in float32)";
 /// Metadata `value_output`: how the critic output becomes a value.
-pub const VALUE_DOC: &str = "if normalize_value: value = clamp(critic_out, -norm_clip, norm_clip) * sqrt(value_norm.var + norm_eps) + value_norm.mean; else value = critic_out";
+pub const VALUE_DOC: &str = "if normalize_value: value = clamp(critic_out, -norm_clip, norm_clip) \
+    * sqrt(value_norm.var + norm_eps) + value_norm.mean; else value = critic_out";
 
 /// Save `policy` (and `adam` for a training checkpoint) atomically; refuses (`InvalidData`, nothing
 /// written) when a float tensor is not finite.
@@ -199,7 +206,8 @@ fn refuse_non_finite(tensors: &[OwnedTensor]) -> std::io::Result<()> {
         };
         if let Some((i, x)) = bad {
             let msg = format!(
-                "refusing to write a checkpoint with non-finite values: tensor '{}' holds {x} at index {i}",
+                "refusing to write a checkpoint with non-finite values: tensor '{}' holds {x} at \
+                    index {i}",
                 t.name
             );
             return Err(std::io::Error::new(std::io::ErrorKind::InvalidData, msg));
@@ -272,7 +280,8 @@ fn load_raw(path: &Path, expect: Option<(usize, usize)>) -> Result<Checkpoint, S
     let version: u32 = f.meta_parse("format_version", "an integer").map_err(e)?;
     if version != VERSION {
         return Err(format!(
-            "{}: metadata field 'format_version' is {version}, this build reads version {VERSION} only{}",
+            "{}: metadata field 'format_version' is {version}, this build reads version {VERSION} \
+                only{}",
             path.display(),
             if version > VERSION { " (the file was written by a newer skillmimic)" } else { "" }
         ));
@@ -290,7 +299,8 @@ fn load_raw(path: &Path, expect: Option<(usize, usize)>) -> Result<Checkpoint, S
         && (o, a) != (obs_dim, act_dim)
     {
         return Err(format!(
-            "{}: checkpoint is for observations of {obs_dim} and actions of {act_dim}, this environment has {o} and {a}",
+            "{}: checkpoint is for observations of {obs_dim} and actions of {act_dim}, this \
+                environment has {o} and {a}",
             path.display()
         ));
     }

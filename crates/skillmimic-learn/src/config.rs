@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
+pub use crate::config_policies::{AmpConfig, AmpLoss, ModularConfig};
 use crate::error::LearnError;
 use skillmimic_env::EnvConfig;
 use skillmimic_env::tasks::hlc::config::HlcConfig;
@@ -155,116 +156,6 @@ impl Default for PpoConfig {
             modular: Default::default(),
             token: Default::default(),
             amp: Default::default(),
-        }
-    }
-}
-
-/// `[ppo.modular]`: the modular attention network (used when `ppo.policy = "modular_attention"`).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
-#[serde(deny_unknown_fields, default)]
-pub struct ModularConfig {
-    /// Body split: "five" (ModSkill's: legs, torso, arms with hands) or "seven" (hands separate).
-    pub parts: String,
-    /// Width of each part embedding z_k (ModSkill: 64).
-    #[schemars(range(min = 1))]
-    pub embed: usize,
-    /// Hidden width of the Q/K/V projections (ModSkill: 256).
-    #[schemars(range(min = 1))]
-    pub proj_hidden: usize,
-    /// Attention heads (ModSkill: 1); `embed` must be a multiple.
-    #[schemars(range(min = 1))]
-    pub heads: usize,
-    /// Scale the attention scores by 1/sqrt(embed/heads): the paper's Eq. 5 does, the released
-    /// code does not (default).
-    pub scaled: bool,
-    /// Hidden widths of every part controller. Default [512, 256] for CPUs; the released code
-    /// uses [2048, 1536, 1024, 512] (preset `modskill`).
-    #[schemars(inner(range(min = 1)))]
-    pub controller: Vec<usize>,
-}
-
-impl Default for ModularConfig {
-    fn default() -> Self {
-        Self {
-            parts: "five".into(),
-            embed: 64,
-            proj_hidden: 256,
-            heads: 1,
-            scaled: false,
-            controller: vec![512, 256],
-        }
-    }
-}
-
-/// Which adversarial loss of the motion prior.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
-#[serde(rename_all = "snake_case")]
-pub enum AmpLoss {
-    /// Binary cross-entropy on the logits (the released AMP/ASE code).
-    Logistic,
-    /// Least squares with targets ±1 (the AMP paper).
-    LeastSquares,
-}
-
-/// `[ppo.amp]`: the adversarial motion prior (a style reward from a discriminator over windows of
-/// frames; ModSkill and TokenHSI), off by default.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
-#[serde(deny_unknown_fields, default)]
-pub struct AmpConfig {
-    /// Add the style reward: r = task_weight · r_task + style_weight · r_style.
-    pub enabled: bool,
-    /// Frames per window (10 in ModSkill and TokenHSI).
-    #[schemars(range(min = 1))]
-    pub window: usize,
-    /// Hidden widths of the discriminator MLP ([1024, 512]).
-    #[schemars(inner(range(min = 1)))]
-    pub hidden: Vec<usize>,
-    /// Adversarial loss.
-    pub loss: AmpLoss,
-    /// Gradient-penalty weight on reference windows (5, the AMP code).
-    #[schemars(range(min = 0))]
-    pub grad_penalty: f64,
-    /// Weight of the squared output-layer weights (0.05, the AMP code).
-    #[schemars(range(min = 0))]
-    pub logit_reg: f64,
-    /// Discriminator Adam learning rate.
-    #[schemars(range(min = 0, max = 1000))]
-    pub lr: f64,
-    /// Style-reward scale (2, the AMP code).
-    #[schemars(range(min = 0))]
-    pub reward_scale: f64,
-    /// Weight of the task reward (0.5 in ModSkill and TokenHSI).
-    #[schemars(range(min = 0))]
-    pub task_weight: f64,
-    /// Weight of the style reward (0.5).
-    #[schemars(range(min = 0))]
-    pub style_weight: f64,
-    /// Simulated windows kept for the discriminator (a ring buffer filled during rollouts).
-    #[schemars(range(min = 1))]
-    pub buffer: usize,
-    /// Windows per discriminator minibatch (as many reference windows are drawn).
-    #[schemars(range(min = 1))]
-    pub batch: usize,
-    /// Discriminator steps per iteration.
-    pub updates: usize,
-}
-
-impl Default for AmpConfig {
-    fn default() -> Self {
-        Self {
-            enabled: false,
-            window: 10,
-            hidden: vec![1024, 512],
-            loss: AmpLoss::Logistic,
-            grad_penalty: 5.0,
-            logit_reg: 0.05,
-            lr: 2e-5,
-            reward_scale: 2.0,
-            task_weight: 0.5,
-            style_weight: 0.5,
-            buffer: 8192,
-            batch: 512,
-            updates: 4,
         }
     }
 }
@@ -473,7 +364,11 @@ impl TrainConfig {
         self.run.active.validate(&self.env.task).map_err(LearnError::Config)?;
         if self.run.active.enabled && self.run.active.disc_score_min > 0.0 && !self.ppo.amp.enabled
         {
-            return Err(LearnError::Config("config field 'run.active.disc_score_min': the discriminator filter needs the motion prior (--set ppo.amp.enabled=true)".into()));
+            return Err(LearnError::Config(
+                "config field 'run.active.disc_score_min': the \
+                discriminator filter needs the motion prior (--set ppo.amp.enabled=true)"
+                    .into(),
+            ));
         }
         let p = &self.ppo;
         if p.hidden.is_empty() {
@@ -483,11 +378,16 @@ impl TrainConfig {
         }
         let a = &p.amp;
         if a.enabled && (a.buffer < a.batch || a.hidden.is_empty()) {
-            return Err(LearnError::Config("config fields 'ppo.amp.buffer', 'ppo.amp.hidden': buffer must be >= batch, hidden non-empty".into()));
+            return Err(LearnError::Config(
+                "config fields 'ppo.amp.buffer', 'ppo.amp.hidden': \
+                buffer must be >= batch, hidden non-empty"
+                    .into(),
+            ));
         }
         if p.minibatch > self.batch_size() {
             return Err(LearnError::Config(format!(
-                "config field 'ppo.minibatch': {} exceeds the samples per iteration (num_envs {} x horizon {} = {})",
+                "config field 'ppo.minibatch': {} exceeds the samples per iteration (num_envs {} \
+                    x horizon {} = {})",
                 p.minibatch,
                 self.env.num_envs,
                 p.horizon,
@@ -498,10 +398,25 @@ impl TrainConfig {
             ("cpu", _) => {}
             ("cuda", Backend::Candle) if cfg!(feature = "cuda") => {}
             ("cuda", Backend::Candle) => {
-                return Err(LearnError::Config("config field 'ppo.device': \"cuda\" needs a build with the `cuda` cargo feature (cargo build --features cuda)".into()))
+                return Err(LearnError::Config(
+                    "config field 'ppo.device': \"cuda\" needs a build \
+                    with the `cuda` cargo feature (cargo build --features cuda)"
+                        .into(),
+                ));
             }
-            ("cuda", Backend::Fast) => return Err(LearnError::Config("config field 'ppo.device': \"cuda\" runs on the candle backend; set ppo.backend = \"candle\"".into())),
-            (other, _) => return Err(LearnError::Config(format!("config field 'ppo.device': '{other}' is not a device, expected \"cpu\" or \"cuda\""))),
+            ("cuda", Backend::Fast) => {
+                return Err(LearnError::Config(
+                    "config field 'ppo.device': \
+                \"cuda\" runs on the candle backend; set ppo.backend = \"candle\""
+                        .into(),
+                ));
+            }
+            (other, _) => {
+                return Err(LearnError::Config(format!(
+                    "config field 'ppo.device': \
+                '{other}' is not a device, expected \"cpu\" or \"cuda\""
+                )));
+            }
         }
         Ok(())
     }

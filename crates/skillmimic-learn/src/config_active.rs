@@ -66,7 +66,8 @@ impl ActiveConfig {
                 .map(|e| e.name)
                 .collect();
             return Err(format!(
-                "config field 'run.active.enabled': active skill learning runs on the task(s) {}, not '{task}'",
+                "config field 'run.active.enabled': active skill learning runs on the task(s) {}, \
+                    not '{task}'",
                 able.join(", ")
             ));
         }
@@ -87,7 +88,9 @@ impl ActiveConfig {
                     .chain(skillmimic_motion::generate::registered_names())
                     .collect();
                 return Err(format!(
-                    "config field 'run.active.generator': '{other}', expected one of {known:?} (a Python generator must be registered with skillmimic_rs.register_generator first)"
+                    "config field 'run.active.generator': '{other}', expected one of {known:?} (a \
+                        Python generator must be registered with skillmimic_rs.register_generator \
+                        first)"
                 ));
             }
         }

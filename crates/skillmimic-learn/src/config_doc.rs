@@ -141,7 +141,10 @@ impl Walker {
             }
         }
         if !rows.is_empty() {
-            self.markdown.push_str(&format!("\n| Key | Type | Range | Default | Description |\n|---|---|---|---|---|\n{rows}{values}"));
+            self.markdown.push_str(&format!(
+                "\n| Key | Type | Range | Default | Description \
+                |\n|---|---|---|---|---|\n{rows}{values}"
+            ));
         }
         for (full, doc, target, default) in subtables {
             self.table(&full, &doc, &target, &default);
@@ -235,8 +238,9 @@ fn presets_markdown() -> String {
         .map(|p| (*p, flatten(&ordered(&TrainConfig::preset(p).expect("listed preset")))))
         .collect();
     let mut md = format!(
-        "\n## Presets\n\n`--preset NAME` starts from `TrainConfig::preset(NAME)`: the defaults above with these keys changed \
-         (see `skillmimic train --help` for the default preset).\n\n| Key | Default | {} |\n|---|---|{}\n",
+        "\n## Presets\n\n`--preset NAME` starts from `TrainConfig::preset(NAME)`: the defaults \
+         above with these keys changed (see `skillmimic train --help` for the default \
+         preset).\n\n| Key | Default | {} |\n|---|---|{}\n",
         PRESETS.map(|p| format!("`{p}`")).join(" | "),
         "---|".repeat(PRESETS.len())
     );

@@ -129,7 +129,8 @@ mod tests {
     fn relative_paths_are_relative_to_the_file() {
         let d = scratch("rel");
         std::fs::write(d.join("sub/enc.safetensors"), b"").unwrap();
-        let text = "[env]\nmotion = [\"clips\", \"missing\", \"/abs/clip.pt\", \"builtin:demo\"]\n[env.v2.history]\nencoder = \"enc.safetensors\"\n";
+        let text = "[env]\nmotion = [\"clips\", \"missing\", \"/abs/clip.pt\", \
+            \"builtin:demo\"]\n[env.v2.history]\nencoder = \"enc.safetensors\"\n";
         let file = d.join("sub/cfg.toml");
         std::fs::write(&file, text).unwrap();
         let c = load_train_config(&TrainConfig::default(), &file).unwrap();

@@ -68,7 +68,8 @@ impl TokenConfig {
             });
             let Some((name, w)) = parsed else {
                 return Err(format!(
-                    "config field 'ppo.token.groups' entry {k} is '{g}', expected \"name:width\" with a positive width"
+                    "config field 'ppo.token.groups' entry {k} is '{g}', expected \"name:width\" \
+                        with a positive width"
                 ));
             };
             if name == "mask" {

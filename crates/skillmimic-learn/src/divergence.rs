@@ -68,7 +68,8 @@ pub fn check_state(policy: &Policy, adam: &Adam) -> Result<(), LearnError> {
             let what = format!("parameter '{}'", names()[k]);
             return Err(if b.1.is_finite() {
                 LearnError::Diverged(format!(
-                    "{what}[{}] is {:e}, beyond the bound of {MAX_ABS_PARAM:e} for trained parameters",
+                    "{what}[{}] is {:e}, beyond the bound of {MAX_ABS_PARAM:e} for trained \
+                        parameters",
                     b.0, b.1
                 ))
             } else {
@@ -169,7 +170,8 @@ mod tests {
         );
         assert_eq!(
             e.to_string(),
-            "training diverged in iteration 7: x; last good checkpoint: run/checkpoints/iter_000006.safetensors (lower ppo.lr and resume from it)"
+            "training diverged in iteration 7: x; last good checkpoint: \
+                run/checkpoints/iter_000006.safetensors (lower ppo.lr and resume from it)"
         );
     }
 }

@@ -29,7 +29,8 @@ pub enum LearnError {
     Distributed(String),
     /// The requested device is not in this build.
     #[error(
-        "config field 'ppo.device': device '{0}' is not available in this build (cpu, or cuda with the `cuda` feature)"
+        "config field 'ppo.device': device '{0}' is not available in this build (cpu, or cuda \
+            with the `cuda` feature)"
     )]
     Device(String),
 }

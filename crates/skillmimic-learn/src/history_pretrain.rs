@@ -422,7 +422,8 @@ pub fn pretrain(
             let (loss, grads) = step()?;
             if !loss.is_finite() {
                 return Err(LearnError::Diverged(format!(
-                    "history pre-training diverged at epoch {} (loss {loss}); lower the learning rate",
+                    "history pre-training diverged at epoch {} (loss {loss}); lower the learning \
+                        rate",
                     epoch + 1
                 )));
             }

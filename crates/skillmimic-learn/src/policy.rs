@@ -63,7 +63,8 @@ impl Policy {
         let family = policies::family(&cfg.policy)?;
         if !family.supports(&space) {
             return Err(LearnError::Config(format!(
-                "config field 'ppo.policy': the family '{}' cannot act in the task's action space {space:?}",
+                "config field 'ppo.policy': the family '{}' cannot act in the task's action space \
+                    {space:?}",
                 family.name()
             )));
         }

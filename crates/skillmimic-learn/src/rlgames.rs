@@ -91,7 +91,8 @@ fn checked_keys(path: &Path) -> Result<(Vec<String>, Archive), String> {
     for (module, class) in p.globals() {
         if !ALLOWED.iter().any(|(m, c)| *m == module && *c == class) {
             return Err(format!(
-                "the pickle names '{module}.{class}', which a checkpoint does not need (a .pth that would run code when loaded by torch.load); refused, nothing was executed"
+                "the pickle names '{module}.{class}', which a checkpoint does not need (a .pth \
+                    that would run code when loaded by torch.load); refused, nothing was executed"
             ));
         }
     }
@@ -145,7 +146,8 @@ fn normalizer(tz: &mut Archive, key: &str, dim: usize) -> Result<RunningMeanStd,
     let count = get(&ts, "count", key)?;
     if mean.2.len() != dim || var.2.len() != dim || count.2.len() != 1 {
         return Err(format!(
-            "{key}: running_mean {:?}, running_var {:?}, count {:?}; expected ({dim},), ({dim},), ()",
+            "{key}: running_mean {:?}, running_var {:?}, count {:?}; expected ({dim},), ({dim},), \
+                ()",
             mean.1, var.1, count.1
         ));
     }
@@ -231,7 +233,8 @@ pub fn import(path: &Path, kind: Kind) -> Result<Imported, LearnError> {
         Kind::Skill => {
             if obs != 902 && obs != 905 {
                 return Err(fail(format!(
-                    "skill policy with {obs} observations; expected 902 (SkillMimic) or 905 (SkillMimic-V2)"
+                    "skill policy with {obs} observations; expected 902 (SkillMimic) or 905 \
+                        (SkillMimic-V2)"
                 )));
             }
             if outputs != 156 {

@@ -52,7 +52,9 @@ pub fn train_loop_until(
     if start > 0 && start >= target {
         let from = t.resumed_from.as_ref().map_or(String::new(), |p| format!(" {}", p.display()));
         return Err(LearnError::Config(format!(
-            "config field 'run.iterations': the run is already complete: the checkpoint{from} is at iteration {start} and run.iterations is {target}; raise run.iterations (--iterations) to train further"
+            "config field 'run.iterations': the run is already complete: the checkpoint{from} is \
+                at iteration {start} and run.iterations is {target}; raise run.iterations \
+                (--iterations) to train further"
         )));
     }
     if t.shard.rank != 0 {

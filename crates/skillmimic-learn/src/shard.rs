@@ -38,7 +38,8 @@ impl Shard {
         }
         if total_envs < world {
             return Err(LearnError::Config(format!(
-                "config field 'env.num_envs': {total_envs} environments cannot be spread over {world} ranks (env.num_envs is the total of all ranks; at least one per rank)"
+                "config field 'env.num_envs': {total_envs} environments cannot be spread over \
+                    {world} ranks (env.num_envs is the total of all ranks; at least one per rank)"
             )));
         }
         let (base, extra) = (total_envs / world, total_envs % world);

@@ -48,7 +48,10 @@ pub fn check_agreement(
     if cfg.run.active.enabled {
         // every rank sees the same configuration, so every rank stops here (no rank waits)
         return Err(LearnError::Config(
-            "config field 'run.active.enabled': active skill learning runs in one process for now (a round rebuilds the environments from clips that rank 0 writes); train it without torchrun".into(),
+            "config field 'run.active.enabled': active skill learning runs in one process for now \
+                (a round rebuilds the environments from clips that rank 0 writes); train it \
+                without torchrun"
+                .into(),
         ));
     }
     let mine = signature(cfg, policy, adam);
@@ -70,7 +73,8 @@ pub fn check_agreement(
                 String::new()
             };
             Err(LearnError::Config(format!(
-                "distributed: rank {rank} disagrees with rank 0 on the {}{detail}; every rank must start with the same configuration, clips and checkpoint",
+                "distributed: rank {rank} disagrees with rank 0 on the {}{detail}; every rank \
+                    must start with the same configuration, clips and checkpoint",
                 mine[k].0
             )))
         }

@@ -79,7 +79,8 @@ fn discriminator_separates_reference_from_random_policy_windows() {
     }
     let (first, last) = (losses[0], losses[losses.len() - 1]);
     println!(
-        "discriminator loss {:.4} -> {:.4} (adversarial {:.4} -> {:.4}); mean logits ref {:.2} sim {:.2}",
+        "discriminator loss {:.4} -> {:.4} (adversarial {:.4} -> {:.4}); mean logits ref {:.2} \
+            sim {:.2}",
         first.total, last.total, first.adversarial, last.adversarial, last.mean_ref, last.mean_sim
     );
     assert!(last.adversarial < 0.5 * first.adversarial, "the adversarial loss falls");
@@ -156,7 +157,8 @@ fn motion_prior_trains_inside_ppo_and_resumes_from_the_checkpoint() {
     let (task, style) = (term("task"), term("style"));
     println!("terms {:?}", s.reward_terms);
     println!(
-        "mixed reward {:.4} = 0.5 x task {task:.4} + 0.5 x style {style:.4}; discriminator loss {:.4}",
+        "mixed reward {:.4} = 0.5 x task {task:.4} + 0.5 x style {style:.4}; discriminator loss \
+            {:.4}",
         s.mean_reward, s.disc_loss
     );
     assert!((s.mean_reward - 0.5 * (task + style)).abs() < 1e-5);

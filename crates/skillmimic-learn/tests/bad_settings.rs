@@ -31,11 +31,13 @@ fn out_of_range_settings_name_the_key_the_value_and_the_range() {
         ("ppo.norm_clip=-1", "config field 'ppo.norm_clip': -1 is outside the valid range (0, ∞)"),
         (
             "ppo.norm_clip=nan",
-            "config field 'ppo.norm_clip': is not a finite number (NaN or infinite); valid range (0, ∞)",
+            "config field 'ppo.norm_clip': is not a finite number (NaN or infinite); valid range \
+                (0, ∞)",
         ),
         (
             "env.termination_height=nan",
-            "config field 'env.termination_height': is not a finite number (NaN or infinite); valid range finite",
+            "config field 'env.termination_height': is not a finite number (NaN or infinite); \
+                valid range finite",
         ),
         ("ppo.log_std=50", "config field 'ppo.log_std': 50 is outside the valid range [-20, 2]"),
         ("ppo.lam=0", "config field 'ppo.lam': 0 is outside the valid range (0, 1]"),

@@ -179,7 +179,8 @@ fn bf16_forward_would_add_log_ratio_noise() {
         let rms_mu =
             (mu32.iter().map(|x| (*x as f64).powi(2)).sum::<f64>() / mu32.len() as f64).sqrt();
         println!(
-            "action means of rms {rms_mu:.3}: a bf16 forward moves the log-ratio by std {std:.3} (PPO clip range ±0.2)"
+            "action means of rms {rms_mu:.3}: a bf16 forward moves the log-ratio by std {std:.3} \
+                (PPO clip range ±0.2)"
         );
         assert!(
             std > 0.02,

@@ -112,7 +112,8 @@ fn two_ranks_take_the_single_process_update_from_one_rollout() {
     };
     let (moved, _) = max_rel(&params(&want), &params(&before));
     println!(
-        "1 x 8 vs 2 x 4 environments: max relative difference {rel:.2e} ({at}); the update itself moved the parameters by {moved:.2e}"
+        "1 x 8 vs 2 x 4 environments: max relative difference {rel:.2e} ({at}); the update itself \
+            moved the parameters by {moved:.2e}"
     );
     assert!(moved > 1e-5, "the update changed the parameters ({moved:.2e})");
     // float32 rounding of sums taken in another order, amplified by Adam's division by sqrt(v):

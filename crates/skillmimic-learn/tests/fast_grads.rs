@@ -84,7 +84,8 @@ fn check_tol(name: &str, cfg: &PpoConfig, p: &Policy, c: &Case, zero_adv: bool, 
         let (ra, rc) =
             (max_rel(&ws.grads[..na], &slow[..na]), max_rel(&ws.grads[na..], &slow[na..]));
         println!(
-            "{name} ({threads} threads): max relative gradient difference actor {ra:.2e}, critic {rc:.2e}; clip frac {:.2}",
+            "{name} ({threads} threads): max relative gradient difference actor {ra:.2e}, critic \
+                {rc:.2e}; clip frac {:.2}",
             lf.clip_frac
         );
         assert!(rel <= tol, "{name}: relative difference {rel:.3e}");

@@ -112,7 +112,8 @@ fn discriminator_separates_retargeted_clips_from_random_policy_windows() {
     }
     let (first, last) = (losses[0], losses[losses.len() - 1]);
     println!(
-        "discriminator loss {:.4} -> {:.4} (adversarial {:.4} -> {:.4}); mean logits reference {:.2}, policy {:.2}",
+        "discriminator loss {:.4} -> {:.4} (adversarial {:.4} -> {:.4}); mean logits reference \
+            {:.2}, policy {:.2}",
         first.total, last.total, first.adversarial, last.adversarial, last.mean_ref, last.mean_sim
     );
     assert!(last.adversarial < 0.5 * first.adversarial, "the adversarial loss falls");

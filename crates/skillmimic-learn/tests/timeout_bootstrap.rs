@@ -149,17 +149,20 @@ fn truncated_steps_bootstrap_on_the_terminal_value_and_terminated_steps_do_not()
                         // the bootstrap must be visible: the critic's value is clearly non-zero
                         assert!(
                             v.abs() > 1e-3,
-                            "step {step} env {i}: V(terminal) = {v} cannot tell a bootstrap from none"
+                            "step {step} env {i}: V(terminal) = {v} cannot tell a bootstrap from \
+                                none"
                         );
                         assert!(
                             close(next, v),
-                            "step {step} env {i}: truncated, next value {next} must be V(terminal obs) = {v}"
+                            "step {step} env {i}: truncated, next value {next} must be V(terminal \
+                                obs) = {v}"
                         );
                         counts[0] += 1;
                     } else {
                         assert_eq!(
                             next, 0.0,
-                            "step {step} env {i}: terminated (V(terminal obs) = {v}), next value must be 0"
+                            "step {step} env {i}: terminated (V(terminal obs) = {v}), next value \
+                                must be 0"
                         );
                         counts[1] += 1;
                     }
@@ -168,7 +171,8 @@ fn truncated_steps_bootstrap_on_the_terminal_value_and_terminated_steps_do_not()
                     assert_eq!(r.dones[k], 0);
                     assert!(
                         close(next, v),
-                        "step {step} env {i}: last step, next value {next} must be V(last obs) = {v}"
+                        "step {step} env {i}: last step, next value {next} must be V(last obs) = \
+                            {v}"
                     );
                     counts[3] += 1;
                 }

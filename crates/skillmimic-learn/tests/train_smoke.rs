@@ -114,7 +114,8 @@ fn same_update(a: &mut Trainer, b: &mut Trainer) -> (usize, usize) {
         ("bounds", sa.bounds_loss, sb.bounds_loss),
     ] {
         println!(
-            "iteration {iteration} {name} loss: candle {x:.6e}, fast {y:.6e}, relative difference {:.2e}",
+            "iteration {iteration} {name} loss: candle {x:.6e}, fast {y:.6e}, relative difference \
+                {:.2e}",
             rel(x, y)
         );
         assert!(rel(x, y) < 1e-3 || (x - y).abs() < 1e-7, "{name}: {x} vs {y}");
@@ -145,7 +146,10 @@ fn same_update(a: &mut Trainer, b: &mut Trainer) -> (usize, usize) {
     let moved = |v: &[f32]| v.iter().filter(|x| x.abs() > 10.0 * tol).count();
     let (moved_actor, moved_critic) = (moved(&da[..na]), moved(&da[na..]));
     println!(
-        "iteration {iteration} Δθ: {} parameters, ‖Δ candle‖ = {:.3e}, ‖Δ fast‖ = {:.3e}, ‖Δ candle − Δ fast‖ = {:.3e}, largest difference / tolerance = {worst:.3} at {worst_at} (tolerance {tol:.1e} + 4 ulp of θ); moved > 10 × tolerance: {moved_actor} of {na} actor, {moved_critic} of {} critic parameters",
+        "iteration {iteration} Δθ: {} parameters, ‖Δ candle‖ = {:.3e}, ‖Δ fast‖ = {:.3e}, ‖Δ \
+            candle − Δ fast‖ = {:.3e}, largest difference / tolerance = {worst:.3} at {worst_at} \
+            (tolerance {tol:.1e} + 4 ulp of θ); moved > 10 × tolerance: {moved_actor} of {na} \
+            actor, {moved_critic} of {} critic parameters",
         da.len(),
         norm(&da),
         norm(&db),
@@ -154,7 +158,8 @@ fn same_update(a: &mut Trainer, b: &mut Trainer) -> (usize, usize) {
     );
     assert_eq!(
         over, 0,
-        "iteration {iteration}: {over} elements of Δθ differ by more than the tolerance (worst {worst:.2}× at {worst_at}: candle {}, fast {})",
+        "iteration {iteration}: {over} elements of Δθ differ by more than the tolerance (worst \
+            {worst:.2}× at {worst_at}: candle {}, fast {})",
         da[worst_at], db[worst_at]
     );
     // first moments, per tensor relative to its largest entry (measured: ≤ 5e-5, the same
@@ -166,12 +171,14 @@ fn same_update(a: &mut Trainer, b: &mut Trainer) -> (usize, usize) {
         assert!(scale > 0.0, "iteration {iteration} tensor {k}: no gradient");
         assert!(
             diff <= 3e-4 * scale,
-            "iteration {iteration} tensor {k}: Adam first moments differ by {diff:e} (largest {scale:e})"
+            "iteration {iteration} tensor {k}: Adam first moments differ by {diff:e} (largest \
+                {scale:e})"
         );
         worst_m = worst_m.max(diff / scale);
     }
     println!(
-        "iteration {iteration}: largest first-moment difference {worst_m:.2e} of its tensor's largest entry"
+        "iteration {iteration}: largest first-moment difference {worst_m:.2e} of its tensor's \
+            largest entry"
     );
     (moved_actor, moved_critic)
 }

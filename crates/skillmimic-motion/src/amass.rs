@@ -216,7 +216,8 @@ pub fn model_joints(model: &Path, betas: &[f64]) -> Result<Vec<Vec3>, ClipError>
         [j, n] if n == nv && (j == 52 || j == 24) => j,
         _ => {
             return Err(e(format!(
-                "'J_regressor' has shape {rs:?}, expected (52, {nv}) for SMPL-H or (24, {nv}) for SMPL"
+                "'J_regressor' has shape {rs:?}, expected (52, {nv}) for SMPL-H or (24, {nv}) for \
+                    SMPL"
             )));
         }
     };

@@ -222,7 +222,13 @@ pub fn parse(path: &Path, text: &str) -> Result<Bvh, ClipError> {
                     })?;
                     for _ in 0..n {
                         let c = t.next("a channel name")?;
-                        let ch = Channel::parse(c).ok_or_else(|| t.err(format!("unknown channel '{c}' (expected Xposition, Yposition, Zposition, Xrotation, Yrotation or Zrotation)")))?;
+                        let ch = Channel::parse(c).ok_or_else(|| {
+                            t.err(format!(
+                                "unknown channel \
+                            '{c}' (expected Xposition, Yposition, Zposition, Xrotation, Yrotation \
+                            or Zrotation)"
+                            ))
+                        })?;
                         if channels.contains(&ch) {
                             return Err(
                                 t.err(format!("channel '{c}' given twice for joint '{name}'"))
@@ -292,7 +298,10 @@ pub fn parse(path: &Path, text: &str) -> Result<Bvh, ClipError> {
     })?;
     let available = t.items.len() - t.at;
     if available != total {
-        return Err(t.err(format!("MOTION holds {available} values, expected Frames ({frames}) × channels ({width}) = {total}")));
+        return Err(t.err(format!(
+            "MOTION holds {available} values, expected Frames ({frames}) × \
+            channels ({width}) = {total}"
+        )));
     }
     let mut values = Vec::with_capacity(total);
     for i in 0..total {

@@ -173,7 +173,8 @@ impl CharacterClip {
         let (t4, body_pos) = read("body_pos", &[nb, 3])?;
         if t < 2 || [t2, t3, t4].iter().any(|&x| x != t) {
             return Err(bad(format!(
-                "tensors disagree on the frame count or hold fewer than 2 frames ({t}, {t2}, {t3}, {t4})"
+                "tensors disagree on the frame count or hold fewer than 2 frames ({t}, {t2}, \
+                    {t3}, {t4})"
             )));
         }
         if let Some(k) = root_rot.chunks_exact(4).position(|q| {

@@ -9,11 +9,13 @@ pub enum ClipError {
     #[error("{path}: cannot read file: {error}")]
     Io { path: PathBuf, error: std::io::Error },
     #[error(
-        "{path}: no such clip file or folder (give .pt/.safetensors files or folders holding them; `builtin:demo` selects the built-in demo clips)"
+        "{path}: no such clip file or folder (give .pt/.safetensors files or folders holding \
+            them; `builtin:demo` selects the built-in demo clips)"
     )]
     NotFound { path: PathBuf },
     #[error(
-        "{path}: not a PyTorch zip archive ({detail}); expected a file written by torch.save holding one float32 tensor of shape (T, 337)"
+        "{path}: not a PyTorch zip archive ({detail}); expected a file written by torch.save \
+            holding one float32 tensor of shape (T, 337)"
     )]
     NotZip { path: PathBuf, detail: String },
     #[error("{path}: {detail}")]
@@ -25,7 +27,8 @@ pub enum ClipError {
     #[error("{path}: {field} at frame {frame} {problem}")]
     Invalid { path: PathBuf, field: String, frame: usize, problem: String },
     #[error(
-        "{path}: cannot read the skill label: the file name must start with three digits (e.g. 013_run.pt), got '{name}'"
+        "{path}: cannot read the skill label: the file name must start with three digits (e.g. \
+            013_run.pt), got '{name}'"
     )]
     Label { path: PathBuf, name: String },
     #[error("{path}: skill label {label} is outside the one-hot width {width}")]

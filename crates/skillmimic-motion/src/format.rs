@@ -157,7 +157,9 @@ impl Clip {
             Some("safetensors") => Clip::load(path),
             _ => Err(ClipError::Format {
                 path: path.into(),
-                detail: "unknown clip extension, expected .pt (BallPlay-M) or .safetensors (skillmimic-clip)".into(),
+                detail: "unknown clip extension, expected .pt (BallPlay-M) or .safetensors \
+                    (skillmimic-clip)"
+                    .into(),
             }),
         }
     }

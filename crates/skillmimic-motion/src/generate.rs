@@ -382,7 +382,8 @@ pub enum Invalid {
     #[error("clip '{clip}': body {body} is {depth:.3} m below the floor at frame {frame}")]
     BelowFloor { clip: String, body: &'static str, depth: f64, frame: usize },
     #[error(
-        "clip '{clip}': joint {joint} turns at {speed:.1} rad/s at frame {frame} (limit {limit} rad/s)"
+        "clip '{clip}': joint {joint} turns at {speed:.1} rad/s at frame {frame} (limit {limit} \
+            rad/s)"
     )]
     TooFast { clip: String, joint: &'static str, speed: f64, frame: usize, limit: f64 },
     #[error("clip '{clip}': fewer than {min} frames", min = crate::validate::MIN_FRAMES)]

@@ -321,9 +321,9 @@ impl Machine {
     fn reduce(&mut self, callable: Id, args: Id) -> Result<(), PickleError> {
         // an empty OrderedDict becomes a dict so that SETITEMS can fill it (torch's state_dicts)
         let empty_args = matches!(self.nodes[args], Node::Tuple(ref v) if v.is_empty());
-        if empty_args
-            && matches!(self.nodes[callable], Node::Global { ref module, ref name } if module == "collections" && name == "OrderedDict")
-        {
+        let ordered_dict = matches!(self.nodes[callable], Node::Global { ref module, ref name }
+            if module == "collections" && name == "OrderedDict");
+        if empty_args && ordered_dict {
             return self.push_new(Node::Dict(Vec::new()), &[]);
         }
         self.push_new(Node::Reduce { callable, args }, &[callable, args])

@@ -41,7 +41,8 @@ pub fn read_pt_matrix(path: &Path) -> Result<PtMatrix, ClipError> {
         return Err(format_err(
             path,
             format!(
-                "{pkl_name}: holds a dict (a checkpoint?), expected the pickle of one tensor (torch._utils._rebuild_tensor_v2)"
+                "{pkl_name}: holds a dict (a checkpoint?), expected the pickle of one tensor \
+                    (torch._utils._rebuild_tensor_v2)"
             ),
         ));
     }

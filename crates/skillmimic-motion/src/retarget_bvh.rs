@@ -82,7 +82,14 @@ impl JointMap {
                 (t, path.to_path_buf())
             }
         };
-        toml::from_str(&text).map_err(|e| ClipError::Format { path, detail: format!("joint map: {e} (expected `up`, `yaw_deg`, `scale` and a [bodies] table of humanoid body = source joint; shipped maps: humanoid, mocapbank, cmu, smplh)") })
+        toml::from_str(&text).map_err(|e| ClipError::Format {
+            path,
+            detail: format!(
+                "joint map: {e} \
+            (expected `up`, `yaw_deg`, `scale` and a [bodies] table of humanoid body = source \
+            joint; shipped maps: humanoid, mocapbank, cmu, smplh)"
+            ),
+        })
     }
 }
 
@@ -209,8 +216,25 @@ pub fn retarget(bvh: &Bvh, map: &JointMap, opts: &Options) -> Result<Motion, Cli
     // body → source joint
     let mut src: [Option<usize>; NUM_BODIES] = [None; NUM_BODIES];
     for (body, joint) in &map.bodies {
-        let b = skeleton::body_index(body).ok_or_else(|| err(bvh, format!("joint map names body '{body}', which the humanoid does not have (e.g. Pelvis, L_Hip, L_Knee, L_Ankle, Chest, Head, L_Shoulder, L_Elbow, L_Wrist)")))?;
-        let j = bvh.joint(joint).ok_or_else(|| err(bvh, format!("joint map sends body '{body}' to joint '{joint}', which the BVH file does not have")))?;
+        let b = skeleton::body_index(body).ok_or_else(|| {
+            err(
+                bvh,
+                format!(
+                    "joint map names body \
+            '{body}', which the humanoid does not have (e.g. Pelvis, L_Hip, L_Knee, L_Ankle, \
+            Chest, Head, L_Shoulder, L_Elbow, L_Wrist)"
+                ),
+            )
+        })?;
+        let j = bvh.joint(joint).ok_or_else(|| {
+            err(
+                bvh,
+                format!(
+                    "joint map sends body '{body}' to \
+            joint '{joint}', which the BVH file does not have"
+                ),
+            )
+        })?;
         src[b] = Some(j);
     }
     let Some(root_joint) = src[0] else {
@@ -317,7 +341,8 @@ pub(crate) fn finish(
         return Err(err_at(
             path,
             format!(
-                "{n} frames of {frame_time} s last {duration} s: more than {MAX_OUTPUT_FRAMES} output frames at {} fps",
+                "{n} frames of {frame_time} s last {duration} s: more than {MAX_OUTPUT_FRAMES} \
+                    output frames at {} fps",
                 opts.fps
             ),
         ));
@@ -361,7 +386,12 @@ pub(crate) fn finish(
             .iter()
             .all(|q| q.w.is_finite() && q.x.is_finite() && q.y.is_finite() && q.z.is_finite());
     if !finite {
-        return Err(err_at(path, "the retargeted motion has non-finite values (offsets, positions or channel values too large?)".into()));
+        return Err(err_at(
+            path,
+            "the retargeted motion has non-finite values (offsets, positions \
+            or channel values too large?)"
+                .into(),
+        ));
     }
     if opts.ground {
         let mut soles: Vec<f64> = (0..frames).map(|k| lowest_sole(&m, k)).collect();

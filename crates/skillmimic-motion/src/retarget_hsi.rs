@@ -25,7 +25,6 @@
 //! over the source's stance frames and joint-limit violations of the character's per-axis limits.
 
 use serde::Serialize;
-use skillmimic_core::characters::GeomSpec;
 use skillmimic_core::characters::skillmimic as skeleton;
 use skillmimic_core::characters::tokenhsi::{self as hsi, BODIES, JointSpec, NUM_BODIES, NUM_DOFS};
 use skillmimic_core::math::{Quat, add, norm};
@@ -90,26 +89,6 @@ fn leg_length_target() -> f64 {
     norm(BODIES[13].offset) + norm(BODIES[14].offset)
 }
 
-/// Lowest point (world z) of the character's foot boxes.
-fn lowest_sole(pos: &[[f64; 3]; hsi::NUM_BODIES], rot: &[Quat; hsi::NUM_BODIES]) -> f64 {
-    let mut z = f64::INFINITY;
-    for b in hsi::FEET {
-        for (_, g) in BODIES[b].geoms {
-            if let GeomSpec::Box { half_extents: h, center: c, .. } = *g {
-                for k in 0..8 {
-                    let p = [
-                        c[0] + if k & 4 == 0 { -h[0] } else { h[0] },
-                        c[1] + if k & 2 == 0 { -h[1] } else { h[1] },
-                        c[2] + if k & 1 == 0 { -h[2] } else { h[2] },
-                    ];
-                    z = z.min(pos[b][2] + rot[b].rotate(p)[2]);
-                }
-            }
-        }
-    }
-    z
-}
-
 /// World positions and orientations of the 15 bodies for a root pose and 32 joint coordinates.
 fn hsi_forward_kinematics(
     root_pos: [f64; 3],
@@ -168,6 +147,7 @@ pub fn retarget_to_hsi(clip: &Clip) -> (CharacterClip, RetargetReport) {
         body_pos: Vec::with_capacity(3 * hsi::NUM_BODIES * t_frames),
     };
     let mut roots = Vec::with_capacity(t_frames);
+    let character = hsi::spec();
     let mut soles = Vec::with_capacity(t_frames);
     let mut src_feet = Vec::with_capacity(t_frames);
     let wrist_src = [
@@ -248,7 +228,7 @@ pub fn retarget_to_hsi(clip: &Clip) -> (CharacterClip, RetargetReport) {
         let src_root = clip.root_pos_at(t);
         let root = [scale * src_root[0], scale * src_root[1], scale * src_root[2]];
         let (pos, rot) = hsi_forward_kinematics(root, gt[0], &q);
-        soles.push(lowest_sole(&pos, &rot));
+        soles.push(character.lowest_foot_box(&pos, &rot));
         roots.push((root, gt[0], q));
         src_feet.push(
             feet_src.iter().map(|&b| clip.body_pos_at(t, b)[2]).fold(f64::INFINITY, f64::min),

@@ -263,7 +263,8 @@ pub fn retarget_positions(
         return Err(err_at(
             path,
             format!(
-                "{} positions for {} frames × {} joints at {} fps: expected frames × joints points and a positive frame rate",
+                "{} positions for {} frames × {} joints at {} fps: expected frames × joints \
+                    points and a positive frame rate",
                 src.positions.len(),
                 src.frames,
                 src.names.len(),
@@ -274,8 +275,26 @@ pub fn retarget_positions(
     let u = up_turn(map, path)?;
     let mut joint: [Option<usize>; NUM_BODIES] = [None; NUM_BODIES];
     for (body, name) in &map.bodies {
-        let b = skeleton::body_index(body).ok_or_else(|| err_at(path, format!("joint map names body '{body}', which the humanoid does not have (e.g. Pelvis, L_Hip, L_Knee, L_Ankle, Chest, Head, L_Shoulder, L_Elbow, L_Wrist)")))?;
-        joint[b] = Some(src.joint(name).ok_or_else(|| err_at(path, format!("joint map sends body '{body}' to joint '{name}', which the positions file does not have (it has {})", src.names.join(", "))))?);
+        let b = skeleton::body_index(body).ok_or_else(|| {
+            err_at(
+                path,
+                format!(
+                    "joint map names \
+            body '{body}', which the humanoid does not have (e.g. Pelvis, L_Hip, L_Knee, L_Ankle, \
+            Chest, Head, L_Shoulder, L_Elbow, L_Wrist)"
+                ),
+            )
+        })?;
+        joint[b] = Some(src.joint(name).ok_or_else(|| {
+            err_at(
+                path,
+                format!(
+                    "joint map sends body \
+            '{body}' to joint '{name}', which the positions file does not have (it has {})",
+                    src.names.join(", ")
+                ),
+            )
+        })?);
     }
     if joint[0].is_none() {
         return Err(err_at(path, "the joint map must map the Pelvis".into()));

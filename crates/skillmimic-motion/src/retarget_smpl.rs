@@ -20,7 +20,6 @@
 use serde::Serialize;
 use skillmimic_core::characters::skillmimic as skeleton;
 use skillmimic_core::characters::smpl::{self, NUM_BODIES};
-use skillmimic_core::characters::{CharacterSpec, GeomSpec};
 use skillmimic_core::math::{Quat, norm};
 
 use crate::character_clip::CharacterClip;
@@ -62,29 +61,6 @@ fn leg_length(offsets: [[f64; 3]; 2]) -> f64 {
     norm(offsets[0]) + norm(offsets[1])
 }
 
-/// Lowest world z of the feet's boxes for body poses `pos`, `rot`.
-fn lowest_foot(spec: &CharacterSpec, pos: &[[f64; 3]], rot: &[Quat]) -> f64 {
-    let mut z = f64::INFINITY;
-    for (b, body) in spec.bodies.iter().enumerate() {
-        if body.part != skillmimic_core::characters::BodyPart::Foot {
-            continue;
-        }
-        for g in &body.geoms {
-            if let GeomSpec::Box { half_extents: h, center: c, .. } = g.spec {
-                for k in 0..8 {
-                    let p = [
-                        c[0] + if k & 4 == 0 { -h[0] } else { h[0] },
-                        c[1] + if k & 2 == 0 { -h[1] } else { h[1] },
-                        c[2] + if k & 1 == 0 { -h[2] } else { h[2] },
-                    ];
-                    z = z.min(pos[b][2] + rot[b].rotate(p)[2]);
-                }
-            }
-        }
-    }
-    z
-}
-
 /// Retarget `clip` (SkillMimic skeleton) onto the SMPL humanoid.
 pub fn retarget_to_smpl(clip: &Clip) -> (CharacterClip, SmplRetargetReport) {
     let spec = smpl::spec();
@@ -113,7 +89,7 @@ pub fn retarget_to_smpl(clip: &Clip) -> (CharacterClip, SmplRetargetReport) {
         let r = clip.root_pos_at(t);
         let root = [scale * r[0], scale * r[1], scale * r[2]];
         let (pos, rot) = spec.forward_kinematics(root, gt[0], &q);
-        lowest.push(lowest_foot(&spec, &pos, &rot));
+        lowest.push(spec.lowest_foot_box(&pos, &rot));
         frames.push((root, gt[0], q));
     }
     let mut sorted = lowest.clone();

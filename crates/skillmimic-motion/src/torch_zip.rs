@@ -261,7 +261,8 @@ impl<R: Read + Seek> TorchZip<R> {
         let extent = t.extent()?;
         if extent > t.storage_numel {
             return Err(format!(
-                "needs storage elements up to {extent} (offset {}, size {:?}, stride {:?}), the storage declares {}",
+                "needs storage elements up to {extent} (offset {}, size {:?}, stride {:?}), the \
+                    storage declares {}",
                 t.offset, t.size, t.stride, t.storage_numel
             ));
         }
@@ -272,12 +273,14 @@ impl<R: Read + Seek> TorchZip<R> {
         let size = entry.size();
         if need > size {
             return Err(format!(
-                "storage entry {name} is truncated: the tensor needs {need} bytes, the entry holds {size}"
+                "storage entry {name} is truncated: the tensor needs {need} bytes, the entry \
+                    holds {size}"
             ));
         }
         if size > MAX_STORAGE_BYTES {
             return Err(format!(
-                "storage entry {name} is {size} bytes, more than this reader's limit of {MAX_STORAGE_BYTES}"
+                "storage entry {name} is {size} bytes, more than this reader's limit of \
+                    {MAX_STORAGE_BYTES}"
             ));
         }
         // a stored (uncompressed) entry cannot hold more than the file: only then reserve it all
@@ -316,7 +319,8 @@ impl<R: Read + Seek> TorchZip<R> {
         if numel > t.extent()? {
             // only overlapping strides (stride 0, expanded views) give more elements than storage
             return Err(format!(
-                "size {:?} with stride {:?} has more elements than the storage it reads; overlapping strides are not supported",
+                "size {:?} with stride {:?} has more elements than the storage it reads; \
+                    overlapping strides are not supported",
                 t.size, t.stride
             ));
         }

@@ -177,7 +177,8 @@ pub fn validate_clip(clip: &Clip, path: &Path, naming: Naming) -> Result<(), Cli
     let t_len = clip.num_frames;
     if t_len < MIN_FRAMES {
         return Err(format_err(format!(
-            "clip has {t_len} frames, expected at least {MIN_FRAMES} (start frames 2..T-2 of reference-state initialisation; velocities need the previous frame)"
+            "clip has {t_len} frames, expected at least {MIN_FRAMES} (start frames 2..T-2 of \
+                reference-state initialisation; velocities need the previous frame)"
         )));
     }
     for f in ALL {
@@ -234,7 +235,8 @@ pub fn validate_clip(clip: &Clip, path: &Path, naming: Naming) -> Result<(), Cli
                             0,
                             4,
                             format!(
-                                "has norm {n}, expected a unit quaternion (w, x, y, z), norm within {QUAT_NORM_TOL} of 1"
+                                "has norm {n}, expected a unit quaternion (w, x, y, z), norm \
+                                    within {QUAT_NORM_TOL} of 1"
                             ),
                         ));
                     }
@@ -275,7 +277,8 @@ pub fn validate_clip(clip: &Clip, path: &Path, naming: Naming) -> Result<(), Cli
                         k,
                         group,
                         format!(
-                            "moves at {speed:.4e} {unit} from frame {} (backward difference x {fps} fps), expected at most {limit} {unit}",
+                            "moves at {speed:.4e} {unit} from frame {} (backward difference x \
+                                {fps} fps), expected at most {limit} {unit}",
                             t - 1
                         ),
                     ));
@@ -304,7 +307,8 @@ fn check_rotvecs(
             return Err(err(
                 3 * j,
                 format!(
-                    "is a rotation vector of length {n:.4e} rad, expected at most 2π = {MAX_ROTVEC:.4} rad"
+                    "is a rotation vector of length {n:.4e} rad, expected at most 2π = \
+                        {MAX_ROTVEC:.4} rad"
                 ),
             ));
         }

@@ -104,7 +104,9 @@ fn broken_archives_are_refused_by_name() {
     };
     let e = rewrite("", Some(("trans.npy", int_npy)));
     assert!(e.contains("'trans'") && e.contains("<i8"), "{e}");
-    let short = b"\x93NUMPY\x01\x00\x40\x00{'descr': '<f8', 'fortran_order': False, 'shape': (4, 3), }          \n".to_vec();
+    let short = b"\x93NUMPY\x01\x00\x40\x00{'descr': '<f8', 'fortran_order': False, 'shape': (4, \
+        3), }          \n"
+        .to_vec();
     let e = rewrite("", Some(("trans.npy", short)));
     assert!(e.contains("data bytes"), "{e}");
     let _ = std::fs::remove_dir_all(&dir);
@@ -252,7 +254,8 @@ fn smpl_neutral_rest_skeleton_is_the_default() {
         worst = worst.max(cos.clamp(-1.0, 1.0).acos());
     }
     println!(
-        "zero pose on SMPL's neutral skeleton: limb bones within {worst:.2e} rad of SMPL's rest directions; scale {:.4}",
+        "zero pose on SMPL's neutral skeleton: limb bones within {worst:.2e} rad of SMPL's rest \
+            directions; scale {:.4}",
         m.scale
     );
     assert!(worst < 1e-6, "{worst} rad");

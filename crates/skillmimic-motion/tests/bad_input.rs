@@ -188,7 +188,10 @@ fn long(p: &mut Vec<u8>, v: u64) {
 /// The pickle of `_rebuild_tensor_v2(storage(numel), offset, size, stride)` with 64-bit integers.
 fn tensor_pickle(numel: u64, offset: u64, size: [u64; 2], stride: [u64; 2]) -> Vec<u8> {
     let mut p = vec![0x80, 2];
-    p.extend_from_slice(b"ctorch._utils\n_rebuild_tensor_v2\n((X\x07\x00\x00\x00storagectorch\nFloatStorage\nX\x01\x00\x00\x000X\x03\x00\x00\x00cpu");
+    p.extend_from_slice(
+        b"ctorch._utils\n_rebuild_tensor_v2\n((X\x07\x00\x00\x00storagectorch\n\
+        FloatStorage\nX\x01\x00\x00\x000X\x03\x00\x00\x00cpu",
+    );
     long(&mut p, numel);
     p.extend_from_slice(b"tQ");
     long(&mut p, offset);

@@ -77,7 +77,9 @@ fn every_channel_order_matches_matrix_composition() {
     for order in orders {
         let ch: Vec<&str> = order.iter().map(|&a| names[a]).collect();
         let text = format!(
-            "HIERARCHY\nROOT A\n{{\n OFFSET 0 0 0\n CHANNELS 3 {} {} {}\n JOINT B\n {{\n  OFFSET 1 2 3\n  End Site\n  {{\n   OFFSET 0 0 0\n  }}\n }}\n}}\nMOTION\nFrames: 1\nFrame Time: 0.01\n{} {} {}\n",
+            "HIERARCHY\nROOT A\n{{\n OFFSET 0 0 0\n CHANNELS 3 {} {} {}\n JOINT B\n {{\n  OFFSET \
+                1 2 3\n  End Site\n  {{\n   OFFSET 0 0 0\n  }}\n }}\n}}\nMOTION\nFrames: 1\nFrame \
+                Time: 0.01\n{} {} {}\n",
             ch[0], ch[1], ch[2], deg[0], deg[1], deg[2]
         );
         let b = parse(&text).unwrap();

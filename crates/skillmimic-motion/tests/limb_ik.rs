@@ -74,9 +74,11 @@ fn ik_puts_ankles_and_wrists_on_the_scaled_source() {
     let c0 = to_clip(&plain, "plain", "mocapbank", 1, &Ball::None, b.frame_time, &path).unwrap().1;
     let c1 = to_clip(&ik, "ik", "mocapbank", 1, &Ball::None, b.frame_time, &path).unwrap().1;
     println!(
-        "ankles and wrists from the scaled source: {:.1} mm mean without IK, {:.2} mm mean / {:.2} mm max with IK (report: ankles {:.2} / {:.2} mm, wrists {:.2} / {:.2} mm; \
+        "ankles and wrists from the scaled source: {:.1} mm mean without IK, {:.2} mm mean / \
+         {:.2} mm max with IK (report: ankles {:.2} / {:.2} mm, wrists {:.2} / {:.2} mm; \
          {out_of_reach} of {n} targets beyond the limb's reach); \
-         ground shift {:.1} → {:.1} mm, foot sliding {:.3} → {:.3} m/s, deepest sole {:.1} → {:.1} mm, fastest joint {:.1} → {:.1} rad/s",
+         ground shift {:.1} → {:.1} mm, foot sliding {:.3} → {:.3} m/s, \
+         deepest sole {:.1} → {:.1} mm, fastest joint {:.1} → {:.1} rad/s",
         1000.0 * before,
         1000.0 * after,
         1000.0 * after_max,

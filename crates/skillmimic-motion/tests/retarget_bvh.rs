@@ -128,7 +128,8 @@ fn real_mocap_retargets_with_feet_on_the_floor() {
     let deepest = soles.iter().cloned().fold(f64::INFINITY, f64::min);
     let (w, k, j) = retarget_bvh::max_joint_speed(&m);
     println!(
-        "{} frames at 60 fps, scale {:.4}, ground shift {:.3} m; deepest sole {:.3} m; fastest joint {:.1} rad/s (joint {j}, frame {k})",
+        "{} frames at 60 fps, scale {:.4}, ground shift {:.3} m; deepest sole {:.3} m; fastest \
+            joint {:.1} rad/s (joint {j}, frame {k})",
         m.frames, m.scale, m.ground_shift, deepest, w
     );
     // 455 frames at 1/0.033333 fps = 15.133 s → 908 frames at 60 fps
@@ -182,7 +183,10 @@ fn real_mocap_retargets_with_feet_on_the_floor() {
 fn hostile_timing_and_values_are_refused() {
     let text = |frame_time: &str, offset: &str| {
         format!(
-            "HIERARCHY\nROOT Hips\n{{\n OFFSET 0 0 0\n CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n JOINT Spine\n {{\n  OFFSET 0 {offset} 0\n  End Site\n  {{\n   OFFSET 0 1 0\n  }}\n }}\n}}\nMOTION\nFrames: 2\nFrame Time: {frame_time}\n0 90 0 0 0 0\n0 90 0 0 0 0\n"
+            "HIERARCHY\nROOT Hips\n{{\n OFFSET 0 0 0\n CHANNELS 6 Xposition Yposition Zposition \
+                Zrotation Xrotation Yrotation\n JOINT Spine\n {{\n  OFFSET 0 {offset} 0\n  End \
+                Site\n  {{\n   OFFSET 0 1 0\n  }}\n }}\n}}\nMOTION\nFrames: 2\nFrame Time: \
+                {frame_time}\n0 90 0 0 0 0\n0 90 0 0 0 0\n"
         )
     };
     let map = JointMap {

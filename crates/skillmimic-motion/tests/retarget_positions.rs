@@ -78,7 +78,8 @@ fn rotations_come_back_from_consistent_positions() {
         }
     }
     println!(
-        "consistent positions: root and branching bodies within {exact:.2e} rad, single-child bodies within {twist:.3} rad (twist), positions within {pos:.2e} m"
+        "consistent positions: root and branching bodies within {exact:.2e} rad, single-child \
+            bodies within {twist:.3} rad (twist), positions within {pos:.2e} m"
     );
     assert!(exact < 1e-5, "{exact} rad");
     assert!(pos < 1e-5, "{pos} m");
@@ -152,9 +153,12 @@ fn ballplay_m_clips_rederived_from_their_body_positions() {
     let (multi_mean, single_mean) =
         (rot_multi.0 / rot_multi.1 as f64, rot_single.0 / rot_single.1 as f64);
     println!(
-        "{} clips, {frames} frames: body positions re-derived from the stored positions within {:.4} mm mean, {:.4} mm max \
-         (the stored rotations' own FK: {:.1} mm mean from the stored positions); global orientation vs the stored rotations: \
-         root {:.4} rad mean, bodies with >= 2 children {:.4} rad mean / {:.3} max, single-child bodies {:.3} rad mean (twist \
+        "{} clips, {frames} frames: body positions re-derived from the stored positions within \
+         {:.4} mm mean, {:.4} mm max \
+         (the stored rotations' own FK: {:.1} mm mean from the stored positions); global \
+         orientation vs the stored rotations: \
+         root {:.4} rad mean, bodies with >= 2 children {:.4} rad mean / {:.3} max, \
+         single-child bodies {:.3} rad mean (twist \
          about the bone is not in positions)",
         files.len(),
         1000.0 * pos_mean,

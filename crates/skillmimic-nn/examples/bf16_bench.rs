@@ -89,7 +89,8 @@ fn main() {
         let num: f64 = d32.iter().zip(&d16).map(|(a, b)| ((a - b) as f64).powi(2)).sum();
         let den: f64 = d32.iter().map(|a| (*a as f64).powi(2)).sum();
         println!(
-            "{name:>17} ({m}x{n}x{k}): f32 {:.2} ms ({:.0} GFLOP/s), bf16 {:.2} ms ({:.0} GFLOP/s), bf16 / f32 speed {:.2}x, relative L2 difference {:.1e}",
+            "{name:>17} ({m}x{n}x{k}): f32 {:.2} ms ({:.0} GFLOP/s), bf16 {:.2} ms ({:.0} \
+                GFLOP/s), bf16 / f32 speed {:.2}x, relative L2 difference {:.1e}",
             t32 * 1e3,
             gf / t32,
             t16 * 1e3,

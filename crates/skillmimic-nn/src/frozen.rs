@@ -60,7 +60,8 @@ pub fn open_policy(path: &Path) -> Result<TensorFile, FrozenError> {
         other => Err(FrozenError::Invalid {
             path: path.to_path_buf(),
             detail: format!(
-                "metadata 'format' is '{other}', expected '{POLICY_FORMAT}' (a skill policy written by `skillmimic train`)"
+                "metadata 'format' is '{other}', expected '{POLICY_FORMAT}' (a skill policy \
+                    written by `skillmimic train`)"
             ),
         }),
     }
@@ -90,7 +91,8 @@ impl FrozenActor {
             && family != "gaussian_mlp"
         {
             return Err(invalid(format!(
-                "metadata 'policy' is '{family}': a skill policy inside a high-level task must be a 'gaussian_mlp' checkpoint"
+                "metadata 'policy' is '{family}': a skill policy inside a high-level task must be \
+                    a 'gaussian_mlp' checkpoint"
             )));
         }
         let obs_dim: usize = f.meta_parse("obs_dim", "an integer")?;

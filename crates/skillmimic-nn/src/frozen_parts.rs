@@ -63,7 +63,8 @@ impl FrozenParts {
             Ok("modular_attention") => {}
             Ok(other) => {
                 return Err(invalid(format!(
-                    "metadata 'policy' is '{other}', expected 'modular_attention' (part controllers)"
+                    "metadata 'policy' is '{other}', expected 'modular_attention' (part \
+                        controllers)"
                 )));
             }
             Err(_) => {
@@ -79,7 +80,8 @@ impl FrozenParts {
         })?;
         if spec.embed == 0 || spec.parts.is_empty() {
             return Err(invalid(format!(
-                "metadata 'actor_net': {} parts with embeddings of {}; expected at least one part and a positive width",
+                "metadata 'actor_net': {} parts with embeddings of {}; expected at least one part \
+                    and a positive width",
                 spec.parts.len(),
                 spec.embed
             )));
@@ -88,7 +90,12 @@ impl FrozenParts {
         let mut parts = Vec::with_capacity(spec.parts.len());
         for (k, (name, _, outputs)) in spec.parts.iter().enumerate() {
             for &o in outputs {
-                *covered.get_mut(o).ok_or_else(|| invalid(format!("metadata 'actor_net': part '{name}' writes action column {o}, act_dim is {act_dim}")))? += 1;
+                *covered.get_mut(o).ok_or_else(|| {
+                    invalid(format!(
+                        "metadata 'actor_net': part \
+                    '{name}' writes action column {o}, act_dim is {act_dim}"
+                    ))
+                })? += 1;
             }
             let mut dims = vec![spec.embed];
             dims.extend(&spec.controller);
@@ -98,7 +105,8 @@ impl FrozenParts {
         }
         if let Some(o) = covered.iter().position(|&c| c != 1) {
             return Err(invalid(format!(
-                "metadata 'actor_net': action column {o} is written by {} parts, expected exactly one",
+                "metadata 'actor_net': action column {o} is written by {} parts, expected exactly \
+                    one",
                 covered[o]
             )));
         }

@@ -196,7 +196,8 @@ impl HistoryEncoder {
             Ok(FORMAT) => {}
             Ok(other) => {
                 return Err(invalid(format!(
-                    "metadata 'format' is '{other}', expected '{FORMAT}' (write encoders with `skillmimic history pretrain`)"
+                    "metadata 'format' is '{other}', expected '{FORMAT}' (write encoders with \
+                        `skillmimic history pretrain`)"
                 )));
             }
             Err(e) => return Err(e.into()),
@@ -206,7 +207,8 @@ impl HistoryEncoder {
         let feat: usize = f.meta_parse("feature_dim", "316")?;
         if feat != FEATURE_DIM || length == 0 || embed == 0 {
             return Err(invalid(format!(
-                "feature_dim {feat}, history_length {length}, embed_dim {embed}: expected 316 and positive sizes"
+                "feature_dim {feat}, history_length {length}, embed_dim {embed}: expected 316 and \
+                    positive sizes"
             )));
         }
         let dims = [FEATURE_DIM, CHANNELS[0], CHANNELS[1], CHANNELS[2]];
@@ -383,7 +385,8 @@ fn conv_relu(x: &Tensor, w: &Tensor, b: &Tensor) -> candle_core::Result<Tensor> 
     let (bs, k, cin) = x.dims3()?;
     let cout = w.dim(0)?;
     let p = x.pad_with_zeros(1, 1, 1)?;
-    let u = Tensor::cat(&[p.narrow(1, 0, k)?, p.narrow(1, 1, k)?, p.narrow(1, 2, k)?], 2)?; // (B, k, 3·C_in), index kk·C_in + c
+    // (B, k, 3·C_in), index kk·C_in + c
+    let u = Tensor::cat(&[p.narrow(1, 0, k)?, p.narrow(1, 1, k)?, p.narrow(1, 2, k)?], 2)?;
     let wm = w.permute((2, 1, 0))?.contiguous()?.reshape((KERNEL * cin, cout))?;
     u.reshape((bs * k, KERNEL * cin))?.matmul(&wm)?.broadcast_add(b)?.relu()?.reshape((bs, k, cout))
 }

@@ -94,7 +94,8 @@ impl TokenSpec {
     pub fn check(&self) -> Result<(), String> {
         if self.groups.is_empty() || self.groups.iter().any(|g| g.1 == 0) {
             return Err(format!(
-                "the token groups {:?} must be non-empty with positive widths (group 0: proprioception)",
+                "the token groups {:?} must be non-empty with positive widths (group 0: \
+                    proprioception)",
                 self.groups
             ));
         }

@@ -117,7 +117,8 @@ impl RunningMeanStd {
         }
         if !(eps.is_finite() && eps > 0.0) {
             return Err(PyValueError::new_err(format!(
-                "eps is {eps}, expected a finite number > 0 (it is added to the variance under the square root)"
+                "eps is {eps}, expected a finite number > 0 (it is added to the variance under \
+                    the square root)"
             )));
         }
         if !(clip > 0.0) {
@@ -137,7 +138,8 @@ impl RunningMeanStd {
         if let Some(k) = x.iter().position(|v| !v.is_finite()) {
             let d = self.inner.dim();
             return Err(PyValueError::new_err(format!(
-                "batch: non-finite value {} at row {}, column {}; the statistics were left unchanged",
+                "batch: non-finite value {} at row {}, column {}; the statistics were left \
+                    unchanged",
                 x[k],
                 k / d,
                 k % d
@@ -175,7 +177,10 @@ impl RunningMeanStd {
 /// cross-checks). `obs_n` are already-normalised observations; returns `(losses, grads)` where
 /// `grads` maps the checkpoint tensor names (`actor.0.weight`, …) to arrays.
 #[pyfunction]
-#[pyo3(signature = (checkpoint, obs_n, actions, old_neglogp, advantages, returns_n, clip = 0.2, critic_coef = 5.0, bounds_coef = 10.0, bound = 1.0, backend = "fast", entropy_coef = 0.0))]
+#[pyo3(signature = (
+    checkpoint, obs_n, actions, old_neglogp, advantages, returns_n, clip = 0.2, critic_coef = 5.0,
+    bounds_coef = 10.0, bound = 1.0, backend = "fast", entropy_coef = 0.0
+))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn ppo_loss_and_grads<'py>(
     py: Python<'py>,

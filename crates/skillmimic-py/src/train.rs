@@ -237,7 +237,8 @@ impl PyTrainer {
             .ok_or_else(|| PyRuntimeError::new_err("the other trainer is in use"))?;
         if src.shard.world != 1 || src.shard.total_envs != self.t()?.shard.total_envs {
             return Err(PyValueError::new_err(
-                "load_rollout_part: the source must be a one-process trainer over the same env.num_envs",
+                "load_rollout_part: the source must be a one-process trainer over the same \
+                    env.num_envs",
             ));
         }
         let full = src.rollout_storage().clone();

@@ -20,6 +20,7 @@ pub mod memory;
 pub mod mj_batch;
 pub mod mjcf;
 pub mod scene;
+pub mod scene_options;
 pub mod state;
 
 pub use ball::{BallParams, BodyContact};

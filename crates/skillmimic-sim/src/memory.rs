@@ -74,7 +74,9 @@ pub fn check_batch(num_envs: usize, per_env: u64, what: &str) -> Result<(), SimE
         Some(avail) if need > avail => {
             let fit = (avail as f64 / (per_env as f64 * (1.0 + TASK_OVERHEAD))) as u64;
             Err(SimError::Config(format!(
-                "env.num_envs = {num_envs}: {what} needs about {:.1} GB ({:.0} KB per environment), but this process can allocate about {:.1} GB; use at most about {fit} environments",
+                "env.num_envs = {num_envs}: {what} needs about {:.1} GB ({:.0} KB per \
+                    environment), but this process can allocate about {:.1} GB; use at most about \
+                    {fit} environments",
                 need as f64 / 1e9,
                 per_env as f64 * (1.0 + TASK_OVERHEAD) / 1e3,
                 avail as f64 / 1e9

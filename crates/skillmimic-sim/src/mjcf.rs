@@ -47,151 +47,14 @@
 
 use std::fmt::Write as _;
 
-use skillmimic_core::characters::{Character, CharacterSpec, GeomSpec, JointDef};
+use skillmimic_core::characters::{CharacterSpec, GeomSpec, JointDef};
 use skillmimic_core::math::Quat;
 
 use crate::ball::{BallParams, BodyContact, ball_floor_solref};
-
-/// How the root (body 0) is attached.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum RootJoint {
-    /// Free joint (the normal case).
-    Free,
-    /// Root welded to the world at a pose (PD tests).
-    Fixed { pos: [f64; 3], quat: Quat },
-}
-
-/// A static prop a task adds to the world (fixed in the world frame, world coordinates in metres).
-#[derive(Clone, Debug, PartialEq)]
-pub struct Prop {
-    /// Geom name (unique in the scene).
-    pub name: String,
-    pub kind: PropKind,
-    /// Centre position (m, world frame).
-    pub pos: [f64; 3],
-    /// RGBA colour.
-    pub rgba: [f32; 4],
-}
-
-/// What a prop is.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum PropKind {
-    /// A visual sphere of this radius (m): no collisions, no mass (target markers, a hoop marker).
-    Marker { radius: f64 },
-    /// A static box with these half-sizes (m) that collides with the character and the ball.
-    /// It is a world geom: its contacts count as floor contacts of the contact read-out.
-    Box { half: [f64; 3] },
-}
-
-/// One box of an object, in the object's frame (m).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ObjectBox {
-    pub center: [f64; 3],
-    pub half: [f64; 3],
-}
-
-/// A task object made of boxes (TokenHSI's chairs, platforms, carried boxes).
-#[derive(Clone, Debug, PartialEq)]
-pub struct BoxObject {
-    /// Body name (unique; geoms are `<name>_<k>`).
-    pub name: String,
-    /// `None`: static (mocap) object; `Some(kg)`: a free rigid body of this mass.
-    pub mass: Option<f64>,
-    pub boxes: Vec<ObjectBox>,
-    pub rgba: [f32; 4],
-}
-
-impl BoxObject {
-    /// Axis-aligned bounds (min, max) of the object's boxes in its own frame (m).
-    pub fn bounds(&self) -> ([f64; 3], [f64; 3]) {
-        let mut lo = [f64::INFINITY; 3];
-        let mut hi = [f64::NEG_INFINITY; 3];
-        for b in &self.boxes {
-            for k in 0..3 {
-                lo[k] = lo[k].min(b.center[k] - b.half[k]);
-                hi[k] = hi[k].max(b.center[k] + b.half[k]);
-            }
-        }
-        (lo, hi)
-    }
-}
-
-/// MuJoCo's constraint solver (`<option solver>`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum Solver {
-    /// Newton (MuJoCo's default; the shipped scenes).
-    #[default]
-    Newton,
-    /// Projected Gauss–Seidel.
-    Pgs,
-    /// Conjugate gradient.
-    Cg,
-}
-
-impl Solver {
-    /// The MJCF attribute value.
-    pub fn mjcf_name(self) -> &'static str {
-        match self {
-            Solver::Newton => "Newton",
-            Solver::Pgs => "PGS",
-            Solver::Cg => "CG",
-        }
-    }
-}
-
-/// Constraint-solver settings (`<option solver iterations tolerance>`); the defaults are
-/// MuJoCo's and leave the MJCF text unchanged.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct SolverOptions {
-    pub solver: Solver,
-    /// Maximum solver iterations per step.
-    pub iterations: usize,
-    /// Early-termination tolerance of the solver.
-    pub tolerance: f64,
-}
-
-impl Default for SolverOptions {
-    fn default() -> Self {
-        Self { solver: Solver::Newton, iterations: 100, tolerance: 1e-8 }
-    }
-}
-
-/// Everything that selects a scene.
-#[derive(Clone, Debug, PartialEq)]
-pub struct SceneOptions {
-    /// The character (and its variant, e.g. the SkillMimic humanoid's hands).
-    pub character: Character,
-    pub root: RootJoint,
-    /// The ball (SkillMimic's scenes); `None`: no ball.
-    pub ball: Option<BallParams>,
-    /// Box objects, after the ball in body order.
-    pub objects: Vec<BoxObject>,
-    /// Constraint solver (issue 21's speed option; Newton by default).
-    pub solver: SolverOptions,
-    /// Static task props, written after the floor in this order.
-    pub props: Vec<Prop>,
-}
-
-impl Default for SceneOptions {
-    /// The SkillMimic humanoid with articulated hands and the ball.
-    fn default() -> Self {
-        Self {
-            character: Character::default(),
-            root: RootJoint::Free,
-            ball: Some(BallParams::default()),
-            objects: Vec::new(),
-            solver: SolverOptions::default(),
-            props: Vec::new(),
-        }
-    }
-}
-
-impl SceneOptions {
-    /// The plain scene of `character`: free root, no ball, no objects, no props.
-    pub fn bare(character: Character) -> Self {
-        Self { character, ball: None, ..Self::default() }
-    }
-}
+pub use crate::scene_options::{
+    BoxObject, ObjectBox, Prop, PropKind, RootJoint, SceneOptions, Solver, SolverOptions,
+    default_scene, default_scene_file,
+};
 
 fn v3(v: [f64; 3]) -> String {
     format!("{} {} {}", v[0], v[1], v[2])
@@ -234,7 +97,8 @@ pub fn scene_xml_of(ch: &CharacterSpec, opts: &SceneOptions) -> String {
     let objects = if opts.objects.is_empty() { "" } else { " + task objects" };
     let _ = writeln!(
         x,
-        "<!-- {}{ball}{objects}, generated by skillmimic-rs (skillmimic mjcf). Do not edit by hand. -->",
+        "<!-- {}{ball}{objects}, generated by skillmimic-rs (skillmimic mjcf). Do not edit by \
+            hand. -->",
         ch.title
     );
     let _ = writeln!(x, "<mujoco model=\"{}\">", ch.model_name);
@@ -268,9 +132,12 @@ pub fn scene_xml_of(ch: &CharacterSpec, opts: &SceneOptions) -> String {
         "    <geom condim=\"1\" friction=\"1 0.05 0.05\" material=\"body\"/>\n",
         "  </default>\n",
         "  <asset>\n",
-        "    <texture name=\"sky\" type=\"skybox\" builtin=\"gradient\" rgb1=\"0.45 0.55 0.65\" rgb2=\"0.05 0.05 0.1\" width=\"256\" height=\"256\"/>\n",
-        "    <texture name=\"grid\" type=\"2d\" builtin=\"checker\" rgb1=\"0.22 0.24 0.26\" rgb2=\"0.3 0.32 0.34\" width=\"512\" height=\"512\"/>\n",
-        "    <material name=\"grid\" texture=\"grid\" texrepeat=\"8 8\" texuniform=\"true\" reflectance=\"0\"/>\n",
+        "    <texture name=\"sky\" type=\"skybox\" builtin=\"gradient\" rgb1=\"0.45 0.55 0.65\" \
+            rgb2=\"0.05 0.05 0.1\" width=\"256\" height=\"256\"/>\n",
+        "    <texture name=\"grid\" type=\"2d\" builtin=\"checker\" rgb1=\"0.22 0.24 0.26\" \
+            rgb2=\"0.3 0.32 0.34\" width=\"512\" height=\"512\"/>\n",
+        "    <material name=\"grid\" texture=\"grid\" texrepeat=\"8 8\" texuniform=\"true\" \
+            reflectance=\"0\"/>\n",
     ));
     let _ = writeln!(x, "    <material name=\"body\" rgba=\"{}\"/>", rgba(ch.rgba));
     if let Some(h) = ch.hand_rgba {
@@ -282,10 +149,15 @@ pub fn scene_xml_of(ch: &CharacterSpec, opts: &SceneOptions) -> String {
     x.push_str(concat!(
         "  </asset>\n",
         "  <worldbody>\n",
-        "    <light name=\"sun\" directional=\"true\" pos=\"0 0 5\" dir=\"-0.3 0.2 -1\" diffuse=\"0.35 0.35 0.35\" castshadow=\"false\"/>\n",
-        "    <light name=\"key\" mode=\"trackcom\" pos=\"1.8 -1.2 6\" dir=\"-0.3 0.2 -1\" cutoff=\"70\" exponent=\"1\" diffuse=\"0.4 0.4 0.4\" castshadow=\"true\" bulbradius=\"0\"/>\n",
-        "    <geom name=\"floor\" type=\"plane\" size=\"0 0 0.05\" condim=\"3\" friction=\"1 0.005 0.0001\" material=\"grid\"/>\n",
-        "    <camera name=\"side\" mode=\"trackcom\" pos=\"0 -5.5 1.7\" xyaxes=\"1 0 0 0 0.09 0.996\"/>\n",
+        "    <light name=\"sun\" directional=\"true\" pos=\"0 0 5\" dir=\"-0.3 0.2 -1\" \
+            diffuse=\"0.35 0.35 0.35\" castshadow=\"false\"/>\n",
+        "    <light name=\"key\" mode=\"trackcom\" pos=\"1.8 -1.2 6\" dir=\"-0.3 0.2 -1\" \
+            cutoff=\"70\" exponent=\"1\" diffuse=\"0.4 0.4 0.4\" castshadow=\"true\" \
+            bulbradius=\"0\"/>\n",
+        "    <geom name=\"floor\" type=\"plane\" size=\"0 0 0.05\" condim=\"3\" friction=\"1 \
+            0.005 0.0001\" material=\"grid\"/>\n",
+        "    <camera name=\"side\" mode=\"trackcom\" pos=\"0 -5.5 1.7\" xyaxes=\"1 0 0 0 0.09 \
+            0.996\"/>\n",
     ));
     write_props(&mut x, opts);
     write_character(&mut x, ch, opts.root);
@@ -304,7 +176,8 @@ pub fn scene_xml_of(ch: &CharacterSpec, opts: &SceneOptions) -> String {
             let _ = writeln!(x, "    <exclude body1=\"world\" body2=\"Ball\"/>");
             let _ = writeln!(
                 x,
-                "    <pair name=\"ball_floor\" geom1=\"floor\" geom2=\"ball\" condim=\"3\" friction=\"{f} {f} 0.005 0.0001 0.0001\" solref=\"{k} {b}\"/>",
+                "    <pair name=\"ball_floor\" geom1=\"floor\" geom2=\"ball\" condim=\"3\" \
+                    friction=\"{f} {f} 0.005 0.0001 0.0001\" solref=\"{k} {b}\"/>",
                 f = ball.friction
             );
         }
@@ -380,7 +253,8 @@ fn write_character(x: &mut String, ch: &CharacterSpec, root: RootJoint) {
                         h.range.map_or(String::new(), |[lo, hi]| format!(" range=\"{lo} {hi}\""));
                     let _ = writeln!(
                         x,
-                        "{ind}  <joint name=\"{}\" type=\"hinge\" axis=\"{}\"{range} armature=\"{}\" damping=\"{}\"/>",
+                        "{ind}  <joint name=\"{}\" type=\"hinge\" axis=\"{}\"{range} \
+                            armature=\"{}\" damping=\"{}\"/>",
                         h.name,
                         v3(h.axis),
                         drive.armature,
@@ -413,7 +287,8 @@ fn write_ball(x: &mut String, ball: &BallParams) {
     for (k, (axis, dir)) in [("x", "1 0 0"), ("y", "0 1 0"), ("z", "0 0 1")].iter().enumerate() {
         let _ = writeln!(
             x,
-            "      <joint name=\"ball_{axis}\" type=\"slide\" axis=\"{dir}\" ref=\"{}\" damping=\"{lin}\"/>",
+            "      <joint name=\"ball_{axis}\" type=\"slide\" axis=\"{dir}\" ref=\"{}\" \
+                damping=\"{lin}\"/>",
             start[k]
         );
     }
@@ -427,7 +302,8 @@ fn write_ball(x: &mut String, ball: &BallParams) {
     };
     let _ = writeln!(
         x,
-        "      <geom name=\"ball\" type=\"sphere\" size=\"{}\" density=\"{}\" condim=\"3\" friction=\"{} 0.005 0.0001\"{contact} material=\"ball\"/>",
+        "      <geom name=\"ball\" type=\"sphere\" size=\"{}\" density=\"{}\" condim=\"3\" \
+            friction=\"{} 0.005 0.0001\"{contact} material=\"ball\"/>",
         ball.radius, ball.density, ball.friction
     );
     let _ = writeln!(x, "    </body>");
@@ -461,7 +337,8 @@ fn write_objects(x: &mut String, objects: &[BoxObject]) {
                 .unwrap_or_default();
             let _ = writeln!(
                 x,
-                "      <geom name=\"{}_{j}\" type=\"box\" size=\"{}\" pos=\"{}\" condim=\"3\" friction=\"1 0.005 0.0001\" rgba=\"{}\"{mass}/>",
+                "      <geom name=\"{}_{j}\" type=\"box\" size=\"{}\" pos=\"{}\" condim=\"3\" \
+                    friction=\"1 0.005 0.0001\" rgba=\"{}\"{mass}/>",
                 o.name,
                 v3(bx.half),
                 v3(bx.center),
@@ -493,31 +370,13 @@ fn write_actuators(x: &mut String, ch: &CharacterSpec) {
             let gear = gear.map_or(String::new(), |g| format!(" gear=\"{g}\""));
             let _ = writeln!(
                 x,
-                "    <position name=\"{name}\" joint=\"{joint}\"{gear} kp=\"{}\" ctrlrange=\"{} {}\" forcerange=\"{} {}\"/>",
+                "    <position name=\"{name}\" joint=\"{joint}\"{gear} kp=\"{}\" ctrlrange=\"{} \
+                    {}\" forcerange=\"{} {}\"/>",
                 drive.kp, drive.ctrlrange[0], drive.ctrlrange[1], -drive.effort, drive.effort
             );
         }
     }
     let _ = writeln!(x, "  </actuator>");
-}
-
-/// File name of a character's shipped plain scene inside `mjcf/` (`skillmimic_full.xml`,
-/// `skillmimic_boxhand.xml` with the ball; `tokenhsi.xml`, `smpl.xml` bare).
-pub fn default_scene_file(character: Character) -> String {
-    match character.hands() {
-        Some(hands) => format!("{}_{}.xml", character.name(), hands.name()),
-        None => format!("{}.xml", character.name()),
-    }
-}
-
-/// The shipped plain scene of a character: the SkillMimic humanoid with its ball, the others
-/// bare.
-pub fn default_scene(character: Character) -> SceneOptions {
-    if character.plays_ballplay() {
-        SceneOptions { character, ..SceneOptions::default() }
-    } else {
-        SceneOptions::bare(character)
-    }
 }
 
 #[cfg(test)]

@@ -65,7 +65,8 @@ fn slow_floor_impacts_do_not_bounce_below_the_threshold() {
         120,
     );
     println!(
-        "slow impact (0.17 m/s): highest point after the first touch {:.2} mm above rest with the threshold, {:.2} mm without",
+        "slow impact (0.17 m/s): highest point after the first touch {:.2} mm above rest with the \
+            threshold, {:.2} mm without",
         1e3 * (with - r),
         1e3 * (without - r)
     );
@@ -103,7 +104,8 @@ fn damping_slows_the_flying_ball_by_one_percent_per_second() {
     let (vx0, wz0) = run(BallParams { damping: 0.0, ..Default::default() });
     let decay = (-0.01f64 * 0.5).exp();
     println!(
-        "after 0.5 s of flight: vx {vx:.5} m/s (undamped {vx0:.5}), wz {wz:.4} rad/s (undamped {wz0:.4}); expected factor {decay:.5}"
+        "after 0.5 s of flight: vx {vx:.5} m/s (undamped {vx0:.5}), wz {wz:.4} rad/s (undamped \
+            {wz0:.4}); expected factor {decay:.5}"
     );
     assert!(
         (vx0 - 5.0).abs() < 1e-9 && (wz0 - 20.0).abs() < 1e-9,
@@ -153,7 +155,8 @@ fn ball_bounces_off_the_body_with_the_combined_restitution() {
     let (vi_s, vo_s) = body_bounce(BodyContact::Soft, drop);
     let (e, e_soft) = (-vo / vi, -vo_s / vi_s);
     println!(
-        "ball dropped {drop} m onto the (welded) pelvis: v_in {vi:.3} m/s, rebound {vo:.3} m/s, e = {e:.3} (combined, target 0.405); soft contact: e = {e_soft:.3}"
+        "ball dropped {drop} m onto the (welded) pelvis: v_in {vi:.3} m/s, rebound {vo:.3} m/s, e \
+            = {e:.3} (combined, target 0.405); soft contact: e = {e_soft:.3}"
     );
     assert!(vi < -1.5 && vi_s < -1.5);
     assert!((e - 0.405).abs() < 0.06, "combined restitution measured {e}");

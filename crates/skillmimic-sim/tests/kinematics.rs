@@ -98,7 +98,8 @@ fn forward_kinematics_reproduces_stored_body_positions_on_all_clips() {
     }
     let mean = total_err / total_n as f64;
     println!(
-        "ALL {} clips: mean per-body error {:.2} cm (reference model 3.1 cm), worst {:.1} cm, worst bone-length error {:.1e} m",
+        "ALL {} clips: mean per-body error {:.2} cm (reference model 3.1 cm), worst {:.1} cm, \
+            worst bone-length error {:.1e} m",
         clips.len(),
         100.0 * mean,
         100.0 * worst_body,

@@ -89,7 +89,8 @@ fn ball_resting_on_floor_carries_its_weight() {
     // forces are those of the last of the 2 sub-steps: their mean over policy steps is the weight
     let mean = fz / 240.0;
     println!(
-        "ball mass {mass:.3} kg, mean floor force {mean:.2} N (m g = {:.2} N), in contact {steps_in_contact}/240 steps",
+        "ball mass {mass:.3} kg, mean floor force {mean:.2} N (m g = {:.2} N), in contact \
+            {steps_in_contact}/240 steps",
         mass * 9.81
     );
     assert!((mean - mass * 9.81).abs() < 0.1 * mass * 9.81);

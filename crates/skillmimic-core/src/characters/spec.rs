@@ -197,6 +197,29 @@ pub struct CharacterSpec {
 }
 
 impl CharacterSpec {
+    /// Lowest world height (m, Z-up) of the corners of the foot bodies' boxes, for world body
+    /// positions `pos` and orientations `rot` (one per body, in body order); +∞ without any.
+    pub fn lowest_foot_box(&self, pos: &[[f64; 3]], rot: &[Quat]) -> f64 {
+        let mut z = f64::INFINITY;
+        for (b, body) in self.bodies.iter().enumerate() {
+            if body.part != BodyPart::Foot {
+                continue;
+            }
+            for g in &body.geoms {
+                if let GeomSpec::Box { half_extents: h, center: c, .. } = g.spec {
+                    for k in 0..8 {
+                        let p = [
+                            c[0] + if k & 4 == 0 { -h[0] } else { h[0] },
+                            c[1] + if k & 2 == 0 { -h[1] } else { h[1] },
+                            c[2] + if k & 1 == 0 { -h[2] } else { h[2] },
+                        ];
+                        z = z.min(pos[b][2] + rot[b].rotate(p)[2]);
+                    }
+                }
+            }
+        }
+        z
+    }
     /// Width of the character part of the observation.
     pub fn proprio_dim(&self) -> usize {
         self.proprio.width(self.bodies.len())

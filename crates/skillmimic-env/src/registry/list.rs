@@ -35,7 +35,8 @@ pub const TASKS: &[TaskEntry] = &[
     },
     TaskEntry {
         name: "tracking",
-        summary: "motion tracking of clips without the ball (ModSkill, PHC): next-frame reference observation",
+        summary: "motion tracking of clips without the ball (ModSkill, PHC): next-frame reference \
+            observation",
         characters: &["skillmimic", "smpl"],
         tables: &[tasks::tracking::TABLE],
         build: tasks::tracking::build,
@@ -82,7 +83,8 @@ pub const TASKS: &[TaskEntry] = &[
     },
     TaskEntry {
         name: "hsi_follow_carry",
-        summary: "TokenHSI composition: follow a trajectory while carrying a box (policy adaptation target)",
+        summary: "TokenHSI composition: follow a trajectory while carrying a box (policy \
+            adaptation target)",
         characters: TOKENHSI,
         tables: HSI,
         build: tasks::hsi::compose::build_follow_carry,
@@ -100,7 +102,8 @@ pub const TASKS: &[TaskEntry] = &[
     },
     TaskEntry {
         name: "hsi_climb_carry",
-        summary: "TokenHSI composition: climb onto a platform while carrying a box (policy adaptation target)",
+        summary: "TokenHSI composition: climb onto a platform while carrying a box (policy \
+            adaptation target)",
         characters: TOKENHSI,
         tables: HSI,
         build: tasks::hsi::compose::build_climb_carry,
@@ -109,7 +112,8 @@ pub const TASKS: &[TaskEntry] = &[
     },
     TaskEntry {
         name: "hsi_multi",
-        summary: "TokenHSI multi-task: environments split across TokenHSI tasks by [env.multi] (one token policy)",
+        summary: "TokenHSI multi-task: environments split across TokenHSI tasks by [env.multi] \
+            (one token policy)",
         characters: TOKENHSI,
         tables: &[tasks::hsi::TABLE, tasks::multi::TABLE],
         build: build_hsi_multi,
@@ -136,7 +140,8 @@ pub const TASKS: &[TaskEntry] = &[
     },
     TaskEntry {
         name: "throwing",
-        summary: "skill reuse: throw the ball up to 2.5 m and catch it (frozen skill policy, --llc)",
+        summary: "skill reuse: throw the ball up to 2.5 m and catch it (frozen skill policy, \
+            --llc)",
         tables: &[hlc::TABLE, hlc::throwing::TABLE],
         build: tasks::hlc::throwing::build,
         high_level: Some(HighLevel { choices: tasks::hlc::throwing::LABELS, minibatches: 2 }),
@@ -145,7 +150,8 @@ pub const TASKS: &[TaskEntry] = &[
     },
     TaskEntry {
         name: "scoring",
-        summary: "skill reuse: dribble to a basket and score with layups (frozen skill policy, --llc)",
+        summary: "skill reuse: dribble to a basket and score with layups (frozen skill policy, \
+            --llc)",
         tables: &[hlc::TABLE, hlc::scoring::TABLE],
         build: tasks::hlc::scoring::build,
         high_level: Some(HighLevel { choices: tasks::hlc::scoring::LABELS, minibatches: 4 }),
@@ -154,7 +160,8 @@ pub const TASKS: &[TaskEntry] = &[
     },
     TaskEntry {
         name: "steering",
-        summary: "skill reuse: move in a commanded direction at a commanded speed (ModSkill; skill or modular policy, --llc)",
+        summary: "skill reuse: move in a commanded direction at a commanded speed (ModSkill; \
+            skill or modular policy, --llc)",
         tables: &[hlc::TABLE, hlc::steering::TABLE],
         build: tasks::hlc::steering::build,
         high_level: Some(HighLevel { choices: tasks::hlc::steering::LABELS, minibatches: 2 }),
@@ -163,7 +170,8 @@ pub const TASKS: &[TaskEntry] = &[
     },
     TaskEntry {
         name: "reach",
-        summary: "skill reuse: bring the right hand to a 3-D target (ModSkill; skill or modular policy, --llc)",
+        summary: "skill reuse: bring the right hand to a 3-D target (ModSkill; skill or modular \
+            policy, --llc)",
         tables: &[hlc::TABLE, hlc::reach::TABLE],
         build: tasks::hlc::reach::build,
         high_level: Some(HighLevel { choices: tasks::hlc::reach::LABELS, minibatches: 2 }),
@@ -172,7 +180,8 @@ pub const TASKS: &[TaskEntry] = &[
     },
     TaskEntry {
         name: "hlc_multi",
-        summary: "skill reuse, multi-task: environments split across high-level tasks by [env.multi] (one token policy)",
+        summary: "skill reuse, multi-task: environments split across high-level tasks by \
+            [env.multi] (one token policy)",
         tables: &[hlc::TABLE, tasks::multi::TABLE],
         build: build_hlc_multi,
         high_level: Some(HighLevel { choices: tasks::hlc::heading::LABELS, minibatches: 2 }),

@@ -78,7 +78,8 @@ mod tests {
         use crate::tasks::stand::StandConfig;
         // the layout saved configurations of every earlier version use
         let c: EnvConfig = toml::from_str(
-            "task = \"stand\"\n[stand]\nstart_height = 0.95\nepisode_length = 7\n[hlc]\nllc_steps = 2\n[hsi.follow]\nepisode_length = 9\n",
+            "task = \"stand\"\n[stand]\nstart_height = 0.95\nepisode_length = 7\n[hlc]\nllc_steps \
+                = 2\n[hsi.follow]\nepisode_length = 9\n",
         )
         .unwrap();
         assert_eq!(c.table::<StandConfig>().episode_length, 7);

@@ -33,7 +33,9 @@ pub fn export_checkpoint(
         && c.policy.family.name() != "categorical_mlp";
     if latent && !fused {
         let msg = format!(
-            "{}: a high-level policy with continuous actions (part embeddings for the frozen controllers of a modular skill policy) outputs embeddings, not PD targets; export it with --fused (and --llc, or the env.hlc.llc of its configuration)",
+            "{}: a high-level policy with continuous actions (part embeddings for the frozen \
+                controllers of a modular skill policy) outputs embeddings, not PD targets; export \
+                it with --fused (and --llc, or the env.hlc.llc of its configuration)",
             ckpt.display()
         );
         return Err(LearnError::Config(msg));

@@ -32,7 +32,8 @@ pub fn fused_latent_model(
     check_exportable(hl, &meta.source.file)?;
     let Some(m) = skill.actor.downcast_ref::<skillmimic_nn::modular::ModularAttention>() else {
         return Err(LearnError::Config(format!(
-            "{}: a high-level policy over part embeddings needs a modular_attention skill policy, not a '{}' one",
+            "{}: a high-level policy over part embeddings needs a modular_attention skill policy, \
+                not a '{}' one",
             skill_source.file,
             skill.family.name()
         )));
@@ -66,8 +67,20 @@ pub fn fused_latent_model(
     actor(&mut g, "hl", "obs", hl, Some("latent"));
     part_controllers(&mut g, "latent", m);
     let mut ports = Ports { g: &mut g, meta: &mut meta };
-    ports.output("actions", Elem::F32, &[m.act_dim], "clamp of the frozen part controllers' output for the policy's mean embeddings (see action_to_pd_target)");
-    ports.output("latent", Elem::F32, &[latent], "the high-level policy's mean part embeddings (before the unit-sphere projection), part-major");
+    ports.output(
+        "actions",
+        Elem::F32,
+        &[m.act_dim],
+        "clamp of the frozen part controllers' \
+        output for the policy's mean embeddings (see action_to_pd_target)",
+    );
+    ports.output(
+        "latent",
+        Elem::F32,
+        &[latent],
+        "the high-level policy's mean part embeddings \
+        (before the unit-sphere projection), part-major",
+    );
     let doc = format!("skillmimic-rs fused part-embedding graph from {}", meta.source.file);
     Ok(Exported { model: g.into_model(&doc, &meta.props()), meta })
 }

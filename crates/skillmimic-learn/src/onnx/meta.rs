@@ -22,7 +22,10 @@ pub const FORMAT: &str = "skillmimic-onnx";
 pub const FORMAT_VERSION: u32 = 1;
 /// How an action entry becomes a joint target (the simulator's rule,
 /// `skillmimic_sim::BatchSim::step`).
-pub const PD_TARGET_DOC: &str = "action row = 156 float32 in joint_order, 3 per joint (x, y, z of the joint's rotation vector = exp map of the body relative to its parent, skeleton frame, Y-up); PD target (rad) = pi * clamp(a, -1, 1); torque = kp * (target - q) - kd * qdot per axis, clamped to +-force_limit_nm; entries of welded_joints are ignored";
+pub const PD_TARGET_DOC: &str = "action row = 156 float32 in joint_order, 3 per joint (x, y, z of \
+    the joint's rotation vector = exp map of the body relative to its parent, skeleton frame, \
+    Y-up); PD target (rad) = pi * clamp(a, -1, 1); torque = kp * (target - q) - kd * qdot per \
+    axis, clamped to +-force_limit_nm; entries of welded_joints are ignored";
 
 /// A named range of observation columns `[start, end)`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

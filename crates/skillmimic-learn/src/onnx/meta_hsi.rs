@@ -29,7 +29,11 @@ pub fn describe_tokenhsi(m: &mut DeployMeta) {
     }
     m.joint_order = joints.iter().map(|b| b.joint_name.to_string()).collect();
     m.action_to_pd_target = format!(
-        "action row = 32 float32 in joint_order ({}); ball joints take 3 entries (x, y, z of the joint's rotation vector = exp map of the body relative to its parent, Z-up), the elbows 1 (hinge angle about the forearm's y axis); PD target (rad) = action_offset_scale[i][0] + action_offset_scale[i][1] * clamp(a_i, -1, 1); torque = kp * (target - q) - kd * qdot per axis, clamped to +-force_limit_nm of the joint",
+        "action row = 32 float32 in joint_order ({}); ball joints take 3 entries (x, y, z of the \
+            joint's rotation vector = exp map of the body relative to its parent, Z-up), the \
+            elbows 1 (hinge angle about the forearm's y axis); PD target (rad) = \
+            action_offset_scale[i][0] + action_offset_scale[i][1] * clamp(a_i, -1, 1); torque = \
+            kp * (target - q) - kd * qdot per axis, clamped to +-force_limit_nm of the joint",
         ranges.join(", ")
     );
     m.action_offset_scale = action_offset_scale().iter().map(|&(o, s)| [o, s]).collect();

@@ -81,7 +81,8 @@ impl Ports<'_> {
 fn check_exportable(p: &Policy, what: &str) -> Result<(), LearnError> {
     if p.actor.as_mlp().is_none() && p.actor.downcast_ref::<ModularAttention>().is_none() {
         return Err(LearnError::Config(format!(
-            "{what}: ONNX export covers MLP and modular attention actors; a '{}' actor is not supported yet",
+            "{what}: ONNX export covers MLP and modular attention actors; a '{}' actor is not \
+                supported yet",
             p.family.name()
         )));
     }
@@ -127,7 +128,10 @@ fn normalizer_meta(p: &Policy) -> Normalizer {
         in_graph: p.normalize_input,
         eps: p.obs_norm.eps,
         clip: p.obs_norm.clip,
-        formula: "x_n = clamp((obs - mean) * inv_std, -clip, clip) in float32; mean = float32(obs_norm.mean), inv_std = float32(1 / sqrt(obs_norm.var + eps)) computed in float64".to_string(),
+        formula: "x_n = clamp((obs - mean) * inv_std, -clip, clip) in float32; mean = \
+            float32(obs_norm.mean), inv_std = float32(1 / sqrt(obs_norm.var + eps)) computed in \
+            float64"
+            .to_string(),
     }
 }
 
@@ -194,7 +198,8 @@ pub fn policy_model(p: &Policy, mut meta: DeployMeta) -> Result<Exported, LearnE
         }
         other => {
             return Err(LearnError::Config(format!(
-                "ONNX export supports the gaussian_mlp, modular_attention and categorical_mlp families, not '{other}'"
+                "ONNX export supports the gaussian_mlp, modular_attention and categorical_mlp \
+                    families, not '{other}'"
             )));
         }
     }
@@ -224,7 +229,8 @@ pub fn fused_model(
         || skill.obs_dim() != layout::OBS_DIM
     {
         return Err(LearnError::Config(format!(
-            "{}: the skill policy of a fused graph must be a gaussian_mlp or modular_attention policy with {} observations, not a '{}' one with {}",
+            "{}: the skill policy of a fused graph must be a gaussian_mlp or modular_attention \
+                policy with {} observations, not a '{}' one with {}",
             skill_source.file,
             layout::OBS_DIM,
             skill.family.name(),
@@ -233,7 +239,8 @@ pub fn fused_model(
     }
     if meta.choices.len() != hl.actor.output_dim() || hl.obs_dim() < layout::STATE_DIM {
         return Err(LearnError::Config(format!(
-            "{}: a high-level policy of task '{}' with {} choices and {} observations; the task has {} choices over {}+ observations",
+            "{}: a high-level policy of task '{}' with {} choices and {} observations; the task \
+                has {} choices over {}+ observations",
             meta.source.file,
             meta.task,
             hl.actor.output_dim(),

@@ -40,7 +40,12 @@ pub use skillmimic_nn::modular::ModularSpec;
 
 /// Bodies of each part of a split (`five` / `seven`; `skillmimic_core::characters::skillmimic::body_parts`).
 pub fn part_bodies(split: &str) -> Result<Vec<(&'static str, Vec<usize>)>, LearnError> {
-    skillmimic_core::characters::skillmimic::body_parts(split).ok_or_else(|| LearnError::Config(format!("config field 'ppo.modular.parts': '{split}' is not a body split, expected \"five\" or \"seven\"")))
+    skillmimic_core::characters::skillmimic::body_parts(split).ok_or_else(|| {
+        LearnError::Config(format!(
+            "config field \
+        'ppo.modular.parts': '{split}' is not a body split, expected \"five\" or \"seven\""
+        ))
+    })
 }
 
 /// Observation columns of body `b`'s own blocks (see the module doc).
@@ -71,7 +76,8 @@ pub fn shared_columns(obs_dim: usize) -> Vec<usize> {
 pub fn spec(cfg: &ModularConfig, obs_dim: usize) -> Result<ModularSpec, LearnError> {
     if obs_dim < layout::HUMANOID_DIM {
         return Err(LearnError::Config(format!(
-            "ppo.policy = \"modular_attention\" needs an observation that starts with the {} humanoid entries; this task's has {obs_dim}",
+            "ppo.policy = \"modular_attention\" needs an observation that starts with the {} \
+                humanoid entries; this task's has {obs_dim}",
             layout::HUMANOID_DIM
         )));
     }

@@ -49,7 +49,12 @@ pub fn spec(
 ) -> Result<TokenSpec, LearnError> {
     let (groups, mask) = cfg.parsed_groups().map_err(LearnError::Config)?;
     if groups.is_empty() {
-        return Err(LearnError::Config("config field 'ppo.token.groups' is empty and the task declares no observation groups: set it to \"name:width\" entries (proprioception first, \"mask:K\" last)".into()));
+        return Err(LearnError::Config(
+            "config field 'ppo.token.groups' is empty and the task \
+            declares no observation groups: set it to \"name:width\" entries (proprioception \
+            first, \"mask:K\" last)"
+                .into(),
+        ));
     }
     let s = TokenSpec {
         groups,
@@ -68,7 +73,8 @@ pub fn spec(
     s.check().map_err(|e| LearnError::Config(format!("config field 'ppo.token': {e}")))?;
     if s.obs_dim() != obs_dim {
         return Err(LearnError::Config(format!(
-            "config field 'ppo.token.groups': the groups {:?} and mask {} cover {} observation columns, the task's observation has {obs_dim}",
+            "config field 'ppo.token.groups': the groups {:?} and mask {} cover {} observation \
+                columns, the task's observation has {obs_dim}",
             cfg.groups,
             s.mask,
             s.obs_dim()

@@ -128,7 +128,8 @@ fn check(cfg: &TrainConfig) -> Result<(), LearnError> {
             );
         } else if cfg.ppo.backend != crate::config::Backend::Fast {
             tracing::warn!(
-                "ppo.precision = \"bf16\" applies to the fast backend only; the candle backend runs in float32"
+                "ppo.precision = \"bf16\" applies to the fast backend only; the candle backend \
+                    runs in float32"
             );
         }
     }
@@ -186,7 +187,11 @@ fn resumed_state(
 ) -> Result<(Policy, Adam, Progress), LearnError> {
     let c = checkpoint::load(path, Some(dims))?;
     let mut adam = c.adam.ok_or_else(|| {
-        bad_checkpoint(path)(format!("{}: a policy-only (exported) checkpoint cannot resume training; use a training checkpoint", path.display()))
+        bad_checkpoint(path)(format!(
+            "{}: a policy-only (exported) checkpoint cannot resume \
+            training; use a training checkpoint",
+            path.display()
+        ))
     })?;
     let hidden = &c.policy.critic.dims[1..c.policy.critic.dims.len() - 1];
     if hidden != cfg.ppo.hidden.as_slice() {

@@ -55,7 +55,8 @@ pub struct HlcConfig {
 
 impl crate::config_table::TaskConfig for HlcConfig {
     const KEY: &'static str = "hlc";
-    const DOC: &'static str = "Options shared by the high-level tasks (heading, circling, throwing, scoring, steering, reach).";
+    const DOC: &'static str = "Options shared by the high-level tasks (heading, circling, \
+        throwing, scoring, steering, reach).";
 }
 
 impl Default for HlcConfig {
@@ -382,7 +383,8 @@ impl HlcConfig {
         if self.llc.as_os_str().is_empty() {
             return Err(bad(
                 "env.hlc.llc",
-                "no skill policy given: pass the checkpoint of a skill policy with --llc (or set env.hlc.llc)",
+                "no skill policy given: pass the checkpoint of a skill policy with --llc (or set \
+                    env.hlc.llc)",
             ));
         }
         Ok(())

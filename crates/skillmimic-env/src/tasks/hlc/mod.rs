@@ -206,7 +206,10 @@ impl<R: Rule> HighLevel<R> {
         };
         if obs_dim != layout::OBS_DIM || act_dim != NUM_DOFS {
             let msg = format!(
-                "{}: a skill policy for observations of {} and actions of {}; the high-level tasks drive a SkillMimic skill policy with observation {} and {NUM_DOFS} actions (SkillMimic-V2 policies with a history embedding are not supported here)",
+                "{}: a skill policy for observations of {} and actions of {}; the high-level \
+                    tasks drive a SkillMimic skill policy with observation {} and {NUM_DOFS} \
+                    actions (SkillMimic-V2 policies with a history embedding are not supported \
+                    here)",
                 h.llc.display(),
                 obs_dim,
                 act_dim,
@@ -222,7 +225,8 @@ impl<R: Rule> HighLevel<R> {
             && hands != cfg.hands
         {
             let msg = format!(
-                "the skill policy {} was trained with hands = \"{hands}\"; set env.hands = \"{hands}\" (--set env.hands={hands})",
+                "the skill policy {} was trained with hands = \"{hands}\"; set env.hands = \
+                    \"{hands}\" (--set env.hands={hands})",
                 h.llc.display()
             );
             return Err(bad("env.hands", msg).into());

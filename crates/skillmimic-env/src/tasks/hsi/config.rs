@@ -36,7 +36,8 @@ pub struct HsiConfig {
 
 impl crate::config_table::TaskConfig for HsiConfig {
     const KEY: &'static str = "hsi";
-    const DOC: &'static str = "Options of the TokenHSI tasks (`hsi_follow`, `hsi_sit`, `hsi_climb`, `hsi_carry` and their compositions).";
+    const DOC: &'static str = "Options of the TokenHSI tasks (`hsi_follow`, `hsi_sit`, \
+        `hsi_climb`, `hsi_carry` and their compositions).";
 }
 
 impl Default for HsiConfig {

@@ -170,7 +170,15 @@ impl MultiEnv {
                 || s.steps_per_action != first.steps_per_action
                 || s.choice_labels != first.choice_labels
             {
-                return Err(bad("env.multi.tasks", format!("'{}' and '{}' do not share the observed character part, the action space or the choice table", first.name, s.name)).into());
+                return Err(bad(
+                    "env.multi.tasks",
+                    format!(
+                        "'{}' and '{}' do not share the \
+                    observed character part, the action space or the choice table",
+                        first.name, s.name
+                    ),
+                )
+                .into());
             }
             for g in &s.token_groups[1..] {
                 if !groups.iter().any(|x| x.0 == g.0) {

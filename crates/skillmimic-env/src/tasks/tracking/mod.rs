@@ -59,7 +59,8 @@ pub fn episode_starts(cfg: &mut EnvConfig, s: crate::task::EpisodeStarts) -> Res
             Ok(())
         }
         (None, Some(f)) => Err(format!(
-            "--start-frame {f}: the tracking task evaluates from frame 0 (--start-frame 0, whole clips) or from random frames (no flag)"
+            "--start-frame {f}: the tracking task evaluates from frame 0 (--start-frame 0, whole \
+                clips) or from random frames (no flag)"
         )),
         (Some(h), _) => {
             Err(format!("--horizon {h}: tracking episodes run to the end of their clip"))
