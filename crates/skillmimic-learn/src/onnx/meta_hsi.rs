@@ -1,8 +1,8 @@
 //! Deployment metadata of a policy of a TokenHSI task
-//! ([`skillmimic_core::characters::tokenhsi::CHARACTER`]): the 32-DoF TokenHSI character replaces the
-//! SkillMimic humanoid in every character-specific field of [`DeployMeta`] — joint order, the action → PD target map with its
-//! per-entry offset and scale, gains and torque limits per joint, and the time steps (1/120 s
-//! physics, 4 steps per 30 Hz action).
+//! ([`skillmimic_core::characters::tokenhsi::CHARACTER`]): the 32-DoF TokenHSI character replaces
+//! the SkillMimic humanoid in every character-specific field of [`DeployMeta`] — joint order, the
+//! action → PD target map with its per-entry offset and scale, gains and torque limits per joint,
+//! and the time steps (1/120 s physics, 4 steps per 30 Hz action).
 
 use skillmimic_core::characters::tokenhsi::{BODIES, JointSpec, action_offset_scale};
 
