@@ -52,9 +52,9 @@ pub fn describe_tokenhsi(m: &mut DeployMeta) {
     m.welded_joints = Vec::new();
     // the largest per-joint limit (each joint's own is in pd_gains)
     m.force_limit_nm = m.pd_gains.iter().filter_map(|g| g.force_limit_nm).fold(0.0, f64::max);
-    m.sim_dt = skillmimic_core::characters::tokenhsi::spec().timestep;
-    m.substeps = skillmimic_core::characters::tokenhsi::spec().substeps;
-    m.control_dt = skillmimic_core::characters::tokenhsi::spec().timestep
-        * skillmimic_core::characters::tokenhsi::spec().substeps as f64;
+    let spec = skillmimic_core::characters::tokenhsi::spec();
+    m.sim_dt = spec.timestep;
+    m.substeps = spec.substeps;
+    m.control_dt = spec.timestep * spec.substeps as f64;
     m.skill_labels.clear();
 }
