@@ -83,25 +83,78 @@ def test_the_character_matches_the_facts(trace):
     assert m.nu == 32 and sum(j[2] for j in JOINTS) == 32
     balls = [j for j in range(m.njnt) if m.jnt_type[j] == mujoco.mjtJoint.mjJNT_BALL]
     hinges = [j for j in range(m.njnt) if m.jnt_type[j] == mujoco.mjtJoint.mjJNT_HINGE]
-    assert len(balls) == 10 and len(hinges) == 2
+    assert len(balls) == 0 and len(hinges) == 32, "3-DoF joints are three limited hinges, as released"
     for body, off in LOWER_BODY_OFFSETS.items():
         np.testing.assert_allclose(m.body(body).pos, off, atol=1e-12)
     for body, joint, dofs, lims, kp, kd, effort in JOINTS:
-        j = m.joint(joint)
-        assert m.jnt_bodyid[j.id] == m.body(body).id
-        assert m.jnt_stiffness[j.id] == 0.0, "gains are actuators, not springs"
-        np.testing.assert_allclose(m.dof_damping[j.dofadr[0]:j.dofadr[0] + dofs], kd)
-        acts = [f"{joint}_{a}" for a in "xyz"] if dofs == 3 else [joint]
-        for a in acts:
-            act = m.actuator(a)
+        names = [f"{joint}_{a}" for a in "xyz"] if dofs == 3 else [joint]
+        for a, (name, lim) in enumerate(zip(names, lims)):
+            j = m.joint(name)
+            assert m.jnt_bodyid[j.id] == m.body(body).id
+            assert m.jnt_stiffness[j.id] == 0.0, "gains are actuators, not springs"
+            assert m.jnt_limited[j.id], f"{name} is limited"
+            np.testing.assert_allclose(m.jnt_range[j.id], np.radians(lim), atol=1e-12, err_msg=name)
+            axis = np.zeros(3)
+            axis[a if dofs == 3 else 1] = 1.0
+            np.testing.assert_allclose(m.jnt_axis[j.id], axis, err_msg=name)
+            np.testing.assert_allclose(m.dof_damping[j.dofadr[0]], kd)
+            act = m.actuator(name)
             assert act.gainprm[0] == kp and act.biasprm[1] == -kp
             np.testing.assert_allclose(act.forcerange, [-effort, effort])
-        if dofs == 1:
-            np.testing.assert_allclose(m.jnt_range[j.id], np.radians(lims[0]), atol=1e-12)
     assert abs(m.opt.timestep - 1 / 120) < 1e-15 and meta["substeps"] == "4", "30 Hz control over a 1/120 s step"
     mass = sum(m.body_mass[m.body(b).id] for b in BODIES)
     print(f"character mass {mass:.2f} kg")
     assert 50.0 < mass < 80.0
+
+
+ASSET = pathlib.Path(__file__).parent / "fixtures" / "tokenhsi_box_foot_asset.json"
+
+
+def test_the_character_matches_the_released_asset(trace):
+    """Per-axis joint ranges, per-body masses and the foot boxes against the released
+    phys_humanoid_v3_box_foot.xml as PyPI mujoco compiles it (tests/fixtures, see its note)."""
+    import json
+
+    ref = json.loads(ASSET.read_text())
+    meta, _ = trace
+    m = mujoco.MjModel.from_xml_string(meta["xml"])
+    for b in ref["bodies"]:
+        body = m.body(b["name"])
+        assert m.body(m.body_parentid[body.id]).name == (b["parent"] if b["parent"] != "world" else "world")
+        if b["name"] != "pelvis":
+            np.testing.assert_allclose(body.pos, b["pos"], atol=1e-12, err_msg=b["name"])
+        np.testing.assert_allclose(m.body_mass[body.id], b["mass"], rtol=1e-9, err_msg=b["name"])
+    mass = sum(m.body_mass[m.body(b["name"]).id] for b in ref["bodies"])
+    np.testing.assert_allclose(mass, ref["total_mass"], rtol=1e-9)
+    for j in ref["joints"]:
+        jj = m.joint(j["name"])
+        assert m.body(m.jnt_bodyid[jj.id]).name == j["body"]
+        np.testing.assert_allclose(m.jnt_axis[jj.id], j["axis"])
+        np.testing.assert_allclose(np.degrees(m.jnt_range[jj.id]), j["range_deg"], atol=1e-9, err_msg=j["name"])
+        np.testing.assert_allclose(m.dof_armature[jj.dofadr[0]], j["armature"])
+        # the released stiffness/damping are Isaac Gym's PD gains: our position actuator and damping
+        assert m.actuator(j["name"]).gainprm[0] == j["stiffness"]
+        np.testing.assert_allclose(m.dof_damping[jj.dofadr[0]], j["damping"])
+    for a in ref["actuators"]:
+        # the released motor gear is the torque limit of the PD drive
+        np.testing.assert_allclose(m.actuator(a["joint"]).forcerange, [-a["gear"], a["gear"]])
+    for g in ref["foot_geoms"]:
+        geom = m.geom(g["name"])
+        assert m.body(m.geom_bodyid[geom.id]).name == g["body"] and geom.type == mujoco.mjtGeom.mjGEOM_BOX
+        np.testing.assert_allclose(geom.size, g["size"], atol=1e-12)
+        np.testing.assert_allclose(geom.pos, g["pos"], atol=1e-12)
+        q = np.array(g["quat_wxyz"]) / np.linalg.norm(g["quat_wxyz"])
+        np.testing.assert_allclose(geom.quat, q, atol=1e-12)
+    feet = [m.geom(g).id for g in range(m.ngeom) if m.body(m.geom_bodyid[g]).name in ("left_foot", "right_foot")]
+    assert len(feet) == 2, "one box per foot (the released box-foot variant), no toe boxes"
+    # rest pose: pelvis at the released spawn height, lowest foot corner at the floor
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    pelvis = d.xpos[m.body("pelvis").id][2]
+    np.testing.assert_allclose(pelvis, ref["released_spawn_height"], atol=1e-12)
+    signs = [np.array(c) * 2.0 - 1.0 for c in np.ndindex(2, 2, 2)]  # the eight box corners
+    lowest = min((d.geom_xpos[g] + d.geom_xmat[g].reshape(3, 3) @ (s * m.geom_size[g]))[2] for g in feet for s in signs)
+    np.testing.assert_allclose(pelvis - lowest, ref["standing_root_height"], atol=1e-9)
 
 
 def test_rust_batch_and_pypi_mujoco_step_bit_identically(trace):

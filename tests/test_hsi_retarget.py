@@ -6,7 +6,7 @@ kinematics — and measured as a user checks a retarget before training on it:
 * feet on the floor: the lowest foot-box point over the source's stance frames (m), and no frame
   sinks into the floor;
 * bone directions (thigh, shin, upper arm, forearm, spine) follow the source skeleton's;
-* joint-limit violations recomputed from the written joint coordinates equal the report's.
+* the written joint coordinates lie inside every hinge's range (the report counts the clamps).
 """
 
 from __future__ import annotations
@@ -46,17 +46,14 @@ def _read(path):
 
 
 def _qpos(m, clip, t):
-    """MuJoCo qpos of frame t: free root, ball joints from rotation vectors, elbow hinges."""
+    """MuJoCo qpos of frame t: free root, the 3-DoF joints' hinges (x, y, z), elbow hinges."""
     q = np.zeros(m.nq)
     q[0:3], q[3:7] = clip["root_pos"][t], clip["root_rot"][t]
     k = 0
     for _, joint, dofs, *_ in JOINTS:
-        adr = m.jnt_qposadr[m.joint(joint).id]
-        v = clip["dof_pos"][t, k:k + dofs]
-        if dofs == 3:
-            q[adr:adr + 4] = ref.rotvec_to_quat(v[None])[0]
-        else:
-            q[adr] = v[0]
+        names = [f"{joint}_{a}" for a in "xyz"] if dofs == 3 else [joint]
+        for a, name in enumerate(names):
+            q[m.jnt_qposadr[m.joint(name).id]] = clip["dof_pos"][t, k + a]
         k += dofs
     return q
 
@@ -138,7 +135,8 @@ def test_retargeted_ballplay_clips_replay_with_feet_on_the_floor(shared_dir, tmp
         assert soles.min() > -0.03, "no frame sinks a foot into the floor"
         assert max(bone.values()) < 15.0, bone
         assert np.mean(list(bone.values())) < 8.0, bone
-        assert axes == rep["limit_violations"] and elbows == 0, (axes, elbows, rep)
+        # the written coordinates are clamped into the hinge ranges (the report counts the clamps)
+        assert axes == 0 and elbows == 0, (axes, elbows, rep)
         assert rep["stance_frames"] == int(stance.sum())
     env.close()
 

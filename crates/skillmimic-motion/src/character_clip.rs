@@ -8,7 +8,7 @@
 //! | `dof_pos` | F32 | (T, dofs) | the character's dof vector: rotation vectors (rad) of ball joints relative to the parent, hinge angles (three hinges x, y, z: intrinsic x-y-z angles) |
 //! | `body_pos` | F32 | (T, bodies, 3) | world positions of the body frames, m |
 //!
-//! Metadata: `format = "character-clip"`, `format_version = "1"`, `character` (the registry name:
+//! Metadata: `format = "character-clip"`, `format_version = "2"`, `character` (the registry name:
 //! `tokenhsi`, `smpl`, …), `fps` (> 0), `name`, `source`. Files written before the characters
 //! shared one stack (`format = "tokenhsi-clip"`, no `character`) load as TokenHSI clips. Bring your
 //! own motions (AMASS, SAMP, OMOMO retargets) by filling these arrays for the character's bodies;
@@ -27,6 +27,10 @@ use crate::error::ClipError;
 pub const FORMAT_NAME: &str = "character-clip";
 /// The format of TokenHSI clips written before `character-clip` (read as `character = tokenhsi`).
 pub const LEGACY_TOKENHSI_FORMAT: &str = "tokenhsi-clip";
+/// Version written. Version 1 TokenHSI clips (and `tokenhsi-clip` files) stored each 3-DoF
+/// joint as a rotation vector (the character's ball joints of that time); they load converted
+/// into the three hinge angles (intrinsic x-y-z) of the character's joints since version 2.
+pub const FORMAT_VERSION: u32 = 2;
 
 /// A clip of one character (arrays float32, frame-major).
 #[derive(Clone, Debug, PartialEq)]
@@ -109,7 +113,7 @@ impl CharacterClip {
         let t = self.num_frames;
         let mut meta = BTreeMap::new();
         meta.insert("format".into(), FORMAT_NAME.into());
-        meta.insert("format_version".into(), "1".into());
+        meta.insert("format_version".into(), FORMAT_VERSION.to_string());
         meta.insert("character".into(), self.character.clone());
         meta.insert("fps".into(), self.fps.to_string());
         meta.insert("name".into(), self.name.clone());
@@ -130,6 +134,18 @@ impl CharacterClip {
         let bad = |detail: String| ClipError::Format { path: path.to_path_buf(), detail };
         let f = TensorFile::open(path).map_err(|e| bad(e.to_string()))?;
         let meta = f.metadata();
+        let version: u32 = match meta.get("format_version") {
+            None => 1,
+            Some(v) => v.parse().ok().filter(|&v| v >= 1).ok_or_else(|| {
+                bad(format!("metadata 'format_version' is \"{v}\", expected 1 or 2"))
+            })?,
+        };
+        if version > FORMAT_VERSION {
+            return Err(bad(format!(
+                "metadata 'format_version' is {version}, newer than this build supports \
+                    ({FORMAT_VERSION})"
+            )));
+        }
         let character = match meta.get("format").map(String::as_str) {
             Some(FORMAT_NAME) => meta
                 .get("character")
@@ -169,7 +185,10 @@ impl CharacterClip {
         let (nd, nb) = (spec.num_dofs, spec.bodies.len());
         let (t, root_pos) = read("root_pos", &[3])?;
         let (t2, root_rot) = read("root_rot", &[4])?;
-        let (t3, dof_pos) = read("dof_pos", &[nd])?;
+        let (t3, mut dof_pos) = read("dof_pos", &[nd])?;
+        if character == "tokenhsi" && version < 2 {
+            rotation_vectors_to_hinges(&spec, &mut dof_pos);
+        }
         let (t4, body_pos) = read("body_pos", &[nb, 3])?;
         if t < 2 || [t2, t3, t4].iter().any(|&x| x != t) {
             return Err(bad(format!(
@@ -199,5 +218,78 @@ impl CharacterClip {
             dof_pos,
             body_pos,
         })
+    }
+}
+
+/// Rewrite, frame by frame, every 3-hinge joint's three entries of `dof` from a rotation vector
+/// into the hinges' intrinsic x-y-z angles (version 1 TokenHSI clips).
+fn rotation_vectors_to_hinges(spec: &CharacterSpec, dof: &mut [f32]) {
+    let nd = spec.num_dofs;
+    for frame in dof.chunks_exact_mut(nd) {
+        for body in &spec.bodies {
+            if let skillmimic_core::characters::JointDef::Hinges { hinges, .. } = &body.joint
+                && hinges.len() == 3
+            {
+                let k = body.dofs.start;
+                let v = [frame[k] as f64, frame[k + 1] as f64, frame[k + 2] as f64];
+                let a = skillmimic_core::characters::intrinsic_xyz(Quat::from_rotvec(v));
+                for i in 0..3 {
+                    frame[k + i] = a[i] as f32;
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use skillmimic_core::characters::tokenhsi;
+
+    /// A TokenHSI clip of format version 1 (rotation vectors) loads as the hinge angles that give
+    /// the same joint rotations; a version-2 file round-trips unchanged.
+    #[test]
+    fn version_1_tokenhsi_clips_load_as_hinge_angles() {
+        let spec = tokenhsi::spec();
+        let dir = std::env::temp_dir().join(format!("clip_v1_{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let mut dof = vec![0.0f64; spec.num_dofs];
+        dof[14..17].copy_from_slice(&[0.3, -0.8, 0.2]); // right hip as a rotation vector
+        dof[17..20].copy_from_slice(&[0.02, 1.1, -0.05]); // right knee
+        let frames = vec![([0.0, 0.0, 0.94], Quat::IDENTITY, dof.clone()); 2];
+        let clip = CharacterClip::from_frames(&spec, "v1", "test", 30.0, &frames);
+        let path = dir.join("v1.safetensors");
+        clip.save(&path).unwrap();
+        assert_eq!(
+            CharacterClip::load(&path).unwrap().dof_pos,
+            clip.dof_pos,
+            "version 2 round trip"
+        );
+        // the same arrays written as version 1
+        let t = clip.num_frames;
+        let mut meta = BTreeMap::new();
+        for (k, v) in [("format", FORMAT_NAME), ("format_version", "1"), ("character", "tokenhsi")]
+        {
+            meta.insert(k.to_string(), v.to_string());
+        }
+        meta.insert("fps".into(), "30".into());
+        let tensors = [
+            OwnedTensor::f32("root_pos", &[t, 3], &clip.root_pos),
+            OwnedTensor::f32("root_rot", &[t, 4], &clip.root_rot),
+            OwnedTensor::f32("dof_pos", &[t, clip.num_dofs], &clip.dof_pos),
+            OwnedTensor::f32("body_pos", &[t, clip.num_bodies, 3], &clip.body_pos),
+        ];
+        write_atomic(&path, &tensors, &meta).unwrap();
+        let loaded = CharacterClip::load(&path).unwrap();
+        for b in [9usize, 10] {
+            let k = spec.bodies[b].dofs.start;
+            let want = Quat::from_rotvec([dof[k], dof[k + 1], dof[k + 2]]);
+            let got: Vec<f64> = loaded.dof_at(1).iter().map(|&x| x as f64).collect();
+            let q = spec.local_rotation(b, &got);
+            let d = q.conj().mul(want).normalized().to_rotvec();
+            assert!(d.iter().all(|x| x.abs() < 1e-5), "body {b}: {d:?}");
+            assert!((got[k] - dof[k]).abs() > 1e-4, "converted, not copied");
+        }
+        std::fs::remove_dir_all(&dir).ok();
     }
 }

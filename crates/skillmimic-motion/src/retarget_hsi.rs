@@ -14,8 +14,9 @@
 //! 3. Elbows: the source's are 3-DoF, the character's bend about y only. Each upper arm is
 //!    twisted about its own axis so that the source forearm lies in the hinge plane, and the hinge
 //!    angle points the forearm along the source's ([`fit_elbow_hinge`]), clamped to [−160°, 0°].
-//! 4. Local rotations `G_t(parent)⁻¹ · G_t(b)`: rotation vectors for the 3-DoF joints, hinge
-//!    angles for the elbows.
+//! 4. Local rotations `G_t(parent)⁻¹ · G_t(b)`: intrinsic x-y-z hinge angles for the 3-DoF
+//!    joints (three nested hinges), hinge angles for the elbows, each clamped into its joint's
+//!    range (a hinge limit is a hard stop in the simulation; the report counts the clamps).
 //! 5. Root position: the source pelvis scaled by the leg-length ratio (character hip→ankle /
 //!    source hip→ankle), then lifted per frame so that the lowest foot-sole point touches the
 //!    floor in the source's stance frames (its lowest foot within 3 cm of the clip's 10th
@@ -26,8 +27,8 @@
 
 use serde::Serialize;
 use skillmimic_core::characters::skillmimic as skeleton;
-use skillmimic_core::characters::tokenhsi::{self as hsi, BODIES, JointSpec, NUM_BODIES, NUM_DOFS};
-use skillmimic_core::math::{Quat, add, norm};
+use skillmimic_core::characters::tokenhsi::{self as hsi, BODIES, JointSpec, NUM_DOFS};
+use skillmimic_core::math::{Quat, norm};
 
 use crate::character_clip::CharacterClip;
 use crate::clip::Clip;
@@ -66,9 +67,8 @@ pub struct RetargetReport {
     pub foot_height_error_max: f64,
     /// Stance frames counted.
     pub stance_frames: usize,
-    /// Axes of the 3-DoF joints whose rotation-vector component lies beyond the character's
-    /// per-axis limit, summed over frames (written as they are: the PD targets of a policy can
-    /// reach up to 1.2 × the largest limit, so they are not clamped).
+    /// Hinges of the 3-DoF joints whose angle lies beyond the character's per-axis limit, summed
+    /// over frames, clamped into the range in the written clip.
     pub limit_violations: usize,
     /// Elbow angles beyond [−160°, 0°] (summed over frames and both elbows), clamped into it in
     /// the written clip (a hinge's limit is a hard stop in the simulation).
@@ -89,28 +89,24 @@ fn leg_length_target() -> f64 {
     norm(BODIES[13].offset) + norm(BODIES[14].offset)
 }
 
-/// World positions and orientations of the 15 bodies for a root pose and 32 joint coordinates.
-fn hsi_forward_kinematics(
-    root_pos: [f64; 3],
-    root_quat: Quat,
-    dof: &[f64],
-) -> ([[f64; 3]; NUM_BODIES], [Quat; NUM_BODIES]) {
-    let mut pos = [[0.0; 3]; NUM_BODIES];
-    let mut rot = [root_quat; NUM_BODIES];
-    pos[0] = root_pos;
-    let mut k = 0;
-    for b in 1..NUM_BODIES {
-        let p = BODIES[b].parent.expect("non-root bodies have a parent");
-        let local = match BODIES[b].joint {
-            JointSpec::Ball { .. } => Quat::from_rotvec([dof[k], dof[k + 1], dof[k + 2]]),
-            JointSpec::HingeY { .. } => Quat::from_rotvec([0.0, dof[k], 0.0]),
-            _ => Quat::IDENTITY,
-        };
-        k += BODIES[b].joint.dofs();
-        pos[b] = add(pos[p], rot[p].rotate(BODIES[b].offset));
-        rot[b] = rot[p].mul(local);
-    }
-    (pos, rot)
+/// The hinge angles (x, y, z) of the local rotation `q` that lie closest to the joint's ranges
+/// (degrees): a rotation has two intrinsic x-y-z decompositions, (a, b, c) and
+/// (a + π, π − b, c + π); the shoulders' and hips' y ranges reach beyond ±90°, where the second
+/// one is the one inside the limits.
+fn within_limits(q: Quat, range_deg: [[f64; 2]; 3]) -> [f64; 3] {
+    use skillmimic_core::math::wrap_angle;
+    let [a, b, c] = skillmimic_core::characters::intrinsic_xyz(q);
+    let pi = std::f64::consts::PI;
+    let other = [wrap_angle(a + pi), wrap_angle(pi - b), wrap_angle(c + pi)];
+    let excess = |v: &[f64; 3]| -> f64 {
+        (0..3)
+            .map(|k| {
+                let (lo, hi) = (range_deg[k][0].to_radians(), range_deg[k][1].to_radians());
+                (lo - v[k]).max(v[k] - hi).max(0.0)
+            })
+            .sum()
+    };
+    if excess(&other) < excess(&[a, b, c]) { other } else { [a, b, c] }
 }
 
 /// Retarget `clip` (SkillMimic skeleton) onto the TokenHSI character.
@@ -195,8 +191,8 @@ pub fn retarget_to_hsi(clip: &Clip) -> (CharacterClip, RetargetReport) {
                 local = local.neg();
             }
             match BODIES[b].joint {
-                JointSpec::Ball { range_deg, .. } => {
-                    let v = local.to_rotvec();
+                JointSpec::Triple { range_deg, .. } => {
+                    let v = within_limits(local, range_deg);
                     for a in 0..3 {
                         let (lo, hi) = (range_deg[a][0].to_radians(), range_deg[a][1].to_radians());
                         let excess = (lo - v[a]).max(v[a] - hi);
@@ -205,7 +201,7 @@ pub fn retarget_to_hsi(clip: &Clip) -> (CharacterClip, RetargetReport) {
                             rep.max_violation = rep.max_violation.max(excess);
                             bad_here = true;
                         }
-                        q[k + a] = v[a];
+                        q[k + a] = v[a].clamp(lo, hi);
                     }
                 }
                 JointSpec::HingeY { range_deg: [lo, hi], .. } => {
@@ -227,7 +223,7 @@ pub fn retarget_to_hsi(clip: &Clip) -> (CharacterClip, RetargetReport) {
         frames_bad += usize::from(bad_here);
         let src_root = clip.root_pos_at(t);
         let root = [scale * src_root[0], scale * src_root[1], scale * src_root[2]];
-        let (pos, rot) = hsi_forward_kinematics(root, gt[0], &q);
+        let (pos, rot) = character.forward_kinematics(root, gt[0], &q);
         soles.push(character.lowest_foot_box(&pos, &rot));
         roots.push((root, gt[0], q));
         src_feet.push(
@@ -249,7 +245,7 @@ pub fn retarget_to_hsi(clip: &Clip) -> (CharacterClip, RetargetReport) {
     let (mut sum, mut n) = (0.0, 0usize);
     for (t, (root, quat, q)) in roots.into_iter().enumerate() {
         let root = [root[0], root[1], root[2] + lift[t]];
-        let (pos, _) = hsi_forward_kinematics(root, quat, &q);
+        let (pos, _) = character.forward_kinematics(root, quat, &q);
         out.root_pos.extend(root.iter().map(|&x| x as f32));
         out.root_rot.extend(quat.to_wxyz().iter().map(|&x| x as f32));
         out.dof_pos.extend(q.iter().map(|&x| x as f32));

@@ -77,11 +77,18 @@ fn geom_xml(g: &GeomSpec) -> String {
             v3(from),
             v3(to)
         ),
-        GeomSpec::Box { half_extents, center, density } => format!(
-            "type=\"box\" size=\"{}\" pos=\"{}\" density=\"{density}\"",
-            v3(half_extents),
-            v3(center)
-        ),
+        GeomSpec::Box { half_extents, center, quat, density } => {
+            let turn = if quat == skillmimic_core::characters::IDENTITY_WXYZ {
+                String::new()
+            } else {
+                format!(" quat=\"{} {} {} {}\"", quat[0], quat[1], quat[2], quat[3])
+            };
+            format!(
+                "type=\"box\" size=\"{}\" pos=\"{}\"{turn} density=\"{density}\"",
+                v3(half_extents),
+                v3(center)
+            )
+        }
     }
 }
 
@@ -399,8 +406,10 @@ mod tests {
         assert_eq!(boxed.matches("<position ").count(), 66);
         assert_eq!(boxed.matches("type=\"ball\"").count(), 23);
         let hsi = scene_xml(&SceneOptions::bare(tokenhsi::CHARACTER));
-        assert_eq!(hsi.matches("type=\"ball\"").count(), 10);
-        assert_eq!(hsi.matches("type=\"hinge\"").count(), 2);
+        // ten 3-DoF joints as three limited hinges each, plus the elbows
+        assert_eq!(hsi.matches("type=\"ball\"").count(), 0);
+        assert_eq!(hsi.matches("type=\"hinge\"").count(), 32);
+        assert_eq!(hsi.matches(" range=\"").count(), 32);
         assert_eq!(hsi.matches("<position ").count(), 32);
         let smpl = scene_xml(&SceneOptions::bare(smpl::CHARACTER));
         assert_eq!(smpl.matches("type=\"hinge\"").count(), 69);

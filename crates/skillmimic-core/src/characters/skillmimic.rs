@@ -14,8 +14,8 @@
 
 use super::entry::{Character, CharacterEntry};
 use super::spec::{
-    ActionMap, BodyDef, BodyPart, CharacterSpec, Drive, GeomDef, GeomSpec, HandModel, JointDef,
-    Proprioception,
+    ActionMap, BodyDef, BodyPart, CharacterSpec, Drive, GeomDef, GeomSpec, HandModel,
+    IDENTITY_WXYZ, JointDef, Proprioception,
 };
 
 /// Number of rigid bodies of the humanoid (root included).
@@ -205,10 +205,10 @@ pub const BODIES: [BodySpec; NUM_BODIES] = [
         group: JointGroup::HipKnee, geom: GeomSpec::Capsule { radius: 0.0533, density: 1234.567901,
             from: [0.0, -0.1, 0.0], to: [0.0, -0.364385, -0.0256003] } },
     BodySpec { name: "L_Ankle", parent: Some(2), offset: [0.0, -0.364385, -0.0256003],
-        group: JointGroup::Ankle, geom: GeomSpec::Box { density: 1000.0,
+        group: JointGroup::Ankle, geom: GeomSpec::Box { density: 1000.0, quat: IDENTITY_WXYZ,
             half_extents: [0.0498, 0.0464, 0.0857], center: [0.0, -0.07, 0.0142] } },
     BodySpec { name: "L_Toe", parent: Some(3), offset: [0.0, -0.0986496, 0.156582],
-        group: JointGroup::Toe, geom: GeomSpec::Box { density: 1000.0,
+        group: JointGroup::Toe, geom: GeomSpec::Box { density: 1000.0, quat: IDENTITY_WXYZ,
             half_extents: [0.0478, 0.02, 0.0495], center: [0.0, 0.0, 0.0] } },
     BodySpec { name: "R_Hip", parent: Some(0), offset: [-0.109716, -0.0365719, 0.0],
         group: JointGroup::HipKnee, geom: GeomSpec::Capsule { radius: 0.0598, density: 2040.816327,
@@ -217,10 +217,10 @@ pub const BODIES: [BodySpec; NUM_BODIES] = [
         group: JointGroup::HipKnee, geom: GeomSpec::Capsule { radius: 0.0551, density: 1234.567901,
             from: [0.0, -0.1, 0.0], to: [0.0, -0.364385, -0.0256003] } },
     BodySpec { name: "R_Ankle", parent: Some(6), offset: [0.0, -0.364385, -0.0256003],
-        group: JointGroup::Ankle, geom: GeomSpec::Box { density: 1000.0,
+        group: JointGroup::Ankle, geom: GeomSpec::Box { density: 1000.0, quat: IDENTITY_WXYZ,
             half_extents: [0.0498, 0.0464, 0.0857], center: [0.0, -0.07, 0.0142] } },
     BodySpec { name: "R_Toe", parent: Some(7), offset: [0.0, -0.0986496, 0.156582],
-        group: JointGroup::Toe, geom: GeomSpec::Box { density: 1000.0,
+        group: JointGroup::Toe, geom: GeomSpec::Box { density: 1000.0, quat: IDENTITY_WXYZ,
             half_extents: [0.0478, 0.02, 0.0495], center: [0.0, 0.0, 0.0] } },
     BodySpec { name: "Torso", parent: Some(0), offset: [0.0, 0.0877726, -0.0279775],
         group: JointGroup::Spine, geom: GeomSpec::Sphere { radius: 0.05011, density: 1000.0,

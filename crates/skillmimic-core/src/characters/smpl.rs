@@ -28,7 +28,7 @@
 use super::entry::{Character, CharacterEntry};
 use super::spec::{
     ActionMap, BodyDef, BodyPart, CharacterSpec, Drive, GeomDef, GeomSpec, HandModel, Hinge,
-    JointDef, Proprioception,
+    IDENTITY_WXYZ, JointDef, Proprioception,
 };
 
 /// Number of rigid bodies.
@@ -166,9 +166,12 @@ fn geom(g: YupGeom, density: f64) -> GeomSpec {
         YupGeom::Capsule { radius, from, to } => {
             GeomSpec::Capsule { radius, from: zup(from), to: zup(to), density }
         }
-        YupGeom::Box { half, center } => {
-            GeomSpec::Box { half_extents: zup(half), center: zup(center), density }
-        }
+        YupGeom::Box { half, center } => GeomSpec::Box {
+            half_extents: zup(half),
+            center: zup(center),
+            quat: IDENTITY_WXYZ,
+            density,
+        },
     }
 }
 

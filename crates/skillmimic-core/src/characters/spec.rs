@@ -12,9 +12,13 @@ pub enum GeomSpec {
     Sphere { radius: f64, center: [f64; 3], density: f64 },
     /// Capsule of `radius` whose axis runs `from` → `to`.
     Capsule { radius: f64, from: [f64; 3], to: [f64; 3], density: f64 },
-    /// Box with half extents `half_extents`, axis-aligned in the body frame, centred at `center`.
-    Box { half_extents: [f64; 3], center: [f64; 3], density: f64 },
+    /// Box with half extents `half_extents` centred at `center`, turned by the unit quaternion
+    /// `quat` (w, x, y, z) from the body frame's axes ([`IDENTITY_WXYZ`] for an axis-aligned box).
+    Box { half_extents: [f64; 3], center: [f64; 3], quat: [f64; 4], density: f64 },
 }
+
+/// The identity rotation as (w, x, y, z), for axis-aligned boxes.
+pub const IDENTITY_WXYZ: [f64; 4] = [1.0, 0.0, 0.0, 0.0];
 
 /// Coarse anatomical part of a body, used to classify contacts.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -206,13 +210,15 @@ impl CharacterSpec {
                 continue;
             }
             for g in &body.geoms {
-                if let GeomSpec::Box { half_extents: h, center: c, .. } = g.spec {
+                if let GeomSpec::Box { half_extents: h, center: c, quat, .. } = g.spec {
+                    let turn = Quat::from_wxyz(quat);
                     for k in 0..8 {
-                        let p = [
-                            c[0] + if k & 4 == 0 { -h[0] } else { h[0] },
-                            c[1] + if k & 2 == 0 { -h[1] } else { h[1] },
-                            c[2] + if k & 1 == 0 { -h[2] } else { h[2] },
-                        ];
+                        let corner = turn.rotate([
+                            if k & 4 == 0 { -h[0] } else { h[0] },
+                            if k & 2 == 0 { -h[1] } else { h[1] },
+                            if k & 1 == 0 { -h[2] } else { h[2] },
+                        ]);
+                        let p = [c[0] + corner[0], c[1] + corner[1], c[2] + corner[2]];
                         z = z.min(pos[b][2] + rot[b].rotate(p)[2]);
                     }
                 }

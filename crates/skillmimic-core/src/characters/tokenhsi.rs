@@ -1,6 +1,10 @@
 //! The TokenHSI character (TokenHSI supplementary §A; numbers from the released
-//! `phys_humanoid_v3.xml`): 15 rigid bodies, ten 3-DoF spherical joints and two 1-DoF elbows,
+//! `phys_humanoid_v3_box_foot.xml`): 15 rigid bodies, ten 3-DoF joints and two 1-DoF elbows,
 //! 32 action dimensions. Z-up, the character faces +x in its rest pose, metres, radians.
+//!
+//! As in the released asset, each 3-DoF joint is three nested hinges about the body's x, y and
+//! z axes (local rotation `R_x(q₀)·R_y(q₁)·R_z(q₂)`), each with the asset's own range (the knee's
+//! x and z ±5.625°, its y 0–160°), so a PD target beyond a range stops at the joint limit.
 //!
 //! Bodies are in depth-first order (the order Isaac Gym gives them, so the 222-d proprioception
 //! and the 32-d action follow the original's column order):
@@ -24,8 +28,10 @@
 //! | 14 | left_foot | left_ankle, 3-DoF | 29–31 |
 //!
 //! The lower-body offsets (hips, knees, ankles) are the SMPL neutral-shape ones of the original.
-//! The feet are the original's box-foot variant (a sole box and a toe box per foot): the mesh
-//! feet come from SMPL and cannot be redistributed.
+//! The feet are the released box-foot variant's single box per foot, turned slightly about y
+//! (≈ 1.77 kg each; the asset's commented-out sole + toe boxes are not used): the mesh feet of
+//! `phys_humanoid_v3.xml` come from SMPL and cannot be redistributed. The rest pose stands with
+//! the pelvis at 0.94 m, the released spawn height.
 
 use super::entry::{Character, CharacterEntry};
 use super::spec::{
@@ -49,8 +55,9 @@ pub const KEY_BODIES: [usize; 4] = [5, 8, 11, 14];
 /// rotation in the world frame.
 pub const PROPRIO: Proprioception =
     Proprioception { root_height: false, root_rotation_world: true, contact_force_bodies: &[] };
-/// Pelvis height (m) of the rest pose standing on the floor (box-foot soles at z ≈ 0).
-pub const STANDING_ROOT_HEIGHT: f64 = 0.92;
+/// Pelvis height (m) of the rest pose standing on the floor: the released spawn height
+/// (`_char_h`); the lowest foot-box corner is then 1.6 mm below z = 0.
+pub const STANDING_ROOT_HEIGHT: f64 = 0.94;
 
 /// The joint that attaches a body to its parent.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -59,10 +66,11 @@ pub enum JointSpec {
     Free,
     /// No joint: the body is welded to its parent (the hands).
     Welded,
-    /// 3-DoF spherical joint. `range_deg` are the original's per-axis limits (x, y, z) in degrees,
-    /// used for the action scale; `kp`/`kd` the PD gains (N·m/rad, N·m·s/rad); `armature` kg·m²;
-    /// `effort` the torque limit (N·m, the original's motor gear).
-    Ball { range_deg: [[f64; 2]; 3], kp: f64, kd: f64, armature: f64, effort: f64 },
+    /// 3-DoF joint: three nested hinges about x, y, z with the asset's per-axis limits
+    /// `range_deg` (degrees; joint limits in the simulation and the action scale); `kp`/`kd` the
+    /// PD gains (N·m/rad, N·m·s/rad); `armature` kg·m²; `effort` the torque limit (N·m, the
+    /// original's motor gear).
+    Triple { range_deg: [[f64; 2]; 3], kp: f64, kd: f64, armature: f64, effort: f64 },
     /// 1-DoF hinge about the body's y axis (the elbows), limits in degrees.
     HingeY { range_deg: [f64; 2], kp: f64, kd: f64, armature: f64, effort: f64 },
 }
@@ -72,28 +80,28 @@ impl JointSpec {
     pub const fn dofs(&self) -> usize {
         match self {
             JointSpec::Free | JointSpec::Welded => 0,
-            JointSpec::Ball { .. } => 3,
+            JointSpec::Triple { .. } => 3,
             JointSpec::HingeY { .. } => 1,
         }
     }
     /// PD gains (kp, kd); zero for joints without a drive.
     pub const fn gains(&self) -> (f64, f64) {
         match *self {
-            JointSpec::Ball { kp, kd, .. } | JointSpec::HingeY { kp, kd, .. } => (kp, kd),
+            JointSpec::Triple { kp, kd, .. } | JointSpec::HingeY { kp, kd, .. } => (kp, kd),
             _ => (0.0, 0.0),
         }
     }
 
     /// Action → PD target map `target = offset + scale · clamp(a, −1, 1)` (rad) of this joint, as
     /// ASE/TokenHSI build it from the joint limits:
-    /// * 3-DoF joint: offset 0, scale `min(1.2 · max_axis max(|lo|, |hi|), π)` — the target is an
-    ///   exponential map (rotation vector) of the joint's rotation;
+    /// * 3-DoF joint: offset 0, scale `min(1.2 · max_axis max(|lo|, |hi|), π)` for each of its
+    ///   three hinges (ASE's rule: one scale for the joint, from its widest limit);
     /// * hinge: centre `m = (lo + hi)/2`, half-width `0.7 · (hi − lo)`: offset `m`,
     ///   scale `0.7 · (hi − lo)` (the elbow's [−160°, 0°] gives −80° ± 112°).
     pub fn action_map(&self) -> Option<(f64, f64)> {
         let rad = std::f64::consts::PI / 180.0;
         match *self {
-            JointSpec::Ball { range_deg, .. } => {
+            JointSpec::Triple { range_deg, .. } => {
                 let m = range_deg.iter().flat_map(|r| [r[0].abs(), r[1].abs()]).fold(0.0, f64::max);
                 Some((0.0, (1.2 * m * rad).min(std::f64::consts::PI)))
             }
@@ -122,7 +130,7 @@ pub struct HsiBody {
     pub geoms: &'static [(&'static str, GeomSpec)],
 }
 
-const fn ball(
+const fn triple(
     x: [f64; 2],
     y: [f64; 2],
     z: [f64; 2],
@@ -131,7 +139,7 @@ const fn ball(
     armature: f64,
     effort: f64,
 ) -> JointSpec {
-    JointSpec::Ball { range_deg: [x, y, z], kp, kd, armature, effort }
+    JointSpec::Triple { range_deg: [x, y, z], kp, kd, armature, effort }
 }
 
 const fn sphere(radius: f64, center: [f64; 3], density: f64) -> GeomSpec {
@@ -142,17 +150,19 @@ const fn capsule(radius: f64, from: [f64; 3], to: [f64; 3], density: f64) -> Geo
     GeomSpec::Capsule { radius, from, to, density }
 }
 
-const fn cuboid(half_extents: [f64; 3], center: [f64; 3]) -> GeomSpec {
-    GeomSpec::Box { half_extents, center, density: 1141.0 }
+/// A foot box: half extents, centre and turn (w, x, y, z) in the foot frame, 1141 kg/m³.
+const fn foot_box(half_extents: [f64; 3], center: [f64; 3], quat: [f64; 4]) -> GeomSpec {
+    GeomSpec::Box { half_extents, center, quat, density: 1141.0 }
 }
 
 const ABDOMEN: JointSpec =
-    ball([-60.0, 60.0], [-60.0, 90.0], [-50.0, 50.0], 1000.0, 100.0, 0.02, 200.0);
-const NECK: JointSpec = ball([-50.0, 50.0], [-40.0, 60.0], [-45.0, 45.0], 100.0, 10.0, 0.01, 50.0);
+    triple([-60.0, 60.0], [-60.0, 90.0], [-50.0, 50.0], 1000.0, 100.0, 0.02, 200.0);
+const NECK: JointSpec =
+    triple([-50.0, 50.0], [-40.0, 60.0], [-45.0, 45.0], 100.0, 10.0, 0.01, 50.0);
 const R_SHOULDER: JointSpec =
-    ball([-180.0, 45.0], [-180.0, 60.0], [-90.0, 90.0], 400.0, 40.0, 0.02, 100.0);
+    triple([-180.0, 45.0], [-180.0, 60.0], [-90.0, 90.0], 400.0, 40.0, 0.02, 100.0);
 const L_SHOULDER: JointSpec =
-    ball([-45.0, 180.0], [-180.0, 60.0], [-90.0, 90.0], 400.0, 40.0, 0.02, 100.0);
+    triple([-45.0, 180.0], [-180.0, 60.0], [-90.0, 90.0], 400.0, 40.0, 0.02, 100.0);
 const ELBOW: JointSpec = JointSpec::HingeY {
     range_deg: [-160.0, 0.0],
     kp: 300.0,
@@ -161,12 +171,13 @@ const ELBOW: JointSpec = JointSpec::HingeY {
     effort: 70.0,
 };
 const R_HIP: JointSpec =
-    ball([-60.0, 15.0], [-140.0, 60.0], [-60.0, 35.0], 500.0, 50.0, 0.02, 200.0);
+    triple([-60.0, 15.0], [-140.0, 60.0], [-60.0, 35.0], 500.0, 50.0, 0.02, 200.0);
 const L_HIP: JointSpec =
-    ball([-15.0, 60.0], [-140.0, 60.0], [-35.0, 60.0], 500.0, 50.0, 0.02, 200.0);
+    triple([-15.0, 60.0], [-140.0, 60.0], [-35.0, 60.0], 500.0, 50.0, 0.02, 200.0);
 const KNEE: JointSpec =
-    ball([-5.625, 5.625], [0.0, 160.0], [-5.625, 5.625], 500.0, 50.0, 0.02, 150.0);
-const ANKLE: JointSpec = ball([-30.0, 30.0], [-55.0, 55.0], [-40.0, 40.0], 400.0, 40.0, 0.01, 90.0);
+    triple([-5.625, 5.625], [0.0, 160.0], [-5.625, 5.625], 500.0, 50.0, 0.02, 150.0);
+const ANKLE: JointSpec =
+    triple([-30.0, 30.0], [-55.0, 55.0], [-40.0, 40.0], 400.0, 40.0, 0.01, 90.0);
 
 /// The 15 bodies in depth-first order.
 pub const BODIES: [HsiBody; NUM_BODIES] = [
@@ -299,10 +310,14 @@ pub const BODIES: [HsiBody; NUM_BODIES] = [
         offset: [-0.0423, 0.0158, -0.3984],
         joint: ANKLE,
         joint_name: "right_ankle",
-        geoms: &[
-            ("right_foot", cuboid([0.0865, 0.0483, 0.0208], [0.0617, -0.0127, -0.0241])),
-            ("right_foot_toe", cuboid([0.0195, 0.0479, 0.0216], [0.186, -0.0127, -0.0232])),
-        ],
+        geoms: &[(
+            "right_foot",
+            foot_box(
+                [0.10862014, 0.04908623, 0.03632472],
+                [0.04840836, -0.02035321, -0.02758488],
+                [0.99958537, 0.0, 0.02879395, 0.0],
+            ),
+        )],
     },
     HsiBody {
         name: "left_thigh",
@@ -332,10 +347,14 @@ pub const BODIES: [HsiBody; NUM_BODIES] = [
         offset: [-0.0437, -0.0136, -0.398],
         joint: ANKLE,
         joint_name: "left_ankle",
-        geoms: &[
-            ("left_foot", cuboid([0.085, 0.0483, 0.0208], [0.0596, 0.0132, -0.0279])),
-            ("left_foot_toe", cuboid([0.0202, 0.0478, 0.02], [0.1799, 0.0132, -0.0288])),
-        ],
+        geoms: &[(
+            "left_foot",
+            foot_box(
+                [0.10764448, 0.04873052, 0.03569894],
+                [0.04736847, 0.02286634, -0.03430487],
+                [0.99976203, 0.0, 0.02181489, 0.0],
+            ),
+        )],
     },
 ];
 
@@ -389,13 +408,12 @@ pub const ENTRY: CharacterEntry = CharacterEntry {
 /// The character.
 pub const CHARACTER: Character = Character::new(&ENTRY, HandModel::Full);
 
-/// The character as a [`CharacterSpec`]: the ten 3-DoF joints are MuJoCo `ball` joints driven
-/// per rotation-vector component by position actuators (`ctrlrange` ±π); the elbows are hinges
-/// about y with their range [−160°, 0°] (`ctrlrange` ±2π); gains, armature and torque limits
-/// (the original's motor gears) per joint; targets `offset + scale · a` from the joint limits
-/// ([`JointSpec::action_map`]); the hands are welded. The original's per-axis limits of the
-/// 3-DoF joints (PhysX D6 joints) have no MuJoCo counterpart on a ball joint (only a cone); they
-/// bound the action scale only. 1/120 s physics, four steps per 30 Hz policy step.
+/// The character as a [`CharacterSpec`]: each 3-DoF joint is three limited hinges
+/// `<joint>_x`, `_y`, `_z` (as in the released asset) driven by position actuators (`ctrlrange`
+/// ±π); the elbows are hinges about y with their range [−160°, 0°] (`ctrlrange` ±2π); gains,
+/// armature and torque limits (the original's motor gears) per joint; targets
+/// `offset + scale · a` from the joint limits ([`JointSpec::action_map`]); the hands are welded.
+/// 1/120 s physics, four steps per 30 Hz policy step.
 pub fn spec() -> CharacterSpec {
     let pi = std::f64::consts::PI;
     let mut k = 0;
@@ -409,12 +427,26 @@ pub fn spec() -> CharacterSpec {
             let joint = match b.joint {
                 JointSpec::Free => JointDef::Free,
                 JointSpec::Welded => JointDef::Welded,
-                JointSpec::Ball { kp, kd, armature, effort, .. } => {
+                JointSpec::Triple { range_deg, kp, kd, armature, effort } => {
                     let (offset, scale) = b.joint.action_map().expect("a driven joint");
-                    JointDef::Ball {
-                        name: b.joint_name.to_string(),
+                    let hinges = ["x", "y", "z"]
+                        .iter()
+                        .enumerate()
+                        .map(|(a, axis_name)| {
+                            let mut axis = [0.0; 3];
+                            axis[a] = 1.0;
+                            let [lo, hi] = range_deg[a];
+                            Hinge {
+                                name: format!("{}_{axis_name}", b.joint_name),
+                                axis,
+                                range: Some([lo.to_radians(), hi.to_radians()]),
+                                action: ActionMap::Affine { offset, scale },
+                            }
+                        })
+                        .collect();
+                    JointDef::Hinges {
+                        hinges,
                         drive: Drive { kp, kd, armature, effort, ctrlrange: [-pi, pi] },
-                        action: ActionMap::Affine { offset, scale },
                     }
                 }
                 JointSpec::HingeY { range_deg: [lo, hi], kp, kd, armature, effort } => {

@@ -42,7 +42,7 @@ pub fn describe_tokenhsi(m: &mut DeployMeta) {
         .map(|b| {
             let (kp, kd) = b.joint.gains();
             let effort = match b.joint {
-                JointSpec::Ball { effort, .. } | JointSpec::HingeY { effort, .. } => Some(effort),
+                JointSpec::Triple { effort, .. } | JointSpec::HingeY { effort, .. } => Some(effort),
                 _ => None,
             };
             Gain { joint: b.joint_name.to_string(), kp, kd, force_limit_nm: effort }
