@@ -43,6 +43,7 @@ struct Rows<'a> {
     body_angvel: &'a mut [f64],
     dof_pos: &'a mut [f64],
     dof_vel: &'a mut [f64],
+    dof_force: &'a mut [f64],
     contact_force: &'a mut [f64],
     contact_pairs: &'a mut [u8],
     touch: &'a mut [u8],
@@ -303,6 +304,7 @@ impl BatchSim {
                 st.body_angvel.par_chunks_mut(3 * b),
                 st.dof_pos.par_chunks_mut(d),
                 st.dof_vel.par_chunks_mut(d),
+                st.dof_force.par_chunks_mut(d),
                 st.contact_force.par_chunks_mut(3 * b),
                 st.contact_pairs.par_chunks_mut(NUM_CONTACT_PAIRS),
                 st.touch.par_chunks_mut(c),
@@ -311,7 +313,7 @@ impl BatchSim {
                 .into_par_iter()
                 .enumerate()
                 .for_each(
-                    |(i, (slot, bp, bq, blv, bav, dp, dv, cf, cp, touch, un))| {
+                    |(i, (slot, bp, bq, blv, bav, dp, dv, df, cf, cp, touch, un))| {
                         let rows = Rows {
                             body_pos: bp,
                             body_quat: bq,
@@ -319,6 +321,7 @@ impl BatchSim {
                             body_angvel: bav,
                             dof_pos: dp,
                             dof_vel: dv,
+                            dof_force: df,
                             contact_force: cf,
                             contact_pairs: cp,
                             touch,
@@ -476,16 +479,20 @@ fn read_kinematics(scene: &Scene, d: &Data, rows: &mut Rows<'_>) {
         rows.body_linvel[3 * b..3 * b + 3].copy_from_slice(&lin);
     }
     let (qpos, qvel) = (d.qpos(), d.qvel());
+    let (actuator, damper) = (d.qfrc_actuator(), d.qfrc_damper());
     for j in &scene.joints {
         let k = j.dof;
+        let n = if j.ball { 3 } else { 1 };
         if j.ball {
             let a = j.qpos;
             let q = Quat::from_wxyz([qpos[a], qpos[a + 1], qpos[a + 2], qpos[a + 3]]).normalized();
             rows.dof_pos[k..k + 3].copy_from_slice(&q.to_rotvec());
-            rows.dof_vel[k..k + 3].copy_from_slice(&qvel[j.qvel..j.qvel + 3]);
         } else {
             rows.dof_pos[k] = qpos[j.qpos];
-            rows.dof_vel[k] = qvel[j.qvel];
+        }
+        rows.dof_vel[k..k + n].copy_from_slice(&qvel[j.qvel..j.qvel + n]);
+        for a in 0..n {
+            rows.dof_force[k + a] = actuator[j.qvel + a] + damper[j.qvel + a];
         }
     }
 }

@@ -11,6 +11,8 @@
 //!   (exp-map) components of the body relative to its parent, angle in (−π, π]; a hinge's angle;
 //!   joint velocities: a ball joint's local angular velocity, a hinge's rate (rad/s); zero in the
 //!   slots of welded bodies;
+//! * dof forces: the PD drive's generalized force per dof (N·m): the position actuator's force of
+//!   the last physics step plus the joint damping's at the read-out velocity;
 //! * contact forces: net force (N, world frame) that all contacts of the last physics sub-step
 //!   exerted on each state body;
 //! * contact pairs: one 0/1 flag per [`ContactPair`](crate::contacts::ContactPair) kind;
@@ -151,6 +153,10 @@ pub struct BatchState {
     pub dof_pos: Vec<f64>,
     /// `[N][dofs]`
     pub dof_vel: Vec<f64>,
+    /// `[N][dofs]`: the PD drive's generalized force on each dof (N·m): the position actuator's
+    /// force over the last physics step plus the joint damping's at the read-out velocity
+    /// (`qfrc_actuator + qfrc_damper`), what Isaac Gym's dof-force tensor reports for a PD drive.
+    pub dof_force: Vec<f64>,
     /// `[N][bodies][3]`
     pub contact_force: Vec<f64>,
     /// `[N][7]`
@@ -178,6 +184,7 @@ impl BatchState {
             body_angvel: vec![0.0; n * b * 3],
             dof_pos: vec![0.0; n * d],
             dof_vel: vec![0.0; n * d],
+            dof_force: vec![0.0; n * d],
             contact_force: vec![0.0; n * b * 3],
             contact_pairs: vec![0; n * NUM_CONTACT_PAIRS],
             touch: vec![0; n * c],
@@ -196,6 +203,7 @@ impl BatchState {
             body_angvel: &self.body_angvel[i * b3..(i + 1) * b3],
             dof_pos: &self.dof_pos[i * d..(i + 1) * d],
             dof_vel: &self.dof_vel[i * d..(i + 1) * d],
+            dof_force: &self.dof_force[i * d..(i + 1) * d],
             contact_force: &self.contact_force[i * b3..(i + 1) * b3],
             contact_pairs: &self.contact_pairs[i * p..(i + 1) * p],
             touch: &self.touch[i * c..(i + 1) * c],
@@ -213,6 +221,8 @@ pub struct EnvState<'a> {
     pub body_angvel: &'a [f64],
     pub dof_pos: &'a [f64],
     pub dof_vel: &'a [f64],
+    /// The PD drive's force per dof (N·m; see [`BatchState::dof_force`]).
+    pub dof_force: &'a [f64],
     pub contact_force: &'a [f64],
     pub contact_pairs: &'a [u8],
     pub touch: &'a [u8],

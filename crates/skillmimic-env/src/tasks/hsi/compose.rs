@@ -39,7 +39,7 @@ use skillmimic_sim::{BoxObject, EnvState, ObjectBox, ObjectState, ResetState, Sc
 
 use super::carry::observe_box;
 use super::climb::Climb;
-use super::follow::{Follow, NUM_POINTS, POINT_DT};
+use super::follow::{Follow, NUM_POINTS};
 use super::geometry::{dist_sq, dist2d, draw, put};
 use super::sit::{Goal as TargetGoal, Sit};
 use super::{Ctx, DT, Rule, TaskOut, hsi_spec};
@@ -102,7 +102,7 @@ impl Primary for Follow {
         goal.verts.iter().find_map(|v| unit([v[0] - a[0], v[1] - a[1]]))
     }
     fn carry_target(&self, goal: &Self::Goal, steps: usize, box_pos: [f64; 3]) -> [f64; 3] {
-        let p = goal.at(steps as f64 * DT + (NUM_POINTS - 1) as f64 * POINT_DT);
+        let p = goal.at(steps as f64 * DT + (NUM_POINTS - 1) as f64 * self.point_dt);
         [p[0], p[1], box_pos[2]]
     }
 }
@@ -314,11 +314,8 @@ fn build<P: Primary>(
 
 /// Registry constructor of `hsi_follow_carry`.
 pub fn build_follow_carry(cfg: &EnvConfig) -> Result<Box<dyn Env>, EnvError> {
-    build(
-        Follow::new(&cfg.table::<HsiConfig>().follow, cfg.table::<HsiConfig>().random_heading),
-        cfg,
-        cfg.table::<HsiConfig>().object_variants,
-    )
+    let h = cfg.table::<HsiConfig>();
+    build(Follow::new(&h.follow, h.random_heading, h.form), cfg, h.object_variants)
 }
 /// Registry constructor of `hsi_sit_carry`.
 pub fn build_sit_carry(cfg: &EnvConfig) -> Result<Box<dyn Env>, EnvError> {

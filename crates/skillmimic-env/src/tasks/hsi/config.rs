@@ -17,10 +17,32 @@ pub struct HsiConfig {
     pub object_variants: usize,
     /// Seed of the object sizes of the variants.
     pub object_seed: u64,
-    /// Character-fall termination: a body other than the feet that touches the floor or an
-    /// object below this height (m) ends the episode (ASE's rule).
+    /// Character-fall termination (the released rule): after the first step, the episode ends
+    /// when some body other than the feet feels a contact force (> 0.1 N on an axis) while some
+    /// body other than the feet is below its termination height — this height (m) for every body
+    /// but the head.
     #[schemars(range(min = 0))]
     pub termination_height: f64,
+    /// The head's termination height (m): max(this, `termination_height`), as released.
+    #[schemars(range(min = 0))]
+    pub head_termination_height: f64,
+    /// Power penalty weight: every task's reward adds `−power_coefficient · Σ|τ·q̇|` over the
+    /// character's dofs (drive torques τ, N·m; joint rates q̇, rad/s), the released
+    /// `power_coefficient` (0 switches it off).
+    #[schemars(range(min = 0))]
+    pub power_coefficient: f64,
+    /// How an episode starts (`reference_init`): `auto` (default: a random frame of the task's
+    /// reference clips when it has any, else the rest pose — the released `stateInit: Random`
+    /// where motions are given), `default` (the rest pose), `reference` (always a clip frame;
+    /// clips required), `hybrid` (a clip frame with probability `hybrid_init_prob`).
+    pub state_init: StateInit,
+    /// Probability of a reference start under `state_init = "hybrid"`.
+    #[schemars(range(min = 0, max = 1))]
+    pub hybrid_init_prob: f64,
+    /// Which form of TokenHSI the tasks follow where the supplementary's text and the released
+    /// code differ: `released` (default) or `supplementary` (the follow observation's waypoints
+    /// 0.1 s apart instead of 0.5 s).
+    pub form: HsiForm,
     /// Start heading of the character: uniformly random (else facing +x).
     pub random_heading: bool,
     /// Reference clips of the character (`tokenhsi-clip` files or folders, e.g. written by
@@ -46,6 +68,11 @@ impl Default for HsiConfig {
             object_variants: 16,
             object_seed: 0,
             termination_height: 0.15,
+            head_termination_height: 0.3,
+            power_coefficient: 0.0005,
+            form: HsiForm::Released,
+            state_init: StateInit::Auto,
+            hybrid_init_prob: 0.5,
             random_heading: true,
             style_motion: Vec::new(),
             follow: Default::default(),
@@ -56,39 +83,73 @@ impl Default for HsiConfig {
     }
 }
 
-/// Path following (supplementary §B.2.1).
+/// How a TokenHSI episode starts (see [`HsiConfig::state_init`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum StateInit {
+    /// Reference frames when the task has clips, else the rest pose.
+    #[default]
+    Auto,
+    /// The rest pose.
+    Default,
+    /// A reference frame (clips required).
+    Reference,
+    /// A reference frame with probability `hybrid_init_prob`, else the rest pose.
+    Hybrid,
+}
+
+/// The form of TokenHSI's task rules (see [`HsiConfig::form`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum HsiForm {
+    /// As the released code (liangpan99/TokenHSI) computes it.
+    #[default]
+    Released,
+    /// As the supplementary's text states it, where it differs.
+    Supplementary,
+}
+
+/// Path following (supplementary §B.2.1; the released `humanoid_traj.py` and its config).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct FollowConfig {
-    /// Episode length (policy steps; 300 = 10 s).
-    #[schemars(range(min = 1))]
+    /// Episode length L (policy steps; 300 = 10 s). As released, the time limit ends the episode
+    /// after L − 1 steps and the trajectory spans L / 30 s.
+    #[schemars(range(min = 2))]
     pub episode_length: usize,
-    /// Time between trajectory vertices (s): 0.1 in the supplementary, 0.5 in the released code.
+    /// Vertices of the trajectory (101: 100 segments of 0.1 s over the 10 s episode).
+    #[schemars(range(min = 2))]
+    pub num_vertices: usize,
+    /// Time between the observed waypoints (s): 0.5 as released (`trajSampleTimestep`); the
+    /// supplementary's 0.1 with `env.hsi.form = "supplementary"`.
     #[schemars(extend("exclusiveMinimum" = 0))]
-    pub vertex_dt: f64,
+    pub point_dt: f64,
     /// Speed range of the trajectory (m/s).
     #[schemars(inner(range(min = 0)))]
     pub speed: [f64; 2],
-    /// Largest speed change per vertex (m/s per s).
+    /// Largest speed change per segment (m/s per s).
     #[schemars(range(min = 0))]
     pub accel_max: f64,
-    /// Largest heading change per vertex (rad per s).
+    /// Largest heading change per segment (rad per s).
     #[schemars(range(min = 0))]
     pub turn_rate_max: f64,
-    /// Probability per vertex of a sharp turn (a heading jump of up to ±π).
+    /// Probability per segment of a sharp turn: the segment's heading change is then drawn from
+    /// U(−`sharp_turn_angle`, `sharp_turn_angle`) instead.
     #[schemars(range(min = 0, max = 1))]
     pub sharp_turn_prob: f64,
+    /// Largest sharp turn (rad).
+    #[schemars(range(min = 0, max = std::f64::consts::PI))]
+    pub sharp_turn_angle: f64,
     /// Path-distance termination: the 2-D root distance to the current waypoint above this (m).
     #[schemars(extend("exclusiveMinimum" = 0))]
     pub fail_distance: f64,
-    /// Success: within this distance (m) of the current waypoint for at least `success_fraction`
-    /// of the episode.
+    /// Success (the released evaluation): at some step ≥ `success_time` · L, the 2-D root within
+    /// this distance (m) of the trajectory's point at `success_time` · L / 30 s.
     #[schemars(extend("exclusiveMinimum" = 0))]
     pub success_distance: f64,
-    /// Fraction of the episode's steps within `success_distance` for success (0.98, the
-    /// released code's rule).
+    /// Fraction of the episode at which success is judged (0.98, as released).
     #[schemars(range(min = 0, max = 1))]
-    pub success_fraction: f64,
+    pub success_time: f64,
     /// Reference clips of this task's own discriminator (multi-task training keeps one per task,
     /// as TokenHSI); empty = `env.hsi.style_motion`.
     #[schemars(extend("items" = {"type": "string", "format": "path"}))]
@@ -99,14 +160,16 @@ impl Default for FollowConfig {
     fn default() -> Self {
         Self {
             episode_length: 300,
-            vertex_dt: 0.1,
-            speed: [0.0, 3.0],
+            num_vertices: 101,
+            point_dt: 0.5,
+            speed: [0.5, 1.5],
             accel_max: 2.0,
             turn_rate_max: 2.0,
             sharp_turn_prob: 0.02,
+            sharp_turn_angle: 1.57,
             fail_distance: 4.0,
-            success_distance: 0.4,
-            success_fraction: 0.98,
+            success_distance: 0.3,
+            success_time: 0.98,
             style_motion: Vec::new(),
         }
     }

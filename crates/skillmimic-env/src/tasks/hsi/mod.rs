@@ -8,9 +8,13 @@
 //! what the task itself is (the way the skill-reuse tasks are `hlc::Rule`s run by
 //! `hlc::HighLevel`). Shared ([`Hsi`]):
 //! * the observation `[proprioception 222 | task observation]` ([`proprio`]);
-//! * the character-fall termination (a body other than the feet touching the floor or an object
-//!   below `env.hsi.termination_height`, from the second step on — ASE's rule);
-//! * the time limit (`episode_length` of the task's table, truncation);
+//! * the start of the character: the rule's rest pose, or a reference frame
+//!   ([`reference_init`], the released reference-state initialisation);
+//! * the character-fall termination of the released code ([`fallen`]);
+//! * the power penalty `−env.hsi.power_coefficient · Σ|τ·q̇|` added to every task's reward
+//!   ([`power`]): the reward terms are the rule's, then `power`, then `total_reward`;
+//! * the time limit: as released, an episode of length L (`episode_length` of the task's table)
+//!   is truncated after L − 1 steps;
 //! * the previous root and object positions, from which the rewards' velocities are the finite
 //!   differences over one 1/30 s policy step (as the released InterPhys/TokenHSI code computes
 //!   them).
@@ -26,6 +30,7 @@ pub mod config;
 pub mod follow;
 pub mod geometry;
 pub mod proprio;
+pub mod reference_init;
 pub mod sit;
 pub mod style;
 
@@ -94,7 +99,17 @@ pub fn build_env<R: Rule>(
             Scene::new(options).map(Arc::new)
         })
         .collect::<Result<Vec<_>, _>>()?;
-    let task = Hsi { rule, episode_length, termination_height: h.termination_height };
+    let mut spec = rule.spec().clone();
+    spec.term_names.extend(["power".to_string(), "total_reward".to_string()]);
+    let reference = reference_init::ReferenceInit::from_config(h, spec.name)?;
+    let task = Hsi {
+        rule,
+        spec,
+        reference,
+        episode_length,
+        heights: FallHeights { body: h.termination_height, head: h.head_termination_height },
+        power_coefficient: h.power_coefficient,
+    };
     Ok(Box::new(VecEnv::with_variants(task, scenes, cfg.num_envs, cfg.threads, cfg.start_seed(0))?))
 }
 
@@ -172,10 +187,58 @@ impl<G> HsiSlot<G> {
 /// A TokenHSI task: `rule` with the shared mechanics (see the module doc).
 pub struct Hsi<R: Rule> {
     pub rule: R,
-    /// Time limit (policy steps).
+    /// The rule's spec with the `power` and `total_reward` terms appended.
+    spec: TaskSpec,
+    /// Reference-state initialisation (`None`: the rule's rest pose).
+    reference: Option<reference_init::ReferenceInit>,
+    /// Episode length L (policy steps): truncation after L − 1 steps.
     pub episode_length: usize,
-    /// Bodies other than the feet touching something below this height end the episode (m).
-    pub termination_height: f64,
+    pub heights: FallHeights,
+    /// Weight of the power penalty.
+    pub power_coefficient: f64,
+}
+
+/// Termination heights of the fall rule (m).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FallHeights {
+    /// Every body but the head.
+    pub body: f64,
+    /// The head: max(this, `body`).
+    pub head: f64,
+}
+
+/// The head (its own termination height).
+const HEAD: usize = 2;
+/// A contact force component above this (N) counts as a contact in the fall rule.
+const CONTACT_FORCE: f64 = 0.1;
+
+/// The released fall rule (ASE's `compute_humanoid_reset`), after `steps` policy steps: from the
+/// second step on, the character has fallen when some body other than the feet feels a net
+/// contact force (floor, objects or its own bodies; |component| > 0.1 N) **and** some body
+/// other than the feet — not necessarily the same one — is below its termination height.
+pub fn fallen(st: &EnvState<'_>, steps: usize, h: FallHeights) -> bool {
+    if steps <= 1 {
+        return false;
+    }
+    let others = (0..NUM_BODIES).filter(|b| !CONTACT_BODIES.contains(b));
+    let contact =
+        others.clone().any(|b| (0..3).any(|k| st.contact_force[3 * b + k].abs() > CONTACT_FORCE));
+    let low = others.into_iter().any(|b| {
+        let height = if b == HEAD { h.head.max(h.body) } else { h.body };
+        st.pos(b)[2] < height
+    });
+    contact && low
+}
+
+/// The released time limit: an episode of length L is over after `steps` ≥ L − 1 steps.
+pub fn time_limit_reached(steps: usize, episode_length: usize) -> bool {
+    steps + 1 >= episode_length
+}
+
+/// `Σ_k |τ_k · q̇_k|` over the character's dofs (W): drive torques times joint rates, the power
+/// the released reward penalises.
+pub fn power(st: &EnvState<'_>) -> f64 {
+    st.dof_force.iter().zip(st.dof_vel).map(|(t, v)| (t * v).abs()).sum()
 }
 
 impl<R: Rule> Hsi<R> {
@@ -189,7 +252,7 @@ impl<R: Rule> Task for Hsi<R> {
     type Slot = HsiSlot<R::Goal>;
 
     fn spec(&self) -> &TaskSpec {
-        self.rule.spec()
+        &self.spec
     }
     fn new_slot(&self) -> Self::Slot {
         HsiSlot::default()
@@ -203,6 +266,9 @@ impl<R: Rule> Task for Hsi<R> {
         state: &mut ResetState,
     ) {
         self.rule.plan(scene, rng, state, &mut slot.goal);
+        if let Some(r) = &self.reference {
+            r.apply(rng, state);
+        }
     }
     fn after_reset(&self, _i: usize, slot: &mut Self::Slot, st: &EnvState<'_>, obs: &mut [f32]) {
         slot.steps = 0;
@@ -215,10 +281,7 @@ impl<R: Rule> Task for Hsi<R> {
     }
     fn step_env(&self, _i: usize, slot: &mut Self::Slot, st: &EnvState<'_>, out: StepOut<'_>) {
         slot.steps += 1;
-        let th = self.termination_height;
-        let fallen = slot.steps > 1
-            && (0..NUM_BODIES)
-                .any(|b| !CONTACT_BODIES.contains(&b) && st.touches(b) && st.pos(b)[2] < th);
+        let fallen = fallen(st, slot.steps, self.heights);
         let ctx = Ctx {
             st,
             prev_root: slot.prev_root,
@@ -226,12 +289,19 @@ impl<R: Rule> Task for Hsi<R> {
             steps: slot.steps,
             fallen,
         };
-        let mut o = TaskOut { terms: out.terms, metrics: out.metrics, fail: false, finish: false };
+        let n = out.terms.len() - 2;
+        let (task, shared) = out.terms.split_at_mut(n);
+        let mut o = TaskOut { terms: task, metrics: out.metrics, fail: false, finish: false };
         self.rule.step(&mut slot.goal, &ctx, &mut o);
-        *out.reward = o.terms[o.terms.len() - 1];
+        let penalty = -self.power_coefficient * power(st);
+        shared[0] = penalty as f32;
+        shared[1] = (f64::from(o.terms[n - 1]) + penalty) as f32;
+        *out.reward = shared[1];
         *out.terminated = u8::from(fallen || o.fail || st.unstable);
-        *out.truncated =
-            u8::from(*out.terminated == 0 && (o.finish || slot.steps >= self.episode_length));
+        *out.truncated = u8::from(
+            *out.terminated == 0
+                && (o.finish || time_limit_reached(slot.steps, self.episode_length)),
+        );
         slot.remember(st);
         self.write_obs(slot, st, out.obs);
         self.rule.info(&slot.goal, slot.steps, out.info);

@@ -14,7 +14,7 @@ use std::sync::Arc;
 use skillmimic_core::characters::tokenhsi;
 use skillmimic_motion::character_clip::CharacterClip;
 use skillmimic_motion::library::find_clip_files;
-use skillmimic_sim::{BatchSim, ResetState, Scene, SceneOptions};
+use skillmimic_sim::{BatchSim, EnvState, ResetState, Scene, SceneOptions};
 
 use super::proprio::{PROPRIO_DIM, write_proprio};
 use crate::clip_state::clip_state;
@@ -27,6 +27,58 @@ pub const STYLE_DIM: usize = PROPRIO_DIM;
 pub fn frame_features(obs: &[f32], out: &mut [f32]) {
     out[..STYLE_DIM].copy_from_slice(&obs[..STYLE_DIM]);
 }
+
+/// Width of the released TokenHSI discriminator's per-frame features ([`released_features`]).
+pub const RELEASED_STYLE_DIM: usize = 1 + 6 + 3 + 3 + 72 + tokenhsi::NUM_DOFS + 3 * 4;
+
+/// The released discriminator's features of one frame (ASE's `build_amp_observations` with a
+/// heading-local root and no root height, as TokenHSI configures it), 129 wide:
+/// `[0 (the root height, off) | root rotation in its heading frame, tan-norm 6D | root linear
+/// velocity (m/s) and angular velocity (rad/s) in the heading frame | 12 joints × tan-norm 6D |
+/// the 32 dof rates | the hands' and feet's positions relative to the root in the heading frame
+/// (m)]`. A joint's rotation is read the released way: the three hinge angles of a 3-DoF joint
+/// taken as a rotation vector (the released code's reading of its three-hinge joints), an elbow's
+/// angle about y. Checked against the released function on the golden fixture
+/// (`hsi_released_follow.rs`); the discriminator of `[ppo.amp]` still reads the 222-d
+/// proprioception ([`frame_features`]).
+pub fn released_features(st: &EnvState<'_>, out: &mut [f32]) {
+    use skillmimic_core::characters::JointDef;
+    use skillmimic_core::math::{Quat, heading_inverse, tan_norm};
+    let inv = heading_inverse(st.quat(0));
+    let root = st.pos(0);
+    let mut k = 0;
+    let mut push = |out: &mut [f32], v: &[f64]| {
+        for (o, x) in out[k..k + v.len()].iter_mut().zip(v) {
+            *o = *x as f32;
+        }
+        k += v.len();
+    };
+    push(out, &[0.0]);
+    push(out, &tan_norm(inv.mul(st.quat(0))));
+    push(out, &inv.rotate(st.linvel(0)));
+    push(out, &inv.rotate(st.angvel(0)));
+    let spec = &*SPEC;
+    for body in &spec.bodies {
+        let d = body.dofs.start;
+        let q = match &body.joint {
+            JointDef::Hinges { hinges, .. } if hinges.len() == 3 => {
+                Quat::from_rotvec([st.dof_pos[d], st.dof_pos[d + 1], st.dof_pos[d + 2]])
+            }
+            JointDef::Hinges { .. } => Quat::from_axis_angle([0.0, 1.0, 0.0], st.dof_pos[d]),
+            _ => continue,
+        };
+        push(out, &tan_norm(q));
+    }
+    push(out, &st.dof_vel[..tokenhsi::NUM_DOFS]);
+    for b in tokenhsi::KEY_BODIES {
+        let p = st.pos(b);
+        push(out, &inv.rotate([p[0] - root[0], p[1] - root[1], p[2] - root[2]]));
+    }
+    debug_assert_eq!(k, RELEASED_STYLE_DIM);
+}
+
+static SPEC: std::sync::LazyLock<skillmimic_core::characters::CharacterSpec> =
+    std::sync::LazyLock::new(tokenhsi::spec);
 
 /// Load every TokenHSI `character-clip` below `paths` (errors name the file and a clip of another
 /// character).
