@@ -1,0 +1,30 @@
+#!/usr/bin/env bash
+# hsi_follow with the released TokenHSI rules (issue 38): reference-state initialisation and style
+# references from BallPlay-M run/turn clips retargeted onto the character, the released PPO sizes
+# where the machine allows (actor [1024, 512], 3 mini-epochs of 8192), [ppo.amp] with the released
+# logit regularisation 0.01; train for TRAIN_S seconds of wall-clock time, then evaluate the last
+# checkpoint over 256 deterministic episodes from reference starts (as trained) and from the rest
+# pose. docs/results-tokenhsi.md's run: TRAIN_S=400 ENVS=1024 THREADS=16 on a 16-core host.
+# Usage: scripts/experiments/hsi_follow_released.sh OUT_DIR [TRAIN_S] [ENVS] [THREADS] [SHARED]
+set -uo pipefail
+out=${1:?output folder}
+train_s=${2:-400}
+envs=${3:-1024}
+threads=${4:-0}
+shared=${5:-$(dirname "$0")/../../../shared}
+bin=${SKILLMIMIC:-$(dirname "$0")/../../target/release/skillmimic}
+mkdir -p "$out"
+m=()
+for s in run turn lrun rrun; do m+=(--motion "$shared/data/ballplay_m/$s"); done
+"$bin" retarget --to tokenhsi "${m[@]}" --out "$out/clips" > "$out/retarget.log" || exit 1
+timeout "$train_s" "$bin" train --preset small --task hsi_follow --num-envs "$envs" --threads "$threads" \
+  --learner-threads "$threads" --seed 0 --iterations 100000 \
+  --set "env.hsi.style_motion=[\"$out/clips\"]" --set ppo.amp.enabled=true --set ppo.amp.logit_reg=0.01 \
+  --set 'ppo.hidden=[1024, 512]' --set ppo.mini_epochs=3 --set ppo.minibatch=8192 --set run.save_every=10 \
+  --out "$out/follow" --no-video > "$out/train.log" 2>&1
+echo "train exit $? (124: stopped at ${train_s} s, as intended)"
+for start in reference rest; do
+  extra=(); [ "$start" = rest ] && extra=(--set 'env.hsi.state_init="default"')
+  "$bin" eval --checkpoint "$out/follow/latest.safetensors" --episodes 256 --num-envs 256 \
+    --threads "$threads" "${extra[@]}" --out "$out/follow/eval_${start}_start.json" 2>&1 | tail -2
+done
