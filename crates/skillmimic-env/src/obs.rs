@@ -7,7 +7,7 @@
 //! | 157:475 | 318 | rotations of all 53 bodies (root included) in the heading frame, tan-norm 6D |
 //! | 475:634 | 159 | linear velocities (centre of mass) of all 53 bodies, heading frame (m/s) |
 //! | 634:793 | 159 | angular velocities of all 53 bodies, heading frame (rad/s) |
-//! | 793:823 | 30 | net contact force on the 10 fingertips, **world frame**, N (left Index3, Middle3, Pinky3, Ring3, Thumb3, then right) |
+//! | 793:823 | 30 | net contact force on the 10 fingertips (left Index3 … Thumb3, then right), **world**, N |
 //! | 823:826 | 3 | ball position: (ball − root) with z replaced by the absolute ball height, heading frame (m) |
 //! | 826:832 | 6 | ball rotation in the heading frame, tan-norm 6D |
 //! | 832:835 | 3 | ball linear velocity, heading frame (m/s) |

@@ -9,7 +9,7 @@
 //! | r_r | mean over 159 of (root exp map ⊕ 156 joint exp maps), plain component difference | 20 |
 //! | r_pv | mean over 51 of key-body velocities | 0 |
 //! | r_rv | mean over 156 of joint velocities | 0 |
-//! | r_reg | mean over 156 of (v_t − v_{t−1})² / (1 + 10¹²·v̂²) (sim joint velocities this/previous step, v̂ reference) | 0.1 |
+//! | r_reg | mean over 156 of (v_t − v_{t−1})² / (1 + 10¹²·v̂²) (v sim joint velocity, v̂ reference) | 0.1 |
 //! | r_op | mean over 3 of ball position | 1 |
 //! | r_or | squared rotation angle of the ball | 0 |
 //! | r_opv | mean over 3 of ball velocity | 0 |

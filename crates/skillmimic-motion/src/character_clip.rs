@@ -1,12 +1,12 @@
 //! Clips of any character ([`skillmimic_core::characters`]; the SkillMimic humanoid's own clips
 //! with the ball are [`crate::Clip`]) and their file format (`.safetensors`, version 1):
 //!
-//! | tensor | dtype | shape | content |
-//! |---|---|---|---|
-//! | `root_pos` | F32 | (T, 3) | root position, world, m, Z-up |
-//! | `root_rot` | F32 | (T, 4) | root orientation **(w, x, y, z)**, unit norm |
-//! | `dof_pos` | F32 | (T, dofs) | the character's dof vector: rotation vectors (rad) of ball joints relative to the parent, hinge angles (three hinges x, y, z: intrinsic x-y-z angles) |
-//! | `body_pos` | F32 | (T, bodies, 3) | world positions of the body frames, m |
+//! * `root_pos` — dtype: F32; shape: (T, 3); content: root position, world, m, Z-up
+//! * `root_rot` — dtype: F32; shape: (T, 4); content: root orientation **(w, x, y, z)**, unit norm
+//! * `dof_pos` — dtype: F32; shape: (T, dofs); content: the character's dof vector: rotation
+//!   vectors (rad) of ball joints relative to the parent, hinge angles (three hinges x, y, z:
+//!   intrinsic x-y-z angles)
+//! * `body_pos` — dtype: F32; shape: (T, bodies, 3); content: world positions of the body frames, m
 //!
 //! Metadata: `format = "character-clip"`, `format_version = "2"`, `character` (the registry name:
 //! `tokenhsi`, `smpl`, …), `fps` (> 0), `name`, `source`. Files written before the characters

@@ -6,7 +6,7 @@
 //! |---|---|---|---|
 //! | `root_pos` | F32 | (T, 3) | root (Pelvis) position, world, m, Z-up |
 //! | `root_rot` | F32 | (T, 4) | root orientation, quaternion **(w, x, y, z)** (MuJoCo order), unit norm |
-//! | `dof_rot` | F32 | (T, 52, 3) | joint rotations: exp map (axis·angle, rad) of each body relative to its parent, skeleton order |
+//! | `dof_rot` | F32 | (T, 52, 3) | exp map (axis·angle, rad) of each body relative to its parent, skeleton order |
 //! | `body_pos` | F32 | (T, 53, 3) | world positions of the 53 bodies, m (the reward targets of key bodies) |
 //! | `ball_pos` | F32 | (T, 3) | ball centre, world, m |
 //! | `ball_rot` | F32 | (T, 4) | ball orientation (w, x, y, z) |

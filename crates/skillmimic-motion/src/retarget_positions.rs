@@ -227,7 +227,8 @@ enum Kind {
 
 /// `parent` turned about the unit world axis `u` by the angle ψ that makes the local rotation
 /// `parent(ψ)⁻¹ · child` smallest: with q(ψ) = P⁻¹·R_u(−ψ)·C, its scalar part is
-/// cos(ψ/2)·w₁ − sin(ψ/2)·w₂ (w₁ = w(P⁻¹C), w₂ = w(P⁻¹·(0, u)·C)), largest at ψ = 2·atan2(−w₂, w₁).
+/// cos(ψ/2)·w₁ − sin(ψ/2)·w₂ (w₁ = w(P⁻¹C), w₂ = w(P⁻¹·(0, u)·C)), largest at
+/// ψ = 2·atan2(−w₂, w₁).
 fn least_turn(parent: Quat, child: Quat, u: Vec3) -> Quat {
     let pinv = parent.conj();
     let w1 = pinv.mul(child).w;

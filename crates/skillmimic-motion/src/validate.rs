@@ -5,17 +5,23 @@
 //! Bounds (checked per frame; velocities are backward differences times the clip's fps, the way
 //! [`crate::ClipReference`] derives the reset velocities):
 //!
-//! | quantity | bound | largest value in the 56 BallPlay-M clips |
-//! |---|---|---|
-//! | length | ≥ [`MIN_FRAMES`] = 4 frames | 51 frames (shortest clip) |
-//! | fps | [`MIN_FPS`] = 1 … [`MAX_FPS`] = 1000 frames per second | 60 |
-//! | every value | finite | — |
-//! | root / body / ball position component | ≤ [`MAX_POSITION`] = 100 m in magnitude | 3.64 m |
-//! | exp-map rotation (joints; `.pt` root and ball columns) | length ≤ [`MAX_ROTVEC`] = 2π rad | 3.1416 rad (root), 2.72 rad (joints), 0 (ball) |
-//! | quaternion (root, ball) | norm within [`QUAT_NORM_TOL`] = 1e-3 of 1 | unit by construction |
-//! | root / body / ball linear speed | ≤ [`MAX_LINEAR_SPEED`] = 100 m/s | 3.5 (root), 14.2 (body), 11.3 (ball) m/s |
-//! | joint exp-map component rate | ≤ [`MAX_DOF_SPEED`] = 2000 rad/s | 221 rad/s (an exp-map wrap near π) |
-//! | contact label | exactly 0 or 1 | only 0 and 1 occur (10 450 frames) |
+//! * length — bound: ≥ [`MIN_FRAMES`] = 4 frames; largest value in the 56 BallPlay-M clips: 51
+//!   frames (shortest clip)
+//! * fps — bound: [`MIN_FPS`] = 1 … [`MAX_FPS`] = 1000 frames per second; largest value in the 56
+//!   BallPlay-M clips: 60
+//! * every value — bound: finite; largest value in the 56 BallPlay-M clips: —
+//! * root / body / ball position component — bound: ≤ [`MAX_POSITION`] = 100 m in magnitude;
+//!   largest value in the 56 BallPlay-M clips: 3.64 m
+//! * exp-map rotation (joints; `.pt` root and ball columns) — bound: length ≤ [`MAX_ROTVEC`] = 2π
+//!   rad; largest value in the 56 BallPlay-M clips: 3.1416 rad (root), 2.72 rad (joints), 0 (ball)
+//! * quaternion (root, ball) — bound: norm within [`QUAT_NORM_TOL`] = 1e-3 of 1; largest value in
+//!   the 56 BallPlay-M clips: unit by construction
+//! * root / body / ball linear speed — bound: ≤ [`MAX_LINEAR_SPEED`] = 100 m/s; largest value in
+//!   the 56 BallPlay-M clips: 3.5 (root), 14.2 (body), 11.3 (ball) m/s
+//! * joint exp-map component rate — bound: ≤ [`MAX_DOF_SPEED`] = 2000 rad/s; largest value in the
+//!   56 BallPlay-M clips: 221 rad/s (an exp-map wrap near π)
+//! * contact label — bound: exactly 0 or 1; largest value in the 56 BallPlay-M clips: only 0 and 1
+//!   occur (10 450 frames)
 //!
 //! Margins: positions and speeds ×7 to ×27 over the real maxima (a thrown ball stays below
 //! 50 m/s); rotation vectors up to one full turn (every rotation has one of length ≤ π); joint

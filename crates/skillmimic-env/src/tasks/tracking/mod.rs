@@ -15,7 +15,8 @@
 //!   SkillMimic humanoid's 823, the SMPL humanoid's 358) | the reference block of the *next*
 //!   frame ([`formulas::write_reference_obs`]).
 //! * **Reward** ([`formulas::reward`]): 0.5·e^(−100·mean‖Δp‖²) + 0.3·e^(−10·mean θ²) +
-//!   0.1·e^(−0.1·mean‖Δv‖²) + 0.1·e^(−0.1·mean‖Δω‖²) − 0.0005·Σ|τ·q̇|, over the tracked bodies.
+//!   0.1·e^(−0.1·mean‖Δv‖²) + 0.1·e^(−0.1·mean‖Δω‖²) − 0.0005·Σ|τ·q̇|, over the tracked
+//!   bodies.
 //! * **Metrics** ([`formulas::METRICS`]): E_g-mpjpe and E_mpjpe (mm), velocity and acceleration
 //!   errors of the body positions (mm/frame, mm/frame²; before the episode start the simulated
 //!   trajectory counts as the reference's), success. Info: `clip`, `ref_frame`.
