@@ -26,7 +26,7 @@ pub mod tokenhsi;
 pub use entry::{Character, CharacterEntry};
 pub use spec::{
     ActionMap, BodyDef, BodyPart, CharacterSpec, Drive, GeomDef, GeomSpec, HandModel, Hinge,
-    IDENTITY_WXYZ, JointDef, Proprioception, intrinsic_xyz,
+    IDENTITY_WXYZ, JointDef, Proprioception, intrinsic_xyz, xyz_hinges,
 };
 
 /// The registered characters, in listing order.

@@ -27,8 +27,8 @@
 
 use super::entry::{Character, CharacterEntry};
 use super::spec::{
-    ActionMap, BodyDef, BodyPart, CharacterSpec, Drive, GeomDef, GeomSpec, HandModel, Hinge,
-    IDENTITY_WXYZ, JointDef, Proprioception,
+    ActionMap, BodyDef, BodyPart, CharacterSpec, Drive, GeomDef, GeomSpec, HandModel,
+    IDENTITY_WXYZ, JointDef, Proprioception, xyz_hinges,
 };
 
 /// Number of rigid bodies.
@@ -200,22 +200,11 @@ pub fn spec() -> CharacterSpec {
             } else {
                 let wide = name.ends_with("Shoulder") || name.ends_with("Elbow");
                 let limit = if wide { 4.0 * pi } else { pi };
-                let hinges = ["x", "y", "z"]
-                    .iter()
-                    .enumerate()
-                    .map(|(k, axis)| {
-                        let mut a = [0.0; 3];
-                        a[k] = 1.0;
-                        let knee = name.ends_with("Knee") && k == 1;
-                        let scale = if knee { KNEE_FLEXION_SCALE } else { (1.2 * limit).min(pi) };
-                        Hinge {
-                            name: format!("{name}_{axis}"),
-                            axis: a,
-                            range: Some([-limit, limit]),
-                            action: ActionMap::Affine { offset: 0.0, scale },
-                        }
-                    })
-                    .collect();
+                let hinges = xyz_hinges(name, |k| {
+                    let knee = name.ends_with("Knee") && k == 1;
+                    let scale = if knee { KNEE_FLEXION_SCALE } else { (1.2 * limit).min(pi) };
+                    ([-limit, limit], ActionMap::Affine { offset: 0.0, scale })
+                });
                 let drive = Drive {
                     kp,
                     kd,

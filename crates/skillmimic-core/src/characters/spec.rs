@@ -87,6 +87,22 @@ pub struct Hinge {
     pub action: ActionMap,
 }
 
+/// Three hinges `<joint>_x`, `<joint>_y`, `<joint>_z` about the body's x, y and z axes (nested in
+/// that order: a 3-DoF joint as Isaac Gym's MJCF characters have it); `per_axis(k)` gives hinge
+/// k's range (rad) and action map.
+pub fn xyz_hinges(joint: &str, per_axis: impl Fn(usize) -> ([f64; 2], ActionMap)) -> Vec<Hinge> {
+    ["x", "y", "z"]
+        .iter()
+        .enumerate()
+        .map(|(k, suffix)| {
+            let mut axis = [0.0; 3];
+            axis[k] = 1.0;
+            let (range, action) = per_axis(k);
+            Hinge { name: format!("{joint}_{suffix}"), axis, range: Some(range), action }
+        })
+        .collect()
+}
+
 /// The joint that attaches a body to its parent.
 #[derive(Clone, Debug, PartialEq)]
 pub enum JointDef {

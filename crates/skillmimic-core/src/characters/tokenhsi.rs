@@ -36,7 +36,7 @@
 use super::entry::{Character, CharacterEntry};
 use super::spec::{
     ActionMap, BodyDef, BodyPart, CharacterSpec, Drive, GeomDef, GeomSpec, HandModel, Hinge,
-    JointDef, Proprioception,
+    JointDef, Proprioception, xyz_hinges,
 };
 
 /// Number of rigid bodies.
@@ -429,21 +429,10 @@ pub fn spec() -> CharacterSpec {
                 JointSpec::Welded => JointDef::Welded,
                 JointSpec::Triple { range_deg, kp, kd, armature, effort } => {
                     let (offset, scale) = b.joint.action_map().expect("a driven joint");
-                    let hinges = ["x", "y", "z"]
-                        .iter()
-                        .enumerate()
-                        .map(|(a, axis_name)| {
-                            let mut axis = [0.0; 3];
-                            axis[a] = 1.0;
-                            let [lo, hi] = range_deg[a];
-                            Hinge {
-                                name: format!("{}_{axis_name}", b.joint_name),
-                                axis,
-                                range: Some([lo.to_radians(), hi.to_radians()]),
-                                action: ActionMap::Affine { offset, scale },
-                            }
-                        })
-                        .collect();
+                    let hinges = xyz_hinges(b.joint_name, |a| {
+                        let [lo, hi] = range_deg[a];
+                        ([lo.to_radians(), hi.to_radians()], ActionMap::Affine { offset, scale })
+                    });
                     JointDef::Hinges {
                         hinges,
                         drive: Drive { kp, kd, armature, effort, ctrlrange: [-pi, pi] },

@@ -41,10 +41,10 @@ impl ReferenceInit {
             StateInit::Hybrid => h.hybrid_init_prob,
         };
         if paths.is_empty() {
+            let name = if h.state_init == StateInit::Hybrid { "hybrid" } else { "reference" };
             let msg = format!(
-                "state_init = {:?} needs reference clips of '{task}' \
-                (env.hsi.style_motion or the task's own style_motion)",
-                h.state_init
+                "state_init = \"{name}\" needs reference clips of '{task}' \
+                (env.hsi.style_motion or the task's own style_motion)"
             );
             return Err(bad("env.hsi.state_init", msg).into());
         }

@@ -16,6 +16,7 @@ use skillmimic_motion::character_clip::CharacterClip;
 use skillmimic_motion::library::find_clip_files;
 use skillmimic_sim::{BatchSim, EnvState, ResetState, Scene, SceneOptions};
 
+use super::geometry::{Local, put};
 use super::proprio::{PROPRIO_DIM, write_proprio};
 use crate::clip_state::clip_state;
 use crate::error::{EnvError, bad};
@@ -43,22 +44,13 @@ pub const RELEASED_STYLE_DIM: usize = 1 + 6 + 3 + 3 + 72 + tokenhsi::NUM_DOFS + 
 /// proprioception ([`frame_features`]).
 pub fn released_features(st: &EnvState<'_>, out: &mut [f32]) {
     use skillmimic_core::characters::JointDef;
-    use skillmimic_core::math::{Quat, heading_inverse, tan_norm};
-    let inv = heading_inverse(st.quat(0));
-    let root = st.pos(0);
-    let mut k = 0;
-    let mut push = |out: &mut [f32], v: &[f64]| {
-        for (o, x) in out[k..k + v.len()].iter_mut().zip(v) {
-            *o = *x as f32;
-        }
-        k += v.len();
-    };
-    push(out, &[0.0]);
-    push(out, &tan_norm(inv.mul(st.quat(0))));
-    push(out, &inv.rotate(st.linvel(0)));
-    push(out, &inv.rotate(st.angvel(0)));
-    let spec = &*SPEC;
-    for body in &spec.bodies {
+    use skillmimic_core::math::{Quat, tan_norm};
+    let l = Local::of(st);
+    let mut k = put(out, 0, &[0.0]);
+    k = put(out, k, &l.rotation(st.quat(0)));
+    k = put(out, k, &l.vector(st.linvel(0)));
+    k = put(out, k, &l.vector(st.angvel(0)));
+    for body in &SPEC.bodies {
         let d = body.dofs.start;
         let q = match &body.joint {
             JointDef::Hinges { hinges, .. } if hinges.len() == 3 => {
@@ -67,12 +59,11 @@ pub fn released_features(st: &EnvState<'_>, out: &mut [f32]) {
             JointDef::Hinges { .. } => Quat::from_axis_angle([0.0, 1.0, 0.0], st.dof_pos[d]),
             _ => continue,
         };
-        push(out, &tan_norm(q));
+        k = put(out, k, &tan_norm(q));
     }
-    push(out, &st.dof_vel[..tokenhsi::NUM_DOFS]);
+    k = put(out, k, &st.dof_vel[..tokenhsi::NUM_DOFS]);
     for b in tokenhsi::KEY_BODIES {
-        let p = st.pos(b);
-        push(out, &inv.rotate([p[0] - root[0], p[1] - root[1], p[2] - root[2]]));
+        k = put(out, k, &l.point(st.pos(b)));
     }
     debug_assert_eq!(k, RELEASED_STYLE_DIM);
 }
