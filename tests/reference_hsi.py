@@ -17,7 +17,8 @@ documents; each is named where it is used):
 * Rotations are the 6D tan-norm representation [R·e_x, R·e_z].
 * Velocities in the rewards (ẋ_root, ẋ_obj) are finite differences of positions over one policy
   step of 1/30 s; the reward of a step uses the state after the step.
-* Bounding-box corners are ordered (lo|hi x) × (lo|hi y) × (lo|hi z), z fastest.
+* Bounding-box corners are in the released order: the bottom face (+x +y), (−x +y), (−x −y), (+x −y),
+  then the top face.
 """
 
 from __future__ import annotations
@@ -169,12 +170,12 @@ def top_target_local(m, name, above):
 
 def box_corners(pos, rot_mat, lo, hi):
     """The 8 world corners of the box [lo, hi] (object frame) of an object at pos / rot_mat, in the
-    order (lo|hi x) × (lo|hi y) × (lo|hi z), z fastest."""
+    released code's order (the text gives none): the bottom face (+x +y), (−x +y), (−x −y), (+x −y),
+    then the top face in the same order."""
     out = []
-    for x in (lo[0], hi[0]):
-        for y in (lo[1], hi[1]):
-            for z in (lo[2], hi[2]):
-                out.append(np.asarray(pos, dtype=np.float64) + rot_mat @ np.array([x, y, z]))
+    for z in (lo[2], hi[2]):
+        for x, y in ((hi[0], hi[1]), (lo[0], hi[1]), (lo[0], lo[1]), (hi[0], lo[1])):
+            out.append(np.asarray(pos, dtype=np.float64) + rot_mat @ np.array([x, y, z]))
     return np.array(out)
 
 
@@ -250,7 +251,8 @@ def follow_reward(root, waypoint):
 
 
 def sit_reward(root, prev_root, target, obj_pos):
-    """[r^near, r^far, r^s] of the sitting task."""
+    """[r^near, r^far, speed penalty, turning penalty, r^s] of the sitting task (the penalties are
+    the released code's, not the text's: 0 here; r^far counts as 1 within 0.5 m, as Eq. 2 uses it)."""
     root, target = np.asarray(root, dtype=np.float64), np.asarray(target, dtype=np.float64)
     d_star = _unit2d(root, obj_pos)
     # Eq. (3): r^far = exp(−2.0 ‖1.5 − d*·ẋ^root_2d‖²)
@@ -259,11 +261,12 @@ def sit_reward(root, prev_root, target, obj_pos):
     r_near = math.exp(-10.0 * float(np.sum((target - root) ** 2)))
     # Eq. (2): 0.7 r^near + 0.3 r^far if ‖x^obj_2d − x^root_2d‖ > 0.5, else 0.7 r^near + 0.3
     r = 0.7 * r_near + 0.3 * r_far if _dist2d(obj_pos, root) > 0.5 else 0.7 * r_near + 0.3
-    return np.array([r_near, r_far, r])
+    return np.array([r_near, r_far if _dist2d(obj_pos, root) > 0.5 else 1.0, 0.0, 0.0, r])
 
 
 def climb_reward(root, prev_root, feet_heights, target, obj_pos, offset=CLIMB_TARGET_ABOVE_TOP):
-    """[r^near, r^far, r^foot, r^m] of the climbing task."""
+    """[r^near, r^far, r^foot, speed penalty, r^m] of the climbing task (the penalty is the released
+    code's, not the text's: 0 here)."""
     root, target = np.asarray(root, dtype=np.float64), np.asarray(target, dtype=np.float64)
     d_star = _unit2d(root, obj_pos)
     # Eq. (6): r^far = exp(−2.0 ‖1.5 − d*·ẋ^root_2d‖²)
@@ -275,12 +278,12 @@ def climb_reward(root, prev_root, feet_heights, target, obj_pos, offset=CLIMB_TA
     r_foot = math.exp(-50.0 * ((target[2] - offset) - foot_h) ** 2)
     # Eq. (5): 0.5 r^near + 0.2 r^far if ‖x^obj_2d − x^root_2d‖ > 0.7, else 0.5 r^near + 0.2 + 0.3 r^foot
     r = 0.5 * r_near + 0.2 * r_far if _dist2d(obj_pos, root) > 0.7 else 0.5 * r_near + 0.2 + 0.3 * r_foot
-    return np.array([r_near, r_far, r_foot, r])
+    return np.array([r_near, r_far, r_foot, 0.0, r])
 
 
 def carry_reward(root, prev_root, obj, prev_obj, hands, target):
-    """[r^c_walk, r^c_carry, r^c_pick, r^c_put, r^c] of the carrying task (InterPhys's multi-stage
-    reward). ``hands``: the two hands' positions; ``target``: the box's 3-D target location."""
+    """[r^c_walk, r^c_carry, r^c_pick, r^c_put, box-speed penalty, r^c] of the carrying task
+    (InterPhys's multi-stage reward; the penalty is the released code's, not the text's: 0 here). ``hands``: the two hands' positions; ``target``: the box's 3-D target location."""
     root, obj, target = (np.asarray(x, dtype=np.float64) for x in (root, obj, target))
     # Eq. (9): 0.2 if ‖x^obj_2d − x^root_2d‖ < 0.5, else 0.2 exp(−5.0 ‖1.5 − d*·ẋ^root_2d‖²), d*: root → object
     if _dist2d(obj, root) < 0.5:
@@ -299,4 +302,4 @@ def carry_reward(root, prev_root, obj, prev_obj, hands, target):
     # Eq. (14): 0 if ‖x^obj_2d − x^tar_2d‖ > 0.1, else 0.2 exp(−10.0 ‖x^obj_h − x^tar_h‖²)
     r_put = 0.0 if _dist2d(obj, target) > 0.1 else 0.2 * math.exp(-10.0 * (obj[2] - target[2]) ** 2)
     # Eq. (15): r^c = r^c_walk + r^c_carry + r^c_pick + r^c_put
-    return np.array([r_walk, r_carry, r_pick, r_put, r_walk + r_carry + r_pick + r_put])
+    return np.array([r_walk, r_carry, r_pick, r_put, 0.0, r_walk + r_carry + r_pick + r_put])

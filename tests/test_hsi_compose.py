@@ -64,8 +64,8 @@ class Spec:
 
 SPECS = {
     "hsi_follow_carry": Spec("hsi_follow", 20, ("follow",), 0.5),                                           # Eq. 16
-    "hsi_sit_carry": Spec("hsi_sit", 38, ("near", "far", "sit"), 0.7, "seat", R.SIT_TARGET_ABOVE_SEAT),      # Eq. 17
-    "hsi_climb_carry": Spec("hsi_climb", 27, ("near", "far", "foot", "climb"), 0.7, "platform", R.CLIMB_TARGET_ABOVE_TOP),  # Eq. 18
+    "hsi_sit_carry": Spec("hsi_sit", 38, ("near", "far", "speed", "turn", "sit"), 0.7, "seat", R.SIT_TARGET_ABOVE_SEAT),      # Eq. 17
+    "hsi_climb_carry": Spec("hsi_climb", 27, ("near", "far", "foot", "speed", "climb"), 0.7, "platform", R.CLIMB_TARGET_ABOVE_TOP),  # Eq. 18
 }
 TASKS = list(SPECS)
 GOAL_NAMES = ["target_x", "target_y", "target_z", "object_x", "object_y", "object_z", "object_yaw",
@@ -350,6 +350,7 @@ def rollout(task, env, models, names, seed, stage_no, mx, cases):
     rng = np.random.default_rng(seed)
     done = np.zeros(env.num_envs, bool)
     steps, near_steps = (np.zeros(env.num_envs, int) for _ in range(2))
+    reached = np.zeros(env.num_envs, bool)
     history = [[g.waypoints] if task == "hsi_follow_carry" else None for g in goals]
     checked = 0
     for _ in range(STEPS):
@@ -390,9 +391,10 @@ def rollout(task, env, models, names, seed, stage_no, mx, cases):
                 assert not trunc[i]
             else:
                 cases[f"primary {'near' if dist2d(g.obj_pos, root) <= (0.5 if task == 'hsi_sit_carry' else 0.7) else 'far'} case"] += 1
-                near_steps[i] = near_steps[i] + 1 if err < IET_DISTANCE else 0
-                assert trunc[i] == (near_steps[i] >= IET_STEPS and not term[i]), f"interaction early termination {where}"
-                success = err < IET_DISTANCE and not term[i] and near
+                near_steps[i] += err <= IET_DISTANCE
+                assert trunc[i] == (near_steps[i] >= IET_STEPS - 1 and not term[i]), f"interaction early termination {where}"
+                reached[i] |= err <= IET_DISTANCE
+                success = reached[i] and near
             mx.check("metrics [error_m, success]", info["frame_metrics"][i][:2], [err, float(success)], where)
             if not (term[i] or trunc[i]):
                 check_obs(task, m, d, obs[i], g, mx, where)

@@ -4,8 +4,9 @@
 //! interpolation and discriminator features, run on states this project dumped) — every one to
 //! 1e-5.
 
-use serde_json::Value;
-use skillmimic_core::shared_data::workspace_root;
+mod common;
+
+use common::{Arrays, TOL, check, fixture, flag, floats};
 use skillmimic_env::tasks::hsi::config::{FollowConfig, HsiForm};
 use skillmimic_env::tasks::hsi::follow::{Follow, Goal, path_reward};
 use skillmimic_env::tasks::hsi::proprio::{PROPRIO_DIM, write_proprio};
@@ -13,86 +14,10 @@ use skillmimic_env::tasks::hsi::style::{RELEASED_STYLE_DIM, released_features};
 use skillmimic_env::tasks::hsi::{
     Ctx, DT, FallHeights, Rule, TaskOut, fallen, power, time_limit_reached,
 };
-use skillmimic_sim::EnvState;
-
-const TOL: f64 = 1e-5;
-
-fn fixture() -> Value {
-    let path = workspace_root().join("tests/fixtures/tokenhsi_follow_golden.json");
-    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    serde_json::from_str(&text).expect("fixture JSON")
-}
-
-fn floats(v: &Value) -> Vec<f64> {
-    match v {
-        Value::Array(a) => a.iter().flat_map(floats).collect(),
-        Value::Number(n) => vec![n.as_f64().expect("a number")],
-        other => panic!("not a number: {other}"),
-    }
-}
-
-/// Largest absolute difference, with where it is.
-fn check(what: &str, state: usize, ours: &[f64], theirs: &[f64], worst: &mut f64) {
-    assert_eq!(ours.len(), theirs.len(), "{what} width, state {state}");
-    for (k, (a, b)) in ours.iter().zip(theirs).enumerate() {
-        let d = (a - b).abs();
-        assert!(d <= TOL, "{what}[{k}] of state {state}: ours {a} vs released {b}");
-        *worst = worst.max(d);
-    }
-}
-
-/// The arrays one state's [`EnvState`] borrows.
-struct Arrays {
-    pos: Vec<f64>,
-    quat: Vec<f64>,
-    vel: Vec<f64>,
-    angvel: Vec<f64>,
-    force: Vec<f64>,
-    dof_pos: Vec<f64>,
-    dof_vel: Vec<f64>,
-    dof_force: Vec<f64>,
-    pairs: Vec<u8>,
-    touch: Vec<u8>,
-}
-
-impl Arrays {
-    fn of(s: &Value) -> Self {
-        // Isaac Gym's x, y, z, w -> w, x, y, z
-        let xyzw = floats(&s["body_rot"]);
-        let quat = xyzw.chunks(4).flat_map(|q| [q[3], q[0], q[1], q[2]]).collect();
-        Self {
-            pos: floats(&s["body_pos"]),
-            quat,
-            vel: floats(&s["body_vel"]),
-            angvel: floats(&s["body_ang_vel"]),
-            force: floats(&s["contact_force"]),
-            dof_pos: floats(&s["dof_pos"]),
-            dof_vel: floats(&s["dof_vel"]),
-            dof_force: floats(&s["dof_force"]),
-            pairs: vec![0; 7],
-            touch: vec![0; 15],
-        }
-    }
-    fn state(&self) -> EnvState<'_> {
-        EnvState {
-            body_pos: &self.pos,
-            body_quat: &self.quat,
-            body_linvel: &self.vel,
-            body_angvel: &self.angvel,
-            dof_pos: &self.dof_pos,
-            dof_vel: &self.dof_vel,
-            dof_force: &self.dof_force,
-            contact_force: &self.force,
-            contact_pairs: &self.pairs,
-            touch: &self.touch,
-            unstable: false,
-        }
-    }
-}
 
 #[test]
 fn follow_matches_the_released_functions() {
-    let fx = fixture();
+    let fx = fixture("tokenhsi_follow_golden.json");
     let p = &fx["params"];
     let cfg = FollowConfig::default();
     // the fixture was made with the released defaults that this project ships
@@ -153,14 +78,20 @@ fn follow_matches_the_released_functions() {
 
         // the rule's own step: reward term, path failure, success
         let fell = fallen(&st, steps, heights);
-        let ctx = Ctx { st: &st, prev_root: root, prev_obj: [0.0; 3], steps, fallen: fell };
+        let ctx = Ctx {
+            st: &st,
+            prev_root: root,
+            prev_root_quat: st.quat(0),
+            prev_obj: [0.0; 3],
+            steps,
+            fallen: fell,
+        };
         let (mut terms, mut metrics) = ([0.0f32; 1], [0.0f32; 2]);
         let mut out =
             TaskOut { terms: &mut terms, metrics: &mut metrics, fail: false, finish: false };
         rule.step(&mut goal, &ctx, &mut out);
         let fail = out.fail;
         assert!((f64::from(terms[0]) - reward).abs() < 1e-6, "the rule's term is Eq. 1");
-        let flag = |v: &Value| v.as_u64().expect("0/1") != 0;
         assert_eq!(fell, flag(&e["terminated_base"]), "fall rule, state {i}");
         assert_eq!(fell || fail, flag(&e["terminated"]), "termination, state {i}");
         let reset = fell || fail || time_limit_reached(steps, cfg.episode_length);

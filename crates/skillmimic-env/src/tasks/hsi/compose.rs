@@ -46,7 +46,7 @@ use super::{Ctx, DT, Rule, TaskOut, hsi_spec};
 use crate::config::EnvConfig;
 use crate::error::{EnvError, bad};
 use crate::task::TaskSpec;
-use crate::tasks::hsi::config::HsiConfig;
+use crate::tasks::hsi::config::{HsiConfig, HsiForm};
 use crate::vec_env::Env;
 
 /// Distance from the character of the box's support (m).
@@ -191,9 +191,7 @@ impl<P: Primary> Rule for WithBox<P> {
     fn objects(&self, rng: &mut ChaCha8Rng) -> Vec<BoxObject> {
         let mut v = self.primary.objects(rng);
         let c = &self.carry;
-        let half =
-            [0.5 * draw(rng, c.box_size), 0.5 * draw(rng, c.box_size), 0.5 * draw(rng, c.box_size)];
-        let mass = draw(rng, c.box_mass);
+        let (half, mass) = super::carry::draw_box(rng, c);
         v.push(BoxObject {
             name: "box".into(),
             mass: Some(mass),
@@ -251,7 +249,7 @@ impl<P: Primary> Rule for WithBox<P> {
         self.primary.observe(&goal.primary, st, steps, &mut out[..p]);
         let body = self.box_body();
         let target = self.primary.carry_target(&goal.primary, steps, st.pos(body));
-        observe_box(target, goal.half, st, body, &mut out[p..p + 42]);
+        observe_box(target, goal.half, st, body, HsiForm::Supplementary, &mut out[p..p + 42]);
         out.copy_within(0..p, p + 42);
         out.copy_within(p + 3..p + 42, 2 * p + 42);
     }
@@ -320,7 +318,11 @@ pub fn build_follow_carry(cfg: &EnvConfig) -> Result<Box<dyn Env>, EnvError> {
 /// Registry constructor of `hsi_sit_carry`.
 pub fn build_sit_carry(cfg: &EnvConfig) -> Result<Box<dyn Env>, EnvError> {
     build(
-        Sit::new(&cfg.table::<HsiConfig>().sit, cfg.table::<HsiConfig>().random_heading),
+        Sit::new(
+            &cfg.table::<HsiConfig>().sit,
+            cfg.table::<HsiConfig>().random_heading,
+            cfg.table::<HsiConfig>().form,
+        ),
         cfg,
         cfg.table::<HsiConfig>().object_variants,
     )
@@ -328,7 +330,11 @@ pub fn build_sit_carry(cfg: &EnvConfig) -> Result<Box<dyn Env>, EnvError> {
 /// Registry constructor of `hsi_climb_carry`.
 pub fn build_climb_carry(cfg: &EnvConfig) -> Result<Box<dyn Env>, EnvError> {
     build(
-        Climb::new(&cfg.table::<HsiConfig>().climb, cfg.table::<HsiConfig>().random_heading),
+        Climb::new(
+            &cfg.table::<HsiConfig>().climb,
+            cfg.table::<HsiConfig>().random_heading,
+            cfg.table::<HsiConfig>().form,
+        ),
         cfg,
         cfg.table::<HsiConfig>().object_variants,
     )

@@ -40,8 +40,13 @@ pub struct HsiConfig {
     #[schemars(range(min = 0, max = 1))]
     pub hybrid_init_prob: f64,
     /// Which form of TokenHSI the tasks follow where the supplementary's text and the released
-    /// code differ: `released` (default) or `supplementary` (the follow observation's waypoints
-    /// 0.1 s apart instead of 0.5 s).
+    /// code differ: `released` (default) or `supplementary`: the follow observation's waypoints
+    /// 0.1 s apart instead of 0.5 s; sit and carry observations in the text's order (target
+    /// first, the object's position as its frame origin); the sit/climb/carry rewards of
+    /// Eqs. 2–15 (climb's fixed 0.7 m gate, no sign masks, no speed, turning or box-speed
+    /// penalties, no "box still low" mask, a continuous put-down term). Where the text is silent
+    /// (fall rules, interaction early termination, success, corner order) both forms are the
+    /// released code's.
     pub form: HsiForm,
     /// Start heading of the character: uniformly random (else facing +x).
     pub random_heading: bool,
@@ -196,12 +201,34 @@ pub struct SitConfig {
     pub distance: [f64; 2],
     /// Target height above the seat top (m; 0.1 in the paper).
     pub target_above_seat: f64,
-    /// Success / interaction early termination: root within this distance (m) of the target.
+    /// Success / interaction early termination: root within this distance (m, ≤) of the target.
     #[schemars(extend("exclusiveMinimum" = 0))]
     pub success_distance: f64,
-    /// Interaction early termination after this many consecutive steps within
-    /// `success_distance` (0 = off).
+    /// Interaction early termination (the released rule): the episode is truncated once the steps
+    /// with the root within `success_distance` of the target — counted over the whole episode,
+    /// not necessarily consecutive — reach `iet_steps` − 1 (60 → 59, the released
+    /// `maxIETSteps`; 0 = off).
     pub iet_steps: usize,
+    /// Speed penalty within `penalty_radius` of the object (released form):
+    /// `−coefficient (1 − exp(−2 (threshold − max(|v|, threshold))²))`, |v| the root's 3-D
+    /// speed (m/s); 0 switches it off.
+    #[schemars(range(min = 0))]
+    pub speed_penalty_coefficient: f64,
+    /// Speed above which the penalty starts (m/s).
+    #[schemars(range(min = 0))]
+    pub speed_penalty_threshold: f64,
+    /// Turning penalty within `penalty_radius` (released form):
+    /// `−coefficient (1 − exp(−0.5 (threshold − max(ω, threshold))²))`, ω the change of the root's
+    /// yaw in [0, 2π) over one step divided by 1/30 s (rad/s; as released, the yaw is not
+    /// unwrapped, so crossing 0 reads as a fast turn); 0 switches it off.
+    #[schemars(range(min = 0))]
+    pub turn_penalty_coefficient: f64,
+    /// Turning rate above which the penalty starts (rad/s).
+    #[schemars(range(min = 0))]
+    pub turn_penalty_threshold: f64,
+    /// The penalties apply within this 2-D root–object distance (m).
+    #[schemars(range(min = 0))]
+    pub penalty_radius: f64,
     /// Reference clips of this task's own discriminator (multi-task training keeps one per task,
     /// as TokenHSI); empty = `env.hsi.style_motion`.
     #[schemars(extend("items" = {"type": "string", "format": "path"}))]
@@ -219,6 +246,11 @@ impl Default for SitConfig {
             target_above_seat: 0.1,
             success_distance: 0.2,
             iet_steps: 60,
+            speed_penalty_coefficient: 0.5,
+            speed_penalty_threshold: 1.3,
+            turn_penalty_coefficient: 0.5,
+            turn_penalty_threshold: 3.0,
+            penalty_radius: 1.5,
             style_motion: Vec::new(),
         }
     }
@@ -242,12 +274,31 @@ pub struct ClimbConfig {
     pub distance: [f64; 2],
     /// Target root height above the platform top (m; 0.94 in the paper).
     pub target_above_top: f64,
-    /// Success / interaction early termination: root within this distance (m) of the target.
+    /// Success / interaction early termination: root within this distance (m, ≤) of the target.
     #[schemars(extend("exclusiveMinimum" = 0))]
     pub success_distance: f64,
-    /// Interaction early termination after this many consecutive steps within
-    /// `success_distance` (0 = off).
+    /// Interaction early termination: as `env.hsi.sit.iet_steps` (cumulative count, truncation
+    /// at `iet_steps` − 1; 0 = off).
     pub iet_steps: usize,
+    /// The close gate (released form): root within half the diagonal of the object's footprint
+    /// plus this margin (m) of the object's centre (2-D).
+    #[schemars(range(min = 0))]
+    pub gate_margin: f64,
+    /// Speed penalty (released form) within `penalty_radius` of the object:
+    /// `−coefficient (1 − exp(−2 (thr − max(|v|, thr))²))`, |v| the root's 3-D speed (m/s), thr
+    /// `speed_penalty_threshold` inside the gate, else `speed_penalty_threshold_approach`; 0
+    /// switches it off.
+    #[schemars(range(min = 0))]
+    pub speed_penalty_coefficient: f64,
+    /// Speed threshold inside the close gate (m/s).
+    #[schemars(range(min = 0))]
+    pub speed_penalty_threshold: f64,
+    /// Speed threshold between the gate and `penalty_radius` (m/s).
+    #[schemars(range(min = 0))]
+    pub speed_penalty_threshold_approach: f64,
+    /// The penalty applies within this 2-D root–object distance (m).
+    #[schemars(range(min = 0))]
+    pub penalty_radius: f64,
     /// Reference clips of this task's own discriminator (multi-task training keeps one per task,
     /// as TokenHSI); empty = `env.hsi.style_motion`.
     #[schemars(extend("items" = {"type": "string", "format": "path"}))]
@@ -260,39 +311,85 @@ impl Default for ClimbConfig {
             episode_length: 300,
             height: [0.2, 0.6],
             size: [0.6, 1.2],
-            distance: [1.0, 5.0],
+            distance: [1.0, 10.0],
             target_above_top: 0.94,
             success_distance: 0.2,
             iet_steps: 60,
+            gate_margin: 0.3,
+            speed_penalty_coefficient: 1.0,
+            speed_penalty_threshold: 1.3,
+            speed_penalty_threshold_approach: 1.5,
+            penalty_radius: 1.5,
             style_motion: Vec::new(),
         }
     }
 }
 
-/// Carrying a box between two supports (supplementary §B.2.4).
+/// Carrying a box (supplementary §B.2.4; the released `humanoid_carry.py` and its config).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct CarryConfig {
     /// Episode length (600 = 20 s).
     #[schemars(range(min = 1))]
     pub episode_length: usize,
-    /// Box side length range (m), each side drawn independently.
+    /// Box side length range (m): 0.2–0.6, the released base size 0.4 scaled by 0.5–1.5.
     #[schemars(inner(range(min = 0.05)))]
     pub box_size: [f64; 2],
-    /// Box mass range (kg).
-    #[schemars(inner(range(min = 0.01)))]
-    pub box_mass: [f64; 2],
-    /// Height range of the start and target support tops (m).
-    #[schemars(inner(range(min = 0)))]
-    pub support_height: [f64; 2],
-    /// Distance range (m) of the start support from the character, and of the target support
-    /// from the start support.
+    /// Step of the side lengths (m): sizes low, low + step, …, high (0.05 → 9 sizes, as
+    /// released); 0 draws them continuously.
+    #[schemars(range(min = 0))]
+    pub box_size_step: f64,
+    /// Cubes (one drawn side for all three, as released); else each side drawn independently.
+    pub cube: bool,
+    /// Box density (kg/m³; 100 as released: 0.8 kg for a 0.2 m cube, 21.6 kg for 0.6 m).
+    #[schemars(extend("exclusiveMinimum" = 0))]
+    pub box_density: f64,
+    /// Distance range (m) of the box from the character at the start.
     #[schemars(inner(range(min = 0)))]
     pub distance: [f64; 2],
-    /// Object-fall termination: the box centre below this height (m) (off when 0).
+    /// The target's horizontal position is uniform in [−a, a]² around the character's start
+    /// (m; 4.5 as released: the environment spacing 5 minus 0.5).
+    #[schemars(range(min = 0))]
+    pub target_area: f64,
+    /// The target is redrawn while it is closer than this (m, 2-D) to the character or the box.
+    #[schemars(range(min = 0))]
+    pub keep_clear: f64,
+    /// Probability that the box's start, and independently its target, is raised off the floor.
+    #[schemars(range(min = 0, max = 1))]
+    pub raise_prob: f64,
+    /// A raised box's centre goes up by U(0, this) (m) …
+    #[schemars(range(min = 0))]
+    pub raise_height: f64,
+    /// … with its top at most this high (m).
+    #[schemars(range(min = 0))]
+    pub max_top: f64,
+    /// Side lengths (m, x and y) of the 0.02 m thick platforms under the start and the target.
+    #[schemars(inner(range(min = 0.01)))]
+    pub platform_size: [f64; 2],
+    /// The box starts this far (m) above its platform and drops onto it.
+    #[schemars(range(min = 0))]
+    pub drop_height: f64,
+    /// Box-speed penalty (released form), every step:
+    /// `−coefficient (1 − exp(−2 (thr − max(|v_box|, thr))²))`, |v_box| the box's 3-D speed (m/s);
+    /// 0 switches it off.
+    #[schemars(range(min = 0))]
+    pub box_speed_penalty_coefficient: f64,
+    /// Box speed above which the penalty starts (m/s).
+    #[schemars(range(min = 0))]
+    pub box_speed_penalty_threshold: f64,
+    /// "Box still low" (released form): the term for moving the box towards its target is 0 while
+    /// the box's centre is at most this much (m) above half its height, unless the box is within
+    /// 0.5 m of the target — no reward for kicking or pushing it along the floor.
+    #[schemars(range(min = 0))]
+    pub low_margin: f64,
+    /// Height range of the support tops of the compositions (`hsi_*_carry`; m).
+    #[schemars(inner(range(min = 0)))]
+    pub support_height: [f64; 2],
+    /// Object-fall termination: the box centre below this height (m) (off when 0; the released
+    /// carry task has none).
     #[schemars(range(min = 0))]
     pub fall_height: f64,
-    /// Success: box centre within this distance (m) of its target.
+    /// Success: box centre within this distance (m, ≤) of its target at some step.
     #[schemars(extend("exclusiveMinimum" = 0))]
     pub success_distance: f64,
     /// Reference clips of this task's own discriminator (multi-task training keeps one per task,
@@ -305,10 +402,22 @@ impl Default for CarryConfig {
     fn default() -> Self {
         Self {
             episode_length: 600,
-            box_size: [0.25, 0.45],
-            box_mass: [1.0, 8.0],
+            box_size: [0.2, 0.6],
+            box_size_step: 0.05,
+            cube: true,
+            box_density: 100.0,
+            distance: [1.0, 10.0],
+            target_area: 4.5,
+            keep_clear: 1.0,
+            raise_prob: 0.5,
+            raise_height: 1.0,
+            max_top: 1.2,
+            platform_size: [0.4, 0.4],
+            drop_height: 0.05,
+            box_speed_penalty_coefficient: 1.0,
+            box_speed_penalty_threshold: 2.5,
+            low_margin: 0.2,
             support_height: [0.0, 0.8],
-            distance: [1.0, 5.0],
             fall_height: 0.0,
             success_distance: 0.2,
             style_motion: Vec::new(),
@@ -361,7 +470,6 @@ impl HsiConfig {
             ("env.hsi.climb.size", self.climb.size),
             ("env.hsi.climb.distance", self.climb.distance),
             ("env.hsi.carry.box_size", self.carry.box_size),
-            ("env.hsi.carry.box_mass", self.carry.box_mass),
             ("env.hsi.carry.support_height", self.carry.support_height),
             ("env.hsi.carry.distance", self.carry.distance),
         ] {

@@ -4,7 +4,7 @@
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use skillmimic_core::characters::tokenhsi::STANDING_ROOT_HEIGHT;
-use skillmimic_core::math::{Quat, Vec3, heading_inverse, sub, tan_norm};
+use skillmimic_core::math::{Quat, Vec3, heading, heading_inverse, sub, tan_norm};
 use skillmimic_sim::{EnvState, ResetState};
 
 /// The character's heading frame: origin at the root, rotated about +z by −heading.
@@ -33,15 +33,18 @@ impl Local {
     }
 }
 
-/// The 8 corners (world, m) of the box `[lo, hi]` (object frame) of an object at `pos`/`quat`,
-/// in the order x-major: (lo|hi x) × (lo|hi y) × (lo|hi z), z fastest.
+/// The 8 corners (world, m) of the box `[lo, hi]` (object frame) of an object at `pos`/`quat`, in
+/// the released `_build_object_bps` order: the bottom face (+x +y), (−x +y), (−x −y), (+x −y), then
+/// the top face in the same order (+x = `hi[0]`, −x = `lo[0]`, …).
 pub fn corners(pos: Vec3, quat: Quat, lo: Vec3, hi: Vec3) -> [Vec3; 8] {
+    const SIGNS: [[bool; 2]; 4] = [[true, true], [false, true], [false, false], [true, false]];
     let mut out = [[0.0; 3]; 8];
     for (k, c) in out.iter_mut().enumerate() {
+        let [px, py] = SIGNS[k % 4];
         let p = [
-            if k & 4 == 0 { lo[0] } else { hi[0] },
-            if k & 2 == 0 { lo[1] } else { hi[1] },
-            if k & 1 == 0 { lo[2] } else { hi[2] },
+            if px { hi[0] } else { lo[0] },
+            if py { hi[1] } else { lo[1] },
+            if k < 4 { lo[2] } else { hi[2] },
         ];
         let r = quat.rotate(p);
         *c = [pos[0] + r[0], pos[1] + r[1], pos[2] + r[2]];
@@ -87,6 +90,42 @@ pub fn speed_reward(
 pub fn dist_sq(a: Vec3, b: Vec3) -> f64 {
     let d = sub(a, b);
     d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
+}
+
+/// The released direction-speed term: `exp(−k (v* − d·v)²)` as [`speed_reward`], but 0 when the
+/// horizontal velocity points away from the target (`d·v ≤ 0`).
+pub fn speed_reward_towards(
+    k: f64,
+    target_speed: f64,
+    d: [f64; 2],
+    now: Vec3,
+    before: Vec3,
+    dt: f64,
+) -> f64 {
+    let v = [(now[0] - before[0]) / dt, (now[1] - before[1]) / dt];
+    let along = d[0] * v[0] + d[1] * v[1];
+    if along <= 0.0 { 0.0 } else { (-k * (target_speed - along).powi(2)).exp() }
+}
+
+/// The released excess penalty `−coeff (1 − exp(−k (threshold − max(x, threshold))²))`: 0 up to
+/// `threshold`, approaching −`coeff` beyond it (speeds in m/s, turning rates in rad/s).
+pub fn excess_penalty(coeff: f64, k: f64, threshold: f64, x: f64) -> f64 {
+    -coeff * (1.0 - (-k * (threshold - x.max(threshold)).powi(2)).exp())
+}
+
+/// 3-D speed (m/s) of a point that moved from `before` to `now` in `dt` s.
+pub fn speed(now: Vec3, before: Vec3, dt: f64) -> f64 {
+    dist_sq(now, before).sqrt() / dt
+}
+
+/// The yaw of `q` in [0, 2π) (rad), as the released `get_euler_xyz` returns it (not unwrapped).
+pub fn yaw_0_2pi(q: Quat) -> f64 {
+    heading(q).rem_euclid(std::f64::consts::TAU)
+}
+
+/// Squared 2-D distance between the horizontal parts of `a` and `b` (m²).
+pub fn dist2d_sq(a: Vec3, b: Vec3) -> f64 {
+    (a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)
 }
 
 /// The start of the character: the rest pose standing at the origin, facing a uniformly random

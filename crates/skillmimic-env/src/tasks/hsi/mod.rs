@@ -10,7 +10,8 @@
 //! * the observation `[proprioception 222 | task observation]` ([`proprio`]);
 //! * the start of the character: the rule's rest pose, or a reference frame
 //!   ([`reference_init`], the released reference-state initialisation);
-//! * the character-fall termination of the released code ([`fallen`]);
+//! * the character-fall termination of the released code: the rule's [`FallRule`] (follow:
+//!   [`fallen`], contact and a low body; sit, climb, carry: a low body alone, [`fallen_low`]);
 //! * the power penalty `−env.hsi.power_coefficient · Σ|τ·q̇|` added to every task's reward
 //!   ([`power`]): the reward terms are the rule's, then `power`, then `total_reward`;
 //! * the time limit: as released, an episode of length L (`episode_length` of the task's table)
@@ -118,6 +119,8 @@ pub struct Ctx<'a> {
     pub st: &'a EnvState<'a>,
     /// Root position before the step (world, m).
     pub prev_root: [f64; 3],
+    /// Root orientation before the step (world, w x y z).
+    pub prev_root_quat: skillmimic_core::math::Quat,
     /// Position of object 0 before the step (world, m).
     pub prev_obj: [f64; 3],
     /// Policy steps taken in this episode (1 after the first step).
@@ -162,6 +165,33 @@ pub trait Rule: Send + Sync + 'static {
     /// Task information at `steps` policy steps into the episode (`TaskSpec::info_names`:
     /// targets, object poses and sizes, in world coordinates).
     fn info(&self, goal: &Self::Goal, steps: usize, out: &mut [f32]);
+    /// The task's character-fall rule (default: the one of the released `humanoid.py`, which the
+    /// follow task uses).
+    fn fall_rule(&self) -> FallRule {
+        FallRule::ContactAndLow
+    }
+}
+
+/// Which character-fall rule a task uses: the released task files differ.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FallRule {
+    /// `humanoid.py` (ASE) as the follow task uses it: [`fallen`].
+    ContactAndLow,
+    /// The sit, climb and carry files' own rule: some body other than the feet below its
+    /// termination height, no contact test, from step `from_step` on ([`fallen_low`]). Sit
+    /// (training and evaluation) and climb (training) test from the first step (`1`); carry and
+    /// climb's evaluation from the second (`2`).
+    Low { from_step: usize },
+}
+
+impl FallRule {
+    /// Whether the character fell in `st` after `steps` policy steps.
+    pub fn fallen(self, st: &EnvState<'_>, steps: usize, h: FallHeights) -> bool {
+        match self {
+            Self::ContactAndLow => fallen(st, steps, h),
+            Self::Low { from_step } => steps >= from_step && fallen_low(st, h),
+        }
+    }
 }
 
 /// Per-environment state of a TokenHSI task.
@@ -171,13 +201,15 @@ pub struct HsiSlot<G> {
     /// Policy steps taken in this episode.
     pub steps: usize,
     prev_root: [f64; 3],
+    prev_root_quat: skillmimic_core::math::Quat,
     prev_obj: [f64; 3],
 }
 
 impl<G> HsiSlot<G> {
-    /// Take the current root and object 0 positions as "before the next step".
+    /// Take the current root pose and object 0 position as "before the next step".
     fn remember(&mut self, st: &EnvState<'_>) {
         self.prev_root = st.pos(0);
+        self.prev_root_quat = st.quat(0);
         if st.body_pos.len() > 3 * NUM_BODIES {
             self.prev_obj = st.pos(NUM_BODIES);
         }
@@ -220,14 +252,19 @@ pub fn fallen(st: &EnvState<'_>, steps: usize, h: FallHeights) -> bool {
     if steps <= 1 {
         return false;
     }
-    let others = (0..NUM_BODIES).filter(|b| !CONTACT_BODIES.contains(b));
-    let contact =
-        others.clone().any(|b| (0..3).any(|k| st.contact_force[3 * b + k].abs() > CONTACT_FORCE));
-    let low = others.into_iter().any(|b| {
+    let mut others = (0..NUM_BODIES).filter(|b| !CONTACT_BODIES.contains(b));
+    let contact = others.any(|b| (0..3).any(|k| st.contact_force[3 * b + k].abs() > CONTACT_FORCE));
+    contact && fallen_low(st, h)
+}
+
+/// Some body other than the feet is below its termination height (`h.body`; the head
+/// max(`h.head`, `h.body`)): the height half of [`fallen`], and the whole fall rule of the
+/// released sit, climb and carry files ([`FallRule::Low`]).
+pub fn fallen_low(st: &EnvState<'_>, h: FallHeights) -> bool {
+    (0..NUM_BODIES).filter(|b| !CONTACT_BODIES.contains(b)).any(|b| {
         let height = if b == HEAD { h.head.max(h.body) } else { h.body };
         st.pos(b)[2] < height
-    });
-    contact && low
+    })
 }
 
 /// The released time limit: an episode of length L is over after `steps` ≥ L − 1 steps.
@@ -281,10 +318,11 @@ impl<R: Rule> Task for Hsi<R> {
     }
     fn step_env(&self, _i: usize, slot: &mut Self::Slot, st: &EnvState<'_>, out: StepOut<'_>) {
         slot.steps += 1;
-        let fallen = fallen(st, slot.steps, self.heights);
+        let fallen = self.rule.fall_rule().fallen(st, slot.steps, self.heights);
         let ctx = Ctx {
             st,
             prev_root: slot.prev_root,
+            prev_root_quat: slot.prev_root_quat,
             prev_obj: slot.prev_obj,
             steps: slot.steps,
             fallen,

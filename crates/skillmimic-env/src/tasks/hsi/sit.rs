@@ -1,22 +1,33 @@
-//! `hsi_sit`: sitting on a procedural chair or stool (TokenHSI supplementary §B.2.2, Eqs. 2–4).
+//! `hsi_sit`: sitting on a procedural chair or stool (TokenHSI supplementary §B.2.2, Eqs. 2–4), as
+//! the released `humanoid_sit.py` does it.
 //!
 //! * Object (one per compiled variant, sizes from `[env.hsi.sit]`): a box seat from the floor to
 //!   the seat height, depth × width in `seat_size`, facing its +x axis; with probability
-//!   `backrest_prob` a backrest (0.06 m thick, 0.5 m tall) on its −x edge. The object frame's
-//!   origin is the centre of its footprint on the floor. Each episode places it `distance` m from
-//!   the character in a random direction with a random yaw (a static, mocap body).
-//! * Target: 0.1 m (`target_above_seat`) above the centre of the seat's top.
-//! * Observation (38), heading frame relative to the root: target (3) | object position (3) |
-//!   object rotation, tan-norm 6D (6) | object facing direction (x, y of its +x axis) (2) | the 8
-//!   corners of its bounding box (24) ([`corners`] order).
-//! * Reward (Eqs. 2–4): `0.7 r_near + 0.3 r_far` when the 2-D root–object distance exceeds 0.5 m,
-//!   else `0.7 r_near + 0.3`; `r_far = exp(−2 (1.5 − d*·v_root,2d)²)` (d*: horizontal unit vector
-//!   root → object; v: finite-difference root velocity), `r_near = exp(−10 ‖x_tar − x_root‖²)`.
-//! * Ends: interaction early termination (truncation) after `iet_steps` consecutive steps with the
-//!   root within `success_distance` of the target; time limit.
-//! * Metrics: `error_m` (root–target distance), `success` (below `success_distance`, not in a
-//!   step where the character fell): their values at an episode's end are the paper's error and
-//!   success.
+//!   `backrest_prob` a backrest (0.06 m thick, 0.5 m tall) on its −x edge. The object's frame has
+//!   its origin at the centre of its footprint on the floor; its bounding-box centre (the released
+//!   object root) is half the box's height above it. Each episode places it `distance` m from the
+//!   character in a random direction with a random yaw (a static, mocap body). (The released
+//!   objects are chair meshes whose front is their +y axis; the front of ours is +x, and the
+//!   facing observation is the front in both.)
+//! * Target: 0.1 m (`target_above_seat`) above the centre of the seat's top (the released target
+//!   is the mean seat height around the bounding box's centre plus 0.1 m: the same point here).
+//! * Observation (38), heading frame relative to the root. Released (default): target (3) | the 8
+//!   corners of the bounding box ([`corners`] order) (24) | facing direction (x, y of the front)
+//!   (2) | bounding-box centre (3) | object rotation, tan-norm 6D (6). Supplementary form (the
+//!   text's order): target | object position (frame origin) | rotation | facing | corners.
+//! * Reward (Eqs. 2–4): `0.7 r_near + 0.3 r_far`, `r_far = exp(−2 (1.5 − d*·v_root,2d)²)`
+//!   (d*: horizontal unit vector root → object; v: finite-difference root velocity), 1 when the
+//!   2-D root–object distance is at most 0.5 m; `r_near = exp(−10 ‖x_tar − x_root‖²)`. The
+//!   released form adds, within `penalty_radius` (1.5 m, 2-D) of the object, a speed penalty
+//!   `−0.5 (1 − exp(−2 (1.3 − max(‖v_root‖, 1.3))²))` (3-D speed) and a turning penalty
+//!   `−0.5 (1 − exp(−0.5 (3 − max(ω, 3))²))`, ω = |yaw_t − yaw_{t−1}| / (1/30 s) with the yaw in
+//!   [0, 2π) not unwrapped ([`yaw_0_2pi`]).
+//! * Ends: the released sit file's fall rule (a low body alone, from the first step,
+//!   [`super::FallRule::Low`]); interaction early termination (a truncation) once the steps with
+//!   the root within `success_distance` (≤ 0.2 m) of the target — cumulative over the episode —
+//!   reach `iet_steps` − 1 = 59 ([`Goal::finish_step`]); the time limit.
+//! * Metrics: `error_m` (root–target distance, m), `success` (the released evaluation, ever
+//!   reached: 1 from the first step within `success_distance`, whatever follows).
 //! * Info (13, world): target (3), object position (3), object yaw (1), bounding box lo (3), hi
 //!   (3).
 
@@ -27,13 +38,14 @@ use skillmimic_sim::{BoxObject, EnvState, ObjectBox, ObjectState, ResetState, Sc
 
 use super::config::SitConfig;
 use super::geometry::{
-    Local, corners, dir2d, dist_sq, dist2d, draw, put, ring_point, speed_reward, stand_at_origin,
+    Local, corners, dir2d, dist_sq, dist2d, draw, excess_penalty, put, ring_point, speed,
+    speed_reward, stand_at_origin, yaw_0_2pi,
 };
-use super::{Ctx, DT, Rule, TaskOut, hsi_spec};
+use super::{Ctx, DT, FallRule, Rule, TaskOut, hsi_spec};
 use crate::config::EnvConfig;
 use crate::error::EnvError;
 use crate::task::TaskSpec;
-use crate::tasks::hsi::config::HsiConfig;
+use crate::tasks::hsi::config::{HsiConfig, HsiForm};
 use crate::vec_env::Env;
 
 /// A static object with a target on it (sit and climb).
@@ -46,8 +58,12 @@ pub struct Goal {
     /// Bounding box of the object in its own frame (m).
     pub lo: Vec3,
     pub hi: Vec3,
-    /// Consecutive steps within the success distance.
+    /// Steps of this episode with the root within the success distance (cumulative).
     pub near_steps: usize,
+    /// The root was within the success distance at some step of this episode.
+    pub reached: bool,
+    /// Climb's close gate (m, 2-D): half the footprint's diagonal plus the gate margin.
+    pub gate: f64,
 }
 
 impl Goal {
@@ -79,7 +95,20 @@ impl Goal {
             lo,
             hi,
             near_steps: 0,
+            reached: false,
+            gate: 0.0,
         }
+    }
+
+    /// The world centre of the object's bounding box (the released object root).
+    pub fn centre(&self) -> Vec3 {
+        let c = [
+            0.5 * (self.lo[0] + self.hi[0]),
+            0.5 * (self.lo[1] + self.hi[1]),
+            0.5 * (self.lo[2] + self.hi[2]),
+        ];
+        let r = self.obj_quat.rotate(c);
+        [self.obj_pos[0] + r[0], self.obj_pos[1] + r[1], self.obj_pos[2] + r[2]]
     }
 
     /// World corners of the object's bounding box.
@@ -96,28 +125,30 @@ impl Goal {
         put(out, at, &self.hi);
     }
 
-    /// Count steps within `d` of the target; true once `iet` consecutive steps were (0 = never).
+    /// The released interaction early termination: count the steps with `err` ≤ `d` over the
+    /// episode (not necessarily consecutive); true once the count reaches `iet` − 1 (`iet` = 0:
+    /// never).
     pub fn interaction_done(&mut self, err: f64, d: f64, iet: usize) -> bool {
-        self.near_steps = if err < d { self.near_steps + 1 } else { 0 };
-        iet > 0 && self.near_steps >= iet
+        self.near_steps += usize::from(err <= d);
+        iet > 0 && self.near_steps + 1 >= iet
     }
 
-    /// The end of a step of a task that brings the root to the target (sit, climb): metrics
-    /// `error_m` (root–target distance) and `success` (below `success_distance`, and not in a
-    /// step where the character fell), and the interaction early termination after `iet_steps`
-    /// consecutive steps within `success_distance`.
+    /// The end of a step of a task that brings the root to the target (sit, climb), as released:
+    /// metrics `error_m` (root–target distance) and `success` (within `success_distance` at some
+    /// step of the episode, whatever follows), and the interaction early termination
+    /// ([`Self::interaction_done`]).
     pub fn finish_step(
         &mut self,
         root: Vec3,
         success_distance: f64,
         iet_steps: usize,
-        fallen: bool,
         out: &mut TaskOut<'_>,
     ) {
         let err = dist_sq(self.target, root).sqrt();
         out.finish = self.interaction_done(err, success_distance, iet_steps);
+        self.reached |= err <= success_distance;
         out.metrics[0] = err as f32;
-        out.metrics[1] = f32::from(err < success_distance && !fallen);
+        out.metrics[1] = f32::from(self.reached);
     }
 }
 
@@ -148,18 +179,19 @@ pub struct Sit {
     spec: TaskSpec,
     cfg: SitConfig,
     random_heading: bool,
+    form: HsiForm,
 }
 
 impl Sit {
-    pub fn new(cfg: &SitConfig, random_heading: bool) -> Self {
+    pub fn new(cfg: &SitConfig, random_heading: bool, form: HsiForm) -> Self {
         let spec = hsi_spec(
             "hsi_sit",
             38,
             cfg.episode_length,
-            crate::task::names(&["near", "far", "sit"]),
+            crate::task::names(&["near", "far", "speed", "turn", "sit"]),
             goal_info_names(),
         );
-        Self { spec, cfg: cfg.clone(), random_heading }
+        Self { spec, cfg: cfg.clone(), random_heading, form }
     }
 }
 
@@ -190,31 +222,59 @@ impl Rule for Sit {
     }
     fn observe(&self, goal: &Goal, st: &EnvState<'_>, _steps: usize, out: &mut [f32]) {
         let l = Local::of(st);
-        let at = put(out, 0, &l.point(goal.target));
-        let at = put(out, at, &l.point(goal.obj_pos));
-        let at = put(out, at, &l.rotation(goal.obj_quat));
         let facing = l.vector(goal.obj_quat.rotate([1.0, 0.0, 0.0]));
-        let mut at = put(out, at, &facing[..2]);
-        for c in goal.corners() {
-            at = put(out, at, &l.point(c));
+        let write_corners = |out: &mut [f32], mut at: usize| {
+            for c in goal.corners() {
+                at = put(out, at, &l.point(c));
+            }
+            at
+        };
+        let at = put(out, 0, &l.point(goal.target));
+        if self.form == HsiForm::Released {
+            let at = write_corners(out, at);
+            let at = put(out, at, &facing[..2]);
+            let at = put(out, at, &l.point(goal.centre()));
+            put(out, at, &l.rotation(goal.obj_quat));
+        } else {
+            let at = put(out, at, &l.point(goal.obj_pos));
+            let at = put(out, at, &l.rotation(goal.obj_quat));
+            let at = put(out, at, &facing[..2]);
+            write_corners(out, at);
         }
     }
     fn step(&self, goal: &mut Goal, ctx: &Ctx<'_>, out: &mut TaskOut<'_>) {
+        let c = &self.cfg;
+        let released = self.form == HsiForm::Released;
         let root = ctx.st.pos(0);
+        // the object's horizontal position: its bounding-box centre's (released; the same as the
+        // frame origin's for these objects)
+        let obj = if released { goal.centre() } else { goal.obj_pos };
         let near = (-10.0 * dist_sq(goal.target, root)).exp();
-        let far = speed_reward(2.0, 1.5, dir2d(root, goal.obj_pos), root, ctx.prev_root, DT);
-        let total = if dist2d(goal.obj_pos, root) > 0.5 {
-            0.7 * near + 0.3 * far
+        let far = if dist2d(obj, root) > 0.5 {
+            speed_reward(2.0, 1.5, dir2d(root, obj), root, ctx.prev_root, DT)
         } else {
-            0.7 * near + 0.3
+            1.0
         };
-        out.terms[0] = near as f32;
-        out.terms[1] = far as f32;
-        out.terms[2] = total as f32;
-        goal.finish_step(root, self.cfg.success_distance, self.cfg.iet_steps, ctx.fallen, out);
+        let (mut speed_pen, mut turn_pen) = (0.0, 0.0);
+        if released && dist2d(obj, root) <= c.penalty_radius {
+            let v = speed(root, ctx.prev_root, DT);
+            speed_pen =
+                excess_penalty(c.speed_penalty_coefficient, 2.0, c.speed_penalty_threshold, v);
+            let turn = (yaw_0_2pi(ctx.st.quat(0)) - yaw_0_2pi(ctx.prev_root_quat)).abs() / DT;
+            turn_pen =
+                excess_penalty(c.turn_penalty_coefficient, 0.5, c.turn_penalty_threshold, turn);
+        }
+        let total = 0.7 * near + 0.3 * far + speed_pen + turn_pen;
+        for (k, v) in [near, far, speed_pen, turn_pen, total].into_iter().enumerate() {
+            out.terms[k] = v as f32;
+        }
+        goal.finish_step(root, c.success_distance, c.iet_steps, out);
     }
     fn info(&self, goal: &Goal, _steps: usize, out: &mut [f32]) {
         goal.write_info(out);
+    }
+    fn fall_rule(&self) -> FallRule {
+        FallRule::Low { from_step: 1 }
     }
 }
 
@@ -223,6 +283,6 @@ pub fn build(cfg: &EnvConfig) -> Result<Box<dyn Env>, EnvError> {
     cfg.validate_driver()?;
     cfg.table::<HsiConfig>().validate()?;
     let h = cfg.table::<HsiConfig>();
-    let task = Sit::new(&h.sit, h.random_heading);
+    let task = Sit::new(&h.sit, h.random_heading, h.form);
     super::build_env(task, cfg, h.object_variants, h.sit.episode_length)
 }
