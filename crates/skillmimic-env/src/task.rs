@@ -234,4 +234,11 @@ pub trait Task: Send + Sync + 'static {
     /// Append the visual markers of an information row (`info_names` order; world metres) to
     /// `out`: what videos and the interactive viewer draw for the task (default: none).
     fn markers(&self, _info: &[f32], _out: &mut Vec<crate::markers::Marker>) {}
+    /// Width of the per-frame style features the task computes from the simulation state for a
+    /// motion prior (default 0: none; the prior then reads the observation).
+    fn style_dim(&self) -> usize {
+        0
+    }
+    /// Write the style features (`style_dim` wide) of the state `st` into `out`.
+    fn style_features(&self, _st: &EnvState<'_>, _out: &mut [f32]) {}
 }

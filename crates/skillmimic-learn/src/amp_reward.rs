@@ -15,9 +15,16 @@
 //!   discriminator steps on `batch` buffer windows against `batch` reference windows.
 //! * Checkpoint tensors: `amp.disc.{0,2,…}.weight/.bias`, `amp.norm.{mean,var,count}`,
 //!   `amp.optim.step`, `amp.optim.{m,v}.<param>`.
-//! * Multi-task environments (`hsi_multi`): one discriminator per task (TokenHSI), each scoring
-//!   its task's environment rows against its task's clips (`env.hsi.<task>.style_motion`), with
-//!   its own buffer and steps; tensors `amp.<task>.*`.
+//! * Multi-task environments (`hsi_multi`): by default (`env.hsi.discriminator =
+//!   "conditional"`, TokenHSI's released rule) one discriminator whose windows end with the task
+//!   one-hot (each environment's its task's; each reference window its clip's task's, the task
+//!   drawn by its share of the environments, the clip uniformly among its clips; tensors `amp.*`);
+//!   with `"per_task"` one discriminator per task, each scoring its task's environment rows
+//!   against its task's clips (`env.hsi.<task>.style_motion`), with its own buffer and steps;
+//!   tensors `amp.<task>.*`.
+//! * TokenHSI tasks read, by default, the environment's style features of its simulation state
+//!   (`Env::style_features`: the released discriminator's 129 per frame) instead of a map of the
+//!   observation.
 //! * Data-parallel runs: every rank keeps the windows of its own environments in a buffer of
 //!   `buffer / world` windows and brings `batch / world` reference and buffer windows to each
 //!   discriminator step ([`Discriminator::update_with`]: merged normaliser, averaged gradients),
@@ -39,10 +46,21 @@ use crate::amp::{DiscLoss, Discriminator};
 use crate::collective::Collective;
 use crate::config::{AmpConfig, TrainConfig};
 use crate::error::LearnError;
+use crate::trainer::StepView;
 use skillmimic_env::tasks::hsi::config::HsiConfig;
 
 /// Maps one observation row to its frame's prior features.
 type FrameFeatures = fn(&[f32], &mut [f32]);
+
+/// Where a frame's features come from.
+#[derive(Clone, Copy)]
+enum Source {
+    /// A map of the observation row.
+    Observation(FrameFeatures),
+    /// The environment's style features of the state ([`StepView::style`]; TokenHSI's released
+    /// discriminator features).
+    Env,
+}
 
 /// One discriminator with its reference windows and its buffer of simulated windows (one per
 /// task in multi-task training, TokenHSI's rule; otherwise one for the run).
@@ -53,6 +71,11 @@ pub struct Prior {
     /// Environment rows this prior scores.
     rows: std::ops::Range<usize>,
     reference: Vec<Vec<f32>>,
+    /// The condition (task index) of each reference clip (conditional prior; else 0).
+    labels: Vec<usize>,
+    /// Per condition, its reference clips (indices into `reference`) and the share of the
+    /// environments that run it (the probability a reference window comes from that task).
+    by_label: Vec<(Vec<usize>, f64)>,
     buffer: Vec<f32>,
     filled: usize,
     next: usize,
@@ -67,14 +90,19 @@ impl Prior {
 
 /// The motion prior's state in a training run.
 pub struct AmpReward {
-    /// The discriminators (one, or one per task of a multi-task environment).
+    /// The discriminators (one, or one per task of a multi-task environment with
+    /// `env.hsi.discriminator = "per_task"`).
     pub priors: Vec<Prior>,
     cfg: AmpConfig,
     horizon: usize,
-    /// Features per frame (the humanoid's `FEATURE_DIM`, or the TokenHSI character's 222).
+    /// Features per frame (the humanoid's `FEATURE_DIM`; the TokenHSI character's released 129,
+    /// or its 222-d proprioception).
     fdim: usize,
-    /// The per-frame feature map of the task's observation.
-    features: FrameFeatures,
+    /// Condition entries after each window: the task one-hot of the one conditional
+    /// discriminator of a TokenHSI multi-task run (0: unconditional).
+    cond: usize,
+    /// Where the frames come from.
+    source: Source,
     /// `n × window × fdim`: every environment's current window, oldest frame first.
     rings: Vec<f32>,
     /// Environments whose window restarts at the next step (new episode).
@@ -99,14 +127,25 @@ impl AmpReward {
         tasks: &[(String, std::ops::Range<usize>)],
     ) -> Result<Self, LearnError> {
         let a = cfg.ppo.amp.clone();
-        let groups: Vec<(String, std::ops::Range<usize>)> =
-            if tasks.is_empty() { vec![(String::new(), 0..n)] } else { tasks.to_vec() };
         let hsi = skillmimic_env::registry::character(&cfg.env).ok()
             == Some(skillmimic_core::characters::tokenhsi::CHARACTER);
-        let (fdim, features): (usize, FrameFeatures) = if hsi {
-            (style::STYLE_DIM, style::frame_features)
+        // TokenHSI multi-task: one discriminator conditioned on the task one-hot (released), or
+        // one per task
+        let conditional = hsi
+            && tasks.len() > 1
+            && cfg.env.table::<HsiConfig>().discriminator
+                == skillmimic_env::tasks::hsi::config::Discriminators::Conditional;
+        let groups: Vec<(String, std::ops::Range<usize>)> =
+            if tasks.is_empty() { vec![(String::new(), 0..n)] } else { tasks.to_vec() };
+        let released = hsi
+            && cfg.env.table::<HsiConfig>().style_features
+                == skillmimic_env::tasks::hsi::config::StyleFeatures::Released;
+        let (fdim, source) = if released {
+            (style::RELEASED_STYLE_DIM, Source::Env)
+        } else if hsi {
+            (style::STYLE_DIM, Source::Observation(style::frame_features))
         } else {
-            (FEATURE_DIM, frame_features)
+            (FEATURE_DIM, Source::Observation(frame_features))
         };
         let mut references = Vec::new();
         for (name, _) in &groups {
@@ -115,7 +154,11 @@ impl AmpReward {
                 let task = if name.is_empty() { cfg.env.task.as_str() } else { name.as_str() };
                 let clips =
                     style::load_style_clips(&cfg.env.table::<HsiConfig>().style_motion_of(task))?;
-                style::clip_features(&clips)?
+                if released {
+                    style::clip_released_features(&clips)?
+                } else {
+                    style::clip_features(&clips)?
+                }
             } else {
                 if obs_dim < layout::HUMANOID_DIM {
                     return Err(LearnError::Config(format!(
@@ -141,29 +184,64 @@ impl AmpReward {
             });
         }
         let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x616d_705f_7265_6621);
-        let width = a.window * fdim;
-        let priors = groups
-            .into_iter()
-            .zip(references)
-            .map(|((name, rows), reference)| Prior {
-                name,
-                disc: Discriminator::new(width, a.clone(), &mut rng),
-                rows,
-                reference,
-                buffer: vec![0.0; a.buffer * width],
-                filled: 0,
-                next: 0,
-            })
-            .collect();
+        let cond = if conditional { groups.len() } else { 0 };
+        let width = a.window * fdim + cond;
+        let prior = |name: String,
+                     rows: std::ops::Range<usize>,
+                     reference: Vec<Vec<f32>>,
+                     labels: Vec<usize>,
+                     by_label: Vec<(Vec<usize>, f64)>,
+                     rng: &mut ChaCha8Rng| Prior {
+            name,
+            disc: Discriminator::new(width, a.clone(), rng),
+            rows,
+            reference,
+            labels,
+            by_label,
+            buffer: vec![0.0; a.buffer * width],
+            filled: 0,
+            next: 0,
+        };
+        let mut rings = vec![0.0; n * width];
+        let priors = if conditional {
+            let (mut all, mut labels, mut by_label) = (Vec::new(), Vec::new(), Vec::new());
+            for (t, ((_, rows), reference)) in groups.iter().zip(references).enumerate() {
+                let first = all.len();
+                labels.extend(std::iter::repeat_n(t, reference.len()));
+                all.extend(reference);
+                by_label.push(((first..all.len()).collect(), rows.len() as f64 / n.max(1) as f64));
+                for i in rows.clone() {
+                    rings[(i + 1) * width - cond + t] = 1.0;
+                }
+            }
+            vec![prior(String::new(), 0..n, all, labels, by_label, &mut rng)]
+        } else {
+            groups
+                .into_iter()
+                .zip(references)
+                .map(|((name, rows), reference)| {
+                    let m = reference.len();
+                    prior(
+                        name,
+                        rows,
+                        reference,
+                        vec![0; m],
+                        vec![((0..m).collect(), 1.0)],
+                        &mut rng,
+                    )
+                })
+                .collect()
+        };
         Ok(Self {
             priors,
             horizon: cfg.ppo.horizon,
-            rings: vec![0.0; n * width],
+            rings,
             fresh: vec![true; n],
             rng,
             frame: vec![0.0; fdim],
             fdim,
-            features,
+            cond,
+            source,
             picks: Vec::new(),
             style: vec![0.0; n],
             cfg: a,
@@ -240,43 +318,74 @@ impl AmpReward {
         self.fresh.fill(true);
     }
 
+    /// Entries of a stored window: `window` frames, then the condition one-hot.
     fn width(&self) -> usize {
-        self.cfg.window * self.fdim
+        self.cfg.window * self.fdim + self.cond
     }
 
-    /// Before a step: environments that start a new episode fill their window with their first
-    /// frame (`obs`: `n × d`, the observations the policy acts on).
-    pub fn begin_step(&mut self, obs: &[f32], d: usize) {
+    /// Features per frame of the discriminator's windows.
+    pub fn frame_dim(&self) -> usize {
+        self.fdim
+    }
+
+    /// Environment `i`'s newest frame (`frame_dim` wide).
+    pub fn last_frame(&self, i: usize) -> &[f32] {
+        let end = i * self.width() + self.cfg.window * self.fdim;
+        &self.rings[end - self.fdim..end]
+    }
+
+    /// Environment `i`'s condition entries (the task one-hot of a conditional prior; empty).
+    pub fn condition(&self, i: usize) -> &[f32] {
         let w = self.width();
-        for (i, fresh) in self.fresh.iter_mut().enumerate() {
-            if *fresh {
-                (self.features)(&obs[i * d..(i + 1) * d], &mut self.frame);
-                let f = self.fdim;
-                for k in 0..self.cfg.window {
-                    self.rings[i * w + k * f..i * w + (k + 1) * f].copy_from_slice(&self.frame);
-                }
-                *fresh = false;
+        &self.rings[(i + 1) * w - self.cond..(i + 1) * w]
+    }
+
+    /// Environment `i`'s frame of `v` into `out` (`fdim`).
+    fn frame_of(&self, v: &StepView<'_>, i: usize, out: &mut [f32]) {
+        match self.source {
+            Source::Observation(f) => f(&v.obs[i * v.obs_dim..(i + 1) * v.obs_dim], out),
+            Source::Env => {
+                assert_eq!(
+                    v.style_dim, self.fdim,
+                    "the environment computes {} style features per frame; the prior reads {}",
+                    v.style_dim, self.fdim
+                );
+                out.copy_from_slice(&v.style[i * self.fdim..(i + 1) * self.fdim]);
             }
         }
     }
 
-    /// After a step: push the new frames (`obs_after`: `n × d`), mix the style reward into
-    /// `rewards` (in place) and keep some windows. `done[i]` = the episode ended in this step.
-    /// Returns the sums over the environments of the task and the style reward.
-    pub fn after_step(
-        &mut self,
-        obs_after: &[f32],
-        d: usize,
-        done: &[u8],
-        rewards: &mut [f32],
-    ) -> (f64, f64) {
-        let (w, n) = (self.width(), rewards.len());
-        for i in 0..n {
-            let ring = &mut self.rings[i * w..(i + 1) * w];
-            ring.copy_within(self.fdim.., 0);
-            (self.features)(&obs_after[i * d..(i + 1) * d], &mut ring[w - self.fdim..]);
-            self.fresh[i] = done[i] != 0;
+    /// Before a step: environments that start a new episode fill their window with their first
+    /// frame (`v`: the observations the policy acts on, and the style features of their states).
+    pub fn begin_step(&mut self, v: &StepView<'_>) {
+        let (w, f) = (self.width(), self.fdim);
+        let mut frame = std::mem::take(&mut self.frame);
+        for i in 0..self.fresh.len() {
+            if self.fresh[i] {
+                self.frame_of(v, i, &mut frame);
+                for k in 0..self.cfg.window {
+                    self.rings[i * w + k * f..i * w + (k + 1) * f].copy_from_slice(&frame);
+                }
+                self.fresh[i] = false;
+            }
         }
+        self.frame = frame;
+    }
+
+    /// After a step: push the new frames (`v`: the step's observations, style features and
+    /// episode ends), mix the style reward into `rewards` (in place) and keep some windows.
+    /// Returns the sums over the environments of the task and the style reward.
+    pub fn after_step(&mut self, v: &StepView<'_>, rewards: &mut [f32]) -> (f64, f64) {
+        let (w, n, f) = (self.width(), rewards.len(), self.fdim);
+        let wf = self.cfg.window * f;
+        let mut rings = std::mem::take(&mut self.rings);
+        for i in 0..n {
+            let ring = &mut rings[i * w..i * w + wf];
+            ring.copy_within(f.., 0);
+            self.frame_of(v, i, &mut ring[wf - f..]);
+            self.fresh[i] = v.done[i] != 0;
+        }
+        self.rings = rings;
         for p in self.priors.iter_mut() {
             let r = p.rows.clone();
             p.disc.style_reward_into(
@@ -322,17 +431,29 @@ impl AmpReward {
             if p.filled == 0 || self.cfg.updates == 0 {
                 continue;
             }
+            let wf = self.cfg.window * self.fdim;
             for _ in 0..self.cfg.updates {
                 for k in 0..b {
-                    let c = self.rng.random_range(0..p.reference.len());
+                    // a task by its share of the environments (conditional prior), then one of
+                    // its clips
+                    let clips = if p.by_label.len() > 1 {
+                        let mut u = self.rng.random::<f64>();
+                        let pick = p.by_label.iter().position(|(_, share)| {
+                            u -= share;
+                            u < 0.0
+                        });
+                        &p.by_label[pick.unwrap_or(p.by_label.len() - 1)].0
+                    } else {
+                        &p.by_label[0].0
+                    };
+                    let c = clips[self.rng.random_range(0..clips.len())];
                     let end = self.rng.random_range(0..p.reference[c].len() / self.fdim);
-                    window_of(
-                        &p.reference[c],
-                        self.fdim,
-                        end,
-                        self.cfg.window,
-                        &mut xr[k * w..(k + 1) * w],
-                    );
+                    let x = &mut xr[k * w..(k + 1) * w];
+                    window_of(&p.reference[c], self.fdim, end, self.cfg.window, &mut x[..wf]);
+                    x[wf..].fill(0.0);
+                    if self.cond > 0 {
+                        x[wf + p.labels[c]] = 1.0;
+                    }
                     let j = self.rng.random_range(0..p.filled);
                     xs[k * w..(k + 1) * w].copy_from_slice(&p.buffer[j * w..(j + 1) * w]);
                 }
@@ -415,8 +536,8 @@ impl crate::trainer::Extension for AmpReward {
     fn step_terms(&self) -> &'static [&'static str] {
         &["task", "style"]
     }
-    fn begin_step(&mut self, obs: &[f32], obs_dim: usize) {
-        AmpReward::begin_step(self, obs, obs_dim);
+    fn begin_step(&mut self, step: &crate::trainer::StepView<'_>) {
+        AmpReward::begin_step(self, step);
     }
     fn after_step(
         &mut self,
@@ -424,7 +545,7 @@ impl crate::trainer::Extension for AmpReward {
         rewards: &mut [f32],
         sums: &mut [f64],
     ) {
-        let (task, style) = AmpReward::after_step(self, step.obs, step.obs_dim, step.done, rewards);
+        let (task, style) = AmpReward::after_step(self, step, rewards);
         sums[0] += task;
         sums[1] += style;
     }

@@ -12,9 +12,10 @@ use rand_chacha::ChaCha8Rng;
 use skillmimic_core::shared_data::shared_dir_or_skip;
 use skillmimic_env::EnvConfig;
 use skillmimic_env::amp::window_of;
-use skillmimic_env::tasks::hsi::config::HsiConfig;
+use skillmimic_env::tasks::hsi::config::{Discriminators, HsiConfig};
 use skillmimic_env::tasks::hsi::style::{
-    STYLE_DIM, clip_features, frame_features, load_style_clips,
+    RELEASED_STYLE_DIM, STYLE_DIM, clip_features, clip_released_features, frame_features,
+    load_style_clips, released_features,
 };
 use skillmimic_env::tasks::multi::config::MultiConfig;
 use skillmimic_learn::amp::{DiscConfig, Discriminator};
@@ -41,8 +42,10 @@ fn retargeted(shared: &std::path::Path, tag: &str) -> PathBuf {
     dir
 }
 
-/// Windows of a random policy (uniform actions in ±0.5) in `hsi_follow`.
-fn policy_windows(steps: usize) -> Vec<f32> {
+/// Windows of a random policy (uniform actions in ±0.5) in `hsi_follow`: frames of `dim`
+/// features — the proprioception read from the observation ([`STYLE_DIM`]) or the environment's
+/// released features of its state ([`RELEASED_STYLE_DIM`]).
+fn policy_windows(steps: usize, dim: usize) -> Vec<f32> {
     let c = EnvConfig { task: "hsi_follow".into(), num_envs: 8, threads: 1, ..Default::default() };
     let mut env = skillmimic_env::registry::make(&c).unwrap();
     let (d, a) = (env.obs_dim(), env.act_dim());
@@ -50,16 +53,22 @@ fn policy_windows(steps: usize) -> Vec<f32> {
     let mut rng = ChaCha8Rng::seed_from_u64(3);
     let mut frames: Vec<Vec<f32>> = vec![Vec::new(); 8];
     let mut out = Vec::new();
+    let mut style = vec![0.0f32; 8 * env.style_dim()];
     for _ in 0..steps {
         let act: Vec<f32> = (0..8 * a).map(|_| rng.random_range(-0.5..0.5)).collect();
         env.step(&act).unwrap();
+        env.style_features(&mut style);
         let b = env.buffers();
         for (i, f) in frames.iter_mut().enumerate() {
-            let mut row = vec![0.0f32; STYLE_DIM];
-            frame_features(&b.obs[i * d..(i + 1) * d], &mut row);
-            f.extend(row);
-            if f.len() >= K * STYLE_DIM {
-                out.extend_from_slice(&f[f.len() - K * STYLE_DIM..]);
+            if dim == STYLE_DIM {
+                let mut row = vec![0.0f32; STYLE_DIM];
+                frame_features(&b.obs[i * d..(i + 1) * d], &mut row);
+                f.extend(row);
+            } else {
+                f.extend_from_slice(&style[i * dim..(i + 1) * dim]);
+            }
+            if f.len() >= K * dim {
+                out.extend_from_slice(&f[f.len() - K * dim..]);
             }
             if b.terminated[i] != 0 || b.truncated[i] != 0 {
                 f.clear();
@@ -70,16 +79,18 @@ fn policy_windows(steps: usize) -> Vec<f32> {
     out
 }
 
-fn reference_windows(rows: &[Vec<f32>], n: usize, rng: &mut ChaCha8Rng) -> Vec<f32> {
-    let mut out = vec![0.0f32; n * K * STYLE_DIM];
-    for w in out.chunks_exact_mut(K * STYLE_DIM) {
+fn reference_windows(rows: &[Vec<f32>], n: usize, dim: usize, rng: &mut ChaCha8Rng) -> Vec<f32> {
+    let mut out = vec![0.0f32; n * K * dim];
+    for w in out.chunks_exact_mut(K * dim) {
         let c = rng.random_range(0..rows.len());
-        let end = rng.random_range(0..rows[c].len() / STYLE_DIM);
-        window_of(&rows[c], STYLE_DIM, end, K, w);
+        let end = rng.random_range(0..rows[c].len() / dim);
+        window_of(&rows[c], dim, end, K, w);
     }
     out
 }
 
+/// With either per-frame features (the proprioception; the released 129), a discriminator trained
+/// on the retargeted clips against a random policy's windows separates them.
 #[test]
 fn discriminator_separates_retargeted_clips_from_random_policy_windows() {
     let Some(shared) =
@@ -90,39 +101,50 @@ fn discriminator_separates_retargeted_clips_from_random_policy_windows() {
     let dir = retargeted(&shared, "disc");
     let clips = load_style_clips(std::slice::from_ref(&dir)).unwrap();
     assert_eq!(clips.len(), CLIPS.len());
-    let rows = clip_features(&clips).unwrap();
-    assert!(rows.iter().flatten().all(|v| v.is_finite()));
-    let sim = policy_windows(40);
-    let w = K * STYLE_DIM;
-    let n_sim = sim.len() / w;
-    assert!(n_sim >= 64, "{n_sim} policy windows");
-    let mut rng = ChaCha8Rng::seed_from_u64(1);
-    let cfg = DiscConfig { hidden: vec![128, 64], lr: 1e-3, ..Default::default() };
-    let mut disc = Discriminator::new(w, cfg, &mut rng);
-    let mut losses = Vec::new();
-    for _ in 0..60 {
-        let r = reference_windows(&rows, 64, &mut rng);
-        let s: Vec<f32> = (0..64)
-            .flat_map(|_| {
-                let k = rng.random_range(0..n_sim);
-                sim[k * w..(k + 1) * w].to_vec()
-            })
-            .collect();
-        losses.push(disc.update(&r, 64, &s, 64).unwrap());
+    for dim in [STYLE_DIM, RELEASED_STYLE_DIM] {
+        let rows = if dim == STYLE_DIM {
+            clip_features(&clips).unwrap()
+        } else {
+            clip_released_features(&clips).unwrap()
+        };
+        assert!(rows.iter().flatten().all(|v| v.is_finite()));
+        let sim = policy_windows(40, dim);
+        let w = K * dim;
+        let n_sim = sim.len() / w;
+        assert!(n_sim >= 64, "{n_sim} policy windows");
+        let mut rng = ChaCha8Rng::seed_from_u64(1);
+        let cfg = DiscConfig { hidden: vec![128, 64], lr: 1e-3, ..Default::default() };
+        let mut disc = Discriminator::new(w, cfg, &mut rng);
+        let mut losses = Vec::new();
+        for _ in 0..60 {
+            let r = reference_windows(&rows, 64, dim, &mut rng);
+            let s: Vec<f32> = (0..64)
+                .flat_map(|_| {
+                    let k = rng.random_range(0..n_sim);
+                    sim[k * w..(k + 1) * w].to_vec()
+                })
+                .collect();
+            losses.push(disc.update(&r, 64, &s, 64).unwrap());
+        }
+        let (first, last) = (losses[0], losses[losses.len() - 1]);
+        println!(
+            "{dim} features: discriminator loss {:.4} -> {:.4} (adversarial {:.4} -> {:.4}); mean \
+                logits reference {:.2}, policy {:.2}",
+            first.total,
+            last.total,
+            first.adversarial,
+            last.adversarial,
+            last.mean_ref,
+            last.mean_sim
+        );
+        assert!(last.adversarial < 0.5 * first.adversarial, "the adversarial loss falls");
+        assert!(last.mean_ref > last.mean_sim + 1.0, "reference windows score above the policy's");
+        let r = reference_windows(&rows, 64, dim, &mut rng);
+        let rr = disc.style_reward(&r, 64).iter().sum::<f32>() / 64.0;
+        let rs = disc.style_reward(&sim[sim.len() - 64 * w..], 64).iter().sum::<f32>() / 64.0;
+        println!("style reward: reference windows {rr:.3}, random-policy windows {rs:.3}");
+        assert!(rr > rs);
     }
-    let (first, last) = (losses[0], losses[losses.len() - 1]);
-    println!(
-        "discriminator loss {:.4} -> {:.4} (adversarial {:.4} -> {:.4}); mean logits reference \
-            {:.2}, policy {:.2}",
-        first.total, last.total, first.adversarial, last.adversarial, last.mean_ref, last.mean_sim
-    );
-    assert!(last.adversarial < 0.5 * first.adversarial, "the adversarial loss falls");
-    assert!(last.mean_ref > last.mean_sim + 1.0, "reference windows score above the policy's");
-    let r = reference_windows(&rows, 64, &mut rng);
-    let rr = disc.style_reward(&r, 64).iter().sum::<f32>() / 64.0;
-    let rs = disc.style_reward(&sim[sim.len() - 64 * w..], 64).iter().sum::<f32>() / 64.0;
-    println!("style reward: reference windows {rr:.3}, random-policy windows {rs:.3}");
-    assert!(rr > rs);
     std::fs::remove_dir_all(dir).ok();
 }
 
@@ -152,7 +174,7 @@ fn the_style_reward_mixes_into_ppo_on_a_tokenhsi_task() {
     c.run.out_dir = std::env::temp_dir().join(format!("sm-hsi-amp-{}", std::process::id()));
     let mut t = Trainer::new(c.clone(), None).unwrap();
     let before = t.extension::<AmpReward>().unwrap().disc().mlp.clone();
-    assert_eq!(t.extension::<AmpReward>().unwrap().disc().input_dim(), K * STYLE_DIM);
+    assert_eq!(t.extension::<AmpReward>().unwrap().disc().input_dim(), K * RELEASED_STYLE_DIM);
     let mut seen = Vec::new();
     skillmimic_learn::runner::train_loop(&mut t, |s| seen.push(s.clone())).unwrap();
     let s = &seen[1];
@@ -178,6 +200,8 @@ fn the_style_reward_mixes_into_ppo_on_a_tokenhsi_task() {
     std::fs::remove_dir_all(dir).ok();
 }
 
+/// `env.hsi.discriminator = "per_task"`: one discriminator per task, each trained on its own
+/// task's clips and environments, saved and restored under its task's name.
 #[test]
 fn multi_task_training_keeps_one_discriminator_per_task() {
     use skillmimic_learn::config::TrainConfig;
@@ -210,6 +234,7 @@ fn multi_task_training_keeps_one_discriminator_per_task() {
     c.ppo.amp.batch = 32;
     c.ppo.amp.buffer = 256;
     c.run.out_dir = std::env::temp_dir().join(format!("sm-hsi-multi-amp-{}", std::process::id()));
+    c.env.table_mut::<HsiConfig>().discriminator = Discriminators::PerTask;
     let mut t = Trainer::new(c.clone(), None).unwrap();
     let amp = t.extension::<AmpReward>().unwrap();
     let names: Vec<&str> = amp.priors.iter().map(|p| p.name.as_str()).collect();
@@ -240,6 +265,127 @@ fn multi_task_training_keeps_one_discriminator_per_task() {
     {
         assert_eq!(p.disc.mlp, q.disc.mlp, "{} restored", p.name);
     }
+    std::fs::remove_dir_all(&c.run.out_dir).ok();
+    std::fs::remove_dir_all(dir).ok();
+}
+
+/// By default the discriminator reads the released TokenHSI features (129 per frame) of each
+/// environment's simulation state — after a training iteration the newest frame of every window is
+/// the released function of the state the environment is in — and its reference frames are the
+/// same function of the clips' posed frames; `env.hsi.style_features = "proprioception"` switches
+/// to the 222-d proprioception.
+#[test]
+fn the_prior_reads_the_released_features_of_the_state() {
+    use skillmimic_env::tasks::hsi::config::StyleFeatures;
+    use skillmimic_learn::config::TrainConfig;
+    use skillmimic_learn::trainer::Trainer;
+    let Some(shared) = shared_dir_or_skip("the_prior_reads_the_released_features_of_the_state")
+    else {
+        return;
+    };
+    let dir = retargeted(&shared, "released");
+    let mut c = TrainConfig::preset("tiny").unwrap();
+    c.env.task = "hsi_follow".into();
+    c.env.num_envs = 6;
+    c.env.threads = 2;
+    c.env.table_mut::<HsiConfig>().style_motion = vec![dir.clone()];
+    c.ppo.hidden = vec![32];
+    c.ppo.amp.enabled = true;
+    c.ppo.amp.hidden = vec![32];
+    c.ppo.amp.batch = 32;
+    c.ppo.amp.buffer = 256;
+    c.ppo.horizon = 8;
+    c.ppo.minibatch = 24;
+    c.run.out_dir = std::env::temp_dir().join(format!("sm-hsi-rel-{}", std::process::id()));
+    let mut t = Trainer::new(c.clone(), None).unwrap();
+    assert_eq!(t.env.style_dim(), RELEASED_STYLE_DIM);
+    assert_eq!(t.extension::<AmpReward>().unwrap().disc().input_dim(), K * RELEASED_STYLE_DIM);
+    t.iteration().unwrap();
+    let amp = t.extension::<AmpReward>().unwrap();
+    assert_eq!(amp.frame_dim(), RELEASED_STYLE_DIM);
+    let mut want = vec![0.0f32; RELEASED_STYLE_DIM];
+    for i in 0..t.env.num_envs() {
+        released_features(&t.env.mujoco().env_state(i), &mut want);
+        assert_eq!(amp.last_frame(i), want.as_slice(), "environment {i}'s newest frame");
+    }
+    // the reference side: every frame of the clips through the same function
+    let clips = load_style_clips(std::slice::from_ref(&dir)).unwrap();
+    let rows = clip_released_features(&clips).unwrap();
+    assert_eq!(rows.len(), clips.len());
+    for (r, c) in rows.iter().zip(&clips) {
+        assert_eq!(r.len(), c.num_frames * RELEASED_STYLE_DIM);
+        assert!(r.iter().all(|x| x.is_finite()));
+        // root height column off, as released
+        assert!(r.chunks(RELEASED_STYLE_DIM).all(|f| f[0] == 0.0));
+    }
+    // the switch back to the proprioception
+    c.env.table_mut::<HsiConfig>().style_features = StyleFeatures::Proprioception;
+    let t = Trainer::new(c.clone(), None).unwrap();
+    assert_eq!(t.extension::<AmpReward>().unwrap().disc().input_dim(), K * STYLE_DIM);
+    std::fs::remove_dir_all(dir).ok();
+    std::fs::remove_dir_all(&c.run.out_dir).ok();
+}
+
+/// The released multi-task prior (default): one discriminator whose input is the window followed by
+/// the task one-hot; every environment's windows carry its own task's one-hot, the reference
+/// windows their clip's task's, and the one discriminator trains and round-trips a checkpoint.
+#[test]
+fn multi_task_training_conditions_one_discriminator_on_the_task() {
+    use skillmimic_learn::config::TrainConfig;
+    use skillmimic_learn::trainer::Trainer;
+    let Some(shared) =
+        shared_dir_or_skip("multi_task_training_conditions_one_discriminator_on_the_task")
+    else {
+        return;
+    };
+    let dir = retargeted(&shared, "cond");
+    let mut c = TrainConfig::preset("tiny").unwrap();
+    c.env.task = "hsi_multi".into();
+    c.env.table_mut::<MultiConfig>().tasks = vec!["hsi_follow".into(), "hsi_sit".into()];
+    c.env.table_mut::<MultiConfig>().mix = vec![0.25, 0.75];
+    c.env.num_envs = 8;
+    c.env.threads = 2;
+    c.env.table_mut::<HsiConfig>().object_variants = 2;
+    c.env.table_mut::<HsiConfig>().follow.style_motion =
+        vec![dir.join("013_018pickle_run_3.safetensors")];
+    c.env.table_mut::<HsiConfig>().style_motion = vec![dir.clone()];
+    c.ppo.policy = "token_transformer".into();
+    c.ppo.token.tokenizer = vec![32];
+    c.ppo.token.embed = 16;
+    c.ppo.token.layers = 1;
+    c.ppo.token.feedforward = 32;
+    c.ppo.token.head = vec![32];
+    c.ppo.hidden = vec![32];
+    c.ppo.amp.enabled = true;
+    c.ppo.amp.hidden = vec![32];
+    c.ppo.amp.batch = 32;
+    c.ppo.amp.buffer = 256;
+    c.run.out_dir = std::env::temp_dir().join(format!("sm-hsi-cond-amp-{}", std::process::id()));
+    let mut t = Trainer::new(c.clone(), None).unwrap();
+    let rows = t.env.task_rows();
+    let amp = t.extension::<AmpReward>().unwrap();
+    assert_eq!(amp.priors.len(), 1, "one discriminator");
+    assert_eq!(amp.disc().input_dim(), K * RELEASED_STYLE_DIM + 2, "window then the task one-hot");
+    for (k, (name, r)) in rows.iter().enumerate() {
+        for i in r.clone() {
+            let mut want = [0.0f32; 2];
+            want[k] = 1.0;
+            assert_eq!(amp.condition(i), want, "environment {i} runs {name}");
+        }
+    }
+    let before = amp.disc().mlp.clone();
+    let s = t.iteration().unwrap();
+    assert!(s.disc_loss > 0.0 && s.mean_reward.is_finite());
+    let amp = t.extension::<AmpReward>().unwrap();
+    assert_ne!(amp.disc().mlp, before, "the conditional discriminator trains");
+    // the one-hot stays with the environment's task across the iteration's episodes
+    for (k, (_, r)) in rows.iter().enumerate() {
+        assert!(r.clone().all(|i| amp.condition(i)[k] == 1.0));
+    }
+    let path = c.run.out_dir.join("c.safetensors");
+    t.save(&path).unwrap();
+    let t2 = Trainer::new(c.clone(), Some(&path)).unwrap();
+    assert_eq!(t2.extension::<AmpReward>().unwrap().disc().mlp, amp.disc().mlp, "restored");
     std::fs::remove_dir_all(&c.run.out_dir).ok();
     std::fs::remove_dir_all(dir).ok();
 }

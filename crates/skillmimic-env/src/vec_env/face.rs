@@ -71,6 +71,14 @@ pub trait Env: Send + Sync {
     fn markers(&self, _info: &[f32]) -> Vec<crate::markers::Marker> {
         Vec::new()
     }
+    /// Width of the per-frame style features of the task's motion prior computed from the
+    /// simulation state (0: none; TokenHSI: the released discriminator's 129 features).
+    fn style_dim(&self) -> usize {
+        0
+    }
+    /// Every environment's style features (`num_envs × style_dim`) from its current simulation
+    /// state: after a step, the state the step ended in (before any reset of a finished episode).
+    fn style_features(&self, _out: &mut [f32]) {}
     /// Downcast to the concrete `VecEnv<T>` (task-specific accessors).
     fn as_any(&self) -> &dyn Any;
     fn as_any_mut(&mut self) -> &mut dyn Any;

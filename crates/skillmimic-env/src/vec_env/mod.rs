@@ -453,6 +453,18 @@ impl<T: Task> Env for VecEnv<T> {
     fn history_window(&self, i: usize) -> Option<Vec<f32>> {
         self.task.history_window(&self.slots[i])
     }
+    fn style_dim(&self) -> usize {
+        self.task.style_dim()
+    }
+    fn style_features(&self, out: &mut [f32]) {
+        let k = self.task.style_dim();
+        let state = self.sim.state();
+        for (i, row) in out.chunks_exact_mut(k.max(1)).take(self.slots.len()).enumerate() {
+            if k > 0 {
+                self.task.style_features(&state.env(i), row);
+            }
+        }
+    }
     fn markers(&self, info: &[f32]) -> Vec<crate::markers::Marker> {
         let mut out = Vec::new();
         self.task.markers(info, &mut out);

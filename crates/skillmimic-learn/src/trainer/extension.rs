@@ -19,13 +19,19 @@ use crate::collective::Collective;
 use crate::error::LearnError;
 use crate::iteration_stats::IterationStats;
 
-/// What an extension sees of one environment step.
+/// What an extension sees of the environments before or after a step.
 pub struct StepView<'a> {
-    /// Observations after the step (`n × obs_dim`; terminal observations where an episode ended).
+    /// Observations (`n × obs_dim`): before a step the ones the policy acts on; after it the
+    /// step's (terminal observations where an episode ended).
     pub obs: &'a [f32],
     pub obs_dim: usize,
-    /// 1 where the step ended an episode (terminated or truncated), per environment.
+    /// 1 where the step ended an episode (terminated or truncated), per environment (empty
+    /// before a step).
     pub done: &'a [u8],
+    /// The environments' style features of the same states (`n × style_dim`,
+    /// [`skillmimic_env::Env::style_features`]; empty when the task computes none).
+    pub style: &'a [f32],
+    pub style_dim: usize,
 }
 
 /// A part of training beside PPO (see the module doc). Every hook has a do-nothing default.
@@ -37,8 +43,8 @@ pub trait Extension: Any + Send + Sync {
     fn step_terms(&self) -> &'static [&'static str] {
         &[]
     }
-    /// Step t's observations (`n × obs_dim`), before the policy acts on them.
-    fn begin_step(&mut self, _obs: &[f32], _obs_dim: usize) {}
+    /// Step t's observations (and style features), before the policy acts on them.
+    fn begin_step(&mut self, _step: &StepView<'_>) {}
     /// After the environments stepped: `rewards` (`n`) may be reshaped in place (they are what
     /// the rollout stores); add this step's contributions to `sums` (one per
     /// [`Extension::step_terms`] name).

@@ -54,6 +54,8 @@ pub struct Rollouts {
     /// Rewards of the current step (after the extensions) and its episode ends.
     rewards: Vec<f32>,
     done: Vec<u8>,
+    /// The environments' style features (`n × style_dim`) for the extensions.
+    style: Vec<f32>,
     threads: usize,
 }
 
@@ -74,6 +76,7 @@ impl Rollouts {
             },
             rewards: vec![0.0; n],
             done: vec![0; n],
+            style: Vec::new(),
             threads,
         }
     }
@@ -112,8 +115,14 @@ impl Rollouts {
             let rows = t * n..(t + 1) * n;
             roll.obs[t * n * d..(t + 1) * n * d].copy_from_slice(&env.buffers().obs);
             let obs = &roll.obs[t * n * d..(t + 1) * n * d];
+            let k = if extensions.is_empty() { 0 } else { env.style_dim() };
+            self.style.resize(n * k, 0.0);
+            if k > 0 {
+                env.style_features(&mut self.style);
+            }
+            let view = StepView { obs, obs_dim: d, done: &[], style: &self.style, style_dim: k };
             for e in extensions.iter_mut() {
-                e.begin_step(obs, d);
+                e.begin_step(&view);
             }
             policy.infer(obs, n, &mut self.infer, &mut self.mu, &mut self.values, self.threads);
             roll.values[rows.clone()].copy_from_slice(&self.values);
@@ -144,7 +153,17 @@ impl Rollouts {
                 {
                     *o = u8::from(te != 0 || tr != 0);
                 }
-                let view = StepView { obs: &b.obs, obs_dim: d, done: &self.done };
+                if k > 0 {
+                    env.style_features(&mut self.style);
+                }
+                let b = env.buffers();
+                let view = StepView {
+                    obs: &b.obs,
+                    obs_dim: d,
+                    done: &self.done,
+                    style: &self.style,
+                    style_dim: k,
+                };
                 let mut at = 0;
                 for e in extensions.iter_mut() {
                     let k = e.step_terms().len();

@@ -77,7 +77,7 @@ pub fn build(
         rng = ChaCha8Rng::seed_from_u64(mix_seed(cfg.run.seed, rank as u64));
     }
     comm.take_seconds();
-    // one discriminator per task of a multi-task environment
+    // a multi-task environment: one conditional discriminator or one per task (env.hsi)
     let amp = crate::amp_reward::AmpReward::for_run(
         &cfg,
         obs_dim,

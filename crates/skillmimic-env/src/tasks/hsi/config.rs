@@ -50,9 +50,19 @@ pub struct HsiConfig {
     pub form: HsiForm,
     /// Start heading of the character: uniformly random (else facing +x).
     pub random_heading: bool,
+    /// What the motion prior's discriminator (`ppo.amp`) reads per frame: `released` (default:
+    /// the released TokenHSI discriminator's 129 features — heading-local root rotation and
+    /// velocities, joint rotations, dof rates, hands and feet; `style::released_features`) or
+    /// `proprioception` (the 222-d policy proprioception).
+    pub style_features: StyleFeatures,
+    /// The motion prior of a multi-task run (`hsi_multi` with several tasks): `conditional`
+    /// (default, as released: one discriminator whose input is the window followed by the task
+    /// one-hot; reference windows drawn per task by its share of the environments) or `per_task`
+    /// (one discriminator per task).
+    pub discriminator: Discriminators,
     /// Reference clips of the character (`tokenhsi-clip` files or folders, e.g. written by
-    /// `skillmimic retarget`) for the adversarial motion prior of the run's task (`ppo.amp`;
-    /// one discriminator per task as in TokenHSI).
+    /// `skillmimic retarget`) for the adversarial motion prior of the run's task (`ppo.amp`);
+    /// a task's own `style_motion` takes precedence.
     #[schemars(extend("items" = {"type": "string", "format": "path"}))]
     pub style_motion: Vec<std::path::PathBuf>,
     pub follow: FollowConfig,
@@ -79,6 +89,8 @@ impl Default for HsiConfig {
             state_init: StateInit::Auto,
             hybrid_init_prob: 0.5,
             random_heading: true,
+            style_features: StyleFeatures::Released,
+            discriminator: Discriminators::Conditional,
             style_motion: Vec::new(),
             follow: Default::default(),
             sit: Default::default(),
@@ -101,6 +113,28 @@ pub enum StateInit {
     Reference,
     /// A reference frame with probability `hybrid_init_prob`, else the rest pose.
     Hybrid,
+}
+
+/// The discriminator's per-frame features (see [`HsiConfig::style_features`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum StyleFeatures {
+    /// The released TokenHSI discriminator's 129 features.
+    #[default]
+    Released,
+    /// The 222-d proprioception of the policy observation.
+    Proprioception,
+}
+
+/// The discriminators of a multi-task run (see [`HsiConfig::discriminator`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum Discriminators {
+    /// One discriminator conditioned on the task one-hot.
+    #[default]
+    Conditional,
+    /// One discriminator per task.
+    PerTask,
 }
 
 /// The form of TokenHSI's task rules (see [`HsiConfig::form`]).
@@ -155,8 +189,8 @@ pub struct FollowConfig {
     /// Fraction of the episode at which success is judged (0.98, as released).
     #[schemars(range(min = 0, max = 1))]
     pub success_time: f64,
-    /// Reference clips of this task's own discriminator (multi-task training keeps one per task,
-    /// as TokenHSI); empty = `env.hsi.style_motion`.
+    /// Reference clips of this task (its discriminator's, or — multi-task, conditional — its
+    /// one-hot's reference windows); empty = `env.hsi.style_motion`.
     #[schemars(extend("items" = {"type": "string", "format": "path"}))]
     pub style_motion: Vec<std::path::PathBuf>,
 }
@@ -229,8 +263,8 @@ pub struct SitConfig {
     /// The penalties apply within this 2-D root–object distance (m).
     #[schemars(range(min = 0))]
     pub penalty_radius: f64,
-    /// Reference clips of this task's own discriminator (multi-task training keeps one per task,
-    /// as TokenHSI); empty = `env.hsi.style_motion`.
+    /// Reference clips of this task (its discriminator's, or — multi-task, conditional — its
+    /// one-hot's reference windows); empty = `env.hsi.style_motion`.
     #[schemars(extend("items" = {"type": "string", "format": "path"}))]
     pub style_motion: Vec<std::path::PathBuf>,
 }
@@ -299,8 +333,8 @@ pub struct ClimbConfig {
     /// The penalty applies within this 2-D root–object distance (m).
     #[schemars(range(min = 0))]
     pub penalty_radius: f64,
-    /// Reference clips of this task's own discriminator (multi-task training keeps one per task,
-    /// as TokenHSI); empty = `env.hsi.style_motion`.
+    /// Reference clips of this task (its discriminator's, or — multi-task, conditional — its
+    /// one-hot's reference windows); empty = `env.hsi.style_motion`.
     #[schemars(extend("items" = {"type": "string", "format": "path"}))]
     pub style_motion: Vec<std::path::PathBuf>,
 }
@@ -392,8 +426,8 @@ pub struct CarryConfig {
     /// Success: box centre within this distance (m, ≤) of its target at some step.
     #[schemars(extend("exclusiveMinimum" = 0))]
     pub success_distance: f64,
-    /// Reference clips of this task's own discriminator (multi-task training keeps one per task,
-    /// as TokenHSI); empty = `env.hsi.style_motion`.
+    /// Reference clips of this task (its discriminator's, or — multi-task, conditional — its
+    /// one-hot's reference windows); empty = `env.hsi.style_motion`.
     #[schemars(extend("items" = {"type": "string", "format": "path"}))]
     pub style_motion: Vec<std::path::PathBuf>,
 }

@@ -344,6 +344,13 @@ impl<R: Rule> Task for Hsi<R> {
         self.write_obs(slot, st, out.obs);
         self.rule.info(&slot.goal, slot.steps, out.info);
     }
+    /// The released discriminator's features ([`style::released_features`]).
+    fn style_dim(&self) -> usize {
+        style::RELEASED_STYLE_DIM
+    }
+    fn style_features(&self, st: &EnvState<'_>, out: &mut [f32]) {
+        style::released_features(st, out);
+    }
     /// Recompute the observation from the current state (after raw state edits). The previous
     /// root and object positions — between steps always the current ones — are taken anew, so
     /// the next step's finite-difference velocities start from an edited state, not from where

@@ -1,7 +1,9 @@
 //! Style features of the TokenHSI tasks for the adversarial motion prior (`[ppo.amp]`, one
-//! discriminator per task as in TokenHSI, 10-frame windows by default): a frame's features are
-//! the 222-d proprioception ([`super::proprio`]) — body positions, rotations and velocities in
-//! the heading frame — read from the first 222 observation entries of every TokenHSI task.
+//! discriminator per task, 10-frame windows by default). A frame's features are, by default
+//! (`env.hsi.style_features = "released"`), the released discriminator's 129
+//! ([`released_features`]), computed from the simulation state by the environment
+//! (`Env::style_features`); or (`"proprioception"`) the 222-d proprioception ([`super::proprio`])
+//! read from the first 222 observation entries of every TokenHSI task.
 //!
 //! Reference frames: clips of the character (`tokenhsi-clip` files of `env.hsi.style_motion`,
 //! e.g. `skillmimic retarget` output) posed in the character's scene with velocities from
@@ -40,8 +42,7 @@ pub const RELEASED_STYLE_DIM: usize = 1 + 6 + 3 + 3 + 72 + tokenhsi::NUM_DOFS + 
 /// (m)]`. A joint's rotation is read the released way: the three hinge angles of a 3-DoF joint
 /// taken as a rotation vector (the released code's reading of its three-hinge joints), an elbow's
 /// angle about y. Checked against the released function on the golden fixture
-/// (`hsi_released_follow.rs`); the discriminator of `[ppo.amp]` still reads the 222-d
-/// proprioception ([`frame_features`]).
+/// (`hsi_released_follow.rs`); what the discriminator of `[ppo.amp]` reads by default.
 pub fn released_features(st: &EnvState<'_>, out: &mut [f32]) {
     use skillmimic_core::characters::JointDef;
     use skillmimic_core::math::{Quat, tan_norm};
@@ -105,20 +106,35 @@ pub fn load_style_clips(paths: &[PathBuf]) -> Result<Vec<CharacterClip>, EnvErro
     Ok(clips)
 }
 
-/// Style features of every frame of every clip (`[clip][T × STYLE_DIM]`), posed in the bare
-/// character scene (no physics step).
+/// Style features (the proprioception, [`STYLE_DIM`]) of every frame of every clip
+/// (`[clip][T × STYLE_DIM]`), posed in the bare character scene (no physics step).
 pub fn clip_features(clips: &[CharacterClip]) -> Result<Vec<Vec<f32>>, EnvError> {
+    posed_features(clips, STYLE_DIM, write_proprio)
+}
+
+/// The released discriminator's features ([`released_features`], [`RELEASED_STYLE_DIM`]) of every
+/// frame of every clip, posed in the bare character scene (joint rates from the clip's finite
+/// differences).
+pub fn clip_released_features(clips: &[CharacterClip]) -> Result<Vec<Vec<f32>>, EnvError> {
+    posed_features(clips, RELEASED_STYLE_DIM, released_features)
+}
+
+fn posed_features(
+    clips: &[CharacterClip],
+    width: usize,
+    features: fn(&EnvState<'_>, &mut [f32]),
+) -> Result<Vec<Vec<f32>>, EnvError> {
     let scene = Arc::new(Scene::new(SceneOptions::bare(tokenhsi::CHARACTER))?);
     let mut sim = BatchSim::new(scene, 1, 1)?;
     let spec = tokenhsi::CHARACTER.spec();
     let mut state = ResetState::of(&spec, 0);
     let mut out = Vec::with_capacity(clips.len());
     for c in clips {
-        let mut rows = vec![0.0f32; c.num_frames * STYLE_DIM];
+        let mut rows = vec![0.0f32; c.num_frames * width];
         for t in 0..c.num_frames {
             clip_state(&spec, c, t, &mut state);
             sim.reset(&[true], std::slice::from_ref(&state))?;
-            write_proprio(&sim.state().env(0), &mut rows[t * STYLE_DIM..(t + 1) * STYLE_DIM]);
+            features(&sim.state().env(0), &mut rows[t * width..(t + 1) * width]);
         }
         out.push(rows);
     }

@@ -420,6 +420,21 @@ impl Env for MultiEnv {
     fn pd_targets(&self) -> &[f32] {
         &[]
     }
+    /// The sub-environments' width when they all have the same (TokenHSI tasks: 129), else 0.
+    fn style_dim(&self) -> usize {
+        let k = self.subs.first().map_or(0, |s| s.env.style_dim());
+        if self.subs.iter().all(|s| s.env.style_dim() == k) { k } else { 0 }
+    }
+    fn style_features(&self, out: &mut [f32]) {
+        let k = self.style_dim();
+        if k == 0 {
+            return;
+        }
+        for s in &self.subs {
+            let n = s.env.num_envs();
+            s.env.style_features(&mut out[s.start * k..(s.start + n) * k]);
+        }
+    }
     fn task_rows(&self) -> Vec<(String, std::ops::Range<usize>)> {
         self.subs
             .iter()
