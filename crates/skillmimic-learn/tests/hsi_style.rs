@@ -204,36 +204,13 @@ fn the_style_reward_mixes_into_ppo_on_a_tokenhsi_task() {
 /// task's clips and environments, saved and restored under its task's name.
 #[test]
 fn multi_task_training_keeps_one_discriminator_per_task() {
-    use skillmimic_learn::config::TrainConfig;
     use skillmimic_learn::trainer::Trainer;
     let Some(shared) = shared_dir_or_skip("multi_task_training_keeps_one_discriminator_per_task")
     else {
         return;
     };
     let dir = retargeted(&shared, "multi");
-    let mut c = TrainConfig::preset("tiny").unwrap();
-    c.env.task = "hsi_multi".into();
-    c.env.table_mut::<MultiConfig>().tasks = vec!["hsi_follow".into(), "hsi_sit".into()];
-    c.env.table_mut::<MultiConfig>().mix = vec![0.25, 0.75];
-    c.env.num_envs = 8;
-    c.env.threads = 2;
-    c.env.table_mut::<HsiConfig>().object_variants = 2;
-    // follow's discriminator reads the run clip only, sit's all three
-    c.env.table_mut::<HsiConfig>().follow.style_motion =
-        vec![dir.join("013_018pickle_run_3.safetensors")];
-    c.env.table_mut::<HsiConfig>().style_motion = vec![dir.clone()];
-    c.ppo.policy = "token_transformer".into();
-    c.ppo.token.tokenizer = vec![32];
-    c.ppo.token.embed = 16;
-    c.ppo.token.layers = 1;
-    c.ppo.token.feedforward = 32;
-    c.ppo.token.head = vec![32];
-    c.ppo.hidden = vec![32];
-    c.ppo.amp.enabled = true;
-    c.ppo.amp.hidden = vec![32];
-    c.ppo.amp.batch = 32;
-    c.ppo.amp.buffer = 256;
-    c.run.out_dir = std::env::temp_dir().join(format!("sm-hsi-multi-amp-{}", std::process::id()));
+    let mut c = multi_config(&dir, "multi");
     c.env.table_mut::<HsiConfig>().discriminator = Discriminators::PerTask;
     let mut t = Trainer::new(c.clone(), None).unwrap();
     let amp = t.extension::<AmpReward>().unwrap();
@@ -331,7 +308,6 @@ fn the_prior_reads_the_released_features_of_the_state() {
 /// windows their clip's task's, and the one discriminator trains and round-trips a checkpoint.
 #[test]
 fn multi_task_training_conditions_one_discriminator_on_the_task() {
-    use skillmimic_learn::config::TrainConfig;
     use skillmimic_learn::trainer::Trainer;
     let Some(shared) =
         shared_dir_or_skip("multi_task_training_conditions_one_discriminator_on_the_task")
@@ -339,28 +315,7 @@ fn multi_task_training_conditions_one_discriminator_on_the_task() {
         return;
     };
     let dir = retargeted(&shared, "cond");
-    let mut c = TrainConfig::preset("tiny").unwrap();
-    c.env.task = "hsi_multi".into();
-    c.env.table_mut::<MultiConfig>().tasks = vec!["hsi_follow".into(), "hsi_sit".into()];
-    c.env.table_mut::<MultiConfig>().mix = vec![0.25, 0.75];
-    c.env.num_envs = 8;
-    c.env.threads = 2;
-    c.env.table_mut::<HsiConfig>().object_variants = 2;
-    c.env.table_mut::<HsiConfig>().follow.style_motion =
-        vec![dir.join("013_018pickle_run_3.safetensors")];
-    c.env.table_mut::<HsiConfig>().style_motion = vec![dir.clone()];
-    c.ppo.policy = "token_transformer".into();
-    c.ppo.token.tokenizer = vec![32];
-    c.ppo.token.embed = 16;
-    c.ppo.token.layers = 1;
-    c.ppo.token.feedforward = 32;
-    c.ppo.token.head = vec![32];
-    c.ppo.hidden = vec![32];
-    c.ppo.amp.enabled = true;
-    c.ppo.amp.hidden = vec![32];
-    c.ppo.amp.batch = 32;
-    c.ppo.amp.buffer = 256;
-    c.run.out_dir = std::env::temp_dir().join(format!("sm-hsi-cond-amp-{}", std::process::id()));
+    let c = multi_config(&dir, "cond");
     let mut t = Trainer::new(c.clone(), None).unwrap();
     let rows = t.env.task_rows();
     let amp = t.extension::<AmpReward>().unwrap();
@@ -388,4 +343,32 @@ fn multi_task_training_conditions_one_discriminator_on_the_task() {
     assert_eq!(t2.extension::<AmpReward>().unwrap().disc().mlp, amp.disc().mlp, "restored");
     std::fs::remove_dir_all(&c.run.out_dir).ok();
     std::fs::remove_dir_all(dir).ok();
+}
+
+/// A tiny `hsi_multi` run (follow 2 and sit 6 environments, a small token policy, the motion prior
+/// on): follow's clips are the run clip only, sit's all of `dir`; its folder is tagged `tag`.
+fn multi_config(dir: &std::path::Path, tag: &str) -> skillmimic_learn::config::TrainConfig {
+    let mut c = skillmimic_learn::config::TrainConfig::preset("tiny").unwrap();
+    c.env.task = "hsi_multi".into();
+    c.env.table_mut::<MultiConfig>().tasks = vec!["hsi_follow".into(), "hsi_sit".into()];
+    c.env.table_mut::<MultiConfig>().mix = vec![0.25, 0.75];
+    c.env.num_envs = 8;
+    c.env.threads = 2;
+    c.env.table_mut::<HsiConfig>().object_variants = 2;
+    c.env.table_mut::<HsiConfig>().follow.style_motion =
+        vec![dir.join("013_018pickle_run_3.safetensors")];
+    c.env.table_mut::<HsiConfig>().style_motion = vec![dir.to_path_buf()];
+    c.ppo.policy = "token_transformer".into();
+    c.ppo.token.tokenizer = vec![32];
+    c.ppo.token.embed = 16;
+    c.ppo.token.layers = 1;
+    c.ppo.token.feedforward = 32;
+    c.ppo.token.head = vec![32];
+    c.ppo.hidden = vec![32];
+    c.ppo.amp.enabled = true;
+    c.ppo.amp.hidden = vec![32];
+    c.ppo.amp.batch = 32;
+    c.ppo.amp.buffer = 256;
+    c.run.out_dir = std::env::temp_dir().join(format!("sm-hsi-{tag}-amp-{}", std::process::id()));
+    c
 }

@@ -82,8 +82,14 @@ pub fn speed_reward(
     before: Vec3,
     dt: f64,
 ) -> f64 {
+    (-k * (target_speed - along(d, now, before, dt)).powi(2)).exp()
+}
+
+/// `d·v`: the horizontal velocity (finite difference of positions over `dt`, m/s) along the unit
+/// direction `d`.
+fn along(d: [f64; 2], now: Vec3, before: Vec3, dt: f64) -> f64 {
     let v = [(now[0] - before[0]) / dt, (now[1] - before[1]) / dt];
-    (-k * (target_speed - (d[0] * v[0] + d[1] * v[1])).powi(2)).exp()
+    d[0] * v[0] + d[1] * v[1]
 }
 
 /// Squared 3-D distance.
@@ -102,9 +108,8 @@ pub fn speed_reward_towards(
     before: Vec3,
     dt: f64,
 ) -> f64 {
-    let v = [(now[0] - before[0]) / dt, (now[1] - before[1]) / dt];
-    let along = d[0] * v[0] + d[1] * v[1];
-    if along <= 0.0 { 0.0 } else { (-k * (target_speed - along).powi(2)).exp() }
+    let v = along(d, now, before, dt);
+    if v <= 0.0 { 0.0 } else { (-k * (target_speed - v).powi(2)).exp() }
 }
 
 /// The released excess penalty `−coeff (1 − exp(−k (threshold − max(x, threshold))²))`: 0 up to

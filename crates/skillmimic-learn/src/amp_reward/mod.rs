@@ -35,7 +35,7 @@ use std::sync::Arc;
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use skillmimic_core::tensorfile::{OwnedTensor, TensorFile};
+use skillmimic_core::tensorfile::TensorFile;
 use skillmimic_env::amp::{FEATURE_DIM, clip_features, frame_features, window_of};
 use skillmimic_env::obs::layout;
 use skillmimic_env::tasks::hsi::style;
@@ -43,6 +43,9 @@ use skillmimic_env::tasks::imitation::load_motion_library;
 use skillmimic_sim::Scene;
 
 use crate::amp::{DiscLoss, Discriminator};
+
+mod extension;
+mod tensors;
 use crate::collective::Collective;
 use crate::config::{AmpConfig, TrainConfig};
 use crate::error::LearnError;
@@ -467,110 +470,5 @@ impl AmpReward {
             }
         }
         Ok(mean)
-    }
-
-    /// Every discriminator, its normaliser and its Adam state as checkpoint tensors (`amp.*` for
-    /// the run's one prior, `amp.<task>.*` per task of a multi-task run).
-    pub fn tensors(&self) -> Vec<OwnedTensor> {
-        let mut out = Vec::new();
-        for p in &self.priors {
-            let (d, pre) = (&p.disc, p.prefix());
-            let names = d.mlp.param_names(&format!("{pre}.disc"));
-            for ((name, shape), x) in names.iter().zip(d.mlp.params()) {
-                out.push(OwnedTensor::f32(name, shape, x));
-            }
-            let n = d.norm.dim();
-            out.push(OwnedTensor::f64(&format!("{pre}.norm.mean"), &[n], &d.norm.mean));
-            out.push(OwnedTensor::f64(&format!("{pre}.norm.var"), &[n], &d.norm.var));
-            out.push(OwnedTensor::f64(&format!("{pre}.norm.count"), &[], &[d.norm.count]));
-            out.push(OwnedTensor::i64(&format!("{pre}.optim.step"), &[], &[d.adam.step as i64]));
-            for (k, (name, shape)) in names.iter().enumerate() {
-                let tail = &name[pre.len() + 1..];
-                out.push(OwnedTensor::f32(&format!("{pre}.optim.m.{tail}"), shape, &d.adam.m[k]));
-                out.push(OwnedTensor::f32(&format!("{pre}.optim.v.{tail}"), shape, &d.adam.v[k]));
-            }
-        }
-        out
-    }
-
-    /// Restore the discriminators from a checkpoint written with [`AmpReward::tensors`];
-    /// `Ok(false)` when the file has none of them (training then starts fresh discriminators).
-    pub fn load_from(&mut self, f: &TensorFile) -> Result<bool, String> {
-        let e = |x: skillmimic_core::tensorfile::TensorFileError| x.to_string();
-        let want = |shape: &[usize]| shape.iter().map(|&s| Some(s)).collect::<Vec<_>>();
-        let mut any = false;
-        for p in self.priors.iter_mut() {
-            let pre = p.prefix();
-            if !f.names().iter().any(|n| *n == format!("{pre}.norm.mean")) {
-                continue;
-            }
-            any = true;
-            let d = &mut p.disc;
-            let names = d.mlp.param_names(&format!("{pre}.disc"));
-            for ((name, shape), dst) in names.iter().zip(d.mlp.params_mut()) {
-                *dst = f.f32(name, &want(shape)).map_err(e)?.1;
-            }
-            let n = d.norm.dim();
-            d.norm.mean = f.f64(&format!("{pre}.norm.mean"), &[Some(n)]).map_err(e)?.1;
-            d.norm.var = f.f64(&format!("{pre}.norm.var"), &[Some(n)]).map_err(e)?.1;
-            d.norm.count = f.f64(&format!("{pre}.norm.count"), &[]).map_err(e)?.1[0];
-            d.adam.step = f.i64(&format!("{pre}.optim.step"), &[]).map_err(e)?.1[0] as u64;
-            for (k, (name, shape)) in names.iter().enumerate() {
-                let tail = &name[pre.len() + 1..];
-                d.adam.m[k] = f.f32(&format!("{pre}.optim.m.{tail}"), &want(shape)).map_err(e)?.1;
-                d.adam.v[k] = f.f32(&format!("{pre}.optim.v.{tail}"), &want(shape)).map_err(e)?.1;
-            }
-        }
-        Ok(any)
-    }
-}
-
-/// The motion prior as a trainer extension: it reads every step's observations, mixes the style
-/// reward into the rewards PPO sees (reporting the task and style parts), trains its
-/// discriminators after each PPO update and saves them with the checkpoints.
-impl crate::trainer::Extension for AmpReward {
-    fn name(&self) -> &'static str {
-        "amp"
-    }
-    /// The task reward before mixing and the style reward.
-    fn step_terms(&self) -> &'static [&'static str] {
-        &["task", "style"]
-    }
-    fn begin_step(&mut self, step: &crate::trainer::StepView<'_>) {
-        AmpReward::begin_step(self, step);
-    }
-    fn after_step(
-        &mut self,
-        step: &crate::trainer::StepView<'_>,
-        rewards: &mut [f32],
-        sums: &mut [f64],
-    ) {
-        let (task, style) = AmpReward::after_step(self, step, rewards);
-        sums[0] += task;
-        sums[1] += style;
-    }
-    fn update(
-        &mut self,
-        comm: &mut dyn Collective,
-        stats: &mut crate::iteration_stats::IterationStats,
-    ) -> Result<(), LearnError> {
-        let l = AmpReward::update(self, comm)?;
-        if !l.total.is_finite() {
-            return Err(LearnError::Diverged(format!("the discriminator loss is {}", l.total)));
-        }
-        (stats.disc_loss, stats.disc_ref, stats.disc_sim) = (l.total, l.mean_ref, l.mean_sim);
-        Ok(())
-    }
-    fn tensors(&self) -> Vec<OwnedTensor> {
-        AmpReward::tensors(self)
-    }
-    fn restart(&mut self) {
-        AmpReward::restart(self);
-    }
-    fn as_any(&self) -> &dyn std::any::Any {
-        self
-    }
-    fn as_any_mut(&mut self) -> &mut dyn std::any::Any {
-        self
     }
 }
