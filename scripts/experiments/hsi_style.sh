@@ -18,5 +18,6 @@ for s in run turn lrun rrun; do m+=(--motion "$shared/data/ballplay_m/$s"); done
 "$bin" retarget --to tokenhsi "${m[@]}" --out "$out/clips" > "$out/retarget.log"
 "$bin" train --preset tiny --task hsi_follow --num-envs "$envs" --iterations "$iters" --seed "$seed" \
   --set run.save_every="$iters" --set ppo.amp.enabled=true --set 'ppo.amp.hidden=[256, 128]' \
+  --set 'env.hsi.style_features="proprioception"' \
   --set "env.hsi.style_motion=[\"$out/clips\"]" --out "$out/hsi_follow_style" --no-video > "$out/hsi_follow_style.log" 2>&1
 "$bin" eval --checkpoint "$out/hsi_follow_style/latest.safetensors" --episodes 64 --out "$out/hsi_follow_style/eval.json" >> "$out/hsi_follow_style.log" 2>&1
