@@ -150,28 +150,17 @@ fn discriminator_separates_retargeted_clips_from_random_policy_windows() {
 
 #[test]
 fn the_style_reward_mixes_into_ppo_on_a_tokenhsi_task() {
-    use skillmimic_learn::config::TrainConfig;
     use skillmimic_learn::trainer::Trainer;
     let Some(shared) = shared_dir_or_skip("the_style_reward_mixes_into_ppo_on_a_tokenhsi_task")
     else {
         return;
     };
     let dir = retargeted(&shared, "ppo");
-    let mut c = TrainConfig::preset("tiny").unwrap();
-    c.env.task = "hsi_sit".into();
-    c.env.num_envs = 8;
-    c.env.threads = 2;
+    let mut c = amp_config("hsi_sit", 8, &dir, "ppo");
     c.env.table_mut::<HsiConfig>().object_variants = 2;
-    c.env.table_mut::<HsiConfig>().style_motion = vec![dir.clone()];
-    c.ppo.hidden = vec![32];
-    c.ppo.amp.enabled = true;
-    c.ppo.amp.hidden = vec![32];
-    c.ppo.amp.batch = 32;
-    c.ppo.amp.buffer = 256;
     c.run.iterations = 2;
     c.run.save_every = 2;
     c.run.eval_episodes = 2;
-    c.run.out_dir = std::env::temp_dir().join(format!("sm-hsi-amp-{}", std::process::id()));
     let mut t = Trainer::new(c.clone(), None).unwrap();
     let before = t.extension::<AmpReward>().unwrap().disc().mlp.clone();
     assert_eq!(t.extension::<AmpReward>().unwrap().disc().input_dim(), K * RELEASED_STYLE_DIM);
@@ -254,26 +243,15 @@ fn multi_task_training_keeps_one_discriminator_per_task() {
 #[test]
 fn the_prior_reads_the_released_features_of_the_state() {
     use skillmimic_env::tasks::hsi::config::StyleFeatures;
-    use skillmimic_learn::config::TrainConfig;
     use skillmimic_learn::trainer::Trainer;
     let Some(shared) = shared_dir_or_skip("the_prior_reads_the_released_features_of_the_state")
     else {
         return;
     };
     let dir = retargeted(&shared, "released");
-    let mut c = TrainConfig::preset("tiny").unwrap();
-    c.env.task = "hsi_follow".into();
-    c.env.num_envs = 6;
-    c.env.threads = 2;
-    c.env.table_mut::<HsiConfig>().style_motion = vec![dir.clone()];
-    c.ppo.hidden = vec![32];
-    c.ppo.amp.enabled = true;
-    c.ppo.amp.hidden = vec![32];
-    c.ppo.amp.batch = 32;
-    c.ppo.amp.buffer = 256;
+    let mut c = amp_config("hsi_follow", 6, &dir, "released");
     c.ppo.horizon = 8;
     c.ppo.minibatch = 24;
-    c.run.out_dir = std::env::temp_dir().join(format!("sm-hsi-rel-{}", std::process::id()));
     let mut t = Trainer::new(c.clone(), None).unwrap();
     assert_eq!(t.env.style_dim(), RELEASED_STYLE_DIM);
     assert_eq!(t.extension::<AmpReward>().unwrap().disc().input_dim(), K * RELEASED_STYLE_DIM);
@@ -348,22 +326,34 @@ fn multi_task_training_conditions_one_discriminator_on_the_task() {
 /// A tiny `hsi_multi` run (follow 2 and sit 6 environments, a small token policy, the motion prior
 /// on): follow's clips are the run clip only, sit's all of `dir`; its folder is tagged `tag`.
 fn multi_config(dir: &std::path::Path, tag: &str) -> skillmimic_learn::config::TrainConfig {
-    let mut c = skillmimic_learn::config::TrainConfig::preset("tiny").unwrap();
-    c.env.task = "hsi_multi".into();
+    let mut c = amp_config("hsi_multi", 8, dir, tag);
     c.env.table_mut::<MultiConfig>().tasks = vec!["hsi_follow".into(), "hsi_sit".into()];
     c.env.table_mut::<MultiConfig>().mix = vec![0.25, 0.75];
-    c.env.num_envs = 8;
-    c.env.threads = 2;
     c.env.table_mut::<HsiConfig>().object_variants = 2;
     c.env.table_mut::<HsiConfig>().follow.style_motion =
         vec![dir.join("013_018pickle_run_3.safetensors")];
-    c.env.table_mut::<HsiConfig>().style_motion = vec![dir.to_path_buf()];
     c.ppo.policy = "token_transformer".into();
     c.ppo.token.tokenizer = vec![32];
     c.ppo.token.embed = 16;
     c.ppo.token.layers = 1;
     c.ppo.token.feedforward = 32;
     c.ppo.token.head = vec![32];
+    c
+}
+
+/// A tiny run of `task` on `num_envs` environments (2 threads) with the motion prior on (small
+/// networks), the clips of `dir` as its references; its folder is tagged `tag`.
+fn amp_config(
+    task: &str,
+    num_envs: usize,
+    dir: &std::path::Path,
+    tag: &str,
+) -> skillmimic_learn::config::TrainConfig {
+    let mut c = skillmimic_learn::config::TrainConfig::preset("tiny").unwrap();
+    c.env.task = task.into();
+    c.env.num_envs = num_envs;
+    c.env.threads = 2;
+    c.env.table_mut::<HsiConfig>().style_motion = vec![dir.to_path_buf()];
     c.ppo.hidden = vec![32];
     c.ppo.amp.enabled = true;
     c.ppo.amp.hidden = vec![32];

@@ -458,11 +458,12 @@ impl<T: Task> Env for VecEnv<T> {
     }
     fn style_features(&self, out: &mut [f32]) {
         let k = self.task.style_dim();
+        if k == 0 {
+            return;
+        }
         let state = self.sim.state();
-        for (i, row) in out.chunks_exact_mut(k.max(1)).take(self.slots.len()).enumerate() {
-            if k > 0 {
-                self.task.style_features(&state.env(i), row);
-            }
+        for (i, row) in out.chunks_exact_mut(k).enumerate() {
+            self.task.style_features(&state.env(i), row);
         }
     }
     fn markers(&self, info: &[f32]) -> Vec<crate::markers::Marker> {
