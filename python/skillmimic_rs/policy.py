@@ -325,6 +325,7 @@ def load_checkpoint(path: str | pathlib.Path, map_location: str | torch.device =
     else:
         raise ValueError(f"{path}: unknown policy family {family!r} (gaussian_mlp, categorical_mlp, modular_attention, token_transformer, token_transformer_categorical)")
     tensors = load_file(str(path), device=str(map_location))
-    state = {k: v for k, v in tensors.items() if not k.startswith("optim.")}
+    # the training-only tensors (optimiser, motion prior, the exact-resume state) are not the policy's
+    state = {k: v for k, v in tensors.items() if not k.startswith(("optim.", "amp.", "resume."))}
     policy.load_state_dict(state, strict=True)
     return policy.to(map_location).eval()

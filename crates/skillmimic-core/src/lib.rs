@@ -13,6 +13,7 @@
 
 pub mod characters;
 pub mod math;
+pub mod serde_array;
 pub mod shared_data;
 pub mod tensorfile;
 

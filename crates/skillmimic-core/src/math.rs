@@ -45,7 +45,7 @@ pub fn norm(a: Vec3) -> f64 {
 }
 
 /// Unit quaternion (w, x, y, z).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Quat {
     pub w: f64,
     pub x: f64,

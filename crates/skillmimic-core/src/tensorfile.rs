@@ -68,6 +68,10 @@ impl OwnedTensor {
             bytes: data.iter().flat_map(|x| x.to_le_bytes()).collect(),
         }
     }
+    /// A byte tensor (opaque encoded data, e.g. a training run's resume state).
+    pub fn u8(name: &str, data: &[u8]) -> Self {
+        Self { name: name.into(), dtype: Dtype::U8, shape: vec![data.len()], bytes: data.to_vec() }
+    }
     /// An int64 tensor (little endian).
     pub fn i64(name: &str, shape: &[usize], data: &[i64]) -> Self {
         assert_eq!(
@@ -105,6 +109,7 @@ pub fn to_bytes(tensors: &[OwnedTensor], metadata: &BTreeMap<String, String>) ->
             Dtype::F32 => "F32",
             Dtype::F64 => "F64",
             Dtype::I64 => "I64",
+            Dtype::U8 => "U8",
             other => panic!("unsupported dtype {other:?}"),
         };
         assert_eq!(
@@ -383,6 +388,16 @@ impl TensorFile {
             });
         }
         Ok((s, v))
+    }
+
+    /// A one-dimensional byte tensor of any length.
+    pub fn u8(&self, name: &str) -> Result<Vec<u8>, TensorFileError> {
+        Ok(self.raw(name, Dtype::U8, "U8", &[None])?.1)
+    }
+
+    /// Whether the file holds a tensor `name`.
+    pub fn has(&self, name: &str) -> bool {
+        self.shape(name).is_some()
     }
 
     /// An int64 tensor whose shape matches `shape`.

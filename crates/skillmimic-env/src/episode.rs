@@ -21,7 +21,7 @@ use crate::hoi::RefAlign;
 pub const BALL_FREE_SKILLS: [u32; 2] = [0, 10];
 
 /// Per-environment episode state.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Episode {
     /// Library index of the reference clip.
     pub clip: usize,
@@ -44,6 +44,7 @@ pub struct Episode {
     /// code's compatibility mode.
     pub inserted: usize,
     /// Simulated joint velocities of the previous step (regulariser).
+    #[serde(with = "skillmimic_core::serde_array")]
     pub prev_dof_vel: [f64; NUM_DOFS],
     /// Sum of rewards and count of rewarded steps in this episode.
     pub reward_sum: f64,

@@ -175,7 +175,7 @@ pub fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
 /// re-anchored at another root, e.g. SkillMimic-V2 skill switching): positions
 /// p' = R_z(yaw)·(p − pivot) + target with heights kept, orientations q' = R_z(yaw)·q,
 /// velocities rotated. Joint rotations are local and unchanged.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct RefAlign {
     pub yaw: f64,
     pub pivot: [f64; 2],

@@ -160,8 +160,9 @@ pub struct StepOut<'a> {
 
 /// A task of the batched environment (see the module doc for the call order).
 pub trait Task: Send + Sync + 'static {
-    /// Per-environment state.
-    type Slot: Send + Sync + Clone;
+    /// Per-environment state (serde: saved with training checkpoints for an exact resume,
+    /// [`crate::vec_env::Env::save_state`]).
+    type Slot: Send + Sync + Clone + serde::Serialize + serde::de::DeserializeOwned;
 
     /// Sizes and names.
     fn spec(&self) -> &TaskSpec;
@@ -241,4 +242,23 @@ pub trait Task: Send + Sync + 'static {
     }
     /// Write the style features (`style_dim` wide) of the state `st` into `out`.
     fn style_features(&self, _st: &EnvState<'_>, _out: &mut [f32]) {}
+    /// The task's own state that changes while it runs and that later steps depend on (e.g. the
+    /// SkillMimic-V2 sampler's tables), encoded for [`Task::restore_shared`]; scratch buffers
+    /// rewritten before every use are not part of it. Default: none (empty).
+    fn save_shared(&self) -> Vec<u8> {
+        Vec::new()
+    }
+    /// Restore what [`Task::save_shared`] wrote; an encoding of another task or size is an error
+    /// saying what differs.
+    fn restore_shared(&mut self, bytes: &[u8]) -> Result<(), String> {
+        if bytes.is_empty() {
+            Ok(())
+        } else {
+            Err(format!(
+                "task '{}' keeps no shared state, got {} bytes",
+                self.spec().name,
+                bytes.len()
+            ))
+        }
+    }
 }

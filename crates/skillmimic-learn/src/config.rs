@@ -184,6 +184,11 @@ pub struct RunConfig {
     pub eval_episodes: usize,
     /// Active skill learning with generative adaptive sampling (tracking; ModSkill).
     pub active: crate::config_active::ActiveConfig,
+    /// On `--resume`: start fresh episodes instead of continuing the environments saved in the
+    /// checkpoint. By default a resume continues them exactly (the run goes on as if it had
+    /// never stopped) and refuses a checkpoint whose environment configuration differs; set this
+    /// to resume such a checkpoint anyway, with new episodes (no longer the same run).
+    pub fresh_episodes: bool,
 }
 
 impl Default for RunConfig {
@@ -197,6 +202,7 @@ impl Default for RunConfig {
             final_video: true,
             eval_episodes: 16,
             active: Default::default(),
+            fresh_episodes: false,
         }
     }
 }

@@ -5,6 +5,11 @@
 //! drive a small skill policy written for the test. Also: an unknown task, and a character a
 //! task does not run on, are clear errors listing the registered ones.
 //!
+//! Per task and character, `…/resume`: an environment's saved state ([`Env::save_state`])
+//! restored into a fresh environment built with other episode starts continues bit for bit
+//! (the same buffers after every step and reset, and the same saved state at the end); a state
+//! restored into an environment of another size is refused naming the difference.
+//!
 //! A custom harness (libtest-mimic) so that `cargo test` lists and filters the cases by name.
 
 mod common;
@@ -154,6 +159,89 @@ fn declarations_agree(name: &str, c: &TrainConfig, env: &dyn Env) -> Result<(), 
     Ok(())
 }
 
+/// The buffers a caller reads, as bit patterns.
+fn snapshot(env: &dyn Env) -> Vec<u32> {
+    let b = env.buffers();
+    let f = [&b.obs, &b.reward, &b.terms, &b.info, &b.metrics, &b.final_obs];
+    let u = [&b.terminated, &b.truncated, &b.unstable, &b.final_mask];
+    f.iter()
+        .flat_map(|v| v.iter().map(|x| x.to_bits()))
+        .chain(u.iter().flat_map(|v| v.iter().map(|&x| x as u32)))
+        .collect()
+}
+
+/// Save mid-run, restore into a fresh environment with other starts, replay: bit for bit.
+fn resume_case(c: TrainConfig) -> Result<(), Failed> {
+    let name = format!("{}/{}/resume", c.env.task, c.env.character);
+    let err = |e: skillmimic_env::EnvError| format!("{name}: {e}");
+    let mut a = registry::make(&c.env).map_err(err)?;
+    let spec = a.spec().clone();
+    let family = FAMILIES
+        .iter()
+        .find(|f| f.supports(&spec.action_space))
+        .ok_or(format!("{name}: no policy family acts here"))?;
+    let mut ppo = c.ppo.clone();
+    ppo.policy = family.name().to_string();
+    let ppo = skillmimic_learn::policies::token_transformer::with_task_groups(&ppo, &spec);
+    let mut rng = <rand_chacha::ChaCha8Rng as rand::SeedableRng>::seed_from_u64(5);
+    let policy = Policy::build(spec.obs_dim, spec.action_space, &ppo, &mut rng)?;
+    let (n, o, act) = (a.num_envs(), policy.actor_outputs(), spec.act_dim());
+    let mut buf = InferenceBuffers::default();
+    let (mut mu, mut values, mut neglogp) = (vec![0.0; n * o], vec![0.0; n], vec![0.0; n]);
+    let mut act_step = |env: &mut dyn Env, actions: &mut Vec<f32>| {
+        actions.resize(n * act, 0.0);
+        let obs = env.buffers().obs.clone();
+        policy.infer(&obs, n, &mut buf, &mut mu, &mut values, 1);
+        policy.sample(&mu, n, &mut rng, actions, &mut neglogp);
+    };
+    a.reset_all(Some(3));
+    let mut actions = Vec::new();
+    for _ in 0..12 {
+        act_step(a.as_mut(), &mut actions);
+        a.step(&actions).map_err(err)?;
+        a.reset_done();
+    }
+    let saved = a.save_state().map_err(err)?;
+    let at_save = snapshot(a.as_ref());
+    let (mut played, mut seen) = (Vec::new(), Vec::new());
+    for _ in 0..12 {
+        act_step(a.as_mut(), &mut actions);
+        a.step(&actions).map_err(err)?;
+        seen.push(snapshot(a.as_ref()));
+        a.reset_done();
+        seen.push(snapshot(a.as_ref()));
+        played.push(actions.clone());
+    }
+    let mut b = registry::make(&c.env).map_err(err)?;
+    b.reset_all(Some(99));
+    b.restore_state(&saved).map_err(err)?;
+    if snapshot(b.as_ref()) != at_save {
+        return Err(format!("{name}: the restored buffers differ from the saved ones").into());
+    }
+    for (k, acts) in played.iter().enumerate() {
+        b.step(acts).map_err(err)?;
+        if snapshot(b.as_ref()) != seen[2 * k] {
+            return Err(format!("{name}: step {k} after the restore differs").into());
+        }
+        b.reset_done();
+        if snapshot(b.as_ref()) != seen[2 * k + 1] {
+            return Err(format!("{name}: the resets after step {k} differ").into());
+        }
+    }
+    if b.save_state().map_err(err)? != a.save_state().map_err(err)? {
+        return Err(format!("{name}: the states differ after the replay").into());
+    }
+    // another number of environments: refused, naming it
+    let mut other = c.env.clone();
+    other.num_envs = c.env.num_envs + 1;
+    let mut wrong = registry::make(&other).map_err(err)?;
+    let e = wrong.restore_state(&saved).err().ok_or(format!("{name}: a 5-env state fit 4"))?;
+    if !e.to_string().contains("environments") {
+        return Err(format!("{name}: the refusal does not name the difference: {e}").into());
+    }
+    Ok(())
+}
+
 fn errors_are_clear(llc: &std::path::Path) -> Result<(), Failed> {
     let c = config("juggle", "", "unknown", llc);
     let e = registry::make(&c.env).err().ok_or("an unknown task was accepted")?.to_string();
@@ -202,6 +290,11 @@ fn main() {
                     continue;
                 }
             };
+            let c =
+                config(entry.name, character, &format!("{}-{character}-resume", entry.name), &llc);
+            trials.push(Trial::test(format!("{}/{character}/resume", entry.name), move || {
+                resume_case(c)
+            }));
             for family in FAMILIES.iter().filter(|f| f.supports(&space)) {
                 let c = config(
                     entry.name,

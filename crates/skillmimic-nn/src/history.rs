@@ -264,7 +264,7 @@ impl HistoryEncoder {
 }
 
 /// Per-environment history: the last k features and every layer's output per frame, in rings.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct HistoryBuffer {
     k: usize,
     /// Ring slot of the oldest frame.

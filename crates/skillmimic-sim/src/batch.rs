@@ -28,11 +28,11 @@ pub const DEFAULT_SUBSTEPS: usize = 2;
 
 type Data = MjData<Arc<MjModel>>;
 
-struct EnvSlot {
-    variant: usize,
-    data: Data,
+pub(crate) struct EnvSlot {
+    pub(crate) variant: usize,
+    pub(crate) data: Data,
     /// The floor bounce-threshold rule's state (`crate::bounce`).
-    bounce: BounceState,
+    pub(crate) bounce: BounceState,
 }
 
 /// Mutable rows of one environment in every output buffer.
@@ -53,9 +53,9 @@ struct Rows<'a> {
 /// N environments of one character, stepped in parallel.
 pub struct BatchSim {
     variants: Vec<Arc<Scene>>,
-    envs: Vec<EnvSlot>,
+    pub(crate) envs: Vec<EnvSlot>,
     pool: rayon::ThreadPool,
-    state: BatchState,
+    pub(crate) state: BatchState,
     substeps: usize,
 }
 

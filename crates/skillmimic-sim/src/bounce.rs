@@ -17,7 +17,7 @@
 //! restitution). The parity tests' PyPI-mujoco shadows apply the same rule.
 
 /// Per-environment state of the rule.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct BounceState {
     /// The ball was below z = r after the previous sub-step.
     pub touching: bool,

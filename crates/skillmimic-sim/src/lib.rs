@@ -8,6 +8,8 @@
 //! * [`batch`]: N environments stepped in parallel with rayon (PD targets, sub-steps, state and
 //!   contact read-out into contiguous buffers, resets), deterministic for any thread count;
 //! * [`state`], [`contacts`]: the read-out layout and the contact-pair kinds;
+//! * [`snapshot`]: the whole simulation state of a batch, saved and restored bit for bit (exact
+//!   resume of training);
 //! * [`bounce`]: PhysX's ball bounce threshold; [`memory`]: the memory check before a batch is
 //!   allocated; [`mj_batch`]: raw MuJoCo access.
 
@@ -21,6 +23,7 @@ pub mod mj_batch;
 pub mod mjcf;
 pub mod scene;
 pub mod scene_options;
+pub mod snapshot;
 pub mod state;
 
 pub use ball::{BallParams, BodyContact};
@@ -33,4 +36,5 @@ pub use mjcf::{
 };
 pub use scene::{BALL, NUM_STATE_BODIES, Scene};
 pub use skillmimic_core::characters::{Character, HandModel};
+pub use snapshot::SimSnapshot;
 pub use state::{BatchState, EnvState, ObjectState, ResetState};

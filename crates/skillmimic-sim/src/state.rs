@@ -30,7 +30,7 @@ use crate::scene::Scene;
 
 /// Pose and velocity of one object (world frame; angular velocity in the object frame, MuJoCo's
 /// free-joint convention; only the pose applies to a static object).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ObjectState {
     pub pos: [f64; 3],
     pub quat: Quat,
@@ -51,7 +51,7 @@ impl Default for ObjectState {
 }
 
 /// Full physical state used to (re)initialise one environment.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ResetState {
     /// Root position, world (m).
     pub root_pos: [f64; 3],
@@ -132,7 +132,7 @@ impl Default for ResetState {
 }
 
 /// Batched read-out buffers (see the module docs for frames and units).
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct BatchState {
     pub num_envs: usize,
     /// State bodies per environment (character bodies, then objects).

@@ -86,7 +86,7 @@ pub const LAYOUT: crate::obs_blocks::ObsLayout =
     crate::obs_blocks::ObsLayout::Proprio { part: "stand" };
 
 /// Per-environment state: steps taken and the heading to keep (rad).
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct StandSlot {
     pub steps: usize,
     pub target_heading: f64,

@@ -162,6 +162,66 @@ impl AdaptiveSampler {
     pub fn table(&self, clip: usize) -> &[f64] {
         &self.table[clip]
     }
+
+    /// What changes while the sampler runs (exact resume): the update clock, the r̄ table and
+    /// the distributions of the last recompute (they lag the table until the next one).
+    pub fn saved(&self) -> SamplerState {
+        SamplerState {
+            steps: self.steps,
+            table: self.table.clone(),
+            clip_p: self.clip_p.clone(),
+            frame_p: self.frame_p.clone(),
+            clip_cdf: self.clip_cdf.clone(),
+            frame_cdf: self.frame_cdf.clone(),
+        }
+    }
+
+    /// Restore [`saved`](Self::saved) state of a sampler over the same clips and frames.
+    pub fn restore(&mut self, s: SamplerState) -> Result<(), String> {
+        let lens = |t: &[Vec<f64>]| t.iter().map(Vec::len).collect::<Vec<_>>();
+        let want = lens(&self.table);
+        for (what, got) in [
+            ("r̄ table", lens(&s.table)),
+            ("frame probabilities", lens(&s.frame_p)),
+            ("frame cdf", lens(&s.frame_cdf)),
+        ] {
+            if got != want {
+                return Err(format!(
+                    "adaptive sampler: the saved {what} covers {} clips / {} frames, this \
+                    library {} / {}",
+                    got.len(),
+                    got.iter().sum::<usize>(),
+                    want.len(),
+                    want.iter().sum::<usize>()
+                ));
+            }
+        }
+        if s.clip_p.len() != want.len() || s.clip_cdf.len() != want.len() {
+            return Err(format!(
+                "adaptive sampler: saved clip probabilities for {} clips, this library has {}",
+                s.clip_p.len(),
+                want.len()
+            ));
+        }
+        self.steps = s.steps;
+        self.table = s.table;
+        self.clip_p = s.clip_p;
+        self.frame_p = s.frame_p;
+        self.clip_cdf = s.clip_cdf;
+        self.frame_cdf = s.frame_cdf;
+        Ok(())
+    }
+}
+
+/// The running state of an [`AdaptiveSampler`] ([`AdaptiveSampler::saved`]).
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct SamplerState {
+    pub steps: usize,
+    pub table: Vec<Vec<f64>>,
+    pub clip_p: Vec<f64>,
+    pub frame_p: Vec<Vec<f64>>,
+    pub clip_cdf: Vec<f64>,
+    pub frame_cdf: Vec<Vec<f64>>,
 }
 
 #[cfg(test)]

@@ -8,7 +8,7 @@ use rayon::prelude::*;
 use crate::task::TaskSpec;
 
 /// Output buffers of the last step (environment-major, float32).
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct StepBuffers {
     /// `[N][obs_dim]`
     pub obs: Vec<f32>,

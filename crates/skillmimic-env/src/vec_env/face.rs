@@ -79,6 +79,25 @@ pub trait Env: Send + Sync {
     /// Every environment's style features (`num_envs × style_dim`) from its current simulation
     /// state: after a step, the state the step ended in (before any reset of a finished episode).
     fn style_features(&self, _out: &mut [f32]) {}
+    /// Everything later steps depend on — simulation state, every environment's episode (task
+    /// slot), the streams of episode starts, the output buffers, the task's own state — encoded
+    /// for [`Env::restore_state`] (an exact resume continues bit for bit; [`super::saved`]).
+    fn save_state(&self) -> Result<Vec<u8>, EnvError> {
+        Err(EnvError::Unsupported(format!(
+            "task '{}': this environment cannot save its state",
+            self.spec().name
+        )))
+    }
+    /// Restore what [`Env::save_state`] wrote for an environment of the same task, scene and
+    /// size; anything else is an error naming the difference. The checks run before anything is
+    /// changed, except in a multi-task environment whose later sub-batch fails them: reset an
+    /// environment whose restore failed ([`Env::reset_all`]) before using it.
+    fn restore_state(&mut self, _bytes: &[u8]) -> Result<(), EnvError> {
+        Err(EnvError::Unsupported(format!(
+            "task '{}': this environment cannot restore a saved state",
+            self.spec().name
+        )))
+    }
     /// Downcast to the concrete `VecEnv<T>` (task-specific accessors).
     fn as_any(&self) -> &dyn Any;
     fn as_any_mut(&mut self) -> &mut dyn Any;

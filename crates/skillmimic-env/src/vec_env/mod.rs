@@ -18,6 +18,7 @@
 mod buffers;
 mod face;
 mod hold;
+pub mod saved;
 
 use std::any::Any;
 use std::sync::Arc;
@@ -465,6 +466,12 @@ impl<T: Task> Env for VecEnv<T> {
         for (i, row) in out.chunks_exact_mut(k).enumerate() {
             self.task.style_features(&state.env(i), row);
         }
+    }
+    fn save_state(&self) -> Result<Vec<u8>, EnvError> {
+        VecEnv::save_state(self)
+    }
+    fn restore_state(&mut self, bytes: &[u8]) -> Result<(), EnvError> {
+        VecEnv::restore_state(self, bytes)
     }
     fn markers(&self, info: &[f32]) -> Vec<crate::markers::Marker> {
         let mut out = Vec::new();

@@ -45,6 +45,12 @@ impl crate::trainer::Extension for AmpReward {
     fn tensors(&self) -> Vec<OwnedTensor> {
         AmpReward::tensors(self)
     }
+    fn save_resume(&self) -> Vec<u8> {
+        super::resume::save(self)
+    }
+    fn restore_resume(&mut self, bytes: &[u8]) -> Result<(), String> {
+        super::resume::restore(self, bytes)
+    }
     fn restart(&mut self) {
         AmpReward::restart(self);
     }

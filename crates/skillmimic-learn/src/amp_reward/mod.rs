@@ -45,6 +45,7 @@ use skillmimic_sim::Scene;
 use crate::amp::{DiscLoss, Discriminator};
 
 mod extension;
+mod resume;
 mod tensors;
 use crate::collective::Collective;
 use crate::config::{AmpConfig, TrainConfig};

@@ -62,6 +62,25 @@ pub trait Extension: Any + Send + Sync {
     fn tensors(&self) -> Vec<OwnedTensor> {
         Vec::new()
     }
+    /// Everything else a later iteration depends on (random streams, buffers, per-environment
+    /// windows), encoded for an exact resume ([`Extension::restore_resume`]; saved with every
+    /// training checkpoint beside [`Extension::tensors`]). Default: nothing.
+    fn save_resume(&self) -> Vec<u8> {
+        Vec::new()
+    }
+    /// Restore what [`Extension::save_resume`] wrote; a state of another size is an error saying
+    /// what differs.
+    fn restore_resume(&mut self, bytes: &[u8]) -> Result<(), String> {
+        if bytes.is_empty() {
+            Ok(())
+        } else {
+            Err(format!(
+                "extension '{}' keeps no resume state, got {} bytes",
+                self.name(),
+                bytes.len()
+            ))
+        }
+    }
     /// The environments were rebuilt: forget per-episode state.
     fn restart(&mut self) {}
     /// Typed access ([`super::Trainer::extension`]).

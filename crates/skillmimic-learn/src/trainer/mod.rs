@@ -17,7 +17,9 @@
 //! shuffling) and `env.seed` (episode starts; when unset it is derived as `run.seed` and written
 //! into the effective config saved with the run), so two runs with the same seed and
 //! thread counts produce the same checkpoints bit for bit. A resumed run continues from the
-//! checkpoint's policy, normalisers and Adam state with freshly reset environments.
+//! checkpoint's policy, normalisers and Adam state and, where the checkpoint holds it, the saved
+//! state of the environments, streams and extensions, so that it goes on exactly as the run
+//! would have ([`resume`]; otherwise with freshly reset environments).
 //!
 //! The parts: [`setup`] builds a trainer (seeds, environment, fresh or resumed policy, the
 //! data-parallel agreement, extensions); [`rollout`] collects an iteration's samples;
@@ -37,6 +39,7 @@
 
 mod extension;
 mod hooks;
+pub mod resume;
 mod rollout;
 mod setup;
 mod state;
@@ -216,7 +219,8 @@ impl Trainer {
     /// Write a training checkpoint (atomic; with every extension's tensors) and the effective
     /// config next to it.
     pub fn save(&self, path: &Path) -> Result<(), LearnError> {
-        let extra: Vec<_> = self.extensions.iter().flat_map(|e| e.tensors()).collect();
+        let mut extra: Vec<_> = self.extensions.iter().flat_map(|e| e.tensors()).collect();
+        extra.extend(resume::tensor(self)?);
         checkpoint::save_with(
             path,
             &self.policy,

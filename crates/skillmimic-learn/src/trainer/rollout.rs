@@ -17,8 +17,8 @@ use crate::storage::Rollout;
 /// Running returns and lengths of the current episodes, per environment.
 #[derive(Default)]
 pub struct EpisodeTally {
-    ret: Vec<f64>,
-    len: Vec<u64>,
+    pub(super) ret: Vec<f64>,
+    pub(super) len: Vec<u64>,
 }
 
 impl EpisodeTally {

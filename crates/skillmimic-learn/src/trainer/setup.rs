@@ -60,6 +60,7 @@ pub fn build(
     }
     if progress.iteration > 0 {
         // resumed: continue with streams of random numbers that differ from the first run's
+        // (replaced by the saved ones when the checkpoint holds the run's state, `resume`)
         let it = progress.iteration;
         let mut noise = cfg.run.seed ^ it.wrapping_mul(0x9e37_79b9_7f4a_7c15);
         let starts = cfg
@@ -95,7 +96,7 @@ pub fn build(
     let extensions: Vec<Box<dyn Extension>> =
         amp.into_iter().map(|a| Box::new(a) as Box<dyn Extension>).collect();
     let config_toml = cfg.to_toml();
-    Ok(Trainer {
+    let mut t = Trainer {
         cfg,
         env,
         policy,
@@ -108,7 +109,12 @@ pub fn build(
         extensions,
         comm,
         config_toml,
-    })
+    };
+    if let Some(path) = resume.filter(|_| rank == 0 && t.progress.iteration > 0) {
+        // the saved environments, streams and extension states, where the checkpoint has them
+        super::resume::apply(&mut t, path)?;
+    }
+    Ok(t)
 }
 
 /// The checks that need more than one key (the single keys' ranges are `cfg.validate`'s), and
@@ -138,12 +144,21 @@ fn check(cfg: &TrainConfig) -> Result<(), LearnError> {
 
 /// The frozen SkillMimic-V2 history encoder defines part of the policy's input: a fresh run keeps
 /// a copy in `run.out_dir` (written by rank 0; the others read the original) and its saved
-/// configuration points there, so the run's checkpoints stay usable when the original moves.
+/// configuration points there, so the run's checkpoints stay usable when the original moves. A
+/// resumed run whose folder holds that copy reads it too (its effective configuration is then
+/// the saved one, and an exact resume writes the same checkpoints).
 fn keep_history_encoder(
     cfg: &mut TrainConfig,
     rank: usize,
     resume: Option<&Path>,
 ) -> Result<(), LearnError> {
+    let kept = cfg.run.out_dir.join("history_encoder.safetensors");
+    if cfg.env.v2.history.enabled && resume.is_some() && kept.is_file() {
+        // a resumed run reads the copy its checkpoints were trained with, and its effective
+        // configuration stays the one it saved
+        cfg.env.v2.history.encoder = kept;
+        return Ok(());
+    }
     if cfg.env.v2.history.enabled && resume.is_none() {
         // the frozen encoder defines part of the policy's input: keep a copy with the run
         // (written by rank 0; the others read the original)

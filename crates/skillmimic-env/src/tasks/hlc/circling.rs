@@ -30,7 +30,7 @@ pub const TABLE: crate::config_table::TableEntry =
 pub struct Circling(pub CirclingConfig);
 
 /// A circling episode's goal and success bookkeeping.
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct CirclingGoal {
     /// Centre, world xy (m).
     pub xy: [f64; 2],

@@ -28,7 +28,7 @@ pub const TABLE: crate::config_table::TableEntry =
 pub struct Heading(pub HeadingConfig);
 
 /// A heading episode's goal.
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct HeadingGoal {
     /// Target point, world xy (m; its height is `target_height`).
     pub xy: [f64; 2],

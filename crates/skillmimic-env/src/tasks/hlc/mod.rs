@@ -69,7 +69,7 @@ pub const LL_HZ: f64 = 60.0;
 
 /// The goal redraw clock of the tasks whose command changes within an episode (steering,
 /// reach): the low-level step of the next redraw and the episode's seed for the redraws.
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Redraw {
     pub next_change: u32,
     pub seed: u64,
@@ -102,7 +102,14 @@ pub trait Rule: Send + Sync + 'static {
     /// Registry name.
     const NAME: &'static str;
     /// The task's per-episode goal and success bookkeeping (world metres).
-    type Goal: Clone + std::fmt::Debug + Default + Send + Sync + 'static;
+    type Goal: Clone
+        + std::fmt::Debug
+        + Default
+        + Send
+        + Sync
+        + serde::Serialize
+        + serde::de::DeserializeOwned
+        + 'static;
     /// Skill label of each choice (`control_mapping`).
     fn labels(&self) -> &'static [u32];
     /// Width of the task part of the observation.
@@ -163,7 +170,7 @@ pub fn ball_to(st: &EnvState<'_>, p: [f64; 3]) -> [f64; 3] {
 }
 
 /// Per-environment state: low-level steps of the episode and its goal.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct HlSlot<G> {
     pub progress: u32,
     pub goal: G,

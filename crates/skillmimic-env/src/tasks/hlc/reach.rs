@@ -31,7 +31,7 @@ pub const TABLE: crate::config_table::TableEntry =
 pub struct Reach(pub ReachConfig, pub usize);
 
 /// A reach episode's current target.
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ReachGoal {
     /// Target, world xy (m).
     pub xy: [f64; 2],

@@ -43,7 +43,7 @@ pub const G: f64 = 9.8;
 pub struct Scoring(pub ScoringConfig);
 
 /// A scoring episode's basket and success latches.
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ScoringGoal {
     /// Basket position, world xy (m; its height is `basket_height`).
     pub xy: [f64; 2],

@@ -35,7 +35,7 @@ pub const TABLE: crate::config_table::TableEntry =
 pub struct Steering(pub SteeringConfig);
 
 /// A steering episode's current command.
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct SteeringGoal {
     /// Commanded direction, world xy (unit vector).
     pub xy: [f64; 2],

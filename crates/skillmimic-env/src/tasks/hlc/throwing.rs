@@ -27,7 +27,7 @@ pub const TABLE: crate::config_table::TableEntry =
 pub struct Throwing(pub ThrowingConfig);
 
 /// A throwing episode's success bookkeeping.
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ThrowGoal {
     /// Low-level step of the first throw.
     pub throw_step: Option<u32>,

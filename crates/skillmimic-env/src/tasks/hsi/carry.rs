@@ -63,7 +63,7 @@ use crate::vec_env::Env;
 const SLAB_HALF: f64 = 0.01;
 
 /// The box's target and the episode's layout.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct Goal {
     /// Target location of the box centre (world, m).
     pub target: Vec3,

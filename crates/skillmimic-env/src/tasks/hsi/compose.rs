@@ -140,7 +140,7 @@ impl Primary for Climb {
 }
 
 /// The primary task's goal and the box.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct Goal<G> {
     pub primary: G,
     /// Half sizes of the box (m).

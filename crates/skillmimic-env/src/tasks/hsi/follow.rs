@@ -38,7 +38,7 @@ use crate::vec_env::Env;
 pub const NUM_POINTS: usize = 10;
 
 /// The trajectory of an episode and the success latch.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct Goal {
     /// Vertices (world x, y; m), one segment of `dt` s apart.
     pub verts: Vec<[f64; 2]>,

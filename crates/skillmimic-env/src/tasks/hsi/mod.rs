@@ -145,7 +145,7 @@ pub struct TaskOut<'a> {
 /// What one TokenHSI task is (see the module doc).
 pub trait Rule: Send + Sync + 'static {
     /// Per-environment goal of the current episode.
-    type Goal: Send + Sync + Clone + Default;
+    type Goal: Send + Sync + Clone + Default + serde::Serialize + serde::de::DeserializeOwned;
     /// Sizes and names (`obs_dim` = 222 + the task observation).
     fn spec(&self) -> &TaskSpec;
     /// The objects of one compiled scene variant (sizes drawn from `rng`).
@@ -195,7 +195,7 @@ impl FallRule {
 }
 
 /// Per-environment state of a TokenHSI task.
-#[derive(Clone, Default)]
+#[derive(Clone, Default, serde::Serialize, serde::Deserialize)]
 pub struct HsiSlot<G> {
     pub goal: G,
     /// Policy steps taken in this episode.

@@ -49,7 +49,7 @@ use crate::tasks::hsi::config::{HsiConfig, HsiForm};
 use crate::vec_env::Env;
 
 /// A static object with a target on it (sit and climb).
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct Goal {
     /// Target root position (world, m).
     pub target: Vec3,

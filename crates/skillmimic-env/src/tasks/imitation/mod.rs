@@ -52,7 +52,7 @@ pub const FRAME_METRIC_NAMES: [&str; NUM_FRAME_METRICS] =
     ["body_err", "ball_err", "cg_match", "cg_sq_err"];
 
 /// How a pending reset starts (SkillMimic-V2 plans; `Plain` otherwise).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum ResetPlan {
     /// Reference-state initialisation at the sampled (clip, frame).
     Plain,
@@ -84,7 +84,7 @@ fn set_bridge(ep: &mut Episode, cfg: &EnvConfig, beta: f64) {
 }
 
 /// Per-environment state of the imitation task.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct ImitationSlot {
     pub episode: Episode,
     /// The history buffer (`None` without the SkillMimic-V2 history encoder).
@@ -330,5 +330,28 @@ impl Task for Imitation {
     }
     fn history_window(&self, slot: &ImitationSlot) -> Option<Vec<f32>> {
         slot.history.as_ref().map(|h| h.window())
+    }
+    /// The adaptive sampler's running state (SkillMimic-V2 ATS; empty without it). The
+    /// masked-reward sums are scratch of each step.
+    fn save_shared(&self) -> Vec<u8> {
+        self.ats
+            .as_ref()
+            .map_or(Vec::new(), |a| postcard::to_stdvec(&a.saved()).expect("plain numbers encode"))
+    }
+    fn restore_shared(&mut self, bytes: &[u8]) -> Result<(), String> {
+        match (self.ats.as_mut(), bytes.is_empty()) {
+            (None, true) => Ok(()),
+            (Some(a), false) => {
+                let s = postcard::from_bytes(bytes)
+                    .map_err(|e| format!("adaptive sampler state unreadable ({e})"))?;
+                a.restore(s)
+            }
+            (None, false) => Err("the saved run used adaptive trajectory sampling \
+                (env.v2.ats), this configuration does not"
+                .into()),
+            (Some(_), true) => Err("this configuration uses adaptive trajectory sampling \
+                (env.v2.ats), the saved run did not"
+                .into()),
+        }
     }
 }

@@ -23,6 +23,7 @@
 //! holding environment i. Not multiplexed: `pd_targets` is empty.
 
 pub mod config;
+mod saved;
 
 use std::any::Any;
 
@@ -434,6 +435,12 @@ impl Env for MultiEnv {
             let n = s.env.num_envs();
             s.env.style_features(&mut out[s.start * k..(s.start + n) * k]);
         }
+    }
+    fn save_state(&self) -> Result<Vec<u8>, EnvError> {
+        MultiEnv::save_state(self)
+    }
+    fn restore_state(&mut self, bytes: &[u8]) -> Result<(), EnvError> {
+        MultiEnv::restore_state(self, bytes)
     }
     fn task_rows(&self) -> Vec<(String, std::ops::Range<usize>)> {
         self.subs

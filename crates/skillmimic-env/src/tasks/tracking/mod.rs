@@ -141,7 +141,7 @@ pub fn reference_frames(scene: Arc<Scene>, motion: &Motion) -> Result<Vec<ClipFr
 }
 
 /// Per-environment episode state.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct TrackSlot {
     pub clip: usize,
     /// The reference frame the simulation is compared with now.

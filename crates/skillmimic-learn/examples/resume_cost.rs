@@ -1,0 +1,50 @@
+//! What the exact-resume state costs per checkpoint: its size beside the rest of the training
+//! checkpoint (policy, normalisers, Adam, extensions) and the time to encode it beside the time
+//! to write the whole checkpoint, on preset `small` (256 environments; the paper's networks)
+//! with the shipped demo clips, after one iteration. Run alone on the machine:
+//!
+//! `cargo run --release -p skillmimic-learn --example resume_cost [-- TASK [PRESET]]`
+
+use std::time::Instant;
+
+use skillmimic_learn::config::TrainConfig;
+use skillmimic_learn::trainer::Trainer;
+
+fn main() -> anyhow::Result<()> {
+    let args: Vec<String> = std::env::args().collect();
+    let task = args.get(1).map_or("imitation", String::as_str);
+    let preset = args.get(2).map_or("small", String::as_str);
+    let mut c = TrainConfig::preset(preset)?;
+    c.env.task = task.into();
+    c.env.motion = vec![std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../motions")];
+    c.run.out_dir = std::env::temp_dir().join(format!("sm-resume-cost-{}", std::process::id()));
+    let mut t = Trainer::new(c.clone(), None)?;
+    t.iteration()?;
+    let path = c.run.out_dir.join("ck.safetensors");
+    std::fs::create_dir_all(&c.run.out_dir)?;
+    let reps = 5;
+    let (mut encode, mut save) = (f64::INFINITY, f64::INFINITY);
+    let mut state_bytes = 0;
+    for _ in 0..reps {
+        let t0 = Instant::now();
+        let s = skillmimic_learn::trainer::resume::tensor(&t)?.expect("one process");
+        encode = encode.min(t0.elapsed().as_secs_f64());
+        state_bytes = s.bytes.len();
+        let t0 = Instant::now();
+        t.save(&path)?;
+        save = save.min(t0.elapsed().as_secs_f64());
+    }
+    let total = std::fs::metadata(&path)?.len() as usize;
+    let rest = total - state_bytes;
+    println!(
+        "{{\"task\": \"{task}\", \"preset\": \"{preset}\", \"num_envs\": {}, \"checkpoint_bytes\": {total}, \
+         \"state_bytes\": {state_bytes}, \"rest_bytes\": {rest}, \"state_over_rest\": {:.4}, \
+         \"encode_s\": {encode:.5}, \"save_s\": {save:.5}, \"encode_over_save\": {:.4}, \
+         \"best_of\": {reps}}}",
+        c.env.num_envs,
+        state_bytes as f64 / rest as f64,
+        encode / save
+    );
+    std::fs::remove_dir_all(&c.run.out_dir)?;
+    Ok(())
+}

