@@ -154,10 +154,31 @@ def test_motion_prior_trains_under_torchrun_and_resumes(tmp_path):
     assert r.returncode == 0 and "resumed from" in r.stdout, r.stdout[-2000:] + r.stderr[-3000:]
 
 
-def test_torchrun_restart_resumes_and_finishes(tmp_path):
+def _rows(out: pathlib.Path) -> list[dict]:
+    """The log rows without their timings."""
+    rows = [json.loads(line) for line in (out / "log.jsonl").read_text().splitlines()]
+    return [{k: v for k, v in r.items() if not (k.endswith("_s") or k == "samples_per_s")} for r in rows]
+
+
+def _tensors(path: pathlib.Path) -> dict:
+    from safetensors.numpy import load_file
+
+    return load_file(str(path))
+
+
+def test_torchrun_restart_resumes_exactly_and_finishes(tmp_path):
+    """torchrun's restart of a job whose rank 1 was killed: the ranks resume from the newest
+    checkpoint (same world size) and end exactly as the job that was never interrupted: the same
+    log rows but the timings, the same checkpoint tensors."""
+    iters = "16"
+    ref = tmp_path / "reference"
+    r = subprocess.run(_torchrun("--nproc-per-node", "2", "-m", "skillmimic_rs.train", *TINY, "--iterations", iters,
+                                 "--set", "run.save_every=2", "--out", str(ref)),
+                       cwd=REPO, env=_env(), capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stdout[-2000:] + r.stderr[-3000:]
     out = tmp_path / "run"
     cmd = _torchrun("--nproc-per-node", "2", "--max-restarts", "1", "-m", "skillmimic_rs.train", *TINY,
-                    "--iterations", "60", "--set", "run.save_every=2", "--resume", "latest", "--out", str(out))
+                    "--iterations", iters, "--set", "run.save_every=2", "--resume", "latest", "--out", str(out))
     job = subprocess.Popen(cmd, cwd=REPO, env=_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
     try:
         _wait_for_checkpoints(out, 3, [job])
@@ -169,7 +190,12 @@ def test_torchrun_restart_resumes_and_finishes(tmp_path):
     assert job.returncode == 0, stdout[-2000:] + stderr[-3000:]
     assert re.search(r"resumed from .*latest\.safetensors at iteration [1-9]", stdout), stdout[-2000:]
     summary = json.loads((out / "summary.json").read_text())
-    assert summary["iterations"] == 60 and summary["world_size"] == 2
+    assert summary["iterations"] == int(iters) and summary["world_size"] == 2
+    assert _rows(out) == _rows(ref)
+    want, got = _tensors(ref / "latest.safetensors"), _tensors(out / "latest.safetensors")
+    assert "resume.state" in got and sorted(got) == sorted(want)
+    differ = [k for k in want if not (want[k].dtype == got[k].dtype and (want[k] == got[k]).all())]
+    assert not differ, f"tensors differ after the restart: {differ}"
 
 
 def _free_port() -> int:

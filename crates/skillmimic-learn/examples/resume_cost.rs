@@ -1,9 +1,11 @@
 //! What the exact-resume state costs per checkpoint: its size beside the rest of the training
-//! checkpoint (policy, normalisers, Adam, extensions) and the time to encode it beside the time
-//! to write the whole checkpoint, on preset `small` (256 environments; the paper's networks)
-//! with the shipped demo clips, after one iteration. Run alone on the machine:
+//! checkpoint (policy, normalisers, Adam, extensions) and beside the policy-only file, and the
+//! time to encode it beside the time to write the whole checkpoint (best of 5), on preset
+//! `small` (256 environments; the paper's networks) with the shipped demo clips, after one
+//! iteration; `amp` as a third argument turns the motion prior on (its replay buffer is part of
+//! the state). Run alone on the machine:
 //!
-//! `cargo run --release -p skillmimic-learn --example resume_cost [-- TASK [PRESET]]`
+//! `cargo run --release -p skillmimic-learn --example resume_cost [-- TASK [PRESET [amp]]]`
 
 use std::time::Instant;
 
@@ -16,6 +18,7 @@ fn main() -> anyhow::Result<()> {
     let preset = args.get(2).map_or("small", String::as_str);
     let mut c = TrainConfig::preset(preset)?;
     c.env.task = task.into();
+    c.ppo.amp.enabled = args.get(3).is_some_and(|a| a == "amp");
     c.env.motion = vec![std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../motions")];
     c.run.out_dir = std::env::temp_dir().join(format!("sm-resume-cost-{}", std::process::id()));
     let mut t = Trainer::new(c.clone(), None)?;
@@ -27,7 +30,7 @@ fn main() -> anyhow::Result<()> {
     let mut state_bytes = 0;
     for _ in 0..reps {
         let t0 = Instant::now();
-        let s = skillmimic_learn::trainer::resume::tensor(&t)?.expect("one process");
+        let s = skillmimic_learn::trainer::resume::single(&t)?.expect("one process");
         encode = encode.min(t0.elapsed().as_secs_f64());
         state_bytes = s.bytes.len();
         let t0 = Instant::now();
@@ -36,13 +39,26 @@ fn main() -> anyhow::Result<()> {
     }
     let total = std::fs::metadata(&path)?.len() as usize;
     let rest = total - state_bytes;
+    // the policy-only file (what `skillmimic export` writes)
+    let policy_path = c.run.out_dir.join("policy.safetensors");
+    skillmimic_learn::checkpoint::save(
+        &policy_path,
+        &t.policy,
+        None,
+        &t.progress,
+        t.config_toml(),
+    )?;
+    let policy = std::fs::metadata(&policy_path)?.len() as usize;
     println!(
-        "{{\"task\": \"{task}\", \"preset\": \"{preset}\", \"num_envs\": {}, \"checkpoint_bytes\": {total}, \
+        "{{\"task\": \"{task}\", \"preset\": \"{preset}\", \"amp\": {}, \"num_envs\": {}, \"checkpoint_bytes\": {total}, \
          \"state_bytes\": {state_bytes}, \"rest_bytes\": {rest}, \"state_over_rest\": {:.4}, \
+         \"policy_only_bytes\": {policy}, \"state_over_policy_only\": {:.4}, \
          \"encode_s\": {encode:.5}, \"save_s\": {save:.5}, \"encode_over_save\": {:.4}, \
          \"best_of\": {reps}}}",
+        c.ppo.amp.enabled,
         c.env.num_envs,
         state_bytes as f64 / rest as f64,
+        state_bytes as f64 / policy as f64,
         encode / save
     );
     std::fs::remove_dir_all(&c.run.out_dir)?;

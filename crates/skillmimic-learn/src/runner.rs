@@ -57,9 +57,16 @@ pub fn train_loop_until(
                 (--iterations) to train further"
         )));
     }
+    let save_every = t.cfg.run.save_every as u64;
+    // the regular checkpoint iterations, where every rank hands in its resume state
+    let keep_state = t.cfg.run.save_run_state;
+    let regular = |it: u64| keep_state && (it.is_multiple_of(save_every) || it == target);
     if t.shard.rank != 0 {
         while t.progress.iteration < target {
             let s = t.iteration()?;
+            if regular(t.progress.iteration) {
+                t.resume_state()?;
+            }
             if !on_iteration(&s) {
                 return Ok((out.join("latest.safetensors"), true));
             }
@@ -99,10 +106,17 @@ pub fn train_loop_until(
                     .map_err(|e| crate::divergence::with_last_good(e, last_good.as_deref()))?;
             }
         }
-        if it.is_multiple_of(t.cfg.run.save_every as u64) || it == target || !go_on {
+        if it.is_multiple_of(save_every) || it == target || !go_on {
+            // one process: always; data-parallel: at the regular iterations only, where every
+            // rank takes part (an interrupt's checkpoint then resumes with fresh episodes)
+            let state = if regular(it) || (keep_state && t.shard.world == 1) {
+                t.resume_state()?
+            } else {
+                None
+            };
             let p = ckpt_dir.join(format!("iter_{it:06}.safetensors"));
-            t.save(&p)?;
-            t.save(&out.join("latest.safetensors"))?;
+            t.save_with_state(&p, state.clone())?;
+            t.save_with_state(&out.join("latest.safetensors"), state)?;
             last_good = Some(p.clone());
             last = p;
         }

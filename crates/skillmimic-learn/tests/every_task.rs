@@ -38,12 +38,7 @@ fn config(task: &str, character: &str, out: &str, llc: &std::path::Path) -> Trai
     if registry::is_high_level(task) {
         c.env.table_mut::<HlcConfig>().llc = llc.to_path_buf();
     }
-    // the token transformer at test sizes
-    c.ppo.token.tokenizer = vec![32];
-    c.ppo.token.embed = 16;
-    c.ppo.token.layers = 1;
-    c.ppo.token.feedforward = 32;
-    c.ppo.token.head = vec![32];
+    common::tiny_token(&mut c.ppo);
     c
 }
 

@@ -138,11 +138,7 @@ fn the_tokenhsi_multi_task_environment_resumes_exactly() {
     let mut c = config("hsi_multi", "", "multi");
     c.env.table_mut::<MultiConfig>().tasks = vec!["hsi_follow".into(), "hsi_carry".into()];
     c.ppo.policy = "token_transformer".into();
-    c.ppo.token.tokenizer = vec![32];
-    c.ppo.token.embed = 16;
-    c.ppo.token.layers = 1;
-    c.ppo.token.feedforward = 32;
-    c.ppo.token.head = vec![32];
+    common::tiny_token(&mut c.ppo);
     straight_and_resumed(c);
 }
 
@@ -172,5 +168,77 @@ fn another_environment_configuration_is_refused_or_started_fresh() {
     let mut threads = c.clone();
     threads.env.threads = 1;
     assert!(Trainer::new(threads, Some(&ck)).is_ok());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Train `c` on `world` in-process ranks (from `resume` when given), each rank through the
+/// runner's loop as under torchrun.
+fn on_ranks(c: &TrainConfig, world: usize, resume: Option<&std::path::Path>) {
+    let group = skillmimic_learn::collective::threads::ThreadGroup::new_group(world);
+    std::thread::scope(|s| {
+        for g in group {
+            let c = c.clone();
+            s.spawn(move || {
+                let mut t = Trainer::with_collective(c, resume, Box::new(g)).unwrap();
+                train_loop(&mut t, |_| {}).unwrap();
+            });
+        }
+    });
+}
+
+#[test]
+fn a_data_parallel_run_resumes_exactly_with_the_same_world_size() {
+    let mut c = config("imitation", "", "dp");
+    c.env.num_envs = 6;
+    c.env.threads = 1;
+    c.ppo.minibatch = 16;
+    c.ppo.amp.enabled = true;
+    c.ppo.amp.hidden = vec![32];
+    c.ppo.amp.batch = 16;
+    c.ppo.amp.buffer = 64;
+    let dir = c.run.out_dir.clone();
+    let _ = std::fs::remove_dir_all(&dir);
+    on_ranks(&c, 2, None);
+    let (want_rows, want) = (rows(&dir), std::fs::read(dir.join("latest.safetensors")).unwrap());
+    std::fs::remove_dir_all(&dir).unwrap();
+    let mut first = c.clone();
+    first.run.iterations = 2;
+    on_ranks(&first, 2, None);
+    let mid = dir.join("checkpoints/iter_000002.safetensors");
+    on_ranks(&c, 2, Some(&mid));
+    let got_rows = rows(&dir);
+    assert_eq!(got_rows.len(), 4);
+    for (k, (a, b)) in want_rows.iter().zip(&got_rows).enumerate() {
+        assert_eq!(a, b, "2 ranks: log row {} differs after the resume", k + 1);
+    }
+    assert!(std::fs::read(dir.join("latest.safetensors")).unwrap() == want, "2 ranks: differs");
+    // another world size: possible, with fresh episodes (not exact)
+    let mut more = c.clone();
+    more.run.iterations = 5;
+    let mut t = Trainer::new(more, Some(&dir.join("latest.safetensors"))).unwrap();
+    assert_eq!(t.progress.iteration, 4);
+    t.iteration().unwrap();
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_checkpoint_without_the_state_resumes_with_fresh_episodes() {
+    let mut c = config("imitation", "", "old");
+    c.run.iterations = 2;
+    // checkpoints without the run's state, as older versions wrote them
+    c.run.save_run_state = false;
+    let dir = c.run.out_dir.clone();
+    let _ = std::fs::remove_dir_all(&dir);
+    let mut t = Trainer::new(c.clone(), None).unwrap();
+    train_loop(&mut t, |_| {}).unwrap();
+    drop(t);
+    let old = dir.join("latest.safetensors");
+    let f = skillmimic_core::tensorfile::TensorFile::open(&old).unwrap();
+    assert!(!f.has(skillmimic_learn::trainer::resume::TENSOR));
+    c.run.save_run_state = true;
+    c.run.iterations = 3;
+    let mut t = Trainer::new(c, Some(&old)).unwrap();
+    assert_eq!(t.progress.iteration, 2);
+    t.iteration().unwrap();
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -82,6 +82,12 @@ pub trait Env: Send + Sync {
     /// Everything later steps depend on — simulation state, every environment's episode (task
     /// slot), the streams of episode starts, the output buffers, the task's own state — encoded
     /// for [`Env::restore_state`] (an exact resume continues bit for bit; [`super::saved`]).
+    /// Whether [`Env::save_state`] is offered (the registry's environments; an environment
+    /// written elsewhere that does not offer it is trained with checkpoints whose resumes start
+    /// fresh episodes).
+    fn can_save_state(&self) -> bool {
+        false
+    }
     fn save_state(&self) -> Result<Vec<u8>, EnvError> {
         Err(EnvError::Unsupported(format!(
             "task '{}': this environment cannot save its state",

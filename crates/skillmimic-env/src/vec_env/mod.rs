@@ -467,6 +467,9 @@ impl<T: Task> Env for VecEnv<T> {
             self.task.style_features(&state.env(i), row);
         }
     }
+    fn can_save_state(&self) -> bool {
+        true
+    }
     fn save_state(&self) -> Result<Vec<u8>, EnvError> {
         VecEnv::save_state(self)
     }

@@ -20,6 +20,7 @@
 //! - **start**: rank 0 broadcasts parameters, optimiser and normaliser state; a signature of the
 //!   configuration is compared first so a mismatch is an error, not a hang.
 
+pub mod bytes;
 pub mod threads;
 
 use crate::error::LearnError;

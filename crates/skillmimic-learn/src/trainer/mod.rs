@@ -56,6 +56,7 @@ use crate::config::TrainConfig;
 use crate::error::{LearnError, io};
 use crate::policy::Policy;
 use crate::storage::Rollout;
+use skillmimic_core::tensorfile::OwnedTensor;
 
 pub use crate::iteration_stats::IterationStats;
 pub use extension::{Extension, StepView};
@@ -218,9 +219,34 @@ impl Trainer {
 
     /// Write a training checkpoint (atomic; with every extension's tensors) and the effective
     /// config next to it.
+    ///
+    /// In one process the checkpoint holds the run's state for an exact resume ([`resume`]); a
+    /// data-parallel run's ranks gather theirs together ([`Trainer::resume_state`]) and rank 0
+    /// writes it with [`Trainer::save_with_state`].
     pub fn save(&self, path: &Path) -> Result<(), LearnError> {
+        let state = match self.shard.world {
+            1 if self.cfg.run.save_run_state => resume::single(self)?,
+            _ => None,
+        };
+        self.save_with_state(path, state)
+    }
+
+    /// The run's state for an exact resume ([`resume`]): on rank 0 the checkpoint tensor, `None`
+    /// on the others. Collective in a data-parallel run (every rank calls it at the same
+    /// iterations).
+    pub fn resume_state(&mut self) -> Result<Option<OwnedTensor>, LearnError> {
+        resume::collect(self)
+    }
+
+    /// [`Trainer::save`] with the given resume state (`None`: a checkpoint whose resume starts
+    /// fresh episodes).
+    pub fn save_with_state(
+        &self,
+        path: &Path,
+        state: Option<OwnedTensor>,
+    ) -> Result<(), LearnError> {
         let mut extra: Vec<_> = self.extensions.iter().flat_map(|e| e.tensors()).collect();
-        extra.extend(resume::tensor(self)?);
+        extra.extend(state);
         checkpoint::save_with(
             path,
             &self.policy,

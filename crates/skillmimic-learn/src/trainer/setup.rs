@@ -110,9 +110,10 @@ pub fn build(
         comm,
         config_toml,
     };
-    if let Some(path) = resume.filter(|_| rank == 0 && t.progress.iteration > 0) {
-        // the saved environments, streams and extension states, where the checkpoint has them
-        super::resume::apply(&mut t, path)?;
+    if t.progress.iteration > 0 {
+        // resumed: the saved environments, streams and extension states, where the checkpoint
+        // has them (every rank takes part; rank 0 reads the file)
+        super::resume::apply(&mut t, resume)?;
     }
     Ok(t)
 }

@@ -20,3 +20,14 @@ pub fn skill_policy(tag: &str) -> std::path::PathBuf {
     checkpoint::save(&path, &p, None, &Progress::default(), "").unwrap();
     path
 }
+
+/// The token transformer at test sizes (tokenizer [32], embedding 16, one layer, feed-forward 32,
+/// head [32]).
+#[allow(dead_code)] // not every test binary builds a token policy
+pub fn tiny_token(ppo: &mut PpoConfig) {
+    ppo.token.tokenizer = vec![32];
+    ppo.token.embed = 16;
+    ppo.token.layers = 1;
+    ppo.token.feedforward = 32;
+    ppo.token.head = vec![32];
+}

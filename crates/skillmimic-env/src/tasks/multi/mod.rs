@@ -436,6 +436,9 @@ impl Env for MultiEnv {
             s.env.style_features(&mut out[s.start * k..(s.start + n) * k]);
         }
     }
+    fn can_save_state(&self) -> bool {
+        true
+    }
     fn save_state(&self) -> Result<Vec<u8>, EnvError> {
         MultiEnv::save_state(self)
     }

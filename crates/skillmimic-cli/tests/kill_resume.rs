@@ -1,0 +1,182 @@
+//! A training run killed with SIGKILL at random moments and restarted each time with
+//! `--resume latest` ends exactly as the run that was never stopped: the same `log.jsonl` rows
+//! (all but the timings) and byte-identical checkpoints. For each task family: imitation, with
+//! the SkillMimic-V2 parts (STF, STG, ATS) and the motion prior, a high-level task (driven by the
+//! imitation run's checkpoint as its skill policy), tracking on the SMPL humanoid and the TokenHSI
+//! multi-task environment with the token policy. The kill moments are drawn from a fixed
+//! seed, between 25 % and 50 % of the uninterrupted run's wall time after each start, so they
+//! fall all over the run (start-up, rollouts, updates, checkpoint writes — a checkpoint is
+//! written after every iteration — and the end-of-run evaluation); the test prints how many kills
+//! interrupted an atomic write (a `*.tmp<pid>` file left behind).
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::Duration;
+
+use rand::{Rng, SeedableRng};
+
+const ITERATIONS: u64 = 8;
+
+fn train(out: &Path, extra: &[String]) -> Command {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_skillmimic"));
+    cmd.args(["train", "--preset", "tiny", "--no-video", "--threads", "2", "--out"])
+        .arg(out)
+        .args(["--iterations", &ITERATIONS.to_string(), "--resume", "latest"])
+        .args(["--set", "run.save_every=1", "--set", "run.eval_episodes=2"])
+        .args(extra)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped());
+    cmd
+}
+
+fn args(a: &[&str]) -> Vec<String> {
+    a.iter().map(|s| s.to_string()).collect()
+}
+
+/// The log rows without their timings.
+fn rows(out: &Path) -> Vec<serde_json::Value> {
+    std::fs::read_to_string(out.join("log.jsonl"))
+        .unwrap()
+        .lines()
+        .map(|l| {
+            let mut v: serde_json::Value = serde_json::from_str(l).unwrap();
+            v.as_object_mut().unwrap().retain(|k, _| !(k.ends_with("_s") || k == "samples_per_s"));
+            v
+        })
+        .collect()
+}
+
+fn temp_files(out: &Path) -> usize {
+    [out.to_path_buf(), out.join("checkpoints")]
+        .iter()
+        .filter_map(|d| std::fs::read_dir(d).ok())
+        .flatten()
+        .filter(|e| e.as_ref().is_ok_and(|e| e.file_name().to_string_lossy().contains(".tmp")))
+        .count()
+}
+
+#[test]
+fn runs_killed_at_random_moments_end_as_the_uninterrupted_runs() {
+    let base = std::env::temp_dir().join(format!("sm-kill-resume-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&base);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(44);
+    killed_run_matches(&base.join("imitation"), &[], &mut rng);
+    let llc = base.join("imitation/reference/latest.safetensors");
+    let token = [
+        "--set",
+        "ppo.token.tokenizer=[32]",
+        "--set",
+        "ppo.token.embed=16",
+        "--set",
+        "ppo.token.layers=1",
+        "--set",
+        "ppo.token.feedforward=32",
+        "--set",
+        "ppo.token.head=[32]",
+    ];
+    let cases: Vec<(&str, Vec<String>)> = vec![
+        (
+            "v2_amp",
+            args(&[
+                "--set",
+                "env.v2.stf.enabled=true",
+                "--set",
+                "env.v2.stg.enabled=true",
+                "--set",
+                "env.v2.ats.enabled=true",
+                "--set",
+                "env.v2.ats.update_interval=5",
+                "--set",
+                "ppo.amp.enabled=true",
+                "--set",
+                "ppo.amp.hidden=[32]",
+                "--set",
+                "ppo.amp.batch=32",
+                "--set",
+                "ppo.amp.buffer=128",
+            ]),
+        ),
+        (
+            "heading",
+            [args(&["--task", "heading", "--llc"]), vec![llc.display().to_string()]].concat(),
+        ),
+        ("tracking", args(&["--task", "tracking", "--set", "env.character=\"smpl\""])),
+        (
+            "hsi_multi",
+            [args(&["--task", "hsi_multi", "--policy", "token_transformer"]), args(&token)]
+                .concat(),
+        ),
+    ];
+    for (tag, extra) in cases {
+        killed_run_matches(&base.join(tag), &extra, &mut rng);
+    }
+    std::fs::remove_dir_all(&base).unwrap();
+}
+
+/// Train in `base/run` in one go (kept as `base/reference`), then again killed at random
+/// moments from `rng` and resumed until it finishes; compare.
+fn killed_run_matches(base: &Path, extra: &[String], rng: &mut rand_chacha::ChaCha8Rng) {
+    // both runs use the same folder name, so that the configuration inside the checkpoints agrees
+    let out: PathBuf = base.join("run");
+    let t0 = std::time::Instant::now();
+    let o = train(&out, extra).output().unwrap();
+    // kill moments scale with the run's length (start-up differs a lot between tasks)
+    let ms = t0.elapsed().as_millis() as u64;
+    let tag = base.display();
+    assert!(o.status.success(), "{tag}: {}", String::from_utf8_lossy(&o.stderr));
+    let want_rows = rows(&out);
+    let last = format!("checkpoints/iter_{ITERATIONS:06}.safetensors");
+    let want = std::fs::read(out.join(&last)).unwrap();
+    let want_latest = std::fs::read(out.join("latest.safetensors")).unwrap();
+    assert_eq!(want, want_latest);
+    std::fs::rename(&out, base.join("reference")).unwrap();
+
+    let (mut kills, mut in_writes) = (0, 0);
+    for attempt in 0.. {
+        assert!(attempt < 100, "{tag}: the killed run did not finish in 100 attempts");
+        let mut child = train(&out, extra).spawn().unwrap();
+        let wait = Duration::from_millis(rng.random_range(ms / 4..ms / 2));
+        let t0 = std::time::Instant::now();
+        let mut finished = None;
+        while t0.elapsed() < wait {
+            if let Some(s) = child.try_wait().unwrap() {
+                finished = Some(s);
+                break;
+            }
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        match finished {
+            Some(s) => {
+                let mut err = String::new();
+                use std::io::Read;
+                child.stderr.take().unwrap().read_to_string(&mut err).unwrap();
+                // killed during the end-of-run work after the last checkpoint: the run is complete
+                assert!(
+                    s.success() || err.contains("already complete"),
+                    "{tag}: attempt {attempt}: {err}"
+                );
+                break;
+            }
+            None => {
+                child.kill().unwrap();
+                child.wait().unwrap();
+                kills += 1;
+                in_writes += usize::from(temp_files(&out) > 0);
+            }
+        }
+    }
+    println!("{tag}: {kills} kills, {in_writes} of them during an atomic write");
+    assert!(kills >= 2, "{tag}: only {kills} kills: the run was barely interrupted");
+    let got_rows = rows(&out);
+    assert_eq!(got_rows.len(), want_rows.len());
+    for (k, (a, b)) in want_rows.iter().zip(&got_rows).enumerate() {
+        assert_eq!(a, b, "{tag}: log row {} differs after {kills} kills", k + 1);
+    }
+    assert!(std::fs::read(out.join(&last)).unwrap() == want, "{tag}: the last checkpoint differs");
+    assert!(std::fs::read(out.join("latest.safetensors")).unwrap() == want);
+    for k in 1..ITERATIONS {
+        let p = format!("checkpoints/iter_{k:06}.safetensors");
+        let a = std::fs::read(base.join("reference").join(&p)).unwrap();
+        assert!(std::fs::read(out.join(&p)).unwrap() == a, "{tag}: {p} differs");
+    }
+}
