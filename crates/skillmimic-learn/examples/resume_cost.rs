@@ -49,18 +49,23 @@ fn main() -> anyhow::Result<()> {
         t.config_toml(),
     )?;
     let policy = std::fs::metadata(&policy_path)?.len() as usize;
-    println!(
-        "{{\"task\": \"{task}\", \"preset\": \"{preset}\", \"amp\": {}, \"num_envs\": {}, \"checkpoint_bytes\": {total}, \
-         \"state_bytes\": {state_bytes}, \"rest_bytes\": {rest}, \"state_over_rest\": {:.4}, \
-         \"policy_only_bytes\": {policy}, \"state_over_policy_only\": {:.4}, \
-         \"encode_s\": {encode:.5}, \"save_s\": {save:.5}, \"encode_over_save\": {:.4}, \
-         \"best_of\": {reps}}}",
-        c.ppo.amp.enabled,
-        c.env.num_envs,
-        state_bytes as f64 / rest as f64,
-        state_bytes as f64 / policy as f64,
-        encode / save
-    );
+    let line = serde_json::json!({
+        "task": task,
+        "preset": preset,
+        "amp": c.ppo.amp.enabled,
+        "num_envs": c.env.num_envs,
+        "checkpoint_bytes": total,
+        "state_bytes": state_bytes,
+        "rest_bytes": rest,
+        "state_over_rest": state_bytes as f64 / rest as f64,
+        "policy_only_bytes": policy,
+        "state_over_policy_only": state_bytes as f64 / policy as f64,
+        "encode_s": encode,
+        "save_s": save,
+        "encode_over_save": encode / save,
+        "best_of": reps,
+    });
+    println!("{line}");
     std::fs::remove_dir_all(&c.run.out_dir)?;
     Ok(())
 }

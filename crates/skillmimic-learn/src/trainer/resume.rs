@@ -124,8 +124,18 @@ fn encode_rank(t: &Trainer) -> Result<Vec<u8>, LearnError> {
         lengths: &e.len,
         extensions: t.extensions.iter().map(|x| (x.name().to_string(), x.save_resume())).collect(),
     };
-    postcard::to_stdvec(&out)
-        .map_err(|e| LearnError::Config(format!("the resume state cannot be encoded: {e}")))
+    postcard::to_stdvec(&out).map_err(unencodable)
+}
+
+fn unencodable(e: postcard::Error) -> LearnError {
+    LearnError::Config(format!("the resume state cannot be encoded: {e}"))
+}
+
+/// The checkpoint tensor of every rank's part (`ranks`, in rank order).
+fn tensor_of(t: &Trainer, ranks: Vec<Vec<u8>>) -> Result<OwnedTensor, LearnError> {
+    let saved =
+        Saved { format: FORMAT, world: t.shard.world, env_config: env_config_lines(&t.cfg), ranks };
+    Ok(OwnedTensor::u8(TENSOR, &postcard::to_stdvec(&saved).map_err(unencodable)?))
 }
 
 /// The resume tensor of a one-process run (`None` in a data-parallel run, see [`collect`], and for
@@ -134,11 +144,7 @@ pub fn single(t: &Trainer) -> Result<Option<OwnedTensor>, LearnError> {
     if t.shard.world > 1 || !t.env.can_save_state() {
         return Ok(None);
     }
-    let ranks = vec![encode_rank(t)?];
-    let saved = Saved { format: FORMAT, world: 1, env_config: env_config_lines(&t.cfg), ranks };
-    let bytes = postcard::to_stdvec(&saved)
-        .map_err(|e| LearnError::Config(format!("the resume state cannot be encoded: {e}")))?;
-    Ok(Some(OwnedTensor::u8(TENSOR, &bytes)))
+    tensor_of(t, vec![encode_rank(t)?]).map(Some)
 }
 
 /// The resume tensor of the run: on rank 0 `Some`, elsewhere `None`. Collective in a
@@ -153,11 +159,7 @@ pub fn collect(t: &mut Trainer) -> Result<Option<OwnedTensor>, LearnError> {
     if t.shard.rank != 0 {
         return Ok(None);
     }
-    let saved =
-        Saved { format: FORMAT, world: t.shard.world, env_config: env_config_lines(&t.cfg), ranks };
-    let bytes = postcard::to_stdvec(&saved)
-        .map_err(|e| LearnError::Config(format!("the resume state cannot be encoded: {e}")))?;
-    Ok(Some(OwnedTensor::u8(TENSOR, &bytes)))
+    tensor_of(t, ranks).map(Some)
 }
 
 /// Rank 0's decision about the checkpoint `path` (see the module doc): the ranks' parts to
