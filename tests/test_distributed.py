@@ -4,7 +4,8 @@
   (2 ranks x N/2 environments vs 1 process x N, the paper network, from one rollout);
 * faults: ``kill -9`` of one rank under torchrun ends the job non-zero within 60 s and
   ``--resume latest`` continues from the last checkpoint with another world size; torchrun's
-  restart (``--max-restarts 1``) plus ``--resume latest`` finishes the run; without torchrun's
+  restarts (``--max-restarts 3``, SIGKILL of a rank three times, once inside a checkpoint
+  write) plus ``--resume latest`` end exactly as the uninterrupted job; without torchrun's
   agent (ranks started by hand, as a scheduler may), the surviving rank ends with a clear error.
 """
 
@@ -166,36 +167,111 @@ def _tensors(path: pathlib.Path) -> dict:
     return load_file(str(path))
 
 
-def test_torchrun_restart_resumes_exactly_and_finishes(tmp_path):
-    """torchrun's restart of a job whose rank 1 was killed: the ranks resume from the newest
-    checkpoint (same world size) and end exactly as the job that was never interrupted: the same
-    log rows but the timings, the same checkpoint tensors."""
+def _rank_pids(out: pathlib.Path, rank: int) -> set[int]:
+    """PIDs of every live training worker of `rank` for the run writing into `out`."""
+    found = set()
+    for pid in _alive(out):
+        try:
+            cmd = pathlib.Path(f"/proc/{pid}/cmdline").read_bytes().split(b"\0")
+            env = pathlib.Path(f"/proc/{pid}/environ").read_bytes().split(b"\0")
+        except OSError:
+            continue
+        if f"RANK={rank}".encode() in env and not any(c.endswith(b"torchrun") for c in cmd[:2]):
+            found.add(pid)
+    return found
+
+
+def _new_worker(out: pathlib.Path, rank: int, seen: set[int], job: subprocess.Popen) -> int | None:
+    """The worker of `rank` that torchrun started after the ones in `seen` (None: the job ended)."""
+    t0 = time.time()
+    while job.poll() is None:
+        fresh = _rank_pids(out, rank) - seen
+        if fresh:
+            return min(fresh)
+        assert time.time() - t0 < 240, f"torchrun started no new worker of rank {rank}"
+        time.sleep(0.05)
+    return None
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="finds the ranks through /proc")
+def test_torchrun_restarts_resume_exactly_and_finish(tmp_path):
+    """A torchrun job killed with SIGKILL three times and restarted by torchrun each time: rank 0
+    inside a checkpoint write once 2 to 4 checkpoints exist (the writer's test pause,
+    SKILLMIMIC_TEST_WRITE_PAUSE_MS, holds the write open halfway), then at moments drawn from a
+    fixed seed rank 1 within 3 s after the restarted job's first log write (rollouts, updates,
+    checkpoint writes) and rank 0 within 40 % of the uninterrupted job's wall time after it starts
+    (start-up, rendezvous or training). Each restart resumes from the
+    newest checkpoint (same world size), and the job ends exactly as the one never interrupted:
+    the same log rows but the timings, the same checkpoint tensors."""
+    import random
+
     iters = "16"
     ref = tmp_path / "reference"
+    t0 = time.time()
     r = subprocess.run(_torchrun("--nproc-per-node", "2", "-m", "skillmimic_rs.train", *TINY, "--iterations", iters,
                                  "--set", "run.save_every=2", "--out", str(ref)),
                        cwd=REPO, env=_env(), capture_output=True, text=True, timeout=600)
+    took = time.time() - t0
     assert r.returncode == 0, r.stdout[-2000:] + r.stderr[-3000:]
     out = tmp_path / "run"
-    cmd = _torchrun("--nproc-per-node", "2", "--max-restarts", "1", "-m", "skillmimic_rs.train", *TINY,
+    cmd = _torchrun("--nproc-per-node", "2", "--max-restarts", "3", "-m", "skillmimic_rs.train", *TINY,
                     "--iterations", iters, "--set", "run.save_every=2", "--resume", "latest", "--out", str(out))
-    job = subprocess.Popen(cmd, cwd=REPO, env=_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    env = _env() | {"SKILLMIMIC_TEST_WRITE_PAUSE_MS": "300"}
+    job = subprocess.Popen(cmd, cwd=REPO, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    rng = random.Random(44)
+    kills, seen = [], set()
+
+    def kill(pid: int, what: str) -> None:
+        seen.update(_rank_pids(out, 0) | _rank_pids(out, 1))
+        try:
+            os.kill(pid, signal.SIGKILL)
+            kills.append(what)
+        except ProcessLookupError:
+            pass
+
     try:
-        _wait_for_checkpoints(out, 3, [job])
-        os.kill(_rank_pid(out, 1), signal.SIGKILL)
+        # 1: rank 0 inside a checkpoint write, once 2 to 4 checkpoints exist (`latest` among them)
+        _wait_for_checkpoints(out, rng.randint(2, 4), [job])
+        pid = _new_worker(out, 0, seen, job)
+        t1 = time.time()
+        while not any(out.rglob(f"*.safetensors.tmp{pid}")):
+            assert job.poll() is None and time.time() - t1 < 120, "no checkpoint write to kill"
+            time.sleep(0.01)
+        kill(pid, "rank 0 inside a checkpoint write")
+        partial = list(out.rglob(f"*.safetensors.tmp{pid}"))
+        assert partial, "the kill missed the write"
+        kills[-1] = f"rank 0 inside the write of {partial[0].relative_to(out)}"
+        # 2: rank 1 at a random moment of the restarted job's training (after its first log write)
+        pid = _new_worker(out, 1, seen, job)
+        started = time.time_ns()
+        while job.poll() is None and (out / "log.jsonl").stat().st_mtime_ns < started:
+            time.sleep(0.02)
+        wait = rng.uniform(0.0, 3.0)
+        time.sleep(wait)
+        if pid is not None:
+            kill(pid, f"rank 1 {wait:.1f} s into the restarted job's training")
+        # 3: rank 0 at a random moment after it starts (start-up, rendezvous or training)
+        pid = _new_worker(out, 0, seen, job)
+        if pid is not None:
+            wait = rng.uniform(0.2, 0.4 * took)
+            time.sleep(wait)
+            kill(pid, f"rank 0 {wait:.1f} s after it started")
         stdout, stderr = job.communicate(timeout=300)
     finally:
         if job.poll() is None:
             os.killpg(job.pid, signal.SIGKILL)
+    print("killed:", "; ".join(kills), "| resumed at iterations", re.findall(r"resumed from .* at iteration (\d+)", stdout))
+    assert len(kills) >= 2, kills
     assert job.returncode == 0, stdout[-2000:] + stderr[-3000:]
     assert re.search(r"resumed from .*latest\.safetensors at iteration [1-9]", stdout), stdout[-2000:]
     summary = json.loads((out / "summary.json").read_text())
     assert summary["iterations"] == int(iters) and summary["world_size"] == 2
     assert _rows(out) == _rows(ref)
-    want, got = _tensors(ref / "latest.safetensors"), _tensors(out / "latest.safetensors")
-    assert "resume.state" in got and sorted(got) == sorted(want)
-    differ = [k for k in want if not (want[k].dtype == got[k].dtype and (want[k] == got[k]).all())]
-    assert not differ, f"tensors differ after the restart: {differ}"
+    for name in ["latest.safetensors", *(f"checkpoints/iter_{k:06d}.safetensors" for k in range(2, int(iters) + 1, 2))]:
+        want, got = _tensors(ref / name), _tensors(out / name)
+        assert "resume.state" in got and sorted(got) == sorted(want), name
+        differ = [k for k in want if not (want[k].dtype == got[k].dtype and (want[k] == got[k]).all())]
+        assert not differ, f"{name}: tensors differ after the restarts: {differ}"
 
 
 def _free_port() -> int:

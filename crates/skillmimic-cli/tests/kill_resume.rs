@@ -7,7 +7,11 @@
 //! seed, between 25 % and 50 % of the uninterrupted run's wall time after each start, so they
 //! fall all over the run (start-up, rollouts, updates, checkpoint writes — a checkpoint is
 //! written after every iteration — and the end-of-run evaluation); the test prints how many kills
-//! interrupted an atomic write (a `*.tmp<pid>` file left behind).
+//! interrupted an atomic write (a `*.tmp<pid>` file left behind). The first kill of each family
+//! always lands inside a checkpoint write: that start runs with the writer's test pause
+//! (`SKILLMIMIC_TEST_WRITE_PAUSE_MS`, halfway through the file) and is killed as soon as the
+//! temporary file of a randomly chosen checkpoint of the first half of the run (an `iter_*` file or
+//! `latest`) appears.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -113,6 +117,40 @@ fn runs_killed_at_random_moments_end_as_the_uninterrupted_runs() {
     std::fs::remove_dir_all(&base).unwrap();
 }
 
+/// Start the run with the checkpoint writer's test pause and kill it inside the write of a
+/// checkpoint drawn from `rng` (iterations 1 to half the run, so that the random kills after it
+/// find a run to interrupt; its `iter_*` file or `latest`):
+/// the partial temporary file is left behind and `latest.safetensors` is still whole.
+fn kill_inside_a_write(out: &Path, extra: &[String], rng: &mut rand_chacha::ChaCha8Rng) {
+    let k = rng.random_range(1..=ITERATIONS / 2);
+    let file = if rng.random_bool(0.5) {
+        out.join(format!("checkpoints/iter_{k:06}.safetensors"))
+    } else {
+        out.join("latest.safetensors")
+    };
+    let mut child = train(out, extra).env("SKILLMIMIC_TEST_WRITE_PAUSE_MS", "500").spawn().unwrap();
+    let tmp = PathBuf::from(format!("{}.tmp{}", file.display(), child.id()));
+    let t0 = std::time::Instant::now();
+    // `latest` is written at every iteration: wait for iteration k's, after iter_k's file
+    let ready = || match file.ends_with("latest.safetensors") {
+        true => out.join(format!("checkpoints/iter_{k:06}.safetensors")).exists(),
+        false => true,
+    };
+    while !(ready() && tmp.exists()) {
+        assert!(child.try_wait().unwrap().is_none(), "{}: ended before the write", out.display());
+        assert!(t0.elapsed() < Duration::from_secs(600), "{}: no write", out.display());
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    assert!(tmp.exists(), "{}: the partial file is gone", tmp.display());
+    let latest = out.join("latest.safetensors");
+    if latest.exists() {
+        skillmimic_core::tensorfile::TensorFile::open(&latest).expect("latest is whole");
+    }
+    println!("{}: killed inside the write of {}", out.display(), file.display());
+}
+
 /// Train in `base/run` in one go (kept as `base/reference`), then again killed at random
 /// moments from `rng` and resumed until it finishes; compare.
 fn killed_run_matches(base: &Path, extra: &[String], rng: &mut rand_chacha::ChaCha8Rng) {
@@ -131,7 +169,8 @@ fn killed_run_matches(base: &Path, extra: &[String], rng: &mut rand_chacha::ChaC
     assert_eq!(want, want_latest);
     std::fs::rename(&out, base.join("reference")).unwrap();
 
-    let (mut kills, mut in_writes) = (0, 0);
+    kill_inside_a_write(&out, extra, rng);
+    let (mut kills, mut in_writes) = (1, 1);
     for attempt in 0.. {
         assert!(attempt < 100, "{tag}: the killed run did not finish in 100 attempts");
         let mut child = train(&out, extra).spawn().unwrap();
@@ -166,7 +205,7 @@ fn killed_run_matches(base: &Path, extra: &[String], rng: &mut rand_chacha::ChaC
         }
     }
     println!("{tag}: {kills} kills, {in_writes} of them during an atomic write");
-    assert!(kills >= 2, "{tag}: only {kills} kills: the run was barely interrupted");
+    assert!(kills >= 2, "{tag}: no kill at a random moment: the run was barely interrupted");
     let got_rows = rows(&out);
     assert_eq!(got_rows.len(), want_rows.len());
     for (k, (a, b)) in want_rows.iter().zip(&got_rows).enumerate() {

@@ -138,16 +138,39 @@ pub fn to_bytes(tensors: &[OwnedTensor], metadata: &BTreeMap<String, String>) ->
 }
 
 /// Write a safetensors file atomically (temp file in the same folder, then rename).
+///
+/// Test hook: with the environment variable `SKILLMIMIC_TEST_WRITE_PAUSE_MS` set to a number of
+/// milliseconds, the write stops for that long halfway through the temporary file (what is
+/// written so far flushed to it), so that a test can kill the process inside a checkpoint write
+/// for certain. Unset (the normal case), nothing pauses.
 pub fn write_atomic(
     path: &Path,
     tensors: &[OwnedTensor],
     metadata: &BTreeMap<String, String>,
 ) -> std::io::Result<()> {
-    write_bytes_atomic(path, &to_bytes(tensors, metadata))
+    write_atomic_pausing(path, &to_bytes(tensors, metadata), write_pause())
+}
+
+/// The pause of [`write_atomic`]'s test hook (read once per process).
+fn write_pause() -> Option<std::time::Duration> {
+    static PAUSE: std::sync::OnceLock<Option<std::time::Duration>> = std::sync::OnceLock::new();
+    *PAUSE.get_or_init(|| {
+        let ms = std::env::var("SKILLMIMIC_TEST_WRITE_PAUSE_MS").ok()?.trim().parse().ok()?;
+        Some(std::time::Duration::from_millis(ms))
+    })
 }
 
 /// Write `bytes` to `path` atomically (temp file in the same folder, fsync, rename).
 pub fn write_bytes_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    write_atomic_pausing(path, bytes, None)
+}
+
+/// [`write_bytes_atomic`] that sleeps for `pause` halfway through the temporary file.
+fn write_atomic_pausing(
+    path: &Path,
+    bytes: &[u8],
+    pause: Option<std::time::Duration>,
+) -> std::io::Result<()> {
     use std::io::Write;
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir)?;
@@ -157,7 +180,13 @@ pub fn write_bytes_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     let tmp = PathBuf::from(tmp);
     {
         let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(bytes)?;
+        let (head, tail) = bytes.split_at(if pause.is_some() { bytes.len() / 2 } else { 0 });
+        f.write_all(head)?;
+        if let Some(p) = pause {
+            f.flush()?;
+            std::thread::sleep(p);
+        }
+        f.write_all(tail)?;
         f.sync_all()?;
     }
     std::fs::rename(&tmp, path).inspect_err(|_| {

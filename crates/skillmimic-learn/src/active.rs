@@ -216,6 +216,19 @@ impl crate::trainer::IterationHook for Rounds {
         }
         Ok(())
     }
+
+    /// The round of the checkpoint's iteration when it is due and `active.jsonl` does not hold
+    /// it (the checkpoint was written without the hooks: an interrupt, or the end of a shorter
+    /// run), so that the resumed run does what the uninterrupted one did.
+    fn on_resume(&mut self, t: &mut Trainer) -> Result<(), LearnError> {
+        let it = t.progress.iteration;
+        let log = t.cfg.run.out_dir.join("active.jsonl");
+        if it > 0 && it.is_multiple_of(self.every) && !crate::active_resume::round_logged(&log, it)?
+        {
+            train_round(t)?;
+        }
+        Ok(())
+    }
 }
 
 /// A round inside training (rank 0 of one process): evaluate, generate, re-weight, rebuild the

@@ -24,6 +24,7 @@
 //! * [`tblog`]: TensorBoard scalar event files.
 
 pub mod active;
+pub mod active_resume;
 pub mod actor;
 pub mod adam;
 pub mod adapt;

@@ -76,6 +76,12 @@ pub fn train_loop_until(
     let ckpt_dir = out.join("checkpoints");
     std::fs::create_dir_all(&ckpt_dir).map_err(io(&ckpt_dir))?;
     crate::run_dir::prepare(&out, &t.progress)?;
+    let mut hooks = iteration_hooks(&t.cfg);
+    if start > 0 {
+        for h in hooks.iter_mut() {
+            h.on_resume(t)?;
+        }
+    }
     let cfg_path = out.join("config.toml");
     write_bytes_atomic(&cfg_path, t.config_toml().as_bytes()).map_err(io(&cfg_path))?;
     let log_path = out.join("log.jsonl");
@@ -87,7 +93,6 @@ pub fn train_loop_until(
     let mut tb = EventWriter::create(&out.join("tb")).map_err(io(&out.join("tb")))?;
     let mut last = out.join("latest.safetensors");
     let mut last_good = t.resumed_from.clone();
-    let mut hooks = iteration_hooks(&t.cfg);
     while t.progress.iteration < target {
         let s = t
             .iteration()

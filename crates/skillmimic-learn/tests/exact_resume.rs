@@ -5,12 +5,14 @@
 //! `log.jsonl` rows (all but the timings) and byte-identical checkpoints. Also: a checkpoint
 //! resumed with another environment configuration is refused naming the keys, or resumed with
 //! fresh episodes where `run.fresh_episodes` asks for it; one without the saved state (an older
-//! version's) resumes with fresh episodes.
+//! version's) resumes with fresh episodes. Active skill learning, whose rounds change the library
+//! and its weights while the run trains, resumes exactly with the original configuration.
 
 mod common;
 use common::{skill_policy, workspace_root};
 use skillmimic_env::tasks::hlc::config::HlcConfig;
 use skillmimic_env::tasks::multi::config::MultiConfig;
+use skillmimic_env::tasks::tracking::config::TrackingConfig;
 use skillmimic_learn::config::TrainConfig;
 use skillmimic_learn::runner::train_loop;
 use skillmimic_learn::trainer::Trainer;
@@ -50,26 +52,26 @@ fn rows(dir: &std::path::Path) -> Vec<serde_json::Value> {
         .collect()
 }
 
+/// Train `c` to its end through the runner's loop (from `resume` when given).
+fn run(c: TrainConfig, resume: Option<&std::path::Path>) {
+    let mut t = Trainer::new(c, resume).unwrap();
+    train_loop(&mut t, |_| {}).unwrap();
+}
+
 /// Train `c` in one go, then again stopped at iteration 2 and resumed from its checkpoint (same
 /// folder, so the checkpoints' metadata agree too); both must agree bit for bit.
 fn straight_and_resumed(c: TrainConfig) {
     let dir = c.run.out_dir.clone();
     let _ = std::fs::remove_dir_all(&dir);
-    let mut t = Trainer::new(c.clone(), None).unwrap();
-    train_loop(&mut t, |_| {}).unwrap();
-    drop(t);
+    run(c.clone(), None);
     let (want_rows, want) = (rows(&dir), std::fs::read(dir.join("latest.safetensors")).unwrap());
-    let want_mid = std::fs::read(dir.join("checkpoints/iter_000002.safetensors")).unwrap();
     std::fs::remove_dir_all(&dir).unwrap();
 
     let mut first = c.clone();
     first.run.iterations = 2;
-    let mut t = Trainer::new(first, None).unwrap();
-    train_loop(&mut t, |_| {}).unwrap();
-    drop(t);
+    run(first, None);
     let mid = dir.join("checkpoints/iter_000002.safetensors");
-    let mut t = Trainer::new(c.clone(), Some(&mid)).unwrap();
-    train_loop(&mut t, |_| {}).unwrap();
+    run(c.clone(), Some(&mid));
     let task = &c.env.task;
     let got_rows = rows(&dir);
     assert_eq!(got_rows.len(), 4, "{task}: {got_rows:?}");
@@ -81,7 +83,6 @@ fn straight_and_resumed(c: TrainConfig) {
     // the saved state is part of the compared files: it is there and restores
     let f = skillmimic_core::tensorfile::TensorFile::open(&mid).unwrap();
     assert!(f.u8(skillmimic_learn::trainer::resume::TENSOR).unwrap().len() > 1000, "{task}");
-    let _ = want_mid;
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
@@ -240,5 +241,53 @@ fn a_checkpoint_without_the_state_resumes_with_fresh_episodes() {
     let mut t = Trainer::new(c, Some(&old)).unwrap();
     assert_eq!(t.progress.iteration, 2);
     t.iteration().unwrap();
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Active skill learning (ModSkill's rounds grow the library and re-weight it while the run
+/// trains) resumed with the run's original configuration ends exactly as the uninterrupted run:
+/// (a) from a checkpoint followed by rounds it does not know of (as a kill after a round leaves
+/// the folder: the later rounds' clips and lines of `active.jsonl` must go), (b) from the last
+/// checkpoint of a shorter run, written without the round of its last iteration (the resume runs
+/// that round first).
+#[test]
+fn active_learning_resumes_exactly() {
+    let mut c = config("tracking", "", "active");
+    c.env.table_mut::<TrackingConfig>().success_distance = 0.02; // every clip fails every round
+    c.run.active.enabled = true;
+    c.run.active.every = 1;
+    let dir = c.run.out_dir.clone();
+    let _ = std::fs::remove_dir_all(&dir);
+    run(c.clone(), None);
+    let read = |p: &str| std::fs::read(dir.join(p)).unwrap();
+    let (want_rows, want, want_active) =
+        (rows(&dir), read("latest.safetensors"), read("active.jsonl"));
+    let clips = || std::fs::read_dir(dir.join("generated")).unwrap().count();
+    let all = clips();
+    let check = |case: &str| {
+        let got_rows = rows(&dir);
+        assert_eq!(got_rows.len(), 4, "{case}");
+        for (k, (a, b)) in want_rows.iter().zip(&got_rows).enumerate() {
+            assert_eq!(a, b, "{case}: log row {} differs after the resume", k + 1);
+        }
+        assert!(read("active.jsonl") == want_active, "{case}: the rounds differ");
+        assert!(read("latest.safetensors") == want, "{case}: the final checkpoint differs");
+    };
+    // (a) the finished run's folder resumed from iteration 2: round 3's clips go, then come back
+    let mid = dir.join("checkpoints/iter_000002.safetensors");
+    let mut t = Trainer::new(c.clone(), Some(&mid)).unwrap();
+    let at_mid = clips();
+    println!("generated clips: {all} after the run, {at_mid} at iteration 2");
+    assert!(at_mid < all, "round 3's clips were not removed");
+    train_loop(&mut t, |_| {}).unwrap();
+    drop(t);
+    check("after later rounds");
+    // (b) a run of 2 iterations (no round after its last), continued to 4
+    std::fs::remove_dir_all(&dir).unwrap();
+    let mut first = c.clone();
+    first.run.iterations = 2;
+    run(first, None);
+    run(c.clone(), Some(&dir.join("latest.safetensors")));
+    check("a shorter run continued");
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -36,6 +36,10 @@ pub fn build(
     // unless `env.seed` is set
     let start_seed = cfg.env.start_seed(cfg.run.seed);
     cfg.env.seed = Some(start_seed);
+    if let Some(path) = resume.filter(|_| cfg.run.active.enabled && rank == 0) {
+        // the library and weights of active learning's rounds as they were at the checkpoint
+        crate::active_resume::prepare(&mut cfg, path)?;
+    }
     let mut ecfg = cfg.env.clone();
     keep_history_encoder(&mut cfg, rank, resume)?;
     if rank == 0 {
