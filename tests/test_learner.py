@@ -143,6 +143,13 @@ def test_cli_trains_resumes_evaluates_and_plays_on_a_real_clip(shared_dir, tmp_p
     assert m["nominal"]["episodes"] == 4 and "013" in m["nominal"]["per_skill"]
     assert len(m["sweep"]) == 6
     assert 0.0 <= m["nominal"]["nr"] <= 1.0
+    # SkillMimic's success rate as the paper measures it: 10-s trials from distinct start states
+    run_cli(skillmimic_bin, "eval", "--checkpoint", str(out / "latest.safetensors"), "--episodes", "3", "--skillmimic", "--out", str(metrics))
+    sm = json.loads(metrics.read_text())["skillmimic"]
+    run = sm["per_skill"]["013"]
+    assert sm["trial_steps"] == 600 and run["trials"] == 3 and len({t["start_frame"] for t in run["per_trial"]}) == 3
+    assert all(t["score"] <= t["steps"] / 600 for t in run["per_trial"]), run
+    assert run["ci95"][0] <= run["success_rate"] <= run["ci95"][1]
     # --init-noise: deterministic episodes from one start frame, their start states perturbed by
     # the State Transition Field's noise; ε = 0 is the unperturbed evaluation, number for number
     def from_frame_2(*flags: str) -> dict:

@@ -146,6 +146,12 @@ pub struct EvalArgs {
     /// `--horizon` default 600, `--start-frame` default 2).
     #[arg(long)]
     pub v2: bool,
+    /// Also run SkillMimic's success rates as the paper measures them (§6.2.4): per skill,
+    /// `--episodes` 10-s trials from distinct reference start states drawn with `--seed` (all of
+    /// them when a skill has fewer), deterministic actions unless `--stochastic`; the rate with
+    /// its 95 % interval.
+    #[arg(long)]
+    pub skillmimic: bool,
     /// Output JSON.
     #[arg(long, default_value = "metrics.json")]
     pub out: PathBuf,
@@ -167,6 +173,8 @@ struct EvalOutput {
     nominal: EvalReport,
     sweep: Vec<SweepEntry>,
     v2: Option<skillmimic_learn::eval::V2Report>,
+    /// `--skillmimic`: SkillMimic's success rates (paper §6.2.4).
+    skillmimic: Option<skillmimic_learn::eval_skillmimic::SkillMimicReport>,
 }
 
 /// Ball factors of the robustness sweep: (radius, density, restitution) scale factors.
@@ -213,9 +221,10 @@ pub fn eval(a: EvalArgs) -> anyhow::Result<()> {
     let skillmimic = entry.evaluation == skillmimic_env::registry::Evaluation::SkillMimic;
     if !skillmimic || a.baselines {
         // tasks other than imitation: the task-independent episode report (and baselines)
-        if a.sweep || a.v2 || a.init_noise.is_some() {
+        if a.sweep || a.v2 || a.skillmimic || a.init_noise.is_some() {
             bail!(
-                "--sweep, --v2 and --init-noise are SkillMimic evaluations of the imitation task; \
+                "--sweep, --v2, --skillmimic and --init-noise are SkillMimic evaluations of the \
+                    imitation task; \
                     this run's task is '{}'",
                 cfg.env.task
             );
@@ -316,7 +325,39 @@ pub fn eval(a: EvalArgs) -> anyhow::Result<()> {
         }
         v2 = Some(r);
     }
-    let out = EvalOutput { checkpoint, init_noise: a.init_noise, nominal, sweep, v2 };
+    let mut success = None;
+    if a.skillmimic {
+        use skillmimic_learn::eval_skillmimic::{SkillMimicEvalConfig, evaluate_skillmimic};
+        let scfg =
+            SkillMimicEvalConfig { trials: a.episodes, seed: a.seed, stochastic: a.stochastic };
+        let lib = std::sync::Arc::new(skillmimic_env::load_motion_library(&cfg.env.motion)?);
+        let r = evaluate_skillmimic(&c.policy, &cfg.env, &lib, &scfg)?;
+        println!("SkillMimic success rates (paper 6.2.4, 10-s trials): mean {:.3}", r.mean);
+        for (k, v) in &r.per_skill {
+            println!(
+                "  skill {k}: {:.3} (95 % interval {:.3} to {:.3}) over {} trials of {} start \
+                    states, falls {:.1} %",
+                v.success_rate,
+                v.ci95[0],
+                v.ci95[1],
+                v.trials,
+                v.start_states,
+                100.0 * v.fall_rate
+            );
+        }
+        for s in &r.skills_without_rule {
+            println!("  skill {s:03}: no success rule in the paper");
+        }
+        success = Some(r);
+    }
+    let out = EvalOutput {
+        checkpoint,
+        init_noise: a.init_noise,
+        nominal,
+        sweep,
+        v2,
+        skillmimic: success,
+    };
     skillmimic_core::tensorfile::write_bytes_atomic(
         &a.out,
         serde_json::to_string_pretty(&out)?.as_bytes(),

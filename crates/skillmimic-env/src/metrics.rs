@@ -148,28 +148,62 @@ impl V2Success {
     }
 }
 
-/// SkillMimic (seed 000 §6.2) success tracker of one 10 s test episode.
+/// SkillMimic's success rules (seed 000 §6.2.4) as a tracker of one episode, fed one frame
+/// (policy step) at a time.
 ///
 /// * Pickup: the ball is above 1 m at the end.
-/// * Dribble (run skills): score = fraction of frames with root z > 0.5 ∧ ‖ball − root‖ < 1.5.
-/// * Layup & shot: |max ball height − target height| < 0.1 m (target = the clip's highest ball
-///   z) and the root is above 0.5 m at the end.
+/// * Dribble (run skills): a frame is valid when root z > 0.5 m ∧ ‖ball − root‖ < 1.5 m; score =
+///   valid frames ÷ frames.
+/// * Layup & shot: |max ball height − target height| < 0.1 m (target = the highest ball z of the
+///   skill's clip) and the root is above 0.5 m at the end.
+///
+/// Two denominators and ends:
+/// * [`V1Success::trial`], the paper's test: a trial of a fixed number of frames (10 s = 600 at
+///   60 Hz). A trial that ends earlier (a fall) leaves the rest of its frames invalid (dribble)
+///   and fails the other rules, which are judged at the trial's last frame; frames past the trial
+///   are ignored.
+/// * [`V1Success::new`], a project measure over whatever episode was played: the dribble fraction
+///   divides by the frames played (a fall is not penalised) and the other rules are judged at
+///   the episode's last frame.
 #[derive(Clone, Debug, PartialEq)]
 pub struct V1Success {
     kind: SkillKind,
     target_height: f64,
+    /// The paper's fixed trial length (frames), or `None` for the per-episode measure.
+    trial: Option<usize>,
     frames: usize,
     valid: usize,
     max_ball_z: f64,
     last: Option<FrameState>,
 }
 
+/// Frames of SkillMimic's test trial: 10 s at the 60 Hz control rate.
+pub const TRIAL_FRAMES: usize = 600;
+
 impl V1Success {
+    /// The per-episode measure (see the type's documentation).
     pub fn new(kind: SkillKind, target_height: f64) -> Self {
-        Self { kind, target_height, frames: 0, valid: 0, max_ball_z: f64::NEG_INFINITY, last: None }
+        Self {
+            kind,
+            target_height,
+            trial: None,
+            frames: 0,
+            valid: 0,
+            max_ball_z: f64::NEG_INFINITY,
+            last: None,
+        }
     }
 
+    /// The paper's test trial of `frames` frames ([`TRIAL_FRAMES`] = 10 s).
+    pub fn trial(kind: SkillKind, target_height: f64, frames: usize) -> Self {
+        Self { trial: Some(frames.max(1)), ..Self::new(kind, target_height) }
+    }
+
+    /// Feed the state after the next frame.
     pub fn update(&mut self, s: &FrameState) {
+        if self.trial.is_some_and(|n| self.frames >= n) {
+            return;
+        }
         self.frames += 1;
         if s.root_pos[2] > 0.5 && dist(s.ball_pos, s.root_pos) < 1.5 {
             self.valid += 1;
@@ -178,15 +212,21 @@ impl V1Success {
         self.last = Some(*s);
     }
 
+    /// Whether a trial has run its full length (always true for the per-episode measure).
+    pub fn completed(&self) -> bool {
+        self.trial.is_none_or(|n| self.frames >= n)
+    }
+
     /// Score in [0, 1]: the dribble fraction, or 0/1 for the other skills.
     pub fn score(&self) -> f64 {
         let Some(last) = self.last else { return 0.0 };
+        let ok = |b: bool| f64::from(u8::from(b && self.completed()));
         match self.kind {
-            SkillKind::Run => self.valid as f64 / self.frames as f64,
-            SkillKind::Pickup => f64::from(u8::from(last.ball_pos[2] > 1.0)),
-            SkillKind::Layup | SkillKind::Shot => f64::from(u8::from(
-                (self.max_ball_z - self.target_height).abs() < 0.1 && last.root_pos[2] > 0.5,
-            )),
+            SkillKind::Run => self.valid as f64 / self.trial.unwrap_or(self.frames) as f64,
+            SkillKind::Pickup => ok(last.ball_pos[2] > 1.0),
+            SkillKind::Layup | SkillKind::Shot => {
+                ok((self.max_ball_z - self.target_height).abs() < 0.1 && last.root_pos[2] > 0.5)
+            }
         }
     }
 }
@@ -264,5 +304,55 @@ mod tests {
         let mut p = V1Success::new(SkillKind::Pickup, 0.0);
         p.update(&fs(0.9, [0.0, 0.0, 0.5], 0.0));
         assert_eq!(p.score(), 0.0);
+    }
+
+    /// The paper's 10-s trial by hand: a dribble that falls at 6 s scores 0.6 (the per-episode
+    /// measure gives 1.0); pickup and layup are judged at the 600th frame and fail when the trial
+    /// ended before it; frames after the trial do not count.
+    #[test]
+    fn the_ten_second_trial_by_hand() {
+        let dribbling = fs(0.9, [0.5, 0.0, 0.5], 2.0);
+        let mut trial = V1Success::trial(SkillKind::Run, 0.0, TRIAL_FRAMES);
+        let mut episode = V1Success::new(SkillKind::Run, 0.0);
+        for _ in 0..360 {
+            trial.update(&dribbling);
+            episode.update(&dribbling);
+        }
+        assert!(!trial.completed());
+        assert!((trial.score() - 0.6).abs() < 1e-12, "{}", trial.score());
+        assert_eq!(episode.score(), 1.0);
+        // 10 s with the first 100 frames fallen, then 40 frames past the trial (ignored)
+        let mut late = V1Success::trial(SkillKind::Run, 0.0, TRIAL_FRAMES);
+        for t in 0..640 {
+            late.update(&if t < 100 { fs(0.3, [0.5, 0.0, 0.1], 0.0) } else { dribbling });
+        }
+        assert!(late.completed());
+        assert!((late.score() - 500.0 / 600.0).abs() < 1e-12, "{}", late.score());
+
+        let held = fs(0.9, [0.0, 0.0, 1.2], 0.0);
+        let mut p = V1Success::trial(SkillKind::Pickup, 0.0, TRIAL_FRAMES);
+        for _ in 0..599 {
+            p.update(&held);
+        }
+        assert_eq!(p.score(), 0.0, "ended one frame before 10 s: not judged a success");
+        p.update(&held);
+        assert_eq!(p.score(), 1.0);
+
+        let mut l = V1Success::trial(SkillKind::Layup, 2.5, TRIAL_FRAMES);
+        for t in 0..TRIAL_FRAMES {
+            l.update(&fs(0.9, [0.0, 0.0, if t == 50 { 2.45 } else { 0.5 }], 0.0));
+        }
+        assert_eq!(l.score(), 1.0);
+        let mut fell = V1Success::trial(SkillKind::Layup, 2.5, TRIAL_FRAMES);
+        for t in 0..TRIAL_FRAMES {
+            let root = if t < 300 { 0.9 } else { 0.3 };
+            fell.update(&fs(root, [0.0, 0.0, if t == 50 { 2.45 } else { 0.5 }], 0.0));
+        }
+        assert_eq!(fell.score(), 0.0, "lying on the floor at the end of the 10 s");
+        let mut missed = V1Success::trial(SkillKind::Shot, 2.5, TRIAL_FRAMES);
+        for t in 0..TRIAL_FRAMES {
+            missed.update(&fs(0.9, [0.0, 0.0, if t == 50 { 2.35 } else { 0.5 }], 0.0));
+        }
+        assert_eq!(missed.score(), 0.0, "the highest ball is 0.15 m below the target");
     }
 }

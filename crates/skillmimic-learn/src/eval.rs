@@ -28,8 +28,11 @@ pub struct SkillReport {
     pub nr: f64,
     /// Fraction of episodes that ended early (fall).
     pub fall_rate: f64,
-    /// SkillMimic success score (dribble fraction or 0/1), mean over episodes; null if the skill
-    /// has no rule.
+    /// SkillMimic's rules applied to the episodes as played (a project measure, not the paper's
+    /// success rate: the dribble fraction divides by the frames played and the other rules are
+    /// judged at the episode's end; the paper's 10-s trials are
+    /// [`crate::eval_skillmimic::evaluate_skillmimic`]), mean over episodes; null if the skill has
+    /// no rule.
     pub v1_score: Option<f64>,
     /// SkillMimic-V2 success rate (the rule holds at the episode's end and the episode did not
     /// end in a fall); null if the skill has no rule.
