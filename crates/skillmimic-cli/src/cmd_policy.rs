@@ -142,8 +142,9 @@ pub struct EvalArgs {
     /// Also evaluate with the ball's radius, density and restitution scaled (robustness sweep).
     #[arg(long)]
     pub sweep: bool,
-    /// Also run the SkillMimic-V2 metrics per skill: SR, TSR, εNSR, NR (`--episodes` per case,
-    /// `--horizon` default 600, `--start-frame` default 2).
+    /// Also run the SkillMimic-V2 metrics per skill: SR, TSR, εNSR, NR (`--episodes` trials per
+    /// case, `--horizon` default 600, `--start-frame` default 2; SR and TSR sample their actions
+    /// so that the trials from the one start frame are distinct, εNSR's differ by their starts).
     #[arg(long)]
     pub v2: bool,
     /// Also run SkillMimic's success rates as the paper measures them (§6.2.4): per skill,
@@ -313,6 +314,12 @@ pub fn eval(a: EvalArgs) -> anyhow::Result<()> {
             r.tsr_mean,
             r.eps_nsr_mean,
             r.nr_mean
+        );
+        println!(
+            "  {} trials per case (SR and TSR with sampled actions); fewest distinct trajectories \
+                in a case: {}",
+            vcfg.episodes,
+            r.distinct.values().min().copied().unwrap_or(0)
         );
         for (k, v) in &r.sr {
             println!("  skill {k}: SR {v:.3}  eps-NSR {:.3}  NR {:.4}", r.eps_nsr[k], r.nr[k]);

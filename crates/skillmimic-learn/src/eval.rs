@@ -37,6 +37,10 @@ pub struct SkillReport {
     /// SkillMimic-V2 success rate (the rule holds at the episode's end and the episode did not
     /// end in a fall); null if the skill has no rule.
     pub v2_success_rate: Option<f64>,
+    /// Distinct trajectories among the episodes (episodes whose root and ball positions agree at
+    /// every step are one trajectory counted once here): equal to `episodes` when every episode
+    /// is a distinct trial.
+    pub distinct_episodes: usize,
 }
 
 /// Evaluation results (the `eval` command's JSON).
@@ -65,6 +69,8 @@ pub struct EpisodeTracker {
     v2: Option<V2Success>,
     steps: usize,
     reward: f64,
+    /// Hash of the root and ball positions of every step (FNV-1a over their bits).
+    fingerprint: u64,
 }
 
 impl EpisodeTracker {
@@ -77,6 +83,7 @@ impl EpisodeTracker {
             v2: kind.map(|k| V2Success::new(k, target_height)),
             steps: 0,
             reward: 0.0,
+            fingerprint: 0xcbf2_9ce4_8422_2325,
         }
     }
 
@@ -90,6 +97,9 @@ impl EpisodeTracker {
         }
         self.steps += 1;
         self.reward += reward as f64;
+        for x in fs.root_pos.iter().chain(&fs.ball_pos) {
+            self.fingerprint = (self.fingerprint ^ x.to_bits()).wrapping_mul(0x100_0000_01b3);
+        }
     }
 
     /// Steps fed so far.
@@ -115,6 +125,7 @@ struct SkillSums {
     falls: usize,
     v1: Vec<f64>,
     v2: Vec<f64>,
+    trajectories: std::collections::BTreeSet<u64>,
 }
 
 /// Finished episodes, per skill and in total; [`EpisodeTally::write_into`] turns them into the
@@ -139,6 +150,7 @@ impl EpisodeTally {
         e.reward += tr.reward;
         e.steps += tr.steps as f64;
         e.falls += usize::from(fell);
+        e.trajectories.insert(tr.fingerprint);
         if let Some(v) = &tr.v1 {
             e.v1.push(v.score());
         }
@@ -169,6 +181,7 @@ impl EpisodeTally {
                     fall_rate: e.falls as f64 / e.episodes as f64,
                     v1_score: mean(&e.v1),
                     v2_success_rate: mean(&e.v2),
+                    distinct_episodes: e.trajectories.len(),
                 },
             );
         }
@@ -333,11 +346,23 @@ pub struct V2EvalConfig {
     pub seed: u64,
     /// Environments run in parallel per case.
     pub num_envs: usize,
+    /// SR and TSR episodes sample their actions (each its own noise), so that the episodes from
+    /// the one start frame are distinct trials (SkillMimic-V2 averages over random trials); with
+    /// the mean action they would be copies of one trajectory. εNSR's episodes differ by their
+    /// perturbed starts and use the mean action.
+    pub sampled_actions: bool,
 }
 
 impl Default for V2EvalConfig {
     fn default() -> Self {
-        Self { episodes: 16, horizon: 600, start_frame: 2, seed: 0, num_envs: 16 }
+        Self {
+            episodes: 16,
+            horizon: 600,
+            start_frame: 2,
+            seed: 0,
+            num_envs: 16,
+            sampled_actions: true,
+        }
     }
 }
 
@@ -361,6 +386,9 @@ pub struct V2Report {
     pub nr_mean: f64,
     /// Skills without a success rule (only NR is reported for them).
     pub skills_without_rule: Vec<u32>,
+    /// Distinct trajectories among each case's episodes (`sr/<skill>`, `tsr/<source>-><target>`,
+    /// `eps_nsr/<skill>`): equal to `episodes` when every trial is distinct.
+    pub distinct: BTreeMap<String, usize>,
 }
 
 fn mean_of(m: &BTreeMap<String, f64>) -> f64 {
@@ -368,8 +396,10 @@ fn mean_of(m: &BTreeMap<String, f64>) -> f64 {
 }
 
 /// Run the V2 metrics for every skill of `lib` with a success rule (reference-facts §9.8):
-/// SR, TSR (every other skill of the library as source), εNSR and NR, deterministic actions,
-/// fixed seeds. `base` supplies the environment settings of training (scene, reward, history
+/// SR, TSR (every other skill of the library as source), εNSR and NR over `cfg.episodes` trials
+/// per case, fixed seeds; SR and TSR sample their actions unless `cfg.sampled_actions` is off
+/// (see there), εNSR and NR use the mean action. `distinct` reports how many of each case's
+/// episodes are distinct trajectories. `base` supplies the environment settings of training (scene, reward, history
 /// encoder, ε of the State Transition Field); STG and ATS are off during evaluation.
 pub fn evaluate_v2(
     policy: &Policy,
@@ -406,29 +436,37 @@ pub fn evaluate_v2(
         c.v2.stf.prob = if noise { 1.0 } else { 0.0 };
         c
     };
-    let run =
-        |c: EnvConfig, l: Arc<MotionLibrary>, over: Option<u32>| -> Result<EvalReport, EnvError> {
-            let mut env = SkillEnv::new(c, l)?;
-            env.set_skill_override(over);
-            Ok(evaluate_with(policy, &mut env, cfg.episodes, cfg.seed, false, threads, &heights))
-        };
+    let run = |c: EnvConfig,
+               l: Arc<MotionLibrary>,
+               over: Option<u32>,
+               sampled: bool|
+     -> Result<EvalReport, EnvError> {
+        let mut env = SkillEnv::new(c, l)?;
+        env.set_skill_override(over);
+        Ok(evaluate_with(policy, &mut env, cfg.episodes, cfg.seed, sampled, threads, &heights))
+    };
+    let distinct = |r: &EvalReport, s: u32| {
+        r.per_skill.get(&format!("{s:03}")).map_or(0, |k| k.distinct_episodes)
+    };
+    let sampled = cfg.sampled_actions;
     let mut rep = V2Report { config: Some(cfg.clone()), ..Default::default() };
     for &s in &skills {
         let own = subset(s)?;
-        rep.nr.insert(format!("{s:03}"), run(env_cfg(0, false), own.clone(), None)?.nr);
+        rep.nr.insert(format!("{s:03}"), run(env_cfg(0, false), own.clone(), None, false)?.nr);
         if skill_kind(s).is_none() {
             rep.skills_without_rule.push(s);
             continue;
         }
-        rep.sr.insert(
-            format!("{s:03}"),
-            v2_rate(&run(env_cfg(cfg.horizon, false), own.clone(), None)?, s),
-        );
-        rep.eps_nsr
-            .insert(format!("{s:03}"), v2_rate(&run(env_cfg(cfg.horizon, true), own, None)?, s));
+        let r = run(env_cfg(cfg.horizon, false), own.clone(), None, sampled)?;
+        rep.sr.insert(format!("{s:03}"), v2_rate(&r, s));
+        rep.distinct.insert(format!("sr/{s:03}"), distinct(&r, s));
+        let r = run(env_cfg(cfg.horizon, true), own, None, false)?;
+        rep.eps_nsr.insert(format!("{s:03}"), v2_rate(&r, s));
+        rep.distinct.insert(format!("eps_nsr/{s:03}"), distinct(&r, s));
         for &src in skills.iter().filter(|&&x| x != s) {
-            let r = run(env_cfg(cfg.horizon, false), subset(src)?, Some(s))?;
+            let r = run(env_cfg(cfg.horizon, false), subset(src)?, Some(s), sampled)?;
             rep.tsr.insert(format!("{src:03}->{s:03}"), v2_rate(&r, s));
+            rep.distinct.insert(format!("tsr/{src:03}->{s:03}"), distinct(&r, s));
         }
     }
     rep.sr_mean = mean_of(&rep.sr);

@@ -161,3 +161,27 @@ fn nr_is_the_step_weighted_mean_reward_of_finished_episodes() {
     assert_eq!(rep.per_skill["050"].v1_score, None);
     assert_eq!(v2_rate(&rep, DEMO), 0.0);
 }
+
+/// Copies of one trajectory are one trial: three episodes fed the same states count as one
+/// distinct trajectory, a fourth that differs in one position at one step as another.
+#[test]
+fn copies_of_one_trajectory_are_counted_once() {
+    let mut tally = EpisodeTally::default();
+    for _ in 0..3 {
+        tally.finish(RUN, &episode(RUN, HORIZON, 0.8, dribble), false);
+    }
+    let other = episode(RUN, HORIZON, 0.8, |t| {
+        let mut s = dribble(t);
+        if t == 400 {
+            s.ball_pos[0] += 1e-9;
+        }
+        s
+    });
+    let rep = report({
+        let mut t = tally.clone();
+        t.finish(RUN, &other, false);
+        t
+    });
+    assert_eq!(report(tally).per_skill["013"].distinct_episodes, 1);
+    assert_eq!((rep.per_skill["013"].episodes, rep.per_skill["013"].distinct_episodes), (4, 2));
+}

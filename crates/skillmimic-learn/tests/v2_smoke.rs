@@ -144,4 +144,13 @@ fn v2_metrics_on_two_real_skills() {
         assert!((0.0..=1.0).contains(v));
     }
     assert!(rep.nr.values().all(|v| v.is_finite() && *v > 0.0));
+    // every case's trials are distinct trajectories: SR and TSR by their sampled actions, εNSR
+    // by its perturbed starts
+    assert_eq!(rep.distinct.len(), 6, "{:?}", rep.distinct);
+    assert!(rep.distinct.values().all(|&n| n == 2), "{:?}", rep.distinct);
+    // with the mean action, the episodes from frame 2 are copies of one trajectory: seen as one
+    let copies = V2EvalConfig { sampled_actions: false, ..vcfg };
+    let rep = evaluate_v2(&t.policy, &c.env, &lib, &copies, 0).unwrap();
+    assert_eq!(rep.distinct["sr/013"], 1, "{:?}", rep.distinct);
+    assert_eq!(rep.distinct["eps_nsr/013"], 2, "{:?}", rep.distinct);
 }
