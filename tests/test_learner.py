@@ -143,6 +143,7 @@ def test_cli_trains_resumes_evaluates_and_plays_on_a_real_clip(shared_dir, tmp_p
     assert m["nominal"]["episodes"] == 4 and "013" in m["nominal"]["per_skill"]
     assert len(m["sweep"]) == 6
     assert 0.0 <= m["nominal"]["nr"] <= 1.0
+    assert 0.0 < m["nominal"]["acc_ceiling_percent"] <= 100.0  # a kinematic replay's Acc
     # SkillMimic's success rate as the paper measures it: 10-s trials from distinct start states
     run_cli(skillmimic_bin, "eval", "--checkpoint", str(out / "latest.safetensors"), "--episodes", "3", "--skillmimic", "--out", str(metrics))
     sm = json.loads(metrics.read_text())["skillmimic"]

@@ -261,7 +261,9 @@ pub fn eval(a: EvalArgs) -> anyhow::Result<()> {
         eval_env.v2.stf.prob = 1.0;
         eval_env.v2.stf.eps = skillmimic_env::config_v2::NoiseEps::uniform(e);
     }
-    let nominal = run_one(eval_env.clone())?;
+    let mut nominal = run_one(eval_env.clone())?;
+    let lib = std::sync::Arc::new(skillmimic_env::load_motion_library(&cfg.env.motion)?);
+    nominal.acc_ceiling_percent = Some(skillmimic_env::replay::acc_ceiling(&eval_env, &lib)?);
     let mut sweep = Vec::new();
     if a.sweep {
         for (r, d, e) in SWEEP {
@@ -278,10 +280,12 @@ pub fn eval(a: EvalArgs) -> anyhow::Result<()> {
         }
     }
     println!(
-        "{} episodes: NR {:.4}, Acc {:.1} %, E_b {:.1} mm, E_o {:.1} mm, E_cg {:.4}, falls {:.1} %",
+        "{} episodes: NR {:.4}, Acc {:.1} % (replay ceiling {:.1} %), E_b {:.1} mm, E_o {:.1} mm, \
+            E_cg {:.4}, falls {:.1} %",
         nominal.episodes,
         nominal.nr,
         nominal.acc_percent,
+        nominal.acc_ceiling_percent.unwrap_or(f64::NAN),
         nominal.e_b_mpjpe_mm,
         nominal.e_o_mpjpe_mm,
         nominal.e_cg,
@@ -302,7 +306,6 @@ pub fn eval(a: EvalArgs) -> anyhow::Result<()> {
             seed: a.seed,
             ..Default::default()
         };
-        let lib = std::sync::Arc::new(skillmimic_env::load_motion_library(&cfg.env.motion)?);
         let r = skillmimic_learn::eval::evaluate_v2(&c.policy, &cfg.env, &lib, &vcfg, 0)?;
         println!(
             "SkillMimic-V2 ({} episodes per case, {} steps from frame {}): SR {:.3}, TSR {:.3}, \
@@ -337,7 +340,6 @@ pub fn eval(a: EvalArgs) -> anyhow::Result<()> {
         use skillmimic_learn::eval_skillmimic::{SkillMimicEvalConfig, evaluate_skillmimic};
         let scfg =
             SkillMimicEvalConfig { trials: a.episodes, seed: a.seed, stochastic: a.stochastic };
-        let lib = std::sync::Arc::new(skillmimic_env::load_motion_library(&cfg.env.motion)?);
         let r = evaluate_skillmimic(&c.policy, &cfg.env, &lib, &scfg)?;
         println!("SkillMimic success rates (paper 6.2.4, 10-s trials): mean {:.3}", r.mean);
         for (k, v) in &r.per_skill {

@@ -111,4 +111,13 @@ fn kinematic_replay_scores_real_clips_against_themselves() {
         "force-threshold body node agreement {:.3}",
         rep.force_body_agreement()
     );
+    // Acc as the imitation task scores these frames (default: the force-threshold graph, both
+    // nodes must agree), the ceiling `eval` prints beside a policy's Acc: no higher than the ball
+    // node's agreement, and above the frames where both nodes agree minus the body-error misses
+    let task = rep.metrics_task_contacts.acc_percent();
+    println!("  Acc ceiling (the task's frame scoring of the replay): {task:.1} %");
+    assert_eq!(rep.metrics_task_contacts.frames, rep.frames);
+    let both_floor = 100.0 * (rep.force_ball_agreement() + rep.force_body_agreement() - 1.0);
+    assert!(task <= 100.0 * rep.force_ball_agreement() + 1e-9, "{task}");
+    assert!(task >= both_floor - 2.0, "{task} vs {both_floor}");
 }

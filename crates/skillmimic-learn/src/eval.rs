@@ -51,6 +51,10 @@ pub struct EvalReport {
     pub deterministic: bool,
     /// Acc in percent (ball error < 0.2 m ∧ body error < 0.1 m ∧ contact graph correct).
     pub acc_percent: f64,
+    /// Acc of a kinematic replay of the evaluated clips, scored the same way: the highest Acc a
+    /// policy can reach (the clips' contact labels and the simulated contact graph disagree in
+    /// some frames of the reference motion itself). Set by the `eval` command; null otherwise.
+    pub acc_ceiling_percent: Option<f64>,
     pub e_b_mpjpe_mm: f64,
     pub e_o_mpjpe_mm: f64,
     pub e_cg: f64,
