@@ -71,3 +71,21 @@ def test_moving_the_goal_changes_the_task_observation(tmp_path):
     assert abs(np.hypot(*new[1, 838:840]) - 3.0) < 1e-4
     with pytest.raises(ValueError, match="3 finite values"):
         env.set_task_info(0, [1.0, 2.0])
+
+
+def test_the_viewer_plays_the_checkpoints_whole_configuration(tmp_path):
+    """`skillmimic play --interactive` hands the checkpoint's effective configuration to the viewer
+    (`--config`): every [env] key applies, not only the task, the skill policy and the clips."""
+    import pathlib
+
+    import skillmimic_rs
+
+    llc = tmp_path / "llc.safetensors"
+    skillmimic_rs._core.init_policy(str(llc), "gaussian_mlp", 902, ("box", 156), [16], 3)
+    motions = pathlib.Path(__file__).resolve().parent.parent / "motions"
+    cfg = tmp_path / "hlc.toml"
+    cfg.write_text(f'[env]\ntask = "heading"\nmotion = ["{motions}"]\nthreads = 1\n\n[env.hlc]\nllc = "{llc}"\nepisode_length = 500\n\n[env.heading]\nsuccess_radius = 0.7\n\n[ppo]\nlr = 1e-4\n')
+    env = ia.viewer_env("heading", llc, config=cfg)
+    assert env.config["hlc"]["episode_length"] == 500 and env.config["heading"]["success_radius"] == 0.7
+    assert env.num_envs == 1 and env.choice_labels == [12, 13, 11]
+    env.close()

@@ -107,10 +107,20 @@ def _draw_markers(scene: Any, markers: Sequence[dict[str, Any]]) -> None:
         scene.ngeom += 1
 
 
-def play(task: str, llc: str | os.PathLike, checkpoint: str | os.PathLike | None = None, *, seed: int = 0, realtime: bool = True, **config: Any) -> None:
+def viewer_env(task: str, llc: str | os.PathLike, *, config: Any = None, **overrides: Any) -> Any:
+    """The one environment the viewer plays: ``config`` (a training config file such as the
+    ``*.toml`` the trainer writes next to a checkpoint, or a dict of ``[env]`` fields; every key
+    of it applies) with ``task``, the skill policy ``llc`` and ``overrides`` on top."""
+    from .vec_env import VecEnv
+
+    return VecEnv(1, config, task=task, llc=llc, **overrides)
+
+
+def play(task: str, llc: str | os.PathLike, checkpoint: str | os.PathLike | None = None, *, seed: int = 0, realtime: bool = True, config: Any = None, **overrides: Any) -> None:
     """Open MuJoCo's viewer on one environment of high-level ``task`` driven by the skill policy
     ``llc``; the high-level ``checkpoint`` (optional) chooses skills until a key takes over.
-    ``config``: further config fields (e.g. ``motion=[...]``)."""
+    ``config``: a training config file or dict (see :func:`viewer_env`); ``overrides``: further
+    config fields (e.g. ``motion=[...]``)."""
     if not has_display():
         raise RuntimeError(
             "interactive play needs a display (DISPLAY / WAYLAND_DISPLAY is not set on this machine); "
@@ -120,9 +130,8 @@ def play(task: str, llc: str | os.PathLike, checkpoint: str | os.PathLike | None
     import mujoco.viewer
 
     from . import _core
-    from .vec_env import VecEnv
 
-    env = VecEnv(1, task=task, llc=llc, **config)
+    env = viewer_env(task, llc, config=config, **overrides)
     if not env.choice_labels:
         env.close()
         raise ValueError(f"{llc}: interactive play switches discrete skills; over a modular skill policy the actions are part embeddings (write a video instead: skillmimic play --checkpoint CKPT --video out.mp4)")
@@ -175,11 +184,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--llc", required=True, help="skill policy checkpoint")
     p.add_argument("--checkpoint", help="high-level policy checkpoint (optional: keys only without it)")
     p.add_argument("--motion", action="append", help="clip files or folders of the episode starts (repeatable)")
+    p.add_argument("--config", help="training config file whose [env] keys all apply (e.g. the checkpoint's .toml)")
     p.add_argument("--seed", type=int, default=0)
     args = p.parse_args(argv)
     extra = {"motion": args.motion} if args.motion else {}
     try:
-        play(args.task, args.llc, args.checkpoint, seed=args.seed, **extra)
+        play(args.task, args.llc, args.checkpoint, seed=args.seed, config=args.config, **extra)
     except RuntimeError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2

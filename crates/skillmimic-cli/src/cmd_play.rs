@@ -57,8 +57,8 @@ pub struct Args {
     pub interactive: bool,
 }
 
-/// Hand a high-level checkpoint (task, skill policy and clips from its config and the flags) to
-/// the Python viewer.
+/// Hand a high-level checkpoint to the Python viewer with its whole configuration (the flags on
+/// top), written to a temporary TOML file for the viewer's `--config`.
 fn interactive(ckpt: &Path, flags: &ConfigFlags) -> anyhow::Result<()> {
     let (_, mut cfg) = load_checkpoint(ckpt)?;
     flags.apply(&mut cfg)?;
@@ -78,15 +78,20 @@ fn interactive(ckpt: &Path, flags: &ConfigFlags) -> anyhow::Result<()> {
         .into_iter()
         .find(|p| p.exists())
         .unwrap_or_else(|| PathBuf::from("python3"));
+    let config =
+        std::env::temp_dir().join(format!("skillmimic-interactive-{}.toml", std::process::id()));
+    skillmimic_core::tensorfile::write_bytes_atomic(&config, cfg.to_toml().as_bytes())
+        .with_context(|| format!("cannot write {}", config.display()))?;
     let mut cmd = std::process::Command::new(&python);
     cmd.args(["-m", "skillmimic_rs.interactive", "--task", &cfg.env.task, "--llc"])
         .arg(&cfg.env.table::<HlcConfig>().llc)
         .arg("--checkpoint")
-        .arg(ckpt);
-    for m in &cfg.env.motion {
-        cmd.arg("--motion").arg(m);
-    }
-    let status = cmd.status().with_context(|| {
+        .arg(ckpt)
+        .arg("--config")
+        .arg(&config);
+    let status = cmd.status();
+    let _ = std::fs::remove_file(&config);
+    let status = status.with_context(|| {
         format!(
             "cannot start {} (the interactive viewer is part of the Python package: pip install .)",
             python.display()
