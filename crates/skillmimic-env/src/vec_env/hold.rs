@@ -10,7 +10,8 @@
 //! * terminated / truncated: those of the last counted step; unstable: any counted step;
 //! * an environment that finishes inside the transition is simulated for the remaining physics
 //!   steps and that part is discarded; it is reset after the transition (the released
-//!   SkillMimic code lets the next episode's first steps leak into the old transition instead);
+//!   SkillMimic code also steps the ended episode to the transition's end and resets it then,
+//!   but counts those steps' rewards in the transition's mean);
 //! * the transition stops early when every environment has finished.
 
 use super::{StepBuffers, copy_row};

@@ -17,7 +17,8 @@
 //! inside the 3 steps ends its transition there (reward = mean over the steps up to and including
 //! the finishing one, its terminal observation kept); the remaining low-level steps of that
 //! environment are simulated and discarded, and it is reset at the end of the high-level step (the
-//! released code lets the new episode's first steps leak into the old transition).
+//! released code also keeps stepping the ended episode and resets it at the next high-level step,
+//! but averages the rewards of all 3 steps, those after the episode's end included).
 //!
 //! Observation (high level): the 838 state entries (heading frame, see `obs.rs`) | the task part:
 //! * `loc` (2): (goal_xy − root_xy) turned into the heading frame (m);
