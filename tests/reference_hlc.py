@@ -238,25 +238,35 @@ def scored_check(state, goal):
 class HLCReference:
     """One environment of a HL task: goal, latches, step counter, observation and reward.
 
-    ``options``: ``reward`` ("code"/"paper", heading/circling/scoring) and ``prediction``
-    ("code"/"ballistic", scoring)."""
+    ``options``: ``reward`` ("code"/"paper", heading/circling/scoring), ``prediction``
+    ("code"/"ballistic", scoring) and ``timing``: "released" — the released loop computes an
+    episode's first observation before it draws the new goal and clears the latches, so that
+    observation shows the previous episode's goal and "reached" flag (the first episode: a zero
+    goal), and after every step it observes before the reward updates the latches; "cut" — the
+    new goal at once, and the latches of the step itself."""
 
-    def __init__(self, task, reward="code", prediction="code"):
+    def __init__(self, task, reward="code", prediction="code", timing="released"):
         if task not in TASKS:
             raise ValueError(f"unknown task {task!r}")
-        self.task, self.reward, self.prediction = task, reward, prediction
+        if timing not in ("released", "cut"):
+            raise ValueError(f"unknown timing {timing!r}")
+        self.task, self.reward, self.prediction, self.timing = task, reward, prediction, timing
         self.goal = np.zeros(3)
         self.reached = self.scored = False
         self.progress = 0
+        self.shown = None
 
     def reset(self, goal):
         """New episode with ``goal`` (a row of the env's task_info); latches and counter cleared."""
+        if self.timing == "released":
+            self.shown = (self.goal, self.reached)
         self.goal = np.asarray(goal, dtype=np.float64).copy()
         self.reached = self.scored = False
         self.progress = 0
 
     def observe(self, state):
-        return observation(self.task, state, self.goal, self.reached)
+        goal, reached = self.shown if self.shown is not None else (self.goal, self.reached)
+        return observation(self.task, state, goal, reached)
 
     def terms(self, state):
         if self.task == "heading":
@@ -271,6 +281,8 @@ class HLCReference:
         """After one low-level step (``state`` = post-step): update latches, then return
         (obs, terms, terminated, truncated)."""
         self.progress += 1
+        self.shown = None
+        before = self.observe(state) if self.timing == "released" else None
         if self.task == "scoring":
             if not self.reached:
                 self.reached = reached_check(state, self.goal, self.prediction)
@@ -279,4 +291,5 @@ class HLCReference:
         terms = np.array(self.terms(state))
         terminated = bool(state["body_pos"][0][2] < TERMINATION_HEIGHT and self.progress > 1)
         truncated = bool(not terminated and self.progress >= EPISODE_STEPS)
-        return self.observe(state), terms, terminated, truncated
+        obs = before if before is not None else self.observe(state)
+        return obs, terms, terminated, truncated

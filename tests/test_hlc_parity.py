@@ -38,11 +38,11 @@ def llc(tmp_path_factory) -> str:
     return str(path)
 
 
-def make_env(task: str, llc: str, num_envs: int = 4, **overrides) -> skillmimic_rs.VecEnv:
+def make_env(task: str, llc: str, num_envs: int = 4, timing: str = "released", **overrides) -> skillmimic_rs.VecEnv:
     """One simulation step per HL step (llc_steps = 1), no automatic reset."""
     return skillmimic_rs.VecEnv(
         num_envs, task=task, llc=llc, motion=MOTIONS, autoreset_mode="disabled", threads=1,
-        hlc={"llc_steps": 1}, **overrides,
+        hlc={"llc_steps": 1, "timing": timing}, **overrides,
     )
 
 
@@ -63,10 +63,14 @@ def run_hl_parity(env, refs, steps: int, seed: int) -> tuple[int, int]:
     Returns (number of episode ends, number of 'reached' latches seen)."""
     n = env.num_envs
     sh = Shadow(env)
+    # the goals the environment drew when it was built: the released timing's first observation
+    # after the reset below shows them
+    before = env.task_info()
     obs, _ = env.reset(seed=seed)
     goals = env.task_info()
     for i in range(n):
         sh.copy_state(i)
+        refs[i].reset(before[i])
         refs[i].reset(goals[i])
         check_obs(obs[i], refs[i].observe(sh.state(i)), f"env {i} first observation")
     rng = np.random.default_rng(seed)
@@ -105,30 +109,32 @@ def run_hl_parity(env, refs, steps: int, seed: int) -> tuple[int, int]:
 
 
 PARITY_CASES = [
-    ("heading", "code", "code"),
-    ("heading", "paper", "code"),
-    ("circling", "code", "code"),
-    ("circling", "paper", "code"),
-    ("throwing", "code", "code"),
-    ("scoring", "code", "code"),
-    ("scoring", "code", "ballistic"),
-    ("scoring", "paper", "code"),
-    ("scoring", "paper", "ballistic"),
+    ("heading", "code", "code", "released"),
+    ("heading", "paper", "code", "released"),
+    ("heading", "code", "code", "cut"),
+    ("circling", "code", "code", "released"),
+    ("circling", "paper", "code", "released"),
+    ("throwing", "code", "code", "released"),
+    ("scoring", "code", "code", "released"),
+    ("scoring", "code", "ballistic", "released"),
+    ("scoring", "paper", "code", "released"),
+    ("scoring", "paper", "ballistic", "released"),
+    ("scoring", "code", "code", "cut"),
 ]
 
 
-@pytest.mark.parametrize("task,reward,prediction", PARITY_CASES)
-def test_hl_observations_rewards_and_episode_ends_match_numpy_reference(llc, task, reward, prediction):
-    env = make_env(task, llc, **task_overrides(task, reward, prediction))
+@pytest.mark.parametrize("task,reward,prediction,timing", PARITY_CASES)
+def test_hl_observations_rewards_and_episode_ends_match_numpy_reference(llc, task, reward, prediction, timing):
+    env = make_env(task, llc, timing=timing, **task_overrides(task, reward, prediction))
     assert env.reward_term_names == hl.TERM_NAMES[task]
     assert env.observation_space.shape == (4, hl.STATE_OBS + hl.TASK_OBS[task])
-    refs = [hl.HLCReference(task, reward, prediction) for _ in range(env.num_envs)]
+    refs = [hl.HLCReference(task, reward, prediction, timing) for _ in range(env.num_envs)]
     ends, reached = run_hl_parity(env, refs, steps=250, seed=11)
     # the random skill policy makes the humanoid fall: early terminations exercise resets
     assert ends >= 4, f"{task}: only {ends} episode ends in 250 steps"
     # a random policy does not throw the ball into the basket; the latch is covered by the
     # forced test below (this only documents what the run saw)
-    print(f"{task}/{reward}/{prediction}: {ends} episode ends, {reached} latched steps")
+    print(f"{task}/{reward}/{prediction}/{timing}: {ends} episode ends, {reached} latched steps")
     env.close()
 
 
@@ -178,9 +184,12 @@ def test_scoring_forced_reached_event(llc, reward, prediction):
     and 'scored' for the paper bonus), env 3 is left alone."""
     env = make_env("scoring", llc, **task_overrides("scoring", reward, prediction))
     sh = Shadow(env)
+    before = env.task_info()
     env.reset(seed=5)
     goals = env.task_info()
     refs = [hl.HLCReference("scoring", reward, prediction) for _ in range(env.num_envs)]
+    for i in range(env.num_envs):
+        refs[i].reset(before[i])
     z, vx, vz = 3.0, 4.0, 3.0
     s = math.sqrt(vz * vz + 2 * 9.8 * (z - 2.0))
     t_mode = {"code": (s - vz) / 9.8, "ballistic": (s + vz) / 9.8}
@@ -214,10 +223,12 @@ def test_scoring_forced_reached_event(llc, reward, prediction):
             assert [r.reached for r in refs] == [True, False, True, False]
             assert refs[2].scored and not refs[0].scored
     assert obs[0, -1] == 1.0 and obs[2, -1] == 1.0 and obs[1, -1] == 0.0  # the latch holds
-    # a reset clears the latch
+    # a reset clears the latch; the released loop's first observation still shows the old flag
     mask = np.array([True, False, True, False])
     obs, _ = env.reset(options={"reset_mask": mask})
-    assert obs[0, -1] == 0.0 and obs[2, -1] == 0.0 and env.task_info()[0, 2] == 0.0
+    assert obs[0, -1] == 1.0 and obs[2, -1] == 1.0 and env.task_info()[0, 2] == 0.0
+    obs, *_ = env.step(np.zeros(env.num_envs, np.int64))
+    assert obs[0, -1] == 0.0 and obs[2, -1] == 0.0
     env.close()
 
 

@@ -43,6 +43,12 @@ pub struct TaskSpec {
     /// Simulation (low-level) steps per action: 1 for the physical tasks, `llc_steps` (3) for
     /// the high-level tasks, whose samples the papers count in low-level steps.
     pub steps_per_action: usize,
+    /// With `steps_per_action > 1`: every environment runs all the held steps, and an episode
+    /// that ends inside them counts the steps simulated after its end (reward and terms: mean
+    /// over all steps; terminated / truncated: set when any step set them; observation, metrics
+    /// and information: the last step's) — the released SkillMimic high-level loop. `false`: the
+    /// transition of such an environment ends at the step that ends its episode.
+    pub hold_through_end: bool,
     /// Skill label of each discrete choice (high-level tasks: `control_mapping`); empty otherwise.
     pub choice_labels: Vec<u32>,
     /// The observation as named groups in column order, `(name, width)`, widths summing to
@@ -74,6 +80,7 @@ impl Default for TaskSpec {
             metric_names: Vec::new(),
             info_names: Vec::new(),
             steps_per_action: 1,
+            hold_through_end: false,
             choice_labels: Vec::new(),
             token_groups: Vec::new(),
             obs_blocks: Vec::new(),

@@ -1,8 +1,12 @@
 //! The high-level tasks over a frozen skill policy:
 //! * the skill policy inside the environment gives bit-identical PD targets to the same
 //!   checkpoint's standalone inference (the learner's `Policy`) on the same observations;
-//! * holding a choice for 3 low-level steps = 3 steps of the 1-step environment (mean reward,
-//!   terminal observation), also when an episode ends inside the 3 steps;
+//! * holding a choice for 3 low-level steps = 3 steps of the 1-step environment, also when an
+//!   episode ends inside the 3 steps: with the released timing the mean of all 3 rewards, the
+//!   flags of any step and the 3rd step's observation; with `timing = "cut"` the mean up to the
+//!   episode's end and its terminal observation;
+//! * with the released timing an episode's first observation shows the previous episode's goal,
+//!   and the next one its own;
 //! * bad skill policies and bad actions are clear errors.
 
 use std::path::PathBuf;
@@ -12,7 +16,7 @@ use rand_chacha::ChaCha8Rng;
 use skillmimic_env::EnvConfig;
 use skillmimic_env::VecEnv;
 use skillmimic_env::tasks::hlc::HighLevel;
-use skillmimic_env::tasks::hlc::config::HlcConfig;
+use skillmimic_env::tasks::hlc::config::{HlcConfig, HlcTiming};
 use skillmimic_env::tasks::hlc::heading::Heading;
 use skillmimic_learn::checkpoint::{self, Progress};
 use skillmimic_learn::config::PpoConfig;
@@ -89,61 +93,120 @@ fn the_skill_policy_inside_the_task_equals_standalone_inference_bit_for_bit() {
 #[test]
 fn holding_a_choice_equals_three_single_steps_also_across_a_reset() {
     let llc = write_llc("hold");
-    for term_h in [0.25, 5.0] {
-        // 5 m: every episode terminates at its second low-level step (inside the first hold)
-        let mut c3 = config("heading", &llc, 4);
-        c3.table_mut::<HlcConfig>().termination_height = term_h;
-        c3.threads = 1;
-        let mut c1 = c3.clone();
-        c1.table_mut::<HlcConfig>().llc_steps = 1;
-        let (mut e3, mut e1) = (heading(&c3), heading(&c1));
-        assert_eq!(e3.spec().max_episode_steps, 799usize.div_ceil(3));
-        assert_eq!(e3.spec().steps_per_action, 3);
-        assert_eq!(e3.buffers().obs, e1.buffers().obs);
-        let mut rng = ChaCha8Rng::seed_from_u64(2);
-        let mut resets = 0;
-        for _ in 0..12 {
-            let actions: Vec<f32> = (0..4).map(|_| rng.random_range(0..3) as f32).collect();
-            e3.step(&actions).unwrap();
-            let (mut sum, mut count, mut done) = (vec![0.0f32; 4], vec![0usize; 4], vec![false; 4]);
-            let mut last_obs = e1.buffers().obs.clone();
-            for _ in 0..3 {
-                if done.iter().all(|&d| d) {
-                    break;
-                }
-                e1.step(&actions).unwrap();
-                let b = e1.buffers();
-                for i in 0..4 {
-                    if !done[i] {
-                        sum[i] += b.reward[i];
-                        count[i] += 1;
-                        last_obs[i * 842..(i + 1) * 842]
-                            .copy_from_slice(&b.obs[i * 842..(i + 1) * 842]);
-                        done[i] = b.terminated[i] != 0 || b.truncated[i] != 0;
-                    }
-                }
+    for timing in [HlcTiming::Released, HlcTiming::Cut] {
+        for term_h in [0.25, 5.0] {
+            held_steps_match(&llc, timing, term_h);
+        }
+    }
+}
+
+/// Released timing: an episode's first observation shows the previous episode's goal (the
+/// released loop observes before it draws the new goal), the observation after its first step
+/// its own; `cut` shows the new goal at once. Both draw the same goals.
+#[test]
+fn the_first_observation_of_an_episode_shows_the_previous_goal() {
+    let llc = write_llc("timing");
+    let make = |timing| {
+        let mut c = config("heading", &llc, 2);
+        c.table_mut::<HlcConfig>().timing = timing;
+        heading(&c)
+    };
+    let (mut rel, mut cut) = (make(HlcTiming::Released), make(HlcTiming::Cut));
+    let old = rel.buffers().info[..2].to_vec();
+    let task = 838..842;
+    let mask = [true, false];
+    rel.reset_envs(&mask);
+    cut.reset_envs(&mask);
+    let new = rel.buffers().info[..2].to_vec();
+    assert_eq!(new, cut.buffers().info[..2].to_vec(), "the same new goal");
+    assert_ne!(old, new);
+    let (r, c) = (rel.buffers().obs[..842].to_vec(), cut.buffers().obs[..842].to_vec());
+    assert_eq!(r[..838], c[..838], "the same state");
+    assert_ne!(r[task.clone()], c[task.clone()], "cut: the new goal; released: the old one");
+    // the cut environment pointed at the old goal observes what the released one showed
+    cut.set_task_info(0, &old).unwrap();
+    assert_eq!(cut.buffers().obs[task.clone()], r[task.clone()]);
+    cut.set_task_info(0, &new).unwrap();
+    // after one step both observe the new goal
+    rel.step(&[1.0, 1.0]).unwrap();
+    cut.step(&[1.0, 1.0]).unwrap();
+    assert_eq!(rel.buffers().obs[..842], cut.buffers().obs[..842]);
+}
+
+/// 12 high-level steps of the 3-step heading environment against the 1-step one stepped by hand:
+/// `released` — all 3 steps count (mean of the 3 rewards, flags set when any step set them,
+/// the 3rd step's observation); `cut` — the steps up to the one that ends the episode (its
+/// terminal observation). `term_h` = 5 m: every episode terminates at its second low-level step.
+fn held_steps_match(llc: &std::path::Path, timing: HlcTiming, term_h: f64) {
+    let mut c3 = config("heading", llc, 4);
+    c3.table_mut::<HlcConfig>().termination_height = term_h;
+    c3.table_mut::<HlcConfig>().timing = timing;
+    c3.threads = 1;
+    let mut c1 = c3.clone();
+    c1.table_mut::<HlcConfig>().llc_steps = 1;
+    let (mut e3, mut e1) = (heading(&c3), heading(&c1));
+    assert_eq!(e3.spec().max_episode_steps, 799usize.div_ceil(3));
+    assert_eq!(e3.spec().steps_per_action, 3);
+    assert_eq!(e3.buffers().obs, e1.buffers().obs);
+    let released = timing == HlcTiming::Released;
+    let mut rng = ChaCha8Rng::seed_from_u64(2);
+    let mut resets = 0;
+    for _ in 0..12 {
+        let actions: Vec<f32> = (0..4).map(|_| rng.random_range(0..3) as f32).collect();
+        e3.step(&actions).unwrap();
+        let (mut sum, mut count, mut done) = (vec![0.0f32; 4], vec![0usize; 4], vec![false; 4]);
+        let (mut term, mut trunc) = (vec![false; 4], vec![false; 4]);
+        let mut last_obs = e1.buffers().obs.clone();
+        for _ in 0..3 {
+            if !released && done.iter().all(|&d| d) {
+                break;
             }
-            let b3 = e3.buffers();
+            e1.step(&actions).unwrap();
+            let b = e1.buffers();
             for i in 0..4 {
-                assert_eq!(
-                    b3.reward[i],
-                    sum[i] / count[i] as f32,
-                    "env {i}: mean of the low-level rewards"
-                );
-                assert_eq!(b3.terminated[i] != 0 || b3.truncated[i] != 0, done[i]);
+                if released || !done[i] {
+                    sum[i] += b.reward[i];
+                    count[i] += 1;
+                    last_obs[i * 842..(i + 1) * 842]
+                        .copy_from_slice(&b.obs[i * 842..(i + 1) * 842]);
+                    term[i] = if released {
+                        term[i] || b.terminated[i] != 0
+                    } else {
+                        b.terminated[i] != 0
+                    };
+                    trunc[i] = if released {
+                        trunc[i] || b.truncated[i] != 0
+                    } else {
+                        b.truncated[i] != 0
+                    };
+                    done[i] |= b.terminated[i] != 0 || b.truncated[i] != 0;
+                }
             }
-            assert_eq!(b3.obs, last_obs, "the observation of the transition's last counted step");
-            resets += done.iter().filter(|&&d| d).count();
-            // the 1-step environment went on stepping the finished ones: reset both the same way
-            let mask = done.clone();
-            e3.reset_envs(&mask);
-            e1.reset_envs(&mask);
-            assert_eq!(e3.buffers().obs, e1.buffers().obs, "new episodes start identically");
-            assert_eq!(e3.buffers().info, e1.buffers().info, "and with the same goals");
         }
-        if term_h > 1.0 {
-            assert!(resets >= 12 * 4, "every transition ends inside the hold");
+        let b3 = e3.buffers();
+        for i in 0..4 {
+            if released {
+                assert_eq!(count[i], 3);
+            }
+            assert_eq!(
+                b3.reward[i],
+                sum[i] / count[i] as f32,
+                "env {i}: mean of the low-level rewards"
+            );
+            assert_eq!(b3.terminated[i] != 0, term[i], "env {i}: terminated");
+            assert_eq!(b3.truncated[i] != 0, trunc[i] && !term[i], "env {i}: truncated");
         }
+        assert_eq!(b3.obs, last_obs, "the observation of the transition's last counted step");
+        resets += done.iter().filter(|&&d| d).count();
+        // the 1-step environment went on stepping the finished ones: reset both the same way
+        let mask = done.clone();
+        e3.reset_envs(&mask);
+        e1.reset_envs(&mask);
+        assert_eq!(e3.buffers().obs, e1.buffers().obs, "new episodes start identically");
+        assert_eq!(e3.buffers().info, e1.buffers().info, "and with the same goals");
+    }
+    if term_h > 1.0 {
+        assert!(resets >= 12 * 4, "every transition ends inside the hold");
     }
 }
 

@@ -2,17 +2,17 @@
 //! reuse) has each action applied for `k` physics steps (the task turns it into PD targets
 //! before every one of them, e.g. with a frozen skill policy on the current observation).
 //!
-//! The caller sees one step per action (the buffers of [`Hold::out`]):
-//! * reward and terms: the mean over the transition's counted physics steps — those up to and
-//!   including the first that ends the episode;
-//! * observation, metrics and information: those of the last counted physics step (for an
-//!   environment that finished inside the transition, its terminal observation);
-//! * terminated / truncated: those of the last counted step; unstable: any counted step;
-//! * an environment that finishes inside the transition is simulated for the remaining physics
-//!   steps and that part is discarded; it is reset after the transition (the released
-//!   SkillMimic code also steps the ended episode to the transition's end and resets it then,
-//!   but counts those steps' rewards in the transition's mean);
-//! * the transition stops early when every environment has finished.
+//! The caller sees one step per action (the buffers of [`Hold::out`]). An environment whose
+//! episode ends inside the transition is simulated to the transition's end and reset after it;
+//! what counts depends on the task's `hold_through_end`:
+//! * `true` (the released SkillMimic high-level loop): every physics step counts. Reward and
+//!   terms are the mean over all of them (the steps after an episode's end included); terminated
+//!   / truncated are set when any step set them (terminated wins: the two stay exclusive);
+//!   observation, metrics and information are the last step's; unstable: any step.
+//! * `false`: the counted steps are those up to and including the first that ends the episode.
+//!   Reward and terms are their mean; observation, metrics, information and flags are the last
+//!   counted step's (for a finished environment, its terminal observation); unstable: any
+//!   counted step. The transition stops early when every environment has finished.
 
 use super::{StepBuffers, copy_row};
 use crate::task::TaskSpec;
@@ -25,6 +25,8 @@ pub(super) struct Hold {
     /// Physics steps counted in the current transition, per environment.
     counted: Vec<usize>,
     done: Vec<bool>,
+    /// The task's `hold_through_end`.
+    through_end: bool,
 }
 
 impl Hold {
@@ -34,6 +36,7 @@ impl Hold {
             steps: spec.steps_per_action,
             counted: vec![0; n],
             done: vec![false; n],
+            through_end: spec.hold_through_end,
         }
     }
 
@@ -67,6 +70,8 @@ impl Hold {
         self.out.reward.fill(0.0);
         self.out.terms.fill(0.0);
         self.out.unstable.fill(0);
+        self.out.terminated.fill(0);
+        self.out.truncated.fill(0);
     }
 
     /// Count physics step `b` of the transition (`last`: its final one); `widths` = (obs, terms,
@@ -75,7 +80,7 @@ impl Hold {
         let [d, nt, ni, nm] = widths;
         let out = &mut self.out;
         for i in 0..self.done.len() {
-            if self.done[i] {
+            if self.done[i] && !self.through_end {
                 continue;
             }
             self.counted[i] += 1;
@@ -83,18 +88,24 @@ impl Hold {
             for k in 0..nt {
                 out.terms[i * nt + k] += b.terms[i * nt + k];
             }
-            out.terminated[i] = b.terminated[i];
-            out.truncated[i] = b.truncated[i];
             out.unstable[i] |= b.unstable[i];
-            self.done[i] = b.done(i);
+            if self.through_end {
+                out.terminated[i] |= b.terminated[i];
+                out.truncated[i] = u8::from((out.truncated[i] | b.truncated[i]) != 0)
+                    * u8::from(out.terminated[i] == 0);
+            } else {
+                out.terminated[i] = b.terminated[i];
+                out.truncated[i] = b.truncated[i];
+            }
+            self.done[i] |= b.done(i);
             // the rows of the transition's last counted step only
-            if self.done[i] || last {
+            if last || (self.done[i] && !self.through_end) {
                 copy_row(&mut out.obs, &b.obs, i, d);
                 copy_row(&mut out.metrics, &b.metrics, i, nm);
                 copy_row(&mut out.info, &b.info, i, ni);
             }
         }
-        self.done.iter().all(|&x| x)
+        !self.through_end && self.done.iter().all(|&x| x)
     }
 
     /// End a transition: rewards and terms become means over the counted steps.

@@ -17,8 +17,8 @@
 //! What needs no saving: minibatch order (drawn from `run.seed` and the iteration), the learning
 //! rate (the configuration's), scratch buffers. Resuming with another environment configuration
 //! is refused with the keys that differ, unless `run.fresh_episodes` asks for fresh episodes;
-//! a checkpoint without the tensor (older versions; see below for data-parallel runs) resumes with
-//! fresh episodes and a one-line warning.
+//! a checkpoint without the tensor or with an older layout of it (older versions; see below for
+//! data-parallel runs) resumes with fresh episodes and a one-line warning.
 //!
 //! Data-parallel runs: every rank's part reaches rank 0 at each checkpoint
 //! ([`crate::collective::bytes`]), and a resume with the same world size hands each rank its part
@@ -39,8 +39,9 @@ use crate::error::{LearnError, bad_checkpoint};
 
 /// Name of the checkpoint tensor.
 pub const TENSOR: &str = "resume.state";
-/// Version of the encoding.
-const FORMAT: u32 = 1;
+/// Version of the encoding (2: the high-level tasks' slots hold the goal their first observation
+/// shows). A checkpoint of an older version resumes with fresh episodes and a warning.
+const FORMAT: u32 = 2;
 
 /// The run's saved state: every rank's part ([`RankOut`]) and what it belongs to.
 #[derive(Serialize, Deserialize)]
@@ -192,6 +193,13 @@ fn decide(t: &Trainer, path: &Path) -> Result<Option<Vec<Vec<u8>>>, LearnError> 
             path.display()
         ))
     };
+    if s.format < FORMAT {
+        warn(format!(
+            "its run state has an older layout ({}; this version reads {FORMAT})",
+            s.format
+        ));
+        return Ok(None);
+    }
     if s.format != FORMAT {
         return Err(refuse(format!("state format {} (this version reads {FORMAT})", s.format)));
     }

@@ -21,6 +21,27 @@ pub enum Formula {
     Paper,
 }
 
+/// When a high-level transition and an episode's observations see what (`env.hlc.timing`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum HlcTiming {
+    /// The released SkillMimic loop (reference-facts §8.1; `hrl_agent_discrete.py`,
+    /// `humanoid_task.py`), the default: an episode that ends inside the held steps keeps being
+    /// simulated to the transition's end, whose reward is the mean over all its steps (those
+    /// after the end included), whose flags are set when any step ended the episode and whose
+    /// observation is the last step's; the first observation of an episode still shows the
+    /// previous episode's goal (and the scoring task's "reached" flag), since the released code
+    /// observes before it draws the new goal (the very first episode: a zero goal); after every
+    /// step the observation is taken before the reward updates the latches (the scoring task's
+    /// observed "reached" flag is one low-level step late).
+    #[default]
+    Released,
+    /// This project's earlier reading: the transition ends at the step that ends the episode
+    /// (mean over the steps up to it, its terminal observation), an episode's first observation
+    /// shows its own goal, and each observation shows the latches of its own step.
+    Cut,
+}
+
 /// Options shared by the high-level tasks (`[env.hlc]`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
@@ -51,6 +72,10 @@ pub struct HlcConfig {
     /// `turnhook` clips for throwing: pass them with `--motion`.
     #[schemars(range(min = 2))]
     pub start_frame: usize,
+    /// "released" (the released SkillMimic code's transition and observation timing) or "cut"
+    /// (see [`HlcTiming`]); applies to heading, circling, throwing and scoring (ModSkill's
+    /// steering and reach always use "cut").
+    pub timing: HlcTiming,
 }
 
 impl crate::config_table::TaskConfig for HlcConfig {
@@ -68,6 +93,7 @@ impl Default for HlcConfig {
             episode_length: 800,
             termination_height: 0.25,
             start_frame: 2,
+            timing: HlcTiming::Released,
         }
     }
 }

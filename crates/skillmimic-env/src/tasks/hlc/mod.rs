@@ -12,13 +12,18 @@
 //!   onto the unit sphere and fed to that part's frozen controller
 //!   ([`skillmimic_nn::frozen_parts`]); held for `latent_steps` (1).
 //!
-//! [`hold::HoldEnv`] holds the action for those low-level steps: the high-level reward is the mean
-//! of the low-level task rewards, done if any low-level step is done. An environment that finishes
-//! inside the 3 steps ends its transition there (reward = mean over the steps up to and including
-//! the finishing one, its terminal observation kept); the remaining low-level steps of that
-//! environment are simulated and discarded, and it is reset at the end of the high-level step (the
-//! released code also keeps stepping the ended episode and resets it at the next high-level step,
-//! but averages the rewards of all 3 steps, those after the episode's end included).
+//! The driver (`vec_env::hold`) holds the action for those low-level steps. Timing
+//! (`env.hlc.timing`, [`config::HlcTiming`]; SkillMimic's four tasks):
+//! * "released" (default, the released loop): the high-level reward is the mean of all 3
+//!   low-level task rewards, also when the episode ended inside them (the ended episode is
+//!   simulated to the transition's end and its rewards count); done / terminated when any step
+//!   set them; the observation is the 3rd step's; the environment is reset after the transition.
+//!   An episode's first observation shows the previous episode's goal and latches (the released
+//!   code observes before it draws the new goal), and each step's observation is taken before
+//!   the reward updates the latches (the scoring "reached" flag shows one low-level step late).
+//! * "cut": the transition ends at the step that ends the episode (mean over the steps up to and
+//!   including it, its terminal observation); the first observation shows the new goal, and each
+//!   observation the latches of its own step.
 //!
 //! Observation (high level): the 838 state entries (heading frame, see `obs.rs`) | the task part:
 //! * `loc` (2): (goal_xy − root_xy) turned into the heading frame (m);
@@ -142,6 +147,11 @@ pub trait Rule: Send + Sync + 'static {
     fn set_info(&self, g: &mut Self::Goal, values: &[f32]);
     /// Append the task's visual markers for an information row (`info_names` order).
     fn markers(&self, _info: &[f32], _out: &mut Vec<crate::markers::Marker>) {}
+    /// Whether `env.hlc.timing` applies: the SkillMimic tasks, whose released loop it describes
+    /// (true); ModSkill's steering and reach keep the cut timing (false).
+    fn released_loop(&self) -> bool {
+        true
+    }
 }
 
 /// `loc` and `bearing` of a goal (4 values; see the module doc).
@@ -175,6 +185,16 @@ pub fn ball_to(st: &EnvState<'_>, p: [f64; 3]) -> [f64; 3] {
 pub struct HlSlot<G> {
     pub progress: u32,
     pub goal: G,
+    /// `env.hlc.timing = "released"`: the previous episode's goal, which the episode's first
+    /// observation shows (cleared by the first step).
+    pub shown: Option<G>,
+}
+
+impl<G> HlSlot<G> {
+    /// The goal the observation shows now.
+    fn observed_goal(&self) -> &G {
+        self.shown.as_ref().unwrap_or(&self.goal)
+    }
 }
 
 /// A high-level task: its calls happen once per low-level (physics) step; the driver holds
@@ -191,6 +211,8 @@ pub struct HighLevel<R: Rule> {
     llc_obs: Vec<f32>,
     /// Skill label applied in the last low-level step, per environment.
     pub(crate) skills: Vec<u32>,
+    /// `env.hlc.timing = "released"` applies to this task.
+    released: bool,
 }
 
 impl<R: Rule> HighLevel<R> {
@@ -256,6 +278,7 @@ impl<R: Rule> HighLevel<R> {
             metric_names: crate::task::names(&rule.metric_names()),
             info_names: rule.info_names().iter().map(|s| s.to_string()).collect(),
             steps_per_action: hold,
+            hold_through_end: h.timing == config::HlcTiming::Released && rule.released_loop(),
             choice_labels,
             token_groups: [
                 ("state".to_string(), layout::STATE_DIM),
@@ -269,6 +292,7 @@ impl<R: Rule> HighLevel<R> {
             ..TaskSpec::default()
         };
         let threads = if cfg.threads == 0 { rayon::current_num_threads() } else { cfg.threads };
+        let released = h.timing == config::HlcTiming::Released && rule.released_loop();
         Ok(Self {
             rule,
             cfg: h.clone(),
@@ -279,6 +303,7 @@ impl<R: Rule> HighLevel<R> {
             ball_radius,
             llc_obs: Vec::new(),
             skills: vec![0; cfg.num_envs],
+            released,
         })
     }
 
@@ -301,7 +326,7 @@ impl<R: Rule> HighLevel<R> {
 
     fn write_obs(&self, slot: &HlSlot<R::Goal>, st: &EnvState<'_>, obs: &mut [f32]) {
         write_state_obs(st, &mut obs[..layout::STATE_DIM]);
-        self.rule.task_obs(&slot.goal, st, &mut obs[layout::STATE_DIM..]);
+        self.rule.task_obs(slot.observed_goal(), st, &mut obs[layout::STATE_DIM..]);
     }
 }
 
@@ -330,7 +355,10 @@ impl<R: Rule> Task for HighLevel<R> {
         if BALL_FREE_SKILLS.contains(&m.clip.skill) {
             random_ball(state, self.ball_radius, rng);
         }
-        *slot = HlSlot { progress: 0, goal: self.rule.sample_goal(state.root_pos, rng) };
+        let goal = self.rule.sample_goal(state.root_pos, rng);
+        let previous = std::mem::replace(&mut slot.goal, goal);
+        slot.progress = 0;
+        slot.shown = self.released.then_some(previous);
     }
 
     fn after_reset(
@@ -350,6 +378,7 @@ impl<R: Rule> Task for HighLevel<R> {
 
     fn set_info(&self, slot: &mut HlSlot<R::Goal>, values: &[f32]) -> bool {
         self.rule.set_info(&mut slot.goal, values);
+        slot.shown = None;
         true
     }
 
@@ -359,10 +388,18 @@ impl<R: Rule> Task for HighLevel<R> {
 
     fn step_env(&self, _i: usize, slot: &mut HlSlot<R::Goal>, st: &EnvState<'_>, out: StepOut<'_>) {
         slot.progress += 1;
+        slot.shown = None;
+        // the released loop observes before the reward updates the latches
+        let released = self.released;
+        if released {
+            self.write_obs(slot, st, out.obs);
+        }
         let r = self.rule.reward(&mut slot.goal, slot.progress, st, out.terms, out.metrics);
         *out.reward = r as f32;
         self.rule.info(&slot.goal, out.info);
-        self.write_obs(slot, st, out.obs);
+        if !released {
+            self.write_obs(slot, st, out.obs);
+        }
         let fell = st.pos(0)[2] < self.cfg.termination_height && slot.progress > 1;
         *out.terminated = u8::from(fell || st.unstable);
         *out.truncated =

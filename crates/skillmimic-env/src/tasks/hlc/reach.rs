@@ -61,6 +61,10 @@ impl Reach {
 }
 
 impl Rule for Reach {
+    /// A ModSkill task: the SkillMimic loop's timing (`env.hlc.timing`) does not apply.
+    fn released_loop(&self) -> bool {
+        false
+    }
     const NAME: &'static str = "reach";
     type Goal = ReachGoal;
     fn labels(&self) -> &'static [u32] {

@@ -69,6 +69,10 @@ impl Steering {
 }
 
 impl Rule for Steering {
+    /// A ModSkill task: the SkillMimic loop's timing (`env.hlc.timing`) does not apply.
+    fn released_loop(&self) -> bool {
+        false
+    }
     const NAME: &'static str = "steering";
     type Goal = SteeringGoal;
     fn labels(&self) -> &'static [u32] {
