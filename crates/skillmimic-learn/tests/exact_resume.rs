@@ -4,8 +4,8 @@
 //! one go and the same run stopped after two and resumed from its checkpoint write the same
 //! `log.jsonl` rows (all but the timings) and byte-identical checkpoints. Also: a checkpoint
 //! resumed with another environment configuration is refused naming the keys, or resumed with
-//! fresh episodes where `run.fresh_episodes` asks for it; one without the saved state (an older
-//! version's) resumes with fresh episodes. Active skill learning, whose rounds change the library
+//! fresh episodes where `run.fresh_episodes` asks for it; one without the saved state or with an
+//! older layout of it (an older version's) resumes with fresh episodes. Active skill learning, whose rounds change the library
 //! and its weights while the run trains, resumes exactly with the original configuration.
 
 mod common;
@@ -289,5 +289,46 @@ fn active_learning_resumes_exactly() {
     run(first, None);
     run(c.clone(), Some(&dir.join("latest.safetensors")));
     check("a shorter run continued");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A checkpoint whose saved state has an older layout (format 1, before the high-level tasks'
+/// slots held the goal their first observation shows) resumes with fresh episodes, not an error.
+#[test]
+fn a_state_of_an_older_layout_resumes_with_fresh_episodes() {
+    use safetensors::tensor::{Dtype, TensorView};
+    let mut c = config("imitation", "", "older");
+    c.run.iterations = 2;
+    let dir = c.run.out_dir.clone();
+    let _ = std::fs::remove_dir_all(&dir);
+    run(c.clone(), None);
+    let ck = dir.join("latest.safetensors");
+    // the envelope of the saved state, written as format 1
+    #[derive(serde::Serialize)]
+    struct Envelope {
+        format: u32,
+        world: usize,
+        env_config: String,
+        ranks: Vec<Vec<u8>>,
+    }
+    let old = postcard::to_allocvec(&Envelope {
+        format: 1,
+        world: 1,
+        env_config: String::new(),
+        ranks: vec![vec![0; 8]],
+    })
+    .unwrap();
+    let bytes = std::fs::read(&ck).unwrap();
+    let (_, meta) = safetensors::SafeTensors::read_metadata(&bytes).unwrap();
+    let st = safetensors::SafeTensors::deserialize(&bytes).unwrap();
+    let name = skillmimic_learn::trainer::resume::TENSOR;
+    let mut views: Vec<(String, TensorView<'_>)> =
+        st.tensors().into_iter().filter(|(n, _)| n != name).collect();
+    views.push((name.to_string(), TensorView::new(Dtype::U8, vec![old.len()], &old).unwrap()));
+    std::fs::write(&ck, safetensors::serialize(views, meta.metadata().clone()).unwrap()).unwrap();
+    c.run.iterations = 3;
+    let mut t = Trainer::new(c, Some(&ck)).expect("an older layout resumes fresh");
+    assert_eq!(t.progress.iteration, 2);
+    t.iteration().unwrap();
     std::fs::remove_dir_all(&dir).unwrap();
 }
