@@ -64,6 +64,15 @@ pub struct FrameState {
     pub ball_vel: [f64; 3],
 }
 
+impl FrameState {
+    /// The root (body 0) position and the ball's position and velocity of a simulation state
+    /// (world frame, m and m/s).
+    pub fn of(st: &skillmimic_sim::EnvState<'_>) -> Self {
+        use skillmimic_sim::BALL;
+        Self { root_pos: st.pos(0), ball_pos: st.pos(BALL), ball_vel: st.linvel(BALL) }
+    }
+}
+
 /// The success rule families.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SkillKind {

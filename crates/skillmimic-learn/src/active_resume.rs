@@ -80,18 +80,25 @@ pub fn prepare(cfg: &mut TrainConfig, checkpoint: &Path) -> Result<(), LearnErro
     Ok(())
 }
 
-/// The file names of the clips accepted by the rounds logged in `log` (`active.jsonl`; missing:
-/// none).
-fn accepted_files(log: &Path) -> Result<BTreeSet<String>, LearnError> {
+/// The rounds logged in `log` (`active.jsonl`, one JSON object per line; missing: none).
+fn rounds(log: &Path) -> Result<Vec<serde_json::Value>, LearnError> {
     let text = match std::fs::read_to_string(log) {
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(BTreeSet::new()),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Vec::new()),
         other => other.map_err(io(log))?,
     };
+    text.lines()
+        .map(|line| {
+            serde_json::from_str(line).map_err(|e| {
+                LearnError::Config(format!("{}: a line is not JSON: {e}", log.display()))
+            })
+        })
+        .collect()
+}
+
+/// The file names of the clips accepted by the rounds logged in `log`.
+fn accepted_files(log: &Path) -> Result<BTreeSet<String>, LearnError> {
     let mut names = BTreeSet::new();
-    for line in text.lines() {
-        let v: serde_json::Value = serde_json::from_str(line).map_err(|e| {
-            LearnError::Config(format!("{}: a line is not JSON: {e}", log.display()))
-        })?;
+    for v in rounds(log)? {
         let accepted = v["report"]["accepted"].as_array().into_iter().flatten();
         for file in accepted.filter_map(|pair| pair.get(1)?.as_str()) {
             if let Some(name) = Path::new(file).file_name() {
@@ -104,12 +111,5 @@ fn accepted_files(log: &Path) -> Result<BTreeSet<String>, LearnError> {
 
 /// Whether `log` (`active.jsonl`) holds a round of iteration `it`.
 pub fn round_logged(log: &Path, it: u64) -> Result<bool, LearnError> {
-    let text = match std::fs::read_to_string(log) {
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(false),
-        other => other.map_err(io(log))?,
-    };
-    Ok(text.lines().any(|l| {
-        serde_json::from_str::<serde_json::Value>(l)
-            .is_ok_and(|v| v.get("iteration").and_then(|x| x.as_u64()) == Some(it))
-    }))
+    Ok(rounds(log)?.iter().any(|v| v.get("iteration").and_then(|x| x.as_u64()) == Some(it)))
 }

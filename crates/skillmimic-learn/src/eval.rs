@@ -13,7 +13,6 @@ use serde::Serialize;
 use skillmimic_env::metrics::{FrameState, ImitationMetrics, V1Success, V2Success, skill_kind};
 use skillmimic_env::{Env, EnvConfig, EnvError, SkillEnv, StateInit};
 use skillmimic_motion::MotionLibrary;
-use skillmimic_sim::BALL;
 use std::sync::Arc;
 
 use crate::policy::{InferenceBuffers, Policy};
@@ -308,12 +307,7 @@ pub fn evaluate_with(
         env.step(&actions).expect("policy actions are finite");
         let b = env.buffers();
         for i in 0..n {
-            let st = env.mujoco().env_state(i);
-            let fs = FrameState {
-                root_pos: st.pos(0),
-                ball_pos: st.pos(BALL),
-                ball_vel: st.linvel(BALL),
-            };
+            let fs = FrameState::of(&env.mujoco().env_state(i));
             let tr = &mut trackers[i];
             tr.step(&fs, b.reward[i]);
             let counted = finished[i] < quota[i];

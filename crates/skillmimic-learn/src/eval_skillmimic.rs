@@ -30,7 +30,6 @@ use serde::Serialize;
 use skillmimic_env::metrics::{FrameState, SkillKind, TRIAL_FRAMES, V1Success, skill_kind};
 use skillmimic_env::{Env, EnvConfig, EnvError, SkillEnv, StateInit};
 use skillmimic_motion::MotionLibrary;
-use skillmimic_sim::BALL;
 
 use crate::eval::target_heights;
 use crate::policy::{InferenceBuffers, Policy};
@@ -232,12 +231,7 @@ fn trial(
         }
         env.step(&a)?;
         steps += 1;
-        let st = env.mujoco().env_state(0);
-        tracker.update(&FrameState {
-            root_pos: st.pos(0),
-            ball_pos: st.pos(BALL),
-            ball_vel: st.linvel(BALL),
-        });
+        tracker.update(&FrameState::of(&env.mujoco().env_state(0)));
         let b = env.buffers();
         if b.terminated[0] != 0 || b.truncated[0] != 0 {
             break;

@@ -5,8 +5,9 @@
 //! `log.jsonl` rows (all but the timings) and byte-identical checkpoints. Also: a checkpoint
 //! resumed with another environment configuration is refused naming the keys, or resumed with
 //! fresh episodes where `run.fresh_episodes` asks for it; one without the saved state or with an
-//! older layout of it (an older version's) resumes with fresh episodes. Active skill learning, whose rounds change the library
-//! and its weights while the run trains, resumes exactly with the original configuration.
+//! older layout of it (an older version's) resumes with fresh episodes. Active skill learning,
+//! whose rounds change the library and its weights while the run trains, resumes exactly with the
+//! original configuration.
 
 mod common;
 use common::{skill_policy, workspace_root};

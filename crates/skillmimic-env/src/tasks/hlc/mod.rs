@@ -268,6 +268,7 @@ impl<R: Rule> HighLevel<R> {
             Driver::Parts(p) => (ActionSpace::Box { dim: p.latent_dim() }, Vec::new()),
         };
         let hold = if matches!(driver, Driver::Parts(_)) { h.latent_steps } else { h.llc_steps };
+        let released = h.timing == config::HlcTiming::Released && rule.released_loop();
         let humanoid = skillmimic_core::characters::skillmimic::spec(Default::default());
         let spec = TaskSpec {
             name: R::NAME,
@@ -278,7 +279,7 @@ impl<R: Rule> HighLevel<R> {
             metric_names: crate::task::names(&rule.metric_names()),
             info_names: rule.info_names().iter().map(|s| s.to_string()).collect(),
             steps_per_action: hold,
-            hold_through_end: h.timing == config::HlcTiming::Released && rule.released_loop(),
+            hold_through_end: released,
             choice_labels,
             token_groups: [
                 ("state".to_string(), layout::STATE_DIM),
@@ -292,7 +293,6 @@ impl<R: Rule> HighLevel<R> {
             ..TaskSpec::default()
         };
         let threads = if cfg.threads == 0 { rayon::current_num_threads() } else { cfg.threads };
-        let released = h.timing == config::HlcTiming::Released && rule.released_loop();
         Ok(Self {
             rule,
             cfg: h.clone(),
