@@ -6,4 +6,4 @@ set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 ./scripts/setup.sh          # runtime packages only (python/requirements.txt)
 cargo build --release -p skillmimic-cli --bin skillmimic
-./target/release/skillmimic train --preset tiny --iterations 400 --num-envs 32 --out runs/demo "$@"
+"${CARGO_TARGET_DIR:-target}/release/skillmimic" train --preset tiny --iterations 400 --num-envs 32 --out runs/demo "$@"
