@@ -58,7 +58,7 @@ pub fn write(p: &Proprioception, n: usize, st: &EnvState<'_>, out: &mut [f32]) {
     }
 }
 
-/// [`write`] for `spec`'s bodies.
+/// [`fn@write`] for `spec`'s bodies.
 pub fn write_for(spec: &CharacterSpec, st: &EnvState<'_>, out: &mut [f32]) {
     write(&spec.proprio, spec.bodies.len(), st, out)
 }

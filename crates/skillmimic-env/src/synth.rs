@@ -7,7 +7,7 @@
 //!   floor, a bounce with restitution 0.81 and free flight up to the catch height; the push speed
 //!   is solved so that the cycle closes;
 //! * the dribbling hand's palm stays on top of the ball during contact and follows a cubic
-//!   Hermite between release and catch in flight (a short dip, see [`HAND_FOLLOW`]); it is placed
+//!   Hermite between release and catch in flight (a short dip, see `HAND_FOLLOW`); it is placed
 //!   by damped-least-squares IK on the arm chain (thorax, shoulder, elbow, wrist ball joints) with
 //!   MuJoCo's Jacobians, position and orientation (palm down, fingers forward), with a null-space
 //!   pull towards the starting arm pose and a per-iteration step limit so that the arm moves

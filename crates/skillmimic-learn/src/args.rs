@@ -104,7 +104,7 @@ pub struct PresetArgs {
     /// tests).
     #[arg(long, default_value = "small")]
     pub preset: String,
-    /// TOML config file with [env], [ppo] and [run] tables (over the preset).
+    /// TOML config file with `[env]`, `[ppo]` and `[run]` tables (over the preset).
     #[arg(long)]
     pub config: Option<PathBuf>,
     #[command(flatten)]

@@ -8,8 +8,8 @@
 //! * [`amass`]: SMPL-family sequences in the AMASS `.npz` layout as a source skeleton motion;
 //! * [`bvh`]: BVH motion files (bounded parser, forward kinematics) for retargeting users' motions;
 //! * [`clip`]: the project's clip representation and its decoding from the 337-column layout;
-//! * [`format`]: the project's clip file format (safetensors, documented field by field);
-//! * [`reference`]: reference quantities derived once per clip (velocities, key bodies);
+//! * [`mod@format`]: the project's clip file format (safetensors, documented field by field);
+//! * [`mod@reference`]: reference quantities derived once per clip (velocities, key bodies);
 //! * [`character_clip`]: clips of any character (file format, validation);
 //! * [`retarget_hsi`], [`retarget_smpl`]: SkillMimic-skeleton clips onto the TokenHSI character
 //!   and onto the SMPL humanoid; [`retarget_onto`]: which character has which retarget;

@@ -2,8 +2,8 @@
 //!
 //! Velocities are backward differences times the frame rate, with frame 0 set to zero:
 //! * root linear velocity (world, m/s);
-//! * root angular velocity in the **root frame**: rotvec(conj(q[t−1]) · q[t]) · fps (rad/s) — the
-//!   convention of a MuJoCo free joint's `qvel[3:6]`;
+//! * root angular velocity in the **root frame**: rotvec(conj(q\[t−1\]) · q\[t\]) · fps (rad/s) —
+//!   the convention of a MuJoCo free joint's `qvel[3:6]`;
 //! * joint velocities: difference of exp-map components (an approximation of the local angular
 //!   velocity, as in the original code);
 //! * key-body and ball velocities (world, m/s); ball angular velocity from consecutive ball

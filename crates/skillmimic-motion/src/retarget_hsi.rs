@@ -13,7 +13,7 @@
 //!    shins ← Knee, feet ← Ankle; collars, toes and fingers have no counterpart.
 //! 3. Elbows: the source's are 3-DoF, the character's bend about y only. Each upper arm is
 //!    twisted about its own axis so that the source forearm lies in the hinge plane, and the hinge
-//!    angle points the forearm along the source's ([`fit_elbow_hinge`]), clamped to [−160°, 0°].
+//!    angle points the forearm along the source's (`fit_elbow_hinge`), clamped to [−160°, 0°].
 //! 4. Local rotations `G_t(parent)⁻¹ · G_t(b)`: intrinsic x-y-z hinge angles for the 3-DoF
 //!    joints (three nested hinges), hinge angles for the elbows, each clamped into its joint's
 //!    range (a hinge limit is a hard stop in the simulation; the report counts the clamps).

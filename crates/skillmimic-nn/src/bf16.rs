@@ -1,10 +1,10 @@
 //! bf16 matrix products with float32 accumulation (AVX512-BF16), for the reduced-precision PPO
 //! update.
 //!
-//! [`gemm`] computes `dst[m × n] (+)= lhs[m × k] · rhs[k × n]` like [`crate::mlp::gemm_raw`], with
-//! the inputs rounded to bfloat16 (round to nearest even, the rounding of `VCVTNE2PS2BF16`) and
-//! every product summed in float32 (`VDPBF16PS`). The output and everything around it stay float32:
-//! weights, optimizer state and the gradients that leave the product.
+//! [`fn@gemm`] computes `dst[m × n] (+)= lhs[m × k] · rhs[k × n]` like [`crate::mlp::gemm_raw`],
+//! with the inputs rounded to bfloat16 (round to nearest even, the rounding of `VCVTNE2PS2BF16`)
+//! and every product summed in float32 (`VDPBF16PS`). The output and everything around it stay
+//! float32: weights, optimizer state and the gradients that leave the product.
 //!
 //! Why written here: the `gemm` crate (0.19) has float32/float64 and a float16 path that converts
 //! to float32, but no bf16 dot-product kernel, and candle's CPU bf16 matmul goes through the same
@@ -245,7 +245,7 @@ impl Out {
 
 /// `dst[m × n] (+)= lhs[m × k] · rhs[k × n]` in bf16 × bf16 → float32 (see the module docs); the
 /// output is row-major with row stride `dst_rs`. Work is split over the current rayon pool by
-/// blocks of [`MC`] rows when `threads` > 1; each output element is one float32 sum in a fixed
+/// blocks of `MC` rows when `threads` > 1; each output element is one float32 sum in a fixed
 /// order, so results do not depend on scheduling.
 ///
 /// # Safety
@@ -405,7 +405,7 @@ unsafe fn tile_avx512(
     }
 }
 
-/// Reference of [`gemm`] in plain code (bf16-rounded inputs, float64 sums), for tests.
+/// Reference of [`fn@gemm`] in plain code (bf16-rounded inputs, float64 sums), for tests.
 #[allow(clippy::too_many_arguments)]
 pub fn reference(
     m: usize,

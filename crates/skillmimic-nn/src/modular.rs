@@ -86,7 +86,7 @@ fn linear<R: Rng + ?Sized>(inp: usize, out: usize, rng: &mut R) -> Mlp {
 
 /// Softmax attention of one row over the P part tokens: `qkv(which, part)` is that part's q (0),
 /// k (1) or v (2) row (E wide); with H heads of width d = E/H, writes the weights
-/// a[h][i][j] = softmax_j(q_i · k_j · scale) into `attn` (H·P·P) and the mixed embeddings
+/// a\[h\]\[i\]\[j\] = softmax_j(q_i · k_j · scale) into `attn` (H·P·P) and the mixed embeddings
 /// u_i = Σ_j a_ij v_j (heads side by side) into `u` (P·E). Shared by inference and the training
 /// forward, which keeps `attn` for its backward.
 pub fn attend_row<'a>(

@@ -1,6 +1,6 @@
 //! `skillmimic_rs._core`: the Rust environment exposed to Python.
 //!
-//! The Python package wraps [`env::CoreEnv`] in a gymnasium `VectorEnv`; this layer only moves
+//! The Python package wraps `env::CoreEnv` in a gymnasium `VectorEnv`; this layer only moves
 //! data: numpy arrays in, the Rust core steps with the GIL released, results are written into
 //! preallocated numpy buffers owned by the Python side. Every user mistake raises `ValueError` (or
 //! `RuntimeError` after `close()`), never a crash.

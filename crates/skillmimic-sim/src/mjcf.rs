@@ -27,7 +27,7 @@
 //!     direct (−stiffness, −damping) `solref` calibrated for the coefficient
 //!     ([`crate::ball::ball_floor_solref`]); the ball geom has `priority = 1` so that its
 //!     `solref` (and its friction) decides every ball–humanoid contact.
-//!     [`BodyContact::Soft`](crate::ball::BodyContact::Soft) keeps MuJoCo's default, non-bouncy
+//!     [`BodyContact::Soft`] keeps MuJoCo's default, non-bouncy
 //!     ball–humanoid contact instead.
 //!   - PhysX's linear and angular damping 0.01 s⁻¹ (dv/dt = −0.01·v, independent of the mass):
 //!     MuJoCo's free joint takes one damping for its six dofs, so the ball is attached by three

@@ -4,8 +4,9 @@
 
 use super::spec::{CharacterSpec, HandModel};
 
-/// What a character module declares about itself; its entry in [`REGISTERED`] is the one line
-/// that makes it selectable (`env.character`, the `mjcf/` scenes, every task that lists it).
+/// What a character module declares about itself; its entry in
+/// [`REGISTERED`](super::REGISTERED) is the one line that makes it selectable (`env.character`,
+/// the `mjcf/` scenes, every task that lists it).
 #[derive(Debug)]
 pub struct CharacterEntry {
     /// Registry name (the value of `env.character`).

@@ -3,14 +3,14 @@
 //! task's [`TaskSpec`].
 //!
 //! [`VecEnv<T>`] is generic over the task (static dispatch inside the per-environment loops);
-//! [`Env`] ([`face`]) is its object-safe face, used by the learner and the Python package for any
+//! [`Env`] (`face`) is its object-safe face, used by the learner and the Python package for any
 //! registered task (`Box<dyn Env>` from [`crate::registry::make`]).
 //!
 //! Each [`step`](VecEnv::step) advances all environments one policy step: the task's actions
 //! (or the PD targets a task computes from them) drive one physics step of the batch, then, in
 //! parallel on the simulation threads, the task computes every environment's observation,
 //! reward, terms, metrics and done flags. A task declaring `steps_per_action = k > 1` (the
-//! high-level tasks) has its action held for `k` such steps ([`hold`]). Finished environments
+//! high-level tasks) has its action held for `k` such steps (`hold`). Finished environments
 //! are reset either explicitly ([`reset_done`](VecEnv::reset_done), the reference learner's
 //! loop) or automatically in the same call (`autoreset`, gymnasium's SAME_STEP semantics,
 //! terminal observations kept in `final_obs`).

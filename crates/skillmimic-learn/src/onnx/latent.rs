@@ -22,7 +22,7 @@ fn part_controllers(g: &mut Graph, latent: &str, m: &ModularAttention) {
 
 /// Export a high-level `gaussian_mlp` policy over part embeddings fused with the frozen part
 /// controllers of its `modular_attention` skill policy: `obs` → normaliser → actor → `latent`
-/// (the Gaussian means, P·E wide) → [`part_controllers`] → `actions`.
+/// (the Gaussian means, P·E wide) → `part_controllers` → `actions`.
 pub fn fused_latent_model(
     hl: &Policy,
     skill: &Policy,

@@ -156,7 +156,7 @@ impl PolicyFamily for TokenFamily {
         let text = f.meta("actor_net").map_err(|e| e.to_string())?;
         Ok(Some(ActorNet::from(read(f, text, obs_dim, self.actor_outputs(space))?)))
     }
-    /// The network's [`TokenSpec`](skillmimic_nn::token::TokenSpec) as JSON.
+    /// The network's [`TokenSpec`] as JSON.
     fn describe_actor(&self, actor: &ActorNet) -> Option<String> {
         let t = actor.downcast_ref::<skillmimic_nn::token::TokenTransformer>()?;
         Some(serde_json::to_string(&t.spec).expect("a serialisable description"))

@@ -221,7 +221,7 @@ pub fn input_grad_plain(
     }
 }
 
-/// g_in = (g · W) ⊙ [h_in > 0] (n × in).
+/// g_in = (g · W) ⊙ \[h_in > 0\] (n × in).
 #[allow(clippy::too_many_arguments)]
 pub fn input_grad(
     g: &[f32],

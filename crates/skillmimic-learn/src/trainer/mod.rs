@@ -21,9 +21,9 @@
 //! state of the environments, streams and extensions, so that it goes on exactly as the run
 //! would have ([`resume`]; otherwise with freshly reset environments).
 //!
-//! The parts: [`setup`] builds a trainer (seeds, environment, fresh or resumed policy, the
-//! data-parallel agreement, extensions); [`rollout`] collects an iteration's samples;
-//! [`update`] runs PPO on them; [`extension`] is the hook interface of the parts that ride
+//! The parts: `setup` builds a trainer (seeds, environment, fresh or resumed policy, the
+//! data-parallel agreement, extensions); `rollout` collects an iteration's samples;
+//! `update` runs PPO on them; `extension` is the hook interface of the parts that ride
 //! along (`ppo.amp.enabled`: the motion prior's style reward and discriminator,
 //! [`crate::amp_reward`]).
 //!

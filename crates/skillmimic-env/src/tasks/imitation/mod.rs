@@ -9,7 +9,7 @@
 //! Trajectory Graph, Adaptive Trajectory Sampling) when switched on in `[env.v2]`.
 //!
 //! [`SkillEnv`] = the batched driver running this task; its constructors and task-specific
-//! accessors are in [`env`].
+//! accessors are in [`mod@env`].
 
 pub mod env;
 

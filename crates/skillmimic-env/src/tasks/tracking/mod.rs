@@ -74,7 +74,7 @@ pub fn episode_starts(cfg: &mut EnvConfig, s: crate::task::EpisodeStarts) -> Res
 pub const LAYOUT: crate::obs_blocks::ObsLayout =
     crate::obs_blocks::ObsLayout::Proprio { part: "reference" };
 
-/// Reference body states of one clip (float32, frame-major, [`PACKED`] per body).
+/// Reference body states of one clip (float32, frame-major, `PACKED` per body).
 #[derive(Clone, Debug, PartialEq)]
 pub struct ClipFrames {
     pub frames: usize,
