@@ -7,13 +7,15 @@ use std::sync::Arc;
 
 use anyhow::{Context, bail};
 use skillmimic_core::tensorfile::{OwnedTensor, write_atomic};
+use skillmimic_env::config::EnvConfig;
 use skillmimic_env::episode::reset_state_from_clip;
 use skillmimic_env::{Env, load_motion_library};
 use skillmimic_learn::policy::{InferenceBuffers, Policy};
 use skillmimic_sim::{BatchSim, Scene};
 
 use crate::common::{ConfigFlags, load_checkpoint};
-use crate::video::{Frames, SceneRenderer, write_video};
+use crate::ghost::{GhostMode, current_reference, ghost_states, reference_fields};
+use crate::video::{Frames, Ghost, SceneRenderer, write_video};
 use skillmimic_env::markers::Marker;
 use skillmimic_env::tasks::hlc::config::HlcConfig;
 
@@ -50,6 +52,11 @@ pub struct Args {
     /// Sample actions from the Gaussian instead of using the mean.
     #[arg(long)]
     pub stochastic: bool,
+    /// The reference motion in a policy's video, drawn as a translucent ghost: `auto` (over the
+    /// character when the task plays reference clips), `overlay`, `beside` (1.2 m to the side),
+    /// `off`.
+    #[arg(long, value_enum, default_value_t = GhostMode::Auto)]
+    pub ghost: GhostMode,
     /// High-level tasks: open MuJoCo's interactive viewer instead (keys switch skills, a floor
     /// double-click places the target; runs `python -m skillmimic_rs.interactive`, needs a
     /// display and the Python package).
@@ -103,18 +110,21 @@ fn interactive(ckpt: &Path, flags: &ConfigFlags) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// A filmed rollout: qpos of environment 0 after every policy step and its task information
-/// row (the goal of a high-level task; empty rows otherwise).
+/// A filmed rollout: qpos of environment 0 after every policy step, its task information row
+/// (the goal of a high-level task; empty rows otherwise) and, for a task playing reference clips,
+/// the (clip, frame) the state is compared with.
 pub struct Rollout {
     pub qpos: Vec<Vec<f64>>,
     pub info: Vec<Vec<f32>>,
+    pub reference: Vec<Option<(usize, usize)>>,
 }
 
-/// Environment 0's state and information row.
+/// Environment 0's state, information row and reference.
 fn snapshot(env: &dyn Env, r: &mut Rollout) {
     let ni = env.spec().info_names.len();
     r.qpos.push(env.mujoco().env_qpos(0).to_vec());
     r.info.push(env.buffers().info[..ni].to_vec());
+    r.reference.push(reference_fields(env).and_then(|f| current_reference(env, f)));
 }
 
 /// Rollout of `policy` in one environment (auto-reset on episode end).
@@ -157,7 +167,7 @@ pub fn rollout_states(
     let mut buf = InferenceBuffers::default();
     let (mut mu, mut v, mut act, mut nl) =
         (vec![0.0; n * o], vec![0.0; n], vec![0.0; n * a], vec![0.0; n]);
-    let mut states = Rollout { qpos: Vec::new(), info: Vec::new() };
+    let mut states = Rollout { qpos: Vec::new(), info: Vec::new(), reference: Vec::new() };
     snapshot(env, &mut states);
     for _ in 0..steps {
         policy.infer(&env.buffers().obs, n, &mut buf, &mut mu, &mut v, 0);
@@ -172,22 +182,30 @@ pub fn rollout_states(
     Ok(states)
 }
 
-/// Render `states` (every `stride`-th) into frames, with the markers of `markers[k]` on frame k's
-/// state when given.
-#[allow(clippy::too_many_arguments)]
+/// What a video draws besides the states: the markers of `markers[k]` on frame k's state, and the
+/// ghost state `ghosts[k]` shifted by `ghost_offset` (world, m).
+#[derive(Clone, Copy, Default)]
+pub struct Overlays<'a> {
+    pub markers: Option<&'a [Vec<Marker>]>,
+    pub ghosts: Option<&'a [Option<Vec<f64>>]>,
+    pub ghost_offset: [f64; 3],
+}
+
+/// Render `states` (every `stride`-th) into frames with their overlays.
 pub fn render_states(
     model: &Arc<mujoco_rs::prelude::MjModel>,
     states: &[Vec<f64>],
-    markers: Option<&[Vec<Marker>]>,
+    over: Overlays<'_>,
     stride: usize,
-    w: usize,
-    h: usize,
+    (w, h): (usize, usize),
     fps: u32,
 ) -> anyhow::Result<Frames> {
     let mut r = SceneRenderer::new(model, w, h)?;
     let mut rgb = Vec::new();
     for (k, q) in states.iter().enumerate().step_by(stride.max(1)) {
-        rgb.push(r.render_marked(q, markers.map_or(&[][..], |m| &m[k]))?);
+        let ghost = over.ghosts.and_then(|g| g[k].as_deref());
+        let ghost = ghost.map(|qpos| Ghost { qpos, offset: over.ghost_offset });
+        rgb.push(r.render_frame(q, over.markers.map_or(&[][..], |m| &m[k]), ghost)?);
     }
     Ok(Frames { width: w, height: h, fps, rgb })
 }
@@ -200,31 +218,40 @@ pub fn video_rate(steps_per_action: usize, fps: u32) -> (usize, u32) {
     (stride as usize, rate / stride)
 }
 
-/// Render a rollout of a task's environment: its markers from the information rows.
+/// Render a rollout of a task's environment (configured by `cfg`): its markers from the
+/// information rows and the reference ghost as `ghost` says.
 fn render_rollout(
     env: &dyn Env,
+    cfg: &EnvConfig,
     r: &Rollout,
+    ghost: GhostMode,
     fps: u32,
-    w: usize,
-    h: usize,
+    size: (usize, usize),
 ) -> anyhow::Result<Frames> {
     let markers: Vec<Vec<Marker>> = r.info.iter().map(|row| env.markers(row)).collect();
+    let ghosts = ghost_states(env, cfg, ghost, &r.reference)?;
+    let over = Overlays {
+        markers: Some(&markers),
+        ghosts: Some(&ghosts),
+        ghost_offset: ghost.offset().unwrap_or_default(),
+    };
     let (stride, fps) = video_rate(env.spec().steps_per_action, fps);
-    render_states(env.mujoco().env_model(0), &r.qpos, Some(&markers), stride, w, h, fps)
+    render_states(env.mujoco().env_model(0), &r.qpos, over, stride, size, fps)
 }
 
-/// Roll out `policy` deterministically in `env` (its first environment is filmed) for `steps`
-/// steps from seed `seed` and write a video.
+/// Roll out `policy` deterministically in `env` (its first environment is filmed; configured by
+/// `cfg`) for `steps` steps from seed `seed` and write a video with the reference ghost where the
+/// task has one.
 pub fn render_policy_video(
     policy: &Policy,
-    mut env: Box<dyn Env>,
+    (mut env, cfg): (Box<dyn Env>, &EnvConfig),
     seed: u64,
     steps: usize,
     path: &Path,
-    (w, h): (usize, usize),
+    size: (usize, usize),
 ) -> anyhow::Result<()> {
     let states = rollout_states(policy, env.as_mut(), steps, false, seed)?;
-    let frames = render_rollout(env.as_ref(), &states, 30, w, h)?;
+    let frames = render_rollout(env.as_ref(), cfg, &states, GhostMode::Auto, 30, size)?;
     write_video(path, &frames)
 }
 
@@ -270,7 +297,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                 println!("states {} ({} steps)", p.display(), r.qpos.len());
             }
             if let Some(p) = &a.video {
-                let frames = render_rollout(env.as_ref(), &r, a.fps, a.width, a.height)?;
+                let size = (a.width, a.height);
+                let frames = render_rollout(env.as_ref(), &cfg.env, &r, a.ghost, a.fps, size)?;
                 write_video(p, &frames)?;
                 println!(
                     "video  {} ({} frames at {} fps)",
@@ -301,7 +329,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         println!("states {} ({} steps)", p.display(), states.len());
     }
     if let Some(p) = &a.video {
-        let frames = render_states(scene.model(), &states, None, stride, a.width, a.height, a.fps)?;
+        let size = (a.width, a.height);
+        let frames =
+            render_states(scene.model(), &states, Overlays::default(), stride, size, a.fps)?;
         write_video(p, &frames)?;
         println!("video  {} ({} frames at {} fps)", p.display(), frames.rgb.len(), a.fps);
     }

@@ -44,7 +44,7 @@ impl RunHook for VideoHook {
         Ok(
             match crate::cmd_play::render_policy_video(
                 &t.policy,
-                env,
+                (env, &c),
                 t.cfg.run.seed,
                 180,
                 &path,

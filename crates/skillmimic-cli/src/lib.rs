@@ -30,6 +30,7 @@ mod cmd_trace;
 mod cmd_train;
 mod common;
 mod demo;
+mod ghost;
 mod plot;
 mod plot_draw;
 mod video;

@@ -13,7 +13,7 @@ use std::sync::Arc;
 use anyhow::{Context, bail};
 use mujoco_rs::prelude::*;
 use mujoco_rs::renderer::MjRenderer;
-use mujoco_rs::wrappers::mj_model::MjtObjBase;
+use mujoco_rs::wrappers::mj_model::{MjtGeomBase, MjtObjBase};
 
 use skillmimic_env::markers::{MAX_MARKERS, Marker};
 
@@ -25,10 +25,25 @@ pub struct Frames {
     pub rgb: Vec<Vec<u8>>,
 }
 
-/// Offscreen renderer of a scene through its `side` camera.
+/// Colour of the reference ghost (translucent grey-blue).
+pub const GHOST_RGBA: [f32; 4] = [0.55, 0.7, 0.95, 0.35];
+
+/// Offscreen renderer of a scene through its `side` camera (it tracks the centre of mass of the
+/// whole scene, the character and its objects together).
 pub struct SceneRenderer {
     renderer: MjRenderer,
     data: MjData<Arc<MjModel>>,
+    /// Kinematics of the reference ghost (a second copy of the scene's state).
+    ghost: MjData<Arc<MjModel>>,
+    model: Arc<MjModel>,
+}
+
+/// A second, translucent copy of the scene's bodies drawn into a frame: the reference motion's
+/// state `qpos` shifted by `offset` (world, m; zero = drawn over the policy's character).
+#[derive(Clone, Copy, Debug)]
+pub struct Ghost<'a> {
+    pub qpos: &'a [f64],
+    pub offset: [f64; 3],
 }
 
 impl SceneRenderer {
@@ -42,7 +57,7 @@ impl SceneRenderer {
             .width(width as u32)
             .height(height as u32)
             .rgb(true)
-            .num_visual_user_geom(MAX_MARKERS as u32)
+            .num_visual_user_geom((MAX_MARKERS + model.ffi().ngeom as usize) as u32)
             .camera(camera)
             .build(model)
             .map_err(|e| {
@@ -50,14 +65,61 @@ impl SceneRenderer {
                     "cannot start headless rendering (EGL through Mesa's libEGL is needed): {e}"
                 )
             })?;
-        Ok(Self { renderer, data: MjData::new(Arc::clone(model)) })
+        Ok(Self {
+            renderer,
+            data: MjData::new(Arc::clone(model)),
+            ghost: MjData::new(Arc::clone(model)),
+            model: Arc::clone(model),
+        })
     }
 
-    /// Render the state `qpos` (kinematics only) with visual-only task markers and return the RGB
-    /// image (row 0 at the top).
-    pub fn render_marked(&mut self, qpos: &[f64], markers: &[Marker]) -> anyhow::Result<Vec<u8>> {
+    /// Add the ghost's geoms (every geom of a body other than the world: the character and its
+    /// objects) to the user scene, translucent, at the ghost state's kinematics.
+    fn add_ghost(&mut self, g: Ghost<'_>) {
+        self.ghost.qpos_mut().copy_from_slice(g.qpos);
+        self.ghost.forward();
+        let m = &self.model;
         let scene = self.renderer.user_scene_mut();
-        scene.clear_geom();
+        let (types, sizes, bodies) = (m.geom_type(), m.geom_size(), m.geom_bodyid());
+        for k in 0..types.len() {
+            if bodies[k] == 0 {
+                continue;
+            }
+            let s = sizes[k];
+            // the abstract visual geom's size: radii and half-lengths per axis
+            let size = match types[k] {
+                MjtGeomBase::mjGEOM_SPHERE => [s[0]; 3],
+                MjtGeomBase::mjGEOM_CAPSULE | MjtGeomBase::mjGEOM_CYLINDER => [s[0], s[0], s[1]],
+                _ => s,
+            };
+            let p = self.ghost.geom_xpos()[k];
+            let pos = [p[0] + g.offset[0], p[1] + g.offset[1], p[2] + g.offset[2]];
+            // SAFETY: the created geom keeps the "none" material, texture and object ids.
+            let _ = unsafe {
+                scene.try_create_geom(
+                    MjtGeom::from(types[k]),
+                    Some(size),
+                    Some(pos),
+                    Some(self.ghost.geom_xmat()[k]),
+                    Some(GHOST_RGBA),
+                )
+            };
+        }
+    }
+
+    /// Render the state `qpos` (kinematics only) with visual-only task markers and, when given,
+    /// the reference ghost; return the RGB image (row 0 at the top).
+    pub fn render_frame(
+        &mut self,
+        qpos: &[f64],
+        markers: &[Marker],
+        ghost: Option<Ghost<'_>>,
+    ) -> anyhow::Result<Vec<u8>> {
+        self.renderer.user_scene_mut().clear_geom();
+        if let Some(g) = ghost {
+            self.add_ghost(g);
+        }
+        let scene = self.renderer.user_scene_mut();
         for m in markers.iter().take(MAX_MARKERS) {
             // SAFETY: the created geoms keep the "none" material, texture and object ids.
             match *m {

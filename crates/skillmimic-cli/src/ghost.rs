@@ -1,0 +1,136 @@
+//! The reference motion drawn with a policy's rollout in `skillmimic play` videos: for a task
+//! that plays clips of the BallPlay-M character (imitation), each filmed step's episode fields
+//! name the clip and the reference frame the state is compared with, and that frame's pose
+//! (humanoid and ball) is drawn as a translucent ghost over the character or beside it.
+
+use std::sync::Arc;
+
+use anyhow::{Context, bail};
+use skillmimic_env::Env;
+use skillmimic_env::config::EnvConfig;
+use skillmimic_env::episode::reset_state_from_clip;
+use skillmimic_sim::{BatchSim, Scene};
+
+/// Where the reference motion is drawn in a policy's video (`play --ghost`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum GhostMode {
+    /// Over the character when the task plays reference clips, else not at all.
+    #[default]
+    Auto,
+    /// Over the character (translucent).
+    Overlay,
+    /// Beside the character: shifted by [`BESIDE_OFFSET`].
+    Beside,
+    /// Not drawn.
+    Off,
+}
+
+/// Shift of a ghost drawn beside the character: 1.2 m along world +x, the `side` camera's
+/// horizontal axis.
+pub const BESIDE_OFFSET: [f64; 3] = [1.2, 0.0, 0.0];
+
+impl GhostMode {
+    /// The world offset of the ghost, or `None` when it is not drawn.
+    pub fn offset(self) -> Option<[f64; 3]> {
+        match self {
+            GhostMode::Auto | GhostMode::Overlay => Some([0.0; 3]),
+            GhostMode::Beside => Some(BESIDE_OFFSET),
+            GhostMode::Off => None,
+        }
+    }
+}
+
+/// Positions of the episode fields `clip` and `ref_frame` of the environment's task, when it
+/// plays the clips of a motion library.
+pub fn reference_fields(env: &dyn Env) -> Option<(usize, usize)> {
+    let names = &env.spec().episode_names;
+    let clip = names.iter().position(|n| *n == "clip")?;
+    let frame = names.iter().position(|n| *n == "ref_frame")?;
+    env.library().is_some().then_some((clip, frame))
+}
+
+/// The (clip, frame) environment 0 is compared with now, by the fields of [`reference_fields`].
+pub fn current_reference(env: &dyn Env, fields: (usize, usize)) -> Option<(usize, usize)> {
+    let e = env.episode_info(0);
+    let (c, f) = (*e.get(fields.0)?, *e.get(fields.1)?);
+    Some((usize::try_from(c).ok()?, usize::try_from(f).ok()?))
+}
+
+/// The ghost states (`qpos` of the task's scene) of the recorded references; `None` where a step
+/// has none. Errors when `mode` asks for a ghost the task cannot give.
+pub fn ghost_states(
+    env: &dyn Env,
+    cfg: &EnvConfig,
+    mode: GhostMode,
+    refs: &[Option<(usize, usize)>],
+) -> anyhow::Result<Vec<Option<Vec<f64>>>> {
+    let none = || vec![None; refs.len()];
+    if mode == GhostMode::Off {
+        return Ok(none());
+    }
+    // the clips' poses fit the scene only on the BallPlay-M character (its own clips)
+    let ballplay = cfg.resolved_character().is_ok_and(|c| c.plays_ballplay());
+    let (Some(lib), Some(_), true) = (env.library(), reference_fields(env), ballplay) else {
+        if mode == GhostMode::Auto {
+            return Ok(none());
+        }
+        bail!(
+            "--ghost {mode:?}: task '{}' plays no reference clips of the BallPlay-M character \
+                (use --ghost off)",
+            env.spec().name
+        );
+    };
+    let scene = Arc::new(Scene::new(cfg.scene_options()?)?);
+    let mut sim = BatchSim::new(scene, 1, 1)?;
+    let mut out = Vec::with_capacity(refs.len());
+    for r in refs {
+        out.push(match *r {
+            Some((clip, frame)) if clip < lib.len() => {
+                let m = lib.get(clip);
+                let t = frame.min(m.clip.num_frames.saturating_sub(1));
+                sim.reset(&[true], &[reset_state_from_clip(m, t)])
+                    .context("the reference ghost's state")?;
+                Some(sim.qpos(0).to_vec())
+            }
+            _ => None,
+        });
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn env_of(task: &str) -> (Box<dyn Env>, EnvConfig) {
+        let cfg = EnvConfig { task: task.into(), num_envs: 1, threads: 1, ..EnvConfig::default() };
+        (skillmimic_env::registry::make(&cfg).unwrap(), cfg)
+    }
+
+    #[test]
+    fn the_ghost_of_a_reset_is_the_reset_state() {
+        // a reset places the character (and ball) exactly at the reference frame it starts from,
+        // so the ghost of that step must coincide with the simulated state
+        let (mut env, cfg) = env_of("imitation");
+        for seed in 0..4 {
+            env.reset_all(Some(seed));
+            let r = current_reference(env.as_ref(), reference_fields(env.as_ref()).unwrap());
+            let g = ghost_states(env.as_ref(), &cfg, GhostMode::Overlay, &[r]).unwrap();
+            let (ghost, sim) = (g[0].as_ref().unwrap(), env.mujoco().env_qpos(0));
+            assert_eq!(ghost.len(), sim.len());
+            let worst = ghost.iter().zip(sim).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+            assert!(worst < 1e-9, "seed {seed}: ghost and reset state differ by {worst}");
+        }
+    }
+
+    #[test]
+    fn a_task_without_clips_has_no_ghost() {
+        let (mut env, cfg) = env_of("stand");
+        env.reset_all(Some(0));
+        assert!(reference_fields(env.as_ref()).is_none());
+        let auto = ghost_states(env.as_ref(), &cfg, GhostMode::Auto, &[None, None]).unwrap();
+        assert_eq!(auto, vec![None, None]);
+        let err = ghost_states(env.as_ref(), &cfg, GhostMode::Beside, &[None]).unwrap_err();
+        assert!(err.to_string().contains("plays no reference clips"), "{err}");
+    }
+}
