@@ -307,15 +307,17 @@ pub fn eval(a: EvalArgs) -> anyhow::Result<()> {
             ..Default::default()
         };
         let r = skillmimic_learn::eval::evaluate_v2(&c.policy, &cfg.env, &lib, &vcfg, 0)?;
+        // a mean over no skill with a rule is NaN in the report (null in the JSON): say so
+        let rate = |x: f64| if x.is_finite() { format!("{x:.3}") } else { "n/a".into() };
         println!(
-            "SkillMimic-V2 ({} episodes per case, {} steps from frame {}): SR {:.3}, TSR {:.3}, \
-                eps-NSR {:.3}, NR {:.4}",
+            "SkillMimic-V2 ({} episodes per case, {} steps from frame {}): SR {}, TSR {}, \
+                eps-NSR {}, NR {:.4}",
             vcfg.episodes,
             vcfg.horizon,
             vcfg.start_frame,
-            r.sr_mean,
-            r.tsr_mean,
-            r.eps_nsr_mean,
+            rate(r.sr_mean),
+            rate(r.tsr_mean),
+            rate(r.eps_nsr_mean),
             r.nr_mean
         );
         println!(
@@ -341,7 +343,11 @@ pub fn eval(a: EvalArgs) -> anyhow::Result<()> {
         let scfg =
             SkillMimicEvalConfig { trials: a.episodes, seed: a.seed, stochastic: a.stochastic };
         let r = evaluate_skillmimic(&c.policy, &cfg.env, &lib, &scfg)?;
-        println!("SkillMimic success rates (paper 6.2.4, 10-s trials): mean {:.3}", r.mean);
+        if r.per_skill.is_empty() {
+            println!("SkillMimic success rates (paper 6.2.4, 10-s trials): no skill with a rule");
+        } else {
+            println!("SkillMimic success rates (paper 6.2.4, 10-s trials): mean {:.3}", r.mean);
+        }
         for (k, v) in &r.per_skill {
             println!(
                 "  skill {k}: {:.3} (95 % interval {:.3} to {:.3}) over {} trials of {} start \
