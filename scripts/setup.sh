@@ -4,7 +4,8 @@
 #        ./scripts/setup.sh           runtime only (python/requirements.txt: mujoco==3.17.0, the
 #                                     source of libmujoco for both Rust and Python) - the main job;
 #        ./scripts/setup.sh --tests   runtime + everything the tests need
-#                                     (python/requirements-test.txt: maturin, pytest, PyTorch, ...);
+#                                     (python/requirements-test.txt: maturin, pytest, PyTorch, ...)
+#                                     and the guide's generator mdBook (built into .tools);
 #   2. .mujoco/lib/libmujoco.so -> the wheel's libmujoco.so.3.17.0, which .cargo/config.toml hands
 #      to the mujoco-rs build script, and which the crates' build script bakes in as run-time path.
 # Each part installs once (a stamp per part, keyed on the requirement files' contents); a second
@@ -87,4 +88,13 @@ if [ "$tests" = 1 ]; then
     cargo fetch --locked --manifest-path tests/data-crates/Cargo.toml
     echo "$want" > .venv/.skillmimic-data-crates.sha1
   fi
+fi
+
+# the guide's generator (docs/book.toml; scripts/docs.sh), built from crates.io into .tools once
+# per pinned version: mdBook with its search index, without the file watcher and local server
+mdbook_version=0.5.4
+if [ "$tests" = 1 ] && [ "$(.tools/bin/mdbook --version 2>/dev/null || true)" != "mdbook v$mdbook_version" ]; then
+  echo "setup: building mdBook $mdbook_version into .tools (once, about 2 min)"
+  cargo install --quiet mdbook --version "$mdbook_version" --locked --no-default-features \
+    --features search --root .tools
 fi

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Run every test of skillmimic-rs: Rust unit/integration tests, then the Python package built with
 # `pip install .` and its test-suite (cross-checks against the official `mujoco` package, numpy
-# reference, PyTorch, SB3/rsl_rl adapters). Idempotent set-up included.
+# reference, PyTorch, SB3/rsl_rl adapters, the guide's tutorials), after building the guide and
+# checking its links. Idempotent set-up included.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 # Every temporary file of the run (Rust tests' run folders, pytest's tmp_path, pip's builds) goes
@@ -18,4 +19,6 @@ cargo clippy --release --workspace --all-targets -- -D warnings
 cargo build --release --workspace --bins
 cargo test --release --workspace
 .venv/bin/python -m pip install --disable-pip-version-check --no-build-isolation -q .
+# the guide (docs/, mdBook) with its Python and Rust API references; a broken link fails
+./scripts/docs.sh
 .venv/bin/python -m pytest -q tests

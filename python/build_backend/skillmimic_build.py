@@ -40,7 +40,7 @@ def _require_cargo() -> None:
         "skillmimic-rs builds its Rust core from source and needs Rust (cargo) on PATH, which was not found"
         f"{hint}. Install Rust from https://rustup.rs (then `. \"$HOME/.cargo/env\"`), or install a prebuilt "
         "wheel instead: `pip install skillmimic_rs-*.whl` (build one once with `pip wheel . --no-deps -w dist` "
-        "on a machine with Rust; README, \"Install\")."
+        "on a machine with Rust; docs/getting-started/install.md)."
     )
 
 

@@ -40,7 +40,7 @@ class ExplorationCheck:
                 warnings.warn(
                     f"{self.library}: actions vary with std {spread:.2f} across environments while the reward is "
                     f"{reward:.1e} per step. SkillMimic's reward is ~0 under such wide exploration and PPO will not learn; "
-                    f"use a small fixed action noise ({self.setting}; README, Python: 'Recipes').",
+                    f"use a small fixed action noise ({self.setting}; docs/tutorials/gymnasium.md).",
                     RuntimeWarning,
                     stacklevel=3,
                 )

@@ -20,7 +20,7 @@ from .vec_env import VecEnv, _MODES
 
 
 def runner_recipe() -> dict:
-    """A fresh copy of the README's rsl_rl recipe: an ``OnPolicyRunner`` config (rsl-rl-lib 5) with
+    """A fresh copy of the rsl_rl recipe of docs/tutorials/gymnasium.md: an ``OnPolicyRunner`` config (rsl-rl-lib 5) with
     the `tiny` preset's PPO (ReLU MLPs [256, 128], 16 steps per environment, 4 minibatches, 2
     epochs, learning rate 3e-5), observation normalisation and the paper's action noise
     σ = e^-2.9 ≈ 0.055 at the start."""

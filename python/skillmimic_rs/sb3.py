@@ -19,7 +19,7 @@ from .vec_env import VecEnv, _MODES
 
 def ppo_recipe() -> dict[str, Any]:
     """The PPO settings that learn on SkillMimic's reward, as keyword arguments of
-    ``stable_baselines3.PPO`` (measured in the README): the `tiny` preset's PPO (ReLU MLPs
+    ``stable_baselines3.PPO`` (measured in docs/tutorials/gymnasium.md): the `tiny` preset's PPO (ReLU MLPs
     [256, 128], horizon 16, minibatch 128, 2 epochs, learning rate 3e-5, gamma 0.99, lambda 0.95,
     clip 0.2) and the paper's action noise log σ = -2.9. Use it through :func:`recipe_model`,
     which adds the two parts keyword arguments cannot express. A fresh copy on every call."""

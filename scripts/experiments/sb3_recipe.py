@@ -1,4 +1,4 @@
-"""The SB3 and rsl_rl recipes of the README, measured (issue 18): PPO of Stable-Baselines3 and of
+"""The SB3 and rsl_rl recipes of the guide (docs/tutorials/gymnasium.md), measured (issue 18): PPO of Stable-Baselines3 and of
 rsl_rl on the built-in demo clips with the settings that work on SkillMimic's reward
 (``skillmimic_rs.sb3.recipe_model``, ``skillmimic_rs.rsl_rl.runner_recipe``), next to SB3's
 defaults, all at the same budget of environment steps and the same environments (32).

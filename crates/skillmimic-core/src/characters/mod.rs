@@ -30,7 +30,9 @@ pub use spec::{
 };
 
 /// The registered characters, in listing order.
+// ANCHOR: registered
 pub const REGISTERED: &[&CharacterEntry] = &[&skillmimic::ENTRY, &tokenhsi::ENTRY, &smpl::ENTRY];
+// ANCHOR_END: registered
 
 impl Default for Character {
     /// The SkillMimic humanoid with articulated hands.

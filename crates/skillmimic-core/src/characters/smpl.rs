@@ -176,6 +176,7 @@ fn geom(g: YupGeom, density: f64) -> GeomSpec {
 }
 
 /// The registry entry (listed in `REGISTERED` of the characters module).
+// ANCHOR: entry
 pub const ENTRY: CharacterEntry = CharacterEntry {
     name: "smpl",
     summary: "SMPL humanoid of PHC/ModSkill: 24 bodies, 23 joints of three hinges, 69 dofs",
@@ -183,6 +184,7 @@ pub const ENTRY: CharacterEntry = CharacterEntry {
     ballplay: false,
     spec: |_| spec(),
 };
+// ANCHOR_END: entry
 
 /// The humanoid.
 pub const CHARACTER: Character = Character::new(&ENTRY, HandModel::Full);

@@ -24,6 +24,7 @@ pub const TASKS: &[TaskEntry] = &[
         build_sharing: Some(tasks::imitation::env::build_sharing),
         ..LOW_LEVEL
     },
+    // ANCHOR: stand
     TaskEntry {
         name: "stand",
         summary: "keep the pelvis height and the start heading (no clip, no ball)",
@@ -33,6 +34,7 @@ pub const TASKS: &[TaskEntry] = &[
         obs_layout: tasks::stand::LAYOUT,
         ..LOW_LEVEL
     },
+    // ANCHOR_END: stand
     TaskEntry {
         name: "tracking",
         summary: "motion tracking of clips without the ball (ModSkill, PHC): next-frame reference \

@@ -1,6 +1,7 @@
 //! `stand`: keep the pelvis at a target height and the heading the episode started with — no
-//! clip, no ball, on any character. The worked example of adding a task (README "Adding a
-//! task"): this module plus one line in [`crate::registry::TASKS`] and one config table,
+//! clip, no ball, on any character. The worked example of adding a task (the guide's tutorial
+//! docs/tutorials/add-a-task.md shows the parts between the `ANCHOR` comments): this module plus
+//! one line in [`crate::registry::TASKS`] and one config table,
 //! `[env.stand]` ([`StandConfig`], defined here and listed in the registry line).
 //!
 //! * Start: the character's rest pose (every joint at 0, upright root) at `start_height` (0 = the
@@ -33,6 +34,7 @@ use crate::error::{EnvError, bad};
 use crate::task::{ActionSpace, StepOut, Task, TaskSpec};
 use crate::vec_env::{Env, VecEnv};
 
+// ANCHOR: config
 /// Options of the `stand` task (`[env.stand]`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
@@ -80,6 +82,7 @@ impl Default for StandConfig {
 
 /// The `[env.stand]` table.
 pub const TABLE: TableEntry = TableEntry::of::<StandConfig>();
+// ANCHOR_END: config
 
 /// The observation: the character's proprioception, then the stand part (3).
 pub const LAYOUT: crate::obs_blocks::ObsLayout =
@@ -133,6 +136,7 @@ impl Stand {
     }
 }
 
+// ANCHOR: task
 impl Task for Stand {
     type Slot = StandSlot;
 
@@ -191,7 +195,9 @@ impl Task for Stand {
         self.write_obs(slot, st, obs);
     }
 }
+// ANCHOR_END: task
 
+// ANCHOR: build
 /// Registry constructor: the `stand` task from `[env]` (driver keys, the character) and
 /// `[env.stand]`.
 pub fn build(cfg: &EnvConfig) -> Result<Box<dyn Env>, EnvError> {
@@ -211,3 +217,4 @@ pub fn build(cfg: &EnvConfig) -> Result<Box<dyn Env>, EnvError> {
     let task = Stand::new(s.clone(), scene.character().clone());
     Ok(Box::new(VecEnv::with_task(task, scene, cfg.num_envs, cfg.threads, cfg.start_seed(0))?))
 }
+// ANCHOR_END: build
