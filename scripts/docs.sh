@@ -11,10 +11,9 @@ book=target/book
 rm -rf "$book"
 .tools/bin/mdbook build docs
 # the package and each public module (pdoc alone documents a package's __all__, which names
-# functions, not modules; `train` is both and pdoc adds that module itself)
+# functions and classes, not the modules)
 modules=$(.venv/bin/python -c 'import pkgutil, skillmimic_rs as m; print(" ".join(
-    f"skillmimic_rs.{i.name}" for i in pkgutil.iter_modules(m.__path__)
-    if not i.name.startswith("_") and i.name != "train"))')
+    f"skillmimic_rs.{i.name}" for i in pkgutil.iter_modules(m.__path__) if not i.name.startswith("_")))')
 # shellcheck disable=SC2086
 .venv/bin/python -m pdoc --docformat markdown --no-show-source -o "$book/api/python" skillmimic_rs $modules
 RUSTDOCFLAGS="-D warnings" cargo doc --quiet --no-deps --workspace

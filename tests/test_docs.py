@@ -134,6 +134,18 @@ def test_python_api_reference_covers_every_public_name():
         assert (site / "api" / "rust" / crate / "index.html").is_file(), f"no rustdoc for {crate}"
 
 
+def test_importing_the_train_module_keeps_the_train_function():
+    # `python -m skillmimic_rs.train` is the torchrun entry point; importing that submodule must
+    # not replace the package's function `train` (Python's import system sets the attribute)
+    r = subprocess.run(
+        [sys.executable, "-c", "import skillmimic_rs, skillmimic_rs.train, sys; "
+         "assert skillmimic_rs.train is skillmimic_rs.api.train, skillmimic_rs.train; "
+         "assert sys.modules['skillmimic_rs.train'].__name__ == 'skillmimic_rs.train'"],
+        capture_output=True, text=True,
+    )
+    assert r.returncode == 0, r.stderr
+
+
 def test_architecture_picture_matches_the_crates():
     r = subprocess.run([sys.executable, str(REPO / "scripts" / "architecture_svg.py"), "--check"], capture_output=True, text=True)
     assert r.returncode == 0, r.stderr

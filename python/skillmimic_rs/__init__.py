@@ -22,6 +22,8 @@ rendering).
 from __future__ import annotations
 
 import os
+import sys
+import types
 
 if "MUJOCO_GL" not in os.environ and not os.environ.get("DISPLAY"):
     os.environ["MUJOCO_GL"] = "egl"
@@ -68,3 +70,17 @@ __all__ = [
     "core_version",
     "__version__",
 ]
+
+
+class _Package(types.ModuleType):
+    """The package's module type: ``import skillmimic_rs.train`` (the torchrun entry point,
+    ``python -m skillmimic_rs.train``) must not replace the function ``skillmimic_rs.train`` with
+    that submodule, which Python's import system would otherwise do by setting the attribute."""
+
+    def __setattr__(self, name: str, value: object) -> None:
+        if name == "train" and isinstance(value, types.ModuleType) and value.__name__ == f"{__name__}.train":
+            return  # the submodule stays reachable as sys.modules["skillmimic_rs.train"]
+        super().__setattr__(name, value)
+
+
+sys.modules[__name__].__class__ = _Package
