@@ -102,9 +102,10 @@ def draw(graph: dict[str, list[str]]) -> str:
         'orient="auto-start-reverse"><path d="M 0 0 L 10 5 L 0 10 z" fill="#667"/></marker></defs>',
         f'<rect width="{width:.0f}" height="{height:.0f}" fill="white"/>',
     ]
+    arrows = reduced(graph)
     for n in sorted(graph):
         x, y = pos[n]
-        for m in reduced(graph)[n]:
+        for m in arrows[n]:
             mx, my = pos[m]
             out.append(
                 f'<line x1="{x + W / 2:.1f}" y1="{y + H:.1f}" x2="{mx + W / 2:.1f}" y2="{my:.1f}" '

@@ -8,13 +8,12 @@ use std::sync::Arc;
 use anyhow::{Context, bail};
 use skillmimic_core::tensorfile::{OwnedTensor, write_atomic};
 use skillmimic_env::config::EnvConfig;
-use skillmimic_env::episode::reset_state_from_clip;
 use skillmimic_env::{Env, load_motion_library};
 use skillmimic_learn::policy::{InferenceBuffers, Policy};
-use skillmimic_sim::{BatchSim, Scene};
+use skillmimic_sim::Scene;
 
 use crate::common::{ConfigFlags, load_checkpoint};
-use crate::ghost::{GhostMode, current_reference, ghost_states, reference_fields};
+use crate::ghost::{ClipPoser, GhostMode, current_reference, ghost_states, reference_fields};
 use crate::video::{Frames, Ghost, SceneRenderer, write_video};
 use skillmimic_env::markers::Marker;
 use skillmimic_env::tasks::hlc::config::HlcConfig;
@@ -313,13 +312,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             let lib = load_motion_library(std::slice::from_ref(clip))?;
             let m = lib.get(0);
             let scene = Arc::new(Scene::default_for(skillmimic_sim::HandModel::Full)?);
-            let mut sim = BatchSim::new(scene.clone(), 1, 1)?;
+            let mut poser = ClipPoser::new(scene.clone())?;
             let frames = m.clip.num_frames.min(a.steps.max(1));
-            let mut states = Vec::with_capacity(frames);
-            for t in 0..frames {
-                sim.reset(&[true], &[reset_state_from_clip(m, t)])?;
-                states.push(sim.qpos(0).to_vec());
-            }
+            let states: Vec<Vec<f64>> =
+                (0..frames).map(|t| poser.qpos(m, t)).collect::<anyhow::Result<_>>()?;
             (states, scene, format!("reference {}", clip.display()))
         }
         _ => bail!("give exactly one of --checkpoint or --reference"),

@@ -9,7 +9,26 @@ use anyhow::{Context, bail};
 use skillmimic_env::Env;
 use skillmimic_env::config::EnvConfig;
 use skillmimic_env::episode::reset_state_from_clip;
+use skillmimic_motion::MotionClip;
 use skillmimic_sim::{BatchSim, Scene};
+
+/// The poses of clip frames as `qpos` of a scene of the BallPlay-M character: one simulated
+/// environment set to each frame's reference state (`--reference` playback and the ghost).
+pub struct ClipPoser {
+    sim: BatchSim,
+}
+
+impl ClipPoser {
+    pub fn new(scene: Arc<Scene>) -> anyhow::Result<Self> {
+        Ok(Self { sim: BatchSim::new(scene, 1, 1)? })
+    }
+
+    /// `qpos` of frame `t` of clip `m` (humanoid and ball).
+    pub fn qpos(&mut self, m: &MotionClip, t: usize) -> anyhow::Result<Vec<f64>> {
+        self.sim.reset(&[true], &[reset_state_from_clip(m, t)]).context("a clip frame's state")?;
+        Ok(self.sim.qpos(0).to_vec())
+    }
+}
 
 /// Where the reference motion is drawn in a policy's video (`play --ghost`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
@@ -80,17 +99,13 @@ pub fn ghost_states(
             env.spec().name
         );
     };
-    let scene = Arc::new(Scene::new(cfg.scene_options()?)?);
-    let mut sim = BatchSim::new(scene, 1, 1)?;
+    let mut poser = ClipPoser::new(Arc::new(Scene::new(cfg.scene_options()?)?))?;
     let mut out = Vec::with_capacity(refs.len());
     for r in refs {
         out.push(match *r {
             Some((clip, frame)) if clip < lib.len() => {
                 let m = lib.get(clip);
-                let t = frame.min(m.clip.num_frames.saturating_sub(1));
-                sim.reset(&[true], &[reset_state_from_clip(m, t)])
-                    .context("the reference ghost's state")?;
-                Some(sim.qpos(0).to_vec())
+                Some(poser.qpos(m, frame.min(m.clip.num_frames.saturating_sub(1)))?)
             }
             _ => None,
         });

@@ -91,8 +91,8 @@ impl Hold {
             out.unstable[i] |= b.unstable[i];
             if self.through_end {
                 out.terminated[i] |= b.terminated[i];
-                out.truncated[i] = u8::from((out.truncated[i] | b.truncated[i]) != 0)
-                    * u8::from(out.terminated[i] == 0);
+                let truncated = (out.truncated[i] | b.truncated[i]) != 0;
+                out.truncated[i] = u8::from(truncated && out.terminated[i] == 0);
             } else {
                 out.terminated[i] = b.terminated[i];
                 out.truncated[i] = b.truncated[i];
