@@ -6,7 +6,9 @@
 //! multi-task environment with the token policy. The kill moments are drawn from a fixed
 //! seed, between 25 % and 50 % of the uninterrupted run's wall time after each start, so they
 //! fall all over the run (start-up, rollouts, updates, checkpoint writes — a checkpoint is
-//! written after every iteration — and the end-of-run evaluation); the test prints how many kills
+//! written after every iteration — and the end-of-run evaluation). A start killed before it wrote
+//! a new checkpoint doubles the window of the next start (and so on), so that a start-up slower
+//! than usual — a busy CI machine — cannot keep the run from finishing; the test prints how many kills
 //! interrupted an atomic write (a `*.tmp<pid>` file left behind). The first kill of each family
 //! always lands inside a checkpoint write: that start runs with the writer's test pause
 //! (`SKILLMIMIC_TEST_WRITE_PAUSE_MS`, halfway through the file) and is killed as soon as the
@@ -57,6 +59,21 @@ fn temp_files(out: &Path) -> usize {
         .flatten()
         .filter(|e| e.as_ref().is_ok_and(|e| e.file_name().to_string_lossy().contains(".tmp")))
         .count()
+}
+
+/// How many `iter_*` checkpoints of the run are whole on disk (its progress).
+fn checkpoints(out: &Path) -> usize {
+    std::fs::read_dir(out.join("checkpoints"))
+        .map(|d| {
+            d.filter(|e| {
+                e.as_ref().is_ok_and(|e| {
+                    let name = e.file_name().to_string_lossy().into_owned();
+                    name.starts_with("iter_") && name.ends_with(".safetensors")
+                })
+            })
+            .count()
+        })
+        .unwrap_or(0)
 }
 
 #[test]
@@ -170,11 +187,12 @@ fn killed_run_matches(base: &Path, extra: &[String], rng: &mut rand_chacha::ChaC
     std::fs::rename(&out, base.join("reference")).unwrap();
 
     kill_inside_a_write(&out, extra, rng);
-    let (mut kills, mut in_writes) = (1, 1);
+    let (mut kills, mut in_writes, mut stretch) = (1, 1, 1);
     for attempt in 0.. {
         assert!(attempt < 100, "{tag}: the killed run did not finish in 100 attempts");
+        let before = checkpoints(&out);
         let mut child = train(&out, extra).spawn().unwrap();
-        let wait = Duration::from_millis(rng.random_range(ms / 4..ms / 2));
+        let wait = Duration::from_millis(rng.random_range(ms / 4..ms / 2) * stretch);
         let t0 = std::time::Instant::now();
         let mut finished = None;
         while t0.elapsed() < wait {
@@ -201,6 +219,8 @@ fn killed_run_matches(base: &Path, extra: &[String], rng: &mut rand_chacha::ChaC
                 child.wait().unwrap();
                 kills += 1;
                 in_writes += usize::from(temp_files(&out) > 0);
+                // no new checkpoint: give the next start twice the time (a slow start-up)
+                stretch = if checkpoints(&out) > before { 1 } else { (stretch * 2).min(64) };
             }
         }
     }
