@@ -190,6 +190,13 @@ impl Quat {
         Quat { w: 1.0 + c, x: v[0], y: v[1], z: v[2] }.normalized()
     }
 
+    /// Spherical interpolation from `self` (t = 0) to `b` (t = 1) along the shorter arc.
+    pub fn slerp(self, b: Quat, t: f64) -> Quat {
+        let b = if self.dot(b) < 0.0 { b.neg() } else { b };
+        let d = self.conj().mul(b).to_rotvec();
+        self.mul(Quat::from_rotvec([d[0] * t, d[1] * t, d[2] * t])).normalized()
+    }
+
     /// Rotation angle in [0, π] of this rotation.
     pub fn angle(self) -> f64 {
         let s = norm([self.x, self.y, self.z]);

@@ -123,3 +123,15 @@ fn episodes_end_at_the_clip_end_or_on_the_distance() {
     }
     assert!(ended, "zero actions should not track a clip within 5 cm");
 }
+
+/// A termination body the character does not have is refused with the field and the name.
+#[test]
+fn unknown_termination_bodies_are_refused() {
+    let mut c = config(1);
+    c.character = "smpl".into();
+    c.table_mut::<TrackingConfig>().termination_bodies = vec!["Pelvis".into(), "Tail".into()];
+    let err = skillmimic_env::tasks::tracking::build(&c).err().expect("refused").to_string();
+    assert!(err.contains("env.tracking.termination_bodies") && err.contains("'Tail'"), "{err}");
+    c.table_mut::<TrackingConfig>().termination_bodies = vec!["Pelvis".into(), "Head".into()];
+    assert!(skillmimic_env::tasks::tracking::build(&c).is_ok());
+}

@@ -88,6 +88,37 @@ impl CharacterClip {
         c
     }
 
+    /// The clip played at `fps` frames per second: frame k is the pose at time k / fps s (the
+    /// last frame at or before the clip's end), interpolated between the two nearest frames —
+    /// root position and joint coordinates linearly, root orientation by slerp; body positions
+    /// from the character's forward kinematics. At an integer rate ratio (60 → 30 fps) every
+    /// frame is an original one. The clip itself when the rates agree to 1e-9.
+    pub fn resampled(&self, spec: &CharacterSpec, fps: f64) -> Self {
+        if (fps - self.fps).abs() <= 1e-9 * fps || self.num_frames < 2 {
+            return self.clone();
+        }
+        let duration = (self.num_frames - 1) as f64 / self.fps;
+        let n = ((duration * fps) + 1e-9).floor() as usize + 1;
+        let frames: Vec<([f64; 3], Quat, Vec<f64>)> = (0..n)
+            .map(|k| {
+                let at = (k as f64 * self.fps / fps).min((self.num_frames - 1) as f64);
+                let i = (at.floor() as usize).min(self.num_frames - 2);
+                let (a, j) = (at - i as f64, i + 1);
+                let (p0, p1) = (self.root_pos_at(i), self.root_pos_at(j));
+                let p = std::array::from_fn(|c| p0[c] + a * (p1[c] - p0[c]));
+                let q = self.root_quat_at(i).slerp(self.root_quat_at(j), a);
+                let dof = self
+                    .dof_at(i)
+                    .iter()
+                    .zip(self.dof_at(j))
+                    .map(|(&x, &y)| x as f64 + a * (y as f64 - x as f64))
+                    .collect();
+                (p, q, dof)
+            })
+            .collect();
+        Self::from_frames(spec, &self.name, &self.source, fps, &frames)
+    }
+
     /// Root position at frame `t`.
     pub fn root_pos_at(&self, t: usize) -> [f64; 3] {
         let r = &self.root_pos[3 * t..3 * t + 3];
@@ -291,5 +322,40 @@ mod tests {
             assert!((got[k] - dof[k]).abs() > 1e-4, "converted, not copied");
         }
         std::fs::remove_dir_all(&dir).ok();
+    }
+
+    /// Resampling keeps the clip's duration and speed: 60 → 30 fps takes every second frame
+    /// exactly; 60 → 45 fps interpolates (a frame at 1/45 s lies 1/3 of the way from frame 1
+    /// to frame 2 of the source: root and joints linear, the root's yaw by slerp).
+    #[test]
+    fn resampling_keeps_duration_and_speed() {
+        let spec = tokenhsi::spec();
+        let frames: Vec<_> = (0..61)
+            .map(|k| {
+                let t = k as f64 / 60.0;
+                let mut dof = vec![0.0f64; spec.num_dofs];
+                dof[0] = 0.5 * t;
+                ([t, 0.0, 0.94], Quat::about_z(0.6 * t), dof)
+            })
+            .collect();
+        let clip = CharacterClip::from_frames(&spec, "c", "test", 60.0, &frames);
+        let half = clip.resampled(&spec, 30.0);
+        assert_eq!((half.num_frames, half.fps), (31, 30.0));
+        for k in 0..31 {
+            assert_eq!(half.root_pos_at(k), clip.root_pos_at(2 * k));
+            assert_eq!(half.dof_at(k), clip.dof_at(2 * k));
+            let d = half.root_quat_at(k).conj().mul(clip.root_quat_at(2 * k)).angle();
+            assert!(d < 1e-6, "frame {k}: {d}");
+        }
+        let odd = clip.resampled(&spec, 45.0);
+        assert_eq!(odd.num_frames, 46, "1 s at 45 fps");
+        for k in [1usize, 7, 44, 45] {
+            let t = k as f64 / 45.0;
+            assert!((odd.root_pos_at(k)[0] - t).abs() < 1e-6, "frame {k}");
+            assert!((odd.dof_at(k)[0] as f64 - 0.5 * t).abs() < 1e-6, "frame {k}");
+            let d = odd.root_quat_at(k).conj().mul(Quat::about_z(0.6 * t)).angle();
+            assert!(d < 1e-6, "frame {k}: {d}");
+        }
+        assert_eq!(clip.resampled(&spec, 60.0), clip, "same rate: unchanged");
     }
 }

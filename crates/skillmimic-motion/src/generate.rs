@@ -58,13 +58,6 @@ fn put_q(v: &mut [f32], t: usize, q: Quat) {
     }
 }
 
-/// Spherical interpolation a → b at s ∈ [0, 1] along the shorter arc.
-fn slerp(a: Quat, b: Quat, s: f64) -> Quat {
-    let b = if a.dot(b) < 0.0 { b.neg() } else { b };
-    let d = a.conj().mul(b).to_rotvec();
-    a.mul(Quat::from_rotvec([d[0] * s, d[1] * s, d[2] * s])).normalized()
-}
-
 /// Recompute the body positions of every frame from the root and the joints.
 pub fn refresh_body_pos(c: &mut Clip) {
     for t in 0..c.num_frames {
@@ -147,15 +140,15 @@ pub fn time_warp(c: &Clip, factor: f64) -> Clip {
         };
         lerp(&c.root_pos, 3, &mut w.root_pos);
         lerp(&c.ball_pos, 3, &mut w.ball_pos);
-        put_q(&mut w.root_rot, k, slerp(q_at(&c.root_rot, i), q_at(&c.root_rot, j), s));
-        put_q(&mut w.ball_rot, k, slerp(q_at(&c.ball_rot, i), q_at(&c.ball_rot, j), s));
+        put_q(&mut w.root_rot, k, q_at(&c.root_rot, i).slerp(q_at(&c.root_rot, j), s));
+        put_q(&mut w.ball_rot, k, q_at(&c.ball_rot, i).slerp(q_at(&c.ball_rot, j), s));
         for jt in 0..NUM_JOINTS {
             let rv = |t: usize| {
                 Quat::from_rotvec(std::array::from_fn(|d| {
                     c.dof_rot[t * NUM_DOFS + 3 * jt + d] as f64
                 }))
             };
-            let v = slerp(rv(i), rv(j), s).to_rotvec();
+            let v = rv(i).slerp(rv(j), s).to_rotvec();
             let at = k * NUM_DOFS + 3 * jt;
             for (o, &x) in w.dof_rot[at..at + 3].iter_mut().zip(&v) {
                 *o = x as f32;

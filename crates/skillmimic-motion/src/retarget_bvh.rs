@@ -182,12 +182,6 @@ pub(crate) fn locals_of(g: &[Quat; NUM_BODIES]) -> [Quat; NUM_BODIES] {
     })
 }
 
-fn slerp(a: Quat, b: Quat, t: f64) -> Quat {
-    let b = if a.dot(b) < 0.0 { b.neg() } else { b };
-    let rel = a.conj().mul(b);
-    a.mul(Quat::from_rotvec(scale(rel.to_rotvec(), t))).normalized()
-}
-
 /// Rest vector of the source from joint `j` down to its descendant `d` (file frame).
 fn source_chain(bvh: &Bvh, j: usize, d: usize) -> Option<Vec3> {
     let mut v = [0.0; 3];
@@ -366,14 +360,14 @@ pub(crate) fn finish(
         let i1 = (i + 1).min(n - 1);
         let p = add(scale(root_p[i], 1.0 - t), scale(root_p[i1], t));
         m.root_pos.push(tilt.rotate(p));
-        let mut r = slerp(locals[i][0], locals[i1][0], t);
+        let mut r = locals[i][0].slerp(locals[i1][0], t);
         if k > 0 && r.dot(prev_root) < 0.0 {
             r = r.neg(); // sign-continuous, as clips are
         }
         prev_root = r;
         m.root_rot.push(r);
         m.dof_rot.push(std::array::from_fn(|jt| {
-            slerp(locals[i][jt + 1], locals[i1][jt + 1], t).to_rotvec()
+            locals[i][jt + 1].slerp(locals[i1][jt + 1], t).to_rotvec()
         }));
     }
     let finite = m

@@ -230,6 +230,13 @@ pub struct EnvState<'a> {
 }
 
 impl EnvState<'_> {
+    /// Mechanical power of the joint drives, Σ_k |τ_k · q̇_k| (W) over the character's dofs: the
+    /// read-out's drive forces ([`EnvState::dof_force`]) times the joint rates — what the power
+    /// penalties of ModSkill/PHC and TokenHSI integrate (Isaac Gym's `dof_force_tensor`).
+    pub fn drive_power(&self) -> f64 {
+        self.dof_force.iter().zip(self.dof_vel).map(|(t, v)| (t * v).abs()).sum()
+    }
+
     /// Position of state body `b`.
     #[inline]
     pub fn pos(&self, b: usize) -> [f64; 3] {

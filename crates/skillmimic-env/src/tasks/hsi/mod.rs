@@ -273,9 +273,9 @@ pub fn time_limit_reached(steps: usize, episode_length: usize) -> bool {
 }
 
 /// `Σ_k |τ_k · q̇_k|` over the character's dofs (W): drive torques times joint rates, the power
-/// the released reward penalises.
+/// the released reward penalises ([`EnvState::drive_power`]).
 pub fn power(st: &EnvState<'_>) -> f64 {
-    st.dof_force.iter().zip(st.dof_vel).map(|(t, v)| (t * v).abs()).sum()
+    st.drive_power()
 }
 
 impl<R: Rule> Hsi<R> {

@@ -31,15 +31,55 @@ pub struct TrackingConfig {
     /// Exponent scales k of exp(−k · mean error²) of the same four terms.
     #[schemars(inner(range(min = 0)))]
     pub scales: [f64; 4],
+    /// Bodies (by name) whose mean distance to the reference decides termination and success;
+    /// empty = the character's default (SMPL: the released 20 `reset_bodies`, all but the ankles
+    /// and toes; otherwise the tracked bodies).
+    ///
+    /// The metrics (E_g-mpjpe, …) stay over all tracked bodies.
+    pub termination_bodies: Vec<String>,
+    /// How the position, velocity and angular-velocity errors are averaged (the rotation error
+    /// is one angle per body either way).
+    pub error_mean: ErrorMean,
     /// Coefficient of the power penalty Σ|τ · q̇| (W) subtracted from the reward.
     #[schemars(range(min = 0))]
     pub power_coef: f64,
+    /// The first steps of an episode whose power penalty is zero (the released code:
+    /// `progress_buf <= 3` → steps 1, 2 and 3 after a reset, whose drive forces can still carry
+    /// the jump into the reset state).
+    pub power_free_steps: usize,
+    /// The first steps of an episode that the distance rule never terminates (the released
+    /// code: `has_fallen *= progress_buf > 1` → step 1 after a reset). The same grace applies to
+    /// the success threshold. An unstable simulation ends the episode at any step.
+    pub termination_grace: usize,
     /// Start episodes at a uniformly random frame (else at frame 0).
     pub random_start: bool,
     /// Sampling-weight multipliers by clip name (active skill learning raises the weights of
     /// clips the policy fails on); a clip not named keeps its library weight.
     #[schemars(extend("additionalProperties" = {"type": "number", "format": "double", "exclusiveMinimum": 0}))]
     pub clip_weights: BTreeMap<String, f64>,
+}
+
+/// How the tracking reward averages a vector error (Δp, Δv, Δω) over the tracked bodies.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum ErrorMean {
+    /// The released ModSkill/PHC code (`(d**2).mean(-1).mean(-1)`): the mean over bodies *and*
+    /// over x, y, z of the squared components, i.e. mean ‖Δp‖² / 3.
+    #[default]
+    Components,
+    /// The paper's equation (seed 001 §3.1, ‖p − p̂‖²): the mean over bodies of the squared
+    /// vector norm, 3× the released value (this project's form before issue 39).
+    Vector,
+}
+
+impl ErrorMean {
+    /// The divisor of a mean squared vector norm.
+    pub fn divisor(self) -> f64 {
+        match self {
+            Self::Components => 3.0,
+            Self::Vector => 1.0,
+        }
+    }
 }
 
 impl crate::config_table::TaskConfig for TrackingConfig {
@@ -56,7 +96,11 @@ impl Default for TrackingConfig {
             fingers: false,
             weights: [0.5, 0.3, 0.1, 0.1],
             scales: [100.0, 10.0, 0.1, 0.1],
+            termination_bodies: Vec::new(),
+            error_mean: ErrorMean::Components,
             power_coef: 0.0005,
+            power_free_steps: 3,
+            termination_grace: 1,
             random_start: true,
             clip_weights: BTreeMap::new(),
         }

@@ -3,7 +3,7 @@
 //! rad/s; the character's body order). One definition shared by the task, evaluation and the
 //! tests.
 
-use skillmimic_core::characters::{ActionMap, CharacterSpec};
+use skillmimic_core::characters::CharacterSpec;
 use skillmimic_core::math::{Quat, heading_inverse, norm, sub, tan_norm};
 use skillmimic_sim::EnvState;
 
@@ -53,6 +53,41 @@ pub fn tracked_bodies(spec: &CharacterSpec, fingers: bool) -> Vec<usize> {
         .collect()
 }
 
+/// The SMPL bodies the released ModSkill/PHC configuration leaves out of its termination
+/// distance (`reset_bodies` of `env_im_pnn.yaml`).
+pub const SMPL_UNJUDGED: [&str; 4] = ["L_Ankle", "R_Ankle", "L_Toe", "R_Toe"];
+
+/// The bodies whose mean distance decides termination and success (see
+/// [`TrackingConfig::termination_bodies`]); an unknown name is an error naming it.
+pub fn termination_bodies(
+    spec: &CharacterSpec,
+    tracked: &[usize],
+    cfg: &TrackingConfig,
+) -> Result<Vec<usize>, String> {
+    let index = |name: &str| spec.bodies.iter().position(|b| b.name == name);
+    if cfg.termination_bodies.is_empty() {
+        return Ok(match spec.name == "smpl" {
+            true => tracked
+                .iter()
+                .copied()
+                .filter(|&b| !SMPL_UNJUDGED.iter().any(|u| *u == spec.bodies[b].name))
+                .collect(),
+            false => tracked.to_vec(),
+        });
+    }
+    cfg.termination_bodies
+        .iter()
+        .map(|n| {
+            index(n).ok_or_else(|| format!("'{n}' is not a body of the {} character", spec.name))
+        })
+        .collect()
+}
+
+/// Mean ‖p_ref − p‖ (m) over `bodies`: the termination and success distance.
+pub fn mean_distance(sim: &impl Bodies, r: &impl Bodies, bodies: &[usize]) -> f64 {
+    bodies.iter().map(|&b| norm(sub(r.pos(b), sim.pos(b)))).sum::<f64>() / bodies.len() as f64
+}
+
 /// Errors of a simulated frame against the reference frame over `bodies`.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Errors {
@@ -64,7 +99,7 @@ pub struct Errors {
     pub vel2: f64,
     /// Mean ‖Δω‖² ((rad/s)²).
     pub angvel2: f64,
-    /// Mean ‖Δp‖ (m): the termination and success distance, E_g-mpjpe.
+    /// Mean ‖Δp‖ (m): E_g-mpjpe.
     pub dist: f64,
     /// Mean ‖(p − p_root) − (p_ref − p_ref,root)‖ (m): E_mpjpe.
     pub dist_rel: f64,
@@ -98,55 +133,34 @@ pub fn errors(sim: &impl Bodies, r: &impl Bodies, bodies: &[usize]) -> Errors {
     }
 }
 
-/// The PD drive of one dof, for the power penalty: kp, kd (N·m/rad, N·m·s/rad), the action →
-/// target map, the force limit (N·m).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct DofDrive {
-    pub kp: f64,
-    pub kd: f64,
-    pub map: ActionMap,
-    pub effort: f64,
+/// Whether the power penalty counts at the `steps`-th step after a reset (1 = the first): the
+/// released `progress_buf <= power_free_steps` zeroes it.
+pub fn power_counts(steps: usize, cfg: &TrackingConfig) -> bool {
+    steps > cfg.power_free_steps
 }
 
-/// The drive of every dof of `spec` (`None` for the slots of welded bodies).
-pub fn dof_drives(spec: &CharacterSpec) -> Vec<Option<DofDrive>> {
-    let maps = spec.action_maps();
-    let mut out = vec![None; spec.num_dofs];
-    for b in &spec.bodies {
-        if let Some(d) = b.joint.drive() {
-            for k in b.dofs.clone() {
-                let map = maps[k].expect("a driven dof has an action map");
-                out[k] = Some(DofDrive { kp: d.kp, kd: d.kd, map, effort: d.effort });
-            }
-        }
-    }
-    out
+/// Whether the distance rule (termination and the success threshold) applies at the `steps`-th
+/// step after a reset: the released `progress_buf > 1` with `termination_grace` = 1.
+pub fn distance_rule_applies(steps: usize, cfg: &TrackingConfig) -> bool {
+    steps > cfg.termination_grace
 }
 
-/// Mechanical power Σ|τ · q̇| (W) of the joint drives at a state, τ per dof =
-/// clamp(kp · (target(clamp(a, −1, 1)) − q), ±effort) − kd · q̇ (the position actuator and the
-/// joint damping); `targets` = the action row applied in the step.
-pub fn power(st: &EnvState<'_>, targets: &[f32], drives: &[Option<DofDrive>]) -> f64 {
-    let mut p = 0.0;
-    for (j, (&a, d)) in targets.iter().zip(drives).enumerate() {
-        let Some(d) = d else { continue };
-        let (q, qd) = (st.dof_pos[j], st.dof_vel[j]);
-        let target = d.map.target((a as f64).clamp(-1.0, 1.0));
-        let tau = (d.kp * (target - q)).clamp(-d.effort, d.effort) - d.kd * qd;
-        p += (tau * qd).abs();
-    }
-    p
+/// Whether a frame with mean body distance `dist` (m) at the `steps`-th step after a reset ends
+/// the episode early (the released `compute_humanoid_im_reset`, mean over the bodies, strict `>`).
+pub fn terminates(dist: f64, steps: usize, cfg: &TrackingConfig) -> bool {
+    distance_rule_applies(steps, cfg) && dist > cfg.termination_distance
 }
 
 /// Reward terms in [`TERMS`] order: w_k · exp(−k · error²) for position, rotation, velocity,
-/// angular velocity, then −power_coef · power, then the total.
+/// angular velocity (the vector errors averaged as `cfg.error_mean` says), then
+/// −power_coef · power, then the total.
 pub fn reward(e: &Errors, power: f64, cfg: &TrackingConfig) -> [f64; 6] {
-    let (w, k) = (cfg.weights, cfg.scales);
+    let (w, k, m) = (cfg.weights, cfg.scales, cfg.error_mean.divisor());
     let t = [
-        w[0] * (-k[0] * e.pos2).exp(),
+        w[0] * (-k[0] * e.pos2 / m).exp(),
         w[1] * (-k[1] * e.rot2).exp(),
-        w[2] * (-k[2] * e.vel2).exp(),
-        w[3] * (-k[3] * e.angvel2).exp(),
+        w[2] * (-k[2] * e.vel2 / m).exp(),
+        w[3] * (-k[3] * e.angvel2 / m).exp(),
         -cfg.power_coef * power,
     ];
     [t[0], t[1], t[2], t[3], t[4], t.iter().sum()]

@@ -9,14 +9,17 @@
 //! * **Episode**: starts at a uniformly random frame t₀ ∈ [0, T−2] of a clip drawn with the
 //!   library's weights (frame 0 with `random_start = false`) in the clip's state; after step k the
 //!   simulation is compared with reference frame t₀ + k; truncated at the clip's last frame;
-//!   terminated when the mean body distance exceeds `termination_distance` or the simulation is
-//!   unstable.
+//!   terminated when the mean distance of the judged bodies (SMPL: all but the ankles and toes,
+//!   as released) exceeds `termination_distance` from the second step on, or when the
+//!   simulation is unstable.
 //! * **Observation** (P + 24 × bodies): the character's proprioception ([`crate::proprio`]; the
 //!   SkillMimic humanoid's 823, the SMPL humanoid's 358) | the reference block of the *next*
 //!   frame ([`formulas::write_reference_obs`]).
-//! * **Reward** ([`formulas::reward`]): 0.5·e^(−100·mean‖Δp‖²) + 0.3·e^(−10·mean θ²) +
-//!   0.1·e^(−0.1·mean‖Δv‖²) + 0.1·e^(−0.1·mean‖Δω‖²) − 0.0005·Σ|τ·q̇|, over the tracked
-//!   bodies.
+//! * **Reward** ([`formulas::reward`]): 0.5·e^(−100·mean Δp²) + 0.3·e^(−10·mean θ²) +
+//!   0.1·e^(−0.1·mean Δv²) + 0.1·e^(−0.1·mean Δω²) − 0.0005·Σ|τ·q̇|, over the tracked
+//!   bodies; as the released ModSkill code, a vector error's mean runs over the bodies and its
+//!   x, y, z components (`error_mean = "vector"`: the paper's squared norms), the power penalty
+//!   is zero for the first 3 steps of an episode and the distance rule skips its first step.
 //! * **Metrics** ([`formulas::METRICS`]): E_g-mpjpe and E_mpjpe (mm), velocity and acceleration
 //!   errors of the body positions (mm/frame, mm/frame²; before the episode start the simulated
 //!   trajectory counts as the reference's), success. Info: `clip`, `ref_frame`.
@@ -39,7 +42,7 @@ use crate::error::{EnvError, bad};
 use crate::task::{ActionSpace, StepOut, Task, TaskSpec};
 use crate::vec_env::{Env, VecEnv};
 use config::TrackingConfig;
-use formulas::{Bodies, DofDrive, METRICS, REF_WIDTH, TERMS};
+use formulas::{Bodies, METRICS, REF_WIDTH, TERMS};
 use motion::Motion;
 
 /// The `[env.tracking]` table.
@@ -146,6 +149,9 @@ pub struct TrackSlot {
     pub clip: usize,
     /// The reference frame the simulation is compared with now.
     pub frame: usize,
+    /// Steps since the episode's reset (1 after the first; the released `progress_buf`).
+    #[serde(default)]
+    pub steps: usize,
     /// Whether the mean body distance exceeded `success_distance` in this episode.
     pub failed: bool,
     /// Simulated body positions two frames and one frame ago.
@@ -159,12 +165,10 @@ pub struct Tracking {
     motion: Motion,
     refs: Vec<ClipFrames>,
     bodies: Vec<usize>,
+    /// The bodies of the termination and success distance.
+    judged: Vec<usize>,
     spec: TaskSpec,
     character: CharacterSpec,
-    /// The PD drive of each dof (welded fingers have none), for the power penalty.
-    drives: Vec<Option<DofDrive>>,
-    /// The action rows of the current step (`N × dofs`), for the power penalty.
-    targets: Vec<f32>,
     /// Cumulative clip weights: library weights × `clip_weights` multipliers.
     cumulative: Vec<f64>,
 }
@@ -175,6 +179,8 @@ impl Tracking {
         let t = cfg.table::<TrackingConfig>().clone();
         let character = scene.character().clone();
         let bodies = formulas::tracked_bodies(&character, t.fingers);
+        let judged = formulas::termination_bodies(&character, &bodies, &t)
+            .map_err(|e| bad("env.tracking.termination_bodies", e))?;
         let refs = reference_frames(scene, &motion)?;
         let longest = refs.iter().map(|r| r.frames).max().unwrap_or(2);
         let nd = character.num_dofs;
@@ -193,17 +199,7 @@ impl Tracking {
             ..TaskSpec::default()
         };
         let cumulative = motion.cumulative(|name| t.clip_weights.get(name).copied().unwrap_or(1.0));
-        Ok(Self {
-            cfg: t,
-            motion,
-            refs,
-            bodies,
-            spec,
-            drives: formulas::dof_drives(&character),
-            character,
-            targets: vec![0.0; cfg.num_envs * nd],
-            cumulative,
-        })
+        Ok(Self { cfg: t, motion, refs, bodies, judged, spec, character, cumulative })
     }
 
     /// The probability of each clip (library order) to start an episode.
@@ -270,6 +266,7 @@ impl Task for Tracking {
         self.motion.fill_state(&self.character, clip, start, state);
         slot.clip = clip;
         slot.frame = start;
+        slot.steps = 0;
         slot.failed = false;
         let r = self.refs[clip].frame(start.saturating_sub(1));
         for (b, o) in slot.older.iter_mut().enumerate() {
@@ -283,13 +280,16 @@ impl Task for Tracking {
         self.write_obs(slot, st, obs);
     }
 
-    fn step_env(&self, i: usize, slot: &mut TrackSlot, st: &EnvState<'_>, out: StepOut<'_>) {
+    fn step_env(&self, _i: usize, slot: &mut TrackSlot, st: &EnvState<'_>, out: StepOut<'_>) {
         slot.frame += 1;
+        slot.steps += 1;
         let refs = &self.refs[slot.clip];
         let r = refs.frame(slot.frame);
         let e = formulas::errors(st, &r, &self.bodies);
-        let nd = self.character.num_dofs;
-        let power = formulas::power(st, &self.targets[i * nd..(i + 1) * nd], &self.drives);
+        let power = match formulas::power_counts(slot.steps, &self.cfg) {
+            true => st.drive_power(),
+            false => 0.0,
+        };
         let terms = formulas::reward(&e, power, &self.cfg);
         out.terms.iter_mut().zip(&terms).for_each(|(o, &v)| *o = v as f32);
         *out.reward = terms[5] as f32;
@@ -302,9 +302,11 @@ impl Task for Tracking {
         // the history moves on one frame (no allocation: the oldest buffer takes the newest)
         std::mem::swap(&mut slot.older, &mut slot.old);
         positions(st, &mut slot.old);
-        slot.failed |= e.dist > self.cfg.success_distance;
+        let dist = formulas::mean_distance(st, &r, &self.judged);
+        let judged = formulas::distance_rule_applies(slot.steps, &self.cfg);
+        slot.failed |= judged && dist > self.cfg.success_distance;
         let end = slot.frame + 1 >= refs.frames;
-        let terminated = e.dist > self.cfg.termination_distance || st.unstable;
+        let terminated = formulas::terminates(dist, slot.steps, &self.cfg) || st.unstable;
         let success = end && !terminated && !slot.failed;
         out.metrics.copy_from_slice(&[
             (1e3 * e.dist) as f32,
@@ -325,23 +327,6 @@ impl Task for Tracking {
 
     fn observe(&self, slot: &mut TrackSlot, st: &EnvState<'_>, obs: &mut [f32]) {
         self.write_obs(slot, st, obs);
-    }
-
-    fn transforms_actions(&self) -> bool {
-        true
-    }
-    /// The actions are the PD targets; they are kept for the power penalty.
-    fn actions_to_targets(
-        &mut self,
-        _slots: &[TrackSlot],
-        _obs: &[f32],
-        actions: &[f32],
-        targets: &mut [f32],
-    ) -> Result<(), EnvError> {
-        targets.copy_from_slice(actions);
-        self.targets.resize(actions.len(), 0.0);
-        self.targets.copy_from_slice(actions);
-        Ok(())
     }
 }
 

@@ -8,7 +8,10 @@
 //!   files of the character, or SkillMimic-skeleton clips (the built-in demo clips, project or
 //!   BallPlay-M files) retargeted by joint name on load (the SMPL humanoid,
 //!   `skillmimic_motion::retarget_smpl`); episodes start in a frame's state with finite-difference
-//!   velocities ([`clip_state`]).
+//!   velocities ([`clip_state`]). Clips are resampled on load to the character's control rate
+//!   (`CharacterClip::resampled`: the SMPL humanoid's 30 Hz, as the released ModSkill code reads
+//!   its motion library at the policy's time step), so that an episode advances one frame per
+//!   policy step at the clip's own speed.
 
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -88,7 +91,9 @@ impl Motion {
             )
             .into());
         }
-        Ok(Motion::Clips(clips))
+        // one clip frame per policy step: the clips at the character's control rate
+        let rate = 1.0 / (spec.timestep * spec.substeps as f64);
+        Ok(Motion::Clips(clips.iter().map(|c| c.resampled(&spec, rate)).collect()))
     }
 
     /// Number of clips.

@@ -1,0 +1,166 @@
+//! Dump states of the SMPL humanoid under `tracking` for golden fixtures: the inputs of
+//! `tests/fixtures/modskill_tracking_golden.json` (see its note), which the released ModSkill
+//! functions are then run on outside this repository.
+//!
+//! `cargo run --release -p skillmimic-env --example tracking_states -- OUT_DIR`
+//! writes `OUT_DIR/tracking_inputs.json`.
+//!
+//! Each state is one step of a rollout of the SMPL humanoid started in a reference state of a
+//! shipped demo clip (retargeted to SMPL by joint name) and driven by random PD targets: gentle
+//! ones (the body follows the reference for a while) and strong ones (it drifts past the 0.25 m
+//! and 0.5 m distances and falls), at steps 1 to 40 after the reset, so that the reward's range,
+//! the power penalty's first-3-steps rule, the termination grace of the first step and both
+//! distance thresholds are all reached; the drifted state at step 20 of each strong rollout is
+//! also written staged as step 1 and step 3 (`case` = "staged"). Written per state: the simulated bodies (positions,
+//! x y z w quaternions, centre-of-mass velocities, angular velocities; world frame, m, m/s,
+//! rad/s), the reference bodies of the compared frame and of the next frame (the observation's),
+//! the read-out's drive forces and joint rates (N·m, rad/s), the step count since the reset, and
+//! this project's values (reward terms, termination, observation) for the record. Values to 9
+//! significant digits.
+
+use std::sync::Arc;
+
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use serde_json::{Value, json};
+use skillmimic_core::math::Quat;
+use skillmimic_env::EnvConfig;
+use skillmimic_env::tasks::tracking::Tracking;
+use skillmimic_env::tasks::tracking::config::TrackingConfig;
+use skillmimic_env::tasks::tracking::formulas::{self, Bodies};
+use skillmimic_env::tasks::tracking::motion::Motion;
+use skillmimic_sim::{BatchSim, ResetState, Scene};
+
+type Error = Box<dyn std::error::Error>;
+
+fn r(x: f64) -> f64 {
+    format!("{x:.8e}").parse().unwrap_or(x)
+}
+
+/// Positions, x y z w quaternions, linear and angular velocities of `n` bodies.
+fn bodies(b: &impl Bodies, n: usize) -> Value {
+    let (mut p, mut q, mut v, mut w) = (vec![], vec![], vec![], vec![]);
+    for k in 0..n {
+        p.push(b.pos(k).map(r).to_vec());
+        let qq: Quat = b.quat(k);
+        q.push(vec![r(qq.x), r(qq.y), r(qq.z), r(qq.w)]);
+        v.push(b.linvel(k).map(r).to_vec());
+        w.push(b.angvel(k).map(r).to_vec());
+    }
+    json!({"pos": p, "rot": q, "vel": v, "ang_vel": w})
+}
+
+fn main() -> Result<(), Error> {
+    let out = std::env::args().nth(1).ok_or("usage: tracking_states OUT_DIR")?;
+    let mut c = EnvConfig {
+        task: "tracking".into(),
+        num_envs: 1,
+        threads: 1,
+        character: "smpl".into(),
+        ..Default::default()
+    };
+    c.motion = vec![std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../motions")];
+    let t = c.table::<TrackingConfig>().clone();
+    let ch = c.resolved_character()?;
+    let scene = Arc::new(Scene::new(c.scene_options()?)?);
+    let spec = scene.character().clone();
+    let task = Tracking::new(&c, Motion::load(&c.motion, ch)?, scene.clone())?;
+    let motion = Motion::load(&c.motion, ch)?;
+    let n = spec.bodies.len();
+    let nd = spec.num_dofs;
+    let mut sim = BatchSim::new(scene.clone(), 1, 1)?;
+    let mut state = ResetState::rest(&scene);
+    let mut rng = ChaCha8Rng::seed_from_u64(39);
+    let mut states = Vec::new();
+    // (strength of the random targets, steps): gentle rollouts follow the clip for a while,
+    // strong ones cross both distances
+    for (k, strength) in [0.05, 0.2, 0.6, 1.0].into_iter().cycle().take(8).enumerate() {
+        let clip = k % motion.len();
+        let frames = task.reference(clip).frames;
+        let steps = 40.min(frames - 2);
+        let t0 = rng.random_range(0..frames - steps - 1);
+        motion.fill_state(&spec, clip, t0, &mut state);
+        sim.reset(&[true], std::slice::from_ref(&state))?;
+        for step in 1..=steps {
+            let a: Vec<f32> = (0..nd).map(|_| strength * rng.random_range(-1.0f32..1.0)).collect();
+            sim.step(&a)?;
+            let st = sim.state().env(0);
+            let (refs, frame) = (task.reference(clip), t0 + step);
+            let (now, next) = (refs.frame(frame), refs.frame(frame + 1));
+            // the first rollouts at their first steps (the grace and power rules) and a few
+            // later ones; the others later on (the drift past both distances)
+            let kept = match k < 2 {
+                true => [1, 2, 3, 4, 12, 24, 36].contains(&step),
+                false => [8, 20, 32, 40].contains(&step),
+            };
+            if !kept {
+                continue;
+            }
+            // the observations of a subset (they are most of a state's size)
+            let observed = [1, 4, 20, 36].contains(&step);
+            // a drifted state also staged as the first and the third step after a reset (the
+            // termination grace and the power penalty's free steps)
+            let staged: &[usize] = if k >= 2 && step == 20 { &[1, 3] } else { &[] };
+            for (case, progress) in
+                std::iter::once(("rollout", step)).chain(staged.iter().map(|&p| ("staged", p)))
+            {
+                let e = formulas::errors(&st, &now, task.tracked_bodies());
+                let power =
+                    if formulas::power_counts(progress, &t) { st.drive_power() } else { 0.0 };
+                let terms = formulas::reward(&e, power, &t);
+                let judged = formulas::termination_bodies(&spec, task.tracked_bodies(), &t)?;
+                let dist = formulas::mean_distance(&st, &now, &judged);
+                let mut ours = json!({
+                    "terms": terms.map(r).to_vec(),
+                    "judged_distance": r(dist),
+                    "terminated": formulas::terminates(dist, progress, &t),
+                });
+                let observed = observed && case == "rollout";
+                if observed {
+                    let mut reference = vec![0f32; formulas::REF_WIDTH * n];
+                    formulas::write_reference_obs(
+                        &st,
+                        &next,
+                        task.tracked_bodies(),
+                        &mut reference,
+                    );
+                    let mut proprio = vec![0f32; spec.proprio_dim()];
+                    skillmimic_env::proprio::write_for(&spec, &st, &mut proprio);
+                    ours["self_obs"] = proprio.iter().map(|&x| r(x as f64)).collect();
+                    ours["task_obs"] = reference.iter().map(|&x| r(x as f64)).collect();
+                }
+                states.push(json!({
+                    "rollout": k,
+                    "case": case,
+                    "strength": strength,
+                    "progress": progress,
+                    "sim": bodies(&st, n),
+                    "ref": bodies(&now, n),
+                    "next_ref": bodies(&next, n),
+                    "dof_force": st.dof_force.iter().map(|&x| r(x)).collect::<Vec<_>>(),
+                    "dof_vel": st.dof_vel.iter().map(|&x| r(x)).collect::<Vec<_>>(),
+                    "observed": observed,
+                    "ours": ours,
+                }));
+            }
+        }
+    }
+    let names: Vec<&str> = spec.bodies.iter().map(|b| b.name).collect();
+    let judged = formulas::termination_bodies(&spec, task.tracked_bodies(), &t)?;
+    let doc = json!({
+        "body_names": names,
+        "termination_body_ids": judged,
+        "params": {
+            "termination_distance": t.termination_distance,
+            "success_distance": t.success_distance,
+            "power_coefficient": t.power_coef,
+            "w": t.weights, "k": t.scales,
+        },
+        "states": states,
+    });
+    std::fs::create_dir_all(&out)?;
+    let path = std::path::Path::new(&out).join("tracking_inputs.json");
+    std::fs::write(&path, serde_json::to_string(&doc)?)?;
+    println!("{}: {} states", path.display(), doc["states"].as_array().map_or(0, Vec::len));
+    Ok(())
+}
