@@ -59,9 +59,11 @@ pub fn run(a: &Options, policy: Option<&Policy>, cfg: &TrainConfig) -> anyhow::R
                 .collect();
             if hits.is_empty() { "-".to_string() } else { hits.join(", ") }
         };
+        let normalised =
+            r.normalised_return.map_or(String::new(), |v| format!(" (normalised return {v:.3})"));
         println!(
-            "{:<9} {} episodes: return {:.3}, reward/step {:.4}, length {:.1} ({:.0} sim steps), \
-                early end {:.1} %, success {} (code latch {})",
+            "{:<9} {} episodes: return {:.3}{normalised}, reward/step {:.4}, length {:.1} ({:.0} \
+                sim steps), early end {:.1} %, success {} (code latch {})",
             actor.label(),
             r.episodes,
             r.mean_return,

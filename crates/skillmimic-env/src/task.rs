@@ -51,6 +51,11 @@ pub struct TaskSpec {
     pub hold_through_end: bool,
     /// Skill label of each discrete choice (high-level tasks: `control_mapping`); empty otherwise.
     pub choice_labels: Vec<u32>,
+    /// The largest reward one policy step can earn, when the task's reward is bounded by
+    /// construction (ModSkill's steering and reach: 1). Evaluations then report ModSkill's
+    /// normalised return: an episode's undiscounted return over `max_step_reward ×
+    /// max_episode_steps`, so an episode cut short by a fall scores less (seed 001 §4, Tab. 4).
+    pub max_step_reward: Option<f64>,
     /// The observation as named groups in column order, `(name, width)`, widths summing to
     /// `obs_dim`: the character/state part first, then one group per task observation and, for
     /// a multi-task environment, `("mask", K)` last (one 0/1 entry per task group, 1 = the
@@ -82,6 +87,7 @@ impl Default for TaskSpec {
             steps_per_action: 1,
             hold_through_end: false,
             choice_labels: Vec::new(),
+            max_step_reward: None,
             token_groups: Vec::new(),
             obs_blocks: Vec::new(),
             info_label: "task_info",

@@ -23,6 +23,10 @@ pub struct EpisodeReport {
     pub deterministic: bool,
     /// Mean undiscounted episode return.
     pub mean_return: f64,
+    /// ModSkill's normalised return (Tab. 4): the mean return over the largest return an
+    /// episode can earn (`TaskSpec::max_step_reward` × `max_episode_steps`), in [0, 1]; falls
+    /// count as the reward they did not earn. Null for tasks without a bounded reward.
+    pub normalised_return: Option<f64>,
     /// Mean reward per step over the counted episodes.
     pub mean_reward_per_step: f64,
     /// Mean episode length (policy steps).
@@ -215,6 +219,8 @@ fn run_episodes(
     }
     let (e, s) = (rep.episodes.max(1) as f64, steps.max(1.0));
     rep.mean_return /= e;
+    rep.normalised_return =
+        spec.max_step_reward.map(|m| rep.mean_return / (m * spec.max_episode_steps.max(1) as f64));
     rep.mean_reward_per_step = reward / s;
     rep.mean_episode_length = steps / e;
     rep.early_termination_rate = early as f64 / e;

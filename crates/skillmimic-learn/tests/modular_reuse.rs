@@ -207,3 +207,43 @@ fn steering_commands_rewards_and_redraws() {
     let bad = skillmimic_env::registry::make(&r.env).err().unwrap().to_string();
     assert!(bad.contains("env.reach.hand_body") && bad.contains("R_Middle1"), "{bad}");
 }
+
+/// ModSkill's normalised return (Tab. 4) of a steering evaluation: each episode's return over
+/// the largest an episode can earn (1 per step × the episode's steps), so a fall forfeits the
+/// rest of the episode — unlike the mean reward per step, which ignores how long episodes last.
+#[test]
+fn steering_reports_the_normalised_return_with_falls_counted() {
+    let (llc, _) = modular_llc("nr");
+    let mut c = config("steering", &llc, "nr");
+    c.env.table_mut::<HlcConfig>().episode_length = 600;
+    let mut env = skillmimic_env::registry::make(&c.env).unwrap();
+    let spec = env.spec().clone();
+    assert_eq!((spec.max_step_reward, spec.max_episode_steps), (Some(1.0), 599));
+    let hl = PpoConfig { hidden: vec![16], ..Default::default() };
+    let mut rng = <rand_chacha::ChaCha8Rng as rand::SeedableRng>::seed_from_u64(3);
+    let p = Policy::build(spec.obs_dim, spec.action_space, &hl, &mut rng).unwrap();
+    let actor = skillmimic_learn::episode_eval::Actor::Policy { policy: &p, stochastic: false };
+    let r = skillmimic_learn::episode_eval::evaluate_actor(actor, env.as_mut(), 8, 4, 1).unwrap();
+    let nr = r.normalised_return.expect("steering has a bounded reward");
+    println!(
+        "steering, untrained: normalised return {nr:.4}, reward/step {:.4}, length {:.1} of 599, \
+            early end {:.0} %",
+        r.mean_reward_per_step,
+        r.mean_episode_length,
+        100.0 * r.early_termination_rate
+    );
+    assert!((nr - r.mean_return / 599.0).abs() < 1e-12);
+    assert!((0.0..=1.0).contains(&nr));
+    // untrained controllers fall: the episodes are short and the normalised return is below the
+    // mean reward per step by the share of the episode that was lost
+    assert!(r.early_termination_rate > 0.0, "no episode ended early");
+    let want = r.mean_reward_per_step * r.mean_episode_length / 599.0;
+    assert!((nr - want).abs() < 1e-9 && nr < r.mean_reward_per_step);
+    // a task without a bounded reward reports none
+    let mut h = skillmimic_env::registry::make(&config("heading", &llc, "nr_h").env).unwrap();
+    let hs = h.spec().clone();
+    let p = Policy::build(hs.obs_dim, hs.action_space, &hl, &mut rng).unwrap();
+    let actor = skillmimic_learn::episode_eval::Actor::Policy { policy: &p, stochastic: false };
+    let r = skillmimic_learn::episode_eval::evaluate_actor(actor, h.as_mut(), 2, 4, 1).unwrap();
+    assert_eq!(r.normalised_return, None);
+}

@@ -152,6 +152,10 @@ pub trait Rule: Send + Sync + 'static {
     fn released_loop(&self) -> bool {
         true
     }
+    /// The largest reward of one step, when bounded ([`crate::task::TaskSpec::max_step_reward`]).
+    fn max_step_reward(&self) -> Option<f64> {
+        None
+    }
 }
 
 /// `loc` and `bearing` of a goal (4 values; see the module doc).
@@ -281,6 +285,7 @@ impl<R: Rule> HighLevel<R> {
             steps_per_action: hold,
             hold_through_end: released,
             choice_labels,
+            max_step_reward: rule.max_step_reward(),
             token_groups: [
                 ("state".to_string(), layout::STATE_DIM),
                 (R::NAME.to_string(), rule.task_obs_dim()),

@@ -65,6 +65,10 @@ impl Rule for Reach {
     fn released_loop(&self) -> bool {
         false
     }
+    /// exp(−k·e²) ≤ 1 (a step's reward, also when averaged over held steps).
+    fn max_step_reward(&self) -> Option<f64> {
+        Some(1.0)
+    }
     const NAME: &'static str = "reach";
     type Goal = ReachGoal;
     fn labels(&self) -> &'static [u32] {

@@ -11,7 +11,9 @@
 //!   mass (m/s; the velocity the observation reports), k =
 //!   `error_scale` (0.25, ASE's scale). The paper writes the speed term as the velocity
 //!   difference itself; as a reward it is turned into this bounded form (1 at a perfect match),
-//!   so the mean per-step reward is the normalised return the paper reports (Tab. 4).
+//!   so an episode's return over its largest possible value (`TaskSpec::max_step_reward` = 1
+//!   × the episode's steps) is the normalised return the paper reports (Tab. 4); an evaluation
+//!   reports it as `normalised_return`, where a fall forfeits the rest of the episode.
 //! * Choices (discrete skill policies): 0 → 12 (rrun), 1 → 13 (run), 2 → 11 (lrun), as heading.
 //! * Metrics: `speed_error` ‖v*·d − v_xy‖ (m/s), `dir_speed` d·v_xy (m/s). Info: `dir_x`,
 //!   `dir_y` (world), `speed` (m/s) of the current command.
@@ -72,6 +74,10 @@ impl Rule for Steering {
     /// A ModSkill task: the SkillMimic loop's timing (`env.hlc.timing`) does not apply.
     fn released_loop(&self) -> bool {
         false
+    }
+    /// exp(−k·e²) ≤ 1 (a step's reward, also when averaged over held steps).
+    fn max_step_reward(&self) -> Option<f64> {
+        Some(1.0)
     }
     const NAME: &'static str = "steering";
     type Goal = SteeringGoal;
