@@ -1,6 +1,6 @@
 """The ``modular_attention`` policy family (ModSkill) against PyTorch: every part token gathers
 exactly its bodies' observation columns (derived here from the observation table and the MJCF
-body names); the Rust forward pass equals the PyTorch mirror module and an independent functional
+body names; the root height in the root's part, as the released code) and the shared ones; the Rust forward pass equals the PyTorch mirror module and an independent functional
 reference written from the paper/code facts; the PPO loss and every parameter gradient — of the
 canonical loss (candle autograd) and of the hand-written fast path (``ppo.backend = "fast"``, the
 default) — equal torch autograd of the Gaussian PPO loss on that reference."""
@@ -50,13 +50,14 @@ def test_part_tokens_gather_exactly_their_bodies_columns(tmp_path, repo_root, sp
     names = _body_names(repo_root)
     blocks = _core.OBS_BLOCKS
     tips = [names.index(f"{s}_{f}3") for s in "LR" for f in ("Index", "Middle", "Pinky", "Ring", "Thumb")]
-    # root height, the ball, the skill condition, a history embedding (905 = 902 + 3)
-    shared = [0, *range(blocks["ball_pos"][0], blocks["ball_angvel"][1]), *range(blocks["skill"][0], 905)]
+    # the ball, the skill condition, a history embedding (905 = 902 + 3): no body's columns, in
+    # every token; the root height only in the root's (torso) token, first (the released layout)
+    shared = [*range(blocks["ball_pos"][0], blocks["ball_angvel"][1]), *range(blocks["skill"][0], 905)]
     covered = []
     want_parts = _expected_parts(names, split)
     assert [p[0] for p in spec["parts"]] == [n for n, _ in want_parts]
     for (name, inputs, outputs), (_, bodies) in zip(spec["parts"], want_parts):
-        want = []
+        want = [0] if 0 in bodies else []
         for b in bodies:
             if b >= 1:
                 want += range(blocks["body_pos"][0] + 3 * (b - 1), blocks["body_pos"][0] + 3 * b)

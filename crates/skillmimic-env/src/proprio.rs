@@ -63,6 +63,26 @@ pub fn write_for(spec: &CharacterSpec, st: &EnvState<'_>, out: &mut [f32]) {
     write(&spec.proprio, spec.bodies.len(), st, out)
 }
 
+/// The columns of `out` that [`write()`] fills with body `b`'s own state, in layout order: its
+/// position (bodies after the root), rotation, linear and angular velocity and, for a
+/// contact-force body, its force. The root height (column 0 when present) belongs to no body.
+pub fn body_columns(p: &Proprioception, n: usize, b: usize) -> Vec<usize> {
+    let h = usize::from(p.root_height);
+    let (r0, v0) = (h + 3 * (n - 1), h + 3 * (n - 1) + 6 * n);
+    let (w0, f0) = (v0 + 3 * n, v0 + 6 * n);
+    let mut c = Vec::with_capacity(18);
+    if b >= 1 {
+        c.extend(h + 3 * (b - 1)..h + 3 * b);
+    }
+    c.extend(r0 + 6 * b..r0 + 6 * (b + 1));
+    c.extend(v0 + 3 * b..v0 + 3 * (b + 1));
+    c.extend(w0 + 3 * b..w0 + 3 * (b + 1));
+    if let Some(k) = p.contact_force_bodies.iter().position(|&t| t == b) {
+        c.extend(f0 + 3 * k..f0 + 3 * (k + 1));
+    }
+    c
+}
+
 /// ASE's fall rule: a character body other than the ground bodies (the feet) touches something
 /// that is not the character below `height` (m).
 pub fn fallen(spec: &CharacterSpec, st: &EnvState<'_>, height: f64) -> bool {

@@ -56,6 +56,10 @@ pub struct TaskSpec {
     /// normalised return: an episode's undiscounted return over `max_step_reward ×
     /// max_episode_steps`, so an episode cut short by a fall scores less (seed 001 §4, Tab. 4).
     pub max_step_reward: Option<f64>,
+    /// Observation columns after the proprioception that describe one body of the character
+    /// (`tracking`: each tracked body's reference block), as (body, columns); empty otherwise. A
+    /// part-wise policy (ModSkill's part tokens) gives them to the part of their body.
+    pub body_blocks: Vec<(usize, std::ops::Range<usize>)>,
     /// The observation as named groups in column order, `(name, width)`, widths summing to
     /// `obs_dim`: the character/state part first, then one group per task observation and, for
     /// a multi-task environment, `("mask", K)` last (one 0/1 entry per task group, 1 = the
@@ -88,6 +92,7 @@ impl Default for TaskSpec {
             hold_through_end: false,
             choice_labels: Vec::new(),
             max_step_reward: None,
+            body_blocks: Vec::new(),
             token_groups: Vec::new(),
             obs_blocks: Vec::new(),
             info_label: "task_info",

@@ -12,7 +12,7 @@ use skillmimic_env::ActionSpace;
 use crate::actor::{ActorNet, ActorWorkspace};
 use crate::config::PpoConfig;
 use crate::error::LearnError;
-use crate::policies::{self, Head, PolicyFamily};
+use crate::policies::{self, Head, ObsInfo, PolicyFamily};
 use skillmimic_nn::mlp::{Mlp, Workspace};
 use skillmimic_nn::normalizer::RunningMeanStd;
 
@@ -45,7 +45,7 @@ impl Policy {
     pub fn new<R: rand::Rng>(obs_dim: usize, act_dim: usize, cfg: &PpoConfig, rng: &mut R) -> Self {
         Self::init(
             &policies::gaussian_mlp::GaussianMlp,
-            obs_dim,
+            &ObsInfo::of_dim(obs_dim),
             ActionSpace::Box { dim: act_dim },
             cfg,
             rng,
@@ -53,9 +53,21 @@ impl Policy {
         .expect("an MLP actor always builds")
     }
 
-    /// A freshly initialised policy of the family `cfg.policy` for `space`.
+    /// A freshly initialised policy of the family `cfg.policy` for `space`, over an observation
+    /// `obs_dim` wide of the default character ([`ObsInfo::of_dim`]).
     pub fn build<R: rand::Rng>(
         obs_dim: usize,
+        space: ActionSpace,
+        cfg: &PpoConfig,
+        rng: &mut R,
+    ) -> Result<Self, LearnError> {
+        Self::build_for(&ObsInfo::of_dim(obs_dim), space, cfg, rng)
+    }
+
+    /// [`Policy::build`] for the observation `obs` describes (its character and per-body
+    /// blocks: ModSkill's part tokens).
+    pub fn build_for<R: rand::Rng>(
+        obs: &ObsInfo,
         space: ActionSpace,
         cfg: &PpoConfig,
         rng: &mut R,
@@ -68,7 +80,8 @@ impl Policy {
                 family.name()
             )));
         }
-        Self::init(family, obs_dim, space, cfg, rng)
+        // a part-wise family on a character it cannot split says why when it builds its actor
+        Self::init(family, obs, space, cfg, rng)
     }
 
     /// Actor MLP `obs_dim → hidden… → actor outputs` (or the family's own actor network), critic
@@ -76,11 +89,12 @@ impl Policy {
     /// one.
     fn init<R: rand::Rng + rand::RngCore>(
         family: &'static dyn PolicyFamily,
-        obs_dim: usize,
+        obs: &ObsInfo,
         space: ActionSpace,
         cfg: &PpoConfig,
         rng: &mut R,
     ) -> Result<Self, LearnError> {
+        let obs_dim = obs.dim;
         let mut dims = vec![obs_dim];
         dims.extend(&cfg.hidden);
         let mut adims = dims.clone();
@@ -89,7 +103,7 @@ impl Policy {
         cdims.push(1);
         // MLP families draw the actor, the critic, then the output-layer re-initialisation (the
         // order every existing seed reproduces); a family's own network is drawn first
-        let own = family.build_actor(obs_dim, &space, cfg, rng)?;
+        let own = family.build_actor(obs, &space, cfg, rng)?;
         let mlp = if own.is_none() { Some(Mlp::new(&adims, rng)) } else { None };
         let critic = Mlp::new(&cdims, rng);
         let actor = match (own, mlp) {

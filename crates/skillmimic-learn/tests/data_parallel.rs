@@ -192,8 +192,12 @@ fn every_task_and_family_trains_on_two_ranks() {
         if skillmimic_env::registry::is_high_level(entry.name) {
             c.env.table_mut::<HlcConfig>().llc = llc.clone();
         }
-        let space = skillmimic_env::registry::make(&c.env).unwrap().spec().action_space;
-        if !family.supports(&space) {
+        let env = skillmimic_env::registry::make(&c.env).unwrap();
+        let obs = skillmimic_learn::policies::ObsInfo::of_env(
+            env.as_ref(),
+            c.env.resolved_character().unwrap(),
+        );
+        if !family.acts_on(&env.spec().action_space, &obs) {
             continue;
         }
         pairs += 1;

@@ -19,7 +19,7 @@ use skillmimic_env::Env;
 use skillmimic_env::registry::{self, TASKS};
 use skillmimic_env::tasks::hlc::config::HlcConfig;
 use skillmimic_learn::config::TrainConfig;
-use skillmimic_learn::policies::FAMILIES;
+use skillmimic_learn::policies::{FAMILIES, ObsInfo};
 use skillmimic_learn::policy::{InferenceBuffers, Policy};
 use skillmimic_learn::trainer::Trainer;
 
@@ -55,7 +55,8 @@ fn run_case(mut c: TrainConfig, family: &str) -> Result<(), Failed> {
     declarations_agree(&name, &c, env.as_ref())?;
     let mut rng = <rand_chacha::ChaCha8Rng as rand::SeedableRng>::seed_from_u64(1);
     let ppo = skillmimic_learn::policies::token_transformer::with_task_groups(&c.ppo, &spec);
-    let policy = Policy::build(d, spec.action_space, &ppo, &mut rng)?;
+    let obs = ObsInfo::of_env(env.as_ref(), c.env.resolved_character().map_err(|e| e.to_string())?);
+    let policy = Policy::build_for(&obs, spec.action_space, &ppo, &mut rng)?;
     let mut buf = InferenceBuffers::default();
     let o = policy.actor_outputs();
     let (mut mu, mut values, mut actions, mut neglogp) =
@@ -171,15 +172,16 @@ fn resume_case(c: TrainConfig) -> Result<(), Failed> {
     let err = |e: skillmimic_env::EnvError| format!("{name}: {e}");
     let mut a = registry::make(&c.env).map_err(err)?;
     let spec = a.spec().clone();
+    let obs = ObsInfo::of_env(a.as_ref(), c.env.resolved_character().map_err(|e| e.to_string())?);
     let family = FAMILIES
         .iter()
-        .find(|f| f.supports(&spec.action_space))
+        .find(|f| f.acts_on(&spec.action_space, &obs))
         .ok_or(format!("{name}: no policy family acts here"))?;
     let mut ppo = c.ppo.clone();
     ppo.policy = family.name().to_string();
     let ppo = skillmimic_learn::policies::token_transformer::with_task_groups(&ppo, &spec);
     let mut rng = <rand_chacha::ChaCha8Rng as rand::SeedableRng>::seed_from_u64(5);
-    let policy = Policy::build(spec.obs_dim, spec.action_space, &ppo, &mut rng)?;
+    let policy = Policy::build_for(&obs, spec.action_space, &ppo, &mut rng)?;
     let (n, o, act) = (a.num_envs(), policy.actor_outputs(), spec.act_dim());
     let mut buf = InferenceBuffers::default();
     let (mut mu, mut values, mut neglogp) = (vec![0.0; n * o], vec![0.0; n], vec![0.0; n]);
@@ -274,10 +276,13 @@ fn main() {
     let mut trials = Vec::new();
     for entry in TASKS {
         for &character in entry.characters {
-            // the action space decides the compatible families
+            // the action space (and the character) decides the compatible families
             let probe = config(entry.name, character, "probe", &llc);
-            let space = match registry::make(&probe.env) {
-                Ok(env) => env.spec().action_space,
+            let (space, obs) = match registry::make(&probe.env) {
+                Ok(env) => {
+                    let ch = probe.env.resolved_character().expect("a built task's character");
+                    (env.spec().action_space, ObsInfo::of_env(env.as_ref(), ch))
+                }
                 Err(e) => {
                     let name = format!("{}/{character}/build", entry.name);
                     let msg = e.to_string();
@@ -290,7 +295,7 @@ fn main() {
             trials.push(Trial::test(format!("{}/{character}/resume", entry.name), move || {
                 resume_case(c)
             }));
-            for family in FAMILIES.iter().filter(|f| f.supports(&space)) {
+            for family in FAMILIES.iter().filter(|f| f.acts_on(&space, &obs)) {
                 let c = config(
                     entry.name,
                     character,

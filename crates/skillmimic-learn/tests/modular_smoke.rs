@@ -59,3 +59,78 @@ fn bad_modular_settings_are_clear_errors() {
     let err = Trainer::new(cfg, None).err().unwrap().to_string();
     assert!(err.contains("ppo.modular.parts") && err.contains("\"five\""), "{err}");
 }
+
+/// ModSkill's own setting: `modular_attention` tracking on the SMPL humanoid. Each part token
+/// reads exactly the columns the released `PartAttentionLayer` reads
+/// (`tests/fixtures/modskill_part_tokens_golden.json`: released column indices, mapped here from
+/// the released body-major self observation to this project's quantity-major one; the reference
+/// block is laid out alike), widths 156, 156, 232, 195, 195; the parts drive the 69 dofs; one
+/// iteration trains.
+#[test]
+fn smpl_tracking_part_tokens_are_the_released_ones() {
+    let mut c = tiny("smpl", 1);
+    c.env.task = "tracking".into();
+    c.env.character = "smpl".into();
+    let mut t = Trainer::new(c, None).unwrap();
+    let m = t.policy.actor.downcast_ref::<ModularAttention>().expect("a modular actor").clone();
+    assert_eq!(m.obs_dim, 358 + 24 * 24);
+    // released self column r (root height, then per body: position (not the pelvis's), rotation
+    // 6, velocity 3, angular velocity 3) -> this project's column (root height, positions of
+    // bodies 1…23, rotations, velocities, angular velocities)
+    let n = 24;
+    let mut ours_of = vec![0usize];
+    for b in 0..n {
+        if b > 0 {
+            ours_of.extend(1 + 3 * (b - 1)..1 + 3 * b);
+        }
+        let (r0, v0, w0) = (1 + 3 * (n - 1), 1 + 3 * (n - 1) + 6 * n, 1 + 3 * (n - 1) + 9 * n);
+        ours_of.extend(r0 + 6 * b..r0 + 6 * (b + 1));
+        ours_of.extend(v0 + 3 * b..v0 + 3 * (b + 1));
+        ours_of.extend(w0 + 3 * b..w0 + 3 * (b + 1));
+    }
+    ours_of.extend(358..358 + 24 * 24);
+    assert_eq!(ours_of.len(), 934);
+    let path = workspace_root().join("tests/fixtures/modskill_part_tokens_golden.json");
+    let fx: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+    let released = fx["parts"].as_array().unwrap();
+    assert_eq!(m.parts.len(), released.len());
+    let mut driven = Vec::new();
+    for (part, want) in m.parts.iter().zip(released) {
+        let want: Vec<usize> = want
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| ours_of[v.as_u64().unwrap() as usize])
+            .collect();
+        assert_eq!(part.inputs, want, "part {}", part.name);
+        driven.extend(part.outputs.iter().copied());
+    }
+    let widths: Vec<usize> = m.parts.iter().map(|p| p.inputs.len()).collect();
+    assert_eq!(widths, [156, 156, 232, 195, 195]);
+    driven.sort_unstable();
+    assert_eq!(driven, (0..69).collect::<Vec<_>>(), "every dof driven by one part");
+    let before = t.policy.actor.clone();
+    skillmimic_learn::runner::train_loop(&mut t, |_| {}).unwrap();
+    assert_ne!(t.policy.actor, before, "the update moves the modular actor");
+}
+
+/// A character without ModSkill body parts, or actions that are not its dofs, are refused with
+/// the reason.
+#[test]
+fn modular_attention_needs_body_parts_and_the_character_dofs() {
+    let mut c = tiny("tokenhsi", 1);
+    c.env.task = "stand".into();
+    c.env.character = "tokenhsi".into();
+    let err = Trainer::new(c, None).err().expect("no parts").to_string();
+    assert!(
+        err.contains("ppo.modular.parts") && err.contains("tokenhsi") && err.contains("none"),
+        "{err}"
+    );
+    let mut c = tiny("smpl_seven", 1);
+    c.env.task = "tracking".into();
+    c.env.character = "smpl".into();
+    c.ppo.modular.parts = "seven".into();
+    let err = Trainer::new(c, None).err().expect("no seven on SMPL").to_string();
+    assert!(err.contains("'seven'") && err.contains("\"five\""), "{err}");
+}

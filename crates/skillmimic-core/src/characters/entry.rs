@@ -4,6 +4,9 @@
 
 use super::spec::{CharacterSpec, HandModel};
 
+/// Body parts of a split: each part's name and bodies (ModSkill's part-wise control).
+pub type BodyParts = Vec<(&'static str, Vec<usize>)>;
+
 /// What a character module declares about itself; its entry in
 /// [`REGISTERED`](super::REGISTERED) is the one line that makes it selectable (`env.character`,
 /// the `mjcf/` scenes, every task that lists it).
@@ -22,6 +25,10 @@ pub struct CharacterEntry {
     pub ballplay: bool,
     /// The character's description for one of its hand models.
     pub spec: fn(HandModel) -> CharacterSpec,
+    /// ModSkill's body parts by split name (`ppo.modular.parts`: `"five"`, …): each part's name
+    /// and bodies, every driven body in exactly one part; `None` for a split the character does
+    /// not have (`|_| None`: no modular policy on this character).
+    pub body_parts: fn(&str) -> Option<BodyParts>,
 }
 
 /// A registered character with its variant (hand model); characters without variants carry
@@ -81,5 +88,9 @@ impl Character {
     /// The character's description.
     pub fn spec(self) -> CharacterSpec {
         (self.entry.spec)(self.hands)
+    }
+    /// ModSkill's body parts of split `split` ([`CharacterEntry::body_parts`]).
+    pub fn body_parts(self, split: &str) -> Option<BodyParts> {
+        (self.entry.body_parts)(split)
     }
 }

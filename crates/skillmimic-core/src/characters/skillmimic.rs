@@ -109,6 +109,7 @@ pub const ENTRY: CharacterEntry = CharacterEntry {
     hands: &[HandModel::Full, HandModel::Box],
     ballplay: true,
     spec,
+    body_parts,
 };
 
 /// The humanoid with a hand model.

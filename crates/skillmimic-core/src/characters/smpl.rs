@@ -183,6 +183,7 @@ pub const ENTRY: CharacterEntry = CharacterEntry {
     hands: &[HandModel::Full],
     ballplay: false,
     spec: |_| spec(),
+    body_parts,
 };
 // ANCHOR_END: entry
 

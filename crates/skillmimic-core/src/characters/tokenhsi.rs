@@ -403,6 +403,7 @@ pub const ENTRY: CharacterEntry = CharacterEntry {
     hands: &[HandModel::Full],
     ballplay: false,
     spec: |_| spec(),
+    body_parts: |_| None,
 };
 
 /// The character.

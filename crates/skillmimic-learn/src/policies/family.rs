@@ -15,6 +15,33 @@ pub struct Head<'a> {
     pub log_std: &'a [f32],
 }
 
+/// What a family may know of the observation it reads besides its width: the character whose
+/// proprioception starts it ([`skillmimic_env::proprio`]) and the task's per-body blocks
+/// (`TaskSpec::body_blocks`). ModSkill's part tokens are built from them.
+#[derive(Clone, Debug)]
+pub struct ObsInfo {
+    /// Observation width.
+    pub dim: usize,
+    pub character: skillmimic_core::characters::Character,
+    /// (body, columns) of the task's blocks that describe one body.
+    pub body_blocks: Vec<(usize, std::ops::Range<usize>)>,
+}
+
+impl ObsInfo {
+    /// An observation `dim` wide of the default character (the SkillMimic humanoid) without
+    /// per-body task blocks.
+    pub fn of_dim(dim: usize) -> Self {
+        Self { dim, character: Default::default(), body_blocks: Vec::new() }
+    }
+    /// The observation of `env`'s task on `character`.
+    pub fn of_env(
+        env: &dyn skillmimic_env::Env,
+        character: skillmimic_core::characters::Character,
+    ) -> Self {
+        Self { dim: env.obs_dim(), character, body_blocks: env.spec().body_blocks.clone() }
+    }
+}
+
 /// Extra loss of a family with its diagnostic parts.
 pub struct ExtraLoss {
     /// Added to the PPO loss (already weighted).
@@ -31,6 +58,11 @@ pub trait PolicyFamily: Send + Sync + 'static {
     fn name(&self) -> &'static str;
     /// Whether the family can act in `space`.
     fn supports(&self, space: &ActionSpace) -> bool;
+    /// Whether the family can act in `space` on the observation `obs` describes (its character:
+    /// a part-wise family needs the character's body parts and dofs); default [`Self::supports`].
+    fn acts_on(&self, space: &ActionSpace, _obs: &ObsInfo) -> bool {
+        self.supports(space)
+    }
     /// Whether the policy carries a fixed per-dimension log σ (`Policy::log_std`, checkpoint
     /// tensor `log_std`).
     fn uses_log_std(&self) -> bool {
@@ -42,7 +74,7 @@ pub trait PolicyFamily: Send + Sync + 'static {
     /// `obs → ppo.hidden → actor_outputs`). `rng` continues the policy's initialisation stream.
     fn build_actor(
         &self,
-        _obs_dim: usize,
+        _obs: &ObsInfo,
         _space: &ActionSpace,
         _cfg: &PpoConfig,
         _rng: &mut dyn RngCore,

@@ -18,7 +18,7 @@ pub mod gaussian_mlp;
 pub mod modular_attention;
 pub mod token_transformer;
 
-pub use family::{ExtraLoss, Head, PolicyFamily};
+pub use family::{ExtraLoss, Head, ObsInfo, PolicyFamily};
 
 use crate::error::LearnError;
 

@@ -1,34 +1,36 @@
 //! `modular_attention`: ModSkill's policy (seed 001 §3.2–3.3; modskill-tokenhsi-facts §1.3–1.4) on
-//! the SkillMimic humanoid — the actor is [`skillmimic_nn::modular::ModularAttention`], the
-//! distribution the fixed-σ Gaussian of [`super::gaussian_mlp`] (same log σ, sampling,
-//! log-probability and bounds loss), the critic an MLP over the whole observation (`ppo.hidden`).
+//! any character with ModSkill body parts — the actor is
+//! [`skillmimic_nn::modular::ModularAttention`], the distribution the fixed-σ Gaussian of
+//! [`super::gaussian_mlp`] (same log σ, sampling, log-probability and bounds loss), the critic an
+//! MLP over the whole observation (`ppo.hidden`).
 //!
-//! **Parts** (`ppo.modular.parts`): `five` = left leg (L_Hip…L_Toe), right leg, torso (Pelvis,
-//! Torso, Spine, Spine2, Chest, Neck, Head), left arm with its hand (L_Thorax…L_Thumb3), right arm
-//! with its hand — ModSkill's split; `seven` = the same with each hand (wrist and fingers) as its
-//! own part. A part drives the 3 joint coordinates of each of its non-root bodies.
+//! **Parts** (`ppo.modular.parts`, the character's `body_parts`): on SMPL `five` = ModSkill's
+//! left leg (L_Hip…L_Toe), right leg, torso (Pelvis…Head), left arm (L_Thorax…L_Hand), right arm;
+//! on the SkillMimic humanoid `five` = the same with each hand's fingers in its arm, `seven` =
+//! each hand (wrist and fingers) its own part. A part drives the dofs of its bodies.
 //!
-//! **Tokens** (our choice, the observation has no per-part reference block as PHC's has): part k's
-//! token = for each of its bodies b, in body order, the body's blocks of the observation —
-//! position (b ≥ 1; 3), rotation (6), linear velocity (3), angular velocity (3) and, for a
-//! fingertip, its contact force (3) — followed by the **shared** features appended to every
-//! token: root height (1) and every column after the 823 humanoid entries (imitation: the ball
-//! (15), the 64-wide skill condition, a SkillMimic-V2 history embedding; a high-level task: the
-//! ball and the task part; `stand`: its task entries). Columns: `skillmimic_env::obs::layout`.
+//! **Tokens**, as the released code builds them (`PartAttentionLayer`): part k's token = its own
+//! state — the root height for the part holding the root, then, for each of its bodies in body
+//! order, the body's proprioception blocks (position (bodies after the root; 3), rotation (6),
+//! linear velocity (3), angular velocity (3) and, for a contact-force body, its force (3);
+//! [`skillmimic_env::proprio::body_columns`]) — then the task's blocks of its bodies
+//! (`TaskSpec::body_blocks`: on `tracking` each body's 24-wide reference block), then the
+//! **shared** columns that describe no body, appended to every token (imitation: the ball (15),
+//! the 64-wide skill condition, a SkillMimic-V2 history embedding; a high-level task: the ball
+//! and the task part; `stand`: its task entries). On SMPL tracking the widths are the released
+//! 156, 156, 232, 195, 195.
 //!
 //! Checkpoint: tensors `actor.parts.{k}.{q,k,v}.{0,1}.{weight,bias}`,
 //! `actor.parts.{k}.controller.{0,2,…}.{weight,bias}`, critic and `log_std` as `gaussian_mlp`;
-//! metadata `actor_net` = [`ModularSpec`] as JSON. PyTorch mirror:
-//! `skillmimic_rs.policy.ModularAttentionPolicy`.
+//! metadata `actor_net` = [`ModularSpec`] as JSON (the token columns written out, so a checkpoint
+//! needs no layout knowledge to load). PyTorch mirror: `skillmimic_rs.policy.ModularAttentionPolicy`.
 
 use candle_core::Tensor;
 use rand::RngCore;
-use skillmimic_core::characters::skillmimic::{BODIES, FINGERTIPS, dof_range};
 use skillmimic_env::ActionSpace;
-use skillmimic_env::obs::layout;
 use skillmimic_nn::modular::{ModularAttention, ModularShape};
 
-use super::family::{ExtraLoss, Head, PolicyFamily};
+use super::family::{ExtraLoss, Head, ObsInfo, PolicyFamily};
 use super::gaussian_mlp::GaussianMlp;
 use crate::actor::ActorNet;
 use crate::config::{ModularConfig, PpoConfig};
@@ -38,56 +40,55 @@ use crate::error::LearnError;
 /// environment, where the frozen part controllers of skill reuse read it).
 pub use skillmimic_nn::modular::ModularSpec;
 
-/// Bodies of each part of a split (`five` / `seven`; `skillmimic_core::characters::skillmimic::body_parts`).
-pub fn part_bodies(split: &str) -> Result<Vec<(&'static str, Vec<usize>)>, LearnError> {
-    skillmimic_core::characters::skillmimic::body_parts(split).ok_or_else(|| {
-        LearnError::Config(format!(
-            "config field \
-        'ppo.modular.parts': '{split}' is not a body split, expected \"five\" or \"seven\""
+/// The part definitions of `cfg.parts` for the observation `obs` describes (see the module doc):
+/// each part's name, token columns and action columns.
+pub fn spec(cfg: &ModularConfig, obs: &ObsInfo) -> Result<ModularSpec, LearnError> {
+    let character = obs.character.spec();
+    let bad = |msg: String| LearnError::Config(format!("config field 'ppo.modular.parts': {msg}"));
+    let parts = obs.character.body_parts(&cfg.parts).ok_or_else(|| {
+        let known: Vec<String> = ["five", "seven"]
+            .iter()
+            .filter(|k| obs.character.body_parts(k).is_some())
+            .map(|k| format!("\"{k}\""))
+            .collect();
+        bad(format!(
+            "the {} character has no body split '{}'; it has {}",
+            character.name,
+            cfg.parts,
+            if known.is_empty() { "none".to_string() } else { known.join(", ") }
         ))
-    })
-}
-
-/// Observation columns of body `b`'s own blocks (see the module doc).
-pub fn body_columns(b: usize) -> Vec<usize> {
-    let mut c = Vec::new();
-    if b >= 1 {
-        c.extend(layout::BODY_POS.start + 3 * (b - 1)..layout::BODY_POS.start + 3 * b);
-    }
-    c.extend(layout::BODY_ROT.start + 6 * b..layout::BODY_ROT.start + 6 * (b + 1));
-    c.extend(layout::BODY_LINVEL.start + 3 * b..layout::BODY_LINVEL.start + 3 * (b + 1));
-    c.extend(layout::BODY_ANGVEL.start + 3 * b..layout::BODY_ANGVEL.start + 3 * (b + 1));
-    if let Some(f) = FINGERTIPS.iter().position(|&t| t == b) {
-        c.extend(
-            layout::FINGERTIP_FORCE.start + 3 * f..layout::FINGERTIP_FORCE.start + 3 * (f + 1),
-        );
-    }
-    c
-}
-
-/// Columns appended to every token of an observation of width `obs_dim`: the root height and
-/// everything after the humanoid entries.
-pub fn shared_columns(obs_dim: usize) -> Vec<usize> {
-    layout::ROOT_HEIGHT.chain(layout::HUMANOID_DIM..obs_dim).collect()
-}
-
-/// The part definitions of `split` for observations of width `obs_dim` (the 823 humanoid
-/// entries first) and the 156 joint coordinates.
-pub fn spec(cfg: &ModularConfig, obs_dim: usize) -> Result<ModularSpec, LearnError> {
-    if obs_dim < layout::HUMANOID_DIM {
+    })?;
+    let (p, n) = (character.proprio_dim(), character.bodies.len());
+    if obs.dim < p {
         return Err(LearnError::Config(format!(
-            "ppo.policy = \"modular_attention\" needs an observation that starts with the {} \
-                humanoid entries; this task's has {obs_dim}",
-            layout::HUMANOID_DIM
+            "ppo.policy = \"modular_attention\" needs an observation that starts with the {p} \
+                proprioception entries of the {} character; this task's has {}",
+            character.name, obs.dim
         )));
     }
-    let shared = shared_columns(obs_dim);
-    let parts = part_bodies(&cfg.parts)?
+    let own = |b: usize| skillmimic_env::proprio::body_columns(&character.proprio, n, b);
+    let root_height = character.proprio.root_height;
+    let mut described = vec![false; obs.dim];
+    described[..p].iter_mut().for_each(|d| *d = true);
+    for (_, cols) in &obs.body_blocks {
+        described[cols.clone()].iter_mut().for_each(|d| *d = true);
+    }
+    let shared: Vec<usize> = (0..obs.dim).filter(|&c| !described[c]).collect();
+    let parts = parts
         .into_iter()
         .map(|(name, bodies)| {
-            let mut inputs: Vec<usize> = bodies.iter().flat_map(|&b| body_columns(b)).collect();
+            let mut inputs: Vec<usize> = Vec::new();
+            if root_height && bodies.contains(&0) {
+                inputs.push(0);
+            }
+            inputs.extend(bodies.iter().flat_map(|&b| own(b)));
+            for &b in &bodies {
+                for (_, cols) in obs.body_blocks.iter().filter(|(k, _)| *k == b) {
+                    inputs.extend(cols.clone());
+                }
+            }
             inputs.extend(&shared);
-            let outputs = bodies.iter().filter(|&&b| b >= 1).flat_map(|&b| dof_range(b)).collect();
+            let outputs = bodies.iter().flat_map(|&b| character.bodies[b].dofs.clone()).collect();
             (name.to_string(), inputs, outputs)
         })
         .collect();
@@ -122,17 +123,20 @@ pub fn build(
 /// The modular attention family (Gaussian over the modular actor's means).
 pub struct ModularAttentionFamily;
 
-/// Names of the bodies (for messages and docs).
-pub fn body_names(bodies: &[usize]) -> Vec<&'static str> {
-    bodies.iter().map(|&b| BODIES[b].name).collect()
-}
-
 impl PolicyFamily for ModularAttentionFamily {
     fn name(&self) -> &'static str {
         "modular_attention"
     }
+    /// Continuous actions; their width is checked against the character's dofs when the network
+    /// is built.
     fn supports(&self, space: &ActionSpace) -> bool {
-        matches!(space, ActionSpace::Box { dim } if *dim == skillmimic_core::characters::skillmimic::NUM_DOFS)
+        matches!(space, ActionSpace::Box { .. })
+    }
+    /// The character's dofs, on a character with ModSkill body parts.
+    fn acts_on(&self, space: &ActionSpace, obs: &ObsInfo) -> bool {
+        self.supports(space)
+            && space.width() == obs.character.spec().num_dofs
+            && obs.character.body_parts("five").is_some()
     }
     fn uses_log_std(&self) -> bool {
         true
@@ -142,13 +146,22 @@ impl PolicyFamily for ModularAttentionFamily {
     }
     fn build_actor(
         &self,
-        obs_dim: usize,
+        obs: &ObsInfo,
         space: &ActionSpace,
         cfg: &PpoConfig,
         rng: &mut dyn RngCore,
     ) -> Result<Option<ActorNet>, LearnError> {
-        let s = spec(&cfg.modular, obs_dim)?;
-        Ok(Some(ActorNet::from(build(&s, obs_dim, space.width(), rng)?)))
+        let dofs = obs.character.spec().num_dofs;
+        if space.width() != dofs {
+            return Err(LearnError::Config(format!(
+                "ppo.policy = \"modular_attention\" drives the {dofs} dofs of the {} character; \
+                    this task's actions are {} wide",
+                obs.character.name(),
+                space.width()
+            )));
+        }
+        let s = spec(&cfg.modular, obs)?;
+        Ok(Some(ActorNet::from(build(&s, obs.dim, space.width(), rng)?)))
     }
     fn read_actor(
         &self,

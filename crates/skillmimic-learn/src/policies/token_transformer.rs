@@ -137,12 +137,12 @@ impl PolicyFamily for TokenFamily {
     }
     fn build_actor(
         &self,
-        obs_dim: usize,
+        obs: &super::family::ObsInfo,
         space: &ActionSpace,
         cfg: &PpoConfig,
         rng: &mut dyn RngCore,
     ) -> Result<Option<ActorNet>, LearnError> {
-        let s = spec(&cfg.token, obs_dim)?;
+        let s = spec(&cfg.token, obs.dim)?;
         let net = TokenTransformer::new(s, self.actor_outputs(space), rng)
             .map_err(|e| LearnError::Config(format!("config field 'ppo.token': {e}")))?;
         Ok(Some(ActorNet::from(net)))

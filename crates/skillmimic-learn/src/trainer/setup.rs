@@ -54,7 +54,11 @@ pub fn build(
     // a token policy's observation groups come from the task unless configured
     let ppo = crate::policies::token_transformer::with_task_groups(&cfg.ppo, env.spec());
     let (mut policy, mut adam, mut progress) = match resume.filter(|_| rank == 0) {
-        None => fresh_state(&cfg, &ppo, obs_dim, env.spec().action_space, &mut rng)?,
+        None => {
+            let character = ecfg.resolved_character().map_err(skillmimic_env::EnvError::from)?;
+            let obs = crate::policies::ObsInfo::of_env(env.as_ref(), character);
+            fresh_state(&cfg, &ppo, &obs, env.spec().action_space, &mut rng)?
+        }
         Some(path) => resumed_state(&cfg, path, (obs_dim, act_dim))?,
     };
     if comm.world_size() > 1 {
@@ -186,11 +190,11 @@ fn keep_history_encoder(
 fn fresh_state(
     cfg: &TrainConfig,
     ppo: &crate::config::PpoConfig,
-    obs_dim: usize,
+    obs: &crate::policies::ObsInfo,
     space: skillmimic_env::ActionSpace,
     rng: &mut ChaCha8Rng,
 ) -> Result<(Policy, Adam, Progress), LearnError> {
-    let mut policy = Policy::build(obs_dim, space, ppo, rng)?;
+    let mut policy = Policy::build_for(obs, space, ppo, rng)?;
     if !ppo.token.adapt_from.as_os_str().is_empty() {
         crate::adapt::adapt(&mut policy, &ppo.token.adapt_from, ppo.token.gate_adapters, rng)?;
     }

@@ -195,6 +195,11 @@ impl Tracking {
             metric_names: crate::task::names(&METRICS),
             info_names: vec!["clip".into(), "ref_frame".into()],
             obs_blocks,
+            body_blocks: bodies
+                .iter()
+                .enumerate()
+                .map(|(k, &b)| (b, p + REF_WIDTH * k..p + REF_WIDTH * (k + 1)))
+                .collect(),
             episode_names: vec!["clip", "ref_frame"],
             ..TaskSpec::default()
         };
