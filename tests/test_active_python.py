@@ -66,7 +66,7 @@ def test_a_python_generator_feeds_active_learning(tmp_path):
         "--preset", "tiny", "--task", "tracking", "--motion", str(clips), "--out", str(out),
         "--set", "env.num_envs=8", "--set", "env.threads=1", "--set", "run.iterations=2", "--set", "run.eval_episodes=1",
         "--set", "ppo.hidden=[32]", "--set", "run.active.enabled=true", "--set", "run.active.every=1",
-        "--set", "run.active.generator=pytest_probe",
+        "--set", "run.active.generator=pytest_probe", "--set", "run.active.failure_weight=2.0",
     ]
     _core.Trainer(argv).run()
     rounds = [json.loads(line) for line in (out / "active.jsonl").read_text().splitlines()]

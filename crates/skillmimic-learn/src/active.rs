@@ -8,7 +8,8 @@
 //!   terminated beyond `env.tracking.success_distance` (0.5 m); success = the clip's end reached.
 //!   Clips of the built-in demo (no file) are skipped.
 //! * Weights (`env.tracking.clip_weights`): a failed clip's multiplier is multiplied by
-//!   `failure_weight` each round it fails; generated clips start at 1.
+//!   `failure_weight` each round it fails (1 by default: the released generative mode leaves the
+//!   weights alone); generated clips start at 1.
 //! * Rejected clips are logged with the filter's reason and listed in the report.
 //! * Optional motion-prior filter (`disc_score_min` > 0, the released code's rule): the generated
 //!   clip is posed in the scene, its AMP features (`skillmimic_env::amp`) cut into every full

@@ -21,7 +21,12 @@ pub struct ActiveConfig {
     /// The external generator's program and arguments; it is called with two more arguments, the
     /// failed clip (project format) and an empty folder to write new clips into.
     pub command: Vec<String>,
-    /// Multiplier of a failed clip's sampling weight per failed round.
+    /// Multiplier of a failed clip's sampling weight per failed round: 1 keeps the weights (the
+    /// released generative mode, `auto_pmcp_generative`: failed clips only feed the generator).
+    ///
+    /// A value above 1 raises a clip that keeps failing geometrically (2: this project's rule
+    /// before issue 39); the released code's other modes (`auto_pmcp`: train on this round's
+    /// failures only; `auto_pmcp_soft`: weights proportional to failure counts) are not offered.
     #[schemars(extend("exclusiveMinimum" = 0))]
     pub failure_weight: f64,
     /// Validity filter: tolerated depth of a body frame below the floor (m).
@@ -44,7 +49,7 @@ impl Default for ActiveConfig {
             every: 50,
             generator: "model_free".into(),
             command: Vec::new(),
-            failure_weight: 2.0,
+            failure_weight: 1.0,
             floor_tol: 0.05,
             max_joint_speed: 60.0,
             disc_score_min: 0.0,

@@ -82,7 +82,7 @@ fn a_failed_clip_gets_generated_clips_and_more_weight() {
         &t.policy,
         &t.cfg,
         &mut Probe(seen.clone()),
-        &ActiveConfig::default(),
+        &ActiveConfig { failure_weight: 2.0, ..ActiveConfig::default() },
         None,
         &mut rng,
     )
