@@ -9,7 +9,8 @@
 //!   ½[BCE(D(x_ref), 1) + BCE(D(x_sim), 0)] + w_gp · mean‖∇ₓD(x_ref)‖² + w_logit · ‖w_out‖²;
 //!   `"least_squares"` (the AMP paper): mean (D(x_ref) − 1)² + mean (D(x_sim) + 1)² +
 //!   (w_gp / 2) · mean‖∇ₓD(x_ref)‖² + w_logit · ‖w_out‖². The gradient is taken with respect to
-//!   the normalised input.
+//!   the normalised input. Either loss adds w_decay · Σ_layers ‖W‖² (every layer's weights,
+//!   biases excluded: the AMP/ASE code's `disc_weight_decay`, `weight_decay`).
 //! * Style reward ([`Discriminator::style_reward`]): logistic −ln(max(1 − σ(D), 1e-4)) · scale;
 //!   least squares max(0, 1 − ¼(D − 1)²) · scale.
 //!
@@ -168,7 +169,14 @@ impl Discriminator {
                     0.5 * self.cfg.grad_penalty,
                 ),
             };
-            let total = ((&adv + (&gp * gp_w)?)? + (&reg * self.cfg.logit_reg)?)?;
+            let mut total = ((&adv + (&gp * gp_w)?)? + (&reg * self.cfg.logit_reg)?)?;
+            if self.cfg.weight_decay > 0.0 {
+                let mut decay = Tensor::zeros((), DType::F32, &dev)?;
+                for k in 0..layers {
+                    decay = (decay + vars[2 * k].as_tensor().sqr()?.sum_all()?)?;
+                }
+                total = (total + (decay * self.cfg.weight_decay)?)?;
+            }
             let gs = total.backward()?;
             let mut grads = Vec::with_capacity(vars.len());
             for v in &vars {

@@ -236,7 +236,9 @@ impl TrainConfig {
     /// * `small`: the paper's network and PPO settings at workstation scale: 256 environments,
     ///   horizon 32 (8192 samples per iteration), minibatch 4096, 6 mini-epochs;
     /// * `modskill`: ModSkill's released sizes on the `paper` scale: `modular_attention` with
-    ///   controllers and critic [2048, 1536, 1024, 512] (modskill-tokenhsi-facts §1.4);
+    ///   controllers and critic [2048, 1536, 1024, 512] (modskill-tokenhsi-facts §1.4), and the
+    ///   released motion-prior settings for when it is enabled (`ppo.amp.enabled = true`):
+    ///   logit regularisation 0.01, weight decay 1e-4;
     /// * `tiny`: a small network ([256, 128]) for smoke tests and CI: 16 environments, horizon 16,
     ///   minibatch 128, 2 mini-epochs, learning rate 3e-5. Measured on the demo clips (400
     ///   iterations, 32 environments): 1e-4 and 3e-5 reach the same reward (≈ 3.4× the first 25
@@ -268,6 +270,8 @@ impl TrainConfig {
                 c.ppo.policy = "modular_attention".into();
                 c.ppo.hidden = vec![2048, 1536, 1024, 512];
                 c.ppo.modular.controller = vec![2048, 1536, 1024, 512];
+                c.ppo.amp.logit_reg = 0.01;
+                c.ppo.amp.weight_decay = 1e-4;
             }
             other => {
                 return Err(LearnError::Config(format!(

@@ -70,9 +70,14 @@ pub struct AmpConfig {
     /// Gradient-penalty weight on reference windows (5, the AMP code).
     #[schemars(range(min = 0))]
     pub grad_penalty: f64,
-    /// Weight of the squared output-layer weights (0.05, the AMP code).
+    /// Weight of the squared output-layer weights (0.05, the AMP code; ModSkill's released 0.01
+    /// in preset `modskill`).
     #[schemars(range(min = 0))]
     pub logit_reg: f64,
+    /// Weight of the sum of every layer's squared weights, biases excluded (the AMP/ASE code's
+    /// `disc_weight_decay`: 0 here by default; ModSkill's released 1e-4 in preset `modskill`).
+    #[schemars(range(min = 0))]
+    pub weight_decay: f64,
     /// Discriminator Adam learning rate.
     #[schemars(range(min = 0, max = 1000))]
     pub lr: f64,
@@ -104,6 +109,7 @@ impl Default for AmpConfig {
             loss: AmpLoss::Logistic,
             grad_penalty: 5.0,
             logit_reg: 0.05,
+            weight_decay: 0.0,
             lr: 2e-5,
             reward_scale: 2.0,
             task_weight: 0.5,

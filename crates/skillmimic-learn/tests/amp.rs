@@ -94,15 +94,19 @@ fn discriminator_separates_reference_from_random_policy_windows() {
 
 #[test]
 fn loss_gradients_equal_finite_differences() {
-    for (loss, gp) in
-        [(AmpLoss::Logistic, 0.0), (AmpLoss::Logistic, 5.0), (AmpLoss::LeastSquares, 5.0)]
-    {
+    for (loss, gp, wd) in [
+        (AmpLoss::Logistic, 0.0, 0.0),
+        (AmpLoss::Logistic, 5.0, 0.0),
+        (AmpLoss::LeastSquares, 5.0, 0.0),
+        (AmpLoss::Logistic, 5.0, 0.05),
+    ] {
         let mut rng = ChaCha8Rng::seed_from_u64(5);
         let cfg = DiscConfig {
             hidden: vec![16, 8],
             loss,
             grad_penalty: gp,
             logit_reg: 0.05,
+            weight_decay: wd,
             ..Default::default()
         };
         let mut disc = Discriminator::new(6, cfg, &mut rng);
@@ -125,8 +129,20 @@ fn loss_gradients_equal_finite_differences() {
                 worst = worst.max((fd - g[idx] as f64).abs() / (1.0 + fd.abs()));
             }
         }
-        println!("{loss:?} gp {gp}: max |finite difference - gradient| / (1 + |fd|) = {worst:.2e}");
+        println!(
+            "{loss:?} gp {gp} decay {wd}: max |finite difference - gradient| / (1 + |fd|) = \
+                {worst:.2e}"
+        );
         assert!(worst < 1e-3, "{loss:?}: {worst}");
+        // the decay term is wd · Σ of every layer's squared weights (biases excluded)
+        let mut plain = disc.clone();
+        plain.cfg.weight_decay = 0.0;
+        let sq: f64 = disc.mlp.weights.iter().flatten().map(|&w| (w as f64) * (w as f64)).sum();
+        let (with, without) = (
+            disc.loss_and_grads(&xr, 12, &xs, 10).unwrap().0.total,
+            plain.loss_and_grads(&xr, 12, &xs, 10).unwrap().0.total,
+        );
+        assert!((with - without - wd * sq).abs() < 1e-4 * (1.0 + wd * sq), "{with} {without} {sq}");
     }
 }
 
