@@ -72,6 +72,7 @@ fn main() -> Result<(), Error> {
     let mut state = ResetState::rest(&scene);
     let mut rng = ChaCha8Rng::seed_from_u64(39);
     let mut states = Vec::new();
+    let judged = formulas::termination_bodies(&spec, task.tracked_bodies(), &t)?;
     // (strength of the random targets, steps): gentle rollouts follow the clip for a while,
     // strong ones cross both distances
     for (k, strength) in [0.05, 0.2, 0.6, 1.0].into_iter().cycle().take(8).enumerate() {
@@ -108,7 +109,6 @@ fn main() -> Result<(), Error> {
                 let power =
                     if formulas::power_counts(progress, &t) { st.drive_power() } else { 0.0 };
                 let terms = formulas::reward(&e, power, &t);
-                let judged = formulas::termination_bodies(&spec, task.tracked_bodies(), &t)?;
                 let dist = formulas::mean_distance(&st, &now, &judged);
                 let mut ours = json!({
                     "terms": terms.map(r).to_vec(),
@@ -146,7 +146,6 @@ fn main() -> Result<(), Error> {
         }
     }
     let names: Vec<&str> = spec.bodies.iter().map(|b| b.name).collect();
-    let judged = formulas::termination_bodies(&spec, task.tracked_bodies(), &t)?;
     let doc = json!({
         "body_names": names,
         "termination_body_ids": judged,

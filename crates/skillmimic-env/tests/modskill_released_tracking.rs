@@ -61,21 +61,13 @@ fn smpl() -> skillmimic_core::characters::CharacterSpec {
     skillmimic_core::characters::smpl::spec()
 }
 
-/// This project's proprioception (quantity-major: root height, positions of bodies 1…, rotations,
-/// velocities, angular velocities) in the released body-major order (root height, then per
-/// body its position (not the root's), rotation, velocity and angular velocity).
-fn body_major(p: &[f32], n: usize) -> Vec<f32> {
-    let (r0, v0, w0) = (1 + 3 * (n - 1), 1 + 3 * (n - 1) + 6 * n, 1 + 3 * (n - 1) + 9 * n);
-    let mut out = vec![p[0]];
-    for b in 0..n {
-        if b > 0 {
-            out.extend(&p[1 + 3 * (b - 1)..1 + 3 * b]);
-        }
-        out.extend(&p[r0 + 6 * b..r0 + 6 * (b + 1)]);
-        out.extend(&p[v0 + 3 * b..v0 + 3 * (b + 1)]);
-        out.extend(&p[w0 + 3 * b..w0 + 3 * (b + 1)]);
-    }
-    out
+/// This project's proprioception in the released body-major order: the root height, then each
+/// body's own columns ([`skillmimic_env::proprio::body_columns`]: position (not the root's),
+/// rotation, velocity, angular velocity) — the comparison below checks that map too.
+fn body_major(p: &[f32], spec: &skillmimic_core::characters::CharacterSpec) -> Vec<f32> {
+    let n = spec.bodies.len();
+    let cols = (0..n).flat_map(|b| skillmimic_env::proprio::body_columns(&spec.proprio, n, b));
+    std::iter::once(p[0]).chain(cols.map(|c| p[c])).collect()
 }
 
 #[test]
@@ -152,7 +144,7 @@ fn tracking_matches_the_released_modskill_functions() {
         let next = Frame::of(&s["next_ref"]);
         let mut proprio = vec![0f32; spec.proprio_dim()];
         skillmimic_env::proprio::write_for(&spec, &st, &mut proprio);
-        check_f32("self_obs", i, &body_major(&proprio, n), &floats(&e["self_obs"]));
+        check_f32("self_obs", i, &body_major(&proprio, &spec), &floats(&e["self_obs"]));
         let mut task = vec![0f32; formulas::REF_WIDTH * n];
         formulas::write_reference_obs(&st, &next, &tracked, &mut task);
         check_f32("task_obs", i, &task, &floats(&e["task_obs"]));

@@ -75,19 +75,12 @@ fn smpl_tracking_part_tokens_are_the_released_ones() {
     let m = t.policy.actor.downcast_ref::<ModularAttention>().expect("a modular actor").clone();
     assert_eq!(m.obs_dim, 358 + 24 * 24);
     // released self column r (root height, then per body: position (not the pelvis's), rotation
-    // 6, velocity 3, angular velocity 3) -> this project's column (root height, positions of
-    // bodies 1…23, rotations, velocities, angular velocities)
-    let n = 24;
+    // 6, velocity 3, angular velocity 3) -> this project's column (its own body columns, checked
+    // against the released self observation by skillmimic-env's modskill_released_tracking test);
+    // the reference block is laid out alike
+    let (spec, n) = (skillmimic_core::characters::smpl::spec(), 24);
     let mut ours_of = vec![0usize];
-    for b in 0..n {
-        if b > 0 {
-            ours_of.extend(1 + 3 * (b - 1)..1 + 3 * b);
-        }
-        let (r0, v0, w0) = (1 + 3 * (n - 1), 1 + 3 * (n - 1) + 6 * n, 1 + 3 * (n - 1) + 9 * n);
-        ours_of.extend(r0 + 6 * b..r0 + 6 * (b + 1));
-        ours_of.extend(v0 + 3 * b..v0 + 3 * (b + 1));
-        ours_of.extend(w0 + 3 * b..w0 + 3 * (b + 1));
-    }
+    ours_of.extend((0..n).flat_map(|b| skillmimic_env::proprio::body_columns(&spec.proprio, n, b)));
     ours_of.extend(358..358 + 24 * 24);
     assert_eq!(ours_of.len(), 934);
     let path = workspace_root().join("tests/fixtures/modskill_part_tokens_golden.json");

@@ -165,8 +165,9 @@ pub struct Tracking {
     motion: Motion,
     refs: Vec<ClipFrames>,
     bodies: Vec<usize>,
-    /// The bodies of the termination and success distance.
-    judged: Vec<usize>,
+    /// The bodies of the termination and success distance when they are not the tracked ones
+    /// (`None`: the tracked bodies, whose mean distance `errors` already gives).
+    judged: Option<Vec<usize>>,
     spec: TaskSpec,
     character: CharacterSpec,
     /// Cumulative clip weights: library weights × `clip_weights` multipliers.
@@ -181,6 +182,7 @@ impl Tracking {
         let bodies = formulas::tracked_bodies(&character, t.fingers);
         let judged = formulas::termination_bodies(&character, &bodies, &t)
             .map_err(|e| bad("env.tracking.termination_bodies", e))?;
+        let judged = (judged != bodies).then_some(judged);
         let refs = reference_frames(scene, &motion)?;
         let longest = refs.iter().map(|r| r.frames).max().unwrap_or(2);
         let nd = character.num_dofs;
@@ -307,7 +309,7 @@ impl Task for Tracking {
         // the history moves on one frame (no allocation: the oldest buffer takes the newest)
         std::mem::swap(&mut slot.older, &mut slot.old);
         positions(st, &mut slot.old);
-        let dist = formulas::mean_distance(st, &r, &self.judged);
+        let dist = self.judged.as_ref().map_or(e.dist, |j| formulas::mean_distance(st, &r, j));
         let judged = formulas::distance_rule_applies(slot.steps, &self.cfg);
         slot.failed |= judged && dist > self.cfg.success_distance;
         let end = slot.frame + 1 >= refs.frames;
