@@ -23,6 +23,7 @@ train-a-skill/runs/first/curve_400.png first-curve.png
 train-a-skill/runs/first/policy.mp4 first-policy.mp4
 your-motion/my_clips/walk.mp4 your-motion-bvh.mp4
 your-motion/my_clips/walk_amass.mp4 your-motion-amass.mp4
+your-motion/my_smpl/walk_amass.mp4 your-motion-amass-smpl.mp4
 evaluate/runs/dribble/trial.mp4 evaluate-trial.mp4
 skill-reuse/runs/heading/heading.mp4 skill-reuse-heading.mp4
 several-machines/runs/dp/curve.png several-machines-curve.png

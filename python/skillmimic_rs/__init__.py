@@ -34,7 +34,7 @@ from . import _core  # noqa: E402
 from ._core import ACT_DIM, BUILTIN_DEMO, FRAME_METRIC_NAMES, HIGH_LEVEL_TASKS, OBS_DIM, POLICY_FAMILIES, TASKS, TERM_NAMES, core_version  # noqa: E402
 from .motion import register_generator  # noqa: E402
 from .vec_env import VecEnv, load_config  # noqa: E402
-from .api import cli, evaluate, play, retarget_amass, retarget_bvh, retarget_positions, train  # noqa: E402
+from .api import amass_to_smpl, cli, evaluate, play, retarget_amass, retarget_bvh, retarget_positions, train  # noqa: E402
 from .gym_env import GYM_IDS, SkillMimicEnv, gym_id, register as _register_gym  # noqa: E402
 
 __version__ = core_version()
@@ -49,6 +49,7 @@ __all__ = [
     "train",
     "evaluate",
     "play",
+    "amass_to_smpl",
     "retarget_amass",
     "retarget_bvh",
     "retarget_positions",

@@ -178,6 +178,15 @@ def retarget_amass(npz: str | os.PathLike, *, out: str | os.PathLike, skill: int
     return _retarget(npz, "amass", out, dict(options, skill=skill, map=map))
 
 
+def amass_to_smpl(npz: str | os.PathLike, *, out: str | os.PathLike, **options: Any) -> dict[str, Any]:
+    """Write an SMPL / SMPL-H / SMPL-X sequence in the AMASS ``.npz`` layout as a clip of the SMPL
+    humanoid with its SMPL joint rotations as they are (no retargeting), as ``skillmimic retarget
+    --amass FILE --to smpl`` (``name=``, ``no_ground=True``); returns the report (frames, fps,
+    ground shift) with ``clip``. The tracking task also reads such ``.npz`` files directly
+    (``env.motion``, ``env.character = "smpl"``)."""
+    return _retarget(npz, "amass", out, dict(options, to="smpl"))
+
+
 def retarget_positions(csv: str | os.PathLike, *, out: str | os.PathLike, skill: int, fps: float,
                        map: str | os.PathLike = "humanoid", **options: Any) -> dict[str, Any]:
     """Retarget joint positions (a CSV with ``<joint>_x,<joint>_y,<joint>_z`` columns, one row per

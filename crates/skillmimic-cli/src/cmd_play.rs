@@ -23,7 +23,8 @@ pub struct Args {
     /// Policy checkpoint to roll out.
     #[arg(long, conflicts_with = "reference")]
     pub checkpoint: Option<PathBuf>,
-    /// Play this clip back kinematically instead (`.pt` or `.safetensors`).
+    /// Play this clip back kinematically instead: a SkillMimic clip (`.pt`, `.safetensors`) or
+    /// another character's `character-clip` file (the SMPL humanoid, TokenHSI).
     #[arg(long)]
     pub reference: Option<PathBuf>,
     #[command(flatten)]
@@ -309,13 +310,24 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             return Ok(());
         }
         (None, Some(clip)) => {
-            let lib = load_motion_library(std::slice::from_ref(clip))?;
-            let m = lib.get(0);
-            let scene = Arc::new(Scene::default_for(skillmimic_sim::HandModel::Full)?);
-            let mut poser = ClipPoser::new(scene.clone())?;
-            let frames = m.clip.num_frames.min(a.steps.max(1));
-            let states: Vec<Vec<f64>> =
-                (0..frames).map(|t| poser.qpos(m, t)).collect::<anyhow::Result<_>>()?;
+            let (states, scene) = match load_motion_library(std::slice::from_ref(clip)) {
+                Ok(lib) => {
+                    let m = lib.get(0);
+                    let scene = Arc::new(Scene::default_for(skillmimic_sim::HandModel::Full)?);
+                    let mut poser = ClipPoser::new(scene.clone())?;
+                    let frames = m.clip.num_frames.min(a.steps.max(1));
+                    let states: Vec<Vec<f64>> =
+                        (0..frames).map(|t| poser.qpos(m, t)).collect::<anyhow::Result<_>>()?;
+                    (states, scene)
+                }
+                // another character's clip (`character-clip`: SMPL, TokenHSI)
+                Err(lib_err) => character_clip_states(clip, a.steps).map_err(|e| {
+                    anyhow::anyhow!(
+                        "{}: neither a SkillMimic clip ({lib_err}) nor a character clip ({e})",
+                        clip.display()
+                    )
+                })?,
+            };
             (states, scene, format!("reference {}", clip.display()))
         }
         _ => bail!("give exactly one of --checkpoint or --reference"),
@@ -332,4 +344,27 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         println!("video  {} ({} frames at {} fps)", p.display(), frames.rgb.len(), a.fps);
     }
     Ok(())
+}
+
+/// The MuJoCo states (qpos per 60 Hz frame, at most `steps`) of a `character-clip` file played
+/// back kinematically in its character's bare scene, and that scene.
+fn character_clip_states(path: &Path, steps: usize) -> anyhow::Result<(Vec<Vec<f64>>, Arc<Scene>)> {
+    use skillmimic_motion::character_clip::CharacterClip;
+    let clip = CharacterClip::load(path)?;
+    let hands = skillmimic_sim::HandModel::Full;
+    let character = skillmimic_core::characters::Character::by_name(&clip.character, hands)
+        .with_context(|| format!("no registered character '{}'", clip.character))?;
+    let scene = Arc::new(Scene::new(skillmimic_sim::SceneOptions::bare(character))?);
+    let spec = scene.character().clone();
+    // the renderer's frames are 60 Hz states
+    let clip = clip.resampled(&spec, 60.0);
+    let mut sim = skillmimic_sim::BatchSim::new(scene.clone(), 1, 1)?;
+    let mut state = skillmimic_sim::ResetState::rest(&scene);
+    let mut states = Vec::new();
+    for t in 0..clip.num_frames.min(steps.max(1)) {
+        skillmimic_env::clip_state::clip_state(&spec, &clip, t, &mut state);
+        sim.reset(&[true], std::slice::from_ref(&state))?;
+        states.push(sim.qpos(0).to_vec());
+    }
+    Ok((states, scene))
 }

@@ -1,8 +1,10 @@
-//! `skillmimic retarget`, two directions:
+//! `skillmimic retarget`, by input:
 //! * `--bvh FILE` / `--amass FILE.npz` / `--positions FILE.csv --fps F`, with `--map MAP --skill N`
 //!   and optionally `--ik`: a motion → a clip of the SkillMimic humanoid in the project format
 //!   (`skillmimic_motion::retarget_bvh`, `retarget_positions`, `retarget_clip`) with a JSON report
 //!   (foot penetration and sliding, joint-speed spikes, scale, IK residuals);
+//! * `--amass FILE.npz --to smpl`: the sequence's SMPL joint rotations as a clip of the SMPL
+//!   humanoid as they are, no retargeting (`skillmimic_motion::amass_smpl`);
 //! * `--to tokenhsi|smpl --motion …`: SkillMimic-skeleton clips (BallPlay-M `.pt` or the project
 //!   format) → clips of the TokenHSI character or the SMPL humanoid (`character-clip` format,
 //!   `skillmimic_motion::character_clip`), by shared joints (`skillmimic_motion::retarget_hsi`,
@@ -24,9 +26,12 @@ use skillmimic_motion::retarget_smpl::retarget_to_smpl;
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// Target character of `--motion`: `tokenhsi` or `smpl`.
-    #[arg(long, default_value = "tokenhsi")]
-    pub to: String,
+    /// Target character: of `--motion`, `tokenhsi` (default) or `smpl`; of `--amass`, `smpl`
+    /// writes the sequence's SMPL joint rotations as a clip of the SMPL humanoid as they are (no
+    /// retargeting, `skillmimic_motion::amass_smpl`) instead of retargeting it onto the SkillMimic
+    /// humanoid.
+    #[arg(long)]
+    pub to: Option<String>,
     /// Source clip files or folders (repeatable).
     #[arg(long, required_unless_present_any = ["bvh", "amass", "positions"])]
     pub motion: Vec<PathBuf>,
@@ -89,13 +94,21 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         return run_bvh(&a, &bvh, false);
     }
     if let Some(npz) = a.amass.clone() {
-        return run_bvh(&a, &npz, true);
+        return match a.to.as_deref() {
+            None | Some("skillmimic") => run_bvh(&a, &npz, true),
+            Some("smpl") => run_amass_smpl(&a, &npz),
+            Some(t) => bail!(
+                "--to '{t}' with --amass: AMASS sequences go onto 'smpl' (as they are) or \
+                 'skillmimic' (retargeted, the default)"
+            ),
+        };
     }
     if let Some(csv) = a.positions.clone() {
         return run_positions(&a, &csv);
     }
-    if a.to != "tokenhsi" && a.to != "smpl" {
-        bail!("--to '{}': the target characters are 'tokenhsi' and 'smpl'", a.to);
+    let to = a.to.as_deref().unwrap_or("tokenhsi");
+    if to != "tokenhsi" && to != "smpl" {
+        bail!("--to '{to}': the target characters of --motion are 'tokenhsi' and 'smpl'");
     }
     let mut files = Vec::new();
     for m in &a.motion {
@@ -109,7 +122,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let mut reports = Vec::new();
     for f in &files {
         let clip = Clip::load_any(f)?;
-        if a.to == "smpl" {
+        if to == "smpl" {
             let (out, rep) = retarget_to_smpl(&clip);
             let path = a.out.join(format!("{}.safetensors", clip.name));
             out.save(&path).with_context(|| format!("cannot write {}", path.display()))?;
@@ -152,6 +165,44 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     )
     .with_context(|| format!("cannot write {}", path.display()))?;
     println!("wrote {} clips and {}", reports.len(), path.display());
+    Ok(())
+}
+
+/// `--amass FILE --to smpl`: the sequence's SMPL joint rotations as a clip of the SMPL humanoid
+/// (no retargeting), with its report.
+fn run_amass_smpl(a: &Args, path: &std::path::Path) -> anyhow::Result<()> {
+    if a.body_model.is_some() || a.rest.is_some() || a.map.is_some() || a.ik {
+        bail!(
+            "--to smpl reads the sequence on SMPL's neutral body as it is: --body-model, --rest, \
+             --map and --ik do not apply"
+        );
+    }
+    let (mut clip, rep) = skillmimic_motion::amass_smpl::load(path, !a.no_ground)?;
+    if let Some(n) = &a.name {
+        clip.name = n.clone();
+    }
+    std::fs::create_dir_all(&a.out)
+        .with_context(|| format!("cannot create {}", a.out.display()))?;
+    let out = a.out.join(format!("{}.safetensors", clip.name));
+    clip.save(&out).with_context(|| format!("cannot write {}", out.display()))?;
+    let rpath = a.out.join(format!("{}.retarget.json", clip.name));
+    skillmimic_core::tensorfile::write_bytes_atomic(
+        &rpath,
+        serde_json::to_string_pretty(&rep)?.as_bytes(),
+    )
+    .with_context(|| format!("cannot write {}", rpath.display()))?;
+    println!(
+        "{}: {} frames at {:.1} fps ({} pose columns) onto the SMPL humanoid as they are, ground \
+         shift {:.1} mm{}; wrote {} and {}",
+        clip.name,
+        rep.frames,
+        rep.fps,
+        rep.source_width,
+        1000.0 * rep.ground_shift,
+        if rep.betas_ignored { " (betas ignored: the neutral body)" } else { "" },
+        out.display(),
+        rpath.display()
+    );
     Ok(())
 }
 

@@ -322,71 +322,113 @@ pub fn read(path: &Path) -> Result<Bvh, ClipError> {
     read_with_rest(path, Rest::SmplNeutral)
 }
 
-/// [`read`] on the given rest skeleton ([`Rest`]); with SMPL's skeletons the pelvis is placed at
-/// `trans + J_pelvis`, as SMPL does.
-pub fn read_with_rest(path: &Path, rest: Rest) -> Result<Bvh, ClipError> {
-    let [poses, trans, fps_a, fps_b, betas]: [Option<Array>; 5] =
-        read_arrays(path, &["poses", "trans", "mocap_framerate", "mocap_frame_rate", "betas"])?
-            .try_into()
-            .expect("five names");
-    let (pshape, poses) = poses.ok_or_else(|| {
-        fmt_err(path, "no 'poses' array (T, 156) of per-joint axis-angles".into())
-    })?;
-    let (tshape, trans) = trans
-        .ok_or_else(|| fmt_err(path, "no 'trans' array (T, 3) of root translations".into()))?;
-    let betas = betas.map(|b| b.1).unwrap_or_default();
-    let fps = fps_a.or(fps_b).ok_or_else(|| {
-        fmt_err(path, "no 'mocap_framerate' (or 'mocap_frame_rate') scalar".into())
-    })?;
-    let fps = *fps.1.first().ok_or_else(|| fmt_err(path, "empty frame rate".into()))?;
-    if !(fps > 0.0 && fps <= 1000.0) {
-        return Err(fmt_err(path, format!("frame rate {fps}, expected 0 < fps <= 1000")));
-    }
-    let (t, width) = match pshape[..] {
-        [t, w] => (t, w),
-        _ => {
-            return Err(fmt_err(
-                path,
-                format!("'poses' has shape {pshape:?}, expected (T, 72), (T, 156) or (T, 165)"),
-            ));
+/// An AMASS-layout sequence as stored (validated: shapes, frame count, frame rate, finite values).
+#[derive(Clone, Debug)]
+pub struct Sequence {
+    /// Frames T.
+    pub frames: usize,
+    /// Frames per second (`mocap_framerate` / `mocap_frame_rate`), in (0, 1000].
+    pub fps: f64,
+    /// Columns of a `poses` row: 72 (SMPL), 156 (SMPL-H) or 165 (SMPL-X).
+    pub width: usize,
+    /// `(T, width)` per-joint axis-angles (rad).
+    pub poses: Vec<f64>,
+    /// `(T, 3)` root translations (m, AMASS's Z-up world).
+    pub trans: Vec<f64>,
+    /// Shape coefficients (empty when the file has none).
+    pub betas: Vec<f64>,
+}
+
+impl Sequence {
+    /// Read and validate `poses`, `trans`, the frame rate and `betas` of an AMASS `.npz`; errors
+    /// name the file, the array and the expected shape or range.
+    pub fn read(path: &Path) -> Result<Self, ClipError> {
+        let [poses, trans, fps_a, fps_b, betas]: [Option<Array>; 5] =
+            read_arrays(path, &["poses", "trans", "mocap_framerate", "mocap_frame_rate", "betas"])?
+                .try_into()
+                .expect("five names");
+        let (pshape, poses) = poses.ok_or_else(|| {
+            fmt_err(path, "no 'poses' array (T, 156) of per-joint axis-angles".into())
+        })?;
+        let (tshape, trans) = trans
+            .ok_or_else(|| fmt_err(path, "no 'trans' array (T, 3) of root translations".into()))?;
+        let betas = betas.map(|b| b.1).unwrap_or_default();
+        let fps = fps_a.or(fps_b).ok_or_else(|| {
+            fmt_err(path, "no 'mocap_framerate' (or 'mocap_frame_rate') scalar".into())
+        })?;
+        let fps = *fps.1.first().ok_or_else(|| fmt_err(path, "empty frame rate".into()))?;
+        if !(fps > 0.0 && fps <= 1000.0) {
+            return Err(fmt_err(path, format!("frame rate {fps}, expected 0 < fps <= 1000")));
         }
-    };
-    // source column of each SMPL-H joint (None: not in the file)
-    let hands_at = match width {
-        156 => Some(22),
-        165 => Some(25),
-        72 => None,
-        w => {
+        let (t, width) = match pshape[..] {
+            [t, w] => (t, w),
+            _ => {
+                return Err(fmt_err(
+                    path,
+                    format!("'poses' has shape {pshape:?}, expected (T, 72), (T, 156) or (T, 165)"),
+                ));
+            }
+        };
+        if ![72, 156, 165].contains(&width) {
             return Err(fmt_err(
                 path,
                 format!(
-                    "'poses' has {w} columns, expected 72 (SMPL), 156 (SMPL-H) or 165 (SMPL-X)"
+                    "'poses' has {width} columns ({} joints), expected 72 (SMPL, 24 joints), 156 \
+                     (SMPL-H, 52) or 165 (SMPL-X, 55)",
+                    width as f64 / 3.0
                 ),
             ));
         }
-    };
-    if tshape[..] != [t, 3] {
-        return Err(fmt_err(
-            path,
-            format!("'trans' has shape {tshape:?}, expected ({t}, 3) like 'poses'"),
-        ));
+        if tshape[..] != [t, 3] {
+            return Err(fmt_err(
+                path,
+                format!("'trans' has shape {tshape:?}, expected ({t}, 3) like 'poses'"),
+            ));
+        }
+        if !(2..=MAX_FRAMES).contains(&t) {
+            return Err(fmt_err(path, format!("{t} frames, expected 2 to {MAX_FRAMES}")));
+        }
+        Ok(Sequence { frames: t, fps, width, poses, trans, betas })
     }
-    if !(2..=MAX_FRAMES).contains(&t) {
-        return Err(fmt_err(path, format!("{t} frames, expected 2 to {MAX_FRAMES}")));
-    }
-    let col = |j: usize| -> Option<usize> {
+
+    /// First column of SMPL-H joint `j` (0 … 51) in a `poses` row; `None` for the fingers of an
+    /// SMPL file (72 columns: joints 22 and 23 there are SMPL's hands, not SMPL-H joints).
+    pub fn smplh_column(&self, j: usize) -> Option<usize> {
+        let hands_at = match self.width {
+            156 => Some(22),
+            165 => Some(25),
+            _ => None,
+        };
         match (j, hands_at) {
             (0..=21, _) => Some(3 * j),
             (22.., Some(h)) => Some(3 * (h + j - 22)),
             (22.., None) => None,
         }
-    };
+    }
+
+    /// Axis-angle (rad) of the `c`-th column triple of frame `f`.
+    pub fn axis_angle(&self, f: usize, c: usize) -> [f64; 3] {
+        let row = &self.poses[f * self.width..(f + 1) * self.width];
+        [row[c], row[c + 1], row[c + 2]]
+    }
+
+    /// Root translation of frame `f` (m, Z-up world).
+    pub fn trans_at(&self, f: usize) -> [f64; 3] {
+        [self.trans[3 * f], self.trans[3 * f + 1], self.trans[3 * f + 2]]
+    }
+}
+
+/// [`read`] on the given rest skeleton ([`Rest`]); with SMPL's skeletons the pelvis is placed at
+/// `trans + J_pelvis`, as SMPL does.
+pub fn read_with_rest(path: &Path, rest: Rest) -> Result<Bvh, ClipError> {
+    let seq = Sequence::read(path)?;
+    let (t, betas) = (seq.frames, &seq.betas);
     // rest skeleton: SMPL's neutral one, a body model's joints for these betas, or the humanoid's;
     // the pelvis goes to trans + its rest position (J_pelvis for SMPL's; the origin for the
     // humanoid's, whose forward kinematics start there)
     let rest_j = match rest {
         Rest::SmplNeutral => smpl_neutral_joints(),
-        Rest::BodyModel(m) => model_joints(m, &betas)?,
+        Rest::BodyModel(m) => model_joints(m, betas)?,
         Rest::Humanoid => humanoid_rest(),
     };
     let pelvis = rest_j[0];
@@ -415,15 +457,11 @@ pub fn read_with_rest(path: &Path, rest: Rest) -> Result<Bvh, ClipError> {
     let untilt = Quat::from_axis_angle([1.0, 0.0, 0.0], -std::f64::consts::FRAC_PI_2);
     let mut values = Vec::with_capacity(t * width_out);
     for f in 0..t {
-        let row = &poses[f * width..(f + 1) * width];
         let aa = |j: usize| -> Quat {
-            col(j).map_or(Quat::IDENTITY, |c| Quat::from_rotvec([row[c], row[c + 1], row[c + 2]]))
+            seq.smplh_column(j).map_or(Quat::IDENTITY, |c| Quat::from_rotvec(seq.axis_angle(f, c)))
         };
-        let p = untilt.rotate([
-            trans[3 * f] + pelvis[0],
-            trans[3 * f + 1] + pelvis[1],
-            trans[3 * f + 2] + pelvis[2],
-        ]);
+        let tr = seq.trans_at(f);
+        let p = untilt.rotate([tr[0] + pelvis[0], tr[1] + pelvis[1], tr[2] + pelvis[2]]);
         values.extend_from_slice(&p);
         values.extend_from_slice(&zxy_degrees(untilt.mul(aa(0))));
         for j in 1..52 {
@@ -433,7 +471,7 @@ pub fn read_with_rest(path: &Path, rest: Rest) -> Result<Bvh, ClipError> {
     Ok(Bvh {
         path: path.to_path_buf(),
         joints,
-        frame_time: 1.0 / fps,
+        frame_time: 1.0 / seq.fps,
         frames: t,
         width: width_out,
         values,

@@ -6,6 +6,7 @@
 //!   matrix (BallPlay-M clips) — no pickle code is executed;
 //! * [`layout`]: the BallPlay-M 337-column row layout (widths, frame rate, column names);
 //! * [`amass`]: SMPL-family sequences in the AMASS `.npz` layout as a source skeleton motion;
+//!   [`amass_smpl`]: the same sequences straight onto the SMPL humanoid (no retargeting);
 //! * [`bvh`]: BVH motion files (bounded parser, forward kinematics) for retargeting users' motions;
 //! * [`clip`]: the project's clip representation and its decoding from the 337-column layout;
 //! * [`mod@format`]: the project's clip file format (safetensors, documented field by field);
@@ -22,6 +23,7 @@
 //! * [`testing`]: synthetic clip rows for tests and the fuzzer's seeds.
 
 pub mod amass;
+pub mod amass_smpl;
 pub mod bvh;
 pub mod character_clip;
 pub mod clip;

@@ -34,8 +34,15 @@ pub struct MotionLibrary {
     cumulative: Vec<f64>,
 }
 
-/// All clip files below `path` (a file is returned as is), sorted by path.
+/// All clip files (`.pt`, `.safetensors`) below `path` (a file is returned as is), sorted by
+/// path.
 pub fn find_clip_files(path: &Path) -> Result<Vec<PathBuf>, ClipError> {
+    find_files(path, &["pt", "safetensors"])
+}
+
+/// All files with one of the `extensions` (without the dot) below `path` (a file is returned as
+/// is, whatever its extension), sorted by path.
+pub fn find_files(path: &Path, extensions: &[&str]) -> Result<Vec<PathBuf>, ClipError> {
     if path.is_file() {
         return Ok(vec![path.to_path_buf()]);
     }
@@ -51,7 +58,11 @@ pub fn find_clip_files(path: &Path) -> Result<Vec<PathBuf>, ClipError> {
             let p = entry.map_err(|error| ClipError::Io { path: dir.clone(), error })?.path();
             if p.is_dir() {
                 stack.push(p);
-            } else if matches!(p.extension().and_then(|e| e.to_str()), Some("pt" | "safetensors")) {
+            } else if p
+                .extension()
+                .and_then(|e| e.to_str())
+                .is_some_and(|e| extensions.contains(&e))
+            {
                 out.push(p);
             }
         }

@@ -8,7 +8,9 @@
 //!   files of the character, or SkillMimic-skeleton clips (the built-in demo clips, project or
 //!   BallPlay-M files) retargeted by joint name on load (the SMPL humanoid,
 //!   `skillmimic_motion::retarget_smpl`); episodes start in a frame's state with finite-difference
-//!   velocities ([`clip_state`]). Clips are resampled on load to the character's control rate
+//!   velocities ([`clip_state`]). The SMPL humanoid also reads AMASS-layout `.npz` sequences
+//!   directly (`skillmimic_motion::amass_smpl`: SMPL's joint rotations, no retargeting). Clips
+//!   are resampled on load to the character's control rate
 //!   (`CharacterClip::resampled`: the SMPL humanoid's 30 Hz, as the released ModSkill code reads
 //!   its motion library at the policy's time step), so that an episode advances one frame per
 //!   policy step at the clip's own speed.
@@ -19,7 +21,7 @@ use std::sync::Arc;
 use skillmimic_core::characters::{Character, CharacterSpec};
 use skillmimic_motion::MotionLibrary;
 use skillmimic_motion::character_clip::CharacterClip;
-use skillmimic_motion::library::find_clip_files;
+use skillmimic_motion::library::find_files;
 use skillmimic_sim::{BatchSim, EnvState, ResetState, Scene, SimError};
 
 use crate::clip_state::clip_state;
@@ -32,9 +34,31 @@ pub enum Motion {
     Clips(Vec<CharacterClip>),
 }
 
+/// An AMASS-layout `.npz` of `env.motion`: SMPL joint rotations as they are on the SMPL humanoid
+/// (`skillmimic_motion::amass_smpl`, feet put on the floor over the clip as PHC's motion library
+/// does); other characters are refused with the way to convert it.
+fn load_amass(path: &std::path::Path, character: Character) -> Result<CharacterClip, EnvError> {
+    if character.name() != "smpl" {
+        let msg = format!(
+            "{}: AMASS-layout motion is tracked by the smpl character as it is (set \
+             env.character = \"smpl\"); for the {} character convert it first (skillmimic \
+             retarget --amass)",
+            path.display(),
+            character.name()
+        );
+        return Err(bad("env.motion", msg).into());
+    }
+    Ok(skillmimic_motion::amass_smpl::load(path, true)?.0)
+}
+
 impl Motion {
     /// The clips of `env.motion` for `character`.
     pub fn load(paths: &[PathBuf], character: Character) -> Result<Self, EnvError> {
+        // AMASS-layout files of another character are refused before any other loading
+        let npz = paths.iter().find(|p| p.extension().is_some_and(|e| e == "npz"));
+        if let Some(npz) = npz.filter(|_| character.name() != "smpl") {
+            load_amass(npz, character)?;
+        }
         if character.plays_ballplay() {
             return Ok(Motion::SkillMimic(Arc::new(crate::tasks::imitation::load_motion_library(
                 paths,
@@ -64,7 +88,11 @@ impl Motion {
                 )?;
                 continue;
             }
-            for f in find_clip_files(p)? {
+            for f in find_files(p, &["pt", "safetensors", "npz"])? {
+                if f.extension().is_some_and(|e| e == "npz") {
+                    clips.push(load_amass(&f, character)?);
+                    continue;
+                }
                 match CharacterClip::load(&f) {
                     Ok(c) if c.character == spec.name => clips.push(c),
                     Ok(c) => {
