@@ -175,6 +175,7 @@ pub fn spec(hands: HandModel) -> CharacterSpec {
         substeps: 2,
         proprio: PROPRIO,
         ground_bodies: vec![3, 4, 7, 8],
+        tracking_unjudged: &[],
     }
 }
 

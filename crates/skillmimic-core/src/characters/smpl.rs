@@ -263,6 +263,7 @@ pub fn spec() -> CharacterSpec {
             contact_force_bodies: &[],
         },
         ground_bodies: vec![3, 4, 7, 8],
+        tracking_unjudged: &["L_Ankle", "R_Ankle", "L_Toe", "R_Toe"],
     }
 }
 

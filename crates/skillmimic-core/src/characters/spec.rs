@@ -214,6 +214,10 @@ pub struct CharacterSpec {
     pub proprio: Proprioception,
     /// Bodies allowed to touch the ground in ASE's fall rule (the feet).
     pub ground_bodies: Vec<usize>,
+    /// Bodies the tracking task leaves out of its termination and success distance by default,
+    /// by name (SMPL: the ankles and toes, which the released ModSkill/PHC `reset_bodies` omit);
+    /// empty: every tracked body counts.
+    pub tracking_unjudged: &'static [&'static str],
 }
 
 impl CharacterSpec {

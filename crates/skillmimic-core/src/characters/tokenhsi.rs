@@ -483,6 +483,7 @@ pub fn spec() -> CharacterSpec {
         substeps: 4,
         proprio: PROPRIO,
         ground_bodies: CONTACT_BODIES.to_vec(),
+        tracking_unjudged: &[],
     }
 }
 

@@ -53,10 +53,6 @@ pub fn tracked_bodies(spec: &CharacterSpec, fingers: bool) -> Vec<usize> {
         .collect()
 }
 
-/// The SMPL bodies the released ModSkill/PHC configuration leaves out of its termination
-/// distance (`reset_bodies` of `env_im_pnn.yaml`).
-pub const SMPL_UNJUDGED: [&str; 4] = ["L_Ankle", "R_Ankle", "L_Toe", "R_Toe"];
-
 /// The bodies whose mean distance decides termination and success (see
 /// [`TrackingConfig::termination_bodies`]); an unknown name is an error naming it.
 pub fn termination_bodies(
@@ -66,14 +62,12 @@ pub fn termination_bodies(
 ) -> Result<Vec<usize>, String> {
     let index = |name: &str| spec.bodies.iter().position(|b| b.name == name);
     if cfg.termination_bodies.is_empty() {
-        return Ok(match spec.name == "smpl" {
-            true => tracked
-                .iter()
-                .copied()
-                .filter(|&b| !SMPL_UNJUDGED.iter().any(|u| *u == spec.bodies[b].name))
-                .collect(),
-            false => tracked.to_vec(),
-        });
+        // the character's default (`CharacterSpec::tracking_unjudged`)
+        return Ok(tracked
+            .iter()
+            .copied()
+            .filter(|&b| !spec.tracking_unjudged.contains(&spec.bodies[b].name))
+            .collect());
     }
     cfg.termination_bodies
         .iter()
