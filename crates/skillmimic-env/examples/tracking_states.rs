@@ -3,7 +3,9 @@
 //! functions are then run on outside this repository.
 //!
 //! `cargo run --release -p skillmimic-env --example tracking_states -- OUT_DIR`
-//! writes `OUT_DIR/tracking_inputs.json`.
+//! writes `OUT_DIR/tracking_inputs.json`; with `-- OUT_DIR sequences` it writes
+//! `OUT_DIR/metrics_inputs.json` instead, the inputs of `tests/fixtures/phc_metrics_golden.json`
+//! (see [`sequences`]).
 //!
 //! Each state is one step of a rollout of the SMPL humanoid started in a reference state of a
 //! shipped demo clip (retargeted to SMPL by joint name) and driven by random PD targets: gentle
@@ -50,8 +52,8 @@ fn bodies(b: &impl Bodies, n: usize) -> Value {
     json!({"pos": p, "rot": q, "vel": v, "ang_vel": w})
 }
 
-fn main() -> Result<(), Error> {
-    let out = std::env::args().nth(1).ok_or("usage: tracking_states OUT_DIR")?;
+/// The tracking task on the SMPL humanoid over the shipped demo clips (retargeted by joint name).
+fn smpl_tracking() -> Result<EnvConfig, Error> {
     let mut c = EnvConfig {
         task: "tracking".into(),
         num_envs: 1,
@@ -60,6 +62,16 @@ fn main() -> Result<(), Error> {
         ..Default::default()
     };
     c.motion = vec![std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../motions")];
+    Ok(c)
+}
+
+fn main() -> Result<(), Error> {
+    let mut args = std::env::args().skip(1);
+    let out = args.next().ok_or("usage: tracking_states OUT_DIR [sequences]")?;
+    if args.next().as_deref() == Some("sequences") {
+        return sequences(&out);
+    }
+    let c = smpl_tracking()?;
     let t = c.table::<TrackingConfig>().clone();
     let ch = c.resolved_character()?;
     let scene = Arc::new(Scene::new(c.scene_options()?)?);
@@ -161,5 +173,57 @@ fn main() -> Result<(), Error> {
     let path = std::path::Path::new(&out).join("tracking_inputs.json");
     std::fs::write(&path, serde_json::to_string(&doc)?)?;
     println!("{}: {} states", path.display(), doc["states"].as_array().map_or(0, Vec::len));
+    Ok(())
+}
+
+/// The inputs of the metrics fixture: four rollouts of the SMPL humanoid, each started in a
+/// reference state of a demo clip and driven by random PD targets of one strength (gentle to
+/// strong, so that the errors range from millimetres to metres), of different lengths. Per policy
+/// step: the simulated body positions after the step (`pred`) and the compared reference frame's
+/// (`gt`), world frame, m, the character's body order; values to 9 significant digits.
+fn sequences(out: &str) -> Result<(), Error> {
+    let c = smpl_tracking()?;
+    let ch = c.resolved_character()?;
+    let scene = Arc::new(Scene::new(c.scene_options()?)?);
+    let spec = scene.character().clone();
+    let motion = Motion::load(&c.motion, ch)?;
+    let task = Tracking::new(&c, Motion::load(&c.motion, ch)?, scene.clone())?;
+    let (n, nd) = (spec.bodies.len(), spec.num_dofs);
+    let mut sim = BatchSim::new(scene.clone(), 1, 1)?;
+    let mut state = ResetState::rest(&scene);
+    let mut rng = ChaCha8Rng::seed_from_u64(40);
+    let positions = |b: &dyn Fn(usize) -> [f64; 3]| -> Vec<Vec<f64>> {
+        (0..n).map(|k| b(k).map(r).to_vec()).collect()
+    };
+    let mut seqs = Vec::new();
+    for (k, (strength, len)) in
+        [(0.02f32, 25), (0.1, 12), (0.4, 30), (1.0, 18)].into_iter().enumerate()
+    {
+        let clip = k % motion.len();
+        let frames = task.reference(clip).frames;
+        let steps = len.min(frames - 2);
+        let t0 = rng.random_range(0..frames - steps - 1);
+        motion.fill_state(&spec, clip, t0, &mut state);
+        sim.reset(&[true], std::slice::from_ref(&state))?;
+        let (mut pred, mut gt) = (Vec::new(), Vec::new());
+        for step in 1..=steps {
+            let a: Vec<f32> = (0..nd).map(|_| strength * rng.random_range(-1.0f32..1.0)).collect();
+            sim.step(&a)?;
+            let st = sim.state().env(0);
+            pred.push(positions(&|b| st.pos(b)));
+            let refs = task.reference(clip);
+            let now = refs.frame(t0 + step);
+            gt.push(positions(&|b| now.pos(b)));
+        }
+        seqs.push(json!({"clip": motion.name(clip), "start_frame": t0, "strength": strength,
+            "pred": pred, "gt": gt}));
+    }
+    let names: Vec<&str> = spec.bodies.iter().map(|b| b.name).collect();
+    let count = seqs.len();
+    let doc = json!({"body_names": names, "sequences": seqs});
+    std::fs::create_dir_all(out)?;
+    let path = std::path::Path::new(out).join("metrics_inputs.json");
+    std::fs::write(&path, serde_json::to_string(&doc)?)?;
+    println!("{}: {count} sequences", path.display());
     Ok(())
 }
