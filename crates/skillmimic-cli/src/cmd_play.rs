@@ -29,7 +29,7 @@ pub struct Args {
     pub reference: Option<PathBuf>,
     #[command(flatten)]
     pub flags: ConfigFlags,
-    /// Policy steps (60 Hz) to roll out; for a reference, frames (default: whole clip).
+    /// Policy steps to roll out; for a reference, 60 Hz frames (default: whole clip).
     #[arg(long, default_value_t = 240)]
     pub steps: usize,
     /// Video file (.mp4 or .gif), rendered headless.
@@ -43,7 +43,8 @@ pub struct Args {
     pub width: usize,
     #[arg(long, default_value_t = 360)]
     pub height: usize,
-    /// Video frame rate (every 60/fps-th step is rendered).
+    /// Video frame rate (every (policy rate / fps)-th step is rendered: the SkillMimic
+    /// humanoid's policy runs at 60 Hz, the SMPL humanoid's at 30 Hz).
     #[arg(long, default_value_t = 30)]
     pub fps: u32,
     /// Seed of the episode sampling.
@@ -210,12 +211,20 @@ pub fn render_states(
     Ok(Frames { width: w, height: h, fps, rgb })
 }
 
-/// Frame stride and video rate for states recorded every `steps_per_action` simulation steps
-/// (60 Hz) at a requested `fps`.
-pub fn video_rate(steps_per_action: usize, fps: u32) -> (usize, u32) {
-    let rate = (60 / steps_per_action.max(1)).max(1) as u32;
+/// Frame stride and video rate for states recorded at `rate` Hz (one per policy step) at a
+/// requested `fps`.
+pub fn video_rate(rate: f64, fps: u32) -> (usize, u32) {
+    let rate = (rate.round() as u32).max(1);
     let stride = (rate / fps.max(1)).max(1);
     (stride as usize, rate / stride)
+}
+
+/// Policy steps per second of a task's environment: the character's control rate (60 Hz for
+/// the SkillMimic humanoid, 30 Hz for the SMPL humanoid) over the task's `steps_per_action`.
+fn policy_rate(env: &dyn Env, cfg: &EnvConfig) -> anyhow::Result<f64> {
+    let spec = cfg.resolved_character()?.spec();
+    let dt = spec.timestep * spec.substeps as f64 * env.spec().steps_per_action.max(1) as f64;
+    Ok(1.0 / dt)
 }
 
 /// Render a rollout of a task's environment (configured by `cfg`): its markers from the
@@ -235,7 +244,7 @@ fn render_rollout(
         ghosts: Some(&ghosts),
         ghost_offset: ghost.offset().unwrap_or_default(),
     };
-    let (stride, fps) = video_rate(env.spec().steps_per_action, fps);
+    let (stride, fps) = video_rate(policy_rate(env, cfg)?, fps);
     render_states(env.mujoco().env_model(0), &r.qpos, over, stride, size, fps)
 }
 
