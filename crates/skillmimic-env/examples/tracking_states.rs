@@ -5,7 +5,8 @@
 //! `cargo run --release -p skillmimic-env --example tracking_states -- OUT_DIR`
 //! writes `OUT_DIR/tracking_inputs.json`; with `-- OUT_DIR sequences` it writes
 //! `OUT_DIR/metrics_inputs.json` instead, the inputs of `tests/fixtures/phc_metrics_golden.json`
-//! (see [`sequences`]).
+//! (see [`sequences`]); with `-- OUT_DIR prior`, `OUT_DIR/prior_inputs.json`, the inputs of
+//! `tests/fixtures/modskill_prior_golden.json` (see [`prior_states`]).
 //!
 //! Each state is one step of a rollout of the SMPL humanoid started in a reference state of a
 //! shipped demo clip (retargeted to SMPL by joint name) and driven by random PD targets: gentle
@@ -68,8 +69,10 @@ fn smpl_tracking() -> Result<EnvConfig, Error> {
 fn main() -> Result<(), Error> {
     let mut args = std::env::args().skip(1);
     let out = args.next().ok_or("usage: tracking_states OUT_DIR [sequences]")?;
-    if args.next().as_deref() == Some("sequences") {
-        return sequences(&out);
+    match args.next().as_deref() {
+        Some("sequences") => return sequences(&out),
+        Some("prior") => return prior_states(&out),
+        _ => {}
     }
     let c = smpl_tracking()?;
     let t = c.table::<TrackingConfig>().clone();
@@ -225,5 +228,55 @@ fn sequences(out: &str) -> Result<(), Error> {
     let path = std::path::Path::new(out).join("metrics_inputs.json");
     std::fs::write(&path, serde_json::to_string(&doc)?)?;
     println!("{}: {count} sequences", path.display());
+    Ok(())
+}
+
+/// The inputs of the motion-prior fixture: states of SMPL rollouts (as [`sequences`]: demo-clip
+/// starts, random PD targets of four strengths, steps 1, 5, 10, 20 after the reset) with the
+/// dof angles and rates (rad, rad/s, the humanoid's hinge order) and this project's features
+/// (`skillmimic_env::tasks::tracking::prior`) for the record.
+fn prior_states(out: &str) -> Result<(), Error> {
+    use skillmimic_env::tasks::tracking::prior::{SMPL_PRIOR_DIM, smpl_features};
+    let c = smpl_tracking()?;
+    let ch = c.resolved_character()?;
+    let scene = Arc::new(Scene::new(c.scene_options()?)?);
+    let spec = scene.character().clone();
+    let motion = Motion::load(&c.motion, ch)?;
+    let (n, nd) = (spec.bodies.len(), spec.num_dofs);
+    let mut sim = BatchSim::new(scene.clone(), 1, 1)?;
+    let mut state = ResetState::rest(&scene);
+    let mut rng = ChaCha8Rng::seed_from_u64(41);
+    let mut states = Vec::new();
+    for (k, strength) in [0.02f32, 0.1, 0.4, 1.0].into_iter().enumerate() {
+        let clip = k % motion.len();
+        let frames = motion.frames(clip);
+        let t0 = rng.random_range(0..frames - 22);
+        motion.fill_state(&spec, clip, t0, &mut state);
+        sim.reset(&[true], std::slice::from_ref(&state))?;
+        for step in 1..=20 {
+            let a: Vec<f32> = (0..nd).map(|_| strength * rng.random_range(-1.0f32..1.0)).collect();
+            sim.step(&a)?;
+            if ![1, 5, 10, 20].contains(&step) {
+                continue;
+            }
+            let st = sim.state().env(0);
+            let mut f = vec![0f32; SMPL_PRIOR_DIM];
+            smpl_features(&st, &mut f);
+            states.push(json!({
+                "strength": strength,
+                "step": step,
+                "bodies": bodies(&st, n),
+                "dof_pos": st.dof_pos.iter().map(|&x| r(x)).collect::<Vec<_>>(),
+                "dof_vel": st.dof_vel.iter().map(|&x| r(x)).collect::<Vec<_>>(),
+                "ours": f.iter().map(|&x| r(x as f64)).collect::<Vec<_>>(),
+            }));
+        }
+    }
+    let names: Vec<&str> = spec.bodies.iter().map(|b| b.name).collect();
+    let doc = json!({"body_names": names, "states": states});
+    std::fs::create_dir_all(out)?;
+    let path = std::path::Path::new(out).join("prior_inputs.json");
+    std::fs::write(&path, serde_json::to_string(&doc)?)?;
+    println!("{}: {} states", path.display(), doc["states"].as_array().map_or(0, Vec::len));
     Ok(())
 }

@@ -1,9 +1,13 @@
 //! The simulator state of one frame of a character clip, for any character: the reset state of
 //! a tracking episode and the poses of the motion prior's reference frames.
 
-use skillmimic_core::characters::{CharacterSpec, JointDef};
+use std::sync::Arc;
+
+use skillmimic_core::characters::{Character, CharacterSpec, JointDef};
 use skillmimic_motion::character_clip::CharacterClip;
-use skillmimic_sim::ResetState;
+use skillmimic_sim::{BatchSim, EnvState, ResetState, Scene, SceneOptions};
+
+use crate::error::EnvError;
 
 /// The state of frame `t` of a character clip: its root pose and dof vector, velocities by finite
 /// differences to the next frame (the last frame uses the previous interval): root linear
@@ -48,4 +52,30 @@ pub fn clip_state(spec: &CharacterSpec, clip: &CharacterClip, t: usize, s: &mut 
             JointDef::Free | JointDef::Welded => {}
         }
     }
+}
+
+/// Per-frame features (`width` wide, by `features`) of every frame of `clips` of `character`,
+/// each frame posed in the character's bare scene from [`clip_state`] (no physics step):
+/// `[clip][T × width]`. The motion priors' reference frames.
+pub fn posed_features(
+    character: Character,
+    clips: &[CharacterClip],
+    width: usize,
+    features: fn(&EnvState<'_>, &mut [f32]),
+) -> Result<Vec<Vec<f32>>, EnvError> {
+    let scene = Arc::new(Scene::new(SceneOptions::bare(character))?);
+    let mut sim = BatchSim::new(scene, 1, 1)?;
+    let spec = character.spec();
+    let mut state = ResetState::of(&spec, 0);
+    let mut out = Vec::with_capacity(clips.len());
+    for c in clips {
+        let mut rows = vec![0.0f32; c.num_frames * width];
+        for t in 0..c.num_frames {
+            clip_state(&spec, c, t, &mut state);
+            sim.reset(&[true], std::slice::from_ref(&state))?;
+            features(&sim.state().env(0), &mut rows[t * width..(t + 1) * width]);
+        }
+        out.push(rows);
+    }
+    Ok(out)
 }

@@ -2,7 +2,8 @@
 //! values of `tests/fixtures/modskill_tracking_golden.json` (see its note: the released reward
 //! with its power penalty and first-steps rule, the reset rule over the released reset bodies at
 //! the training and evaluation distances, the self observation and the v6 reference observation,
-//! run on states this project dumped) — every one to 1e-5.
+//! run on states this project dumped) — every one to 1e-5; and the motion prior's SMPL features
+//! against the released `build_amp_observations_smpl` (`tests/fixtures/modskill_prior_golden.json`).
 
 mod common;
 
@@ -171,4 +172,48 @@ fn tracking_matches_the_released_modskill_functions() {
         })
         .count();
     assert!(graced > 0, "no state tests the grace of the first step");
+}
+
+#[test]
+fn smpl_prior_features_match_the_released_build_amp_observations_smpl() {
+    use skillmimic_env::tasks::tracking::prior::{SMPL_PRIOR_DIM, smpl_features};
+    let fx = fixture("modskill_prior_golden.json");
+    let spec = smpl();
+    let n = spec.bodies.len();
+    let fx_names: Vec<&str> =
+        fx["body_names"].as_array().unwrap().iter().map(|v| v.as_str().unwrap()).collect();
+    assert_eq!(spec.bodies.iter().map(|b| b.name).collect::<Vec<_>>(), fx_names);
+    // the features read body b's hinges at 3 (b − 1)
+    assert!((1..n).all(|b| spec.bodies[b].dofs.start == 3 * (b - 1)));
+    let states = fx["states"].as_array().unwrap();
+    let mut worst = 0.0f64;
+    for (i, s) in states.iter().enumerate() {
+        let b = Frame::of(&s["bodies"]);
+        let (dof_pos, dof_vel) = (floats(&s["dof_pos"]), floats(&s["dof_vel"]));
+        let zeros = vec![0.0; 3 * n];
+        let st = EnvState {
+            body_pos: &b.pos,
+            body_quat: &b.quat,
+            body_linvel: &b.vel,
+            body_angvel: &b.angvel,
+            dof_pos: &dof_pos,
+            dof_vel: &dof_vel,
+            dof_force: &zeros,
+            contact_force: &zeros,
+            contact_pairs: &[0; 8],
+            touch: &vec![0; n + 1],
+            unstable: false,
+        };
+        let mut ours = vec![0f32; SMPL_PRIOR_DIM];
+        smpl_features(&st, &mut ours);
+        let theirs = floats(&s["released"]);
+        common::check_f32("prior features", i, &ours, &theirs);
+        for (a, t) in ours.iter().zip(&theirs) {
+            worst = worst.max((f64::from(*a) - t).abs());
+        }
+    }
+    println!(
+        "{} states × {SMPL_PRIOR_DIM} prior features within {worst:.1e} of the released function",
+        states.len()
+    );
 }

@@ -237,8 +237,10 @@ impl TrainConfig {
     ///   horizon 32 (8192 samples per iteration), minibatch 4096, 6 mini-epochs;
     /// * `modskill`: ModSkill's released sizes on the `paper` scale: `modular_attention` with
     ///   controllers and critic [2048, 1536, 1024, 512] (modskill-tokenhsi-facts §1.4), and the
-    ///   released motion-prior settings for when it is enabled (`ppo.amp.enabled = true`):
-    ///   logit regularisation 0.01, weight decay 1e-4;
+    ///   motion prior on with the released settings (10-frame windows, discriminator [1024, 512],
+    ///   gradient penalty 5, logit regularisation 0.01, weight decay 1e-4, reward scale 2, task
+    ///   and style weights 0.5 / 0.5; on the SMPL humanoid's tracking task it reads the released
+    ///   features, `skillmimic_env::tasks::tracking::prior`);
     /// * `tiny`: a small network ([256, 128]) for smoke tests and CI: 16 environments, horizon 16,
     ///   minibatch 128, 2 mini-epochs, learning rate 3e-5. Measured on the demo clips (400
     ///   iterations, 32 environments): 1e-4 and 3e-5 reach the same reward (≈ 3.4× the first 25
@@ -270,6 +272,7 @@ impl TrainConfig {
                 c.ppo.policy = "modular_attention".into();
                 c.ppo.hidden = vec![2048, 1536, 1024, 512];
                 c.ppo.modular.controller = vec![2048, 1536, 1024, 512];
+                c.ppo.amp.enabled = true;
                 c.ppo.amp.logit_reg = 0.01;
                 c.ppo.amp.weight_decay = 1e-4;
             }

@@ -190,6 +190,51 @@ fn motion_prior_trains_inside_ppo_and_resumes_from_the_checkpoint() {
     );
 }
 
+/// ModSkill's setting: preset `modskill` turns the prior on with the released settings, and on the
+/// SMPL humanoid's tracking task the discriminator reads the released 232 features per frame
+/// (`skillmimic_env::tasks::tracking::prior`) of the state, its references the tracking clips.
+#[test]
+fn modskill_preset_trains_the_released_prior_on_smpl_tracking() {
+    use skillmimic_env::tasks::tracking::prior::SMPL_PRIOR_DIM;
+    use skillmimic_learn::config::TrainConfig;
+    use skillmimic_learn::trainer::Trainer;
+    let preset = TrainConfig::preset("modskill").unwrap();
+    let a = &preset.ppo.amp;
+    assert!(a.enabled && a.window == 10 && a.hidden == vec![1024, 512]);
+    assert_eq!((a.logit_reg, a.weight_decay, a.grad_penalty), (0.01, 1e-4, 5.0));
+    assert_eq!((a.reward_scale, a.task_weight, a.style_weight), (2.0, 0.5, 0.5));
+    let mut c = TrainConfig::preset("tiny").unwrap();
+    c.ppo.amp = preset.ppo.amp.clone();
+    c.ppo.amp.hidden = vec![32];
+    c.ppo.amp.batch = 32;
+    c.ppo.amp.buffer = 256;
+    c.env.task = "tracking".into();
+    c.env.character = "smpl".into();
+    c.env.motion = motion();
+    c.env.num_envs = 8;
+    c.env.threads = 2;
+    c.ppo.hidden = vec![32];
+    c.run.iterations = 2;
+    c.run.save_every = 2;
+    c.run.eval_episodes = 2;
+    c.run.out_dir = std::env::temp_dir().join(format!("sm-amp-smpl-{}", std::process::id()));
+    let mut t = Trainer::new(c.clone(), None).unwrap();
+    assert_eq!(t.extension::<AmpReward>().unwrap().disc().input_dim(), 10 * SMPL_PRIOR_DIM);
+    let mut seen = Vec::new();
+    skillmimic_learn::runner::train_loop(&mut t, |s| seen.push(s.clone())).unwrap();
+    let s = &seen[1];
+    let term =
+        |name: &str| s.reward_terms.iter().find(|(n, _)| n == name).map(|(_, v)| *v).unwrap();
+    let (task, style) = (term("task"), term("style"));
+    println!(
+        "SMPL tracking with the prior: task {task:.4}, style {style:.4}, disc loss {:.4}",
+        s.disc_loss
+    );
+    assert!((s.mean_reward - 0.5 * (task + style)).abs() < 1e-5);
+    assert!(s.disc_loss > 0.0 && style.is_finite() && style >= 0.0);
+    let _ = std::fs::remove_dir_all(&c.run.out_dir);
+}
+
 /// Data-parallel discriminator steps: 2 ranks, each with half of the windows, take the step one
 /// process takes on all of them (parameters, Adam moments, normaliser to float rounding), and the
 /// replicas stay bit-identical.

@@ -25,6 +25,9 @@
 //! * TokenHSI tasks read, by default, the environment's style features of its simulation state
 //!   (`Env::style_features`: the released discriminator's 129 per frame) instead of a map of the
 //!   observation.
+//! * The tracking task on the SMPL humanoid reads the released ModSkill features of the state
+//!   (`skillmimic_env::tasks::tracking::prior`, 232 per frame), references from its tracking
+//!   clips at the control rate.
 //! * Data-parallel runs: every rank keeps the windows of its own environments in a buffer of
 //!   `buffer / world` windows and brings `batch / world` reference and buffer windows to each
 //!   discriminator step ([`Discriminator::update_with`]: merged normaliser, averaged gradients),
@@ -35,11 +38,15 @@ use std::sync::Arc;
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use skillmimic_core::characters::smpl;
 use skillmimic_core::tensorfile::TensorFile;
 use skillmimic_env::amp::{FEATURE_DIM, clip_features, frame_features, window_of};
+use skillmimic_env::clip_state::posed_features;
 use skillmimic_env::obs::layout;
 use skillmimic_env::tasks::hsi::style;
 use skillmimic_env::tasks::imitation::load_motion_library;
+use skillmimic_env::tasks::tracking::motion::Motion;
+use skillmimic_env::tasks::tracking::prior;
 use skillmimic_sim::Scene;
 
 use crate::amp::{DiscLoss, Discriminator};
@@ -144,8 +151,13 @@ impl AmpReward {
         let released = hsi
             && cfg.env.table::<HsiConfig>().style_features
                 == skillmimic_env::tasks::hsi::config::StyleFeatures::Released;
+        // the SMPL humanoid's tracking task: the released ModSkill features of the state
+        let smpl_tracking = cfg.env.task == "tracking"
+            && skillmimic_env::registry::character(&cfg.env).ok() == Some(smpl::CHARACTER);
         let (fdim, source) = if released {
             (style::RELEASED_STYLE_DIM, Source::Env)
+        } else if smpl_tracking {
+            (prior::SMPL_PRIOR_DIM, Source::Env)
         } else if hsi {
             (style::STYLE_DIM, Source::Observation(style::frame_features))
         } else {
@@ -153,7 +165,19 @@ impl AmpReward {
         };
         let mut references = Vec::new();
         for (name, _) in &groups {
-            references.push(if hsi {
+            references.push(if smpl_tracking {
+                // the tracking clips at the control rate, posed in the humanoid's scene
+                let err = |e: String| LearnError::Config(format!("ppo.amp reference clips: {e}"));
+                let clips = match Motion::load(&cfg.env.motion, smpl::CHARACTER) {
+                    Ok(Motion::Clips(clips)) => clips,
+                    Ok(Motion::SkillMimic(_)) => {
+                        return Err(err("not clips of the SMPL humanoid".into()));
+                    }
+                    Err(e) => return Err(err(e.to_string())),
+                };
+                posed_features(smpl::CHARACTER, &clips, prior::SMPL_PRIOR_DIM, prior::smpl_features)
+                    .map_err(|e| err(e.to_string()))?
+            } else if hsi {
                 // TokenHSI character: the proprioception, references of the task's clips
                 let task = if name.is_empty() { cfg.env.task.as_str() } else { name.as_str() };
                 let clips =

@@ -11,16 +11,15 @@
 //! velocities from the relative rotation of consecutive frames), observed the same way.
 
 use std::path::PathBuf;
-use std::sync::Arc;
 
 use skillmimic_core::characters::tokenhsi;
 use skillmimic_motion::character_clip::CharacterClip;
 use skillmimic_motion::library::find_clip_files;
-use skillmimic_sim::{BatchSim, EnvState, ResetState, Scene, SceneOptions};
+use skillmimic_sim::EnvState;
 
 use super::geometry::{Local, put};
 use super::proprio::{PROPRIO_DIM, write_proprio};
-use crate::clip_state::clip_state;
+use crate::clip_state::posed_features;
 use crate::error::{EnvError, bad};
 
 /// Features per frame.
@@ -109,34 +108,12 @@ pub fn load_style_clips(paths: &[PathBuf]) -> Result<Vec<CharacterClip>, EnvErro
 /// Style features (the proprioception, [`STYLE_DIM`]) of every frame of every clip
 /// (`[clip][T × STYLE_DIM]`), posed in the bare character scene (no physics step).
 pub fn clip_features(clips: &[CharacterClip]) -> Result<Vec<Vec<f32>>, EnvError> {
-    posed_features(clips, STYLE_DIM, write_proprio)
+    posed_features(tokenhsi::CHARACTER, clips, STYLE_DIM, write_proprio)
 }
 
 /// The released discriminator's features ([`released_features`], [`RELEASED_STYLE_DIM`]) of every
 /// frame of every clip, posed in the bare character scene (joint rates from the clip's finite
 /// differences).
 pub fn clip_released_features(clips: &[CharacterClip]) -> Result<Vec<Vec<f32>>, EnvError> {
-    posed_features(clips, RELEASED_STYLE_DIM, released_features)
-}
-
-fn posed_features(
-    clips: &[CharacterClip],
-    width: usize,
-    features: fn(&EnvState<'_>, &mut [f32]),
-) -> Result<Vec<Vec<f32>>, EnvError> {
-    let scene = Arc::new(Scene::new(SceneOptions::bare(tokenhsi::CHARACTER))?);
-    let mut sim = BatchSim::new(scene, 1, 1)?;
-    let spec = tokenhsi::CHARACTER.spec();
-    let mut state = ResetState::of(&spec, 0);
-    let mut out = Vec::with_capacity(clips.len());
-    for c in clips {
-        let mut rows = vec![0.0f32; c.num_frames * width];
-        for t in 0..c.num_frames {
-            clip_state(&spec, c, t, &mut state);
-            sim.reset(&[true], std::slice::from_ref(&state))?;
-            features(&sim.state().env(0), &mut rows[t * width..(t + 1) * width]);
-        }
-        out.push(rows);
-    }
-    Ok(out)
+    posed_features(tokenhsi::CHARACTER, clips, RELEASED_STYLE_DIM, released_features)
 }

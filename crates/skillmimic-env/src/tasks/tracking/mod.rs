@@ -27,6 +27,7 @@
 pub mod config;
 pub mod formulas;
 pub mod motion;
+pub mod prior;
 
 use std::sync::Arc;
 
@@ -172,6 +173,9 @@ pub struct Tracking {
     character: CharacterSpec,
     /// Cumulative clip weights: library weights × `clip_weights` multipliers.
     cumulative: Vec<f64>,
+    /// The motion prior's state features of the character (the SMPL humanoid's released ones,
+    /// [`prior`]); `None`: the prior reads the observation.
+    prior: Option<(usize, prior::Features)>,
 }
 
 impl Tracking {
@@ -206,7 +210,9 @@ impl Tracking {
             ..TaskSpec::default()
         };
         let cumulative = motion.cumulative(|name| t.clip_weights.get(name).copied().unwrap_or(1.0));
-        Ok(Self { cfg: t, motion, refs, bodies, judged, spec, character, cumulative })
+        let prior = (character.name == skillmimic_core::characters::smpl::ENTRY.name)
+            .then_some((prior::SMPL_PRIOR_DIM, prior::smpl_features as prior::Features));
+        Ok(Self { cfg: t, motion, refs, bodies, judged, spec, character, cumulative, prior })
     }
 
     /// The probability of each clip (library order) to start an episode.
@@ -248,6 +254,15 @@ impl Task for Tracking {
 
     fn spec(&self) -> &TaskSpec {
         &self.spec
+    }
+    /// On the SMPL humanoid, the released discriminator features ([`prior::smpl_features`]).
+    fn style_dim(&self) -> usize {
+        self.prior.map_or(0, |p| p.0)
+    }
+    fn style_features(&self, st: &EnvState<'_>, out: &mut [f32]) {
+        if let Some((_, f)) = self.prior {
+            f(st, out);
+        }
     }
     fn new_slot(&self) -> TrackSlot {
         let n = self.character.bodies.len();
