@@ -85,12 +85,6 @@ pub struct AmassSmplReport {
     pub betas_ignored: bool,
 }
 
-/// SMPL's Y-up → the simulated Z-up frame, as a rotation (120° about (1, 1, 1)/√3).
-fn upright() -> Quat {
-    let a = 1.0 / 3f64.sqrt();
-    Quat::from_axis_angle([a, a, a], 2.0 * std::f64::consts::FRAC_PI_3)
-}
-
 /// SMPL's 24 local rotations of frame `f` (module docs, step 1).
 fn local_rotations(seq: &Sequence, f: usize) -> [Quat; 24] {
     std::array::from_fn(|j| {
@@ -117,7 +111,7 @@ pub fn smpl_frame(
             None => local[j],
         };
     }
-    let p_inv = upright().conj();
+    let p_inv = smpl::upright().conj();
     let gt: [Quat; NUM_BODIES] =
         std::array::from_fn(|b| world[SMPL_JOINT_OF_BODY[b]].mul(p_inv).normalized());
     let mut q = vec![0.0; spec.num_dofs];

@@ -51,12 +51,6 @@ fn source_bodies() -> [usize; NUM_BODIES] {
     })
 }
 
-/// SMPL's Y-up → the simulated Z-up frame, as a rotation (120° about (1, 1, 1)/√3).
-fn upright() -> Quat {
-    let a = 1.0 / 3f64.sqrt();
-    Quat::from_axis_angle([a, a, a], 2.0 * std::f64::consts::FRAC_PI_3)
-}
-
 fn leg_length(offsets: [[f64; 3]; 2]) -> f64 {
     norm(offsets[0]) + norm(offsets[1])
 }
@@ -65,7 +59,7 @@ fn leg_length(offsets: [[f64; 3]; 2]) -> f64 {
 pub fn retarget_to_smpl(clip: &Clip) -> (CharacterClip, SmplRetargetReport) {
     let spec = smpl::spec();
     let src = source_bodies();
-    let p_inv = upright().conj();
+    let p_inv = smpl::upright().conj();
     let sk = |n: &str| skeleton::BODIES[skeleton::body_index(n).expect("skeleton body")].offset;
     let scale = leg_length([spec.bodies[2].offset, spec.bodies[3].offset])
         / leg_length([sk("L_Knee"), sk("L_Ankle")]);

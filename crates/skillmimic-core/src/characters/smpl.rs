@@ -50,6 +50,13 @@ pub const fn zup(v: [f64; 3]) -> [f64; 3] {
     [v[2], v[0], v[1]]
 }
 
+/// [`zup`] as a rotation (120° about (1, 1, 1)/√3): SMPL's Y-up body frames turned into the
+/// simulated upright ones (PHC's upright start).
+pub fn upright() -> crate::math::Quat {
+    let a = 1.0 / 3f64.sqrt();
+    crate::math::Quat::from_axis_angle([a, a, a], 2.0 * std::f64::consts::FRAC_PI_3)
+}
+
 /// Geometry in the file's Y-up body frame (turned with [`zup`] when the spec is built).
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum YupGeom {

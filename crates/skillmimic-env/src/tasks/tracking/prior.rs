@@ -29,11 +29,13 @@ pub type Features = fn(&EnvState<'_>, &mut [f32]);
 /// Features per frame.
 pub const SMPL_PRIOR_DIM: usize = 1 + 6 + 3 + 3 + 6 * 23 + smpl::NUM_DOFS + 3 * KEY_BODIES.len();
 
-/// The key bodies of the released configuration, in its order.
-pub const KEY_BODIES: [&str; 4] = ["R_Ankle", "L_Ankle", "R_Wrist", "L_Wrist"];
+/// The key bodies of the released configuration, in its order (R_Ankle, L_Ankle, R_Wrist,
+/// L_Wrist), as SMPL humanoid body indices (checked against the names by a test).
+pub const KEY_BODIES: [usize; 4] = [7, 3, 22, 17];
 
-/// Joints whose hinge angles and rates the released code zeroes (toes and hands).
-pub const ZEROED: [&str; 4] = ["L_Toe", "R_Toe", "L_Hand", "R_Hand"];
+/// Bodies whose hinge angles and rates the released code zeroes (L_Toe, R_Toe, L_Hand,
+/// R_Hand), as body indices (checked against the names by a test).
+pub const ZEROED: [usize; 4] = [4, 8, 18, 23];
 
 fn put(out: &mut [f32], at: usize, v: &[f64]) -> usize {
     for (o, x) in out[at..at + v.len()].iter_mut().zip(v) {
@@ -42,11 +44,15 @@ fn put(out: &mut [f32], at: usize, v: &[f64]) -> usize {
     at + v.len()
 }
 
+/// The three values of joint (body) `b` in a 69-wide dof array (body b's hinges at 3 (b − 1)),
+/// zero for the [`ZEROED`] bodies.
+fn joint(dofs: &[f64], b: usize) -> [f64; 3] {
+    let d = 3 * (b - 1);
+    if ZEROED.contains(&b) { [0.0; 3] } else { [dofs[d], dofs[d + 1], dofs[d + 2]] }
+}
+
 /// Write the features of the SMPL humanoid's state `st` into `out` (`SMPL_PRIOR_DIM` wide).
 pub fn smpl_features(st: &EnvState<'_>, out: &mut [f32]) {
-    let names = smpl::body_names();
-    let index = |n: &str| names.iter().position(|b| *b == n).expect("an SMPL body");
-    let zeroed = |b: usize| ZEROED.contains(&names[b]);
     let root = st.pos(0);
     let inv = heading_inverse(st.quat(0));
     let mut k = put(out, 0, &[root[2]]);
@@ -54,25 +60,27 @@ pub fn smpl_features(st: &EnvState<'_>, out: &mut [f32]) {
     k = put(out, k, &inv.rotate(st.linvel(0)));
     k = put(out, k, &inv.rotate(st.angvel(0)));
     for b in 1..smpl::NUM_BODIES {
-        let d = 3 * (b - 1);
-        let v = if zeroed(b) {
-            [0.0; 3]
-        } else {
-            [st.dof_pos[d], st.dof_pos[d + 1], st.dof_pos[d + 2]]
-        };
-        k = put(out, k, &tan_norm(Quat::from_rotvec(v)));
+        k = put(out, k, &tan_norm(Quat::from_rotvec(joint(st.dof_pos, b))));
     }
     for b in 1..smpl::NUM_BODIES {
-        let d = 3 * (b - 1);
-        let v = if zeroed(b) {
-            [0.0; 3]
-        } else {
-            [st.dof_vel[d], st.dof_vel[d + 1], st.dof_vel[d + 2]]
-        };
-        k = put(out, k, &v);
+        k = put(out, k, &joint(st.dof_vel, b));
     }
-    for name in KEY_BODIES {
-        k = put(out, k, &inv.rotate(sub(st.pos(index(name)), root)));
+    for b in KEY_BODIES {
+        k = put(out, k, &inv.rotate(sub(st.pos(b), root)));
     }
     debug_assert_eq!(k, SMPL_PRIOR_DIM);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn key_and_zeroed_bodies_are_the_released_names() {
+        let names = smpl::body_names();
+        assert_eq!(KEY_BODIES.map(|b| names[b]), ["R_Ankle", "L_Ankle", "R_Wrist", "L_Wrist"]);
+        assert_eq!(ZEROED.map(|b| names[b]), ["L_Toe", "R_Toe", "L_Hand", "R_Hand"]);
+        let spec = smpl::spec();
+        assert!((1..smpl::NUM_BODIES).all(|b| spec.bodies[b].dofs.start == 3 * (b - 1)));
+    }
 }
