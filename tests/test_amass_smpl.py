@@ -140,6 +140,25 @@ def test_amass_file_trains_and_evaluates_on_the_smpl_humanoid(tmp_path, skillmim
     # 60 frames at 30 Hz, one frame per 30 Hz policy step from frame 0
     assert 1 <= m["mean_episode_length"] <= 60
     assert 0.0 <= m["final_metrics"]["success"] <= 1.0
+    # PHC's protocol: every motion of a folder once (two AMASS files of 60 and 45 frames)
+    amass = tmp_path / "amass"
+    amass.mkdir()
+    _walk(amass / "a.npz")
+    _walk(amass / "b.npz", frames=45)
+    each = tmp_path / "each.json"
+    r = run_cli(skillmimic_bin, "eval", "--checkpoint", str(out / "latest.safetensors"), "--motion", str(amass),
+                "--each-motion", "--out", str(each))
+    e = json.loads(each.read_text())
+    print(r.stdout.strip().splitlines()[-2])
+    assert [pathlib.Path(m["file"]).name for m in e["per_motion"]] == ["a.npz", "b.npz"]
+    assert e["motions"] == 2 and e["successes"] == sum(m["success"] for m in e["per_motion"])
+    assert e["success_rate"] == e["successes"] / 2 and e["success_distance"] == 0.5
+    for m, frames in zip(e["per_motion"], (60, 45)):
+        assert 1 <= m["steps"] <= frames - 1 and (m["steps"] == frames - 1 or not m["success"])
+    steps = sum(m["steps"] for m in e["per_motion"])
+    for k in ("g_mpjpe_mm", "mpjpe_mm", "vel_err_mm", "acc_err_mm"):
+        pooled = sum(m["metrics"][k] * m["steps"] for m in e["per_motion"]) / steps
+        assert math.isclose(e["metrics_all"][k], pooled, rel_tol=1e-9), k
 
 
 def test_bad_amass_files_are_refused_naming_the_file(tmp_path, skillmimic_bin):

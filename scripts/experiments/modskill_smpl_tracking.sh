@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # ModSkill's setting (issue 39): a modular_attention tracker on the SMPL humanoid (30 Hz policy),
 # trained on BallPlay-M body motion retargeted to SMPL by joint name on load (run, lrun, rrun,
-# turn: 6 clips), evaluated as PHC/ModSkill evaluate (whole clips from frame 0, success = never
-# beyond 0.5 m mean body distance, E_g-mpjpe, E_mpjpe, E_vel, E_acc per 30 Hz frame) on those
-# clips and on held-back ones (back, legturn: 2 clips). Two runs of the same settings and seed:
+# turn: 6 clips), evaluated as PHC/ModSkill evaluate (`eval --each-motion`: every clip once from
+# frame 0, success = never beyond 0.5 m mean body distance, E_g-mpjpe, E_mpjpe, E_vel, E_acc per
+# 30 Hz frame) on those clips and on held-back ones (back, legturn: 2 clips). Two runs of the same settings and seed:
 #   * power0: the power penalty off (env.tracking.power_coef = 0);
 #   * power:  the released power penalty 0.0005 · Σ|τ·q̇|.
 # Each run resumes from its latest checkpoint when restarted. The defaults are where the
@@ -38,8 +38,8 @@ for run in power0 power; do
   for set in train heldback; do
     motion=(--motion "$S/run" --motion "$S/lrun" --motion "$S/rrun" --motion "$S/turn")
     if [ "$set" = heldback ]; then motion=(--motion "$S/back" --motion "$S/legturn"); fi
-    "$BIN" eval --checkpoint "$out/latest.safetensors" "${motion[@]}" --episodes 64 --seed 1 \
-      --start-frame 0 --set env.tracking.termination_distance=0.5 --out "$OUT/$run-eval-$set.json"
+    "$BIN" eval --checkpoint "$out/latest.safetensors" "${motion[@]}" --each-motion \
+      --out "$OUT/$run-eval-$set.json"
   done
   "$BIN" plot --log "$out/log.jsonl" --smooth 50 --out "$OUT/$run-curve.png"
 done

@@ -86,3 +86,44 @@ pub fn run(a: &Options, policy: Option<&Policy>, cfg: &TrainConfig) -> anyhow::R
     println!("wrote {}", a.out.display());
     Ok(())
 }
+
+/// `skillmimic eval --each-motion`: [`skillmimic_learn::tracking_eval`], one line per motion and
+/// the totals, the JSON report in `out`.
+pub fn each_motion(
+    policy: &Policy,
+    cfg: &TrainConfig,
+    out: &std::path::Path,
+) -> anyhow::Result<()> {
+    let r = skillmimic_learn::tracking_eval::evaluate_each_motion(policy, cfg)?;
+    let line = |m: &BTreeMap<String, f64>| {
+        let g = |k: &str| m.get(k).copied().unwrap_or(f64::NAN);
+        format!(
+            "E_g-mpjpe {:.1} mm, E_mpjpe {:.1} mm, E_vel {:.1} mm/frame, E_acc {:.1} mm/frame²",
+            g("g_mpjpe_mm"),
+            g("mpjpe_mm"),
+            g("vel_err_mm"),
+            g("acc_err_mm")
+        )
+    };
+    for m in &r.per_motion {
+        let verdict = if m.success { "tracked" } else { "failed" };
+        println!("  {} ({} steps, {verdict}): {}", m.file.display(), m.steps, line(&m.metrics));
+    }
+    println!(
+        "{} motions, success {:.1} % ({} of {}, {} m); all: {}",
+        r.motions,
+        100.0 * r.success_rate,
+        r.successes,
+        r.motions,
+        r.success_distance,
+        line(&r.metrics_all)
+    );
+    if r.successes > 0 {
+        println!("successful motions: {}", line(&r.metrics_successful));
+    }
+    let text = serde_json::to_string_pretty(&r)?;
+    skillmimic_core::tensorfile::write_bytes_atomic(out, text.as_bytes())
+        .with_context(|| format!("cannot write {}", out.display()))?;
+    println!("wrote {}", out.display());
+    Ok(())
+}

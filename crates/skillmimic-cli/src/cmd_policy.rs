@@ -153,6 +153,12 @@ pub struct EvalArgs {
     /// its 95 % interval.
     #[arg(long)]
     pub skillmimic: bool,
+    /// Motion tracking (PHC's and ModSkill's evaluation): play every motion of `env.motion` once
+    /// from its frame 0 with the deterministic policy, success = the mean body distance never
+    /// beyond `env.tracking.success_distance` (0.5 m); reports the success rate over motions and
+    /// the metrics over all motions and over the successful ones. Replaces `--episodes`.
+    #[arg(long, conflicts_with_all = ["baselines", "horizon", "stochastic", "start_frame"])]
+    pub each_motion: bool,
     /// Output JSON.
     #[arg(long, default_value = "metrics.json")]
     pub out: PathBuf,
@@ -219,6 +225,15 @@ pub fn eval(a: EvalArgs) -> anyhow::Result<()> {
     }
     // more environments than episodes would only burn time (each env contributes its first ones)
     cfg.env.num_envs = cfg.env.num_envs.min(a.episodes);
+    if a.each_motion {
+        if a.sweep || a.v2 || a.skillmimic || a.init_noise.is_some() {
+            bail!(
+                "--each-motion is an evaluation of its own: without --sweep, --v2, --skillmimic, --init-noise"
+            );
+        }
+        let c = c.context("--each-motion evaluates a policy: give --checkpoint")?;
+        return crate::cmd_eval_tasks::each_motion(&c.policy, &cfg, &a.out);
+    }
     let skillmimic = entry.evaluation == skillmimic_env::registry::Evaluation::SkillMimic;
     if !skillmimic || a.baselines {
         // tasks other than imitation: the task-independent episode report (and baselines)

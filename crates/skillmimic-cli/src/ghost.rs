@@ -1,7 +1,8 @@
 //! The reference motion drawn with a policy's rollout in `skillmimic play` videos: for a task
-//! that plays clips of the BallPlay-M character (imitation), each filmed step's episode fields
-//! name the clip and the reference frame the state is compared with, and that frame's pose
-//! (humanoid and ball) is drawn as a translucent ghost over the character or beside it.
+//! that plays reference clips (imitation on the BallPlay-M character, tracking on any), each
+//! filmed step's episode fields name the clip and the reference frame the state is compared
+//! with, and that frame's pose (the character, and the ball of a BallPlay-M clip) is drawn as a
+//! translucent ghost over the character or beside it.
 
 use std::sync::Arc;
 
@@ -10,7 +11,7 @@ use skillmimic_env::Env;
 use skillmimic_env::config::EnvConfig;
 use skillmimic_env::episode::reset_state_from_clip;
 use skillmimic_motion::MotionClip;
-use skillmimic_sim::{BatchSim, Scene};
+use skillmimic_sim::{BatchSim, ResetState, Scene};
 
 /// The poses of clip frames as `qpos` of a scene of the BallPlay-M character: one simulated
 /// environment set to each frame's reference state (`--reference` playback and the ghost).
@@ -25,7 +26,12 @@ impl ClipPoser {
 
     /// `qpos` of frame `t` of clip `m` (humanoid and ball).
     pub fn qpos(&mut self, m: &MotionClip, t: usize) -> anyhow::Result<Vec<f64>> {
-        self.sim.reset(&[true], &[reset_state_from_clip(m, t)]).context("a clip frame's state")?;
+        self.qpos_of(&reset_state_from_clip(m, t))
+    }
+
+    /// `qpos` of a state of the scene.
+    pub fn qpos_of(&mut self, state: &ResetState) -> anyhow::Result<Vec<f64>> {
+        self.sim.reset(&[true], std::slice::from_ref(state)).context("a clip frame's state")?;
         Ok(self.sim.qpos(0).to_vec())
     }
 }
@@ -60,12 +66,12 @@ impl GhostMode {
 }
 
 /// Positions of the episode fields `clip` and `ref_frame` of the environment's task, when it
-/// plays the clips of a motion library.
+/// plays reference clips (a motion library, or clips it can pose: `Env::reference_state`).
 pub fn reference_fields(env: &dyn Env) -> Option<(usize, usize)> {
     let names = &env.spec().episode_names;
     let clip = names.iter().position(|n| *n == "clip")?;
     let frame = names.iter().position(|n| *n == "ref_frame")?;
-    env.library().is_some().then_some((clip, frame))
+    (env.library().is_some() || env.reference_state(0, 0).is_some()).then_some((clip, frame))
 }
 
 /// The (clip, frame) environment 0 is compared with now, by the fields of [`reference_fields`].
@@ -87,26 +93,32 @@ pub fn ghost_states(
     if mode == GhostMode::Off {
         return Ok(none());
     }
-    // the clips' poses fit the scene only on the BallPlay-M character (its own clips)
+    // a library's clips fit the scene only on the BallPlay-M character (its own clips); other
+    // tasks pose their clips themselves
     let ballplay = cfg.resolved_character().is_ok_and(|c| c.plays_ballplay());
-    let (Some(lib), Some(_), true) = (env.library(), reference_fields(env), ballplay) else {
+    let library = env.library().filter(|_| ballplay);
+    if reference_fields(env).is_none() || (library.is_none() && env.reference_state(0, 0).is_none())
+    {
         if mode == GhostMode::Auto {
             return Ok(none());
         }
         bail!(
-            "--ghost {mode:?}: task '{}' plays no reference clips of the BallPlay-M character \
-                (use --ghost off)",
+            "--ghost {mode:?}: task '{}' plays no reference clips (use --ghost off)",
             env.spec().name
         );
-    };
+    }
     let mut poser = ClipPoser::new(Arc::new(Scene::new(cfg.scene_options()?)?))?;
     let mut out = Vec::with_capacity(refs.len());
     for r in refs {
-        out.push(match *r {
-            Some((clip, frame)) if clip < lib.len() => {
+        out.push(match (*r, library) {
+            (Some((clip, frame)), Some(lib)) if clip < lib.len() => {
                 let m = lib.get(clip);
                 Some(poser.qpos(m, frame.min(m.clip.num_frames.saturating_sub(1)))?)
             }
+            (Some((clip, frame)), None) => match env.reference_state(clip, frame) {
+                Some(state) => Some(poser.qpos_of(&state)?),
+                None => None,
+            },
             _ => None,
         });
     }
@@ -127,6 +139,31 @@ mod tests {
         // a reset places the character (and ball) exactly at the reference frame it starts from,
         // so the ghost of that step must coincide with the simulated state
         let (mut env, cfg) = env_of("imitation");
+        for seed in 0..4 {
+            env.reset_all(Some(seed));
+            let r = current_reference(env.as_ref(), reference_fields(env.as_ref()).unwrap());
+            let g = ghost_states(env.as_ref(), &cfg, GhostMode::Overlay, &[r]).unwrap();
+            let (ghost, sim) = (g[0].as_ref().unwrap(), env.mujoco().env_qpos(0));
+            assert_eq!(ghost.len(), sim.len());
+            let worst = ghost.iter().zip(sim).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+            assert!(worst < 1e-9, "seed {seed}: ghost and reset state differ by {worst}");
+        }
+    }
+
+    #[test]
+    fn the_ghost_of_a_tracking_reset_on_smpl_is_the_reset_state() {
+        // the SMPL humanoid's clips are posed by the tracking task itself
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../motions");
+        // episodes start at random frames of the demo clips retargeted onto SMPL
+        let cfg = EnvConfig {
+            task: "tracking".into(),
+            num_envs: 1,
+            threads: 1,
+            motion: vec![dir],
+            character: "smpl".into(),
+            ..EnvConfig::default()
+        };
+        let mut env = skillmimic_env::registry::make(&cfg).unwrap();
         for seed in 0..4 {
             env.reset_all(Some(seed));
             let r = current_reference(env.as_ref(), reference_fields(env.as_ref()).unwrap());

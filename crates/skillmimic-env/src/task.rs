@@ -245,6 +245,13 @@ pub trait Task: Send + Sync + 'static {
     fn library(&self) -> Option<&std::sync::Arc<skillmimic_motion::MotionLibrary>> {
         None
     }
+    /// Write the reference state of frame `frame` of clip `clip` (the values of the `clip` and
+    /// `ref_frame` episode fields) into `state`, a state of the task's scene, and return `true`,
+    /// where the task plays reference clips of any character (videos draw it as a ghost); the
+    /// default: `false`, none.
+    fn reference_state(&self, _clip: usize, _frame: usize, _state: &mut ResetState) -> bool {
+        false
+    }
     /// The SkillMimic-V2 history window (`k × 316`, oldest first) of one environment, where the
     /// task keeps one (default: none).
     fn history_window(&self, _slot: &Self::Slot) -> Option<Vec<f32>> {

@@ -32,7 +32,7 @@ use crate::amp::Discriminator;
 use crate::config::TrainConfig;
 pub use crate::config_active::ActiveConfig;
 use crate::error::{LearnError, io};
-use crate::policy::{InferenceBuffers, Policy};
+use crate::policy::Policy;
 use crate::trainer::Trainer;
 use skillmimic_env::tasks::tracking::config::TrackingConfig;
 
@@ -49,36 +49,11 @@ pub struct RoundReport {
     pub clip_weights: BTreeMap<String, f64>,
 }
 
-/// Whether `policy` tracks the clip file `path` to its end (see the module doc).
+/// Whether `policy` tracks the clip file `path` to its end (see the module doc; the
+/// per-motion evaluation of [`crate::tracking_eval`]).
 pub fn evaluate_clip(policy: &Policy, cfg: &TrainConfig, path: &Path) -> Result<bool, LearnError> {
     // the run's task: one that declares active learning (checked by `ActiveConfig::validate`)
-    let mut e = cfg.env.clone();
-    e.motion = vec![path.to_path_buf()];
-    e.num_envs = 1;
-    e.threads = 1;
-    e.table_mut::<TrackingConfig>().random_start = false;
-    e.table_mut::<TrackingConfig>().termination_distance =
-        e.table::<TrackingConfig>().success_distance;
-    e.table_mut::<TrackingConfig>().clip_weights.clear();
-    let mut env = skillmimic_env::registry::make(&e)?;
-    env.reset_all(Some(0));
-    let (mut buf, mut mu, mut v, mut a) = (
-        InferenceBuffers::default(),
-        vec![0.0; policy.actor_outputs()],
-        vec![0.0],
-        vec![0.0; env.act_dim()],
-    );
-    for _ in 0..=env.spec().max_episode_steps {
-        policy.infer(&env.buffers().obs, 1, &mut buf, &mut mu, &mut v, 1);
-        policy.mode(&mu, 1, &mut a);
-        env.step(&a)?;
-        let b = env.buffers();
-        if b.terminated[0] != 0 || b.truncated[0] != 0 {
-            let success = b.metrics[4] == 1.0;
-            return Ok(success);
-        }
-    }
-    Ok(false)
+    Ok(crate::tracking_eval::evaluate_motion(policy, cfg, path)?.success)
 }
 
 /// The motion prior's score of a clip: mean of sigmoid(D) over its windows (module doc).

@@ -12,6 +12,7 @@
 //! * [`amp`]: the adversarial motion prior's discriminator (style reward);
 //! * [`adam`]: Adam with exposed state; [`storage`]: rollout buffers; [`error`]: typed errors;
 //! * [`eval`]: SkillMimic / SkillMimic-V2 metrics; [`episode_eval`]: any task's episode report;
+//!   [`tracking_eval`]: PHC's and ModSkill's tracking evaluation (every motion once);
 //! * [`checkpoint`]: safetensors checkpoints that load into the PyTorch module;
 //! * [`onnx`]: ONNX export (normaliser folded in, deployment metadata), [`rlgames`]: rl_games
 //!   import;
@@ -58,6 +59,7 @@ pub mod shard;
 pub mod storage;
 pub mod sync;
 pub mod tblog;
+pub mod tracking_eval;
 pub mod trainer;
 
 pub use error::LearnError;

@@ -44,6 +44,7 @@ pub const TASKS: &[TaskEntry] = &[
         build: tasks::tracking::build,
         obs_layout: tasks::tracking::LAYOUT,
         episode_starts: tasks::tracking::episode_starts,
+        evaluation: Evaluation::Tracking,
         active_learning: true,
         ..LOW_LEVEL
     },

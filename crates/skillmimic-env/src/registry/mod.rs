@@ -75,6 +75,9 @@ pub enum Evaluation {
     SkillMimic,
     /// The task-independent episode report (return, length, the task's success metrics).
     Episodes,
+    /// The episode report, and PHC's and ModSkill's evaluation of a motion tracker: every
+    /// motion of the set once from its start (`skillmimic eval --each-motion`).
+    Tracking,
 }
 
 fn no_build(cfg: &EnvConfig) -> Result<Box<dyn Env>, EnvError> {

@@ -63,6 +63,11 @@ pub trait Env: Send + Sync {
     fn library(&self) -> Option<&std::sync::Arc<skillmimic_motion::MotionLibrary>> {
         None
     }
+    /// The reference state of frame `frame` of clip `clip` (the `clip` and `ref_frame` episode
+    /// fields), where the task plays reference clips ([`crate::Task::reference_state`]).
+    fn reference_state(&self, _clip: usize, _frame: usize) -> Option<skillmimic_sim::ResetState> {
+        None
+    }
     /// Environment `i`'s SkillMimic-V2 history window (`k × 316`), where the task keeps one.
     fn history_window(&self, _i: usize) -> Option<Vec<f32>> {
         None

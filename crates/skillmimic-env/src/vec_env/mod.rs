@@ -454,6 +454,10 @@ impl<T: Task> Env for VecEnv<T> {
     fn history_window(&self, i: usize) -> Option<Vec<f32>> {
         self.task.history_window(&self.slots[i])
     }
+    fn reference_state(&self, clip: usize, frame: usize) -> Option<ResetState> {
+        let mut state = ResetState::rest(self.sim.scene());
+        self.task.reference_state(clip, frame, &mut state).then_some(state)
+    }
     fn style_dim(&self) -> usize {
         self.task.style_dim()
     }

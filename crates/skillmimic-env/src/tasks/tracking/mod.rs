@@ -343,6 +343,16 @@ impl Task for Tracking {
         *out.truncated = u8::from(!terminated && end);
     }
 
+    /// Frame `frame` (clamped to the clip) of clip `clip` as the episode starts there.
+    fn reference_state(&self, clip: usize, frame: usize, state: &mut ResetState) -> bool {
+        if clip >= self.refs.len() {
+            return false;
+        }
+        let t = frame.min(self.refs[clip].frames - 1);
+        self.motion.fill_state(&self.character, clip, t, state);
+        true
+    }
+
     fn reset_info(&self, slot: &TrackSlot, info: &mut [f32]) {
         info.copy_from_slice(&[slot.clip as f32, slot.frame as f32]);
     }
