@@ -288,7 +288,9 @@ impl TrainConfig {
     /// The high-level controller's settings (reference-facts §8.3) for a high-level task:
     /// `categorical_mlp`, hidden [1024, 512] when the widths are still the defaults, and
     /// two minibatches per iteration (four for `scoring`), as 65 536 samples with
-    /// minibatch 32 768 (16 384) in the original. Horizon 32, 6 mini-epochs, lr 2e-5, γ 0.99,
+    /// minibatch 32 768 (16 384) in the original; the released 2 000 iterations (6 000 for
+    /// `scoring`) when `run.iterations` is still the default 100 (`HighLevel::iterations` of the registry; a
+    /// preset's, a file's or a flag's count stays). Horizon 32, 6 mini-epochs, lr 2e-5, γ 0.99,
     /// λ 0.95, clip 0.2 and critic coefficient 5 are the skill policy's defaults already; the
     /// categorical loss has no bounds term.
     ///
@@ -307,9 +309,14 @@ impl TrainConfig {
         if self.ppo.hidden == PpoConfig::default().hidden {
             self.ppo.hidden = vec![1024, 512];
         }
-        let entry = skillmimic_env::registry::entry(&self.env.task);
-        let parts = entry.and_then(|e| e.high_level).map_or(2, |h| h.minibatches);
+        let high_level = skillmimic_env::registry::entry(&self.env.task).and_then(|e| e.high_level);
+        let parts = high_level.map_or(2, |h| h.minibatches);
         self.ppo.minibatch = (self.batch_size() / parts).max(1);
+        if let Some(h) =
+            high_level.filter(|_| self.run.iterations == RunConfig::default().iterations)
+        {
+            self.run.iterations = h.iterations;
+        }
     }
 
     /// Samples collected per iteration.

@@ -270,3 +270,24 @@ fn high_level_logits_start_glorot_uniform_with_zero_bias() {
     assert!(max <= bound && max > 0.9 * bound, "max |w| {max}, Glorot bound {bound}");
     assert!(b.iter().all(|&x| x == 0.0));
 }
+
+#[test]
+fn high_level_defaults_are_the_released_controller_settings() {
+    // reference-facts §8.3: 65 536 samples in 2 minibatches (scoring: 4), max epochs 2 000
+    // (scoring: 6 000); a count the run chose stays
+    let llc = write_llc("defaults");
+    for (task, parts, iterations) in [("heading", 2, 2000), ("scoring", 4, 6000)] {
+        let mut c = skillmimic_learn::config::TrainConfig::preset("paper").unwrap();
+        c.env.task = task.into();
+        c.env.table_mut::<HlcConfig>().llc = llc.clone();
+        c.use_high_level_defaults();
+        assert_eq!(c.ppo.policy, "categorical_mlp");
+        assert_eq!(c.ppo.minibatch * parts, c.batch_size(), "{task}");
+        assert_eq!(c.run.iterations, iterations, "{task}");
+        let mut tiny = skillmimic_learn::config::TrainConfig::preset("tiny").unwrap();
+        tiny.env.task = task.into();
+        tiny.use_high_level_defaults();
+        assert_eq!(tiny.run.iterations, 5, "{task}: the preset's count stays");
+    }
+    std::fs::remove_file(&llc).ok();
+}

@@ -128,7 +128,11 @@ pub const TASKS: &[TaskEntry] = &[
         summary: "skill reuse: dribble the ball to a target (frozen skill policy, --llc)",
         tables: &[hlc::TABLE, hlc::heading::TABLE],
         build: tasks::hlc::heading::build,
-        high_level: Some(HighLevel { choices: tasks::hlc::heading::LABELS, minibatches: 2 }),
+        high_level: Some(HighLevel {
+            choices: tasks::hlc::heading::LABELS,
+            minibatches: 2,
+            iterations: 2000,
+        }),
         obs_layout: ObsLayout::BallState { part: "heading" },
         ..HIGH_LEVEL
     },
@@ -137,7 +141,11 @@ pub const TASKS: &[TaskEntry] = &[
         summary: "skill reuse: dribble around a point at a radius (frozen skill policy, --llc)",
         tables: &[hlc::TABLE, hlc::circling::TABLE],
         build: tasks::hlc::circling::build,
-        high_level: Some(HighLevel { choices: tasks::hlc::circling::LABELS, minibatches: 2 }),
+        high_level: Some(HighLevel {
+            choices: tasks::hlc::circling::LABELS,
+            minibatches: 2,
+            iterations: 2000,
+        }),
         obs_layout: ObsLayout::BallState { part: "circling" },
         ..HIGH_LEVEL
     },
@@ -147,7 +155,11 @@ pub const TASKS: &[TaskEntry] = &[
             --llc)",
         tables: &[hlc::TABLE, hlc::throwing::TABLE],
         build: tasks::hlc::throwing::build,
-        high_level: Some(HighLevel { choices: tasks::hlc::throwing::LABELS, minibatches: 2 }),
+        high_level: Some(HighLevel {
+            choices: tasks::hlc::throwing::LABELS,
+            minibatches: 2,
+            iterations: 2000,
+        }),
         obs_layout: ObsLayout::BallState { part: "throwing" },
         ..HIGH_LEVEL
     },
@@ -157,7 +169,11 @@ pub const TASKS: &[TaskEntry] = &[
             --llc)",
         tables: &[hlc::TABLE, hlc::scoring::TABLE],
         build: tasks::hlc::scoring::build,
-        high_level: Some(HighLevel { choices: tasks::hlc::scoring::LABELS, minibatches: 4 }),
+        high_level: Some(HighLevel {
+            choices: tasks::hlc::scoring::LABELS,
+            minibatches: 4,
+            iterations: 6000,
+        }),
         obs_layout: ObsLayout::BallState { part: "scoring" },
         ..HIGH_LEVEL
     },
@@ -167,7 +183,11 @@ pub const TASKS: &[TaskEntry] = &[
             skill or modular policy, --llc)",
         tables: &[hlc::TABLE, hlc::steering::TABLE],
         build: tasks::hlc::steering::build,
-        high_level: Some(HighLevel { choices: tasks::hlc::steering::LABELS, minibatches: 2 }),
+        high_level: Some(HighLevel {
+            choices: tasks::hlc::steering::LABELS,
+            minibatches: 2,
+            iterations: 2000,
+        }),
         obs_layout: ObsLayout::BallState { part: "steering" },
         ..HIGH_LEVEL
     },
@@ -177,7 +197,11 @@ pub const TASKS: &[TaskEntry] = &[
             policy, --llc)",
         tables: &[hlc::TABLE, hlc::reach::TABLE],
         build: tasks::hlc::reach::build,
-        high_level: Some(HighLevel { choices: tasks::hlc::reach::LABELS, minibatches: 2 }),
+        high_level: Some(HighLevel {
+            choices: tasks::hlc::reach::LABELS,
+            minibatches: 2,
+            iterations: 2000,
+        }),
         obs_layout: ObsLayout::BallState { part: "reach" },
         ..HIGH_LEVEL
     },
@@ -187,7 +211,11 @@ pub const TASKS: &[TaskEntry] = &[
             [env.multi] (one token policy)",
         tables: &[hlc::TABLE, tasks::multi::TABLE],
         build: build_hlc_multi,
-        high_level: Some(HighLevel { choices: tasks::hlc::heading::LABELS, minibatches: 2 }),
+        high_level: Some(HighLevel {
+            choices: tasks::hlc::heading::LABELS,
+            minibatches: 2,
+            iterations: 2000,
+        }),
         obs_layout: ObsLayout::BallState { part: "hlc_multi" },
         ..HIGH_LEVEL
     },

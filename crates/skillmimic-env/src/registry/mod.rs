@@ -65,6 +65,10 @@ pub struct HighLevel {
     /// PPO minibatches per iteration of the high-level defaults (the released code: 4 for
     /// scoring, 2 for the others).
     pub minibatches: usize,
+    /// Training iterations of the high-level defaults when the run keeps the default count (the
+    /// released SkillMimic code's `max_epochs`: 2 000, 6 000 for scoring; ModSkill's steering
+    /// and reach, whose released configurations are not published, take 2 000 as well).
+    pub iterations: usize,
 }
 
 /// How a task is evaluated.
