@@ -22,7 +22,8 @@ pub struct Args {
     pub log: Vec<PathBuf>,
     /// Checkpoint metrics (`checkpoint_evals.jsonl` of `scripts/results/eval_checkpoints.py`):
     /// completion from the clip's start (two test modes), success score, falls, Acc and
-    /// E_b-mpjpe against samples; repeat to overlay runs.
+    /// E_b-mpjpe against samples; of `scripts/results/eval_tracking_checkpoints.py`: success over
+    /// motions and the tracking errors; repeat to overlay runs.
     #[arg(long)]
     pub evals: Vec<PathBuf>,
     /// Legend label of each `--log` (default: the log's folder name).
@@ -198,37 +199,49 @@ pub fn plot_compare(logs: &[(String, PathBuf)], out: &Path, k: usize) -> anyhow:
     )
 }
 
-/// Overlay checkpoint metrics of runs (label, `checkpoint_evals.jsonl`) into `out`: completion from
-/// the clip's start (mean action with ε = 0.01 start noise; sampled actions), the SkillMimic
-/// success score, falls, Acc and E_b-mpjpe against samples, one curve per run (rows without a
-/// key are left out of its panel).
+/// The panels of imitation checkpoint metrics (`scripts/results/eval_checkpoints.py`):
+/// completion from the clip's start (mean action with ε = 0.01 start noise; sampled actions), the
+/// SkillMimic success score, falls, Acc and E_b-mpjpe.
+const IMITATION_PANELS: [(&str, &str, &str); 6] = [
+    (
+        "Completed from the clip's start (mean action, start noise 0.01)",
+        "% of 64 episodes",
+        "start_eps001_completed_pct",
+    ),
+    (
+        "Completed from the clip's start (sampled actions)",
+        "% of 64 episodes",
+        "start_sampled_completed_pct",
+    ),
+    (
+        "Success score from the start (mean action, noise 0.01)",
+        "SkillMimic score",
+        "start_eps001_v1_score",
+    ),
+    ("Falls from random frames", "% of 64 episodes", "falls_pct"),
+    ("Acc (random frames)", "%", "acc_pct"),
+    ("E_b-mpjpe (random frames)", "mm", "e_b_mm"),
+];
+
+/// The panels of tracking checkpoint metrics (`scripts/results/eval_tracking_checkpoints.py`:
+/// PHC's evaluation, every motion once): success over motions and the errors over every step.
+const TRACKING_PANELS: [(&str, &str, &str); 4] = [
+    ("Success (every motion once, 0.5 m)", "% of motions", "success_pct"),
+    ("E_g-mpjpe", "mm", "g_mpjpe_mm"),
+    ("E_mpjpe (root-relative)", "mm", "mpjpe_mm"),
+    ("E_vel", "mm / frame", "vel_err_mm"),
+];
+
+/// Overlay checkpoint metrics of runs (label, JSON lines) into `out` against samples, one curve
+/// per run (rows without a key are left out of its panel): the tracking panels when the first
+/// file's rows carry `g_mpjpe_mm`, else the imitation ones.
 pub fn plot_evals(files: &[(String, PathBuf)], out: &Path) -> anyhow::Result<()> {
-    plot_overlay(
-        files,
-        out,
-        "--evals",
-        1,
-        &[
-            (
-                "Completed from the clip's start (mean action, start noise 0.01)",
-                "% of 64 episodes",
-                "start_eps001_completed_pct",
-            ),
-            (
-                "Completed from the clip's start (sampled actions)",
-                "% of 64 episodes",
-                "start_sampled_completed_pct",
-            ),
-            (
-                "Success score from the start (mean action, noise 0.01)",
-                "SkillMimic score",
-                "start_eps001_v1_score",
-            ),
-            ("Falls from random frames", "% of 64 episodes", "falls_pct"),
-            ("Acc (random frames)", "%", "acc_pct"),
-            ("E_b-mpjpe (random frames)", "mm", "e_b_mm"),
-        ],
-    )
+    let tracking = match files.first() {
+        Some((_, p)) => read_log(p)?.iter().any(|r| r.get("g_mpjpe_mm").is_some()),
+        None => false,
+    };
+    let panels: &[(&str, &str, &str)] = if tracking { &TRACKING_PANELS } else { &IMITATION_PANELS };
+    plot_overlay(files, out, "--evals", 1, panels)
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
@@ -326,6 +339,41 @@ mod tests {
         assert_eq!((info.width, info.height), (SIZE.0, SIZE.1 / 2 * 3), "three rows of two panels");
         let has = |c: RGBColor| rgb.chunks(3).any(|p| p == [c.0, c.1, c.2]);
         assert!(has(COLORS[0]) && has(COLORS[1]) && !has(COLORS[2]), "one colour per run");
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    /// Tracking checkpoint metrics (training and held-back motions) plot in two rows of panels.
+    #[test]
+    fn tracking_checkpoint_metrics_overlay() {
+        let dir = temp_dir("tracking-evals");
+        let files: Vec<(String, PathBuf)> = ["training", "held-back"]
+            .iter()
+            .enumerate()
+            .map(|(r, label)| {
+                let text: String = (1..=5)
+                    .map(|k| {
+                        let v = serde_json::json!({
+                            "iteration": 100 * k,
+                            "samples": 204800 * k,
+                            "success_pct": 20.0 * (k - r) as f64,
+                            "g_mpjpe_mm": 300.0 - 30.0 * k as f64,
+                            "mpjpe_mm": 200.0 - 20.0 * k as f64,
+                            "vel_err_mm": 40.0 - k as f64
+                        });
+                        format!("{v}\n")
+                    })
+                    .collect();
+                let p = dir.join(format!("{label}.jsonl"));
+                std::fs::write(&p, text).unwrap();
+                (label.to_string(), p)
+            })
+            .collect();
+        let out = dir.join("tracking.png");
+        plot_evals(&files, &out).unwrap();
+        let (info, rgb) = decode(&out);
+        assert_eq!((info.width, info.height), (SIZE.0, SIZE.1), "two rows of two panels");
+        let has = |c: RGBColor| rgb.chunks(3).any(|p| p == [c.0, c.1, c.2]);
+        assert!(has(COLORS[0]) && has(COLORS[1]), "one colour per motion set");
         std::fs::remove_dir_all(&dir).ok();
     }
 
