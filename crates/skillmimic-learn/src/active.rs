@@ -7,9 +7,11 @@
 //! * Evaluation of a clip: one episode from its frame 0 with the policy's deterministic actions,
 //!   terminated beyond `env.tracking.success_distance` (0.5 m); success = the clip's end reached.
 //!   Clips of the built-in demo (no file) are skipped.
-//! * Weights (`env.tracking.clip_weights`): a failed clip's multiplier is multiplied by
-//!   `failure_weight` each round it fails (1 by default: the released generative mode leaves the
-//!   weights alone); generated clips start at 1.
+//! * Weights (`env.tracking.clip_weights`): in the generative mode (the default) a failed clip's
+//!   multiplier is multiplied by `failure_weight` each round it fails (1 by default: the released
+//!   generative mode leaves the weights alone); generated clips start at 1. The released `hard`
+//!   and `soft` modes generate nothing and set the weights from the failures
+//!   ([`released_weights`]).
 //! * Rejected clips are logged with the filter's reason and listed in the report.
 //! * Optional motion-prior filter (`disc_score_min` > 0, the released code's rule): the generated
 //!   clip is posed in the scene, its AMP features (`skillmimic_env::amp`) cut into every full
@@ -30,7 +32,7 @@ use skillmimic_sim::Scene;
 use crate::amp::Discriminator;
 
 use crate::config::TrainConfig;
-pub use crate::config_active::ActiveConfig;
+pub use crate::config_active::{ActiveConfig, ActiveMode};
 use crate::error::{LearnError, io};
 use crate::policy::Policy;
 use crate::trainer::Trainer;
@@ -111,12 +113,16 @@ pub fn round(
         clip_weights: cfg.env.table::<TrackingConfig>().clip_weights.clone(),
         ..Default::default()
     };
+    let earlier = crate::active_resume::failure_counts(&cfg.run.out_dir.join("active.jsonl"))?;
     for (c, path) in clips.iter().zip(&files) {
         r.evaluated += 1;
         if evaluate_clip(policy, cfg, path)? {
             continue;
         }
         r.failed.push(c.name.clone());
+        if a.mode != ActiveMode::Generative {
+            continue;
+        }
         *r.clip_weights.entry(c.name.clone()).or_insert(1.0) *= a.failure_weight;
         let made =
             generator.generate(c, &clips, rng).map_err(|e| LearnError::Config(e.to_string()))?;
@@ -154,7 +160,37 @@ pub fn round(
             }
         }
     }
+    if a.mode != ActiveMode::Generative {
+        let names: Vec<String> = clips.iter().map(|c| c.name.clone()).collect();
+        r.clip_weights = released_weights(a.mode, &names, &r.failed, &earlier);
+    }
     Ok(r)
+}
+
+/// The sampling weights after a round of the released `hard` or `soft` mode (see
+/// [`ActiveConfig::mode`]): `names` the evaluated clips, `failed` this round's failed ones,
+/// `earlier` the failures of each clip in the earlier rounds. No failure: every clip 1 (an empty
+/// map).
+pub fn released_weights(
+    mode: ActiveMode,
+    names: &[String],
+    failed: &[String],
+    earlier: &BTreeMap<String, usize>,
+) -> BTreeMap<String, f64> {
+    if failed.is_empty() {
+        return BTreeMap::new();
+    }
+    let now = |n: &String| usize::from(failed.contains(n));
+    names
+        .iter()
+        .map(|n| {
+            let w = match mode {
+                ActiveMode::Hard => now(n),
+                _ => earlier.get(n).copied().unwrap_or(0) + now(n),
+            };
+            (n.clone(), w as f64)
+        })
+        .collect()
 }
 
 /// The generator named by `run.active` (`work_dir`: the external command's scratch folder).

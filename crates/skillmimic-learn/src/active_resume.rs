@@ -109,6 +109,19 @@ fn accepted_files(log: &Path) -> Result<BTreeSet<String>, LearnError> {
     Ok(names)
 }
 
+/// How many of the rounds logged in `log` (`active.jsonl`) each clip failed.
+pub fn failure_counts(log: &Path) -> Result<std::collections::BTreeMap<String, usize>, LearnError> {
+    let mut counts = std::collections::BTreeMap::new();
+    for v in rounds(log)? {
+        for name in
+            v["report"]["failed"].as_array().into_iter().flatten().filter_map(|n| n.as_str())
+        {
+            *counts.entry(name.to_string()).or_default() += 1;
+        }
+    }
+    Ok(counts)
+}
+
 /// Whether `log` (`active.jsonl`) holds a round of iteration `it`.
 pub fn round_logged(log: &Path, it: u64) -> Result<bool, LearnError> {
     Ok(rounds(log)?.iter().any(|v| v.get("iteration").and_then(|x| x.as_u64()) == Some(it)))

@@ -21,12 +21,18 @@ pub struct ActiveConfig {
     /// The external generator's program and arguments; it is called with two more arguments, the
     /// failed clip (project format) and an empty folder to write new clips into.
     pub command: Vec<String>,
-    /// Multiplier of a failed clip's sampling weight per failed round: 1 keeps the weights (the
-    /// released generative mode, `auto_pmcp_generative`: failed clips only feed the generator).
-    ///
+    /// What a round does with the failed clips, as the released code's three modes:
+    /// `"generative"` (`auto_pmcp_generative`, ModSkill's: they feed the generator and their
+    /// weights are multiplied by `failure_weight`), `"hard"` (`auto_pmcp`: no generation; until
+    /// the next round only this round's failed clips are drawn, all equally; a round without
+    /// failures draws every clip equally) or `"soft"` (`auto_pmcp_soft`: no generation; a clip's
+    /// weight is the number of rounds it has failed so far, from `active.jsonl`, so clips that
+    /// never failed are not drawn; a round without failures draws every clip equally).
+    pub mode: ActiveMode,
+    /// Multiplier of a failed clip's sampling weight per failed round of the generative mode: 1
+    /// keeps the weights (the released generative mode: failed clips only feed the generator).
     /// A value above 1 raises a clip that keeps failing geometrically (2: this project's rule
-    /// before issue 39); the released code's other modes (`auto_pmcp`: train on this round's
-    /// failures only; `auto_pmcp_soft`: weights proportional to failure counts) are not offered.
+    /// before issue 39).
     #[schemars(extend("exclusiveMinimum" = 0))]
     pub failure_weight: f64,
     /// Validity filter: tolerated depth of a body frame below the floor (m).
@@ -42,6 +48,16 @@ pub struct ActiveConfig {
     pub disc_score_min: f64,
 }
 
+/// The released code's re-weighting modes ([`ActiveConfig::mode`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum ActiveMode {
+    #[default]
+    Generative,
+    Hard,
+    Soft,
+}
+
 impl Default for ActiveConfig {
     fn default() -> Self {
         Self {
@@ -49,6 +65,7 @@ impl Default for ActiveConfig {
             every: 50,
             generator: "model_free".into(),
             command: Vec::new(),
+            mode: ActiveMode::Generative,
             failure_weight: 1.0,
             floor_tol: 0.05,
             max_joint_speed: 60.0,

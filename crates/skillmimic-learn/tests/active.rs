@@ -41,9 +41,12 @@ fn probabilities(t: &Trainer) -> Vec<f64> {
     t.env.as_any().downcast_ref::<VecEnv<Tracking>>().unwrap().task().clip_probabilities()
 }
 
-#[test]
-fn a_failed_clip_gets_generated_clips_and_more_weight() {
-    let root = std::env::temp_dir().join(format!("sm-active-{}", std::process::id()));
+/// The demo clips and a copy of the first lifted 1 m into the air (`052_lifted`, the last in
+/// library order) under a fresh folder, and a tracking trainer over them whose policy's PD targets
+/// hold the zero pose: it follows the standing demo clips within 0.5 m but cannot follow the
+/// floating one. Returns (folder, trainer).
+fn lifted_setup(tag: &str) -> (std::path::PathBuf, Trainer) {
+    let root = std::env::temp_dir().join(format!("sm-active-{tag}-{}", std::process::id()));
     let clips = root.join("clips");
     std::fs::create_dir_all(&clips).unwrap();
     let demo = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../motions");
@@ -68,13 +71,17 @@ fn a_failed_clip_gets_generated_clips_and_more_weight() {
     cfg.env.threads = 1;
     cfg.ppo.hidden = vec![32];
     cfg.run.out_dir = root.join("run");
-    let mut t = Trainer::new(cfg.clone(), None).unwrap();
-    // zero action means: the PD targets hold the zero pose, which follows the standing demo
-    // clips within 0.5 m but cannot follow a clip floating 1 m up
+    let mut t = Trainer::new(cfg, None).unwrap();
     let actor = t.policy.actor.as_mlp_mut().unwrap();
     let last = actor.num_layers() - 1;
     actor.weights[last].fill(0.0);
     actor.biases[last].fill(0.0);
+    (root, t)
+}
+
+#[test]
+fn a_failed_clip_gets_generated_clips_and_more_weight() {
+    let (root, mut t) = lifted_setup("generative");
     let before = probabilities(&t);
     let seen = Arc::new(Mutex::new(Vec::new()));
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0);
@@ -105,6 +112,64 @@ fn a_failed_clip_gets_generated_clips_and_more_weight() {
     assert!(after[lifted_at] > before[lifted_at]);
     assert!(t.config_toml().contains("052_lifted"));
     t.iteration().unwrap();
+    std::fs::remove_dir_all(&root).ok();
+}
+
+/// The released `auto_pmcp` modes: `hard` draws only this round's failed clips, `soft` weighs
+/// each clip by the rounds it failed (earlier rounds from `active.jsonl`); neither generates.
+#[test]
+fn the_released_hard_and_soft_modes_reweight_without_generating() {
+    use skillmimic_learn::active::{ActiveMode, released_weights};
+    let (root, mut t) = lifted_setup("modes");
+    let names: Vec<String> = ["050_a", "051_b", "052_c"].map(String::from).to_vec();
+    let earlier = [("050_a".to_string(), 2)].into_iter().collect();
+    let w = |m, failed: &[&str]| {
+        let failed: Vec<String> = failed.iter().map(|s| s.to_string()).collect();
+        released_weights(m, &names, &failed, &earlier).into_values().collect::<Vec<f64>>()
+    };
+    assert_eq!(w(ActiveMode::Hard, &["052_c"]), [0.0, 0.0, 1.0]);
+    assert_eq!(w(ActiveMode::Hard, &["050_a", "052_c"]), [1.0, 0.0, 1.0]);
+    assert_eq!(w(ActiveMode::Soft, &["052_c"]), [2.0, 0.0, 1.0]);
+    assert_eq!(w(ActiveMode::Soft, &["050_a"]), [3.0, 0.0, 0.0]);
+    assert!(w(ActiveMode::Hard, &[]).is_empty() && w(ActiveMode::Soft, &[]).is_empty(), "all 1");
+
+    // on the lifted set: only the lifted clip fails; a probe that panics shows nothing generates
+    struct NoGenerator;
+    impl Generator for NoGenerator {
+        fn name(&self) -> String {
+            "none".into()
+        }
+        fn generate(
+            &mut self,
+            _: &Clip,
+            _: &[Clip],
+            _: &mut dyn RngCore,
+        ) -> Result<Vec<Clip>, GenError> {
+            panic!("the hard and soft modes generate nothing")
+        }
+    }
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0);
+    let hard = ActiveConfig { mode: ActiveMode::Hard, ..ActiveConfig::default() };
+    let r = round(&t.policy, &t.cfg, &mut NoGenerator, &hard, None, &mut rng).unwrap();
+    assert_eq!(r.failed, vec!["052_lifted".to_string()]);
+    assert!(r.accepted.is_empty() && r.rejected.is_empty());
+    apply(&mut t, &r).unwrap();
+    assert_eq!(probabilities(&t), [0.0, 0.0, 1.0], "only the failed clip is drawn");
+    t.iteration().unwrap();
+    // soft: an earlier round in which the first demo clip failed twice is in active.jsonl
+    let first = r.clip_weights.keys().next().unwrap().clone();
+    let line = serde_json::json!({"iteration": 5, "report": {"failed": [first, first]}});
+    std::fs::write(t.cfg.run.out_dir.join("active.jsonl"), format!("{line}\n")).unwrap();
+    let soft = ActiveConfig { mode: ActiveMode::Soft, ..ActiveConfig::default() };
+    let r = round(&t.policy, &t.cfg, &mut NoGenerator, &soft, None, &mut rng).unwrap();
+    apply(&mut t, &r).unwrap();
+    assert_eq!(probabilities(&t), [2.0 / 3.0, 0.0, 1.0 / 3.0]);
+    // every weight 0 is refused naming the key
+    let mut none = t.cfg.clone();
+    none.env.table_mut::<TrackingConfig>().clip_weights =
+        r.clip_weights.keys().map(|k| (k.clone(), 0.0)).collect();
+    let err = Trainer::new(none, None).err().unwrap().to_string();
+    assert!(err.contains("env.tracking.clip_weights"), "{err}");
     std::fs::remove_dir_all(&root).ok();
 }
 

@@ -54,8 +54,9 @@ pub struct TrackingConfig {
     /// Start episodes at a uniformly random frame (else at frame 0).
     pub random_start: bool,
     /// Sampling-weight multipliers by clip name (active skill learning raises the weights of
-    /// clips the policy fails on); a clip not named keeps its library weight.
-    #[schemars(extend("additionalProperties" = {"type": "number", "format": "double", "exclusiveMinimum": 0}))]
+    /// clips the policy fails on); a clip not named keeps its library weight. 0 leaves a clip out
+    /// of the draw (the released `auto_pmcp` modes); at least one clip must keep a weight.
+    #[schemars(extend("additionalProperties" = {"type": "number", "format": "double", "minimum": 0}))]
     pub clip_weights: BTreeMap<String, f64>,
 }
 

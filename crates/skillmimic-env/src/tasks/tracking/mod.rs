@@ -210,6 +210,13 @@ impl Tracking {
             ..TaskSpec::default()
         };
         let cumulative = motion.cumulative(|name| t.clip_weights.get(name).copied().unwrap_or(1.0));
+        if cumulative.last().is_none_or(|&total| !(total > 0.0 && total.is_finite())) {
+            let msg = format!(
+                "every clip's sampling weight is 0 ({:?}); at least one clip must keep a weight",
+                t.clip_weights
+            );
+            return Err(bad("env.tracking.clip_weights", msg).into());
+        }
         let prior = (character.name == skillmimic_core::characters::smpl::ENTRY.name)
             .then_some((prior::SMPL_PRIOR_DIM, prior::smpl_features as prior::Features));
         Ok(Self { cfg: t, motion, refs, bodies, judged, spec, character, cumulative, prior })
