@@ -5,9 +5,10 @@
 //! velocity and acceleration errors, to 1e-5 mm; aggregated as the released player does (the
 //! mean over every frame of every motion) they give its printed means.
 //!
-//! One difference stays, documented in docs/guide/modskill.md: this project's evaluation also
-//! counts the first step's velocity error and the first two steps' acceleration errors against
-//! the reset state (the released arrays start at the first step after the reset).
+//! The per-episode report of `skillmimic eval` also counts the first step's velocity error and
+//! the first two steps' acceleration errors against the reset state; the per-motion evaluation
+//! (`eval --each-motion`, `skillmimic_learn::tracking_eval`) leaves them out, as the released
+//! arrays start at the first step after the reset (docs/guide/modskill.md).
 
 mod common;
 

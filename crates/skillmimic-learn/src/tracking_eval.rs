@@ -7,14 +7,14 @@
 //!   length; repeated identical rollouts of a deterministic policy are never counted twice);
 //! * `metrics_all`: the per-step metrics (E_g-mpjpe, E_mpjpe in mm, velocity error in mm/frame,
 //!   acceleration error in mm/frame²) averaged over every evaluated step of every motion, the
-//!   pooling of the released `compute_metrics_lite` means;
+//!   pooling of the released `compute_metrics_lite` means, with its bookkeeping: the positions
+//!   after steps 1 … N of a motion give N position errors, N − 1 velocity errors (from step 2 on)
+//!   and N − 2 acceleration errors (from step 3 on), none against the reset state;
 //! * `metrics_successful`: the same over the successful motions only (the released "Succ" line);
 //! * `motions`: one row per motion (file, steps, success, its own means).
 //!
-//! Differences from the released player, by choice: a failed motion ends at its failure (the
-//! released one keeps stepping it to the motion's end and pools those frames into "All"); the
-//! first step's velocity error and the first two steps' acceleration errors are measured
-//! against the reset state (the released arrays start one step later).
+//! Difference from the released player, by choice: a failed motion ends at its failure (the
+//! released one keeps stepping it to the motion's end and pools those frames into "All").
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -25,9 +25,8 @@ use skillmimic_env::tasks::tracking::config::TrackingConfig;
 use skillmimic_motion::library::find_files;
 
 use crate::config::TrainConfig;
-use crate::episode_eval::{EpisodeReport, evaluate_episodes};
 use crate::error::LearnError;
-use crate::policy::Policy;
+use crate::policy::{InferenceBuffers, Policy};
 
 /// One motion's result.
 #[derive(Clone, Debug, Serialize)]
@@ -36,9 +35,20 @@ pub struct MotionResult {
     /// Policy steps played (the motion's frames − 1 when it succeeded).
     pub steps: usize,
     pub success: bool,
-    /// The per-step means of the task's error metrics over this motion's steps (mm, mm/frame,
-    /// mm/frame²; the success flag is `success`).
+    /// The means of the task's error metrics over this motion's values (mm, mm/frame, mm/frame²;
+    /// the success flag is `success`).
     pub metrics: BTreeMap<String, f64>,
+    /// How many values each mean is over (velocity: steps − 1, acceleration: steps − 2).
+    pub values: BTreeMap<String, usize>,
+}
+
+/// The first step whose value of a metric counts (the released bookkeeping, module doc).
+fn first_counted(metric: &str) -> usize {
+    match metric {
+        "vel_err_mm" => 2,
+        "acc_err_mm" => 3,
+        _ => 1,
+    }
 }
 
 /// Results of [`evaluate_each_motion`] (see the module doc).
@@ -98,32 +108,71 @@ pub fn one_motion_config(cfg: &TrainConfig, file: &Path) -> skillmimic_env::EnvC
     e
 }
 
-/// Play `file` once with `policy` (see the module doc).
+/// Play `file` once with `policy`'s deterministic actions (see the module doc).
 pub fn evaluate_motion(
     policy: &Policy,
     cfg: &TrainConfig,
     file: &Path,
 ) -> Result<MotionResult, LearnError> {
     let mut env = skillmimic_env::registry::make(&one_motion_config(cfg, file))?;
-    let r: EpisodeReport = evaluate_episodes(policy, env.as_mut(), 1, 0, false, 1)?;
-    let success = r.final_metrics.get("success").copied().unwrap_or(0.0) == 1.0;
-    let steps = r.mean_episode_length.round() as usize;
-    let mut metrics = r.metrics;
-    metrics.remove("success");
-    Ok(MotionResult { file: file.to_path_buf(), steps, success, metrics })
-}
-
-/// Step-weighted means of the metrics of `rows`.
-fn pooled<'a>(rows: impl Iterator<Item = &'a MotionResult>) -> BTreeMap<String, f64> {
-    let mut sums: BTreeMap<String, f64> = BTreeMap::new();
-    let mut steps = 0usize;
-    for r in rows {
-        steps += r.steps;
-        for (k, v) in &r.metrics {
-            *sums.entry(k.clone()).or_default() += v * r.steps as f64;
+    let spec = env.spec().clone();
+    if (policy.obs_dim(), policy.act_dim()) != (spec.obs_dim, spec.act_dim()) {
+        return Err(LearnError::Config(format!(
+            "the policy takes observations of {} and gives actions of {}; the tracking task on \
+             '{}' has {} and {}",
+            policy.obs_dim(),
+            policy.act_dim(),
+            file.display(),
+            spec.obs_dim,
+            spec.act_dim()
+        )));
+    }
+    env.set_autoreset(false);
+    env.reset_all(Some(0));
+    let (mut buf, mut out, mut v) =
+        (InferenceBuffers::default(), vec![0.0; policy.actor_outputs()], vec![0.0]);
+    let mut actions = vec![0.0; spec.act_dim()];
+    let names = &spec.metric_names;
+    let (mut sums, mut values) = (vec![0.0f64; names.len()], vec![0usize; names.len()]);
+    let (mut steps, mut success) = (0, false);
+    while steps <= spec.max_episode_steps {
+        policy.infer(&env.buffers().obs, 1, &mut buf, &mut out, &mut v, 1);
+        policy.mode(&out, 1, &mut actions);
+        env.step(&actions)?;
+        steps += 1;
+        let b = env.buffers();
+        for (k, _) in names.iter().enumerate().filter(|(_, n)| steps >= first_counted(n)) {
+            sums[k] += b.metrics[k] as f64;
+            values[k] += 1;
+        }
+        if b.terminated[0] != 0 || b.truncated[0] != 0 {
+            success =
+                names.iter().position(|n| n == "success").is_some_and(|k| b.metrics[k] == 1.0);
+            break;
         }
     }
-    sums.into_iter().map(|(k, v)| (k, v / steps.max(1) as f64)).collect()
+    let errors = || names.iter().enumerate().filter(|(_, n)| *n != "success");
+    Ok(MotionResult {
+        file: file.to_path_buf(),
+        steps,
+        success,
+        metrics: errors().map(|(k, n)| (n.clone(), sums[k] / values[k].max(1) as f64)).collect(),
+        values: errors().map(|(k, n)| (n.clone(), values[k])).collect(),
+    })
+}
+
+/// The means of the metrics of `rows` over all their values (each row's mean weighted by its
+/// count of values: the released pooling over every frame of every motion).
+fn pooled<'a>(rows: impl Iterator<Item = &'a MotionResult>) -> BTreeMap<String, f64> {
+    let mut sums: BTreeMap<String, (f64, usize)> = BTreeMap::new();
+    for r in rows {
+        for (k, v) in &r.metrics {
+            let n = r.values.get(k).copied().unwrap_or(0);
+            let s = sums.entry(k.clone()).or_default();
+            *s = (s.0 + v * n as f64, s.1 + n);
+        }
+    }
+    sums.into_iter().map(|(k, (s, n))| (k, s / n.max(1) as f64)).collect()
 }
 
 /// Every motion of `cfg.env.motion` once (module doc); motions run in parallel on the current

@@ -7,7 +7,10 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use skillmimic_learn::config::TrainConfig;
-use skillmimic_learn::tracking_eval::{MotionResult, evaluate_each_motion, evaluate_motion};
+use skillmimic_learn::policy::{InferenceBuffers, Policy};
+use skillmimic_learn::tracking_eval::{
+    MotionResult, evaluate_each_motion, evaluate_motion, one_motion_config,
+};
 use skillmimic_learn::trainer::Trainer;
 use skillmimic_motion::Clip;
 
@@ -37,15 +40,35 @@ fn clips(root: &Path) -> Vec<PathBuf> {
 }
 
 fn pooled(rows: &[&MotionResult]) -> BTreeMap<String, f64> {
-    let steps: usize = rows.iter().map(|r| r.steps).sum();
     rows[0]
         .metrics
         .keys()
         .map(|k| {
-            let s: f64 = rows.iter().map(|r| r.metrics[k] * r.steps as f64).sum();
-            (k.clone(), s / steps as f64)
+            let n: usize = rows.iter().map(|r| r.values[k]).sum();
+            let s: f64 = rows.iter().map(|r| r.metrics[k] * r.values[k] as f64).sum();
+            (k.clone(), s / n as f64)
         })
         .collect()
+}
+
+/// The per-step metric rows of one deterministic episode of `file`, stepped here by hand.
+fn per_step(policy: &Policy, cfg: &TrainConfig, file: &Path) -> Vec<Vec<f32>> {
+    let mut env = skillmimic_env::registry::make(&one_motion_config(cfg, file)).unwrap();
+    env.reset_all(Some(0));
+    let (mut buf, mut out, mut v) =
+        (InferenceBuffers::default(), vec![0.0; policy.actor_outputs()], vec![0.0]);
+    let mut a = vec![0.0; env.act_dim()];
+    let mut rows = Vec::new();
+    loop {
+        policy.infer(&env.buffers().obs, 1, &mut buf, &mut out, &mut v, 1);
+        policy.mode(&out, 1, &mut a);
+        env.step(&a).unwrap();
+        let b = env.buffers();
+        rows.push(b.metrics.clone());
+        if b.terminated[0] != 0 || b.truncated[0] != 0 {
+            return rows;
+        }
+    }
 }
 
 fn close(a: &BTreeMap<String, f64>, b: &BTreeMap<String, f64>) {
@@ -90,7 +113,24 @@ fn every_motion_once_with_success_over_motions_and_pooled_metrics() {
     assert!(lifted.steps < Clip::load(&lifted.file).unwrap().num_frames - 1);
     assert!(r.per_motion.iter().all(|m| m.success || m.metrics["g_mpjpe_mm"] > 150.0));
     assert!(r.per_motion.iter().all(|m| !m.metrics.contains_key("success")), "a flag, not a mean");
-    // pooling: step-weighted means of the rows, all and successful ones
+    // the released bookkeeping: positions after steps 1..N give N position errors, N − 1
+    // velocity errors (from step 2) and N − 2 acceleration errors (from step 3)
+    for m in &r.per_motion {
+        let rows = per_step(&t.policy, &cfg, &m.file);
+        assert_eq!(rows.len(), m.steps);
+        for (k, name) in ["g_mpjpe_mm", "mpjpe_mm", "vel_err_mm", "acc_err_mm"].iter().enumerate() {
+            let skip = [0, 0, 1, 2][k];
+            let vals: Vec<f64> = rows[skip..].iter().map(|row| row[k] as f64).collect();
+            assert_eq!(m.values[*name], m.steps - skip, "{name}");
+            let want = vals.iter().sum::<f64>() / vals.len() as f64;
+            assert!(
+                (m.metrics[*name] - want).abs() < 1e-9,
+                "{name}: {} vs {want}",
+                m.metrics[*name]
+            );
+        }
+    }
+    // pooling: value-weighted means of the rows, all and successful ones
     let all: Vec<&MotionResult> = r.per_motion.iter().collect();
     close(&r.metrics_all, &pooled(&all));
     let good: Vec<&MotionResult> = r.per_motion.iter().filter(|m| m.success).collect();
