@@ -66,12 +66,13 @@ impl GhostMode {
 }
 
 /// Positions of the episode fields `clip` and `ref_frame` of the environment's task, when it
-/// plays reference clips (a motion library, or clips it can pose: `Env::reference_state`).
+/// declares them (a task that plays reference clips; whether it can pose them for a ghost is
+/// [`ghost_states`]' question, asked once per video, not at every recorded step).
 pub fn reference_fields(env: &dyn Env) -> Option<(usize, usize)> {
     let names = &env.spec().episode_names;
     let clip = names.iter().position(|n| *n == "clip")?;
     let frame = names.iter().position(|n| *n == "ref_frame")?;
-    (env.library().is_some() || env.reference_state(0, 0).is_some()).then_some((clip, frame))
+    Some((clip, frame))
 }
 
 /// The (clip, frame) environment 0 is compared with now, by the fields of [`reference_fields`].

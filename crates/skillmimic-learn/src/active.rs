@@ -113,7 +113,6 @@ pub fn round(
         clip_weights: cfg.env.table::<TrackingConfig>().clip_weights.clone(),
         ..Default::default()
     };
-    let earlier = crate::active_resume::failure_counts(&cfg.run.out_dir.join("active.jsonl"))?;
     for (c, path) in clips.iter().zip(&files) {
         r.evaluated += 1;
         if evaluate_clip(policy, cfg, path)? {
@@ -161,6 +160,8 @@ pub fn round(
         }
     }
     if a.mode != ActiveMode::Generative {
+        let log = cfg.run.out_dir.join("active.jsonl");
+        let earlier = crate::active_resume::failure_counts(&log)?;
         let names: Vec<String> = clips.iter().map(|c| c.name.clone()).collect();
         r.clip_weights = released_weights(a.mode, &names, &r.failed, &earlier);
     }

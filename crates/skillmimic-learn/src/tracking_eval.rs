@@ -22,6 +22,8 @@ use std::path::{Path, PathBuf};
 use rayon::prelude::*;
 use serde::Serialize;
 use skillmimic_env::tasks::tracking::config::TrackingConfig;
+use skillmimic_env::tasks::tracking::formulas::METRICS;
+use skillmimic_env::tasks::tracking::motion::MOTION_EXTENSIONS;
 use skillmimic_motion::library::find_files;
 
 use crate::config::TrainConfig;
@@ -45,8 +47,8 @@ pub struct MotionResult {
 /// The first step whose value of a metric counts (the released bookkeeping, module doc).
 fn first_counted(metric: &str) -> usize {
     match metric {
-        "vel_err_mm" => 2,
-        "acc_err_mm" => 3,
+        m if m == METRICS[2] => 2, // velocity error
+        m if m == METRICS[3] => 3, // acceleration error
         _ => 1,
     }
 }
@@ -81,8 +83,7 @@ pub fn motion_files(cfg: &TrainConfig) -> Result<Vec<PathBuf>, LearnError> {
             )));
         }
         files.extend(
-            find_files(p, &["pt", "safetensors", "npz"])
-                .map_err(|e| LearnError::Config(e.to_string()))?,
+            find_files(p, &MOTION_EXTENSIONS).map_err(|e| LearnError::Config(e.to_string()))?,
         );
     }
     if files.is_empty() {
@@ -147,11 +148,11 @@ pub fn evaluate_motion(
         }
         if b.terminated[0] != 0 || b.truncated[0] != 0 {
             success =
-                names.iter().position(|n| n == "success").is_some_and(|k| b.metrics[k] == 1.0);
+                names.iter().position(|n| n == METRICS[4]).is_some_and(|k| b.metrics[k] == 1.0);
             break;
         }
     }
-    let errors = || names.iter().enumerate().filter(|(_, n)| *n != "success");
+    let errors = || names.iter().enumerate().filter(|(_, n)| *n != METRICS[4]);
     Ok(MotionResult {
         file: file.to_path_buf(),
         steps,

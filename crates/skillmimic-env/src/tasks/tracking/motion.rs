@@ -28,6 +28,10 @@ use crate::clip_state::clip_state;
 use crate::episode::fill_from_clip;
 use crate::error::{EnvError, bad};
 
+/// The file extensions of motion files in `env.motion` folders: SkillMimic clips (`.pt`,
+/// `.safetensors`), character clips (`.safetensors`) and AMASS sequences (`.npz`).
+pub const MOTION_EXTENSIONS: [&str; 3] = ["pt", "safetensors", "npz"];
+
 /// The clips of a tracking task.
 pub enum Motion {
     SkillMimic(Arc<MotionLibrary>),
@@ -88,7 +92,7 @@ impl Motion {
                 )?;
                 continue;
             }
-            for f in find_files(p, &["pt", "safetensors", "npz"])? {
+            for f in find_files(p, &MOTION_EXTENSIONS)? {
                 if f.extension().is_some_and(|e| e == "npz") {
                     clips.push(load_amass(&f, character)?);
                     continue;
