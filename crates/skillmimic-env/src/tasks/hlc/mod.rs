@@ -173,6 +173,16 @@ pub fn loc_bearing(goal: [f64; 2], st: &EnvState<'_>, out: &mut [f32]) {
     ]);
 }
 
+/// How the state after low-level step `progress` (1-based) ends the episode: (terminated,
+/// truncated). Terminated: the root (pelvis) is below `termination_height` (world z, m) after the
+/// first step, or the simulation went unstable. Truncated (only when not terminated): `progress`
+/// reached `episode_length − 1`.
+pub fn episode_end(cfg: &HlcConfig, progress: u32, st: &EnvState<'_>) -> (bool, bool) {
+    let fell = st.pos(0)[2] < cfg.termination_height && progress > 1;
+    let terminated = fell || st.unstable;
+    (terminated, !terminated && progress as usize >= cfg.episode_length - 1)
+}
+
 /// Euclidean norm.
 pub fn norm(v: [f64; 3]) -> f64 {
     (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
@@ -405,10 +415,9 @@ impl<R: Rule> Task for HighLevel<R> {
         if !released {
             self.write_obs(slot, st, out.obs);
         }
-        let fell = st.pos(0)[2] < self.cfg.termination_height && slot.progress > 1;
-        *out.terminated = u8::from(fell || st.unstable);
-        *out.truncated =
-            u8::from(*out.terminated == 0 && slot.progress as usize >= self.cfg.episode_length - 1);
+        let (terminated, truncated) = episode_end(&self.cfg, slot.progress, st);
+        *out.terminated = u8::from(terminated);
+        *out.truncated = u8::from(truncated);
     }
 
     fn observe(&self, slot: &mut HlSlot<R::Goal>, st: &EnvState<'_>, obs: &mut [f32]) {
