@@ -14,6 +14,7 @@ A row that lacks an evaluation added later gets only that one run and is complet
 
     python3 scripts/results/eval_checkpoints.py run                 # every 25th checkpoint
     EVERY=100 BIN=target/release/skillmimic python3 scripts/results/eval_checkpoints.py pickup
+    KINDS=eps,random OUT=runs/tts python3 scripts/results/eval_checkpoints.py run-cpu-s0   # a subset
 """
 
 from __future__ import annotations
@@ -71,6 +72,9 @@ def main() -> None:
     binary = os.environ.get("BIN", str(root / "target/release/skillmimic"))
     run = pathlib.Path(os.environ.get("OUT", root / "runs/results")) / name
     every = int(os.environ.get("EVERY", "25"))
+    kinds = os.environ.get("KINDS", ",".join(EVALS)).split(",")
+    if unknown := [k for k in kinds if k not in EVALS]:
+        sys.exit(f"KINDS: unknown evaluation(s) {unknown}, expected some of {list(EVALS)}")
     table = run / "checkpoint_evals.jsonl"
     rows = {r["iteration"]: r for r in (json.loads(line) for line in (table.read_text().splitlines() if table.exists() else []) if line.strip())}
     log = [json.loads(line) for line in (run / "log.jsonl").read_text().splitlines() if line.strip()]
@@ -81,7 +85,7 @@ def main() -> None:
             if it % every:
                 continue
             row = rows.get(it) or {"iteration": it, "samples": it * per_it}
-            missing = [k for k in EVALS if KEY[k] not in row]
+            missing = [k for k in kinds if KEY[k] not in row]
             if not missing:
                 continue
             near = [r["mean_reward"] for r in log if it - 25 < r["iteration"] <= it]

@@ -11,6 +11,12 @@
 //! per policy step, no read-out, no task) runs one horizon of random targets after each
 //! round; ratio raw = end-to-end samples/s ÷ raw policy steps/s. Memory per environment: one
 //! environment's `MjData` and the process's resident memory divided by the environments.
+//!
+//! `--against PRESET` builds a second trainer from the same config file and flags over another
+//! preset and alternates the two within each round (configuration A, configuration B, both
+//! against the round's anchor: the first preset's scene and environment count), so that their
+//! medians share the machine's state: the speed-up of a preset is measured, not inferred from
+//! two separate runs.
 
 use std::sync::Arc;
 use std::time::Instant;
@@ -34,6 +40,11 @@ pub struct TrainArgs {
     /// Learner threads (0 = all cores).
     #[arg(long, default_value_t = 0)]
     pub learner_threads: usize,
+    /// Also measure this preset, with the same config file and flags, in alternating rounds
+    /// (e.g. `--preset cpu --against small`): each preset's rates and end-to-end / raw ratio
+    /// against the same anchor rounds, and the speed-up between them.
+    #[arg(long)]
+    pub against: Option<String>,
 }
 
 fn median(v: &mut [f64]) -> f64 {
@@ -42,12 +53,108 @@ fn median(v: &mut [f64]) -> f64 {
     if n % 2 == 1 { v[n / 2] } else { 0.5 * (v[n / 2 - 1] + v[n / 2]) }
 }
 
+/// One configuration under measurement: its trainer and the per-round numbers.
+struct Measured {
+    label: String,
+    trainer: Trainer,
+    batch: f64,
+    e2e: Vec<f64>,
+    sim: Vec<f64>,
+    raw_ratio: Vec<f64>,
+    env_ms: Vec<f64>,
+    inf_ms: Vec<f64>,
+    upd_ms: Vec<f64>,
+}
+
+impl Measured {
+    fn new(label: &str, cfg: &skillmimic_learn::config::TrainConfig) -> anyhow::Result<Self> {
+        let trainer = Trainer::new(cfg.clone(), None)?;
+        println!(
+            "bench train: preset '{label}', {} envs x horizon {} = {} samples/iteration, network \
+                {:?}, minibatch {}, {} mini-epochs, lr {:e}, backend {:?}, precision {:?} (runs in \
+                {}), {} hands",
+            cfg.env.num_envs,
+            cfg.ppo.horizon,
+            cfg.batch_size(),
+            cfg.ppo.hidden,
+            cfg.ppo.minibatch,
+            cfg.ppo.mini_epochs,
+            cfg.ppo.lr,
+            cfg.ppo.backend,
+            cfg.ppo.precision,
+            trainer.update_precision(),
+            cfg.env.hands
+        );
+        Ok(Self {
+            label: label.into(),
+            trainer,
+            batch: cfg.batch_size() as f64,
+            e2e: Vec::new(),
+            sim: Vec::new(),
+            raw_ratio: Vec::new(),
+            env_ms: Vec::new(),
+            inf_ms: Vec::new(),
+            upd_ms: Vec::new(),
+        })
+    }
+
+    /// One training iteration and one simulation-only horizon; `raw` (policy steps/s of the
+    /// anchor in this round) is `None` during the warm-up, which records nothing.
+    fn round(&mut self, r: usize, raw: Option<f64>) -> anyhow::Result<()> {
+        let s = self.trainer.iteration()?;
+        let sim_s = self.trainer.sim_only_horizon()?;
+        let Some(rr) = raw else { return Ok(()) };
+        let (e, si) = (s.samples_per_s, self.batch / sim_s);
+        let per = |x: f64| 1e3 * x / self.batch;
+        println!(
+            "{:>5} {:>12.0} {:>12.0} {:>7.3} {:>12.0} {:>9.3} | {:>24.4} {:>7.4} {:>7.4} {:>7.4} {}",
+            r + 1,
+            e,
+            si,
+            e / si,
+            rr,
+            e / rr,
+            per(s.env_s),
+            per(s.inference_s),
+            per(s.update_s),
+            per(s.rollout_s + s.update_s),
+            self.label
+        );
+        self.e2e.push(e);
+        self.sim.push(si);
+        self.raw_ratio.push(e / rr);
+        self.env_ms.push(per(s.env_s));
+        self.inf_ms.push(per(s.inference_s));
+        self.upd_ms.push(per(s.update_s));
+        Ok(())
+    }
+
+    /// The medians: the `median:` line (and the end-to-end / raw ratio for the anchor line).
+    fn report(&mut self, prefix: &str) -> (f64, f64) {
+        let e2e = median(&mut self.e2e);
+        let mut ratio: Vec<f64> = self.e2e.iter().zip(&self.sim).map(|(e, s)| e / s).collect();
+        println!(
+            "{prefix}median: end-to-end {e2e:.0} samples/s, simulation-only {:.0} samples/s, ratio \
+                {:.3}; per sample env {:.4} ms, inference {:.4} ms, update {:.4} ms",
+            median(&mut self.sim),
+            median(&mut ratio),
+            median(&mut self.env_ms),
+            median(&mut self.inf_ms),
+            median(&mut self.upd_ms)
+        );
+        (e2e, median(&mut self.raw_ratio))
+    }
+}
+
 pub fn run(a: TrainArgs) -> anyhow::Result<()> {
-    let mut cfg = a.base.assemble()?;
-    cfg.run.learner_threads = a.learner_threads;
-    init_learner_threads(cfg.run.learner_threads);
-    let mut trainer = Trainer::new(cfg.clone(), None)?;
-    let batch = cfg.batch_size() as f64;
+    let cfg = a.base.assemble()?;
+    init_learner_threads(a.learner_threads);
+    let mut runs =
+        vec![Measured::new(&a.base.preset, &with_threads(cfg.clone(), a.learner_threads))?];
+    if let Some(other) = &a.against {
+        let b = PresetArgs { preset: other.clone(), ..a.base.clone() }.assemble()?;
+        runs.push(Measured::new(other, &with_threads(b, a.learner_threads))?);
+    }
     // the raw mj_step anchor: the same scene, environments and simulation threads
     let scene = Arc::new(Scene::new(cfg.env.scene_options()?)?);
     let n = cfg.env.num_envs;
@@ -59,6 +166,7 @@ pub fn run(a: TrainArgs) -> anyhow::Result<()> {
     let init = BatchSim::new(Arc::clone(&scene), n, 1)?;
     let mut raw = RawLoop::new(&scene, n, Some(threads))?;
     let work = Workload::new(n, cfg.ppo.horizon);
+    let batch = (n * cfg.ppo.horizon) as f64;
     let mut raw_horizon = || {
         raw.reset_from(&init);
         let t0 = Instant::now();
@@ -67,24 +175,10 @@ pub fn run(a: TrainArgs) -> anyhow::Result<()> {
         }
         batch / t0.elapsed().as_secs_f64()
     };
-    println!(
-        "bench train: preset '{}', {} envs x horizon {} = {} samples/iteration, network {:?}, \
-            minibatch {}, {} mini-epochs, backend {:?}, precision {:?} (runs in {}), {} hands",
-        a.base.preset,
-        cfg.env.num_envs,
-        cfg.ppo.horizon,
-        cfg.batch_size(),
-        cfg.ppo.hidden,
-        cfg.ppo.minibatch,
-        cfg.ppo.mini_epochs,
-        cfg.ppo.backend,
-        cfg.ppo.precision,
-        trainer.update_precision(),
-        cfg.env.hands
-    );
     for _ in 0..a.warmup {
-        trainer.iteration()?;
-        trainer.sim_only_horizon()?;
+        for m in runs.iter_mut() {
+            m.round(0, None)?;
+        }
         raw_horizon();
     }
     println!(
@@ -100,53 +194,35 @@ pub fn run(a: TrainArgs) -> anyhow::Result<()> {
         "update",
         "total"
     );
-    let (mut e2e, mut sim, mut ratio) = (Vec::new(), Vec::new(), Vec::new());
-    let (mut raw_rate, mut raw_ratio) = (Vec::new(), Vec::new());
-    let (mut env_ms, mut inf_ms, mut upd_ms) = (Vec::new(), Vec::new(), Vec::new());
+    // rounds alternate the configurations, each round with its own anchor measurement
+    let mut raw_rate = Vec::new();
     for r in 0..a.rounds {
-        let s = trainer.iteration()?;
-        let sim_s = trainer.sim_only_horizon()?;
         let rr = raw_horizon();
-        let (e, si) = (s.samples_per_s, batch / sim_s);
-        let per = |x: f64| 1e3 * x / batch;
-        println!(
-            "{:>5} {:>12.0} {:>12.0} {:>7.3} {:>12.0} {:>9.3} | {:>24.4} {:>7.4} {:>7.4} {:>7.4}",
-            r + 1,
-            e,
-            si,
-            e / si,
-            rr,
-            e / rr,
-            per(s.env_s),
-            per(s.inference_s),
-            per(s.update_s),
-            per(s.rollout_s + s.update_s)
-        );
-        e2e.push(e);
-        sim.push(si);
-        ratio.push(e / si);
         raw_rate.push(rr);
-        raw_ratio.push(e / rr);
-        env_ms.push(per(s.env_s));
-        inf_ms.push(per(s.inference_s));
-        upd_ms.push(per(s.update_s));
+        for m in runs.iter_mut() {
+            m.round(r, Some(rr))?;
+        }
     }
-    println!(
-        "median: end-to-end {:.0} samples/s, simulation-only {:.0} samples/s, ratio {:.3}; per \
-            sample env {:.4} ms, inference {:.4} ms, update {:.4} ms",
-        median(&mut e2e),
-        median(&mut sim),
-        median(&mut ratio),
-        median(&mut env_ms),
-        median(&mut inf_ms),
-        median(&mut upd_ms)
-    );
-    println!(
-        "raw mj_step anchor ({threads} threads, {n} envs): {:.0} policy steps/s; end-to-end / raw \
-            {:.3}",
-        median(&mut raw_rate),
-        median(&mut raw_ratio)
-    );
+    let raw_median = median(&mut raw_rate);
+    let mut rates = Vec::new();
+    for m in runs.iter_mut() {
+        let prefix = if a.against.is_some() { format!("{}: ", m.label) } else { String::new() };
+        let (e2e, raw_ratio) = m.report(&prefix);
+        println!(
+            "{prefix}raw mj_step anchor ({threads} threads, {n} envs): {raw_median:.0} policy \
+                steps/s; end-to-end / raw {raw_ratio:.3}"
+        );
+        rates.push(e2e);
+    }
+    if let [a_rate, b_rate] = rates[..] {
+        println!(
+            "speed-up: preset '{}' trains {:.2}x the samples/s of preset '{}' (medians of the same \
+                rounds)",
+            runs[0].label,
+            a_rate / b_rate,
+            runs[1].label
+        );
+    }
     let rss = std::fs::read_to_string("/proc/self/status").ok().and_then(|s| {
         s.lines()
             .find(|l| l.starts_with("VmRSS:"))
@@ -160,4 +236,12 @@ pub fn run(a: TrainArgs) -> anyhow::Result<()> {
         rss.map_or("unknown".into(), |kb| format!("{:.0} KB", kb * 1.024 / n as f64))
     );
     Ok(())
+}
+
+fn with_threads(
+    mut cfg: skillmimic_learn::config::TrainConfig,
+    threads: usize,
+) -> skillmimic_learn::config::TrainConfig {
+    cfg.run.learner_threads = threads;
+    cfg
 }

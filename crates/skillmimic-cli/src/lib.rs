@@ -33,6 +33,7 @@ mod demo;
 mod ghost;
 mod plot;
 mod plot_draw;
+mod plot_tts;
 mod video;
 
 #[derive(Parser)]

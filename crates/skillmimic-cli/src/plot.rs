@@ -11,9 +11,9 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, bail};
+use anyhow::bail;
 
-use crate::plot_draw::{COLORS, Panel, Series, render, write_png};
+use crate::plot_draw::{COLORS, Panel, SIZE, Series, field, read_log, render, write_png};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -26,6 +26,11 @@ pub struct Args {
     /// motions and the tracking errors; repeat to overlay runs.
     #[arg(long)]
     pub evals: Vec<PathBuf>,
+    /// Samples per second of each `--evals` run (a quiet `skillmimic bench train`, one per file):
+    /// the time-to-skill figure instead, completion from the start, E_b-mpjpe and reward per
+    /// step against samples (left) and against wall-clock hours = samples ÷ rate (right).
+    #[arg(long, requires = "evals")]
+    pub rate: Vec<f64>,
     /// Legend label of each `--log` (default: the log's folder name).
     #[arg(long)]
     pub label: Vec<String>,
@@ -36,29 +41,6 @@ pub struct Args {
     /// Output PNG.
     #[arg(long)]
     pub out: PathBuf,
-}
-
-/// Size of the PNG written by [`plot_log`].
-pub const SIZE: (u32, u32) = (1200, 800);
-
-fn read_log(path: &Path) -> anyhow::Result<Vec<serde_json::Value>> {
-    let text =
-        std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
-    let mut rows = Vec::new();
-    for (k, line) in text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty()) {
-        rows.push(
-            serde_json::from_str(line)
-                .with_context(|| format!("{}: line {} is not JSON", path.display(), k + 1))?,
-        );
-    }
-    if rows.is_empty() {
-        bail!("{}: the log has no iterations yet", path.display());
-    }
-    Ok(rows)
-}
-
-fn field(rows: &[serde_json::Value], key: &str) -> Vec<(f64, f64)> {
-    rows.iter().filter_map(|r| Some((r["samples"].as_f64()?, r[key].as_f64()?))).collect()
 }
 
 fn term(rows: &[serde_json::Value], name: &str) -> Vec<(f64, f64)> {
@@ -92,16 +74,19 @@ pub fn plot_log(log: &Path, out: &Path) -> anyhow::Result<()> {
     let s = |name: &str, k: usize, points| Series { name: name.into(), color: COLORS[k], points };
     let panels = [
         Panel {
+            x_desc: "samples",
             title: "Mean reward per step",
             y_desc: "reward",
             series: vec![s("mean reward", 0, field(&rows, "mean_reward"))],
         },
         Panel {
+            x_desc: "samples",
             title: "Episode length",
             y_desc: "steps",
             series: vec![s("episode length", 1, field(&rows, "episode_length"))],
         },
         Panel {
+            x_desc: "samples",
             title: "Reward terms",
             y_desc: "mean term value",
             series: term_names(&rows)
@@ -111,6 +96,7 @@ pub fn plot_log(log: &Path, out: &Path) -> anyhow::Result<()> {
                 .collect(),
         },
         Panel {
+            x_desc: "samples",
             title: "Losses",
             y_desc: "loss",
             series: vec![
@@ -164,6 +150,7 @@ fn plot_overlay(
         .iter()
         .map(|&(title, y_desc, key)| Panel {
             title,
+            x_desc: "samples",
             y_desc,
             series: runs
                 .iter()
@@ -264,7 +251,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             .map(|(k, p)| (a.label.get(k).cloned().unwrap_or_else(|| name(p)), p.clone()))
             .collect()
     };
-    if !a.evals.is_empty() {
+    if !a.rate.is_empty() {
+        crate::plot_tts::plot_time_to_skill(&labelled(&a.evals), &a.rate, &a.out)?;
+    } else if !a.evals.is_empty() {
         plot_evals(&labelled(&a.evals), &a.out)?;
     } else if a.log.len() == 1 {
         plot_log(&a.log[0], &a.out)?;

@@ -5,7 +5,7 @@
 use std::path::Path;
 use std::sync::OnceLock;
 
-use anyhow::Context;
+use anyhow::{Context, bail};
 use plotters::prelude::*;
 
 /// DejaVu Sans 2.37 (`assets/fonts/LICENSE-DejaVu.txt`).
@@ -31,9 +31,10 @@ pub(crate) struct Series {
     pub(crate) points: Vec<(f64, f64)>,
 }
 
-/// One panel: title, y-axis description, curves.
+/// One panel: title, x- and y-axis descriptions, curves.
 pub(crate) struct Panel {
     pub(crate) title: &'static str,
+    pub(crate) x_desc: &'static str,
     pub(crate) y_desc: &'static str,
     pub(crate) series: Vec<Series>,
 }
@@ -155,7 +156,7 @@ where
         .x_label_formatter(&|v| fmt_num(*v))
         .y_label_formatter(&|v| fmt_num(*v))
         .label_style((FAMILY, 14).into_font().color(&RGBColor(50, 50, 50)))
-        .x_desc("samples")
+        .x_desc(p.x_desc)
         .y_desc(p.y_desc)
         .axis_desc_style((FAMILY, 15).into_font().color(&BLACK))
         .draw()
@@ -237,4 +238,27 @@ pub(crate) fn write_png(path: &Path, rgb: &[u8], w: u32, h: u32) -> anyhow::Resu
         enc.write_header()?.write_image_data(rgb)?;
     }
     std::fs::rename(&tmp, path).with_context(|| format!("cannot write {}", path.display()))
+}
+
+/// Size of the PNG of `skillmimic plot` with one log (`plot::plot_log`).
+pub const SIZE: (u32, u32) = (1200, 800);
+
+pub(crate) fn read_log(path: &Path) -> anyhow::Result<Vec<serde_json::Value>> {
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let mut rows = Vec::new();
+    for (k, line) in text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty()) {
+        rows.push(
+            serde_json::from_str(line)
+                .with_context(|| format!("{}: line {} is not JSON", path.display(), k + 1))?,
+        );
+    }
+    if rows.is_empty() {
+        bail!("{}: the log has no iterations yet", path.display());
+    }
+    Ok(rows)
+}
+
+pub(crate) fn field(rows: &[serde_json::Value], key: &str) -> Vec<(f64, f64)> {
+    rows.iter().filter_map(|r| Some((r["samples"].as_f64()?, r[key].as_f64()?))).collect()
 }

@@ -47,3 +47,39 @@ fn bench_train_reports_the_raw_anchor_and_memory() {
         .unwrap();
     assert!(kb > 100.0, "{mem}");
 }
+
+/// `--against`: both presets measured in the same rounds, each with its median and end-to-end /
+/// raw line, and the speed-up between them equal to the ratio of the two medians.
+#[test]
+fn bench_train_against_another_preset_reports_both_and_the_speed_up() {
+    let out = Command::new(env!("CARGO_BIN_EXE_skillmimic"))
+        .args(["bench", "train", "--preset", "tiny", "--against", "cpu", "--rounds", "1"])
+        .args(["--warmup", "0", "--num-envs", "8", "--threads", "1", "--set", "ppo.minibatch=128"])
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{text}\n{}", String::from_utf8_lossy(&out.stderr));
+    let rate = |p: &str| -> f64 {
+        let line = text
+            .lines()
+            .find(|l| l.starts_with(&format!("{p}: median: end-to-end ")))
+            .unwrap_or_else(|| panic!("no median line of {p} in\n{text}"));
+        line.split("end-to-end ")
+            .nth(1)
+            .unwrap()
+            .split_whitespace()
+            .next()
+            .unwrap()
+            .parse()
+            .unwrap()
+    };
+    let (tiny, cpu) = (rate("tiny"), rate("cpu"));
+    assert!(text.lines().any(|l| l.starts_with("cpu: raw mj_step anchor")), "{text}");
+    let speed = text
+        .lines()
+        .find(|l| l.starts_with("speed-up: preset 'tiny'"))
+        .unwrap_or_else(|| panic!("no speed-up line in\n{text}"));
+    let x: f64 =
+        speed.split(" trains ").nth(1).unwrap().split('x').next().unwrap().parse().unwrap();
+    assert!((x - tiny / cpu).abs() <= 0.01 + 0.01 * x, "{speed}: {tiny} / {cpu}");
+}

@@ -100,8 +100,9 @@ impl ConfigFlags {
 /// Preset + config file + override flags (shared by train and bench train).
 #[derive(clap::Args, Clone, Debug)]
 pub struct PresetArgs {
-    /// Preset: paper (2048 envs), small (256 envs, paper network and PPO settings), tiny (smoke
-    /// tests).
+    /// Preset: paper (2048 envs), small (256 envs, paper network and PPO settings), cpu (time to
+    /// skill on a CPU: 128 envs, [512, 256, 256], 2 mini-epochs, lr 1e-4), tiny (smoke tests),
+    /// modskill (ModSkill's released sizes).
     #[arg(long, default_value = "small")]
     pub preset: String,
     /// TOML config file with `[env]`, `[ppo]` and `[run]` tables (over the preset).

@@ -106,7 +106,7 @@ fn reference_shows_types_defaults_enums_and_presets() {
         "| `out_dir` | path |  | `\"runs/skillmimic\"` |",
         "| `backend` | one of `\"fast\"` \\| `\"candle\"` |  | `\"fast\"` |",
         "- `\"candle\"`: candle's generic autograd",
-        "| `env.num_envs` | `64` | `2048` | `256` | `16` |",
+        "| `env.num_envs` | `64` | `2048` | `256` | `128` | `16` |",
     ] {
         assert!(md.contains(needle), "missing {needle:?} in\n{md}");
     }

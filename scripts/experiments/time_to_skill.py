@@ -1,0 +1,119 @@
+"""Time to skill (issue 41, docs/throughput.md): samples and wall-clock until a run first meets the
+skill criterion, from its checkpoint evaluations (`scripts/results/eval_checkpoints.py` with
+KINDS=eps,random) and the end-to-end rate of its configuration measured on a quiet machine
+(`skillmimic bench train --preset A --against B`, both presets in the same rounds).
+
+Criterion (the issue's, until SkillMimic's 10-s success suits a 1.35-s clip): at one checkpoint
+  - completed from the clip's start with the mean action and start noise 0.01 in >= 90 % of 64
+    episodes (`start_eps001_completed_pct`), and
+  - E_b-mpjpe from random frames <= 200 mm (`e_b_mm`, 64 episodes).
+Wall-clock to the criterion = samples at that checkpoint / the quiet rate (samples/s). A run's own
+logged time is printed beside it but not used: the runs share the 2-core machine with each other.
+
+Learning-curve screening: the mean reward per step over the 204 800 samples up to each mark of
+MARKS (the variants differ in samples per iteration, so the curves are compared per sample).
+
+Plateau metrics: the mean of the last K evaluated checkpoints (K = 4) of each run, so that a
+variant cannot win by stopping at a lower level than the baseline.
+
+    python3 scripts/experiments/time_to_skill.py RATES.json RUN_DIR [RUN_DIR ...] [--json OUT]
+
+RATES.json maps a run folder's name prefix (its preset label, e.g. "run-small", "run-cpu") to the
+samples/s of its configuration; the longest matching prefix applies.
+"""
+
+from __future__ import annotations
+
+import json
+import pathlib
+import sys
+
+COMPLETION_PCT = 90.0
+E_B_MM = 200.0
+PLATEAU_K = 4
+
+
+def rows(path: pathlib.Path) -> list[dict]:
+    return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+
+
+def first_meeting(evals: list[dict]) -> dict | None:
+    """The first evaluated checkpoint that meets both parts of the criterion."""
+    for r in sorted(evals, key=lambda r: r["samples"]):
+        if r.get("start_eps001_completed_pct", 0.0) >= COMPLETION_PCT and r.get("e_b_mm", 1e9) <= E_B_MM:
+            return r
+    return None
+
+
+def median(v: list[float]) -> float:
+    v = sorted(v)
+    return round(v[len(v) // 2] if len(v) % 2 else 0.5 * (v[len(v) // 2 - 1] + v[len(v) // 2]), 4)
+
+
+def logged_seconds(log: list[dict], samples: int) -> float:
+    """Rollout + update seconds the run logged up to `samples` (shared machine: not published)."""
+    return sum(r["rollout_s"] + r["update_s"] for r in log if r["samples"] <= samples)
+
+
+MARKS = [0.4096e6, 0.8192e6, 1.2288e6, 1.6384e6, 2.4576e6, 3.2768e6, 4.9152e6]
+
+
+def reward_at(log: list[dict], samples: float, window: float = 204800) -> float | None:
+    """Mean reward per step of the iterations whose samples lie in (samples - window, samples]."""
+    near = [r["mean_reward"] for r in log if samples - window < r["samples"] <= samples]
+    return round(sum(near) / len(near), 4) if near and log[-1]["samples"] >= samples else None
+
+
+def summary(run: pathlib.Path, rate: float) -> dict:
+    evals = rows(run / "checkpoint_evals.jsonl")
+    log = rows(run / "log.jsonl")
+    hit = first_meeting(evals)
+    tail = sorted(evals, key=lambda r: r["samples"])[-PLATEAU_K:]
+    mean = lambda k: round(sum(r[k] for r in tail) / len(tail), 2)  # noqa: E731
+    out = {
+        "run": run.name,
+        "rate_samples_per_s": rate,
+        "evaluated_to_samples": max(r["samples"] for r in evals),
+        "criterion_samples": hit["samples"] if hit else None,
+        "criterion_iteration": hit["iteration"] if hit else None,
+        "criterion_hours": round(hit["samples"] / rate / 3600, 3) if hit else None,
+        "criterion_logged_hours_shared_machine": round(logged_seconds(log, hit["samples"]) / 3600, 3) if hit else None,
+        "plateau_checkpoints": [r["iteration"] for r in tail],
+        "plateau_completion_pct": mean("start_eps001_completed_pct"),
+        "plateau_e_b_mm": mean("e_b_mm"),
+        "plateau_acc_pct": mean("acc_pct"),
+        "plateau_reward_per_step": round(sum(r["reward_per_step"] for r in tail) / len(tail), 4),
+        "reward_per_step_at_samples": {f"{m / 1e6:.2f}M": reward_at(log, m) for m in MARKS},
+        # how far one update moves the policy: medians over the first 0.82 M samples
+        "median_approx_kl_first_0.82M": median([r["approx_kl"] for r in log if r["samples"] <= 819200]),
+        "median_clip_frac_first_0.82M": median([r["clip_frac"] for r in log if r["samples"] <= 819200]),
+    }
+    return out
+
+
+def main() -> None:
+    args = sys.argv[1:]
+    out_json = None
+    if "--json" in args:
+        k = args.index("--json")
+        out_json = pathlib.Path(args[k + 1])
+        del args[k : k + 2]
+    if len(args) < 2:
+        sys.exit("usage: time_to_skill.py RATES.json RUN_DIR [RUN_DIR ...] [--json OUT]")
+    rates = json.loads(pathlib.Path(args[0]).read_text())
+    results = []
+    for d in map(pathlib.Path, args[1:]):
+        prefix = max((p for p in rates if d.name.startswith(p)), key=len, default=None)
+        if prefix is None:
+            sys.exit(f"{args[0]}: no rate for run folder {d.name} (keys: {sorted(rates)})")
+        s = summary(d, float(rates[prefix]))
+        results.append(s)
+        hit = f"{s['criterion_samples'] / 1e6:.2f} M samples, {s['criterion_hours']:.2f} h" if s["criterion_samples"] else "not met"
+        print(f"{s['run']}: criterion {hit} (evaluated to {s['evaluated_to_samples'] / 1e6:.2f} M); plateau (last {PLATEAU_K}) "
+              f"completion {s['plateau_completion_pct']} %, E_b {s['plateau_e_b_mm']} mm, Acc {s['plateau_acc_pct']} %")
+    if out_json:
+        out_json.write_text(json.dumps(results, indent=1) + "\n")
+
+
+if __name__ == "__main__":
+    main()
