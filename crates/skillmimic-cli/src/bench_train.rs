@@ -147,13 +147,14 @@ impl Measured {
 }
 
 pub fn run(a: TrainArgs) -> anyhow::Result<()> {
-    let cfg = a.base.assemble()?;
+    let mut cfg = a.base.assemble()?;
+    cfg.run.learner_threads = a.learner_threads;
     init_learner_threads(a.learner_threads);
-    let mut runs =
-        vec![Measured::new(&a.base.preset, &with_threads(cfg.clone(), a.learner_threads))?];
+    let mut runs = vec![Measured::new(&a.base.preset, &cfg)?];
     if let Some(other) = &a.against {
-        let b = PresetArgs { preset: other.clone(), ..a.base.clone() }.assemble()?;
-        runs.push(Measured::new(other, &with_threads(b, a.learner_threads))?);
+        let mut b = PresetArgs { preset: other.clone(), ..a.base.clone() }.assemble()?;
+        b.run.learner_threads = a.learner_threads;
+        runs.push(Measured::new(other, &b)?);
     }
     // the raw mj_step anchor: the same scene, environments and simulation threads
     let scene = Arc::new(Scene::new(cfg.env.scene_options()?)?);
@@ -236,12 +237,4 @@ pub fn run(a: TrainArgs) -> anyhow::Result<()> {
         rss.map_or("unknown".into(), |kb| format!("{:.0} KB", kb * 1.024 / n as f64))
     );
     Ok(())
-}
-
-fn with_threads(
-    mut cfg: skillmimic_learn::config::TrainConfig,
-    threads: usize,
-) -> skillmimic_learn::config::TrainConfig {
-    cfg.run.learner_threads = threads;
-    cfg
 }
