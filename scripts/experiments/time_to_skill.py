@@ -20,12 +20,19 @@ variant cannot win by stopping at a lower level than the baseline.
 
 RATES.json maps a run folder's name prefix (its preset label, e.g. "run-small", "run-cpu") to the
 samples/s of its configuration; the longest matching prefix applies.
+
+Per clip, for run folders named CLIP-PRESET-sSEED (what time_to_skill.sh writes), it also prints the
+issue's comparison: the median over seeds of each preset's hours to the criterion, their ratio
+(cpu ÷ small; the target is <= 1/3) and whether cpu's plateau metrics lie within the seed spread of
+small's or better (completion and Acc not lower than small's lowest seed, E_b not higher than its
+highest). A seed that has not met the criterion makes its preset's median unknown (None).
 """
 
 from __future__ import annotations
 
 import json
 import pathlib
+import re
 import sys
 
 COMPLETION_PCT = 90.0
@@ -45,7 +52,10 @@ def first_meeting(evals: list[dict]) -> dict | None:
     return None
 
 
-def median(v: list[float]) -> float:
+def median(v: list[float]) -> float | None:
+    """The median, None for no values."""
+    if not v:
+        return None
     v = sorted(v)
     return round(v[len(v) // 2] if len(v) % 2 else 0.5 * (v[len(v) // 2 - 1] + v[len(v) // 2]), 4)
 
@@ -91,6 +101,40 @@ def summary(run: pathlib.Path, rate: float) -> dict:
     return out
 
 
+NAME = re.compile(r"^(?P<clip>.+)-(?P<preset>[^-]+)-s(?P<seed>\d+)$")
+
+
+def compare(results: list[dict], base: str = "small", fast: str = "cpu") -> dict:
+    """The issue's comparison per clip: median hours to the criterion per preset and their ratio,
+    and whether `fast`'s plateau lies within `base`'s seed spread or better."""
+    by: dict[str, dict[str, list[dict]]] = {}
+    for r in results:
+        m = NAME.match(r["run"])
+        if m and m["preset"] in (base, fast):
+            by.setdefault(m["clip"], {}).setdefault(m["preset"], []).append(r)
+    out = {}
+    for clip, presets in sorted(by.items()):
+        if base not in presets or fast not in presets:
+            continue
+        hours = {p: [r["criterion_hours"] for r in presets[p]] for p in (base, fast)}
+        med = {p: None if None in h else median(h) for p, h in hours.items()}
+        b = presets[base]
+        spread_ok = all(
+            min(r["plateau_completion_pct"] for r in b) <= f["plateau_completion_pct"]
+            and min(r["plateau_acc_pct"] for r in b) <= f["plateau_acc_pct"]
+            and f["plateau_e_b_mm"] <= max(r["plateau_e_b_mm"] for r in b)
+            for f in presets[fast]
+        )
+        out[clip] = {
+            "seeds": {p: len(presets[p]) for p in (base, fast)},
+            "criterion_hours": hours,
+            "median_hours": med,
+            "ratio": round(med[fast] / med[base], 3) if med[fast] is not None and med[base] else None,
+            f"{fast}_plateau_within_{base}_spread_or_better": spread_ok,
+        }
+    return out
+
+
 def main() -> None:
     args = sys.argv[1:]
     out_json = None
@@ -111,8 +155,13 @@ def main() -> None:
         hit = f"{s['criterion_samples'] / 1e6:.2f} M samples, {s['criterion_hours']:.2f} h" if s["criterion_samples"] else "not met"
         print(f"{s['run']}: criterion {hit} (evaluated to {s['evaluated_to_samples'] / 1e6:.2f} M); plateau (last {PLATEAU_K}) "
               f"completion {s['plateau_completion_pct']} %, E_b {s['plateau_e_b_mm']} mm, Acc {s['plateau_acc_pct']} %")
+    comparison = compare(results)
+    for clip, c in comparison.items():
+        ratio = "unknown (a seed has not met the criterion)" if c["ratio"] is None else f"{c['ratio']:.3f}"
+        print(f"{clip}: median hours to the criterion {c['median_hours']} over seeds {c['seeds']}; ratio cpu/small {ratio}; "
+              f"cpu plateau within small's seed spread or better: {c['cpu_plateau_within_small_spread_or_better']}")
     if out_json:
-        out_json.write_text(json.dumps(results, indent=1) + "\n")
+        out_json.write_text(json.dumps({"runs": results, "comparison": comparison}, indent=1) + "\n")
 
 
 if __name__ == "__main__":

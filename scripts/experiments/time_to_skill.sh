@@ -7,6 +7,7 @@
 # `bench train --preset cpu --against small` gives each preset's rate and
 # scripts/experiments/time_to_skill.py the samples and wall-clock to the criterion.
 #   OUT=runs/tts ITERS_SMALL=1600 ITERS_CPU=2400 scripts/experiments/time_to_skill.sh run 0
+#   PRESETS=cpu scripts/experiments/time_to_skill.sh pickup 1   # one preset's run (a free core)
 # Runs are resumed: call again with a larger ITERS_* to go on. Needs ../shared beside the checkout.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
@@ -24,10 +25,16 @@ train() { # core preset iterations checkpoint-interval
   command -v taskset > /dev/null && taskset -cp "$1" $! > /dev/null || true
 }
 # checkpoints every 204 800 samples: 25 iterations of `small` (8192), 50 of `cpu` (4096)
-train 0 small "${ITERS_SMALL:-1600}" 25
-train 1 cpu "${ITERS_CPU:-2400}" 50
+presets=${PRESETS:-small cpu}
+for p in $presets; do
+  case $p in
+    small) train 0 small "${ITERS_SMALL:-1600}" 25 ;;
+    cpu) train 1 cpu "${ITERS_CPU:-2400}" 50 ;;
+    *) echo "PRESETS: small and/or cpu, not '$p'" >&2; exit 2 ;;
+  esac
+done
 wait
-for p in small cpu; do
+for p in $presets; do
   [ $p = small ] && every=25 || every=50
   EVERY=$every KINDS=eps,random OUT="$OUT" BIN="$BIN" python3 scripts/results/eval_checkpoints.py "$clip-$p-s$seed"
 done

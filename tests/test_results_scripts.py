@@ -1,0 +1,133 @@
+"""The results scripts' arithmetic on hand-built runs whose answers are known: time to the skill
+criterion and the preset comparison (scripts/experiments/time_to_skill.py, issue 41) and the
+papers'-metrics table (scripts/results/papers_table.py, issue 40)."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import pathlib
+import subprocess
+import sys
+
+import pytest
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+
+
+def load(rel: str):
+    spec = importlib.util.spec_from_file_location(pathlib.Path(rel).stem, ROOT / rel)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+tts = load("scripts/experiments/time_to_skill.py")
+
+
+def make_run(root: pathlib.Path, name: str, per_iter: int, evals: list[tuple[int, float, float]]) -> pathlib.Path:
+    """A run folder: checkpoint evaluations (samples, completion %, E_b mm) and a log of every
+    iteration up to the last evaluation (reward = samples in millions / 10)."""
+    d = root / name
+    d.mkdir()
+    rows = [
+        {"iteration": s // per_iter, "samples": s, "reward_per_step": s / 1e7, "start_eps001_completed_pct": c, "e_b_mm": e,
+         "acc_pct": 30.0 - e / 100}
+        for s, c, e in evals
+    ]
+    (d / "checkpoint_evals.jsonl").write_text("".join(json.dumps(r) + "\n" for r in rows))
+    last = evals[-1][0] // per_iter
+    log = [
+        {"iteration": i, "samples": i * per_iter, "mean_reward": i * per_iter / 1e7, "rollout_s": 1.0, "update_s": 0.5,
+         "approx_kl": 0.01 * (i % 3), "clip_frac": 0.1}
+        for i in range(1, last + 1)
+    ]
+    (d / "log.jsonl").write_text("".join(json.dumps(r) + "\n" for r in log))
+    return d
+
+
+@pytest.fixture()
+def runs(tmp_path: pathlib.Path) -> list[pathlib.Path]:
+    small = 1_000_000
+    cpu = 500_000
+    return [
+        # completion and E_b must hold at the same checkpoint: 1 M fails E_b, 2 M fails completion
+        make_run(tmp_path, "run-small-s0", small, [(1_000_000, 95.0, 250.0), (2_000_000, 80.0, 150.0), (3_000_000, 95.0, 190.0),
+                                                   (4_000_000, 96.0, 180.0), (5_000_000, 90.0, 170.0), (6_000_000, 92.0, 160.0)]),
+        make_run(tmp_path, "run-small-s1", small, [(2_000_000, 50.0, 300.0), (4_000_000, 90.0, 200.0), (5_000_000, 100.0, 150.0),
+                                                   (6_000_000, 94.0, 175.0)]),
+        make_run(tmp_path, "run-cpu-s0", cpu, [(1_500_000, 89.9, 100.0), (2_000_000, 91.0, 199.0), (2_500_000, 95.0, 160.0),
+                                               (3_000_000, 93.0, 150.0), (3_500_000, 99.0, 140.0)]),
+        make_run(tmp_path, "run-cpu-s1", cpu, [(3_000_000, 90.0, 190.0), (3_500_000, 92.0, 170.0), (4_000_000, 92.0, 165.0),
+                                               (4_500_000, 93.0, 160.0)]),
+    ]
+
+
+def test_time_to_criterion_and_comparison(runs, tmp_path):
+    s = [tts.summary(r, rate) for r, rate in zip(runs, [1000.0, 1000.0, 2000.0, 2000.0])]
+    assert [x["criterion_samples"] for x in s] == [3_000_000, 4_000_000, 2_000_000, 3_000_000]
+    assert s[0]["criterion_hours"] == round(3e6 / 1000 / 3600, 3)
+    # plateau: the mean of the last four checkpoints
+    assert s[0]["plateau_completion_pct"] == round((96 + 90 + 92 + 95) / 4, 2)
+    assert s[0]["plateau_e_b_mm"] == round((190 + 180 + 170 + 160) / 4, 2)
+    assert s[0]["plateau_checkpoints"] == [3, 4, 5, 6]
+    # logged time up to the criterion: 3 iterations of 1.5 s
+    assert s[0]["criterion_logged_hours_shared_machine"] == round(4.5 / 3600, 3)
+    c = tts.compare(s)["run"]
+    # per seed: hours rounded to 3 decimals, then the median of the seeds
+    small_med = (round(3e6 / 1000 / 3600, 3) + round(4e6 / 1000 / 3600, 3)) / 2
+    cpu_med = (round(2e6 / 2000 / 3600, 3) + round(3e6 / 2000 / 3600, 3)) / 2
+    assert c["median_hours"] == {"small": round(small_med, 4), "cpu": round(cpu_med, 4)}
+    assert c["ratio"] == round(round(cpu_med, 4) / round(small_med, 4), 3)
+    assert c["seeds"] == {"small": 2, "cpu": 2}
+    # cpu's plateaus (completion 94.5 / 91.75, E_b 162.25 / 171.25) lie within small's spread or better
+    assert c["cpu_plateau_within_small_spread_or_better"] is True
+
+
+def test_comparison_flags_a_lower_plateau_and_an_unmet_seed(runs):
+    s = [tts.summary(r, 1000.0) for r in runs]
+    s[3]["plateau_e_b_mm"] = 500.0  # worse than small's worst seed
+    s[1]["criterion_hours"] = None  # a small seed that never met the criterion
+    c = tts.compare(s)["run"]
+    assert c["cpu_plateau_within_small_spread_or_better"] is False
+    assert c["median_hours"]["small"] is None and c["ratio"] is None
+
+
+def test_command_line_writes_the_comparison(runs, tmp_path):
+    rates = tmp_path / "rates.json"
+    rates.write_text(json.dumps({"run-small": 1000, "run-cpu": 2000}))
+    out = tmp_path / "tts.json"
+    p = subprocess.run([sys.executable, str(ROOT / "scripts/experiments/time_to_skill.py"), str(rates), *map(str, runs), "--json", str(out)],
+                       capture_output=True, text=True, check=True)
+    assert "ratio cpu/small" in p.stdout
+    data = json.loads(out.read_text())
+    assert [r["run"] for r in data["runs"]] == [r.name for r in runs]
+    assert data["comparison"]["run"]["ratio"] is not None
+    # a run folder without a rate is an error that names it
+    rates.write_text(json.dumps({"run-small": 1000}))
+    p = subprocess.run([sys.executable, str(ROOT / "scripts/experiments/time_to_skill.py"), str(rates), str(runs[2])],
+                       capture_output=True, text=True)
+    assert p.returncode != 0 and "run-cpu-s0" in p.stderr
+
+
+def test_papers_table_row(tmp_path):
+    d = tmp_path / "layup-small-s0"
+    d.mkdir()
+    (d / "checkpoint.txt").write_text("checkpoint: x/iter_001000.safetensors\niteration: 1000\nsamples: 8192000\n")
+    (d / "config.toml").write_text('[env]\nnum_envs = 256\n[ppo]\nhidden = [1024, 512, 512]\nmini_epochs = 6\nlr = 2e-5\n')
+    ev = {
+        "nominal": {"acc_percent": 40.04, "acc_ceiling_percent": 69.6, "e_b_mpjpe_mm": 151.4, "e_o_mpjpe_mm": 99.6, "e_cg": 0.1234,
+                    "nr": 0.5, "fall_rate": 0.25},
+        "v2": {"sr": {"031": 0.25}, "eps_nsr": {"031": 0.125}, "nr": {"031": 0.4321}, "tsr_mean": None},
+        "skillmimic": {"per_skill": {"031": {"success_rate": 0.5, "ci95": [0.375, 0.625], "fall_rate": 0.0625}}},
+    }
+    (d / "eval-papers.json").write_text(json.dumps(ev))
+    (d / "eval-start-eps0.01.json").write_text(json.dumps({"nominal": {"fall_rate": 0.125}}))
+    p = subprocess.run([sys.executable, str(ROOT / "scripts/results/papers_table.py"), str(d)], capture_output=True, text=True, check=True)
+    row = p.stdout.strip().splitlines()[-1]
+    assert row == ("| layup-small-s0 | 031 | 256 envs, [1024, 512, 512], 6 ep., lr 2e-05 | 8.19 M | 50.0 (37.5–62.5), falls 6.2 "
+                   "| 25.0 | – | 12.5 | 0.432 | 40.0 (69.6) | 151 | 100 | 0.123 | 87.5 |")
+    # a folder without the evaluation is an error that names the file
+    (d / "eval-papers.json").unlink()
+    p = subprocess.run([sys.executable, str(ROOT / "scripts/results/papers_table.py"), str(d)], capture_output=True, text=True)
+    assert p.returncode != 0 and "eval-papers.json" in p.stderr
