@@ -33,6 +33,7 @@ from __future__ import annotations
 import json
 import pathlib
 import re
+import statistics
 import sys
 
 COMPLETION_PCT = 90.0
@@ -53,11 +54,8 @@ def first_meeting(evals: list[dict]) -> dict | None:
 
 
 def median(v: list[float]) -> float | None:
-    """The median, None for no values."""
-    if not v:
-        return None
-    v = sorted(v)
-    return round(v[len(v) // 2] if len(v) % 2 else 0.5 * (v[len(v) // 2 - 1] + v[len(v) // 2]), 4)
+    """The median rounded to 4 decimals, None for no values."""
+    return round(statistics.median(v), 4) if v else None
 
 
 def logged_seconds(log: list[dict], samples: int) -> float:

@@ -34,7 +34,8 @@ start=(eval --checkpoint "$ck" --episodes 64 --seed 7 --start-frame 2 --init-noi
 gzip -9 -n -c "$run/log.jsonl" > "$dest/log.jsonl.gz"
 cp "$run/config.toml" "$dest/config.toml"
 [ -f "$run/checkpoint_evals.jsonl" ] && cp "$run/checkpoint_evals.jsonl" "$dest/checkpoint_evals.jsonl"
-# the checkpoint's iteration and samples, from its safetensors metadata
+# the checkpoint's iteration and samples, from its safetensors metadata (read with the standard
+# library: skillmimic_rs.policy.checkpoint_metadata needs PyTorch, which the results scripts do not)
 meta=$(python3 - "$ck" <<'PY'
 import json, struct, sys
 with open(sys.argv[1], "rb") as f:
