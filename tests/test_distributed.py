@@ -5,7 +5,8 @@
 * faults: ``kill -9`` of one rank under torchrun ends the job non-zero within 60 s and
   ``--resume latest`` continues from the last checkpoint with another world size; torchrun's
   restarts (``--max-restarts 3``, SIGKILL of a rank three times, once inside a checkpoint
-  write) plus ``--resume latest`` end exactly as the uninterrupted job; without torchrun's
+  write) plus ``--resume latest`` end exactly as the uninterrupted job, and a kill after the final
+  checkpoint restarts into the finish only; without torchrun's
   agent (ranks started by hand, as a scheduler may), the surviving rank ends with a clear error.
 """
 
@@ -272,6 +273,44 @@ def test_torchrun_restarts_resume_exactly_and_finish(tmp_path):
         assert "resume.state" in got and sorted(got) == sorted(want), name
         differ = [k for k in want if not (want[k].dtype == got[k].dtype and (want[k] == got[k]).all())]
         assert not differ, f"{name}: tensors differ after the restarts: {differ}"
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="finds the ranks through /proc")
+def test_a_rank_killed_after_the_final_checkpoint_restarts_into_the_finish(tmp_path):
+    """Rank 0 killed after it wrote the final checkpoint, during its end-of-run evaluation: torchrun
+    restarts the job, `--resume latest` finds the run at `run.iterations` and only finishes it
+    (evaluation, summary), exit 0; nothing is trained again and the checkpoint and log stay."""
+    iters = 4
+    out = tmp_path / "run"
+    cmd = _torchrun("--nproc-per-node", "2", "--max-restarts", "1", "-m", "skillmimic_rs.train", *TINY,
+                    "--iterations", str(iters), "--set", "run.save_every=2", "--set", "run.eval_episodes=256",
+                    "--resume", "latest", "--out", str(out))
+    job = subprocess.Popen(cmd, cwd=REPO, env=_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                           start_new_session=True)
+    final, latest = out / "checkpoints" / f"iter_{iters:06d}.safetensors", out / "latest.safetensors"
+    try:
+        pid = _new_worker(out, 0, set(), job)
+        t0 = time.time()
+        # the final checkpoint and then `latest` (written after it) are complete
+        while not (final.exists() and latest.exists() and not list(out.glob("latest.safetensors.tmp*"))
+                   and latest.stat().st_mtime_ns >= final.stat().st_mtime_ns):
+            assert job.poll() is None and time.time() - t0 < 300, "the job ended before its final checkpoint"
+            time.sleep(0.005)
+        saved, log = latest.read_bytes(), (out / "log.jsonl").read_text()
+        assert job.poll() is None and not (out / "summary.json").exists(), "the job finished before the kill"
+        os.kill(pid, signal.SIGKILL)
+        stdout, stderr = job.communicate(timeout=300)
+    finally:
+        if job.poll() is None:
+            os.killpg(job.pid, signal.SIGKILL)
+    assert job.returncode == 0, stdout[-2000:] + stderr[-3000:]
+    assert re.search(rf"resumed from .*latest\.safetensors at iteration {iters}", stdout), stdout[-2000:]
+    assert f"already complete at iteration {iters}" in stdout, stdout[-2000:]
+    assert latest.read_bytes() == saved and (out / "log.jsonl").read_text() == log
+    assert [r["iteration"] for r in _rows(out)] == list(range(1, iters + 1))
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["iterations"] == iters and summary["world_size"] == 2 and summary["samples_per_s"] == 0.0
+    assert (out / "metrics.json").exists()
 
 
 def _free_port() -> int:

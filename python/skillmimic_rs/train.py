@@ -90,6 +90,8 @@ def main(argv: list[str] | None = None) -> int:
             what = f"{world} ranks x {trainer.local_envs} environments" if world > 1 else f"{trainer.local_envs} environments"
             resumed = f", resumed from {trainer.resumed_from} at iteration {trainer.iterations_done}" if trainer.resumed_from else ""
             print(f"training on {what}{resumed}", flush=True)
+        # re-entered after its last checkpoint (a restart under torchrun): only the finish is left
+        complete = trainer.resumed_from is not None and trainer.iterations_done >= trainer.iterations
         every = ours.log_every or max(1, trainer.iterations // 20)
         last = trainer.iterations
         first = None
@@ -115,11 +117,15 @@ def main(argv: list[str] | None = None) -> int:
         if summary is not None:
             s = json.loads(summary)
             out = os.path.dirname(s["metrics"])
-            print(
-                f"trained {s['iterations']} iterations ({s['samples']} samples) on {s['world_size']} rank(s) in "
-                f"{time.time() - start:.1f} s; {s['samples_per_s']:.0f} samples/s; mean all-reduce "
-                f"{s['mean_allreduce_s']:.3f} s per iteration; mean reward/step {s['early_mean_reward']:.4f} -> {s['late_mean_reward']:.4f}"
-            )
+            if complete:
+                print(f"the run was already complete at iteration {s['iterations']} ({s['samples']} samples): evaluated it and "
+                      f"wrote its summary; mean reward/step {s['early_mean_reward']:.4f} -> {s['late_mean_reward']:.4f}")
+            else:
+                print(
+                    f"trained {s['iterations']} iterations ({s['samples']} samples) on {s['world_size']} rank(s) in "
+                    f"{time.time() - start:.1f} s; {s['samples_per_s']:.0f} samples/s; mean all-reduce "
+                    f"{s['mean_allreduce_s']:.3f} s per iteration; mean reward/step {s['early_mean_reward']:.4f} -> {s['late_mean_reward']:.4f}"
+                )
             print(f"checkpoint {s['checkpoint']}")
             print(f"summary    {os.path.join(out, 'summary.json')}")
         return 0

@@ -106,7 +106,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             cfg.run.out_dir.display()
         );
     }
-    let trainer = Trainer::new(cfg.clone(), resume.as_deref())?;
+    let mut trainer = Trainer::new(cfg.clone(), resume.as_deref())?;
+    trainer.finish_if_complete = a.resume_is_latest();
+    let done = trainer.progress.iteration;
+    let complete = trainer.finish_if_complete && done > 0 && done == cfg.run.iterations as u64;
     tracing::info!(
         "training task '{}': {} envs x horizon {} = {} samples/iteration, network {:?}, {} \
             iterations -> {}",
@@ -150,12 +153,19 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         }
         (None, None) => String::new(),
     };
+    let what = if complete {
+        format!(
+            "already complete at {} iterations ({} samples): evaluated in {:.1} s",
+            summary.iterations, summary.samples, summary.wall_s
+        )
+    } else {
+        format!(
+            "trained {} iterations ({} samples) in {:.1} s",
+            summary.iterations, summary.samples, summary.wall_s
+        )
+    };
     println!(
-        "trained {} iterations ({} samples) in {:.1} s; mean reward/step over the first {w} \
-            iterations {:.4} -> last {w} {:.4}{eval}",
-        summary.iterations,
-        summary.samples,
-        summary.wall_s,
+        "{what}; mean reward/step over the first {w} iterations {:.4} -> last {w} {:.4}{eval}",
         summary.early_mean_reward,
         summary.late_mean_reward,
         w = summary.reward_window

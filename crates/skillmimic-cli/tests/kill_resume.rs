@@ -13,7 +13,7 @@
 //! always lands inside a checkpoint write: that start runs with the writer's test pause
 //! (`SKILLMIMIC_TEST_WRITE_PAUSE_MS`, halfway through the file) and is killed as soon as the
 //! temporary file of a randomly chosen checkpoint of the first half of the run (an `iter_*` file or
-//! `latest`) appears.
+//! `latest`) appears. A finished run re-entered with `--resume latest` only finishes.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -207,11 +207,9 @@ fn killed_run_matches(base: &Path, extra: &[String], rng: &mut rand_chacha::ChaC
                 let mut err = String::new();
                 use std::io::Read;
                 child.stderr.take().unwrap().read_to_string(&mut err).unwrap();
-                // killed during the end-of-run work after the last checkpoint: the run is complete
-                assert!(
-                    s.success() || err.contains("already complete"),
-                    "{tag}: attempt {attempt}: {err}"
-                );
+                // a start after a kill in the end-of-run work re-enters the finished run and
+                // only finishes it (`--resume latest`)
+                assert!(s.success(), "{tag}: attempt {attempt}: {err}");
                 break;
             }
             None => {
@@ -238,4 +236,34 @@ fn killed_run_matches(base: &Path, extra: &[String], rng: &mut rand_chacha::ChaC
         let a = std::fs::read(base.join("reference").join(&p)).unwrap();
         assert!(std::fs::read(out.join(&p)).unwrap() == a, "{tag}: {p} differs");
     }
+}
+
+/// `skillmimic train --resume latest` on a finished run (a job restarted after its last
+/// checkpoint) trains nothing, says so, evaluates and writes the summary, and exits 0; an
+/// explicit checkpoint path of the finished run is refused.
+#[test]
+fn resume_latest_of_a_finished_run_only_finishes_it() {
+    let out = std::env::temp_dir().join(format!("sm-finished-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out);
+    let first = train(&out, &[]).output().unwrap();
+    assert!(first.status.success(), "{}", String::from_utf8_lossy(&first.stderr));
+    let log = std::fs::read(out.join("log.jsonl")).unwrap();
+    std::fs::remove_file(out.join("summary.json")).unwrap();
+    let again = train(&out, &[]).stdout(std::process::Stdio::piped()).output().unwrap();
+    let said = String::from_utf8_lossy(&again.stdout);
+    assert!(again.status.success(), "{}", String::from_utf8_lossy(&again.stderr));
+    assert!(said.contains(&format!("already complete at {ITERATIONS} iterations")), "{said}");
+    assert!(out.join("summary.json").is_file());
+    assert_eq!(std::fs::read(out.join("log.jsonl")).unwrap(), log, "nothing trained again");
+    let latest = out.join("latest.safetensors");
+    let explicit = Command::new(env!("CARGO_BIN_EXE_skillmimic"))
+        .args(["train", "--preset", "tiny", "--no-video", "--threads", "2", "--out"])
+        .arg(&out)
+        .args(["--iterations", &ITERATIONS.to_string(), "--resume"])
+        .arg(&latest)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&explicit.stderr);
+    assert!(!explicit.status.success() && err.contains("already complete"), "{err}");
+    std::fs::remove_dir_all(&out).ok();
 }

@@ -155,7 +155,8 @@ pub struct TrainArgs {
     pub learner_threads: Option<usize>,
     /// Continue from a training checkpoint (optimizer and normaliser state included), or
     /// `latest`: the output folder's `latest.safetensors` when it exists, else a fresh start
-    /// (what a restarted job wants, e.g. under `torchrun --max-restarts`).
+    /// (what a restarted job wants, e.g. under `torchrun --max-restarts`); a run `latest` finds
+    /// already at `--iterations` is only finished (evaluation, summary).
     #[arg(long)]
     pub resume: Option<PathBuf>,
     /// Skip the end-of-training video.
@@ -195,6 +196,12 @@ impl TrainArgs {
             }
             other => other.clone(),
         }
+    }
+
+    /// Whether the resume is `latest`: a finished run is then completed (evaluation and summary)
+    /// instead of refused ([`crate::trainer::Trainer::finish_if_complete`]).
+    pub fn resume_is_latest(&self) -> bool {
+        self.resume.as_ref().is_some_and(|p| p.as_os_str() == "latest")
     }
 }
 

@@ -40,7 +40,9 @@ pub fn train_loop(
 /// Before the first iteration rank 0 prepares the run folder ([`crate::run_dir::prepare`]: stale
 /// temporary files removed, `log.jsonl` and the TensorBoard events cut to the starting
 /// iteration). A resumed run that already reached `run.iterations` is a [`LearnError::Config`]
-/// saying so. A divergence ([`crate::divergence`]) is a [`LearnError::Diverged`] naming the
+/// saying so, unless [`Trainer::finish_if_complete`] is set and the run stands exactly at
+/// `run.iterations`: then nothing is trained or written and the latest checkpoint is returned.
+/// A divergence ([`crate::divergence`]) is a [`LearnError::Diverged`] naming the
 /// iteration and the last good checkpoint; nothing of the diverged state is saved.
 pub fn train_loop_until(
     t: &mut Trainer,
@@ -49,6 +51,16 @@ pub fn train_loop_until(
     let out = t.cfg.run.out_dir.clone();
     let target = t.cfg.run.iterations as u64;
     let start = t.progress.iteration;
+    if start > 0 && start == target && t.finish_if_complete {
+        if t.shard.rank == 0 {
+            tracing::info!(
+                "the run in {} is already complete at iteration {start} (--resume latest): \
+                    evaluating and writing the summary only",
+                out.display()
+            );
+        }
+        return Ok((out.join("latest.safetensors"), false));
+    }
     if start > 0 && start >= target {
         let from = t.resumed_from.as_ref().map_or(String::new(), |p| format!(" {}", p.display()));
         return Err(LearnError::Config(format!(
@@ -255,6 +267,12 @@ impl Runner {
             return Ok(None);
         }
         let out = t.cfg.run.out_dir.clone();
+        let trained = rewards.len();
+        if trained == 0 {
+            // a finished run re-entered (`--resume latest`): the reward statistics are the run's,
+            // from its log
+            rewards = logged_rewards(&out.join("log.jsonl"))?;
+        }
         let report = evaluate_task(t)?;
         let path = out.join("metrics.json");
         write_bytes_atomic(&path, serde_json::to_string_pretty(&report)?.as_bytes())
@@ -277,9 +295,13 @@ impl Runner {
             samples: t.progress.samples,
             low_level_samples: t.progress.samples * t.env.spec().steps_per_action as u64,
             wall_s: wall,
-            samples_per_s: (rewards.len() * t.cfg.batch_size()) as f64 / wall,
+            samples_per_s: if trained == 0 {
+                0.0
+            } else {
+                (trained * t.cfg.batch_size()) as f64 / wall
+            },
             world_size: t.shard.world,
-            mean_allreduce_s: allreduce / rewards.len().max(1) as f64,
+            mean_allreduce_s: allreduce / trained.max(1) as f64,
             update_precision: t.update_precision(),
             first_mean_reward: rewards.first().copied().unwrap_or(f64::NAN),
             last_mean_reward: rewards.last().copied().unwrap_or(f64::NAN),
@@ -298,6 +320,27 @@ impl Runner {
             .map_err(io(&path))?;
         Ok(Some(summary))
     }
+}
+
+/// The per-iteration mean rewards of a run's `log.jsonl` (its `mean_reward` column, in order).
+fn logged_rewards(path: &Path) -> Result<Vec<f64>, LearnError> {
+    let text = std::fs::read_to_string(path).map_err(io(path))?;
+    text.lines()
+        .filter(|l| !l.trim().is_empty())
+        .enumerate()
+        .map(|(i, l)| {
+            serde_json::from_str::<serde_json::Value>(l)
+                .ok()
+                .and_then(|v| v.get("mean_reward").and_then(serde_json::Value::as_f64))
+                .ok_or_else(|| {
+                    LearnError::Config(format!(
+                        "{}: line {}: expected a JSON object with a numeric 'mean_reward'",
+                        path.display(),
+                        i + 1
+                    ))
+                })
+        })
+        .collect()
 }
 
 /// A task's end-of-run evaluation (serialised as the report itself into `metrics.json`).

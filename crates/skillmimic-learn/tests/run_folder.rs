@@ -2,7 +2,8 @@
 //! (this test binary again, running only `child_trains_until_killed`) trains on the shipped demo
 //! clips; the parent kills it with SIGKILL once it saved a checkpoint and logged iterations past
 //! it, then resumes in-process and checks the folder: no temporary files, every iteration once in
-//! `log.jsonl`, every TensorBoard step once.
+//! `log.jsonl`, every TensorBoard step once. A finished run resumed from an explicit checkpoint
+//! is refused; re-entered with `--resume latest` (a restarted job) it only finishes.
 
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
@@ -10,7 +11,7 @@ use std::time::{Duration, Instant};
 
 use skillmimic_core::shared_data::workspace_root;
 use skillmimic_learn::config::TrainConfig;
-use skillmimic_learn::runner::train_loop;
+use skillmimic_learn::runner::{Runner, train_loop};
 use skillmimic_learn::tblog;
 use skillmimic_learn::trainer::Trainer;
 
@@ -158,5 +159,47 @@ fn resuming_a_finished_run_says_so() {
     let mut t = Trainer::new(tiny(&out, 3, 2), Some(&latest)).unwrap();
     train_loop(&mut t, |_| {}).unwrap();
     assert_eq!(logged_iterations(&out), vec![1, 2, 3]);
+    std::fs::remove_dir_all(&out).ok();
+}
+
+/// A job restarted after its last checkpoint but before its end (`torchrun --max-restarts` after
+/// a worker died in the evaluation) re-enters with `--resume latest`: nothing is trained or
+/// rewritten, the evaluation and `summary.json` are done, and the summary's rewards are the run's.
+#[test]
+fn a_finished_run_re_entered_with_resume_latest_only_finishes() {
+    let out = fresh_dir("reenter");
+    let mut first = Runner::new(Trainer::new(tiny(&out, 3, 2), None).unwrap());
+    let want = first.run(|_| {}).unwrap().unwrap();
+    let latest = out.join("latest.safetensors");
+    let (log, ckpt) =
+        (std::fs::read(out.join("log.jsonl")).unwrap(), std::fs::read(&latest).unwrap());
+    std::fs::remove_file(out.join("summary.json")).unwrap();
+    std::fs::remove_file(out.join("metrics.json")).unwrap();
+    let mut t = Trainer::new(tiny(&out, 3, 2), Some(&latest)).unwrap();
+    t.finish_if_complete = true;
+    let got = Runner::new(t).run(|_| panic!("nothing is trained")).unwrap().unwrap();
+    assert_eq!(std::fs::read(out.join("log.jsonl")).unwrap(), log, "the log is left alone");
+    assert_eq!(std::fs::read(&latest).unwrap(), ckpt, "the checkpoint is left alone");
+    assert!(out.join("summary.json").is_file() && out.join("metrics.json").is_file());
+    assert_eq!((got.iterations, got.samples), (want.iterations, want.samples));
+    assert_eq!(got.samples_per_s, 0.0, "this invocation trained nothing");
+    // the same evaluation (deterministic policy, run.seed) and the run's rewards from its log
+    let (a, b) = (want.eval.as_ref().unwrap(), got.eval.as_ref().unwrap());
+    assert_eq!((a.nr, a.acc_percent), (b.nr, b.acc_percent));
+    for (x, y) in [
+        (want.first_mean_reward, got.first_mean_reward),
+        (want.last_mean_reward, got.last_mean_reward),
+        (want.early_mean_reward, got.early_mean_reward),
+    ] {
+        assert!((x - y).abs() <= 1e-6 * x.abs().max(1e-6), "{x} vs {y}");
+    }
+    // a run past its end, or an explicit checkpoint, is still refused with the flag's help
+    let mut t = Trainer::new(tiny(&out, 2, 2), Some(&latest)).unwrap();
+    t.finish_if_complete = true;
+    let e = match Runner::new(t).run(|_| {}) {
+        Ok(_) => panic!("a run past its end is refused"),
+        Err(e) => e.to_string(),
+    };
+    assert!(e.contains("already complete") && e.contains("run.iterations is 2"), "{e}");
     std::fs::remove_dir_all(&out).ok();
 }

@@ -141,10 +141,11 @@ impl PyTrainer {
         };
         init_learner_threads(cfg.run.learner_threads);
         let r = resume.clone();
-        let trainer = detach_guarded(py, "Trainer()", move || {
+        let mut trainer = detach_guarded(py, "Trainer()", move || {
             Trainer::with_collective(cfg, r.as_deref(), comm)
         })?
         .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        trainer.finish_if_complete = cli.args.resume_is_latest();
         Ok(Self { trainer: Some(trainer), resumed_from: resume })
     }
 

@@ -112,6 +112,7 @@ pub fn build(
         progress,
         shard,
         resumed_from: resume.filter(|_| rank == 0).map(Path::to_path_buf),
+        finish_if_complete: false,
         rollouts,
         updater: Updater::new(threads),
         extensions,

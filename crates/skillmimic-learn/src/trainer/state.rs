@@ -27,6 +27,11 @@ pub struct Trainer {
     pub shard: Shard,
     /// The checkpoint this run resumed from (rank 0; the last good checkpoint until it saves one).
     pub resumed_from: Option<PathBuf>,
+    /// A resume that finds the run already at `run.iterations` only does the end-of-run work
+    /// (evaluation, hooks, `summary.json`) instead of failing: set for `--resume latest`, where a
+    /// restarted job (`torchrun --max-restarts`) can re-enter a run whose last checkpoint was
+    /// written before a worker died. An explicit checkpoint path keeps the error.
+    pub finish_if_complete: bool,
     pub(super) rollouts: Rollouts,
     pub(super) updater: Updater,
     pub(super) extensions: Vec<Box<dyn Extension>>,
