@@ -8,6 +8,7 @@
 # scripts/experiments/time_to_skill.py the samples and wall-clock to the criterion.
 #   OUT=runs/tts ITERS_SMALL=1600 ITERS_CPU=2400 scripts/experiments/time_to_skill.sh run 0
 #   PRESETS=cpu scripts/experiments/time_to_skill.sh pickup 1   # one preset's run (a free core)
+#   PRESETS=cpu CPU_CORE=0 scripts/experiments/time_to_skill.sh pickup 0   # cpu on core 0
 # Runs are resumed: call again with a larger ITERS_* to go on. Needs ../shared beside the checkout.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
@@ -28,8 +29,8 @@ train() { # core preset iterations checkpoint-interval
 presets=${PRESETS:-small cpu}
 for p in $presets; do
   case $p in
-    small) train 0 small "${ITERS_SMALL:-1600}" 25 ;;
-    cpu) train 1 cpu "${ITERS_CPU:-2400}" 50 ;;
+    small) train "${SMALL_CORE:-0}" small "${ITERS_SMALL:-1600}" 25 ;;
+    cpu) train "${CPU_CORE:-1}" cpu "${ITERS_CPU:-2400}" 50 ;;
     *) echo "PRESETS: small and/or cpu, not '$p'" >&2; exit 2 ;;
   esac
 done
