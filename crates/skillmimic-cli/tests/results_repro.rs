@@ -10,45 +10,19 @@
 use std::path::PathBuf;
 use std::process::Command;
 
+mod repro;
+use repro::{machine_class, rows};
 use serde_json::Value;
 use skillmimic_core::shared_data::{shared_dir_or_skip, workspace_root};
 
 const CLIP: &str = "data/ballplay_m/run/013_018pickle_run_3.pt";
-/// Wall-clock fields of a log line: the only ones allowed to differ.
-const TIMING: [&str; 6] =
-    ["rollout_s", "update_s", "env_s", "inference_s", "samples_per_s", "allreduce_s"];
-
-fn machine_class() -> Value {
-    #[cfg(target_arch = "x86_64")]
-    let avx512 = std::arch::is_x86_feature_detected!("avx512f");
-    #[cfg(not(target_arch = "x86_64"))]
-    let avx512 = false;
-    serde_json::json!({
-        "arch": std::env::consts::ARCH,
-        "avx512f": avx512,
-        "threads": std::thread::available_parallelism().map_or(1, |c| c.get()),
-    })
-}
-
-fn lines(text: &str) -> Vec<Value> {
-    text.lines()
-        .filter(|l| !l.trim().is_empty())
-        .map(|l| {
-            let mut v: Value = serde_json::from_str(l).unwrap();
-            for k in TIMING {
-                v.as_object_mut().unwrap().remove(k);
-            }
-            v
-        })
-        .collect()
-}
 
 #[test]
 fn documented_command_reproduces_the_first_20_iterations() {
     let Some(shared) = shared_dir_or_skip("results_repro") else { return };
     let root = workspace_root();
     let reference =
-        lines(&std::fs::read_to_string(root.join("configs/results/run.first20.jsonl")).unwrap());
+        rows(&std::fs::read_to_string(root.join("configs/results/run.first20.jsonl")).unwrap());
     assert_eq!(reference.len(), 20);
     let meta: Value = serde_json::from_str(
         &std::fs::read_to_string(root.join("configs/results/run.first20.meta.json")).unwrap(),
@@ -75,7 +49,7 @@ fn documented_command_reproduces_the_first_20_iterations() {
     }
     let res = cmd.output().unwrap();
     assert!(res.status.success(), "{}", String::from_utf8_lossy(&res.stderr));
-    let got = lines(&std::fs::read_to_string(out.join("log.jsonl")).unwrap());
+    let got = rows(&std::fs::read_to_string(out.join("log.jsonl")).unwrap());
     let _ = std::fs::remove_dir_all(&out);
     assert_eq!(got.len(), 20);
     let here = machine_class();

@@ -15,38 +15,13 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+mod repro;
+use repro::{machine_class, rows};
 use serde_json::Value;
 use skillmimic_core::shared_data::{shared_dir_or_skip, workspace_root};
 
 const ITERATIONS: usize = 8;
-const TIMING: [&str; 6] =
-    ["rollout_s", "update_s", "env_s", "inference_s", "samples_per_s", "allreduce_s"];
 const LAYUP: &str = "data/ballplay_m/layup/031_015pickle_layup_001_001.pt";
-
-fn machine_class() -> Value {
-    #[cfg(target_arch = "x86_64")]
-    let avx512 = std::arch::is_x86_feature_detected!("avx512f");
-    #[cfg(not(target_arch = "x86_64"))]
-    let avx512 = false;
-    serde_json::json!({
-        "arch": std::env::consts::ARCH,
-        "avx512f": avx512,
-        "threads": std::thread::available_parallelism().map_or(1, |c| c.get()),
-    })
-}
-
-fn rows(text: &str) -> Vec<Value> {
-    text.lines()
-        .filter(|l| !l.trim().is_empty())
-        .map(|l| {
-            let mut v: Value = serde_json::from_str(l).unwrap();
-            for k in TIMING {
-                v.as_object_mut().unwrap().remove(k);
-            }
-            v
-        })
-        .collect()
-}
 
 fn reference_dir() -> PathBuf {
     workspace_root().join("configs/results/first8")
