@@ -27,6 +27,12 @@ fn reference_dir() -> PathBuf {
     workspace_root().join("configs/results/first8")
 }
 
+/// The machine class the references were written on (`meta.json`'s `machine`).
+fn reference_machine() -> Value {
+    let text = std::fs::read_to_string(reference_dir().join("meta.json")).unwrap();
+    serde_json::from_str::<Value>(&text).unwrap()["machine"].clone()
+}
+
 /// The configuration's clips under the shared folder actually found (the configs name
 /// `../shared`), as a `--set env.motion=[...]` override, or nothing where they are the same.
 fn motion_override(root: &Path, shared: &Path, config: &str) -> Vec<String> {
@@ -80,19 +86,16 @@ fn compare(name: &str, got: &[Value]) {
     }
     let reference = rows(&std::fs::read_to_string(&path).unwrap());
     assert_eq!((got.len(), reference.len()), (ITERATIONS, ITERATIONS), "{name}");
-    let meta: Value =
-        serde_json::from_str(&std::fs::read_to_string(reference_dir().join("meta.json")).unwrap())
-            .unwrap();
+    let meta = reference_machine();
     let here = machine_class();
-    if here == meta["machine"] {
+    if here == meta {
         for (i, (g, r)) in got.iter().zip(&reference).enumerate() {
             assert_eq!(g, r, "{name}: iteration {}: the logged curve differs", i + 1);
         }
         println!("{name}: {ITERATIONS} iterations bit-identical to the reference");
     } else {
         println!(
-            "{name}: this machine ({here}) is not of the reference's class ({}): comparing to 2 %",
-            meta["machine"]
+            "{name}: this machine ({here}) is not of the reference's class ({meta}): comparing to 2 %"
         );
         for (i, (g, r)) in got.iter().zip(&reference).enumerate() {
             let (a, b) = (g["mean_reward"].as_f64().unwrap(), r["mean_reward"].as_f64().unwrap());
@@ -142,13 +145,9 @@ fn layup_v2_commands_reproduce_pretraining_and_first_iterations() {
         let want: Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
         let (g, w) = (losses.as_array().unwrap(), want["epoch_loss"].as_array().unwrap());
         assert_eq!(g.len(), 5);
+        let exact = machine_class() == reference_machine();
         for (k, (a, b)) in g.iter().zip(w).enumerate() {
             let (a, b) = (a.as_f64().unwrap(), b.as_f64().unwrap());
-            let meta: Value = serde_json::from_str(
-                &std::fs::read_to_string(reference_dir().join("meta.json")).unwrap(),
-            )
-            .unwrap();
-            let exact = machine_class() == meta["machine"];
             assert!(
                 if exact { a == b } else { (a - b).abs() <= 0.02 * b.abs() },
                 "pre-training epoch {}: loss {a} vs {b}",
