@@ -12,12 +12,13 @@ import sys
 
 def main(argv: list[str] | None = None) -> int:
     """Run the tool on ``argv`` (default ``sys.argv[1:]``) and return its exit code."""
-    # Ctrl-C stops the tool at once, as it stops the binary (the Rust code does not return to the
-    # interpreter, where Python's own handler would run); a training run resumes with --resume
+    # The process is the tool: signals act as on the binary. Ctrl-C ends a command at once, but
+    # `train`, which stops after the iteration under way with a checkpoint (a second Ctrl-C ends
+    # it at once); the Rust code does not return to the interpreter, where Python's handler would run
     signal.signal(signal.SIGINT, signal.SIG_DFL)
     from . import _core
 
-    return int(_core.cli_main(list(sys.argv[1:] if argv is None else argv)))
+    return int(_core.cli_main(list(sys.argv[1:] if argv is None else argv), own_signals=True))
 
 
 if __name__ == "__main__":

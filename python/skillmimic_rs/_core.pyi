@@ -38,8 +38,13 @@ def resolve_config_path(written: str, config_dir: str) -> str:
 def core_version() -> str:
     """Version of the Rust core."""
 
-def cli_main(argv: list[str]) -> int:
-    """Run the ``skillmimic`` command-line tool in-process (GIL released); its exit code."""
+def cli_main(argv: list[str], own_signals: bool = False) -> int:
+    """Run the ``skillmimic`` command-line tool in-process (GIL released); its exit code.
+
+    ``train`` stops after the iteration under way, with a checkpoint, on a signal: with
+    ``own_signals`` (a process that is the tool) on SIGINT or SIGTERM as the binary does; without
+    it on any signal whose Python handler raises, whose exception (``KeyboardInterrupt``) is then
+    raised here."""
 
 class CoreEnv:
     """The batched SkillMimic environment of the Rust core."""

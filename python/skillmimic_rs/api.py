@@ -78,7 +78,10 @@ def _argv(config: Mapping[str, Any] | str | os.PathLike | None, options: Mapping
 
 
 def cli(*args: str) -> int:
-    """Run ``skillmimic <args>`` in this process; returns the exit code (0 ok, 1 failed, 2 usage)."""
+    """Run ``skillmimic <args>`` in this process; returns the exit code (0 ok, 1 failed, 2 usage).
+
+    Ctrl-C during ``train`` stops it after the iteration under way with a checkpoint (continue with
+    ``--resume latest``), then raises ``KeyboardInterrupt``."""
     before_rendering()  # a command may render (play, the end-of-training video)
     return int(_core.cli_main([os.fspath(a) for a in args]))
 

@@ -108,8 +108,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     }
     let mut trainer = Trainer::new(cfg.clone(), resume.as_deref())?;
     trainer.finish_if_complete = a.resume_is_latest();
-    let done = trainer.progress.iteration;
-    let complete = trainer.finish_if_complete && done > 0 && done == cfg.run.iterations as u64;
+    let complete = trainer.is_complete();
     tracing::info!(
         "training task '{}': {} envs x horizon {} = {} samples/iteration, network {:?}, {} \
             iterations -> {}",
@@ -124,18 +123,24 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let pb = progress_bar(cfg.run.iterations as u64, trainer.progress.iteration);
     let every = (cfg.run.iterations / 20).max(1) as u64;
     let mut runner = with_artefact_hooks(Runner::new(trainer));
+    // Ctrl-C / SIGTERM (crate::stop): a checkpoint of the finished iteration, then an error naming it
+    let training = crate::stop::training();
     let summary = runner
-        .run(|s| match &pb {
-            Some(pb) => {
-                pb.set_position(s.iteration);
-                pb.set_message(describe(s));
+        .run_until(|s| {
+            match &pb {
+                Some(pb) => {
+                    pb.set_position(s.iteration);
+                    pb.set_message(describe(s));
+                }
+                None if s.iteration % every == 0 || s.iteration == 1 => {
+                    tracing::info!("iteration {}: {}", s.iteration, describe(s))
+                }
+                None => {}
             }
-            None if s.iteration % every == 0 || s.iteration == 1 => {
-                tracing::info!("iteration {}: {}", s.iteration, describe(s))
-            }
-            None => {}
+            !crate::stop::stop_requested()
         })?
         .expect("a single-process run is rank 0");
+    drop(training);
     if let Some(pb) = pb {
         pb.finish();
     }

@@ -8,6 +8,7 @@
 use std::ffi::OsString;
 
 pub use cmd_train::with_artefact_hooks;
+pub use stop::{set_stop_check, stop_on_signals};
 
 use clap::{Parser, Subcommand};
 
@@ -34,6 +35,7 @@ mod ghost;
 mod plot;
 mod plot_draw;
 mod plot_tts;
+mod stop;
 mod video;
 
 #[derive(Parser)]
@@ -90,6 +92,12 @@ enum Command {
     Config(cmd_config::ConfigCommand),
 }
 
+/// Whether a panic's message is `print!` failing because standard output or error was closed (a
+/// pipe whose reader exited).
+fn is_closed_output(message: &str) -> bool {
+    message.starts_with("failed printing to std") && message.contains("Broken pipe")
+}
+
 /// Keep freed large blocks in the process instead of returning them to the kernel: candle
 /// allocates fresh multi-megabyte tensors for every operation, and with glibc's defaults each of
 /// them is a new mmap whose pages fault in again (measured on history pre-training: 4.6 s of
@@ -107,8 +115,10 @@ pub fn tune_allocator() {
 /// Run the tool on `args` (the program name first, as in `std::env::args_os`) and return the exit
 /// code: 0 on success (also for `--help` / `--version`), 1 with an `error:` line on stderr for a
 /// failed command (also after an internal panic, reported as one `error: internal error` line), 2
-/// for a usage error (clap's message on stderr). Never exits the process itself, so a Python caller
-/// keeps control.
+/// for a usage error (clap's message on stderr), 141 and no message when standard output was closed
+/// under it (`skillmimic eval ... | head`). Never exits the process itself, so a Python caller
+/// keeps control; `train` stops early (a checkpoint, then exit code 1) when [`set_stop_check`]'s
+/// question says so.
 pub fn run<I, T>(args: I) -> i32
 where
     I: IntoIterator<Item = T>,
@@ -132,6 +142,15 @@ where
     let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| dispatch(cli.command)));
     match result {
         Ok(Ok(())) => 0,
+        // a write of ours that met the closed pipe and was handed up as an error
+        Ok(Err(e))
+            if e.chain().any(|c| {
+                c.downcast_ref::<std::io::Error>()
+                    .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
+            }) =>
+        {
+            141
+        }
         Ok(Err(e)) => {
             eprintln!("error: {e:#}");
             1
@@ -142,6 +161,11 @@ where
                 .unwrap_or_else(|e| e.into_inner())
                 .take()
                 .unwrap_or_else(|| skillmimic_core::panic_message(&*payload));
+            if is_closed_output(&what) {
+                // `skillmimic eval ... | head`: the reader went away, as for any Unix tool (the
+                // shell's code for a process ended by SIGPIPE), not a bug to report
+                return 141;
+            }
             eprintln!(
                 "error: internal error: {what} (a bug of skillmimic-rs, not of your input; please \
                     report it with the command line)"

@@ -51,7 +51,7 @@ pub fn train_loop_until(
     let out = t.cfg.run.out_dir.clone();
     let target = t.cfg.run.iterations as u64;
     let start = t.progress.iteration;
-    if start > 0 && start == target && t.finish_if_complete {
+    if t.is_complete() {
         if t.shard.rank == 0 {
             tracing::info!(
                 "the run in {} is already complete at iteration {start} (--resume latest): \

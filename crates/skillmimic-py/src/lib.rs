@@ -24,11 +24,43 @@ mod train;
 /// the GIL released; returns its exit code (0 ok, 1 failed command, 2 usage error). The console
 /// command `skillmimic` and `python -m skillmimic_rs` call this, so the pip-installed command is
 /// the cargo-built one.
+///
+/// Stopping `train` (skillmimic_cli's `stop` module): with `own_signals` (the console command,
+/// whose process is the tool) SIGINT and SIGTERM are handled as the binary handles them. Without
+/// it (`skillmimic_rs.cli` and the functions on it, called from a user's program) the interpreter
+/// keeps its handlers: training asks Python after every iteration whether a signal is pending (in
+/// the main thread), and a pending one stops it after that iteration with a checkpoint, after
+/// which its exception (KeyboardInterrupt for Ctrl-C) is raised here.
 #[pyfunction]
-fn cli_main(py: Python<'_>, argv: Vec<String>) -> i32 {
+#[pyo3(signature = (argv, own_signals = false))]
+fn cli_main(py: Python<'_>, argv: Vec<String>, own_signals: bool) -> PyResult<i32> {
+    if own_signals {
+        skillmimic_cli::stop_on_signals();
+    } else {
+        skillmimic_cli::set_stop_check(python_signal_pending);
+    }
     let args: Vec<String> = std::iter::once("skillmimic".to_string()).chain(argv).collect();
     // `run` catches panics itself (one `error:` line, exit code 1)
-    py.detach(|| skillmimic_cli::run(args))
+    let code = py.detach(|| skillmimic_cli::run(args));
+    match PENDING_SIGNAL.lock().unwrap_or_else(|e| e.into_inner()).take() {
+        Some(e) => Err(e),
+        None => Ok(code),
+    }
+}
+
+/// The exception of the signal that stopped a `cli_main` training run, raised when it returns.
+static PENDING_SIGNAL: std::sync::Mutex<Option<PyErr>> = std::sync::Mutex::new(None);
+
+/// Whether Python has a pending signal whose handler raises (its exception is kept for
+/// `cli_main`).
+fn python_signal_pending() -> bool {
+    Python::attach(|py| match py.check_signals() {
+        Ok(()) => false,
+        Err(e) => {
+            *PENDING_SIGNAL.lock().unwrap_or_else(|e| e.into_inner()) = Some(e);
+            true
+        }
+    })
 }
 
 /// Version of the Rust core.

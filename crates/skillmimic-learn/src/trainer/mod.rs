@@ -81,6 +81,13 @@ impl Trainer {
         setup::build(cfg, resume, comm)
     }
 
+    /// Whether this run only has its end-of-run work left: [`Trainer::finish_if_complete`] is set
+    /// and the run already stands at `run.iterations` (the runner then trains nothing).
+    pub fn is_complete(&self) -> bool {
+        let done = self.progress.iteration;
+        self.finish_if_complete && done > 0 && done == self.cfg.run.iterations as u64
+    }
+
     /// Precision of the update's backward products in this run (`"bf16"` or `"f32"`, see
     /// [`crate::config::Precision`]).
     pub fn update_precision(&self) -> &'static str {
