@@ -131,3 +131,27 @@ def test_papers_table_row(tmp_path):
     (d / "eval-papers.json").unlink()
     p = subprocess.run([sys.executable, str(ROOT / "scripts/results/papers_table.py"), str(d)], capture_output=True, text=True)
     assert p.returncode != 0 and "eval-papers.json" in p.stderr
+
+
+def test_same_log_ignores_timings_and_names_the_first_difference(tmp_path):
+    import gzip
+
+    same_log = load("scripts/results/same_log.py")
+    ref = [{"iteration": i, "mean_reward": 0.1 * i, "rollout_s": 1.0, "samples_per_s": 9.0} for i in (1, 2, 3)]
+    with gzip.open(tmp_path / "ref.jsonl.gz", "wt") as f:
+        f.write("".join(json.dumps(r) + "\n" for r in ref))
+    # a shorter rerun with other timings reproduces
+    rerun = [dict(r, rollout_s=5.0, samples_per_s=1.0) for r in ref[:2]]
+    (tmp_path / "rerun.jsonl").write_text("".join(json.dumps(r) + "\n" for r in rerun))
+    cmd = [sys.executable, str(ROOT / "scripts/results/same_log.py"), str(tmp_path / "ref.jsonl.gz"), str(tmp_path / "rerun.jsonl")]
+    r = subprocess.run(cmd, capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    out = json.loads(r.stdout)
+    assert out["identical_rows"] == 2 and out["first_difference"] is None
+    # a last digit of one value differs: iteration 2 is named with its field
+    rerun[1]["mean_reward"] = 0.2000000000000001
+    got = same_log.compare(ref, rerun)
+    assert got["identical_rows"] == 1 and got["first_difference"] == {"iteration": 2, "fields": ["mean_reward"]}
+    # more rows than the reference is a difference
+    got = same_log.compare(ref[:1], ref[:2])
+    assert got["first_difference"]["iteration"] == 2
