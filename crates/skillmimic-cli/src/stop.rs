@@ -6,17 +6,18 @@
 //! Where the request comes from depends on who runs the tool; the training loop only asks
 //! [`stop_requested`] after every iteration:
 //! * a process that is the tool (the binary, the pip-installed `skillmimic` script) calls
-//!   [`stop_on_signals`]: while `train` runs its loop ([`training`]), SIGINT and SIGTERM set a
-//!   flag (signal-hook), and a second signal (of either kind) ends the process at once with 128 +
-//!   its number (130 for SIGINT, 143 for SIGTERM), for a user who does not want to wait for the
-//!   iteration to finish; a checkpoint being written then is left as a temporary file and
-//!   `latest` stays whole. The handlers replace an inherited "ignore" too, so `kill -INT` reaches
-//!   a run started in the background of a script (such shells start background jobs with SIGINT
-//!   ignored). Before the loop (set-up) and after it (other commands, once the run has finished)
-//!   the signals keep their default action: they end the process;
-//! * a Python program calling the tool as a function (`skillmimic_rs.cli`, `skillmimic_rs.train`)
-//!   keeps the interpreter's handlers and sets [`set_stop_check`] to a function asking Python
-//!   whether a signal is pending.
+//!   [`stop_on_signals`]: while `train` trains and finishes its run ([`training`]: the loop, the
+//!   end-of-run evaluation and artefacts), SIGINT and SIGTERM set a flag (signal-hook), and a
+//!   second signal (of either kind) ends the process at once with 128 + its number (130 for
+//!   SIGINT, 143 for SIGTERM), for a user who does not want to wait for the iteration (or the
+//!   evaluation, which a first signal does not cut short) to finish; a checkpoint being written
+//!   then is left as a temporary file and `latest` stays whole. The handlers replace an inherited
+//!   "ignore" too, so `kill -INT` reaches a run started in the background of a script (such shells
+//!   start background jobs with SIGINT ignored). Outside that span (set-up, other commands) the
+//!   signals keep their default action: they end the process;
+//! * a Python program calling the tool as a function (`skillmimic_rs.cli`) keeps the
+//!   interpreter's handlers and sets [`set_stop_check`] to a function asking Python whether a
+//!   signal is pending (`skillmimic_rs.train` runs the trainer itself and asks Python the same).
 //!
 //! A process that did neither (a Rust program calling [`crate::run`]) trains to the end.
 
@@ -25,7 +26,7 @@ use std::sync::{Arc, LazyLock, OnceLock};
 
 /// Set by the signal handlers while training.
 static SIGNALLED: LazyLock<Arc<AtomicBool>> = LazyLock::new(|| Arc::new(AtomicBool::new(false)));
-/// True outside the training loop: a signal then takes its default action.
+/// True outside [`Training`]'s span: a signal then takes its default action.
 static OUTSIDE_TRAINING: LazyLock<Arc<AtomicBool>> =
     LazyLock::new(|| Arc::new(AtomicBool::new(true)));
 /// Whether this process handles the signals itself ([`stop_on_signals`]).
@@ -53,11 +54,12 @@ pub(crate) fn stop_requested() -> bool {
     SIGNALLED.load(Ordering::Relaxed) || STOP_CHECK.get().is_some_and(|check| check())
 }
 
-/// The training loop's span: while it lives, the signals ask training to stop (where
-/// [`stop_on_signals`] was called); dropped, they take their default action again.
+/// The span of `train`'s run (its loop, evaluation and artefacts): while it lives, the signals
+/// ask training to stop (where [`stop_on_signals`] was called); dropped, they take their default
+/// action again.
 pub(crate) struct Training(());
 
-/// Enter the training loop's span (see [`Training`]).
+/// Enter the run's span (see [`Training`]).
 pub(crate) fn training() -> Training {
     if HANDLE_SIGNALS.load(Ordering::Relaxed) {
         if let Err(e) = REGISTERED.get_or_init(|| register().map_err(|e| e.to_string())) {
