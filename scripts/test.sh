@@ -21,4 +21,5 @@ cargo test --release --workspace
 .venv/bin/python -m pip install --disable-pip-version-check --no-build-isolation -q .
 # the guide (docs/, mdBook) with its Python and Rust API references; a broken link fails
 ./scripts/docs.sh
-.venv/bin/python -m pytest -q tests
+# the 15 slowest tests are listed at the end (CI runs on 2 cores within a time limit)
+.venv/bin/python -m pytest -q --durations=15 tests
