@@ -365,31 +365,34 @@ def test_a_stopped_rank_makes_the_other_time_out(tmp_path):
     assert "error (rank 0): distributed:" in err and "Timed out" in err, err[-2000:]
 
 
-def test_ctrl_c_stops_the_python_trainer_with_a_checkpoint(tmp_path):
+@pytest.mark.parametrize("signum,ignored", [(signal.SIGINT, True), (signal.SIGTERM, False)], ids=["sigint-ignored-at-start", "sigterm"])
+def test_a_signal_stops_the_python_trainer_with_a_checkpoint(tmp_path, signum, ignored):
+    """SIGINT (Ctrl-C, `kill -INT`) and SIGTERM (torchrun's agent, a scheduler, `kill`) stop
+    `python -m skillmimic_rs.train` after the current iteration with a checkpoint and exit
+    128 + the signal's number. SIGINT is sent to a child started with it ignored, as a background
+    job of a non-interactive shell starts: the trainer handles it all the same."""
     out = tmp_path / "run"
-    # a child of a non-interactive shell may start with SIGINT ignored (then Python installs no
-    # KeyboardInterrupt handler): give it the default disposition, as a terminal's Ctrl-C finds it;
     # on a hang, faulthandler prints every thread's stack when the test aborts the child
     env = dict(_env(), PYTHONFAULTHANDLER="1")
     p = subprocess.Popen([sys.executable, "-m", "skillmimic_rs.train", *TINY, "--iterations", "100000", "--set", "run.save_every=1000",
                           "--out", str(out)], cwd=REPO, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+                         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN if ignored else signal.SIG_DFL))
     try:
         t0 = time.time()
         while not (out / "log.jsonl").exists() or len((out / "log.jsonl").read_text().splitlines()) < 3:
             assert p.poll() is None and time.time() - t0 < 120, "the trainer did not start"
             time.sleep(0.2)
-        p.send_signal(signal.SIGINT)
+        p.send_signal(signum)
         try:
             _, err = p.communicate(timeout=120)
         except subprocess.TimeoutExpired:
             p.send_signal(signal.SIGABRT)
             _, err = p.communicate(timeout=30)
-            raise AssertionError(f"no exit within 120 s of SIGINT; the trainer's stacks:\n{err[-6000:]}") from None
+            raise AssertionError(f"no exit within 120 s of signal {signum}; the trainer's stacks:\n{err[-6000:]}") from None
     finally:
         if p.poll() is None:
             p.kill()
     m = re.search(r"interrupted at iteration (\d+); checkpoint saved", err)
-    assert p.returncode == 130 and m, err[-2000:]
+    assert p.returncode == 128 + signum and m, (p.returncode, err[-2000:])
     assert (out / "checkpoints" / f"iter_{int(m.group(1)):06d}.safetensors").exists()
     assert (out / "latest.safetensors").exists() and not (out / "summary.json").exists()

@@ -21,6 +21,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import signal
 import sys
 import time
 
@@ -42,6 +43,26 @@ def _describe(s: dict) -> str:
         f"ep.len {s['episode_length']:.1f}  falls {100 * s['early_terminations']:.0f}%  "
         f"all-reduce {s['allreduce_s']:.2f} s"
     )
+
+
+def _stop_on_signals() -> list[int]:
+    """SIGINT and SIGTERM stop training after the current iteration with a checkpoint, as they
+    stop ``skillmimic train``: the handler raises KeyboardInterrupt, which the trainer takes at
+    its next check between iterations. SIGTERM is what torchrun's agent, a batch scheduler or
+    ``kill`` sends; SIGINT is handled even where the process started with it ignored (a
+    background job of a non-interactive shell). A second signal ends the process at once (the
+    handlers go back to the defaults). Returns the list that receives the signal's number."""
+    caught: list[int] = []
+
+    def on_signal(signum: int, _frame) -> None:
+        caught.append(signum)
+        for s in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(s, signal.SIG_DFL)
+        raise KeyboardInterrupt
+
+    for s in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(s, on_signal)
+    return caught
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -106,6 +127,7 @@ def main(argv: list[str] | None = None) -> int:
             if s["iteration"] in (first, last) or s["iteration"] % every == 0:
                 print(_describe(s), flush=True)
 
+        caught = _stop_on_signals() if __name__ == "__main__" else []
         try:
             summary = trainer.run(on_iteration)
         except RuntimeError as e:
@@ -113,7 +135,8 @@ def main(argv: list[str] | None = None) -> int:
             return 1
         except KeyboardInterrupt:
             print(f"interrupted at iteration {trainer.iterations_done}; checkpoint saved, continue with --resume latest", file=sys.stderr)
-            return 130
+            # the shell's convention for a process ended by a signal: 128 + its number
+            return 128 + (caught[0] if caught else signal.SIGINT)
         if summary is not None:
             s = json.loads(summary)
             out = os.path.dirname(s["metrics"])
