@@ -139,9 +139,15 @@ fn file_id(_: &Path) -> Option<(u64, u64)> {
 
 #[derive(clap::Args)]
 pub struct SynthArgs {
-    /// Output folder for the demo clips.
-    #[arg(long, default_value = "motions")]
-    pub out_dir: PathBuf,
+    /// Output folder (default `motions` for the demo clips; required with `--character tokenhsi`,
+    /// whose clips must not land among the SkillMimic clips of `motions/`).
+    #[arg(long)]
+    pub out_dir: Option<PathBuf>,
+    /// Whose clips: `skillmimic` (the demo dribbles with the ball, the files of `motions/`) or
+    /// `tokenhsi` (the procedural walks that `env.hsi.style_motion = ["builtin:walks"]` uses,
+    /// written as character clips to look at or to edit).
+    #[arg(long, default_value = "skillmimic")]
+    pub character: String,
 }
 
 /// File name of a synthesised clip.
@@ -151,8 +157,31 @@ pub fn synth_file_name(clip: &Clip) -> String {
 
 /// Write the procedurally synthesised demo clips (deterministic).
 pub fn synth(a: SynthArgs) -> anyhow::Result<()> {
+    match a.character.as_str() {
+        "skillmimic" => {}
+        "tokenhsi" => {
+            let Some(dir) = &a.out_dir else {
+                anyhow::bail!("--character tokenhsi needs --out-dir (a folder outside motions/)");
+            };
+            std::fs::create_dir_all(dir)
+                .with_context(|| format!("cannot create {}", dir.display()))?;
+            for clip in skillmimic_motion::synth_walk::tokenhsi_walks() {
+                let path = dir.join(format!("{}.safetensors", clip.name));
+                clip.save(&path).with_context(|| format!("cannot write {}", path.display()))?;
+                tracing::info!(
+                    "wrote {} ({} frames, {})",
+                    path.display(),
+                    clip.num_frames,
+                    clip.source
+                );
+            }
+            return Ok(());
+        }
+        other => anyhow::bail!("--character: '{other}'; expected skillmimic or tokenhsi"),
+    }
+    let dir = a.out_dir.unwrap_or_else(|| PathBuf::from("motions"));
     for clip in synth::demo_clips()? {
-        let path: PathBuf = Path::new(&a.out_dir).join(synth_file_name(&clip));
+        let path: PathBuf = dir.join(synth_file_name(&clip));
         clip.save(&path).with_context(|| format!("cannot write {}", path.display()))?;
         tracing::info!(
             "wrote {} ({} frames, skill {})",

@@ -74,7 +74,8 @@ enum Command {
     Bench(bench::BenchCommand),
     /// Convert BallPlay-M `.pt` clips (a file or a folder tree) into the project clip format.
     Convert(cmd_motion::ConvertArgs),
-    /// Regenerate the shipped demo clips (IK stand-and-dribble) into `motions/`.
+    /// Regenerate the shipped demo clips (IK stand-and-dribble) into `motions/`; with
+    /// `--character tokenhsi --out-dir DIR`, write the procedural TokenHSI walks.
     SynthMotions(cmd_motion::SynthArgs),
     /// Short simulation demo on the batched core.
     Demo(demo::Args),

@@ -71,8 +71,18 @@ pub fn released_features(st: &EnvState<'_>, out: &mut [f32]) {
 static SPEC: std::sync::LazyLock<skillmimic_core::characters::CharacterSpec> =
     std::sync::LazyLock::new(tokenhsi::spec);
 
-/// Load every TokenHSI `character-clip` below `paths` (errors name the file and a clip of another
-/// character).
+/// Entry of `env.hsi.style_motion` (and of each task's own `style_motion`) that stands for the
+/// built-in procedural walks of the character
+/// ([`skillmimic_motion::synth_walk::tokenhsi_walks`]: 0.7, 1.0 and 1.3 m/s straight, 1.0 m/s
+/// turning left and right), synthesised in memory, so that no file is needed.
+pub const BUILTIN_WALKS: &str = "builtin:walks";
+
+static WALK_CLIPS: std::sync::LazyLock<Vec<CharacterClip>> =
+    std::sync::LazyLock::new(skillmimic_motion::synth_walk::tokenhsi_walks);
+
+/// Load every TokenHSI `character-clip` below `paths`, and the built-in walks for an entry
+/// [`BUILTIN_WALKS`] (errors name the file and a clip of another character, or an unknown
+/// `builtin:` name).
 pub fn load_style_clips(paths: &[PathBuf]) -> Result<Vec<CharacterClip>, EnvError> {
     if paths.is_empty() {
         return Err(bad(
@@ -84,6 +94,17 @@ pub fn load_style_clips(paths: &[PathBuf]) -> Result<Vec<CharacterClip>, EnvErro
     }
     let mut clips = Vec::new();
     for p in paths {
+        if p.as_os_str() == BUILTIN_WALKS {
+            clips.extend(WALK_CLIPS.iter().cloned());
+            continue;
+        }
+        if p.to_str().is_some_and(|s| s.starts_with("builtin:")) {
+            let msg = format!(
+                "'{}' is not a built-in motion set; built in: {BUILTIN_WALKS}",
+                p.display()
+            );
+            return Err(bad("env.hsi.style_motion", msg).into());
+        }
         for f in find_clip_files(p)? {
             let c = CharacterClip::load(&f)?;
             if c.character != "tokenhsi" {
