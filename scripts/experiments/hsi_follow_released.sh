@@ -6,6 +6,8 @@
 # checkpoint over 256 deterministic episodes from reference starts (as trained) and from the rest
 # pose. docs/results-tokenhsi.md's run: TRAIN_S=400 ENVS=1024 THREADS=16 on a 16-core host.
 # Usage: scripts/experiments/hsi_follow_released.sh OUT_DIR [TRAIN_S] [ENVS] [THREADS] [SHARED]
+# STYLE=walks: the built-in procedural walks (env.hsi.style_motion = ["builtin:walks"]) instead of
+# the retargeted BallPlay-M clips (then SHARED is not needed).
 set -uo pipefail
 out=${1:?output folder}
 train_s=${2:-400}
@@ -14,12 +16,17 @@ threads=${4:-0}
 shared=${5:-$(dirname "$0")/../../../shared}
 bin=${SKILLMIMIC:-$(dirname "$0")/../../target/release/skillmimic}
 mkdir -p "$out"
-m=()
-for s in run turn lrun rrun; do m+=(--motion "$shared/data/ballplay_m/$s"); done
-"$bin" retarget --to tokenhsi "${m[@]}" --out "$out/clips" > "$out/retarget.log" || exit 1
+if [ "${STYLE:-ballplay}" = walks ]; then
+  style=builtin:walks
+else
+  m=()
+  for s in run turn lrun rrun; do m+=(--motion "$shared/data/ballplay_m/$s"); done
+  "$bin" retarget --to tokenhsi "${m[@]}" --out "$out/clips" > "$out/retarget.log" || exit 1
+  style=$out/clips
+fi
 timeout "$train_s" "$bin" train --preset small --task hsi_follow --num-envs "$envs" --threads "$threads" \
   --learner-threads "$threads" --seed 0 --iterations 100000 \
-  --set "env.hsi.style_motion=[\"$out/clips\"]" --set ppo.amp.enabled=true --set ppo.amp.logit_reg=0.01 \
+  --set "env.hsi.style_motion=[\"$style\"]" --set ppo.amp.enabled=true --set ppo.amp.logit_reg=0.01 \
   --set 'ppo.hidden=[1024, 512]' --set ppo.mini_epochs=3 --set ppo.minibatch=8192 --set run.save_every=10 \
   --out "$out/follow" --no-video > "$out/train.log" 2>&1
 echo "train exit $? (124: stopped at ${train_s} s, as intended)"

@@ -116,3 +116,37 @@ fn clips_that_training_refuses_are_not_converted() {
     refused(&tree, &[".", out.to_str().unwrap()], &["013_zbad.pt: column 336"]);
     assert_eq!(std::fs::read_dir(&out).unwrap().count(), 0, "a partial conversion was written");
 }
+
+/// `skillmimic synth-motions --character tokenhsi --out-dir DIR` writes the built-in walks as
+/// character clips equal to `builtin:walks`; without `--out-dir` (which would put them among the
+/// SkillMimic clips of `motions/`) or with an unknown character it exits 1 naming the flag.
+#[test]
+fn synth_motions_writes_the_tokenhsi_walks_only_where_asked() {
+    use skillmimic_motion::character_clip::CharacterClip;
+    let d = tmpdir("synth-walks");
+    let run = |args: &[&str]| {
+        let out = Command::new(env!("CARGO_BIN_EXE_skillmimic"))
+            .arg("synth-motions")
+            .args(args)
+            .current_dir(&d)
+            .output()
+            .unwrap();
+        (out.status.code().unwrap_or(-1), String::from_utf8_lossy(&out.stderr).into_owned())
+    };
+    let (code, err) = run(&["--character", "tokenhsi"]);
+    assert_eq!(code, 1, "{err}");
+    assert!(err.contains("--out-dir"), "{err}");
+    assert!(!d.join("motions").exists());
+    let (code, err) = run(&["--character", "robot", "--out-dir", "x"]);
+    assert_eq!(code, 1, "{err}");
+    assert!(err.contains("--character") && err.contains("tokenhsi"), "{err}");
+    let (code, err) = run(&["--character", "tokenhsi", "--out-dir", "walks"]);
+    assert_eq!(code, 0, "{err}");
+    let walks = skillmimic_motion::synth_walk::tokenhsi_walks();
+    for w in &walks {
+        let c =
+            CharacterClip::load(&d.join("walks").join(format!("{}.safetensors", w.name))).unwrap();
+        assert_eq!(&c, w);
+    }
+    std::fs::remove_dir_all(&d).ok();
+}
