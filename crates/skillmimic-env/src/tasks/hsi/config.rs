@@ -61,8 +61,9 @@ pub struct HsiConfig {
     /// (one discriminator per task).
     pub discriminator: Discriminators,
     /// Reference clips of the character (`tokenhsi-clip` files or folders, e.g. written by
-    /// `skillmimic retarget`) for the adversarial motion prior of the run's task (`ppo.amp`);
-    /// a task's own `style_motion` takes precedence.
+    /// `skillmimic retarget`) for the adversarial motion prior of the run's task (`ppo.amp`) and
+    /// its reference starts; the entry "builtin:walks" stands for the built-in procedural walks
+    /// (docs/tokenhsi.md, "Built-in walks"); a task's own `style_motion` takes precedence.
     #[schemars(extend("items" = {"type": "string", "format": "path"}))]
     pub style_motion: Vec<std::path::PathBuf>,
     pub follow: FollowConfig,
