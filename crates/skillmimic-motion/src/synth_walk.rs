@@ -43,7 +43,7 @@ use crate::character_clip::CharacterClip;
 pub const FPS: f64 = 30.0;
 /// Knee flexion in stance (rad).
 const KNEE_STANCE: f64 = 8.0 * std::f64::consts::PI / 180.0;
-/// Extra knee flexion at mid-swing (rad).
+/// Extra knee flexion at the swing's peak (rad).
 const KNEE_SWING: f64 = 45.0 * std::f64::consts::PI / 180.0;
 /// Exponent of the swing's time warp `u^p` under the knee's bump: the flexion peaks at
 /// u = 0.5^(1/p) ≈ 0.35, early in the swing as in human gait (ln 0.5 / ln 0.35).
