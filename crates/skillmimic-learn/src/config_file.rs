@@ -9,9 +9,9 @@
 //! `<folder of the file>/<path>`. One exception keeps the files the trainer writes usable: their
 //! paths were given relative to the working directory of the run (`runs/x/config.toml` says
 //! `motion = ["motions"]`), so a path that does not exist next to the file but does exist relative
-//! to the working directory stays as written. Absolute paths, empty paths and
-//! [`BUILTIN_DEMO`](skillmimic_env::BUILTIN_DEMO) (any `builtin:` name) are kept. Paths the file does not set (preset
-//! defaults, command-line flags) are not touched.
+//! to the working directory stays as written. Absolute paths, empty paths and built-in names
+//! (`builtin:…`, e.g. [`BUILTIN_DEMO`](skillmimic_env::BUILTIN_DEMO)) are kept. Paths the file
+//! does not set (preset defaults, command-line flags) are not touched.
 
 use std::path::{Path, PathBuf};
 
@@ -29,7 +29,6 @@ pub const TABLES: [&str; 3] = ["env", "ppo", "run"];
 pub fn resolve_path(written: &Path, config_dir: &Path) -> PathBuf {
     if written.as_os_str().is_empty()
         || written.is_absolute()
-        || written.as_os_str() == skillmimic_env::BUILTIN_DEMO
         || written.to_str().is_some_and(|s| s.starts_with("builtin:"))
     {
         return written.to_path_buf();
