@@ -43,3 +43,57 @@ fn an_unknown_builtin_motion_set_is_refused_by_field() {
     let e = registry::make(&config("builtin:dance")).err().expect("refused").to_string();
     assert!(e.contains("env.hsi.style_motion") && e.contains("builtin:walks"), "{e}");
 }
+
+/// `hsi_sit` with `env.hsi.sit.style_motion = ["builtin:sit"]`: a reference start is a frame of
+/// the sit clip whose seat height is nearest the episode's seat, placed where the clip has the
+/// character relative to its seat and turned to the seat's yaw.
+#[test]
+fn builtin_sits_start_where_the_clip_has_the_character_relative_to_the_seat() {
+    use skillmimic_core::math::{heading, wrap_angle};
+    use skillmimic_env::tasks::hsi::style::BUILTIN_SITS;
+    use skillmimic_motion::synth_sit::tokenhsi_sits;
+    let mut cfg =
+        EnvConfig { task: "hsi_sit".into(), num_envs: 16, threads: 1, ..Default::default() };
+    let h = cfg.table_mut::<HsiConfig>();
+    h.state_init = StateInit::Reference;
+    h.sit.style_motion = vec![BUILTIN_SITS.into()];
+    let above = h.sit.target_above_seat;
+    let mut env = registry::make(&cfg).expect("hsi_sit with builtin:sit");
+    env.reset_all(Some(2));
+    let sits = tokenhsi_sits();
+    let ni = env.spec().info_names.len();
+    let mut seated = 0;
+    for i in 0..16 {
+        let st = env.mujoco().env_state(i);
+        let info = &env.buffers().info[i * ni..(i + 1) * ni];
+        let top = [info[0] as f64, info[1] as f64, info[2] as f64 - above];
+        let yaw = info[6] as f64;
+        let (s, t) = sits
+            .iter()
+            .flat_map(|s| (0..s.clip.num_frames).map(move |t| (s, t)))
+            .find(|(s, t)| {
+                s.clip.dof_at(*t).iter().zip(st.dof_pos).all(|(&a, &b)| (a as f64 - b).abs() < 1e-5)
+            })
+            .expect("the start is a frame of a sit clip");
+        assert!(
+            (s.seat_top[2] - top[2]).abs() <= 0.0125 + 1e-6,
+            "env {i}: clip seat {} vs {}",
+            s.seat_top[2],
+            top[2]
+        );
+        let c = s.clip.root_pos_at(t);
+        let (dx, dy) = (c[0] - s.seat_top[0], c[1] - s.seat_top[1]);
+        let (sn, cs) = yaw.sin_cos();
+        let want = [top[0] + cs * dx - sn * dy, top[1] + sn * dx + cs * dy, c[2]];
+        let root = st.pos(0);
+        for k in 0..3 {
+            assert!((root[k] - want[k]).abs() < 1e-4, "env {i}: root {root:?}, want {want:?}");
+        }
+        assert!(
+            wrap_angle(heading(st.quat(0)) - yaw).abs() < 1e-4,
+            "env {i}: faces the seat's front"
+        );
+        seated += usize::from(t + 1 == s.clip.num_frames || c[2] < 0.7);
+    }
+    assert!(seated > 0 && seated < 16, "starts both standing and seated: {seated} of 16 low");
+}

@@ -42,6 +42,7 @@ pub mod retarget_hsi;
 pub mod retarget_onto;
 pub mod retarget_positions;
 pub mod retarget_smpl;
+pub mod synth_sit;
 pub mod synth_walk;
 pub mod testing;
 pub mod torch_zip;

@@ -96,15 +96,15 @@ pub fn step_time(v: f64) -> f64 {
 }
 
 /// The legs: (hip, knee, ankle) first dof and the foot body.
-struct Leg {
-    hip: usize,
-    knee: usize,
-    ankle: usize,
-    foot: usize,
+pub(crate) struct Leg {
+    pub(crate) hip: usize,
+    pub(crate) knee: usize,
+    pub(crate) ankle: usize,
+    pub(crate) foot: usize,
 }
 
-const RIGHT: Leg = Leg { hip: 14, knee: 17, ankle: 20, foot: 11 };
-const LEFT: Leg = Leg { hip: 23, knee: 26, ankle: 29, foot: 14 };
+pub(crate) const RIGHT: Leg = Leg { hip: 14, knee: 17, ankle: 20, foot: 11 };
+pub(crate) const LEFT: Leg = Leg { hip: 23, knee: 26, ankle: 29, foot: 14 };
 const R_SHOULDER: usize = 6;
 const R_ELBOW: usize = 9;
 const L_SHOULDER: usize = 10;
@@ -137,21 +137,21 @@ impl Swing {
 }
 
 /// Write one leg's pitch angles into `dof` (foot kept flat).
-fn set_leg(dof: &mut [f64], leg: &Leg, hip: f64, knee: f64) {
+pub(crate) fn set_leg(dof: &mut [f64], leg: &Leg, hip: f64, knee: f64) {
     dof[leg.hip + 1] = hip;
     dof[leg.knee + 1] = knee;
     dof[leg.ankle + 1] = (-(hip + knee)).clamp(-ANKLE_PITCH_MAX, ANKLE_PITCH_MAX);
 }
 
 /// Position of `leg`'s foot frame relative to an upright root at the origin (heading +x).
-fn foot_in_root(spec: &CharacterSpec, leg: &Leg, hip: f64, knee: f64) -> Vec3 {
+pub(crate) fn foot_in_root(spec: &CharacterSpec, leg: &Leg, hip: f64, knee: f64) -> Vec3 {
     let mut dof = vec![0.0; spec.num_dofs];
     set_leg(&mut dof, leg, hip, knee);
     spec.forward_kinematics([0.0; 3], Quat::IDENTITY, &dof).0[leg.foot]
 }
 
 /// Bisection of a continuous, monotonic `f` for `f(x) = 0` on [lo, hi] (signs differ there).
-fn bisect(mut lo: f64, mut hi: f64, f: impl Fn(f64) -> f64) -> f64 {
+pub(crate) fn bisect(mut lo: f64, mut hi: f64, f: impl Fn(f64) -> f64) -> f64 {
     let f_lo = f(lo);
     for _ in 0..80 {
         let mid = 0.5 * (lo + hi);

@@ -265,7 +265,9 @@ pub struct SitConfig {
     #[schemars(range(min = 0))]
     pub penalty_radius: f64,
     /// Reference clips of this task (its discriminator's, or — multi-task, conditional — its
-    /// one-hot's reference windows); empty = `env.hsi.style_motion`.
+    /// one-hot's reference windows, and its reference starts); "builtin:sit" stands for the
+    /// built-in stand-to-sit clips, whose starts are placed against the seat; empty =
+    /// `env.hsi.style_motion`.
     #[schemars(extend("items" = {"type": "string", "format": "path"}))]
     pub style_motion: Vec<std::path::PathBuf>,
 }

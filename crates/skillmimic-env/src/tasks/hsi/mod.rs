@@ -170,6 +170,11 @@ pub trait Rule: Send + Sync + 'static {
     fn fall_rule(&self) -> FallRule {
         FallRule::ContactAndLow
     }
+    /// The object a reference start is placed against (sit: the seat), if the task has one:
+    /// clips made against such an object start where they have the character relative to it.
+    fn anchor(&self, _goal: &Self::Goal) -> Option<reference_init::Anchor> {
+        None
+    }
 }
 
 /// Which character-fall rule a task uses: the released task files differ.
@@ -304,7 +309,7 @@ impl<R: Rule> Task for Hsi<R> {
     ) {
         self.rule.plan(scene, rng, state, &mut slot.goal);
         if let Some(r) = &self.reference {
-            r.apply(rng, state);
+            r.apply(rng, state, self.rule.anchor(&slot.goal));
         }
     }
     fn after_reset(&self, _i: usize, slot: &mut Self::Slot, st: &EnvState<'_>, obs: &mut [f32]) {

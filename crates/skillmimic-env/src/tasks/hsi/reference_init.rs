@@ -20,12 +20,27 @@ use skillmimic_motion::character_clip::CharacterClip;
 use skillmimic_sim::ResetState;
 
 use super::config::{HsiConfig, StateInit};
+use super::style::ClipSeat;
 use crate::clip_state::clip_state;
 use crate::error::{EnvError, bad};
+
+/// The object of the task's episode that a reference start made against an object is placed
+/// against (sit: the seat; [`super::Rule::anchor`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Anchor {
+    /// World centre of the seat's top (m).
+    pub top: [f64; 3],
+    /// Yaw of the seat's front (+x of its frame), rad.
+    pub yaw: f64,
+    /// The seat's height (m).
+    pub height: f64,
+}
 
 /// Reference clips and how often an episode starts from one.
 pub struct ReferenceInit {
     clips: Vec<CharacterClip>,
+    /// Per clip: the seat it was made against, if any.
+    seats: Vec<Option<ClipSeat>>,
     spec: CharacterSpec,
     probability: f64,
 }
@@ -49,18 +64,44 @@ impl ReferenceInit {
             return Err(bad("env.hsi.state_init", msg).into());
         }
         // the loader refuses clips of another character, non-finite values and < 2 frames
-        let clips = super::style::load_style_clips(&paths)?;
-        Ok(Some(Self { clips, spec: tokenhsi::spec(), probability }))
+        let (clips, seats) = super::style::load_reference_clips(&paths)?.into_iter().unzip();
+        Ok(Some(Self { clips, seats, spec: tokenhsi::spec(), probability }))
     }
 
     /// Replace the character part of `state` (placed by the task's rule) by a reference frame,
-    /// with probability `hybrid_init_prob` under `hybrid` (see the module doc). No allocation.
-    pub fn apply(&self, rng: &mut ChaCha8Rng, state: &mut ResetState) {
+    /// with probability `hybrid_init_prob` under `hybrid` (see the module doc). A clip made
+    /// against a seat, when the task has one (`anchor`), is replaced by the clip of those made
+    /// against a seat whose seat height is nearest the task's, and its frame is placed where
+    /// the clip has the character relative to its seat, turned to the seat's yaw (the clip's
+    /// root height kept). No allocation.
+    pub fn apply(&self, rng: &mut ChaCha8Rng, state: &mut ResetState, anchor: Option<Anchor>) {
         if self.probability < 1.0 && rng.random::<f64>() >= self.probability {
             return;
         }
-        let clip = &self.clips[rng.random_range(0..self.clips.len())];
+        let mut k = rng.random_range(0..self.clips.len());
+        if let (Some(_), Some(a)) = (self.seats[k], anchor) {
+            let gap =
+                |s: &Option<ClipSeat>| s.map_or(f64::INFINITY, |s| (s.height - a.height).abs());
+            k = (0..self.seats.len())
+                .min_by(|&i, &j| gap(&self.seats[i]).total_cmp(&gap(&self.seats[j])))
+                .unwrap_or(k);
+        }
+        let clip = &self.clips[k];
         let t = rng.random_range(0..clip.num_frames);
+        if let (Some(seat), Some(a)) = (self.seats[k], anchor) {
+            clip_state(&self.spec, clip, t, state);
+            // the clip's seat faces +x: turn its frame by the seat's yaw about the seat's top
+            let turn = Quat::about_z(a.yaw);
+            let rel = turn.rotate([
+                state.root_pos[0] - seat.top[0],
+                state.root_pos[1] - seat.top[1],
+                0.0,
+            ]);
+            state.root_quat = turn.mul(state.root_quat).normalized();
+            state.root_linvel = turn.rotate(state.root_linvel);
+            state.root_pos = [a.top[0] + rel[0], a.top[1] + rel[1], state.root_pos[2]];
+            return;
+        }
         let (at, yaw) = (state.root_pos, heading(state.root_quat));
         clip_state(&self.spec, clip, t, state);
         let turn = Quat::about_z(yaw - heading(state.root_quat));

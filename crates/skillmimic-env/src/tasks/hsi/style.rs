@@ -80,6 +80,40 @@ pub const BUILTIN_WALKS: &str = "builtin:walks";
 static WALK_CLIPS: std::sync::LazyLock<Vec<CharacterClip>> =
     std::sync::LazyLock::new(skillmimic_motion::synth_walk::tokenhsi_walks);
 
+/// Entry of a task's `style_motion` that stands for the built-in procedural stand-to-sit clips
+/// ([`skillmimic_motion::synth_sit::tokenhsi_sits`], one per seat height 0.35–0.55 m in steps of
+/// 0.025 m). Their reference starts are placed against the task's seat (`hsi_sit`), from the clip
+/// whose seat height is nearest the seat's.
+pub const BUILTIN_SITS: &str = "builtin:sit";
+
+static SIT_CLIPS: std::sync::LazyLock<Vec<skillmimic_motion::synth_sit::SitClip>> =
+    std::sync::LazyLock::new(skillmimic_motion::synth_sit::tokenhsi_sits);
+
+/// Where a reference clip was made against an object: the world centre of its seat's top in the
+/// clip's frame (m) and the seat's height (m); the seat faces +x.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ClipSeat {
+    pub top: [f64; 3],
+    pub height: f64,
+}
+
+/// [`load_style_clips`] with, per clip, the seat it was made against (the built-in sits).
+pub fn load_reference_clips(
+    paths: &[PathBuf],
+) -> Result<Vec<(CharacterClip, Option<ClipSeat>)>, EnvError> {
+    let mut out = Vec::new();
+    for p in paths {
+        if p.as_os_str() == BUILTIN_SITS {
+            out.extend(SIT_CLIPS.iter().map(|s| {
+                (s.clip.clone(), Some(ClipSeat { top: s.seat_top, height: s.seat_top[2] }))
+            }));
+        } else {
+            out.extend(load_style_clips(std::slice::from_ref(p))?.into_iter().map(|c| (c, None)));
+        }
+    }
+    Ok(out)
+}
+
 /// Load every TokenHSI `character-clip` below `paths`, and the built-in walks for an entry
 /// [`BUILTIN_WALKS`] (errors name the file and a clip of another character, or an unknown
 /// `builtin:` name).
@@ -98,9 +132,13 @@ pub fn load_style_clips(paths: &[PathBuf]) -> Result<Vec<CharacterClip>, EnvErro
             clips.extend(WALK_CLIPS.iter().cloned());
             continue;
         }
+        if p.as_os_str() == BUILTIN_SITS {
+            clips.extend(SIT_CLIPS.iter().map(|s| s.clip.clone()));
+            continue;
+        }
         if p.to_str().is_some_and(|s| s.starts_with("builtin:")) {
             let msg = format!(
-                "'{}' is not a built-in motion set; built in: {BUILTIN_WALKS}",
+                "'{}' is not a built-in motion set; built in: {BUILTIN_WALKS}, {BUILTIN_SITS}",
                 p.display()
             );
             return Err(bad("env.hsi.style_motion", msg).into());
