@@ -2,7 +2,9 @@
 //! asset, both feet planted and flat, the seated pelvis resting on the seat's top, the legs clear
 //! of the seat's front edge.
 
-use skillmimic_core::characters::tokenhsi::{self, BODIES, JointSpec};
+mod common;
+
+use skillmimic_core::characters::tokenhsi;
 use skillmimic_core::math::Quat;
 use skillmimic_motion::synth_sit::{PELVIS_RADIUS, sit};
 
@@ -17,23 +19,7 @@ fn the_sit_clip_is_planted_in_range_and_ends_on_the_seat() {
         let mut left_slide: f64 = 0.0;
         for t in 0..c.num_frames {
             let dof: Vec<f64> = c.dof_at(t).iter().map(|&x| x as f64).collect();
-            let mut k = 0;
-            for b in BODIES.iter() {
-                let ranges: Vec<[f64; 2]> = match b.joint {
-                    JointSpec::Triple { range_deg, .. } => range_deg.to_vec(),
-                    JointSpec::HingeY { range_deg, .. } => vec![range_deg],
-                    _ => vec![],
-                };
-                for r in ranges {
-                    let deg = dof[k].to_degrees();
-                    assert!(
-                        deg >= r[0] - 1e-6 && deg <= r[1] + 1e-6,
-                        "h {h} frame {t}: {} {deg}",
-                        b.joint_name
-                    );
-                    k += 1;
-                }
-            }
+            common::assert_in_released_ranges(&format!("seat {h} frame {t}"), c.dof_at(t));
             let (pos, rot) = spec.forward_kinematics(c.root_pos_at(t), c.root_quat_at(t), &dof);
             // feet flat on the floor as in the rest pose
             assert!((spec.lowest_foot_box(&pos, &rot) - rest_low).abs() < 2e-3, "h {h} frame {t}");

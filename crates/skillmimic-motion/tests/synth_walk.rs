@@ -3,7 +3,9 @@
 //! the other clear of it, feet that do not skate while they touch the floor, the requested speed
 //! and turn rate, an upright pelvis at walking height, and determinism.
 
-use skillmimic_core::characters::tokenhsi::{self, BODIES, JointSpec};
+mod common;
+
+use skillmimic_core::characters::tokenhsi;
 use skillmimic_core::math::{Quat, heading, wrap_angle};
 use skillmimic_motion::character_clip::CharacterClip;
 use skillmimic_motion::synth_walk::{FPS, WALKS, WalkParams, tokenhsi_walks, walk};
@@ -37,42 +39,15 @@ fn foot_heights(clip: &CharacterClip) -> Vec<[f64; 2]> {
 /// differ slightly (right −1.6 mm, left about +0.7 mm).
 fn rest_lowest() -> [f64; 2] {
     let spec = tokenhsi::spec();
-    let (pos, rot) = spec.forward_kinematics(spec.root_pos, Quat::IDENTITY, &[0.0; 32]);
-    let clip = CharacterClip::from_frames(
-        &spec,
-        "rest",
-        "",
-        30.0,
-        &[(spec.root_pos, Quat::IDENTITY, vec![0.0; 32])],
-    );
-    let _ = (pos, rot);
-    foot_heights(&clip)[0]
+    let rest = [(spec.root_pos, Quat::IDENTITY, vec![0.0; 32])];
+    foot_heights(&CharacterClip::from_frames(&spec, "rest", "", 30.0, &rest))[0]
 }
 
 #[test]
 fn every_joint_stays_within_the_released_assets_ranges() {
     for clip in tokenhsi_walks() {
         for t in 0..clip.num_frames {
-            let dof = clip.dof_at(t);
-            let mut k = 0;
-            for b in BODIES.iter() {
-                let ranges: Vec<[f64; 2]> = match b.joint {
-                    JointSpec::Triple { range_deg, .. } => range_deg.to_vec(),
-                    JointSpec::HingeY { range_deg, .. } => vec![range_deg],
-                    _ => vec![],
-                };
-                for r in ranges {
-                    let deg = (dof[k] as f64).to_degrees();
-                    assert!(
-                        deg >= r[0] - 1e-6 && deg <= r[1] + 1e-6,
-                        "{} frame {t}: {} axis {k} at {deg:.2}° outside {r:?}",
-                        clip.name,
-                        b.joint_name
-                    );
-                    k += 1;
-                }
-            }
-            assert_eq!(k, 32);
+            common::assert_in_released_ranges(&format!("{} frame {t}", clip.name), clip.dof_at(t));
         }
     }
 }

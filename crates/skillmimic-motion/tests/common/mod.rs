@@ -1,0 +1,26 @@
+//! Checks shared by the tests of the procedural TokenHSI clips.
+
+use skillmimic_core::characters::tokenhsi::{BODIES, JointSpec};
+
+/// Panic unless every entry of the 32-d dof vector `dof` (rad) lies within its hinge's range in
+/// the released asset (`tokenhsi::BODIES`, degrees, ± 1e-6); `what` names the clip and frame.
+pub fn assert_in_released_ranges(what: &str, dof: &[f32]) {
+    let mut k = 0;
+    for b in BODIES.iter() {
+        let ranges: Vec<[f64; 2]> = match b.joint {
+            JointSpec::Triple { range_deg, .. } => range_deg.to_vec(),
+            JointSpec::HingeY { range_deg, .. } => vec![range_deg],
+            _ => vec![],
+        };
+        for r in ranges {
+            let deg = (dof[k] as f64).to_degrees();
+            assert!(
+                deg >= r[0] - 1e-6 && deg <= r[1] + 1e-6,
+                "{what}: {} axis {k} at {deg:.2}° outside {r:?}",
+                b.joint_name
+            );
+            k += 1;
+        }
+    }
+    assert_eq!(k, 32, "{what}: dofs");
+}
