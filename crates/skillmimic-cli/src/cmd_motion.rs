@@ -144,8 +144,8 @@ pub struct SynthArgs {
     #[arg(long)]
     pub out_dir: Option<PathBuf>,
     /// Whose clips: `skillmimic` (the demo dribbles with the ball, the files of `motions/`) or
-    /// `tokenhsi` (the procedural walks that `env.hsi.style_motion = ["builtin:walks"]` uses,
-    /// written as character clips to look at or to edit).
+    /// `tokenhsi` (the procedural walks and sits that `builtin:walks` and `builtin:sit` stand
+    /// for, written as character clips to look at or to edit).
     #[arg(long, default_value = "skillmimic")]
     pub character: String,
 }
@@ -165,7 +165,8 @@ pub fn synth(a: SynthArgs) -> anyhow::Result<()> {
             };
             std::fs::create_dir_all(dir)
                 .with_context(|| format!("cannot create {}", dir.display()))?;
-            for clip in skillmimic_motion::synth_walk::tokenhsi_walks() {
+            let sits = skillmimic_motion::synth_sit::tokenhsi_sits().into_iter().map(|s| s.clip);
+            for clip in skillmimic_motion::synth_walk::tokenhsi_walks().into_iter().chain(sits) {
                 let path = dir.join(format!("{}.safetensors", clip.name));
                 clip.save(&path).with_context(|| format!("cannot write {}", path.display()))?;
                 tracing::info!(

@@ -75,7 +75,7 @@ enum Command {
     /// Convert BallPlay-M `.pt` clips (a file or a folder tree) into the project clip format.
     Convert(cmd_motion::ConvertArgs),
     /// Regenerate the shipped demo clips (IK stand-and-dribble) into `motions/`; with
-    /// `--character tokenhsi --out-dir DIR`, write the procedural TokenHSI walks.
+    /// `--character tokenhsi --out-dir DIR`, write the procedural TokenHSI walks and sits.
     SynthMotions(cmd_motion::SynthArgs),
     /// Short simulation demo on the batched core.
     Demo(demo::Args),

@@ -117,8 +117,8 @@ fn clips_that_training_refuses_are_not_converted() {
     assert_eq!(std::fs::read_dir(&out).unwrap().count(), 0, "a partial conversion was written");
 }
 
-/// `skillmimic synth-motions --character tokenhsi --out-dir DIR` writes the built-in walks as
-/// character clips equal to `builtin:walks`; without `--out-dir` (which would put them among the
+/// `skillmimic synth-motions --character tokenhsi --out-dir DIR` writes the built-in walks and
+/// sits as character clips equal to `builtin:walks` and `builtin:sit`; without `--out-dir` (which would put them among the
 /// SkillMimic clips of `motions/`) or with an unknown character it exits 1 naming the flag.
 #[test]
 fn synth_motions_writes_the_tokenhsi_walks_only_where_asked() {
@@ -142,7 +142,10 @@ fn synth_motions_writes_the_tokenhsi_walks_only_where_asked() {
     assert!(err.contains("--character") && err.contains("tokenhsi"), "{err}");
     let (code, err) = run(&["--character", "tokenhsi", "--out-dir", "walks"]);
     assert_eq!(code, 0, "{err}");
-    let walks = skillmimic_motion::synth_walk::tokenhsi_walks();
+    let sits = skillmimic_motion::synth_sit::tokenhsi_sits().into_iter().map(|s| s.clip);
+    let walks: Vec<_> =
+        skillmimic_motion::synth_walk::tokenhsi_walks().into_iter().chain(sits).collect();
+    assert_eq!(walks.len(), 14);
     for w in &walks {
         let c =
             CharacterClip::load(&d.join("walks").join(format!("{}.safetensors", w.name))).unwrap();
