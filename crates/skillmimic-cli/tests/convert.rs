@@ -118,8 +118,9 @@ fn clips_that_training_refuses_are_not_converted() {
 }
 
 /// `skillmimic synth-motions --character tokenhsi --out-dir DIR` writes the built-in walks and
-/// sits as character clips equal to `builtin:walks` and `builtin:sit`; without `--out-dir` (which would put them among the
-/// SkillMimic clips of `motions/`) or with an unknown character it exits 1 naming the flag.
+/// sits as character clips equal to `builtin:walks` and `builtin:sit`; without `--out-dir`
+/// (which would put them among the SkillMimic clips of `motions/`) or with an unknown character
+/// it exits 1 naming the flag.
 #[test]
 fn synth_motions_writes_the_tokenhsi_walks_only_where_asked() {
     use skillmimic_motion::character_clip::CharacterClip;

@@ -22,7 +22,10 @@ use skillmimic_core::characters::tokenhsi;
 use skillmimic_core::math::{Quat, Vec3};
 
 use crate::character_clip::CharacterClip;
-use crate::synth_walk::{FPS, LEFT, RIGHT, bisect, foot_in_root, set_leg};
+use crate::synth_walk::{
+    ABDOMEN, FPS, L_ELBOW, L_SHOULDER, LEFT, R_ELBOW, R_SHOULDER, RIGHT, bisect, foot_in_root,
+    set_leg,
+};
 
 /// Radius of the pelvis sphere (m, the asset's).
 pub const PELVIS_RADIUS: f64 = 0.0942;
@@ -67,8 +70,8 @@ pub fn sit(name: &str, seat_height: f64) -> Result<SitClip, String> {
         let left = [rest[LEFT.foot][0] - root[0], rest[LEFT.foot][2] - root[2]];
         let (hl, kl) = plant_left(&spec, left, hip);
         set_leg(&mut dof, &LEFT, hl, kl);
-        dof[1] = 0.5 * bump + 0.15 * s; // abdomen pitch, forward
-        for (shoulder, elbow) in [(6, 9), (10, 13)] {
+        dof[ABDOMEN + 1] = 0.5 * bump + 0.15 * s; // pitch, forward
+        for (shoulder, elbow) in [(R_SHOULDER, R_ELBOW), (L_SHOULDER, L_ELBOW)] {
             dof[shoulder + 1] = -0.4 * bump;
             dof[elbow] = -(0.35 + 0.3 * s);
         }

@@ -105,10 +105,12 @@ pub(crate) struct Leg {
 
 pub(crate) const RIGHT: Leg = Leg { hip: 14, knee: 17, ankle: 20, foot: 11 };
 pub(crate) const LEFT: Leg = Leg { hip: 23, knee: 26, ankle: 29, foot: 14 };
-const R_SHOULDER: usize = 6;
-const R_ELBOW: usize = 9;
-const L_SHOULDER: usize = 10;
-const L_ELBOW: usize = 13;
+/// First dof of the abdomen (x, y, z hinges; y = pitch, positive = forward).
+pub(crate) const ABDOMEN: usize = 0;
+pub(crate) const R_SHOULDER: usize = 6;
+pub(crate) const R_ELBOW: usize = 9;
+pub(crate) const L_SHOULDER: usize = 10;
+pub(crate) const L_ELBOW: usize = 13;
 
 /// The gait's angles for one leg: strike hip pitch `b` = −α, toe-off pitch `a`.
 #[derive(Clone, Copy)]

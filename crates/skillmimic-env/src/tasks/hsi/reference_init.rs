@@ -28,12 +28,10 @@ use crate::error::{EnvError, bad};
 /// against (sit: the seat; [`super::Rule::anchor`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Anchor {
-    /// World centre of the seat's top (m).
+    /// World centre of the seat's top (m; its z is the seat's height).
     pub top: [f64; 3],
     /// Yaw of the seat's front (+x of its frame), rad.
     pub yaw: f64,
-    /// The seat's height (m).
-    pub height: f64,
 }
 
 /// Reference clips and how often an episode starts from one.
@@ -81,7 +79,7 @@ impl ReferenceInit {
         let mut k = rng.random_range(0..self.clips.len());
         if let (Some(_), Some(a)) = (self.seats[k], anchor) {
             let gap =
-                |s: &Option<ClipSeat>| s.map_or(f64::INFINITY, |s| (s.height - a.height).abs());
+                |s: &Option<ClipSeat>| s.map_or(f64::INFINITY, |s| (s.top[2] - a.top[2]).abs());
             k = (0..self.seats.len())
                 .min_by(|&i, &j| gap(&self.seats[i]).total_cmp(&gap(&self.seats[j])))
                 .unwrap_or(k);

@@ -276,12 +276,12 @@ impl Rule for Sit {
     fn fall_rule(&self) -> FallRule {
         FallRule::Low { from_step: 1 }
     }
-    /// The seat: the centre of its top (the target less `target_above_seat`), its yaw (its front,
-    /// +x, is the way a seated character faces) and its height.
+    /// The seat: the centre of its top (the target less `target_above_seat`) and its yaw (its
+    /// front, +x, is the way a seated character faces).
     fn anchor(&self, goal: &Goal) -> Option<super::reference_init::Anchor> {
         let t = goal.target;
         let top = [t[0], t[1], t[2] - self.cfg.target_above_seat];
-        Some(super::reference_init::Anchor { top, yaw: heading(goal.obj_quat), height: top[2] })
+        Some(super::reference_init::Anchor { top, yaw: heading(goal.obj_quat) })
     }
 }
 

@@ -90,34 +90,24 @@ static SIT_CLIPS: std::sync::LazyLock<Vec<skillmimic_motion::synth_sit::SitClip>
     std::sync::LazyLock::new(skillmimic_motion::synth_sit::tokenhsi_sits);
 
 /// Where a reference clip was made against an object: the world centre of its seat's top in the
-/// clip's frame (m) and the seat's height (m); the seat faces +x.
+/// clip's frame (m; its z is the seat's height); the seat faces +x.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ClipSeat {
     pub top: [f64; 3],
-    pub height: f64,
 }
 
-/// [`load_style_clips`] with, per clip, the seat it was made against (the built-in sits).
+/// Load every TokenHSI `character-clip` below `paths` (see [`load_reference_clips`]).
+pub fn load_style_clips(paths: &[PathBuf]) -> Result<Vec<CharacterClip>, EnvError> {
+    Ok(load_reference_clips(paths)?.into_iter().map(|(c, _)| c).collect())
+}
+
+/// Load every TokenHSI `character-clip` below `paths`, the built-in walks for an entry
+/// [`BUILTIN_WALKS`] and the built-in sits for [`BUILTIN_SITS`], each with the seat it was made
+/// against (the built-in sits) or `None`. Errors name the file and a clip of another character,
+/// or an unknown `builtin:` name.
 pub fn load_reference_clips(
     paths: &[PathBuf],
 ) -> Result<Vec<(CharacterClip, Option<ClipSeat>)>, EnvError> {
-    let mut out = Vec::new();
-    for p in paths {
-        if p.as_os_str() == BUILTIN_SITS {
-            out.extend(SIT_CLIPS.iter().map(|s| {
-                (s.clip.clone(), Some(ClipSeat { top: s.seat_top, height: s.seat_top[2] }))
-            }));
-        } else {
-            out.extend(load_style_clips(std::slice::from_ref(p))?.into_iter().map(|c| (c, None)));
-        }
-    }
-    Ok(out)
-}
-
-/// Load every TokenHSI `character-clip` below `paths`, and the built-in walks for an entry
-/// [`BUILTIN_WALKS`] (errors name the file and a clip of another character, or an unknown
-/// `builtin:` name).
-pub fn load_style_clips(paths: &[PathBuf]) -> Result<Vec<CharacterClip>, EnvError> {
     if paths.is_empty() {
         return Err(bad(
             "env.hsi.style_motion",
@@ -129,11 +119,13 @@ pub fn load_style_clips(paths: &[PathBuf]) -> Result<Vec<CharacterClip>, EnvErro
     let mut clips = Vec::new();
     for p in paths {
         if p.as_os_str() == BUILTIN_WALKS {
-            clips.extend(WALK_CLIPS.iter().cloned());
+            clips.extend(WALK_CLIPS.iter().map(|c| (c.clone(), None)));
             continue;
         }
         if p.as_os_str() == BUILTIN_SITS {
-            clips.extend(SIT_CLIPS.iter().map(|s| s.clip.clone()));
+            clips.extend(
+                SIT_CLIPS.iter().map(|s| (s.clip.clone(), Some(ClipSeat { top: s.seat_top }))),
+            );
             continue;
         }
         if p.to_str().is_some_and(|s| s.starts_with("builtin:")) {
@@ -153,7 +145,7 @@ pub fn load_style_clips(paths: &[PathBuf]) -> Result<Vec<CharacterClip>, EnvErro
                 );
                 return Err(bad("env.hsi.style_motion", msg).into());
             }
-            clips.push(c);
+            clips.push((c, None));
         }
     }
     if clips.is_empty() {
