@@ -8,6 +8,8 @@
 # Usage: scripts/experiments/hsi_follow_released.sh OUT_DIR [TRAIN_S] [ENVS] [THREADS] [SHARED]
 # STYLE=walks: the built-in procedural walks (env.hsi.style_motion = ["builtin:walks"]) instead of
 # the retargeted BallPlay-M clips (then SHARED is not needed).
+# ITERS=N: train exactly N iterations (no wall-clock limit; TRAIN_S is then ignored), for a budget
+# matched in samples across machines of different speeds.
 set -uo pipefail
 out=${1:?output folder}
 train_s=${2:-400}
@@ -24,12 +26,13 @@ else
   "$bin" retarget --to tokenhsi "${m[@]}" --out "$out/clips" > "$out/retarget.log" || exit 1
   style=$out/clips
 fi
-timeout "$train_s" "$bin" train --preset small --task hsi_follow --num-envs "$envs" --threads "$threads" \
-  --learner-threads "$threads" --seed 0 --iterations 100000 \
+if [ -n "${ITERS:-}" ]; then limit=(); iters=$ITERS; else limit=(timeout "$train_s"); iters=100000; fi
+"${limit[@]}" "$bin" train --preset small --task hsi_follow --num-envs "$envs" --threads "$threads" \
+  --learner-threads "$threads" --seed 0 --iterations "$iters" \
   --set "env.hsi.style_motion=[\"$style\"]" --set ppo.amp.enabled=true --set ppo.amp.logit_reg=0.01 \
   --set 'ppo.hidden=[1024, 512]' --set ppo.mini_epochs=3 --set ppo.minibatch=8192 --set run.save_every=10 \
   --out "$out/follow" --no-video > "$out/train.log" 2>&1
-echo "train exit $? (124: stopped at ${train_s} s, as intended)"
+echo "train exit $? (124: stopped at ${train_s} s, as intended without ITERS)"
 for start in reference rest; do
   extra=(); [ "$start" = rest ] && extra=(--set 'env.hsi.state_init="default"')
   "$bin" eval --checkpoint "$out/follow/latest.safetensors" --episodes 256 --num-envs 256 \
