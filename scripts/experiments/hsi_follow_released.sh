@@ -9,7 +9,8 @@
 # STYLE=walks: the built-in procedural walks (env.hsi.style_motion = ["builtin:walks"]) instead of
 # the retargeted BallPlay-M clips (then SHARED is not needed).
 # ITERS=N: train exactly N iterations (no wall-clock limit; TRAIN_S is then ignored), for a budget
-# matched in samples across machines of different speeds.
+# matched in samples across machines of different speeds. A rerun with the same OUT_DIR continues
+# from the last checkpoint (--resume latest), exactly, so ITERS can be raised later.
 set -uo pipefail
 out=${1:?output folder}
 train_s=${2:-400}
@@ -31,7 +32,7 @@ if [ -n "${ITERS:-}" ]; then limit=(); iters=$ITERS; else limit=(timeout "$train
   --learner-threads "$threads" --seed 0 --iterations "$iters" \
   --set "env.hsi.style_motion=[\"$style\"]" --set ppo.amp.enabled=true --set ppo.amp.logit_reg=0.01 \
   --set 'ppo.hidden=[1024, 512]' --set ppo.mini_epochs=3 --set ppo.minibatch=8192 --set run.save_every=10 \
-  --out "$out/follow" --no-video > "$out/train.log" 2>&1
+  --out "$out/follow" --no-video --resume latest >> "$out/train.log" 2>&1
 echo "train exit $? (124: stopped at ${train_s} s, as intended without ITERS)"
 for start in reference rest; do
   extra=(); [ "$start" = rest ] && extra=(--set 'env.hsi.state_init="default"')

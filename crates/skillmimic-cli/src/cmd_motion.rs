@@ -144,8 +144,9 @@ pub struct SynthArgs {
     #[arg(long)]
     pub out_dir: Option<PathBuf>,
     /// Whose clips: `skillmimic` (the demo dribbles with the ball, the files of `motions/`) or
-    /// `tokenhsi` (the procedural walks and sits that `builtin:walks` and `builtin:sit` stand
-    /// for, written as character clips to look at or to edit).
+    /// `tokenhsi` (the procedural walks, sits and carrying walks that `builtin:walks`,
+    /// `builtin:sit` and `builtin:carry` stand for, written as character clips to look at or to
+    /// edit; the seat and box they were made against are in each clip's `source`).
     #[arg(long, default_value = "skillmimic")]
     pub character: String,
 }
@@ -166,7 +167,10 @@ pub fn synth(a: SynthArgs) -> anyhow::Result<()> {
             std::fs::create_dir_all(dir)
                 .with_context(|| format!("cannot create {}", dir.display()))?;
             let sits = skillmimic_motion::synth_sit::tokenhsi_sits().into_iter().map(|s| s.clip);
-            for clip in skillmimic_motion::synth_walk::tokenhsi_walks().into_iter().chain(sits) {
+            let carries =
+                skillmimic_motion::synth_carry::tokenhsi_carries().into_iter().map(|c| c.clip);
+            let walks = skillmimic_motion::synth_walk::tokenhsi_walks().into_iter();
+            for clip in walks.chain(sits).chain(carries) {
                 let path = dir.join(format!("{}.safetensors", clip.name));
                 clip.save(&path).with_context(|| format!("cannot write {}", path.display()))?;
                 tracing::info!(

@@ -97,3 +97,65 @@ fn builtin_sits_start_where_the_clip_has_the_character_relative_to_the_seat() {
     }
     assert!(seated > 0 && seated < 16, "starts both standing and seated: {seated} of 16 low");
 }
+
+/// `hsi_carry` with `env.hsi.carry.style_motion = ["builtin:carry"]`: a reference start is a frame
+/// of the carrying clip whose cube is nearest the episode's box, placed as the rule places the
+/// character, and the box starts in the hands where the clip has it — if its size is a clip's
+/// (within `HELD_SIDE_TOLERANCE`); any other box stays where the rule put it.
+#[test]
+fn builtin_carries_start_with_the_box_in_the_hands_when_its_size_is_a_clips() {
+    use skillmimic_core::characters::tokenhsi::{HANDS, NUM_BODIES};
+    use skillmimic_env::tasks::hsi::reference_init::HELD_SIDE_TOLERANCE;
+    use skillmimic_env::tasks::hsi::style::BUILTIN_CARRIES;
+    use skillmimic_motion::synth_carry::tokenhsi_carries;
+    let mut cfg =
+        EnvConfig { task: "hsi_carry".into(), num_envs: 32, threads: 1, ..Default::default() };
+    let h = cfg.table_mut::<HsiConfig>();
+    h.state_init = StateInit::Reference;
+    h.carry.style_motion = vec![BUILTIN_CARRIES.into()];
+    let mut env = registry::make(&cfg).expect("hsi_carry with builtin:carry");
+    env.reset_all(Some(3));
+    let carries = tokenhsi_carries();
+    let ni = env.spec().info_names.len();
+    let (mut held, mut left) = (0, 0);
+    for i in 0..32 {
+        let st = env.mujoco().env_state(i);
+        let info = &env.buffers().info[i * ni..(i + 1) * ni];
+        let side = 2.0 * info[6] as f64; // the box's half extents follow target and start
+        let (c, _) = carries
+            .iter()
+            .flat_map(|c| (0..c.clip.num_frames).map(move |t| (c, t)))
+            .find(|(c, t)| {
+                c.clip.dof_at(*t).iter().zip(st.dof_pos).all(|(&a, &b)| (a as f64 - b).abs() < 1e-5)
+            })
+            .expect("the start is a frame of a carrying clip");
+        let nearest = carries.iter().map(|c| (c.side - side).abs()).fold(f64::INFINITY, f64::min);
+        assert!(
+            (c.side - side).abs() <= nearest + 1e-6,
+            "env {i}: clip {} for a {side} m box",
+            c.side
+        );
+        let (h0, h1) = (st.pos(HANDS[0]), st.pos(HANDS[1]));
+        let hands = [0.5 * (h0[0] + h1[0]), 0.5 * (h0[1] + h1[1]), 0.5 * (h0[2] + h1[2])];
+        let b = st.pos(NUM_BODIES);
+        let gap =
+            ((hands[0] - b[0]).powi(2) + (hands[1] - b[1]).powi(2) + (hands[2] - b[2]).powi(2))
+                .sqrt();
+        if nearest <= HELD_SIDE_TOLERANCE + 1e-6 {
+            let r = st.quat(0).rotate(c.box_in_root);
+            let root = st.pos(0);
+            for k in 0..3 {
+                assert!((b[k] - root[k] - r[k]).abs() < 1e-4, "env {i}: box {b:?}");
+            }
+            assert!(gap < 1e-3, "env {i}: hands' mean {gap} m from the box");
+            // moving with the root: the box's velocity is the root's at standstill of ω
+            let (vb, vr) = (st.linvel(NUM_BODIES), st.linvel(0));
+            assert!((vb[0] - vr[0]).abs() < 0.5 && (vb[1] - vr[1]).abs() < 0.5, "env {i}");
+            held += 1;
+        } else {
+            assert!(gap > 0.3, "env {i}: a {side} m box is not put into the hands");
+            left += 1;
+        }
+    }
+    assert!(held > 0 && left > 0, "both cases: {held} held, {left} left");
+}

@@ -231,8 +231,22 @@ fn pose(spec: &CharacterSpec, sw: [Swing; 2], ts: f64, t: f64) -> Vec<f64> {
     dof
 }
 
+/// One frame of a synthesised clip: root position (m, world), root orientation, dof vector.
+pub(crate) type Frame = ([f64; 3], Quat, Vec<f64>);
+
 /// One walking clip named `name` (see the module doc). Errors name the parameter.
 pub fn walk(name: &str, p: WalkParams) -> Result<CharacterClip, String> {
+    let (frames, ts, alpha) = walk_frames(p)?;
+    let source = format!(
+        "procedural walk (skillmimic_motion::synth_walk): {} m/s, turn {} rad/s, step {:.4} s, \
+         hip amplitude {:.4} rad",
+        p.speed, p.yaw_rate, ts, alpha
+    );
+    Ok(CharacterClip::from_frames(&tokenhsi::spec(), name, &source, FPS, &frames))
+}
+
+/// The frames of the walk `p`, its step time (s) and hip amplitude α (rad).
+pub(crate) fn walk_frames(p: WalkParams) -> Result<(Vec<Frame>, f64, f64), String> {
     if !(p.speed >= SPEED_RANGE[0] && p.speed <= SPEED_RANGE[1]) {
         return Err(format!("speed is {} m/s; expected {SPEED_RANGE:?}", p.speed));
     }
@@ -276,10 +290,5 @@ pub fn walk(name: &str, p: WalkParams) -> Result<CharacterClip, String> {
         }
         frames.push(root_at(t, step % 2, anchor));
     }
-    let source = format!(
-        "procedural walk (skillmimic_motion::synth_walk): {} m/s, turn {} rad/s, step {:.4} s, \
-         hip amplitude {:.4} rad",
-        p.speed, p.yaw_rate, ts, alpha
-    );
-    Ok(CharacterClip::from_frames(&spec, name, &source, FPS, &frames))
+    Ok((frames, ts, alpha))
 }

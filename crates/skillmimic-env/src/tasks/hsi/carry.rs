@@ -271,6 +271,10 @@ impl Rule for Carry {
     fn fall_rule(&self) -> FallRule {
         FallRule::Low { from_step: 2 }
     }
+    /// The box (object 0): carrying clips (`builtin:carry`) start with it in the hands.
+    fn anchor(&self, goal: &Goal) -> Option<super::reference_init::Anchor> {
+        Some(super::reference_init::Anchor::Held { object: 0, half: goal.half })
+    }
 }
 
 /// The 42-d carry observation (see the module doc; the order of `form`) of the box whose body is

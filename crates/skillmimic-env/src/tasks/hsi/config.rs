@@ -430,7 +430,9 @@ pub struct CarryConfig {
     #[schemars(extend("exclusiveMinimum" = 0))]
     pub success_distance: f64,
     /// Reference clips of this task (its discriminator's, or — multi-task, conditional — its
-    /// one-hot's reference windows); empty = `env.hsi.style_motion`.
+    /// one-hot's reference windows, and its reference starts); "builtin:carry" stands for the
+    /// built-in carrying walks, whose starts put a box of a clip's size into the hands; empty =
+    /// `env.hsi.style_motion`.
     #[schemars(extend("items" = {"type": "string", "format": "path"}))]
     pub style_motion: Vec<std::path::PathBuf>,
 }

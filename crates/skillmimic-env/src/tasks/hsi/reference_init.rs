@@ -17,28 +17,34 @@ use rand_chacha::ChaCha8Rng;
 use skillmimic_core::characters::{CharacterSpec, tokenhsi};
 use skillmimic_core::math::{Quat, heading};
 use skillmimic_motion::character_clip::CharacterClip;
-use skillmimic_sim::ResetState;
+use skillmimic_sim::{ObjectState, ResetState};
 
 use super::config::{HsiConfig, StateInit};
-use super::style::ClipSeat;
+use super::style::ClipObject;
 use crate::clip_state::clip_state;
 use crate::error::{EnvError, bad};
 
 /// The object of the task's episode that a reference start made against an object is placed
-/// against (sit: the seat; [`super::Rule::anchor`]).
+/// against ([`super::Rule::anchor`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Anchor {
-    /// World centre of the seat's top (m; its z is the seat's height).
-    pub top: [f64; 3],
-    /// Yaw of the seat's front (+x of its frame), rad.
-    pub yaw: f64,
+pub enum Anchor {
+    /// Sit: the seat. `top` is the world centre of its top (m; its z is the seat's height), `yaw`
+    /// the yaw of its front (+x of its frame, rad).
+    Seat { top: [f64; 3], yaw: f64 },
+    /// Carry: the box, `object` its index in [`ResetState::objects`], `half` its half extents (m).
+    Held { object: usize, half: [f64; 3] },
 }
+
+/// A held-box clip is used for a box whose side (the mean of its three) is within this (m) of
+/// the clip's: half the released size step (0.05 m). A box farther from every clip's size stays
+/// where the task's rule put it (the hands would sink into it or miss it).
+pub const HELD_SIDE_TOLERANCE: f64 = 0.025;
 
 /// Reference clips and how often an episode starts from one.
 pub struct ReferenceInit {
     clips: Vec<CharacterClip>,
-    /// Per clip: the seat it was made against, if any.
-    seats: Vec<Option<ClipSeat>>,
+    /// Per clip: the object it was made against, if any.
+    objects: Vec<Option<ClipObject>>,
     spec: CharacterSpec,
     probability: f64,
 }
@@ -62,42 +68,52 @@ impl ReferenceInit {
             return Err(bad("env.hsi.state_init", msg).into());
         }
         // the loader refuses clips of another character, non-finite values and < 2 frames
-        let (clips, seats) = super::style::load_reference_clips(&paths)?.into_iter().unzip();
-        Ok(Some(Self { clips, seats, spec: tokenhsi::spec(), probability }))
+        let (clips, objects) = super::style::load_reference_clips(&paths)?.into_iter().unzip();
+        Ok(Some(Self { clips, objects, spec: tokenhsi::spec(), probability }))
     }
 
     /// Replace the character part of `state` (placed by the task's rule) by a reference frame,
     /// with probability `hybrid_init_prob` under `hybrid` (see the module doc). A clip made
-    /// against a seat, when the task has one (`anchor`), is replaced by the clip of those made
-    /// against a seat whose seat height is nearest the task's, and its frame is placed where
-    /// the clip has the character relative to its seat, turned to the seat's yaw (the clip's
-    /// root height kept). No allocation.
+    /// against an object of the kind the task has (`anchor`) is replaced by the clip of those
+    /// whose object is nearest the task's in size (seat height; box side), and then:
+    /// * seat: its frame is placed where the clip has the character relative to its seat, turned
+    ///   to the seat's yaw (the clip's root height kept);
+    /// * held box: the frame is placed as any other (the rule's position and heading) and the box
+    ///   is moved into the hands, where the clip has it relative to the root, moving with the
+    ///   root (linear velocity v + ω × r, the root's angular velocity), if its size is within
+    ///   [`HELD_SIDE_TOLERANCE`] of the clip's; else the box stays where the rule put it.
+    ///
+    /// No allocation.
     pub fn apply(&self, rng: &mut ChaCha8Rng, state: &mut ResetState, anchor: Option<Anchor>) {
         if self.probability < 1.0 && rng.random::<f64>() >= self.probability {
             return;
         }
         let mut k = rng.random_range(0..self.clips.len());
-        if let (Some(_), Some(a)) = (self.seats[k], anchor) {
-            let gap =
-                |s: &Option<ClipSeat>| s.map_or(f64::INFINITY, |s| (s.top[2] - a.top[2]).abs());
-            k = (0..self.seats.len())
-                .min_by(|&i, &j| gap(&self.seats[i]).total_cmp(&gap(&self.seats[j])))
-                .unwrap_or(k);
+        // the size gap between clip i's object and the task's (infinite: another kind, or none)
+        let gap = |i: usize| match (self.objects[i], anchor) {
+            (Some(ClipObject::Seat { top }), Some(Anchor::Seat { top: a, .. })) => {
+                (top[2] - a[2]).abs()
+            }
+            (Some(ClipObject::Held { side, .. }), Some(Anchor::Held { half, .. })) => {
+                (side - 2.0 * (half[0] + half[1] + half[2]) / 3.0).abs()
+            }
+            _ => f64::INFINITY,
+        };
+        if gap(k).is_finite() {
+            k = (0..self.clips.len()).min_by(|&i, &j| gap(i).total_cmp(&gap(j))).unwrap_or(k);
         }
         let clip = &self.clips[k];
         let t = rng.random_range(0..clip.num_frames);
-        if let (Some(seat), Some(a)) = (self.seats[k], anchor) {
+        if let (Some(ClipObject::Seat { top: seat }), Some(Anchor::Seat { top, yaw })) =
+            (self.objects[k], anchor)
+        {
             clip_state(&self.spec, clip, t, state);
             // the clip's seat faces +x: turn its frame by the seat's yaw about the seat's top
-            let turn = Quat::about_z(a.yaw);
-            let rel = turn.rotate([
-                state.root_pos[0] - seat.top[0],
-                state.root_pos[1] - seat.top[1],
-                0.0,
-            ]);
+            let turn = Quat::about_z(yaw);
+            let rel = turn.rotate([state.root_pos[0] - seat[0], state.root_pos[1] - seat[1], 0.0]);
             state.root_quat = turn.mul(state.root_quat).normalized();
             state.root_linvel = turn.rotate(state.root_linvel);
-            state.root_pos = [a.top[0] + rel[0], a.top[1] + rel[1], state.root_pos[2]];
+            state.root_pos = [top[0] + rel[0], top[1] + rel[1], state.root_pos[2]];
             return;
         }
         let (at, yaw) = (state.root_pos, heading(state.root_quat));
@@ -106,5 +122,21 @@ impl ReferenceInit {
         state.root_quat = turn.mul(state.root_quat).normalized();
         state.root_linvel = turn.rotate(state.root_linvel);
         state.root_pos = [at[0], at[1], state.root_pos[2]];
+        if let (Some(ClipObject::Held { in_root, .. }), Some(Anchor::Held { object, .. })) =
+            (self.objects[k], anchor)
+            && gap(k) <= HELD_SIDE_TOLERANCE
+        {
+            let r = state.root_quat.rotate(in_root);
+            let w = state.root_quat.rotate(state.root_angvel_local);
+            let spin =
+                [w[1] * r[2] - w[2] * r[1], w[2] * r[0] - w[0] * r[2], w[0] * r[1] - w[1] * r[0]];
+            let (p, v) = (state.root_pos, state.root_linvel);
+            state.objects[object] = ObjectState {
+                pos: [p[0] + r[0], p[1] + r[1], p[2] + r[2]],
+                quat: state.root_quat,
+                linvel: [v[0] + spin[0], v[1] + spin[1], v[2] + spin[2]],
+                angvel_local: state.root_angvel_local,
+            };
+        }
     }
 }

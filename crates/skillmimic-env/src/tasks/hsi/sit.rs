@@ -281,7 +281,7 @@ impl Rule for Sit {
     fn anchor(&self, goal: &Goal) -> Option<super::reference_init::Anchor> {
         let t = goal.target;
         let top = [t[0], t[1], t[2] - self.cfg.target_above_seat];
-        Some(super::reference_init::Anchor { top, yaw: heading(goal.obj_quat) })
+        Some(super::reference_init::Anchor::Seat { top, yaw: heading(goal.obj_quat) })
     }
 }
 

@@ -89,11 +89,25 @@ pub const BUILTIN_SITS: &str = "builtin:sit";
 static SIT_CLIPS: std::sync::LazyLock<Vec<skillmimic_motion::synth_sit::SitClip>> =
     std::sync::LazyLock::new(skillmimic_motion::synth_sit::tokenhsi_sits);
 
-/// Where a reference clip was made against an object: the world centre of its seat's top in the
-/// clip's frame (m; its z is the seat's height); the seat faces +x.
+/// Entry of a task's `style_motion` that stands for the built-in procedural carrying walks
+/// ([`skillmimic_motion::synth_carry::tokenhsi_carries`]: cubes of 0.3, 0.4 and 0.45 m carried
+/// at 0.7–1.0 m/s, straight and turning). Their reference starts in `hsi_carry` put the box into
+/// the hands when its size is that of a clip (within
+/// [`super::reference_init::HELD_SIDE_TOLERANCE`]).
+pub const BUILTIN_CARRIES: &str = "builtin:carry";
+
+static CARRY_CLIPS: std::sync::LazyLock<Vec<skillmimic_motion::synth_carry::CarryClip>> =
+    std::sync::LazyLock::new(skillmimic_motion::synth_carry::tokenhsi_carries);
+
+/// What a reference clip was made against.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ClipSeat {
-    pub top: [f64; 3],
+pub enum ClipObject {
+    /// A seat: the world centre of its top in the clip's frame (m; its z is the seat's height);
+    /// the seat faces +x.
+    Seat { top: [f64; 3] },
+    /// A carried cube of side `side` (m) whose centre is `in_root` in the root's frame (m; x
+    /// forward, y left, z up) at every frame, turned as the root.
+    Held { side: f64, in_root: [f64; 3] },
 }
 
 /// Load every TokenHSI `character-clip` below `paths` (see [`load_reference_clips`]).
@@ -102,12 +116,13 @@ pub fn load_style_clips(paths: &[PathBuf]) -> Result<Vec<CharacterClip>, EnvErro
 }
 
 /// Load every TokenHSI `character-clip` below `paths`, the built-in walks for an entry
-/// [`BUILTIN_WALKS`] and the built-in sits for [`BUILTIN_SITS`], each with the seat it was made
-/// against (the built-in sits) or `None`. Errors name the file and a clip of another character,
+/// [`BUILTIN_WALKS`], the built-in sits for [`BUILTIN_SITS`] and the built-in carrying walks for
+/// [`BUILTIN_CARRIES`], each with the object it was made against (the built-in sits and carries)
+/// or `None`. Errors name the file and a clip of another character,
 /// or an unknown `builtin:` name.
 pub fn load_reference_clips(
     paths: &[PathBuf],
-) -> Result<Vec<(CharacterClip, Option<ClipSeat>)>, EnvError> {
+) -> Result<Vec<(CharacterClip, Option<ClipObject>)>, EnvError> {
     if paths.is_empty() {
         return Err(bad(
             "env.hsi.style_motion",
@@ -124,13 +139,22 @@ pub fn load_reference_clips(
         }
         if p.as_os_str() == BUILTIN_SITS {
             clips.extend(
-                SIT_CLIPS.iter().map(|s| (s.clip.clone(), Some(ClipSeat { top: s.seat_top }))),
+                SIT_CLIPS
+                    .iter()
+                    .map(|s| (s.clip.clone(), Some(ClipObject::Seat { top: s.seat_top }))),
             );
+            continue;
+        }
+        if p.as_os_str() == BUILTIN_CARRIES {
+            clips.extend(CARRY_CLIPS.iter().map(|c| {
+                (c.clip.clone(), Some(ClipObject::Held { side: c.side, in_root: c.box_in_root }))
+            }));
             continue;
         }
         if p.to_str().is_some_and(|s| s.starts_with("builtin:")) {
             let msg = format!(
-                "'{}' is not a built-in motion set; built in: {BUILTIN_WALKS}, {BUILTIN_SITS}",
+                "'{}' is not a built-in motion set; built in: {BUILTIN_WALKS}, {BUILTIN_SITS}, \
+                {BUILTIN_CARRIES}",
                 p.display()
             );
             return Err(bad("env.hsi.style_motion", msg).into());
