@@ -144,9 +144,10 @@ pub struct SynthArgs {
     #[arg(long)]
     pub out_dir: Option<PathBuf>,
     /// Whose clips: `skillmimic` (the demo dribbles with the ball, the files of `motions/`) or
-    /// `tokenhsi` (the procedural walks, sits and carrying walks that `builtin:walks`,
-    /// `builtin:sit` and `builtin:carry` stand for, written as character clips to look at or to
-    /// edit; the seat and box they were made against are in each clip's `source`).
+    /// `tokenhsi` (the procedural walks, sits, step-ups and carrying walks that `builtin:walks`,
+    /// `builtin:sit`, `builtin:climb` and `builtin:carry` stand for, written as character clips
+    /// to look at or to edit; the seat, platform and box they were made against are in each
+    /// clip's `source`).
     #[arg(long, default_value = "skillmimic")]
     pub character: String,
 }
@@ -169,8 +170,10 @@ pub fn synth(a: SynthArgs) -> anyhow::Result<()> {
             let sits = skillmimic_motion::synth_sit::tokenhsi_sits().into_iter().map(|s| s.clip);
             let carries =
                 skillmimic_motion::synth_carry::tokenhsi_carries().into_iter().map(|c| c.clip);
+            let climbs =
+                skillmimic_motion::synth_climb::tokenhsi_climbs().into_iter().map(|c| c.clip);
             let walks = skillmimic_motion::synth_walk::tokenhsi_walks().into_iter();
-            for clip in walks.chain(sits).chain(carries) {
+            for clip in walks.chain(sits).chain(climbs).chain(carries) {
                 let path = dir.join(format!("{}.safetensors", clip.name));
                 clip.save(&path).with_context(|| format!("cannot write {}", path.display()))?;
                 tracing::info!(

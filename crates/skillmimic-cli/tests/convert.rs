@@ -145,12 +145,14 @@ fn synth_motions_writes_the_tokenhsi_walks_only_where_asked() {
     assert_eq!(code, 0, "{err}");
     let sits = skillmimic_motion::synth_sit::tokenhsi_sits().into_iter().map(|s| s.clip);
     let carries = skillmimic_motion::synth_carry::tokenhsi_carries().into_iter().map(|c| c.clip);
+    let climbs = skillmimic_motion::synth_climb::tokenhsi_climbs().into_iter().map(|c| c.clip);
     let walks: Vec<_> = skillmimic_motion::synth_walk::tokenhsi_walks()
         .into_iter()
         .chain(sits)
+        .chain(climbs)
         .chain(carries)
         .collect();
-    assert_eq!(walks.len(), 20);
+    assert_eq!(walks.len(), 5 + 9 + 17 + 6);
     for w in &walks {
         let c =
             CharacterClip::load(&d.join("walks").join(format!("{}.safetensors", w.name))).unwrap();

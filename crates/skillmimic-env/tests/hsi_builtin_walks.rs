@@ -159,3 +159,85 @@ fn builtin_carries_start_with_the_box_in_the_hands_when_its_size_is_a_clips() {
     }
     assert!(held > 0 && left > 0, "both cases: {held} held, {left} left");
 }
+
+/// `hsi_climb` with `env.hsi.climb.style_motion = ["builtin:climb"]`: a reference start is a frame
+/// of the step-up of the nearest platform height, placed against a face of the episode's
+/// platform: facing across that face, with every foot the clip has on the top standing on the
+/// platform's footprint at the top's height, and every foot it has on the floor off it.
+#[test]
+fn builtin_climbs_start_against_a_face_of_the_platform() {
+    use skillmimic_core::characters::tokenhsi::FEET;
+    use skillmimic_core::math::{Quat, heading, wrap_angle};
+    use skillmimic_env::tasks::hsi::style::BUILTIN_CLIMBS;
+    use skillmimic_motion::synth_climb::tokenhsi_climbs;
+    let mut cfg =
+        EnvConfig { task: "hsi_climb".into(), num_envs: 32, threads: 1, ..Default::default() };
+    let h = cfg.table_mut::<HsiConfig>();
+    h.state_init = StateInit::Reference;
+    h.climb.style_motion = vec![BUILTIN_CLIMBS.into()];
+    let mut env = registry::make(&cfg).expect("hsi_climb with builtin:climb");
+    env.reset_all(Some(4));
+    let climbs = tokenhsi_climbs();
+    let ni = env.spec().info_names.len();
+    let (mut on_top, mut on_floor) = (0, 0);
+    for i in 0..32 {
+        let st = env.mujoco().env_state(i);
+        let info: Vec<f64> =
+            env.buffers().info[i * ni..(i + 1) * ni].iter().map(|&x| x as f64).collect();
+        let (pos, yaw, lo, hi) =
+            ([info[3], info[4], info[5]], info[6], &info[7..10], &info[10..13]);
+        let top = pos[2] + hi[2];
+        let (c, t) = climbs
+            .iter()
+            .flat_map(|c| (0..c.clip.num_frames).map(move |t| (c, t)))
+            .filter(|(c, t)| {
+                // the same pose at the same height (the first and last frames share their pose)
+                let z = c.clip.root_pos_at(*t)[2] + (top - c.edge[2]).max(0.0);
+                (z - st.pos(0)[2]).abs() < 1e-4
+                    && c.clip
+                        .dof_at(*t)
+                        .iter()
+                        .zip(st.dof_pos)
+                        .all(|(&a, &b)| (a as f64 - b).abs() < 1e-5)
+            })
+            // the standing frames at the start are the same in every clip: the nearest height's
+            .min_by(|a, b| (a.0.edge[2] - top).abs().total_cmp(&(b.0.edge[2] - top).abs()))
+            .expect("the start is a frame of a step-up");
+        assert!(
+            (c.edge[2] - top).abs() <= 0.025 + 1e-6,
+            "env {i}: clip {} for a {top} m platform",
+            c.edge[2]
+        );
+        // facing across a face: the heading is the platform's yaw plus a multiple of 90°
+        let rel = wrap_angle(heading(st.quat(0)) - yaw);
+        let quarter = (rel / std::f64::consts::FRAC_PI_2).round() * std::f64::consts::FRAC_PI_2;
+        assert!((rel - quarter).abs() < 1e-4, "env {i}: heading {rel} rad from the platform's yaw");
+        let inv = Quat::about_z(yaw).conj();
+        for f in FEET {
+            let [clip_x, _, clip_z] = c.clip.body_pos_at(t, f);
+            let w = st.pos(f);
+            let l = inv.rotate([w[0] - pos[0], w[1] - pos[1], 0.0]);
+            let inside = (lo[0]..=hi[0]).contains(&l[0]) && (lo[1]..=hi[1]).contains(&l[1]);
+            if clip_z > c.edge[2] + 0.03 && clip_z < c.edge[2] + 0.12 && clip_x > c.edge[0] {
+                // over the clip's top, standing or nearly
+                assert!(inside, "env {i} frame {t}: a foot on the top lands off the platform");
+                let lift = (top - c.edge[2]).max(0.0);
+                assert!((w[2] - clip_z - lift).abs() < 1e-4, "env {i}: foot height");
+                on_top += 1;
+            } else if clip_z < 0.12 && clip_x < c.edge[0] - 0.1 {
+                assert!(
+                    !inside,
+                    "env {i} frame {t}: a foot on the floor stands inside the platform: {l:?} in \
+                    {lo:?}..{hi:?}, platform at {pos:?} yaw {yaw}, root {:?} heading {}",
+                    st.pos(0),
+                    heading(st.quat(0))
+                );
+                on_floor += 1;
+            }
+        }
+    }
+    assert!(
+        on_top > 0 && on_floor > 0,
+        "both kinds of start: {on_top} feet on top, {on_floor} on the floor"
+    );
+}

@@ -20,8 +20,9 @@
 //!   its diagnostics (foot penetration and sliding, joint-speed spikes);
 //! * [`validate`]: the one validation of clips (bounds, minimum length, fps) every loader runs;
 //! * [`library`]: many clips, class-balanced clip sampling and random start frames;
-//! * [`synth_walk`], [`synth_sit`], [`synth_carry`]: procedural walks, stand-to-sit and
-//!   box-carrying clips of the TokenHSI character (kinematics only; clips the project can ship);
+//! * [`synth_walk`], [`synth_sit`], [`synth_carry`], [`synth_climb`]: procedural walks, stand-to-sit,
+//!   box-carrying and step-up clips of the TokenHSI character (kinematics only; clips the project
+//!   can ship);
 //! * [`testing`]: synthetic clip rows for tests and the fuzzer's seeds.
 
 pub mod amass;
@@ -45,6 +46,7 @@ pub mod retarget_onto;
 pub mod retarget_positions;
 pub mod retarget_smpl;
 pub mod synth_carry;
+pub mod synth_climb;
 pub mod synth_sit;
 pub mod synth_walk;
 pub mod testing;

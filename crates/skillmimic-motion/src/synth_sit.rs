@@ -6,7 +6,7 @@
 //! (progress `s` a smoothstep of time), 1.0 s seated; 30 frames/s, heading +x throughout.
 //! * Both feet stay planted: the root follows from the right foot's frame kept at its rest-pose
 //!   place (as in [`crate::synth_walk`]); the left leg's hip and knee pitch are solved (Newton,
-//!   2 × 2) so that its foot frame keeps its rest-pose place too (the legs' offsets differ
+//!   2 × 2, [`crate::synth_walk`]'s `plant_leg`) so that its foot frame keeps its rest-pose place too (the legs' offsets differ
 //!   slightly, so the same angles would not).
 //! * Legs: hip pitch `s · H`, knee `−s · H`, so the shins stay vertical and the pelvis moves back
 //!   and down; `H` (< 0, thigh forward) is solved (bisection) so that the seated pelvis sphere
@@ -24,7 +24,7 @@ use skillmimic_core::math::{Quat, Vec3};
 use crate::character_clip::CharacterClip;
 use crate::synth_walk::{
     ABDOMEN, FPS, L_ELBOW, L_SHOULDER, LEFT, R_ELBOW, R_SHOULDER, RIGHT, bisect, foot_in_root,
-    set_leg,
+    plant_leg, set_leg,
 };
 
 /// Radius of the pelvis sphere (m, the asset's).
@@ -68,7 +68,7 @@ pub fn sit(name: &str, seat_height: f64) -> Result<SitClip, String> {
         let rel = foot_in_root(&spec, &RIGHT, hip, -hip);
         let root = [anchor[0] - rel[0], anchor[1] - rel[1], anchor[2] - rel[2]];
         let left = [rest[LEFT.foot][0] - root[0], rest[LEFT.foot][2] - root[2]];
-        let (hl, kl) = plant_left(&spec, left, hip);
+        let (hl, kl) = plant_leg(&spec, &LEFT, left, (hip, -hip));
         set_leg(&mut dof, &LEFT, hl, kl);
         dof[ABDOMEN + 1] = 0.5 * bump + 0.15 * s; // pitch, forward
         for (shoulder, elbow) in [(R_SHOULDER, R_ELBOW), (L_SHOULDER, L_ELBOW)] {
@@ -86,37 +86,6 @@ pub fn sit(name: &str, seat_height: f64) -> Result<SitClip, String> {
         seat_top: [seated[0], seated[1], seat_height],
         hip_seated,
     })
-}
-
-/// Left hip and knee pitch that put the left foot frame at `target` = (x, z) relative to the
-/// upright root: Newton's method from (`hip`, −`hip`) with a finite-difference Jacobian.
-fn plant_left(
-    spec: &skillmimic_core::characters::CharacterSpec,
-    target: [f64; 2],
-    hip: f64,
-) -> (f64, f64) {
-    let at = |h: f64, k: f64| {
-        let p = foot_in_root(spec, &LEFT, h, k);
-        [p[0] - target[0], p[2] - target[1]]
-    };
-    let (mut h, mut k) = (hip, -hip);
-    let e = 1e-6;
-    for _ in 0..30 {
-        let r = at(h, k);
-        if r[0].abs().max(r[1].abs()) < 1e-10 {
-            break;
-        }
-        let (rh, rk) = (at(h + e, k), at(h, k + e));
-        let j =
-            [[(rh[0] - r[0]) / e, (rk[0] - r[0]) / e], [(rh[1] - r[1]) / e, (rk[1] - r[1]) / e]];
-        let det = j[0][0] * j[1][1] - j[0][1] * j[1][0];
-        if det.abs() < 1e-12 {
-            break;
-        }
-        h -= (j[1][1] * r[0] - j[0][1] * r[1]) / det;
-        k -= (-j[1][0] * r[0] + j[0][0] * r[1]) / det;
-    }
-    (h, k)
 }
 
 /// Seat heights (m) of the built-in sit set: 0.35 to 0.55 m in steps of 0.025 m (TokenHSI's

@@ -152,6 +152,41 @@ pub(crate) fn foot_in_root(spec: &CharacterSpec, leg: &Leg, hip: f64, knee: f64)
     spec.forward_kinematics([0.0; 3], Quat::IDENTITY, &dof).0[leg.foot]
 }
 
+/// Hip and knee pitch of `leg` that put its foot frame at `target` = (x, z) relative to an
+/// upright root at the origin (heading +x; the foot kept flat, the hip's x and z hinges 0, so the
+/// foot moves in the leg's sagittal plane): Newton's method from `seed` = (hip, knee) with a
+/// finite-difference Jacobian, the knee kept within [0, 2.7] rad. Where the target is out of
+/// reach this ends near the closest pose; callers check the foot's position.
+pub(crate) fn plant_leg(
+    spec: &CharacterSpec,
+    leg: &Leg,
+    target: [f64; 2],
+    seed: (f64, f64),
+) -> (f64, f64) {
+    let at = |h: f64, k: f64| {
+        let p = foot_in_root(spec, leg, h, k);
+        [p[0] - target[0], p[2] - target[1]]
+    };
+    let (mut h, mut k) = seed;
+    let e = 1e-6;
+    for _ in 0..40 {
+        let r = at(h, k);
+        if r[0].abs().max(r[1].abs()) < 1e-10 {
+            break;
+        }
+        let (rh, rk) = (at(h + e, k), at(h, k + e));
+        let j =
+            [[(rh[0] - r[0]) / e, (rk[0] - r[0]) / e], [(rh[1] - r[1]) / e, (rk[1] - r[1]) / e]];
+        let det = j[0][0] * j[1][1] - j[0][1] * j[1][0];
+        if det.abs() < 1e-12 {
+            break;
+        }
+        h -= ((j[1][1] * r[0] - j[0][1] * r[1]) / det).clamp(-0.3, 0.3);
+        k = (k - ((-j[1][0] * r[0] + j[0][0] * r[1]) / det).clamp(-0.3, 0.3)).clamp(0.0, 2.7);
+    }
+    (h, k)
+}
+
 /// Bisection of a continuous, monotonic `f` for `f(x) = 0` on [lo, hi] (signs differ there).
 pub(crate) fn bisect(mut lo: f64, mut hi: f64, f: impl Fn(f64) -> f64) -> f64 {
     let f_lo = f(lo);

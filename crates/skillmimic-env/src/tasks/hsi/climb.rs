@@ -22,6 +22,7 @@
 
 use rand_chacha::ChaCha8Rng;
 use skillmimic_core::characters::tokenhsi::FEET;
+use skillmimic_core::math::{heading, wrap_angle};
 use skillmimic_sim::{BoxObject, EnvState, ObjectBox, ResetState, Scene};
 
 use super::config::ClimbConfig;
@@ -143,6 +144,41 @@ impl Rule for Climb {
     }
     fn fall_rule(&self) -> FallRule {
         FallRule::Low { from_step: 1 }
+    }
+    /// The face of the platform that looks towards the character's start (the origin, where the
+    /// rule stands it): built-in step-ups (`builtin:climb`) start where they have the character
+    /// relative to that face.
+    fn anchor(&self, goal: &Goal) -> Option<super::reference_init::Anchor> {
+        Some(step_face(goal))
+    }
+}
+
+/// The anchor of the platform face through which the ray from the platform's centre towards the
+/// origin leaves its footprint: the centre of that face's top edge and the yaw pointing across
+/// it into the platform.
+pub fn step_face(goal: &Goal) -> super::reference_init::Anchor {
+    let (lo, hi) = (goal.lo, goal.hi);
+    let c = goal.centre();
+    let d = goal.obj_quat.conj().rotate([-c[0], -c[1], 0.0]);
+    let (hx, hy) = (0.5 * (hi[0] - lo[0]), 0.5 * (hi[1] - lo[1]));
+    let (mx, my) = (0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1]));
+    // (local edge point, yaw of the inward direction in the platform's frame)
+    let (local, turn) = if d[0].abs() * hy >= d[1].abs() * hx {
+        if d[0] < 0.0 {
+            ([lo[0], my, hi[2]], 0.0)
+        } else {
+            ([hi[0], my, hi[2]], std::f64::consts::PI)
+        }
+    } else if d[1] < 0.0 {
+        ([mx, lo[1], hi[2]], std::f64::consts::FRAC_PI_2)
+    } else {
+        ([mx, hi[1], hi[2]], -std::f64::consts::FRAC_PI_2)
+    };
+    let r = goal.obj_quat.rotate(local);
+    let p = goal.obj_pos;
+    super::reference_init::Anchor::Step {
+        edge: [p[0] + r[0], p[1] + r[1], p[2] + r[2]],
+        yaw: wrap_angle(heading(goal.obj_quat) + turn),
     }
 }
 

@@ -337,7 +337,9 @@ pub struct ClimbConfig {
     #[schemars(range(min = 0))]
     pub penalty_radius: f64,
     /// Reference clips of this task (its discriminator's, or — multi-task, conditional — its
-    /// one-hot's reference windows); empty = `env.hsi.style_motion`.
+    /// one-hot's reference windows, and its reference starts); "builtin:climb" stands for the
+    /// built-in step-ups, whose starts are placed against the platform's face that looks towards
+    /// the character; empty = `env.hsi.style_motion`.
     #[schemars(extend("items" = {"type": "string", "format": "path"}))]
     pub style_motion: Vec<std::path::PathBuf>,
 }

@@ -31,6 +31,10 @@ pub enum Anchor {
     /// Sit: the seat. `top` is the world centre of its top (m; its z is the seat's height), `yaw`
     /// the yaw of its front (+x of its frame, rad).
     Seat { top: [f64; 3], yaw: f64 },
+    /// Climb: the platform's face the character climbs over. `edge` is the world centre of that
+    /// face's top edge (m; its z is the platform's height), `yaw` the direction into the
+    /// platform across it (rad).
+    Step { edge: [f64; 3], yaw: f64 },
     /// Carry: the box, `object` its index in [`ResetState::objects`], `half` its half extents (m).
     Held { object: usize, half: [f64; 3] },
 }
@@ -75,9 +79,10 @@ impl ReferenceInit {
     /// Replace the character part of `state` (placed by the task's rule) by a reference frame,
     /// with probability `hybrid_init_prob` under `hybrid` (see the module doc). A clip made
     /// against an object of the kind the task has (`anchor`) is replaced by the clip of those
-    /// whose object is nearest the task's in size (seat height; box side), and then:
-    /// * seat: its frame is placed where the clip has the character relative to its seat, turned
-    ///   to the seat's yaw (the clip's root height kept);
+    /// whose object is nearest the task's in size (seat or platform height; box side), and then:
+    /// * seat (sit) or step (climb): its frame is placed where the clip has the character
+    ///   relative to its seat or platform edge, turned to the task's yaw (the clip's root height
+    ///   kept, a step-up's lifted by how much the task's platform is higher than the clip's);
     /// * held box: the frame is placed as any other (the rule's position and heading) and the box
     ///   is moved into the hands, where the clip has it relative to the root, moving with the
     ///   root (linear velocity v + ω × r, the root's angular velocity), if its size is within
@@ -91,7 +96,8 @@ impl ReferenceInit {
         let mut k = rng.random_range(0..self.clips.len());
         // the size gap between clip i's object and the task's (infinite: another kind, or none)
         let gap = |i: usize| match (self.objects[i], anchor) {
-            (Some(ClipObject::Seat { top }), Some(Anchor::Seat { top: a, .. })) => {
+            (Some(ClipObject::Seat { top }), Some(Anchor::Seat { top: a, .. }))
+            | (Some(ClipObject::Step { edge: top }), Some(Anchor::Step { edge: a, .. })) => {
                 (top[2] - a[2]).abs()
             }
             (Some(ClipObject::Held { side, .. }), Some(Anchor::Held { half, .. })) => {
@@ -104,16 +110,28 @@ impl ReferenceInit {
         }
         let clip = &self.clips[k];
         let t = rng.random_range(0..clip.num_frames);
-        if let (Some(ClipObject::Seat { top: seat }), Some(Anchor::Seat { top, yaw })) =
-            (self.objects[k], anchor)
-        {
+        // a seat or a step: the clip's object point and the task's, with the task's yaw
+        let placed = match (self.objects[k], anchor) {
+            (Some(ClipObject::Seat { top: c }), Some(Anchor::Seat { top, yaw }))
+            | (Some(ClipObject::Step { edge: c }), Some(Anchor::Step { edge: top, yaw })) => {
+                Some((c, top, yaw))
+            }
+            _ => None,
+        };
+        if let Some((seat, top, yaw)) = placed {
             clip_state(&self.spec, clip, t, state);
-            // the clip's seat faces +x: turn its frame by the seat's yaw about the seat's top
+            // the clip's object faces +x: turn its frame by the task's yaw about the object point
             let turn = Quat::about_z(yaw);
             let rel = turn.rotate([state.root_pos[0] - seat[0], state.root_pos[1] - seat[1], 0.0]);
             state.root_quat = turn.mul(state.root_quat).normalized();
             state.root_linvel = turn.rotate(state.root_linvel);
-            state.root_pos = [top[0] + rel[0], top[1] + rel[1], state.root_pos[2]];
+            // a step-up of a lower platform than the task's is lifted by the difference (its feet
+            // on the top would be inside it otherwise; those on the floor drop that little)
+            let lift = match self.objects[k] {
+                Some(ClipObject::Step { .. }) => (top[2] - seat[2]).max(0.0),
+                _ => 0.0,
+            };
+            state.root_pos = [top[0] + rel[0], top[1] + rel[1], state.root_pos[2] + lift];
             return;
         }
         let (at, yaw) = (state.root_pos, heading(state.root_quat));

@@ -96,6 +96,15 @@ static SIT_CLIPS: std::sync::LazyLock<Vec<skillmimic_motion::synth_sit::SitClip>
 /// [`super::reference_init::HELD_SIDE_TOLERANCE`]).
 pub const BUILTIN_CARRIES: &str = "builtin:carry";
 
+/// Entry of a task's `style_motion` that stands for the built-in procedural step-ups
+/// ([`skillmimic_motion::synth_climb::tokenhsi_climbs`], one per platform height 0.2–0.6 m in
+/// steps of 0.025 m). Their reference starts in `hsi_climb` are placed against the face of the
+/// platform that looks towards the character's start, from the clip of the nearest height.
+pub const BUILTIN_CLIMBS: &str = "builtin:climb";
+
+static CLIMB_CLIPS: std::sync::LazyLock<Vec<skillmimic_motion::synth_climb::ClimbClip>> =
+    std::sync::LazyLock::new(skillmimic_motion::synth_climb::tokenhsi_climbs);
+
 static CARRY_CLIPS: std::sync::LazyLock<Vec<skillmimic_motion::synth_carry::CarryClip>> =
     std::sync::LazyLock::new(skillmimic_motion::synth_carry::tokenhsi_carries);
 
@@ -105,6 +114,9 @@ pub enum ClipObject {
     /// A seat: the world centre of its top in the clip's frame (m; its z is the seat's height);
     /// the seat faces +x.
     Seat { top: [f64; 3] },
+    /// A platform climbed over its face towards +x: the centre of that face's top edge in the
+    /// clip's frame (m; its z is the platform's height).
+    Step { edge: [f64; 3] },
     /// A carried cube of side `side` (m) whose centre is `in_root` in the root's frame (m; x
     /// forward, y left, z up) at every frame, turned as the root.
     Held { side: f64, in_root: [f64; 3] },
@@ -116,9 +128,9 @@ pub fn load_style_clips(paths: &[PathBuf]) -> Result<Vec<CharacterClip>, EnvErro
 }
 
 /// Load every TokenHSI `character-clip` below `paths`, the built-in walks for an entry
-/// [`BUILTIN_WALKS`], the built-in sits for [`BUILTIN_SITS`] and the built-in carrying walks for
-/// [`BUILTIN_CARRIES`], each with the object it was made against (the built-in sits and carries)
-/// or `None`. Errors name the file and a clip of another character,
+/// [`BUILTIN_WALKS`], the built-in sits for [`BUILTIN_SITS`], the built-in step-ups for
+/// [`BUILTIN_CLIMBS`] and the built-in carrying walks for [`BUILTIN_CARRIES`], each with the
+/// object it was made against (the built-in sits, step-ups and carries) or `None`. Errors name the file and a clip of another character,
 /// or an unknown `builtin:` name.
 pub fn load_reference_clips(
     paths: &[PathBuf],
@@ -145,6 +157,14 @@ pub fn load_reference_clips(
             );
             continue;
         }
+        if p.as_os_str() == BUILTIN_CLIMBS {
+            clips.extend(
+                CLIMB_CLIPS
+                    .iter()
+                    .map(|c| (c.clip.clone(), Some(ClipObject::Step { edge: c.edge }))),
+            );
+            continue;
+        }
         if p.as_os_str() == BUILTIN_CARRIES {
             clips.extend(CARRY_CLIPS.iter().map(|c| {
                 (c.clip.clone(), Some(ClipObject::Held { side: c.side, in_root: c.box_in_root }))
@@ -154,7 +174,7 @@ pub fn load_reference_clips(
         if p.to_str().is_some_and(|s| s.starts_with("builtin:")) {
             let msg = format!(
                 "'{}' is not a built-in motion set; built in: {BUILTIN_WALKS}, {BUILTIN_SITS}, \
-                {BUILTIN_CARRIES}",
+                {BUILTIN_CLIMBS}, {BUILTIN_CARRIES}",
                 p.display()
             );
             return Err(bad("env.hsi.style_motion", msg).into());
