@@ -6,8 +6,8 @@
 //! (progress `s` a smoothstep of time), 1.0 s seated; 30 frames/s, heading +x throughout.
 //! * Both feet stay planted: the root follows from the right foot's frame kept at its rest-pose
 //!   place (as in [`crate::synth_walk`]); the left leg's hip and knee pitch are solved (Newton,
-//!   2 × 2, [`crate::synth_walk`]'s `plant_leg`) so that its foot frame keeps its rest-pose place too (the legs' offsets differ
-//!   slightly, so the same angles would not).
+//!   2 × 2, [`crate::synth_walk`]'s `plant_leg`) so that its foot frame keeps its rest-pose place
+//!   too (the legs' offsets differ slightly, so the same angles would not).
 //! * Legs: hip pitch `s · H`, knee `−s · H`, so the shins stay vertical and the pelvis moves back
 //!   and down; `H` (< 0, thigh forward) is solved (bisection) so that the seated pelvis sphere
 //!   (radius 0.0942 m) rests on the seat's top: root height = seat height + 0.0942 m. The ankles

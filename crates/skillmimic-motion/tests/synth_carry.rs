@@ -9,17 +9,12 @@ mod common;
 
 use skillmimic_core::characters::GeomSpec;
 use skillmimic_core::characters::tokenhsi;
-use skillmimic_motion::character_clip::CharacterClip;
 use skillmimic_motion::synth_carry::{
     BOX_RANGE, CARRIES, CarryClip, GRIP_DEPTH, carry, tokenhsi_carries,
 };
 use skillmimic_motion::synth_walk::{WalkParams, walk};
 
 const HAND_RADIUS: f64 = 0.04;
-
-fn dof(clip: &CharacterClip, t: usize) -> Vec<f64> {
-    clip.dof_at(t).iter().map(|&x| x as f64).collect()
-}
 
 /// A world point in the clip's root frame at frame `t`.
 fn in_root(c: &CarryClip, t: usize, p: [f64; 3]) -> [f64; 3] {
@@ -68,7 +63,7 @@ fn the_hands_hold_the_box_at_its_side_faces_at_every_frame() {
             let (pos, _) = spec.forward_kinematics(
                 c.clip.root_pos_at(t),
                 c.clip.root_quat_at(t),
-                &dof(&c.clip, t),
+                &common::dof(&c.clip, t),
             );
             let h = tokenhsi::HANDS.map(|k| in_root(&c, t, pos[k]));
             let mean =
@@ -110,7 +105,7 @@ fn no_body_but_the_hands_reaches_into_the_box() {
             let (pos, rot) = spec.forward_kinematics(
                 c.clip.root_pos_at(t),
                 c.clip.root_quat_at(t),
-                &dof(&c.clip, t),
+                &common::dof(&c.clip, t),
             );
             let mut closest = f64::INFINITY;
             for (k, body) in spec.bodies.iter().enumerate() {

@@ -13,16 +13,12 @@ use skillmimic_motion::synth_climb::{HEIGHT_GRID, HEIGHT_RANGE, climb, tokenhsi_
 
 const FEET: [usize; 2] = tokenhsi::FEET;
 
-fn dof(clip: &CharacterClip, t: usize) -> Vec<f64> {
-    clip.dof_at(t).iter().map(|&x| x as f64).collect()
-}
-
 /// World positions of 21 points along every leg capsule and the 8 corners of every foot box, per
 /// body, at frame `t`, with the geom's radius (0 for box corners).
 fn leg_points(clip: &CharacterClip, t: usize) -> Vec<(usize, [f64; 3], f64)> {
     let spec = tokenhsi::spec();
     let (pos, rot) =
-        spec.forward_kinematics(clip.root_pos_at(t), clip.root_quat_at(t), &dof(clip, t));
+        spec.forward_kinematics(clip.root_pos_at(t), clip.root_quat_at(t), &common::dof(clip, t));
     let mut out = Vec::new();
     for b in 9..15 {
         let at = |p: [f64; 3]| {
@@ -41,19 +37,9 @@ fn leg_points(clip: &CharacterClip, t: usize) -> Vec<(usize, [f64; 3], f64)> {
                         ));
                     }
                 }
-                GeomSpec::Box { half_extents: h, center: c, quat, .. } => {
-                    let turn = Quat::from_wxyz(quat);
-                    for k in 0..8 {
-                        let corner = turn.rotate([
-                            if k & 4 == 0 { -h[0] } else { h[0] },
-                            if k & 2 == 0 { -h[1] } else { h[1] },
-                            if k & 1 == 0 { -h[2] } else { h[2] },
-                        ]);
-                        out.push((
-                            b,
-                            at([c[0] + corner[0], c[1] + corner[1], c[2] + corner[2]]),
-                            0.0,
-                        ));
+                GeomSpec::Box { .. } => {
+                    for p in g.spec.box_corners().into_iter().flatten() {
+                        out.push((b, at(p), 0.0));
                     }
                 }
                 GeomSpec::Sphere { .. } => {}

@@ -17,6 +17,22 @@ pub enum GeomSpec {
     Box { half_extents: [f64; 3], center: [f64; 3], quat: [f64; 4], density: f64 },
 }
 
+impl GeomSpec {
+    /// A box's eight corners in its body's frame (m); `None` for other shapes.
+    pub fn box_corners(&self) -> Option<[[f64; 3]; 8]> {
+        let GeomSpec::Box { half_extents: h, center: c, quat, .. } = *self else { return None };
+        let turn = Quat::from_wxyz(quat);
+        Some(std::array::from_fn(|k| {
+            let corner = turn.rotate([
+                if k & 4 == 0 { -h[0] } else { h[0] },
+                if k & 2 == 0 { -h[1] } else { h[1] },
+                if k & 1 == 0 { -h[2] } else { h[2] },
+            ]);
+            [c[0] + corner[0], c[1] + corner[1], c[2] + corner[2]]
+        }))
+    }
+}
+
 /// The identity rotation as (w, x, y, z), for axis-aligned boxes.
 pub const IDENTITY_WXYZ: [f64; 4] = [1.0, 0.0, 0.0, 0.0];
 
@@ -230,17 +246,8 @@ impl CharacterSpec {
                 continue;
             }
             for g in &body.geoms {
-                if let GeomSpec::Box { half_extents: h, center: c, quat, .. } = g.spec {
-                    let turn = Quat::from_wxyz(quat);
-                    for k in 0..8 {
-                        let corner = turn.rotate([
-                            if k & 4 == 0 { -h[0] } else { h[0] },
-                            if k & 2 == 0 { -h[1] } else { h[1] },
-                            if k & 1 == 0 { -h[2] } else { h[2] },
-                        ]);
-                        let p = [c[0] + corner[0], c[1] + corner[1], c[2] + corner[2]];
-                        z = z.min(pos[b][2] + rot[b].rotate(p)[2]);
-                    }
+                for p in g.spec.box_corners().into_iter().flatten() {
+                    z = z.min(pos[b][2] + rot[b].rotate(p)[2]);
                 }
             }
         }

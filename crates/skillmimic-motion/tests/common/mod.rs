@@ -1,6 +1,7 @@
 //! Checks shared by the tests of the procedural TokenHSI clips.
 
 use skillmimic_core::characters::tokenhsi::{BODIES, JointSpec};
+use skillmimic_motion::character_clip::CharacterClip;
 
 /// Panic unless every entry of the 32-d dof vector `dof` (rad) lies within its hinge's range in
 /// the released asset (`tokenhsi::BODIES`, degrees, ± 1e-6); `what` names the clip and frame.
@@ -23,4 +24,10 @@ pub fn assert_in_released_ranges(what: &str, dof: &[f32]) {
         }
     }
     assert_eq!(k, 32, "{what}: dofs");
+}
+
+/// The dof vector (rad) of `clip`'s frame `t` in f64.
+#[allow(dead_code)] // not every test binary that includes this module uses it
+pub fn dof(clip: &CharacterClip, t: usize) -> Vec<f64> {
+    clip.dof_at(t).iter().map(|&x| x as f64).collect()
 }

@@ -127,11 +127,34 @@ pub fn load_style_clips(paths: &[PathBuf]) -> Result<Vec<CharacterClip>, EnvErro
     Ok(load_reference_clips(paths)?.into_iter().map(|(c, _)| c).collect())
 }
 
+/// The clips a built-in set's name stands for, each with the object it was made against;
+/// `None` for any other name.
+fn builtin_set(name: &str) -> Option<Vec<(CharacterClip, Option<ClipObject>)>> {
+    Some(match name {
+        BUILTIN_WALKS => WALK_CLIPS.iter().map(|c| (c.clone(), None)).collect(),
+        BUILTIN_SITS => SIT_CLIPS
+            .iter()
+            .map(|s| (s.clip.clone(), Some(ClipObject::Seat { top: s.seat_top })))
+            .collect(),
+        BUILTIN_CLIMBS => CLIMB_CLIPS
+            .iter()
+            .map(|c| (c.clip.clone(), Some(ClipObject::Step { edge: c.edge })))
+            .collect(),
+        BUILTIN_CARRIES => CARRY_CLIPS
+            .iter()
+            .map(|c| {
+                (c.clip.clone(), Some(ClipObject::Held { side: c.side, in_root: c.box_in_root }))
+            })
+            .collect(),
+        _ => return None,
+    })
+}
+
 /// Load every TokenHSI `character-clip` below `paths`, the built-in walks for an entry
 /// [`BUILTIN_WALKS`], the built-in sits for [`BUILTIN_SITS`], the built-in step-ups for
 /// [`BUILTIN_CLIMBS`] and the built-in carrying walks for [`BUILTIN_CARRIES`], each with the
-/// object it was made against (the built-in sits, step-ups and carries) or `None`. Errors name the file and a clip of another character,
-/// or an unknown `builtin:` name.
+/// object it was made against (the built-in sits, step-ups and carries) or `None`. Errors name
+/// the file and a clip of another character, or an unknown `builtin:` name.
 pub fn load_reference_clips(
     paths: &[PathBuf],
 ) -> Result<Vec<(CharacterClip, Option<ClipObject>)>, EnvError> {
@@ -145,30 +168,8 @@ pub fn load_reference_clips(
     }
     let mut clips = Vec::new();
     for p in paths {
-        if p.as_os_str() == BUILTIN_WALKS {
-            clips.extend(WALK_CLIPS.iter().map(|c| (c.clone(), None)));
-            continue;
-        }
-        if p.as_os_str() == BUILTIN_SITS {
-            clips.extend(
-                SIT_CLIPS
-                    .iter()
-                    .map(|s| (s.clip.clone(), Some(ClipObject::Seat { top: s.seat_top }))),
-            );
-            continue;
-        }
-        if p.as_os_str() == BUILTIN_CLIMBS {
-            clips.extend(
-                CLIMB_CLIPS
-                    .iter()
-                    .map(|c| (c.clip.clone(), Some(ClipObject::Step { edge: c.edge }))),
-            );
-            continue;
-        }
-        if p.as_os_str() == BUILTIN_CARRIES {
-            clips.extend(CARRY_CLIPS.iter().map(|c| {
-                (c.clip.clone(), Some(ClipObject::Held { side: c.side, in_root: c.box_in_root }))
-            }));
+        if let Some(set) = p.to_str().and_then(builtin_set) {
+            clips.extend(set);
             continue;
         }
         if p.to_str().is_some_and(|s| s.starts_with("builtin:")) {
