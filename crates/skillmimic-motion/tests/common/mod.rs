@@ -31,3 +31,11 @@ pub fn assert_in_released_ranges(what: &str, dof: &[f32]) {
 pub fn dof(clip: &CharacterClip, t: usize) -> Vec<f64> {
     clip.dof_at(t).iter().map(|&x| x as f64).collect()
 }
+
+/// [`assert_in_released_ranges`] at every frame of `clip`.
+#[allow(dead_code)] // not every test binary that includes this module uses it
+pub fn assert_clip_in_released_ranges(clip: &CharacterClip) {
+    for t in 0..clip.num_frames {
+        assert_in_released_ranges(&format!("{} frame {t}", clip.name), clip.dof_at(t));
+    }
+}
