@@ -11,6 +11,7 @@
 # ITERS=N: train exactly N iterations (no wall-clock limit; TRAIN_S is then ignored), for a budget
 # matched in samples across machines of different speeds. A rerun with the same OUT_DIR continues
 # from the last checkpoint (--resume latest), exactly, so ITERS can be raised later.
+# SEED=N: the training seed (0 by default; docs/results-tokenhsi.md's runs say theirs).
 set -uo pipefail
 out=${1:?output folder}
 train_s=${2:-400}
@@ -29,7 +30,7 @@ else
 fi
 if [ -n "${ITERS:-}" ]; then limit=(); iters=$ITERS; else limit=(timeout "$train_s"); iters=100000; fi
 "${limit[@]}" "$bin" train --preset small --task hsi_follow --num-envs "$envs" --threads "$threads" \
-  --learner-threads "$threads" --seed 0 --iterations "$iters" \
+  --learner-threads "$threads" --seed "${SEED:-0}" --iterations "$iters" \
   --set "env.hsi.style_motion=[\"$style\"]" --set ppo.amp.enabled=true --set ppo.amp.logit_reg=0.01 \
   --set 'ppo.hidden=[1024, 512]' --set ppo.mini_epochs=3 --set ppo.minibatch=8192 --set run.save_every=10 \
   --out "$out/follow" --no-video --resume latest >> "$out/train.log" 2>&1

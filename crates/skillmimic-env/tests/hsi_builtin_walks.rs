@@ -7,13 +7,18 @@ use skillmimic_env::tasks::hsi::style::{BUILTIN_WALKS, load_style_clips};
 use skillmimic_env::{EnvConfig, registry};
 use skillmimic_motion::synth_walk::tokenhsi_walks;
 
-fn config(motion: &str) -> EnvConfig {
-    let mut cfg =
-        EnvConfig { task: "hsi_follow".into(), num_envs: 8, threads: 1, ..Default::default() };
+/// `task` on `num_envs` environments (one thread) with reference-state initialisation, the
+/// HSI table then set by `set`.
+fn reference_starts(task: &str, num_envs: usize, set: impl FnOnce(&mut HsiConfig)) -> EnvConfig {
+    let mut cfg = EnvConfig { task: task.into(), num_envs, threads: 1, ..Default::default() };
     let h = cfg.table_mut::<HsiConfig>();
     h.state_init = StateInit::Reference;
-    h.style_motion = vec![motion.into()];
+    set(h);
     cfg
+}
+
+fn config(motion: &str) -> EnvConfig {
+    reference_starts("hsi_follow", 8, |h| h.style_motion = vec![motion.into()])
 }
 
 #[test]
@@ -52,12 +57,8 @@ fn builtin_sits_start_where_the_clip_has_the_character_relative_to_the_seat() {
     use skillmimic_core::math::{heading, wrap_angle};
     use skillmimic_env::tasks::hsi::style::BUILTIN_SITS;
     use skillmimic_motion::synth_sit::tokenhsi_sits;
-    let mut cfg =
-        EnvConfig { task: "hsi_sit".into(), num_envs: 16, threads: 1, ..Default::default() };
-    let h = cfg.table_mut::<HsiConfig>();
-    h.state_init = StateInit::Reference;
-    h.sit.style_motion = vec![BUILTIN_SITS.into()];
-    let above = h.sit.target_above_seat;
+    let cfg = reference_starts("hsi_sit", 16, |h| h.sit.style_motion = vec![BUILTIN_SITS.into()]);
+    let above = cfg.table::<HsiConfig>().sit.target_above_seat;
     let mut env = registry::make(&cfg).expect("hsi_sit with builtin:sit");
     env.reset_all(Some(2));
     let sits = tokenhsi_sits();
@@ -108,11 +109,8 @@ fn builtin_carries_start_with_the_box_in_the_hands_when_its_size_is_a_clips() {
     use skillmimic_env::tasks::hsi::reference_init::HELD_SIDE_TOLERANCE;
     use skillmimic_env::tasks::hsi::style::BUILTIN_CARRIES;
     use skillmimic_motion::synth_carry::tokenhsi_carries;
-    let mut cfg =
-        EnvConfig { task: "hsi_carry".into(), num_envs: 32, threads: 1, ..Default::default() };
-    let h = cfg.table_mut::<HsiConfig>();
-    h.state_init = StateInit::Reference;
-    h.carry.style_motion = vec![BUILTIN_CARRIES.into()];
+    let cfg =
+        reference_starts("hsi_carry", 32, |h| h.carry.style_motion = vec![BUILTIN_CARRIES.into()]);
     let mut env = registry::make(&cfg).expect("hsi_carry with builtin:carry");
     env.reset_all(Some(3));
     let carries = tokenhsi_carries();
@@ -170,11 +168,8 @@ fn builtin_climbs_start_against_a_face_of_the_platform() {
     use skillmimic_core::math::{Quat, heading, wrap_angle};
     use skillmimic_env::tasks::hsi::style::BUILTIN_CLIMBS;
     use skillmimic_motion::synth_climb::tokenhsi_climbs;
-    let mut cfg =
-        EnvConfig { task: "hsi_climb".into(), num_envs: 32, threads: 1, ..Default::default() };
-    let h = cfg.table_mut::<HsiConfig>();
-    h.state_init = StateInit::Reference;
-    h.climb.style_motion = vec![BUILTIN_CLIMBS.into()];
+    let cfg =
+        reference_starts("hsi_climb", 32, |h| h.climb.style_motion = vec![BUILTIN_CLIMBS.into()]);
     let mut env = registry::make(&cfg).expect("hsi_climb with builtin:climb");
     env.reset_all(Some(4));
     let climbs = tokenhsi_climbs();
