@@ -43,6 +43,18 @@ pub struct DiscLoss {
     pub mean_sim: f64,
 }
 
+impl DiscLoss {
+    /// Adds every part of `l` divided by `u` (running means over `u` steps).
+    pub fn add_divided(&mut self, l: &DiscLoss, u: f64) {
+        self.adversarial += l.adversarial / u;
+        self.grad_penalty += l.grad_penalty / u;
+        self.logit_reg += l.logit_reg / u;
+        self.total += l.total / u;
+        self.mean_ref += l.mean_ref / u;
+        self.mean_sim += l.mean_sim / u;
+    }
+}
+
 /// The discriminator with its input normaliser and optimiser.
 #[derive(Clone, Debug)]
 pub struct Discriminator {

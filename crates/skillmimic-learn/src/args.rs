@@ -102,7 +102,8 @@ impl ConfigFlags {
 pub struct PresetArgs {
     /// Preset: paper (2048 envs), small (256 envs, paper network and PPO settings), cpu (time to
     /// skill on a CPU: 128 envs, [512, 256, 256], 2 mini-epochs, lr 1e-4), tiny (smoke tests),
-    /// modskill (ModSkill's released sizes).
+    /// modskill (ModSkill's released sizes), tokenhsi (TokenHSI's released single-skill sizes and
+    /// its motion-prior schedule).
     #[arg(long, default_value = "small")]
     pub preset: String,
     /// TOML config file with `[env]`, `[ppo]` and `[run]` tables (over the preset).

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-pub use crate::config_policies::{AmpConfig, AmpLoss, ModularConfig};
+pub use crate::config_policies::{AmpConfig, AmpLoss, AmpSchedule, ModularConfig};
 use crate::error::LearnError;
 use skillmimic_env::EnvConfig;
 use skillmimic_env::tasks::hlc::config::HlcConfig;
@@ -227,7 +227,7 @@ pub struct TrainConfig {
 }
 
 /// Named presets.
-pub const PRESETS: [&str; 5] = ["paper", "small", "cpu", "tiny", "modskill"];
+pub const PRESETS: [&str; 6] = ["paper", "small", "cpu", "tiny", "modskill", "tokenhsi"];
 
 impl TrainConfig {
     /// A named preset:
@@ -249,6 +249,14 @@ impl TrainConfig {
     ///   gradient penalty 5, logit regularisation 0.01, weight decay 1e-4, reward scale 2, task
     ///   and style weights 0.5 / 0.5; on the SMPL humanoid's tracking task it reads the released
     ///   features, `skillmimic_env::tasks::tracking::prior`);
+    /// * `tokenhsi`: TokenHSI's released single-skill settings (`amp_imitation_task.yaml`,
+    ///   `basic_interaction_skills/*.yaml`) for the `hsi_*` tasks: 4 096 environments, actor and
+    ///   critic [1024, 512], the PPO settings of the defaults (which the released file shares),
+    ///   and the motion prior on as the released agent trains it: logit regularisation 0.01,
+    ///   weight decay 1e-4, one discriminator step in every PPO minibatch on 4 096 current and
+    ///   4 096 replay windows against 4 096 reference windows, a replay buffer of 200 000 windows
+    ///   with keep probability 0.01 (`ppo.amp.schedule = "per_minibatch"`). The multi-task
+    ///   network is `--set ppo.policy="token_transformer"` on `hsi_multi`;
     /// * `tiny`: a small network ([256, 128]) for smoke tests and CI: 16 environments, horizon 16,
     ///   minibatch 128, 2 mini-epochs, learning rate 3e-5. Measured on the demo clips (400
     ///   iterations, 32 environments): 1e-4 and 3e-5 reach the same reward (≈ 3.4× the first 25
@@ -290,6 +298,18 @@ impl TrainConfig {
                 c.ppo.amp.enabled = true;
                 c.ppo.amp.logit_reg = 0.01;
                 c.ppo.amp.weight_decay = 1e-4;
+            }
+            "tokenhsi" => {
+                c.env.num_envs = 4096;
+                c.ppo.hidden = vec![1024, 512];
+                let a = &mut c.ppo.amp;
+                a.enabled = true;
+                a.logit_reg = 0.01;
+                a.weight_decay = 1e-4;
+                a.schedule = AmpSchedule::PerMinibatch;
+                a.batch = 4096;
+                a.buffer = 200_000;
+                a.replay_keep = 0.01;
             }
             other => {
                 return Err(LearnError::Config(format!(
@@ -497,6 +517,26 @@ mod tests {
         assert_eq!((c.ppo.lr, c.ppo.gamma, c.ppo.lam, c.ppo.clip), (2e-5, 0.99, 0.95, 0.2));
         assert_eq!((c.ppo.critic_coef, c.ppo.bounds_coef, c.ppo.log_std), (5.0, 10.0, -2.9));
         assert!(!c.ppo.truncate_grads);
+    }
+
+    /// Preset `tokenhsi` against TokenHSI's released amp_imitation_task.yaml (and numEnvs 4096
+    /// of basic_interaction_skills/amp_humanoid_traj.yaml): the numbers as read there.
+    #[test]
+    fn tokenhsi_preset_has_the_released_single_skill_settings() {
+        let c = TrainConfig::preset("tokenhsi").unwrap();
+        assert_eq!((c.env.num_envs, c.ppo.hidden.clone()), (4096, vec![1024, 512]));
+        assert_eq!((c.ppo.horizon, c.ppo.minibatch, c.ppo.mini_epochs), (32, 16384, 6));
+        assert_eq!((c.ppo.lr, c.ppo.gamma, c.ppo.lam, c.ppo.clip), (2e-5, 0.99, 0.95, 0.2));
+        assert_eq!((c.ppo.critic_coef, c.ppo.bounds_coef, c.ppo.log_std), (5.0, 10.0, -2.9));
+        assert_eq!((c.ppo.grad_norm, c.ppo.entropy_coef, c.ppo.truncate_grads), (1.0, 0.0, false));
+        let a = &c.ppo.amp;
+        assert!(a.enabled && a.window == 10 && a.hidden == vec![1024, 512]);
+        assert_eq!(
+            (a.schedule, a.batch, a.buffer, a.replay_keep),
+            (AmpSchedule::PerMinibatch, 4096, 200_000, 0.01)
+        );
+        assert_eq!((a.logit_reg, a.grad_penalty, a.weight_decay, a.lr), (0.01, 5.0, 1e-4, 2e-5));
+        assert_eq!((a.reward_scale, a.task_weight, a.style_weight), (2.0, 0.5, 0.5));
     }
 
     #[test]

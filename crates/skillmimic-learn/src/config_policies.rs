@@ -52,6 +52,23 @@ pub enum AmpLoss {
     LeastSquares,
 }
 
+/// When the motion prior's discriminator takes its steps (`ppo.amp.schedule`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum AmpSchedule {
+    /// After each PPO update, `updates` steps of `batch` buffer windows against `batch` reference
+    /// windows; the buffer a ring of `buffer` windows, `buffer / horizon` of them kept per step
+    /// (the default; the project's CPU-sized scheme).
+    PerIteration,
+    /// The released AMP/ASE/TokenHSI agent's scheme: one step in every PPO minibatch, on `batch`
+    /// windows of the minibatch's own samples plus as many replay windows against `batch`
+    /// reference windows; after the update the rollout's windows go into a replay buffer of
+    /// `buffer` windows, every one while it is not yet full, then each with probability
+    /// `replay_keep` (released: `amp_minibatch_size` 4 096, `amp_replay_buffer_size` 200 000,
+    /// `amp_replay_keep_prob` 0.01).
+    PerMinibatch,
+}
+
 /// `[ppo.amp]`: the adversarial motion prior (a style reward from a discriminator over windows of
 /// frames; ModSkill and TokenHSI), off by default.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
@@ -70,12 +87,13 @@ pub struct AmpConfig {
     /// Gradient-penalty weight on reference windows (5, the AMP code).
     #[schemars(range(min = 0))]
     pub grad_penalty: f64,
-    /// Weight of the squared output-layer weights (0.05, the AMP code; ModSkill's released 0.01
-    /// in preset `modskill`).
+    /// Weight of the squared output-layer weights (0.05, the AMP code; ModSkill's and TokenHSI's
+    /// released 0.01 in presets `modskill` and `tokenhsi`).
     #[schemars(range(min = 0))]
     pub logit_reg: f64,
     /// Weight of the sum of every layer's squared weights, biases excluded (the AMP/ASE code's
-    /// `disc_weight_decay`: 0 here by default; ModSkill's released 1e-4 in preset `modskill`).
+    /// `disc_weight_decay`: 0 here by default; the released 1e-4 in presets `modskill` and
+    /// `tokenhsi`).
     #[schemars(range(min = 0))]
     pub weight_decay: f64,
     /// Discriminator Adam learning rate.
@@ -90,14 +108,24 @@ pub struct AmpConfig {
     /// Weight of the style reward (0.5).
     #[schemars(range(min = 0))]
     pub style_weight: f64,
-    /// Simulated windows kept for the discriminator (a ring buffer filled during rollouts).
+    /// Simulated windows kept for the discriminator (a ring buffer filled during rollouts; with
+    /// `schedule = "per_minibatch"` the replay buffer, released 200 000 in preset `tokenhsi`).
     #[schemars(range(min = 1))]
     pub buffer: usize,
-    /// Windows per discriminator minibatch (as many reference windows are drawn).
+    /// Windows per discriminator minibatch (as many reference windows are drawn). With
+    /// `schedule = "per_minibatch"`: the current-rollout windows per PPO minibatch (at most its
+    /// samples), with as many replay and reference windows.
     #[schemars(range(min = 1))]
     pub batch: usize,
-    /// Discriminator steps per iteration.
+    /// Discriminator steps per iteration (`schedule = "per_iteration"` only).
     pub updates: usize,
+    /// When the discriminator steps: after the PPO update (default) or in every PPO minibatch
+    /// with a replay buffer (the released TokenHSI/ASE agent).
+    pub schedule: AmpSchedule,
+    /// `schedule = "per_minibatch"`: once the replay buffer is full, the probability that a new
+    /// window goes in (released 0.01).
+    #[schemars(range(min = 0, max = 1))]
+    pub replay_keep: f64,
 }
 
 impl Default for AmpConfig {
@@ -117,6 +145,8 @@ impl Default for AmpConfig {
             buffer: 8192,
             batch: 512,
             updates: 4,
+            schedule: AmpSchedule::PerIteration,
+            replay_keep: 0.01,
         }
     }
 }

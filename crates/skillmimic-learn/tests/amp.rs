@@ -356,4 +356,50 @@ fn motion_prior_trains_data_parallel() {
     let err =
         run(&bad).into_iter().find_map(Result::err).expect("33 windows do not split over 2 ranks");
     assert!(err.contains("ppo.amp.batch"), "{err}");
+    let mut bad = c.clone();
+    bad.ppo.amp.schedule = skillmimic_learn::config::AmpSchedule::PerMinibatch;
+    let err = run(&bad).into_iter().find_map(Result::err).expect("per_minibatch is one-process");
+    assert!(err.contains("ppo.amp.schedule") && err.contains("per_iteration"), "{err}");
+}
+
+/// The released agent's schedule (`ppo.amp.schedule = "per_minibatch"`): one discriminator step
+/// in every PPO minibatch (Adam counts iterations × mini-epochs × minibatches), the style reward
+/// mixed in as with the default schedule, and the discriminator resumes from the checkpoint.
+#[test]
+fn the_released_schedule_steps_the_discriminator_in_every_minibatch() {
+    use skillmimic_learn::config::{AmpSchedule, TrainConfig};
+    use skillmimic_learn::trainer::Trainer;
+    let mut c = TrainConfig::preset("tiny").unwrap();
+    c.env.motion = motion();
+    c.env.num_envs = 8;
+    c.env.threads = 2;
+    c.ppo.hidden = vec![32];
+    c.ppo.horizon = 16;
+    c.ppo.minibatch = 32;
+    c.ppo.mini_epochs = 3;
+    c.ppo.amp.enabled = true;
+    c.ppo.amp.hidden = vec![32];
+    c.ppo.amp.batch = 16;
+    c.ppo.amp.buffer = 64;
+    c.ppo.amp.schedule = AmpSchedule::PerMinibatch;
+    c.run.iterations = 2;
+    c.run.save_every = 2;
+    c.run.eval_episodes = 2;
+    c.run.out_dir = std::env::temp_dir().join(format!("sm-amp-mb-{}", std::process::id()));
+    let mut t = Trainer::new(c.clone(), None).unwrap();
+    let mut seen = Vec::new();
+    let last = skillmimic_learn::runner::train_loop(&mut t, |s| seen.push(s.clone())).unwrap();
+    let disc = t.extension::<AmpReward>().unwrap().disc().clone();
+    // 128 samples per iteration in minibatches of 32, 3 epochs, 2 iterations
+    assert_eq!(disc.adam.step, 2 * 3 * (128 / 32));
+    for s in &seen {
+        let term =
+            |name: &str| s.reward_terms.iter().find(|(n, _)| n == name).map(|(_, v)| *v).unwrap();
+        assert!((s.mean_reward - 0.5 * (term("task") + term("style"))).abs() < 1e-5);
+        assert!(s.disc_loss.is_finite() && s.disc_loss > 0.0, "{}", s.disc_loss);
+    }
+    let t2 = Trainer::new(c.clone(), Some(&last)).unwrap();
+    let back = t2.extension::<AmpReward>().unwrap().disc();
+    assert_eq!((&disc.mlp, disc.adam.step), (&back.mlp, back.adam.step));
+    let _ = std::fs::remove_dir_all(&c.run.out_dir);
 }

@@ -130,6 +130,20 @@ fn tracking_resumes_exactly() {
     straight_and_resumed(config("tracking", "smpl", "tracking"));
 }
 
+/// The released per-minibatch discriminator schedule: the replay buffer (full after the first
+/// iteration, then the keep rule) and its draws resume exactly.
+#[test]
+fn the_motion_prior_resumes_exactly_with_the_released_schedule() {
+    let mut c = config("imitation", "", "amp-mb");
+    c.ppo.amp.enabled = true;
+    c.ppo.amp.hidden = vec![32];
+    c.ppo.amp.batch = 8;
+    c.ppo.amp.buffer = 24;
+    c.ppo.amp.schedule = skillmimic_learn::config::AmpSchedule::PerMinibatch;
+    c.ppo.amp.replay_keep = 0.5;
+    straight_and_resumed(c);
+}
+
 #[test]
 fn a_tokenhsi_task_resumes_exactly() {
     straight_and_resumed(config("hsi_sit", "", "sit"));

@@ -8,7 +8,8 @@ use crate::error::LearnError;
 
 /// The motion prior as a trainer extension: it reads every step's observations, mixes the style
 /// reward into the rewards PPO sees (reporting the task and style parts), trains its
-/// discriminators after each PPO update and saves them with the checkpoints.
+/// discriminators after each PPO update (or in every PPO minibatch, `ppo.amp.schedule =
+/// "per_minibatch"`) and saves them with the checkpoints.
 impl crate::trainer::Extension for AmpReward {
     fn name(&self) -> &'static str {
         "amp"
@@ -29,6 +30,13 @@ impl crate::trainer::Extension for AmpReward {
         let (task, style) = AmpReward::after_step(self, step, rewards);
         sums[0] += task;
         sums[1] += style;
+    }
+    fn minibatch(
+        &mut self,
+        members: &[usize],
+        comm: &mut dyn Collective,
+    ) -> Result<(), LearnError> {
+        self.minibatch_step(members, comm)
     }
     fn update(
         &mut self,

@@ -10,9 +10,11 @@
 //!   terms `task` and `style`.
 //! * Reference windows: a clip of `env.motion` drawn uniformly, then an end frame drawn uniformly
 //!   (frames before the clip start repeat its first frame), from the clips posed in the scene.
-//! * Buffer: every step, `buffer / horizon` randomly chosen environments' windows (all of them
-//!   when fewer) go into a ring buffer of `buffer` windows; each iteration takes `updates`
-//!   discriminator steps on `batch` buffer windows against `batch` reference windows.
+//! * Buffer (`ppo.amp.schedule = "per_iteration"`, the default): every step, `buffer / horizon`
+//!   randomly chosen environments' windows (all of them when fewer) go into a ring buffer of
+//!   `buffer` windows; each iteration takes `updates` discriminator steps on `batch` buffer
+//!   windows against `batch` reference windows. `"per_minibatch"`: the released agent's step in
+//!   every PPO minibatch with a replay buffer ([`replay`]).
 //! * Checkpoint tensors: `amp.disc.{0,2,…}.weight/.bias`, `amp.norm.{mean,var,count}`,
 //!   `amp.optim.step`, `amp.optim.{m,v}.<param>`.
 //! * Multi-task environments (`hsi_multi`): by default (`env.hsi.discriminator =
@@ -40,7 +42,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use skillmimic_core::characters::smpl;
 use skillmimic_core::tensorfile::TensorFile;
-use skillmimic_env::amp::{FEATURE_DIM, clip_features, frame_features, window_of};
+use skillmimic_env::amp::{FEATURE_DIM, clip_features, frame_features};
 use skillmimic_env::clip_state::posed_features;
 use skillmimic_env::obs::layout;
 use skillmimic_env::tasks::hsi::style;
@@ -52,10 +54,11 @@ use skillmimic_sim::Scene;
 use crate::amp::{DiscLoss, Discriminator};
 
 mod extension;
+mod replay;
 mod resume;
 mod tensors;
 use crate::collective::Collective;
-use crate::config::{AmpConfig, TrainConfig};
+use crate::config::{AmpConfig, AmpSchedule, TrainConfig};
 use crate::error::LearnError;
 use crate::trainer::StepView;
 use skillmimic_env::tasks::hsi::config::HsiConfig;
@@ -122,6 +125,8 @@ pub struct AmpReward {
     frame: Vec<f32>,
     picks: Vec<usize>,
     style: Vec<f32>,
+    /// `ppo.amp.schedule = "per_minibatch"`: the rollout's windows and loss sums ([`replay`]).
+    replay: Option<replay::Replay>,
 }
 
 impl AmpReward {
@@ -272,6 +277,8 @@ impl AmpReward {
             source,
             picks: Vec::new(),
             style: vec![0.0; n],
+            replay: (a.schedule == AmpSchedule::PerMinibatch)
+                .then(|| replay::Replay::new(cfg.ppo.horizon, n, width)),
             cfg: a,
         })
     }
@@ -291,6 +298,12 @@ impl AmpReward {
         }
         let (rank, world) = (comm.rank(), comm.world_size());
         let mut local = cfg.clone();
+        if world > 1 && cfg.ppo.amp.schedule == AmpSchedule::PerMinibatch {
+            return Err(LearnError::Config(format!(
+                "config field 'ppo.amp.schedule' = \"per_minibatch\" runs in one process only \
+                    (this run has {world} ranks); use \"per_iteration\""
+            )));
+        }
         if world > 1 {
             let a = &cfg.ppo.amp;
             if !a.batch.is_multiple_of(world)
@@ -428,6 +441,10 @@ impl AmpReward {
             ss += s as f64;
             *r = (self.cfg.task_weight * *r as f64 + self.cfg.style_weight * s as f64) as f32;
         }
+        if self.replay.is_some() {
+            self.keep_step(v.t);
+            return (st, ss);
+        }
         // keep `buffer / horizon` windows per step and prior
         for p in self.priors.iter_mut() {
             let m = p.rows.len();
@@ -450,6 +467,9 @@ impl AmpReward {
     /// The discriminator steps of one iteration over the ranks of `comm` (one process:
     /// [`crate::collective::Single`]); returns the mean loss over them.
     pub fn update(&mut self, comm: &mut dyn Collective) -> Result<DiscLoss, LearnError> {
+        if self.replay.is_some() {
+            return Ok(self.store_replay());
+        }
         let (w, b) = (self.width(), self.cfg.batch);
         let mut mean = DiscLoss::default();
         let (mut xr, mut xs) = (vec![0.0f32; b * w], vec![0.0f32; b * w]);
@@ -459,39 +479,21 @@ impl AmpReward {
             if p.filled == 0 || self.cfg.updates == 0 {
                 continue;
             }
-            let wf = self.cfg.window * self.fdim;
+            let (fdim, window, cond) = (self.fdim, self.cfg.window, self.cond);
             for _ in 0..self.cfg.updates {
                 for k in 0..b {
-                    // a task by its share of the environments (conditional prior), then one of
-                    // its clips
-                    let clips = if p.by_label.len() > 1 {
-                        let mut u = self.rng.random::<f64>();
-                        let pick = p.by_label.iter().position(|(_, share)| {
-                            u -= share;
-                            u < 0.0
-                        });
-                        &p.by_label[pick.unwrap_or(p.by_label.len() - 1)].0
-                    } else {
-                        &p.by_label[0].0
-                    };
-                    let c = clips[self.rng.random_range(0..clips.len())];
-                    let end = self.rng.random_range(0..p.reference[c].len() / self.fdim);
-                    let x = &mut xr[k * w..(k + 1) * w];
-                    window_of(&p.reference[c], self.fdim, end, self.cfg.window, &mut x[..wf]);
-                    x[wf..].fill(0.0);
-                    if self.cond > 0 {
-                        x[wf + p.labels[c]] = 1.0;
-                    }
+                    p.draw_reference(
+                        &mut self.rng,
+                        fdim,
+                        window,
+                        cond,
+                        &mut xr[k * w..(k + 1) * w],
+                    );
                     let j = self.rng.random_range(0..p.filled);
                     xs[k * w..(k + 1) * w].copy_from_slice(&p.buffer[j * w..(j + 1) * w]);
                 }
                 let l = p.disc.update_with(&xr, b, &xs, b, comm)?;
-                mean.adversarial += l.adversarial / u;
-                mean.grad_penalty += l.grad_penalty / u;
-                mean.logit_reg += l.logit_reg / u;
-                mean.total += l.total / u;
-                mean.mean_ref += l.mean_ref / u;
-                mean.mean_sim += l.mean_sim / u;
+                mean.add_divided(&l, u);
             }
         }
         Ok(mean)

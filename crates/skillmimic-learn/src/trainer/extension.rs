@@ -2,8 +2,8 @@
 //! being PPO — today the motion prior's discriminator and style reward ([`crate::amp_reward`]).
 //! The trainer calls every extension at fixed points of an iteration, in the order they were
 //! added: before the policy acts, after each environment step (where an extension may reshape the
-//! rewards the PPO update sees), after the PPO update (its own update), when checkpoints are
-//! written and when the environments are rebuilt.
+//! rewards the PPO update sees), after each PPO minibatch step, after the PPO update (its own
+//! update), when checkpoints are written and when the environments are rebuilt.
 //!
 //! What is not an extension, and why: the SkillMimic-V2 history encoder and token adaptation act
 //! once, while the trainer is built (a copy of the encoder kept with the run; a policy adapted
@@ -21,6 +21,8 @@ use crate::iteration_stats::IterationStats;
 
 /// What an extension sees of the environments before or after a step.
 pub struct StepView<'a> {
+    /// The rollout step (`0..ppo.horizon`).
+    pub t: usize,
     /// Observations (`n × obs_dim`): before a step the ones the policy acts on; after it the
     /// step's (terminal observations where an episode ended).
     pub obs: &'a [f32],
@@ -49,6 +51,17 @@ pub trait Extension: Any + Send + Sync {
     /// the rollout stores); add this step's contributions to `sums` (one per
     /// [`Extension::step_terms`] name).
     fn after_step(&mut self, _step: &StepView<'_>, _rewards: &mut [f32], _sums: &mut [f64]) {}
+    /// After each PPO minibatch step: `members` are the minibatch's samples of this rank, as
+    /// indices into the rollout (time-major: step t of environment i is `t · n + i`). An extension
+    /// that trains beside the policy in every minibatch (the released AMP agent's discriminator,
+    /// `ppo.amp.schedule = "per_minibatch"`) takes its step here. Default: nothing.
+    fn minibatch(
+        &mut self,
+        _members: &[usize],
+        _comm: &mut dyn Collective,
+    ) -> Result<(), LearnError> {
+        Ok(())
+    }
     /// After the PPO update of the iteration: the extension's own update; its statistics go into
     /// `stats`. A non-finite loss is a [`LearnError::Diverged`].
     fn update(

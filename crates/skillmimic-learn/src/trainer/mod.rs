@@ -174,7 +174,15 @@ impl Trainer {
         };
         let roll = &mut self.rollouts.storage;
         self.updater
-            .run(&input, roll, &mut self.policy, &mut self.adam, &mut self.comm, &mut stats)
+            .run(
+                &input,
+                roll,
+                &mut self.policy,
+                &mut self.adam,
+                &mut self.comm,
+                &mut stats,
+                &mut self.extensions,
+            )
             .map_err(at)?;
         crate::divergence::check_state(&self.policy, &self.adam).map_err(at)?;
         for e in self.extensions.iter_mut() {

@@ -120,7 +120,7 @@ impl Rollouts {
             if k > 0 {
                 env.style_features(&mut self.style);
             }
-            let view = StepView { obs, obs_dim: d, done: &[], style: &self.style, style_dim: k };
+            let view = StepView { t, obs, obs_dim: d, done: &[], style: &self.style, style_dim: k };
             for e in extensions.iter_mut() {
                 e.begin_step(&view);
             }
@@ -158,6 +158,7 @@ impl Rollouts {
                 }
                 let b = env.buffers();
                 let view = StepView {
+                    t,
                     obs: &b.obs,
                     obs_dim: d,
                     done: &self.done,

@@ -12,6 +12,7 @@ use crate::ppo::gae::gae;
 use crate::ppo::{LossStats, RawMinibatch, update_minibatch};
 use crate::shard::{Shard, epoch_order};
 use crate::storage::{MinibatchBuffers, Rollout};
+use crate::trainer::Extension;
 
 /// Reusable buffers of the update.
 #[derive(Default)]
@@ -40,8 +41,9 @@ impl Updater {
         Self { threads, ..Self::default() }
     }
 
-    /// Advantages, value normalisation and the minibatch updates; the mean losses go into
-    /// `stats`.
+    /// Advantages, value normalisation and the minibatch updates (each followed by every
+    /// extension's [`Extension::minibatch`] hook); the mean losses go into `stats`.
+    #[allow(clippy::too_many_arguments)]
     pub fn run(
         &mut self,
         input: &UpdateInput<'_>,
@@ -50,6 +52,7 @@ impl Updater {
         adam: &mut Adam,
         comm: &mut dyn Collective,
         stats: &mut IterationStats,
+        extensions: &mut [Box<dyn Extension>],
     ) -> Result<(), LearnError> {
         let cfg = &input.cfg.ppo;
         let (n, d, a) = input.dims;
@@ -123,6 +126,9 @@ impl Updater {
                     self.threads,
                     comm,
                 )?;
+                for e in extensions.iter_mut() {
+                    e.minibatch(&self.members, comm)?;
+                }
                 acc.actor += l.actor;
                 acc.critic += l.critic;
                 acc.bounds += l.bounds;
