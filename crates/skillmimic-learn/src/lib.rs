@@ -40,6 +40,7 @@ pub mod config_active;
 pub mod config_doc;
 pub mod config_file;
 pub mod config_policies;
+pub mod config_presets;
 pub mod config_token;
 pub mod divergence;
 pub mod episode_eval;
