@@ -146,11 +146,10 @@ fn loss_gradients_equal_finite_differences() {
     }
 }
 
-#[test]
-fn motion_prior_trains_inside_ppo_and_resumes_from_the_checkpoint() {
-    use skillmimic_learn::config::TrainConfig;
-    use skillmimic_learn::trainer::Trainer;
-    let mut c = TrainConfig::preset("tiny").unwrap();
+/// A 2-iteration run of preset `tiny` with the motion prior on the demo clips: 8 environments,
+/// 2 threads, networks [32], discriminator batch 32 and buffer 256, output in `temp/<tag>-<pid>`.
+fn tiny_amp_run(tag: &str) -> skillmimic_learn::config::TrainConfig {
+    let mut c = skillmimic_learn::config::TrainConfig::preset("tiny").unwrap();
     c.env.motion = motion();
     c.env.num_envs = 8;
     c.env.threads = 2;
@@ -162,7 +161,14 @@ fn motion_prior_trains_inside_ppo_and_resumes_from_the_checkpoint() {
     c.run.iterations = 2;
     c.run.save_every = 2;
     c.run.eval_episodes = 2;
-    c.run.out_dir = std::env::temp_dir().join(format!("sm-amp-{}", std::process::id()));
+    c.run.out_dir = std::env::temp_dir().join(format!("{tag}-{}", std::process::id()));
+    c
+}
+
+#[test]
+fn motion_prior_trains_inside_ppo_and_resumes_from_the_checkpoint() {
+    use skillmimic_learn::trainer::Trainer;
+    let c = tiny_amp_run("sm-amp");
     let mut t = Trainer::new(c.clone(), None).unwrap();
     let before = t.extension::<AmpReward>().unwrap().disc().mlp.clone();
     let mut seen = Vec::new();
@@ -367,25 +373,15 @@ fn motion_prior_trains_data_parallel() {
 /// mixed in as with the default schedule, and the discriminator resumes from the checkpoint.
 #[test]
 fn the_released_schedule_steps_the_discriminator_in_every_minibatch() {
-    use skillmimic_learn::config::{AmpSchedule, TrainConfig};
+    use skillmimic_learn::config::AmpSchedule;
     use skillmimic_learn::trainer::Trainer;
-    let mut c = TrainConfig::preset("tiny").unwrap();
-    c.env.motion = motion();
-    c.env.num_envs = 8;
-    c.env.threads = 2;
-    c.ppo.hidden = vec![32];
+    let mut c = tiny_amp_run("sm-amp-mb");
     c.ppo.horizon = 16;
     c.ppo.minibatch = 32;
     c.ppo.mini_epochs = 3;
-    c.ppo.amp.enabled = true;
-    c.ppo.amp.hidden = vec![32];
     c.ppo.amp.batch = 16;
     c.ppo.amp.buffer = 64;
     c.ppo.amp.schedule = AmpSchedule::PerMinibatch;
-    c.run.iterations = 2;
-    c.run.save_every = 2;
-    c.run.eval_episodes = 2;
-    c.run.out_dir = std::env::temp_dir().join(format!("sm-amp-mb-{}", std::process::id()));
     let mut t = Trainer::new(c.clone(), None).unwrap();
     let mut seen = Vec::new();
     let last = skillmimic_learn::runner::train_loop(&mut t, |s| seen.push(s.clone())).unwrap();

@@ -107,14 +107,20 @@ fn imitation_with_the_v2_parts_resumes_exactly() {
     let _ = std::fs::remove_file(enc);
 }
 
-#[test]
-fn the_motion_prior_resumes_exactly() {
-    let mut c = config("imitation", "", "amp");
+/// [`config`] of the imitation task with the motion prior on (discriminator [32], batch 16,
+/// buffer 64).
+fn with_prior(tag: &str) -> TrainConfig {
+    let mut c = config("imitation", "", tag);
     c.ppo.amp.enabled = true;
     c.ppo.amp.hidden = vec![32];
     c.ppo.amp.batch = 16;
     c.ppo.amp.buffer = 64;
-    straight_and_resumed(c);
+    c
+}
+
+#[test]
+fn the_motion_prior_resumes_exactly() {
+    straight_and_resumed(with_prior("amp"));
 }
 
 #[test]
@@ -134,9 +140,7 @@ fn tracking_resumes_exactly() {
 /// iteration, then the keep rule) and its draws resume exactly.
 #[test]
 fn the_motion_prior_resumes_exactly_with_the_released_schedule() {
-    let mut c = config("imitation", "", "amp-mb");
-    c.ppo.amp.enabled = true;
-    c.ppo.amp.hidden = vec![32];
+    let mut c = with_prior("amp-mb");
     c.ppo.amp.batch = 8;
     c.ppo.amp.buffer = 24;
     c.ppo.amp.schedule = skillmimic_learn::config::AmpSchedule::PerMinibatch;
@@ -204,14 +208,10 @@ fn on_ranks(c: &TrainConfig, world: usize, resume: Option<&std::path::Path>) {
 
 #[test]
 fn a_data_parallel_run_resumes_exactly_with_the_same_world_size() {
-    let mut c = config("imitation", "", "dp");
+    let mut c = with_prior("dp");
     c.env.num_envs = 6;
     c.env.threads = 1;
     c.ppo.minibatch = 16;
-    c.ppo.amp.enabled = true;
-    c.ppo.amp.hidden = vec![32];
-    c.ppo.amp.batch = 16;
-    c.ppo.amp.buffer = 64;
     let dir = c.run.out_dir.clone();
     let _ = std::fs::remove_dir_all(&dir);
     on_ranks(&c, 2, None);
