@@ -3,7 +3,9 @@
 //! modskill-tokenhsi-facts §1.5, §2.4) as a reusable reward component.
 //!
 //! * Input: a window of frame features (`skillmimic_env::amp`), normalised by a running
-//!   mean/std updated with reference and simulated windows alike, clamped to ±5.
+//!   mean/std updated with reference and simulated windows alike, clamped to ±5: one per window
+//!   entry (`ppo.amp.normalizer = "per_entry"`, default), or one per frame entry shared by the
+//!   window's frames ([`FrameLayout`], `"per_frame"`: TokenHSI's released rule, from CALM).
 //! * Network: an MLP `in → hidden… → 1` (ReLU), the logit D(x).
 //! * Loss ([`DiscLoss`]), `loss = "logistic"` (default, the released AMP/ASE code):
 //!   ½[BCE(D(x_ref), 1) + BCE(D(x_sim), 0)] + w_gp · mean‖∇ₓD(x_ref)‖² + w_logit · ‖w_out‖²;
@@ -55,16 +57,69 @@ impl DiscLoss {
     }
 }
 
+/// A window's layout for the per-frame normaliser: `window` frames of `fdim` entries, then
+/// `cond` condition entries (a task one-hot). The normaliser sees every window as `window` rows
+/// of (frame, condition) — the released layout, which repeats the one-hot in every frame — so
+/// its statistics are `fdim + cond` wide and count frames.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FrameLayout {
+    pub window: usize,
+    pub fdim: usize,
+    pub cond: usize,
+}
+
+impl FrameLayout {
+    /// Entries of one window.
+    pub fn width(&self) -> usize {
+        self.window * self.fdim + self.cond
+    }
+
+    /// Entries of one (frame, condition) row.
+    pub fn row(&self) -> usize {
+        self.fdim + self.cond
+    }
+
+    /// Windows `x` (`n × width`) as `n · window` rows of (frame, condition) into `out`.
+    pub fn to_rows(&self, x: &[f32], out: &mut Vec<f32>) {
+        let (w, r, f, wf) = (self.width(), self.row(), self.fdim, self.window * self.fdim);
+        out.resize(x.len() / w * self.window * r, 0.0);
+        for (win, rows) in x.chunks_exact(w).zip(out.chunks_exact_mut(self.window * r)) {
+            for (k, row) in rows.chunks_exact_mut(r).enumerate() {
+                row[..f].copy_from_slice(&win[k * f..(k + 1) * f]);
+                row[f..].copy_from_slice(&win[wf..]);
+            }
+        }
+    }
+
+    /// The inverse of [`FrameLayout::to_rows`]: each frame from its row, the condition from the
+    /// first frame's row, into `out` (`n × width`).
+    pub fn from_rows(&self, rows: &[f32], out: &mut [f32]) {
+        let (w, r, f, wf) = (self.width(), self.row(), self.fdim, self.window * self.fdim);
+        for (win, rs) in out.chunks_exact_mut(w).zip(rows.chunks_exact(self.window * r)) {
+            for (k, row) in rs.chunks_exact(r).enumerate() {
+                win[k * f..(k + 1) * f].copy_from_slice(&row[..f]);
+            }
+            win[wf..].copy_from_slice(&rs[f..r]);
+        }
+    }
+}
+
 /// The discriminator with its input normaliser and optimiser.
 #[derive(Clone, Debug)]
 pub struct Discriminator {
     pub cfg: DiscConfig,
     pub mlp: Mlp,
+    /// Input statistics: per window entry, or per frame entry ([`Discriminator::frames`]).
     pub norm: RunningMeanStd,
+    /// `Some`: the normaliser is per frame ([`Discriminator::per_frame`]).
+    pub frames: Option<FrameLayout>,
     pub adam: Adam,
     ws: Workspace,
     /// Normalised inputs of the last [`Discriminator::logits`] call (reused).
     xn: Vec<f32>,
+    /// Per-frame normaliser: rows of the windows, raw and normalised (reused).
+    rows: Vec<f32>,
+    rows_n: Vec<f32>,
 }
 
 impl Discriminator {
@@ -81,8 +136,58 @@ impl Discriminator {
             adam,
             mlp,
             cfg,
+            frames: None,
             ws: Workspace::default(),
             xn: Vec::new(),
+            rows: Vec::new(),
+            rows_n: Vec::new(),
+        }
+    }
+
+    /// The same discriminator with a per-frame normaliser over windows of `layout` (fresh
+    /// statistics `layout.row()` wide). Errors when the layout's width is not the input width.
+    pub fn per_frame(mut self, layout: FrameLayout) -> Result<Self, LearnError> {
+        if layout.width() != self.input_dim() || layout.window == 0 {
+            return Err(LearnError::Config(format!(
+                "ppo.amp.normalizer = \"per_frame\": windows of {} frames of {} entries and {} \
+                    condition entries do not make the discriminator's {} inputs",
+                layout.window,
+                layout.fdim,
+                layout.cond,
+                self.input_dim()
+            )));
+        }
+        self.norm = RunningMeanStd::new(layout.row(), self.norm.eps, self.norm.clip);
+        self.frames = Some(layout);
+        Ok(self)
+    }
+
+    /// Normalise raw windows `x` into `out` (same shape) with the current statistics.
+    pub fn normalize_into(&mut self, x: &[f32], out: &mut [f32]) {
+        match self.frames {
+            None => self.norm.normalize_into(x, out),
+            Some(l) => {
+                l.to_rows(x, &mut self.rows);
+                self.rows_n.resize(self.rows.len(), 0.0);
+                self.norm.normalize_into(&self.rows, &mut self.rows_n);
+                l.from_rows(&self.rows_n, out);
+            }
+        }
+    }
+
+    /// Merge raw windows `x` into the statistics over the ranks of `comm`.
+    fn update_norm(
+        &mut self,
+        x: &[f32],
+        comm: &mut dyn crate::collective::Collective,
+        scratch: &mut Vec<f64>,
+    ) -> Result<(), LearnError> {
+        match self.frames {
+            None => crate::collective::update_normalizer(&mut self.norm, x, comm, scratch),
+            Some(l) => {
+                l.to_rows(x, &mut self.rows);
+                crate::collective::update_normalizer(&mut self.norm, &self.rows, comm, scratch)
+            }
         }
     }
 
@@ -93,8 +198,10 @@ impl Discriminator {
 
     /// Logits of `n` raw windows.
     pub fn logits(&mut self, x: &[f32], n: usize) -> &[f32] {
-        self.xn.resize(x.len(), 0.0);
-        self.norm.normalize_into(x, &mut self.xn);
+        let mut xn = std::mem::take(&mut self.xn);
+        xn.resize(x.len(), 0.0);
+        self.normalize_into(x, &mut xn);
+        self.xn = xn;
         self.mlp.forward_into(&self.xn, n, &mut self.ws, 1)
     }
 
@@ -241,11 +348,11 @@ impl Discriminator {
         comm: &mut dyn crate::collective::Collective,
     ) -> Result<DiscLoss, LearnError> {
         let mut scratch = Vec::new();
-        crate::collective::update_normalizer(&mut self.norm, x_ref, comm, &mut scratch)?;
-        crate::collective::update_normalizer(&mut self.norm, x_sim, comm, &mut scratch)?;
+        self.update_norm(x_ref, comm, &mut scratch)?;
+        self.update_norm(x_sim, comm, &mut scratch)?;
         let (mut nr, mut ns) = (vec![0.0f32; x_ref.len()], vec![0.0f32; x_sim.len()]);
-        self.norm.normalize_into(x_ref, &mut nr);
-        self.norm.normalize_into(x_sim, &mut ns);
+        self.normalize_into(x_ref, &mut nr);
+        self.normalize_into(x_sim, &mut ns);
         let (mut loss, mut grads) = self.loss_and_grads(&nr, n_ref, &ns, n_sim)?;
         let world = comm.world_size();
         if world > 1 {
@@ -300,5 +407,60 @@ impl Discriminator {
         (self.adam.step, self.norm.count) = (step[0] as u64, step[1]);
         comm.broadcast_f64(&mut self.norm.mean)?;
         comm.broadcast_f64(&mut self.norm.var)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+    use rand_chacha::ChaCha8Rng;
+
+    /// Window `i` of 3 frames of 2 entries, frame k = (10 i + k, −(i + k)), then the one-hot of
+    /// task i mod 2.
+    fn window(i: usize) -> Vec<f32> {
+        let mut w: Vec<f32> =
+            (0..3).flat_map(|k| [(10 * i + k) as f32, -((i + k) as f32)]).collect();
+        w.extend(if i.is_multiple_of(2) { [1.0, 0.0] } else { [0.0, 1.0] });
+        w
+    }
+
+    #[test]
+    fn the_per_frame_normaliser_pools_the_frames_of_every_window() {
+        let l = FrameLayout { window: 3, fdim: 2, cond: 2 };
+        let cfg = DiscConfig { hidden: vec![4], ..Default::default() };
+        let mut d = Discriminator::new(8, cfg.clone(), &mut ChaCha8Rng::seed_from_u64(1))
+            .per_frame(l)
+            .unwrap();
+        assert_eq!(d.norm.dim(), 4);
+        assert!(
+            Discriminator::new(9, cfg, &mut ChaCha8Rng::seed_from_u64(1)).per_frame(l).is_err()
+        );
+        let xr: Vec<f32> = (0..4).flat_map(window).collect();
+        let xs: Vec<f32> = (4..10).flat_map(window).collect();
+        let mut rows = Vec::new();
+        l.to_rows(&xr, &mut rows);
+        assert_eq!(&rows[..8], &[0.0, 0.0, 1.0, 0.0, 1.0, -1.0, 1.0, 0.0]);
+        let mut back = vec![0.0; xr.len()];
+        l.from_rows(&rows, &mut back);
+        assert_eq!(back, xr, "windows round-trip through the row layout");
+        d.update(&xr, 4, &xs, 6).unwrap();
+        // 30 frames merged into the fresh statistics (mean 0, variance 1, count 1): the first
+        // entry's values 10 i + k average 46, the one-hot's first entry is 1 in 15 of them
+        let close = |a: f64, b: f64| (a - b).abs() < 1e-9 * (1.0 + b.abs());
+        assert!(close(d.norm.count, 31.0), "{}", d.norm.count);
+        assert!(close(d.norm.mean[0], 30.0 * 46.0 / 31.0), "{:?}", d.norm.mean);
+        assert!(close(d.norm.mean[1], 30.0 * -5.5 / 31.0), "{:?}", d.norm.mean);
+        assert!(close(d.norm.mean[2], 15.0 / 31.0) && close(d.norm.mean[3], 15.0 / 31.0));
+        // a window's frames are normalised with the shared statistics, the one-hot with its own
+        let x = window(7);
+        let mut out = vec![0.0f32; 8];
+        d.normalize_into(&x, &mut out);
+        let z = |j: usize, v: f32| {
+            ((v as f64 - d.norm.mean[j]) / (d.norm.var[j] + 1e-5).sqrt()).clamp(-5.0, 5.0) as f32
+        };
+        let want: Vec<f32> =
+            (0..8).map(|e| if e < 6 { z(e % 2, x[e]) } else { z(e - 4, x[e]) }).collect();
+        assert_eq!(out, want);
     }
 }

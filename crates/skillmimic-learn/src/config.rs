@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-pub use crate::config_policies::{AmpConfig, AmpLoss, AmpSchedule, ModularConfig};
+pub use crate::config_policies::{AmpConfig, AmpLoss, AmpNormalizer, AmpSchedule, ModularConfig};
 use crate::error::LearnError;
 use skillmimic_env::EnvConfig;
 use skillmimic_env::tasks::hlc::config::HlcConfig;

@@ -69,6 +69,17 @@ pub enum AmpSchedule {
     PerMinibatch,
 }
 
+/// How the discriminator's input normaliser pools a window's entries (`ppo.amp.normalizer`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum AmpNormalizer {
+    /// One running mean and variance per window entry (the default; ModSkill's released rule).
+    PerEntry,
+    /// One running mean and variance per frame entry, shared by the window's frames, with a
+    /// condition one-hot counted once per frame (TokenHSI's released rule, from CALM).
+    PerFrame,
+}
+
 /// `[ppo.amp]`: the adversarial motion prior (a style reward from a discriminator over windows of
 /// frames; ModSkill and TokenHSI), off by default.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
@@ -126,6 +137,8 @@ pub struct AmpConfig {
     /// window goes in (released 0.01).
     #[schemars(range(min = 0, max = 1))]
     pub replay_keep: f64,
+    /// The input normaliser: per window entry (default) or per frame (preset `tokenhsi`).
+    pub normalizer: AmpNormalizer,
 }
 
 impl Default for AmpConfig {
@@ -147,6 +160,7 @@ impl Default for AmpConfig {
             updates: 4,
             schedule: AmpSchedule::PerIteration,
             replay_keep: 0.01,
+            normalizer: AmpNormalizer::PerEntry,
         }
     }
 }

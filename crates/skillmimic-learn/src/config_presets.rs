@@ -1,7 +1,7 @@
 //! The named presets of [`TrainConfig`] (`--preset NAME`): the papers' settings at several
 //! machine sizes and the released settings of ModSkill and TokenHSI.
 
-use crate::config::{AmpSchedule, TrainConfig};
+use crate::config::{AmpNormalizer, AmpSchedule, TrainConfig};
 use crate::error::LearnError;
 
 /// Named presets.
@@ -33,7 +33,8 @@ impl TrainConfig {
     ///   and the motion prior on as the released agent trains it: logit regularisation 0.01,
     ///   weight decay 1e-4, one discriminator step in every PPO minibatch on 4 096 current and
     ///   4 096 replay windows against 4 096 reference windows, a replay buffer of 200 000 windows
-    ///   with keep probability 0.01 (`ppo.amp.schedule = "per_minibatch"`). The multi-task
+    ///   with keep probability 0.01 (`ppo.amp.schedule = "per_minibatch"`), its input normalised
+    ///   per frame (`ppo.amp.normalizer = "per_frame"`). The multi-task
     ///   network is `--set ppo.policy="token_transformer"` on `hsi_multi`;
     /// * `tiny`: a small network ([256, 128]) for smoke tests and CI: 16 environments, horizon 16,
     ///   minibatch 128, 2 mini-epochs, learning rate 3e-5. Measured on the demo clips (400
@@ -88,6 +89,7 @@ impl TrainConfig {
                 a.batch = 4096;
                 a.buffer = 200_000;
                 a.replay_keep = 0.01;
+                a.normalizer = AmpNormalizer::PerFrame;
             }
             other => {
                 return Err(LearnError::Config(format!(
@@ -132,5 +134,6 @@ mod tests {
         );
         assert_eq!((a.logit_reg, a.grad_penalty, a.weight_decay, a.lr), (0.01, 5.0, 1e-4, 2e-5));
         assert_eq!((a.reward_scale, a.task_weight, a.style_weight), (2.0, 0.5, 0.5));
+        assert_eq!(a.normalizer, AmpNormalizer::PerFrame);
     }
 }

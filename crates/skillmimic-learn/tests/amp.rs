@@ -368,9 +368,10 @@ fn motion_prior_trains_data_parallel() {
     assert!(err.contains("ppo.amp.schedule") && err.contains("per_iteration"), "{err}");
 }
 
-/// The released agent's schedule (`ppo.amp.schedule = "per_minibatch"`): one discriminator step
-/// in every PPO minibatch (Adam counts iterations × mini-epochs × minibatches), the style reward
-/// mixed in as with the default schedule, and the discriminator resumes from the checkpoint.
+/// The released agent's schedule (`ppo.amp.schedule = "per_minibatch"`, with its per-frame
+/// normaliser): one discriminator step in every PPO minibatch (Adam counts iterations ×
+/// mini-epochs × minibatches), the style reward mixed in as with the default schedule, and the
+/// discriminator resumes from the checkpoint.
 #[test]
 fn the_released_schedule_steps_the_discriminator_in_every_minibatch() {
     use skillmimic_learn::config::AmpSchedule;
@@ -382,7 +383,9 @@ fn the_released_schedule_steps_the_discriminator_in_every_minibatch() {
     c.ppo.amp.batch = 16;
     c.ppo.amp.buffer = 64;
     c.ppo.amp.schedule = AmpSchedule::PerMinibatch;
+    c.ppo.amp.normalizer = skillmimic_learn::config::AmpNormalizer::PerFrame;
     let mut t = Trainer::new(c.clone(), None).unwrap();
+    assert_eq!(t.extension::<AmpReward>().unwrap().disc().norm.dim(), FEATURE_DIM, "per frame");
     let mut seen = Vec::new();
     let last = skillmimic_learn::runner::train_loop(&mut t, |s| seen.push(s.clone())).unwrap();
     let disc = t.extension::<AmpReward>().unwrap().disc().clone();

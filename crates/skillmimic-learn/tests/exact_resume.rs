@@ -136,8 +136,9 @@ fn tracking_resumes_exactly() {
     straight_and_resumed(config("tracking", "smpl", "tracking"));
 }
 
-/// The released per-minibatch discriminator schedule: the replay buffer (full after the first
-/// iteration, then the keep rule) and its draws resume exactly.
+/// The released per-minibatch discriminator schedule with its per-frame normaliser: the replay
+/// buffer (full after the first iteration, then the keep rule), its draws and the normaliser
+/// resume exactly.
 #[test]
 fn the_motion_prior_resumes_exactly_with_the_released_schedule() {
     let mut c = with_prior("amp-mb");
@@ -145,6 +146,7 @@ fn the_motion_prior_resumes_exactly_with_the_released_schedule() {
     c.ppo.amp.buffer = 24;
     c.ppo.amp.schedule = skillmimic_learn::config::AmpSchedule::PerMinibatch;
     c.ppo.amp.replay_keep = 0.5;
+    c.ppo.amp.normalizer = skillmimic_learn::config::AmpNormalizer::PerFrame;
     straight_and_resumed(c);
 }
 

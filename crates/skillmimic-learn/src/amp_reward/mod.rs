@@ -51,14 +51,14 @@ use skillmimic_env::tasks::tracking::motion::Motion;
 use skillmimic_env::tasks::tracking::prior;
 use skillmimic_sim::Scene;
 
-use crate::amp::{DiscLoss, Discriminator};
+use crate::amp::{DiscLoss, Discriminator, FrameLayout};
 
 mod extension;
 mod replay;
 mod resume;
 mod tensors;
 use crate::collective::Collective;
-use crate::config::{AmpConfig, AmpSchedule, TrainConfig};
+use crate::config::{AmpConfig, AmpNormalizer, AmpSchedule, TrainConfig};
 use crate::error::LearnError;
 use crate::trainer::StepView;
 use skillmimic_env::tasks::hsi::config::HsiConfig;
@@ -224,16 +224,23 @@ impl AmpReward {
                      reference: Vec<Vec<f32>>,
                      labels: Vec<usize>,
                      by_label: Vec<(Vec<usize>, f64)>,
-                     rng: &mut ChaCha8Rng| Prior {
-            name,
-            disc: Discriminator::new(width, a.clone(), rng),
-            rows,
-            reference,
-            labels,
-            by_label,
-            buffer: vec![0.0; a.buffer * width],
-            filled: 0,
-            next: 0,
+                     rng: &mut ChaCha8Rng| {
+            let mut disc = Discriminator::new(width, a.clone(), rng);
+            if a.normalizer == AmpNormalizer::PerFrame {
+                disc = disc.per_frame(FrameLayout { window: a.window, fdim, cond })?;
+            }
+            let buffer = vec![0.0; a.buffer * width];
+            Ok::<_, LearnError>(Prior {
+                name,
+                disc,
+                rows,
+                reference,
+                labels,
+                by_label,
+                buffer,
+                filled: 0,
+                next: 0,
+            })
         };
         let mut rings = vec![0.0; n * width];
         let priors = if conditional {
@@ -247,7 +254,7 @@ impl AmpReward {
                     rings[(i + 1) * width - cond + t] = 1.0;
                 }
             }
-            vec![prior(String::new(), 0..n, all, labels, by_label, &mut rng)]
+            vec![prior(String::new(), 0..n, all, labels, by_label, &mut rng)?]
         } else {
             groups
                 .into_iter()
@@ -263,7 +270,7 @@ impl AmpReward {
                         &mut rng,
                     )
                 })
-                .collect()
+                .collect::<Result<_, _>>()?
         };
         Ok(Self {
             priors,
