@@ -12,6 +12,10 @@
 # matched in samples across machines of different speeds. A rerun with the same OUT_DIR continues
 # from the last checkpoint (--resume latest), exactly, so ITERS can be raised later.
 # SEED=N: the training seed (0 by default; docs/results-tokenhsi.md's runs say theirs).
+# AMP_SCHEDULE=per_minibatch: the released discriminator schedule (ppo.amp.schedule), with 2048
+# current + 2048 replay windows against 2048 reference windows per PPO minibatch of 8192 (the
+# released 4096 of 16384, same fraction) and the released 200 000-window replay buffer, keep
+# probability 0.01 (checkpoints then hold the buffer: about 1.1 GB each).
 set -uo pipefail
 out=${1:?output folder}
 train_s=${2:-400}
@@ -28,12 +32,17 @@ else
   "$bin" retarget --to tokenhsi "${m[@]}" --out "$out/clips" > "$out/retarget.log" || exit 1
   style=$out/clips
 fi
+amp=()
+if [ "${AMP_SCHEDULE:-per_iteration}" = per_minibatch ]; then
+  amp=(--set 'ppo.amp.schedule="per_minibatch"' --set ppo.amp.batch=2048 --set ppo.amp.buffer=200000
+    --set ppo.amp.replay_keep=0.01)
+fi
 if [ -n "${ITERS:-}" ]; then limit=(); iters=$ITERS; else limit=(timeout "$train_s"); iters=100000; fi
 "${limit[@]}" "$bin" train --preset small --task hsi_follow --num-envs "$envs" --threads "$threads" \
   --learner-threads "$threads" --seed "${SEED:-0}" --iterations "$iters" \
   --set "env.hsi.style_motion=[\"$style\"]" --set ppo.amp.enabled=true --set ppo.amp.logit_reg=0.01 \
   --set 'ppo.hidden=[1024, 512]' --set ppo.mini_epochs=3 --set ppo.minibatch=8192 --set run.save_every=10 \
-  --out "$out/follow" --no-video --resume latest >> "$out/train.log" 2>&1
+  "${amp[@]}" --out "$out/follow" --no-video --resume latest >> "$out/train.log" 2>&1
 echo "train exit $? (124: stopped at ${train_s} s, as intended without ITERS)"
 for start in reference rest; do
   extra=(); [ "$start" = rest ] && extra=(--set 'env.hsi.state_init="default"')
