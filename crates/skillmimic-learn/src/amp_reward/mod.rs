@@ -95,7 +95,25 @@ pub struct Prior {
     next: usize,
 }
 
+/// A uniformly random choice of `k` of `picks` moved to its front (the first `k` steps of a
+/// Fisher-Yates shuffle: one draw per chosen entry).
+fn shuffle_first(rng: &mut ChaCha8Rng, picks: &mut [usize], k: usize) {
+    for i in 0..k {
+        let j = rng.random_range(i..picks.len());
+        picks.swap(i, j);
+    }
+}
+
 impl Prior {
+    /// Write window `x` at the buffer's next slot (a ring: the oldest window is overwritten once
+    /// it is full).
+    fn push_window(&mut self, x: &[f32]) {
+        let (w, cap) = (x.len(), self.buffer.len() / x.len());
+        self.buffer[self.next * w..(self.next + 1) * w].copy_from_slice(x);
+        self.next = (self.next + 1) % cap;
+        self.filled = (self.filled + 1).min(cap);
+    }
+
     /// Checkpoint tensor prefix: `amp` (one prior) or `amp.<task>`.
     fn prefix(&self) -> String {
         if self.name.is_empty() { "amp".to_string() } else { format!("amp.{}", self.name) }
@@ -458,14 +476,9 @@ impl AmpReward {
             let keep = (self.cfg.buffer / self.horizon.max(1)).clamp(1, m);
             self.picks.clear();
             self.picks.extend(p.rows.clone());
-            for k in 0..keep {
-                let j = self.rng.random_range(k..m);
-                self.picks.swap(k, j);
-                let i = self.picks[k];
-                let at = p.next * w;
-                p.buffer[at..at + w].copy_from_slice(&self.rings[i * w..(i + 1) * w]);
-                p.next = (p.next + 1) % self.cfg.buffer;
-                p.filled = (p.filled + 1).min(self.cfg.buffer);
+            shuffle_first(&mut self.rng, &mut self.picks, keep);
+            for &i in &self.picks[..keep] {
+                p.push_window(&self.rings[i * w..(i + 1) * w]);
             }
         }
         (st, ss)

@@ -162,16 +162,10 @@ impl AmpReward {
             let m = rp.picks.len();
             let take = m.min(cap);
             if m > cap {
-                for k in 0..take {
-                    let j = self.rng.random_range(k..m);
-                    rp.picks.swap(k, j);
-                }
+                super::shuffle_first(&mut self.rng, &mut rp.picks, take);
             }
             for &s in &rp.picks[..take] {
-                let at = p.next * w;
-                p.buffer[at..at + w].copy_from_slice(&rp.steps[s * w..(s + 1) * w]);
-                p.next = (p.next + 1) % cap;
-                p.filled = (p.filled + 1).min(cap);
+                p.push_window(&rp.steps[s * w..(s + 1) * w]);
             }
         }
         let mut mean = DiscLoss::default();
