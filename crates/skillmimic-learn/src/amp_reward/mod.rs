@@ -14,7 +14,7 @@
 //!   randomly chosen environments' windows (all of them when fewer) go into a ring buffer of
 //!   `buffer` windows; each iteration takes `updates` discriminator steps on `batch` buffer
 //!   windows against `batch` reference windows. `"per_minibatch"`: the released agent's step in
-//!   every PPO minibatch with a replay buffer ([`replay`]).
+//!   every PPO minibatch with a replay buffer (module `replay`).
 //! * Checkpoint tensors: `amp.disc.{0,2,…}.weight/.bias`, `amp.norm.{mean,var,count}`,
 //!   `amp.optim.step`, `amp.optim.{m,v}.<param>`.
 //! * Multi-task environments (`hsi_multi`): by default (`env.hsi.discriminator =
