@@ -115,7 +115,7 @@ impl Target {
             }
             Target::Bvh => vec![BVH_SEED.as_bytes().to_vec()],
             Target::Positions => vec![positions_seed().into_bytes()],
-            Target::Config => skillmimic_learn::config::PRESETS
+            Target::Config => skillmimic_learn::config_presets::PRESETS
                 .iter()
                 .map(|name| TrainConfig::preset(name).expect("preset").to_toml().into_bytes())
                 .collect(),

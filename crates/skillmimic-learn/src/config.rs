@@ -227,8 +227,6 @@ pub struct TrainConfig {
     pub run: RunConfig,
 }
 
-pub use crate::config_presets::PRESETS;
-
 impl TrainConfig {
     /// The high-level controller's settings (reference-facts §8.3) for a high-level task:
     /// `categorical_mlp`, hidden [1024, 512] when the widths are still the defaults, and

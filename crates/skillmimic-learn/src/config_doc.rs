@@ -17,7 +17,8 @@ use serde::{Deserialize, Serialize};
 use serde_json::Value;
 use skillmimic_env::config_range::{SchemaDefs, range_text, root_schema};
 
-use crate::config::{PRESETS, TrainConfig};
+use crate::config::TrainConfig;
+use crate::config_presets::PRESETS;
 
 /// The command that rewrites `docs/config.md` (run from the repository root).
 pub const REGENERATE: &str =

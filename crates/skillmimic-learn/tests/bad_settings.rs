@@ -9,7 +9,8 @@ use std::time::{Duration, Instant};
 use rand::SeedableRng;
 use skillmimic_core::tensorfile::{OwnedTensor, TensorFile, write_atomic};
 use skillmimic_learn::checkpoint::{self, Progress};
-use skillmimic_learn::config::{PRESETS, PpoConfig, TrainConfig};
+use skillmimic_learn::config::{PpoConfig, TrainConfig};
+use skillmimic_learn::config_presets::PRESETS;
 use skillmimic_learn::policy::Policy;
 
 /// The error of `key=value` over the `tiny` preset (the assignment itself must be accepted:

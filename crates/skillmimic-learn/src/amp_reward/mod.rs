@@ -55,6 +55,7 @@ use crate::amp::{DiscLoss, Discriminator, FrameLayout};
 
 mod extension;
 mod replay;
+mod replay_state;
 mod resume;
 mod tensors;
 use crate::collective::Collective;
@@ -144,7 +145,7 @@ pub struct AmpReward {
     picks: Vec<usize>,
     style: Vec<f32>,
     /// `ppo.amp.schedule = "per_minibatch"`: the rollout's windows and loss sums ([`replay`]).
-    replay: Option<replay::Replay>,
+    replay: Option<replay_state::Replay>,
 }
 
 impl AmpReward {
@@ -303,7 +304,7 @@ impl AmpReward {
             picks: Vec::new(),
             style: vec![0.0; n],
             replay: (a.schedule == AmpSchedule::PerMinibatch)
-                .then(|| replay::Replay::new(cfg.ppo.horizon, n, width)),
+                .then(|| replay_state::Replay::new(cfg.ppo.horizon, n, width)),
             cfg: a,
         })
     }

@@ -66,32 +66,6 @@ impl Prior {
     }
 }
 
-/// The per-minibatch schedule's rollout windows, loss sums and scratch buffers.
-pub(super) struct Replay {
-    /// `horizon × n × width`: every environment's window after each rollout step.
-    steps: Vec<f32>,
-    /// Loss sums and count of the iteration's minibatch steps.
-    sum: DiscLoss,
-    count: usize,
-    xr: Vec<f32>,
-    xs: Vec<f32>,
-    picks: Vec<usize>,
-}
-
-impl Replay {
-    /// Room for a rollout of `horizon` steps of `n` environments' windows of `width` entries.
-    pub(super) fn new(horizon: usize, n: usize, width: usize) -> Self {
-        Self {
-            steps: vec![0.0; horizon * n * width],
-            sum: DiscLoss::default(),
-            count: 0,
-            xr: Vec::new(),
-            xs: Vec::new(),
-            picks: Vec::new(),
-        }
-    }
-}
-
 impl AmpReward {
     /// Rollout step `t`: keep every environment's window (`rings`, after this step's frame).
     pub(super) fn keep_step(&mut self, t: usize) {
