@@ -7,7 +7,8 @@
 # Stage 2: deterministic evaluation of the stage-1 policy on each base task alone (same layout).
 # Stage 3: policy adaptation to hsi_follow_carry (frozen base, new tokenizer, zero adapters, new
 #          critic), then the composition task's evaluation and the base tasks' evaluation again.
-# Every stage resumes: an existing result is kept.
+# Every stage resumes: an existing result is kept. ASSIGN=per_episode draws each stage-1 episode's
+# task at its reset (the released rule, env.multi.assign); default fixed.
 # Usage: scripts/experiments/hsi_multi.sh OUT_DIR [ITERATIONS] [ADAPT_ITERATIONS] [NUM_ENVS] [SEED]
 set -euo pipefail
 out=${1:?output folder}
@@ -15,6 +16,7 @@ iters=${2:-1000}
 adapt_iters=${3:-300}
 envs=${4:-64}
 seed=${5:-0}
+assign=${ASSIGN:-fixed}
 bin=$(dirname "$0")/../../target/release/skillmimic
 mkdir -p "$out"
 net=(--set ppo.policy=token_transformer --set ppo.token.layers=2 --set ppo.token.feedforward=256 --set "ppo.token.head=[256, 128]")
@@ -22,7 +24,7 @@ base_groups='["hsi_follow", "hsi_sit", "hsi_carry", "hsi_climb"]'
 all_groups='["hsi_follow", "hsi_sit", "hsi_carry", "hsi_climb", "hsi_follow_carry"]'
 if [ ! -f "$out/multi/latest.safetensors" ]; then
   "$bin" train --preset tiny --task hsi_multi --num-envs "$envs" --iterations "$iters" --seed "$seed" "${net[@]}" \
-    --set run.save_every=100 --out "$out/multi" --no-video > "$out/multi.log" 2>&1
+    --set "env.multi.assign=\"$assign\"" --set run.save_every=100 --out "$out/multi" --no-video > "$out/multi.log" 2>&1
 fi
 evaluate() { # checkpoint task groups out
   [ -f "$4" ] || "$bin" eval --checkpoint "$1" --set env.task=hsi_multi --set "env.multi.tasks=[\"$2\"]" --set "env.multi.mix=[]" \

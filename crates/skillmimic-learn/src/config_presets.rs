@@ -34,8 +34,9 @@ impl TrainConfig {
     ///   weight decay 1e-4, one discriminator step in every PPO minibatch on 4 096 current and
     ///   4 096 replay windows against 4 096 reference windows, a replay buffer of 200 000 windows
     ///   with keep probability 0.01 (`ppo.amp.schedule = "per_minibatch"`), its input normalised
-    ///   per frame (`ppo.amp.normalizer = "per_frame"`). The multi-task
-    ///   network is `--set ppo.policy="token_transformer"` on `hsi_multi`;
+    ///   per frame (`ppo.amp.normalizer = "per_frame"`). On `hsi_multi` each episode's task is
+    ///   drawn from the mix at its reset (`env.multi.assign = "per_episode"`, the released
+    ///   multi-task rule); the multi-task network is `--set ppo.policy="token_transformer"`;
     /// * `tiny`: a small network ([256, 128]) for smoke tests and CI: 16 environments, horizon 16,
     ///   minibatch 128, 2 mini-epochs, learning rate 3e-5. Measured on the demo clips (400
     ///   iterations, 32 environments): 1e-4 and 3e-5 reach the same reward (≈ 3.4× the first 25
@@ -90,6 +91,8 @@ impl TrainConfig {
                 a.buffer = 200_000;
                 a.replay_keep = 0.01;
                 a.normalizer = AmpNormalizer::PerFrame;
+                c.env.table_mut::<skillmimic_env::tasks::multi::config::MultiConfig>().assign =
+                    skillmimic_env::tasks::multi::Assign::PerEpisode;
             }
             other => {
                 return Err(LearnError::Config(format!(
@@ -135,5 +138,8 @@ mod tests {
         assert_eq!((a.logit_reg, a.grad_penalty, a.weight_decay, a.lr), (0.01, 5.0, 1e-4, 2e-5));
         assert_eq!((a.reward_scale, a.task_weight, a.style_weight), (2.0, 0.5, 0.5));
         assert_eq!(a.normalizer, AmpNormalizer::PerFrame);
+        // multi_task/amp_humanoid_traj_sit_carry_climb.yaml: taskInitProb drawn at every reset
+        let m = c.env.table::<skillmimic_env::tasks::multi::config::MultiConfig>();
+        assert_eq!(m.assign, skillmimic_env::tasks::multi::Assign::PerEpisode);
     }
 }

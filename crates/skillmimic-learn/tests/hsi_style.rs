@@ -323,6 +323,43 @@ fn multi_task_training_conditions_one_discriminator_on_the_task() {
     std::fs::remove_dir_all(dir).ok();
 }
 
+/// `env.multi.assign = "per_episode"` (the released rule: each episode's task drawn at its
+/// reset): the conditional prior's one-hot of every environment is the task it runs now, also
+/// after environments changed task; one discriminator per task is refused by both fields.
+#[test]
+fn per_episode_tasks_carry_their_one_hot_into_the_conditional_prior() {
+    use skillmimic_env::tasks::multi::Assign;
+    use skillmimic_learn::trainer::Trainer;
+    let Some(shared) =
+        shared_dir_or_skip("per_episode_tasks_carry_their_one_hot_into_the_conditional_prior")
+    else {
+        return;
+    };
+    let dir = retargeted(&shared, "episodes");
+    let mut c = multi_config(&dir, "episodes");
+    c.env.table_mut::<MultiConfig>().assign = Assign::PerEpisode;
+    let mut t = Trainer::new(c.clone(), None).unwrap();
+    let start = t.env.row_tasks().to_vec();
+    let mut changed = false;
+    for _ in 0..3 {
+        t.iteration().unwrap();
+        let amp = t.extension::<AmpReward>().unwrap();
+        let tasks = t.env.row_tasks();
+        for (i, &k) in tasks.iter().enumerate() {
+            let mut want = [0.0f32; 2];
+            want[k as usize] = 1.0;
+            assert_eq!(amp.condition(i), want, "environment {i} runs task {k}");
+        }
+        changed |= tasks != start.as_slice();
+    }
+    assert!(changed, "no environment changed task in 3 iterations");
+    c.env.table_mut::<HsiConfig>().discriminator = Discriminators::PerTask;
+    let e = Trainer::new(c.clone(), None).err().expect("refused").to_string();
+    assert!(e.contains("env.hsi.discriminator") && e.contains("env.multi.assign"), "{e}");
+    std::fs::remove_dir_all(&c.run.out_dir).ok();
+    std::fs::remove_dir_all(dir).ok();
+}
+
 /// A tiny `hsi_multi` run (follow 2 and sit 6 environments, a small token policy, the motion prior
 /// on): follow's clips are the run clip only, sit's all of `dir`; its folder is tagged `tag`.
 fn multi_config(dir: &std::path::Path, tag: &str) -> skillmimic_learn::config::TrainConfig {

@@ -33,6 +33,8 @@ pub(crate) struct EnvSlot {
     pub(crate) data: Data,
     /// The floor bounce-threshold rule's state (`crate::bounce`).
     pub(crate) bounce: BounceState,
+    /// Not stepped (`crate::pause`).
+    pub(crate) paused: bool,
 }
 
 /// Mutable rows of one environment in every output buffer.
@@ -100,7 +102,12 @@ impl BatchSim {
         let make = |i: usize| {
             let variant = i % variants.len();
             MjData::try_new(Arc::clone(variants[variant].model()))
-                .map(|data| EnvSlot { variant, data, bounce: BounceState::default() })
+                .map(|data| EnvSlot {
+                    variant,
+                    data,
+                    bounce: BounceState::default(),
+                    paused: false,
+                })
                 .map_err(|e| SimError::Config(format!("cannot allocate MuJoCo data: {e}")))
         };
         let probe = make(0)?;
@@ -183,7 +190,8 @@ impl BatchSim {
     /// Advance every environment by one policy step.
     ///
     /// `actions` is `N × dofs` (row-major, the character's dof order); each entry is clamped to
-    /// [−1, 1] and mapped to its PD target. Entries of welded joints are ignored.
+    /// [−1, 1] and mapped to its PD target. Entries of welded joints are ignored. Paused
+    /// environments ([`set_paused`](Self::set_paused)) keep their state and read-out.
     pub fn step(&mut self, actions: &[f32]) -> Result<(), SimError> {
         let (n, nd) = (self.num_envs(), self.num_dofs());
         check_len("actions", actions.len(), n * nd, || format!("{n} x {nd}"))?;
@@ -192,6 +200,9 @@ impl BatchSim {
         }
         let (variants, substeps) = (&self.variants, self.substeps);
         Self::for_each_env(&self.pool, &mut self.envs, &mut self.state, |i, slot, mut rows| {
+            if slot.paused {
+                return;
+            }
             let scene = &*variants[slot.variant];
             let row = &actions[i * nd..(i + 1) * nd];
             let d = &mut slot.data;

@@ -21,6 +21,7 @@ pub mod error;
 pub mod memory;
 pub mod mj_batch;
 pub mod mjcf;
+pub mod pause;
 pub mod scene;
 pub mod scene_options;
 pub mod snapshot;

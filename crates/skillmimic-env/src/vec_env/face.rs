@@ -50,9 +50,26 @@ pub trait Env: Send + Sync {
     /// targets.
     fn pd_targets(&self) -> &[f32];
     /// The tasks of a multi-task environment with their environment rows (empty: one task); the
-    /// motion prior keeps one discriminator per entry.
+    /// motion prior keeps one discriminator per entry. Where environments change task between
+    /// episodes ([`row_tasks`](Env::row_tasks) not empty) the ranges are the split of the
+    /// environments by the tasks' shares (their lengths are the shares; `row_tasks` says which
+    /// task each environment runs).
     fn task_rows(&self) -> Vec<(String, std::ops::Range<usize>)> {
         Vec::new()
+    }
+    /// The task index (into [`task_rows`](Env::task_rows)) each environment runs now, for a
+    /// multi-task environment whose environments change task between episodes
+    /// (`env.multi.assign = "per_episode"`); empty where each task keeps its rows.
+    fn row_tasks(&self) -> &[u16] {
+        &[]
+    }
+    /// Pause (`true`) or resume (`false`) environment `i`: a paused environment is not simulated
+    /// and never done (`vec_env::pause`); where offered.
+    fn set_paused(&mut self, _i: usize, _paused: bool) -> Result<(), EnvError> {
+        Err(EnvError::Unsupported(format!(
+            "task '{}': this environment cannot pause an environment",
+            self.spec().name
+        )))
     }
     /// Environment `i`'s episode fields in [`TaskSpec::episode_names`] order (empty when the
     /// task declares none). `i` < `num_envs()`.
@@ -83,6 +100,7 @@ pub trait Env: Send + Sync {
     }
     /// Every environment's style features (`num_envs × style_dim`) from its current simulation
     /// state: after a step, the state the step ended in (before any reset of a finished episode).
+    /// A paused environment's entries are left as they are.
     fn style_features(&self, _out: &mut [f32]) {}
     /// Everything later steps depend on — simulation state, every environment's episode (task
     /// slot), the streams of episode starts, the output buffers, the task's own state — encoded

@@ -18,6 +18,7 @@
 mod buffers;
 mod face;
 mod hold;
+mod pause;
 pub mod saved;
 
 use std::any::Any;
@@ -196,7 +197,7 @@ impl<T: Task> VecEnv<T> {
     pub fn reset_done(&mut self) {
         let mut any = false;
         for i in 0..self.num_envs() {
-            let done = self.buffers().done(i);
+            let done = self.buffers().done(i) && !self.sim.is_paused(i);
             self.reset_mask[i] = done;
             if done {
                 any = true;
@@ -309,7 +310,7 @@ impl<T: Task> VecEnv<T> {
         let spec = task.spec();
         let (d, nt, ni, nm) =
             (spec.obs_dim, spec.term_names.len(), spec.info_names.len(), spec.metric_names.len());
-        let (state, t) = (sim.state(), &*task);
+        let (state, t, sim) = (sim.state(), &*task, &*sim);
         sim.install(|| {
             (
                 slots.par_iter_mut(),
@@ -325,6 +326,9 @@ impl<T: Task> VecEnv<T> {
                 .enumerate()
                 .for_each(
                     |(i, (slot, obs, reward, terms, info, metrics, terminated, truncated))| {
+                        if sim.is_paused(i) {
+                            return;
+                        }
                         let out =
                             StepOut { obs, reward, terms, info, metrics, terminated, truncated };
                         t.step_env(i, slot, &state.env(i), out);
@@ -371,7 +375,7 @@ impl<T: Task> VecEnv<T> {
             let (n, d) = (self.num_envs(), self.obs_dim());
             let mut any = false;
             for i in 0..n {
-                let done = self.buffers().done(i);
+                let done = self.buffers().done(i) && !self.sim.is_paused(i);
                 self.reset_mask[i] = done;
                 any |= done;
             }
@@ -440,6 +444,9 @@ impl<T: Task> Env for VecEnv<T> {
     fn set_task_info(&mut self, i: usize, values: &[f32]) -> Result<(), EnvError> {
         VecEnv::set_task_info(self, i, values)
     }
+    fn set_paused(&mut self, i: usize, paused: bool) -> Result<(), EnvError> {
+        VecEnv::set_paused(self, i, paused)
+    }
     fn pd_targets(&self) -> &[f32] {
         &self.targets
     }
@@ -467,7 +474,9 @@ impl<T: Task> Env for VecEnv<T> {
             return;
         }
         let state = self.sim.state();
-        for (i, row) in out.chunks_exact_mut(k).enumerate() {
+        // a paused row's entries are left as they are (`pause`)
+        for (i, row) in out.chunks_exact_mut(k).enumerate().filter(|(i, _)| !self.sim.is_paused(*i))
+        {
             self.task.style_features(&state.env(i), row);
         }
     }

@@ -170,6 +170,17 @@ impl AmpReward {
             && tasks.len() > 1
             && cfg.env.table::<HsiConfig>().discriminator
                 == skillmimic_env::tasks::hsi::config::Discriminators::Conditional;
+        let per_episode =
+            cfg.env.table::<skillmimic_env::tasks::multi::config::MultiConfig>().assign
+                == skillmimic_env::tasks::multi::Assign::PerEpisode;
+        if tasks.len() > 1 && !conditional && per_episode {
+            return Err(LearnError::Config(
+                "config fields 'env.hsi.discriminator' = \"per_task\" and 'env.multi.assign' = \
+                    \"per_episode\" do not go together (a task's discriminator scores fixed \
+                    environments); use \"conditional\" or \"fixed\""
+                    .into(),
+            ));
+        }
         let groups: Vec<(String, std::ops::Range<usize>)> =
             if tasks.is_empty() { vec![(String::new(), 0..n)] } else { tasks.to_vec() };
         let released = hsi
@@ -423,7 +434,9 @@ impl AmpReward {
     }
 
     /// Before a step: environments that start a new episode fill their window with their first
-    /// frame (`v`: the observations the policy acts on, and the style features of their states).
+    /// frame (`v`: the observations the policy acts on, and the style features of their states);
+    /// where environments change task between episodes (`v.tasks`), a conditional prior's
+    /// one-hot becomes the new episode's task.
     pub fn begin_step(&mut self, v: &StepView<'_>) {
         let (w, f) = (self.width(), self.fdim);
         let mut frame = std::mem::take(&mut self.frame);
@@ -432,6 +445,11 @@ impl AmpReward {
                 self.frame_of(v, i, &mut frame);
                 for k in 0..self.cfg.window {
                     self.rings[i * w + k * f..i * w + (k + 1) * f].copy_from_slice(&frame);
+                }
+                if self.cond > 0 && !v.tasks.is_empty() {
+                    let hot = &mut self.rings[(i + 1) * w - self.cond..(i + 1) * w];
+                    hot.fill(0.0);
+                    hot[v.tasks[i] as usize] = 1.0;
                 }
                 self.fresh[i] = false;
             }

@@ -34,6 +34,10 @@ pub struct StepView<'a> {
     /// [`skillmimic_env::Env::style_features`]; empty when the task computes none).
     pub style: &'a [f32],
     pub style_dim: usize,
+    /// The task (index into [`skillmimic_env::Env::task_rows`]) each environment runs now, where
+    /// environments change task between episodes ([`skillmimic_env::Env::row_tasks`]); empty
+    /// where each task keeps its rows.
+    pub tasks: &'a [u16],
 }
 
 /// A part of training beside PPO (see the module doc). Every hook has a do-nothing default.

@@ -120,7 +120,15 @@ impl Rollouts {
             if k > 0 {
                 env.style_features(&mut self.style);
             }
-            let view = StepView { t, obs, obs_dim: d, done: &[], style: &self.style, style_dim: k };
+            let view = StepView {
+                t,
+                obs,
+                obs_dim: d,
+                done: &[],
+                style: &self.style,
+                style_dim: k,
+                tasks: env.row_tasks(),
+            };
             for e in extensions.iter_mut() {
                 e.begin_step(&view);
             }
@@ -164,6 +172,7 @@ impl Rollouts {
                     done: &self.done,
                     style: &self.style,
                     style_dim: k,
+                    tasks: env.row_tasks(),
                 };
                 let mut at = 0;
                 for e in extensions.iter_mut() {

@@ -22,6 +22,24 @@ pub struct MultiConfig {
     /// more groups than the tasks fill to keep a trained policy's layout (evaluating one task
     /// of a multi-task policy; adaptation to a new task keeps the old groups first).
     pub groups: Vec<String>,
+    /// How environments get their tasks. `"fixed"` (default): each task keeps a block of
+    /// environments sized by `mix`, so every rollout holds each task's share of the samples
+    /// exactly. `"per_episode"`: TokenHSI's released rule (`_reset_task_indicator`), each episode's
+    /// task drawn from `mix` when the environment resets, so a task whose episodes last longer
+    /// gets more of the samples; every task's batch then keeps a row for every environment and
+    /// pauses the rows of the environments running another task (`hsi_multi` only).
+    pub assign: Assign,
+}
+
+/// `env.multi.assign`: how the environments of a multi-task batch get their tasks.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum Assign {
+    /// A fixed block of environments per task, sized by the mix (largest remainder).
+    #[default]
+    Fixed,
+    /// The task drawn from the mix at every reset (TokenHSI's released multi-task training).
+    PerEpisode,
 }
 
 impl crate::config_table::TaskConfig for MultiConfig {

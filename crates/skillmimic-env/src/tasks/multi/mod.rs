@@ -19,18 +19,19 @@
 //! environments (what the trainer logs) is t's own per-step mean; metrics `t/<metric>` hold t's
 //! values on its environments and 0 elsewhere (not rescaled). Info entries likewise prefixed.
 //!
+//! **Assignment** (`env.multi.assign`): `"fixed"` (default) gives each task a block of
+//! environments sized by the mix; `"per_episode"` (TokenHSI's released rule) draws each
+//! episode's task from the mix at its reset, every sub-batch then holding a row for every
+//! environment with the rows of the other tasks paused (`episodes`).
+//!
 //! **MuJoCo access** (`mujoco()`: state reads and edits, rendering) is routed to the sub-batch
 //! holding environment i. Not multiplexed: `pd_targets` is empty.
 
+mod assign;
 pub mod config;
+mod episodes;
+mod face;
 mod saved;
-
-use std::any::Any;
-
-use std::sync::Arc;
-
-use mujoco_rs::prelude::MjModel;
-use skillmimic_sim::{MjBatch, SimError};
 
 use crate::config::EnvConfig;
 use crate::error::{EnvError, bad};
@@ -39,7 +40,7 @@ use crate::task::TaskSpec;
 use crate::tasks::multi::config::MultiConfig;
 use crate::vec_env::{Env, StepBuffers};
 use config::split;
-pub use config::{HLC, HSI, Kind};
+pub use config::{Assign, HLC, HSI, Kind};
 
 /// The `[env.multi]` table.
 pub const TABLE: crate::config_table::TableEntry =
@@ -58,7 +59,7 @@ struct Sub {
     term_at: usize,
     metric_at: usize,
     info_at: usize,
-    /// N / N_t.
+    /// N / N_t (per-episode tasks: N / the environments whose last step ran t).
     scale: f32,
 }
 
@@ -69,6 +70,15 @@ pub struct MultiEnv {
     n: usize,
     mask_at: usize,
     buf: StepBuffers,
+    /// `env.multi.assign = "per_episode"`: each environment's task (`episodes`).
+    episodes: Option<episodes::Episodes>,
+    /// The sub-batches' split by the mix (`task_rows`; the rows themselves under `"fixed"`).
+    split_rows: Vec<std::ops::Range<usize>>,
+    autoreset: bool,
+    /// Per-episode tasks: a mask over the environments (reused).
+    mask: Vec<bool>,
+    /// Per-episode tasks: one sub-batch's style features (reused).
+    style_rows: std::sync::Mutex<Vec<f32>>,
 }
 
 /// What the multi-task environment needs of the task registry, handed in by the registry (so
@@ -100,6 +110,17 @@ impl MultiEnv {
         let m = cfg.table::<MultiConfig>();
         let (tasks, mix) = m.effective(kind);
         let counts = split(cfg.num_envs, tasks.len(), &mix)?;
+        let per_episode = m.assign == Assign::PerEpisode;
+        if per_episode && kind.high_level {
+            return Err(bad(
+                "env.multi.assign",
+                format!(
+                    "\"per_episode\" is TokenHSI's rule (hsi_multi); '{}' keeps \"fixed\"",
+                    cfg.task
+                ),
+            )
+            .into());
+        }
         let base_seed = cfg.start_seed(0);
         let mut envs = Vec::new();
         for (k, (task, &n)) in tasks.iter().zip(&counts).enumerate() {
@@ -149,9 +170,11 @@ impl MultiEnv {
             }
             let mut c = cfg.clone();
             c.task = task.clone();
-            c.num_envs = n;
             // row r of the batch draws from the stream `seed + r`, as in one task's batch
-            c.seed = Some(base_seed.wrapping_add(counts[..k].iter().sum::<usize>() as u64));
+            // (per-episode tasks: every sub-batch has every row, k's row r `seed + k·N + r`)
+            let offset = if per_episode { k * cfg.num_envs } else { counts[..k].iter().sum() };
+            c.num_envs = if per_episode { cfg.num_envs } else { n };
+            c.seed = Some(base_seed.wrapping_add(offset as u64));
             envs.push((reg.make)(&c)?);
         }
         let first = envs[0].spec().clone();
@@ -252,7 +275,9 @@ impl MultiEnv {
                 info_at,
                 scale: n as f32 / nt as f32,
             });
-            start += nt;
+            if !per_episode {
+                start += nt;
+            }
         }
         // blocks: the shared part's as the first task declares them, one per task group, the mask
         let mut obs_blocks: Vec<ObsBlock> =
@@ -284,13 +309,44 @@ impl MultiEnv {
             ..TaskSpec::default()
         };
         let buf = StepBuffers::for_spec(n, &spec);
-        let mut me = Self { spec, subs, n, mask_at, buf };
+        let split_rows = counts
+            .iter()
+            .scan(0, |at, &c| {
+                let first = *at;
+                *at += c;
+                Some(first..*at)
+            })
+            .collect();
+        let episodes =
+            per_episode.then(|| episodes::Episodes::new(&mix, counts.len(), n, base_seed));
+        let mut me = Self {
+            spec,
+            subs,
+            n,
+            mask_at,
+            buf,
+            episodes,
+            split_rows,
+            autoreset: false,
+            mask: Vec::with_capacity(n),
+            style_rows: Default::default(),
+        };
+        me.draw_all();
+        me.apply_pauses().map_err(|e| bad("env.multi.assign", e.to_string()))?;
         me.gather();
         Ok(me)
     }
 
-    /// Rows `start..start + n_t` of every combined buffer from each sub-batch's buffers.
+    /// Rows `start..start + n_t` of every combined buffer from each sub-batch's buffers
+    /// (per-episode tasks: each row's observation and information from its current task's
+    /// sub-batch, its step outputs from the sub-batch that ran the step; `episodes`).
     fn gather(&mut self) {
+        if let Some(ep) = &self.episodes {
+            for (k, s) in self.subs.iter_mut().enumerate() {
+                let ran = ep.then.iter().filter(|&&t| t as usize == k).count();
+                s.scale = if ran == 0 { 0.0 } else { self.n as f32 / ran as f32 };
+            }
+        }
         let d = self.spec.obs_dim;
         let (nt, nm, ni) =
             (self.spec.term_names.len(), self.spec.metric_names.len(), self.spec.info_names.len());
@@ -298,7 +354,7 @@ impl MultiEnv {
         b.terms.fill(0.0);
         b.metrics.fill(0.0);
         b.info.fill(0.0);
-        for s in &self.subs {
+        for (k, s) in self.subs.iter().enumerate() {
             let sb = s.env.buffers();
             let sd = s.env.spec().obs_dim;
             let (st, sm, si) = (
@@ -308,7 +364,16 @@ impl MultiEnv {
             );
             for i in 0..s.env.num_envs() {
                 let r = s.start + i;
-                for (obs, src) in [(&mut b.obs, &sb.obs), (&mut b.final_obs, &sb.final_obs)] {
+                let (now, then) = match &self.episodes {
+                    None => (true, true),
+                    Some(ep) => (ep.now[r] as usize == k, ep.then[r] as usize == k),
+                };
+                for (obs, src, here) in
+                    [(&mut b.obs, &sb.obs, now), (&mut b.final_obs, &sb.final_obs, then)]
+                {
+                    if !here {
+                        continue;
+                    }
                     let row = &mut obs[r * d..(r + 1) * d];
                     row.fill(0.0);
                     for &(from, to, w) in &s.copies {
@@ -317,6 +382,13 @@ impl MultiEnv {
                     for &j in &s.active {
                         row[self.mask_at + j] = 1.0;
                     }
+                }
+                if now {
+                    b.info[r * ni + s.info_at..r * ni + s.info_at + si]
+                        .copy_from_slice(&sb.info[i * si..(i + 1) * si]);
+                }
+                if !then {
+                    continue;
                 }
                 b.reward[r] = sb.reward[i];
                 b.terminated[r] = sb.terminated[i];
@@ -330,14 +402,15 @@ impl MultiEnv {
                 }
                 b.metrics[r * nm + s.metric_at..r * nm + s.metric_at + sm]
                     .copy_from_slice(&sb.metrics[i * sm..(i + 1) * sm]);
-                b.info[r * ni + s.info_at..r * ni + s.info_at + si]
-                    .copy_from_slice(&sb.info[i * si..(i + 1) * si]);
             }
         }
     }
 
     /// The sub-batch holding environment `i` and `i`'s index in it.
     fn locate(&self, i: usize) -> (usize, usize) {
+        if let Some(ep) = &self.episodes {
+            return (ep.now[i] as usize, i);
+        }
         let k = self.subs.iter().rposition(|s| s.start <= i).unwrap_or(0);
         (k, i - self.subs[k].start)
     }
@@ -352,140 +425,4 @@ fn group_width(cfg: &EnvConfig, reg: &Tasks, name: &str) -> Option<usize> {
     c.num_envs = 1;
     let env = (reg.make)(&c).ok()?;
     env.spec().token_groups.iter().find(|g| g.0 == name).map(|g| g.1)
-}
-
-impl Env for MultiEnv {
-    fn spec(&self) -> &TaskSpec {
-        &self.spec
-    }
-    fn num_envs(&self) -> usize {
-        self.n
-    }
-    fn buffers(&self) -> &StepBuffers {
-        &self.buf
-    }
-    fn step(&mut self, actions: &[f32]) -> Result<(), EnvError> {
-        let a = self.spec.act_dim();
-        if actions.len() != self.n * a {
-            return Err(EnvError::ActionShape { expected: self.n * a, got: actions.len() });
-        }
-        for s in self.subs.iter_mut() {
-            let n = s.env.num_envs();
-            s.env.step(&actions[s.start * a..(s.start + n) * a])?;
-        }
-        self.gather();
-        Ok(())
-    }
-    fn reset_all(&mut self, seed: Option<u64>) {
-        for s in self.subs.iter_mut() {
-            s.env.reset_all(seed.map(|x| x.wrapping_add(s.start as u64)));
-        }
-        self.gather();
-    }
-    fn reset_envs(&mut self, mask: &[bool]) {
-        for s in self.subs.iter_mut() {
-            let n = s.env.num_envs();
-            s.env.reset_envs(&mask[s.start..s.start + n]);
-        }
-        self.gather();
-    }
-    fn reset_done(&mut self) {
-        for s in self.subs.iter_mut() {
-            s.env.reset_done();
-        }
-        self.gather();
-    }
-    fn end_episodes(&mut self, mask: &[bool]) {
-        for s in self.subs.iter_mut() {
-            let n = s.env.num_envs();
-            s.env.end_episodes(&mask[s.start..s.start + n]);
-        }
-    }
-    fn set_autoreset(&mut self, on: bool) {
-        for s in self.subs.iter_mut() {
-            s.env.set_autoreset(on);
-        }
-    }
-    fn refresh_observations(&mut self) {
-        for s in self.subs.iter_mut() {
-            s.env.refresh_observations();
-        }
-        self.gather();
-    }
-    fn mujoco(&self) -> &dyn MjBatch {
-        self
-    }
-    fn mujoco_mut(&mut self) -> &mut dyn MjBatch {
-        self
-    }
-    fn pd_targets(&self) -> &[f32] {
-        &[]
-    }
-    /// The sub-environments' width when they all have the same (TokenHSI tasks: 129), else 0.
-    fn style_dim(&self) -> usize {
-        let k = self.subs.first().map_or(0, |s| s.env.style_dim());
-        if self.subs.iter().all(|s| s.env.style_dim() == k) { k } else { 0 }
-    }
-    fn style_features(&self, out: &mut [f32]) {
-        let k = self.style_dim();
-        if k == 0 {
-            return;
-        }
-        for s in &self.subs {
-            let n = s.env.num_envs();
-            s.env.style_features(&mut out[s.start * k..(s.start + n) * k]);
-        }
-    }
-    fn can_save_state(&self) -> bool {
-        true
-    }
-    fn save_state(&self) -> Result<Vec<u8>, EnvError> {
-        MultiEnv::save_state(self)
-    }
-    fn restore_state(&mut self, bytes: &[u8]) -> Result<(), EnvError> {
-        MultiEnv::restore_state(self, bytes)
-    }
-    fn task_rows(&self) -> Vec<(String, std::ops::Range<usize>)> {
-        self.subs
-            .iter()
-            .map(|s| (s.env.spec().name.to_string(), s.start..s.start + s.env.num_envs()))
-            .collect()
-    }
-    fn as_any(&self) -> &dyn Any {
-        self
-    }
-    fn as_any_mut(&mut self) -> &mut dyn Any {
-        self
-    }
-}
-
-/// MuJoCo access routed to the sub-batch of each environment.
-impl MjBatch for MultiEnv {
-    fn num_envs(&self) -> usize {
-        self.n
-    }
-    fn env_model(&self, i: usize) -> &Arc<MjModel> {
-        let (k, j) = self.locate(i);
-        self.subs[k].env.mujoco().env_model(j)
-    }
-    fn env_xml(&self, i: usize) -> &str {
-        let (k, j) = self.locate(i);
-        self.subs[k].env.mujoco().env_xml(j)
-    }
-    fn env_state(&self, i: usize) -> skillmimic_sim::EnvState<'_> {
-        let (k, j) = self.locate(i);
-        self.subs[k].env.mujoco().env_state(j)
-    }
-    fn env_qpos(&self, i: usize) -> &[f64] {
-        let (k, j) = self.locate(i);
-        self.subs[k].env.mujoco().env_qpos(j)
-    }
-    fn env_qvel(&self, i: usize) -> &[f64] {
-        let (k, j) = self.locate(i);
-        self.subs[k].env.mujoco().env_qvel(j)
-    }
-    fn set_env_qpos_qvel(&mut self, i: usize, qpos: &[f64], qvel: &[f64]) -> Result<(), SimError> {
-        let (k, j) = self.locate(i);
-        self.subs[k].env.mujoco_mut().set_env_qpos_qvel(j, qpos, qvel)
-    }
 }
