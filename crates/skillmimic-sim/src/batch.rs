@@ -18,9 +18,10 @@ use rayon::prelude::*;
 use skillmimic_core::math::Quat;
 
 use crate::bounce::BounceState;
-use crate::contacts::{ContactPair, NUM_CONTACT_PAIRS};
+use crate::contacts::NUM_CONTACT_PAIRS;
 use crate::error::SimError;
-use crate::scene::{GeomOwner, ObjectAddr, Scene};
+use crate::readout::{Rows, read_contacts, read_kinematics};
+use crate::scene::{ObjectAddr, Scene};
 use crate::state::{BatchState, ResetState};
 
 /// Physics sub-steps per policy step of the SkillMimic humanoid (1/120 s each → 60 Hz policy).
@@ -35,21 +36,6 @@ pub(crate) struct EnvSlot {
     pub(crate) bounce: BounceState,
     /// Not stepped (`crate::pause`).
     pub(crate) paused: bool,
-}
-
-/// Mutable rows of one environment in every output buffer.
-struct Rows<'a> {
-    body_pos: &'a mut [f64],
-    body_quat: &'a mut [f64],
-    body_linvel: &'a mut [f64],
-    body_angvel: &'a mut [f64],
-    dof_pos: &'a mut [f64],
-    dof_vel: &'a mut [f64],
-    dof_force: &'a mut [f64],
-    contact_force: &'a mut [f64],
-    contact_pairs: &'a mut [u8],
-    touch: &'a mut [u8],
-    unstable: &'a mut u8,
 }
 
 /// N environments of one character, stepped in parallel.
@@ -462,93 +448,6 @@ fn write_reset_state(scene: &Scene, d: &mut Data, s: &ResetState) {
                 let v = d.qvel_mut();
                 v[qvel..qvel + 3].copy_from_slice(&o.linvel);
                 v[qvel + 3..qvel + 6].copy_from_slice(&o.angvel_local);
-            }
-        }
-    }
-}
-
-/// Copy one environment's kinematic state into its buffer rows (no allocation). Requires the
-/// position and velocity stages of the current `qpos`/`qvel` (mj_step1 or mj_forward).
-fn read_kinematics(scene: &Scene, d: &Data, rows: &mut Rows<'_>) {
-    let (xpos, xquat, xipos) = (d.xpos(), d.xquat(), d.xipos());
-    let (cvel, subtree_com) = (d.cvel(), d.subtree_com());
-    for (b, &id) in scene.body_ids.iter().enumerate() {
-        rows.body_pos[3 * b..3 * b + 3].copy_from_slice(&xpos[id]);
-        rows.body_quat[4 * b..4 * b + 4].copy_from_slice(&xquat[id]);
-        // cvel = [ω; v] of the body, linear part at its tree's subtree centre of mass c, world
-        // orientation. Velocity of the body's own centre of mass: v + ω × (xipos − c) (what
-        // mj_objectVelocity(mjOBJ_BODY, world orientation) computes, without the 6×6 transform).
-        let (w, v) = (&cvel[id][..3], &cvel[id][3..]);
-        let c = subtree_com[scene.tree_root[b]];
-        let r = [xipos[id][0] - c[0], xipos[id][1] - c[1], xipos[id][2] - c[2]];
-        let lin = [
-            v[0] + w[1] * r[2] - w[2] * r[1],
-            v[1] + w[2] * r[0] - w[0] * r[2],
-            v[2] + w[0] * r[1] - w[1] * r[0],
-        ];
-        rows.body_angvel[3 * b..3 * b + 3].copy_from_slice(w);
-        rows.body_linvel[3 * b..3 * b + 3].copy_from_slice(&lin);
-    }
-    let (qpos, qvel) = (d.qpos(), d.qvel());
-    let (actuator, damper) = (d.qfrc_actuator(), d.qfrc_damper());
-    for j in &scene.joints {
-        let k = j.dof;
-        let n = if j.ball { 3 } else { 1 };
-        if j.ball {
-            let a = j.qpos;
-            let q = Quat::from_wxyz([qpos[a], qpos[a + 1], qpos[a + 2], qpos[a + 3]]).normalized();
-            rows.dof_pos[k..k + 3].copy_from_slice(&q.to_rotvec());
-        } else {
-            rows.dof_pos[k] = qpos[j.qpos];
-        }
-        rows.dof_vel[k..k + n].copy_from_slice(&qvel[j.qvel..j.qvel + n]);
-        for a in 0..n {
-            rows.dof_force[k + a] = actuator[j.qvel + a] + damper[j.qvel + a];
-        }
-    }
-}
-
-/// Classify the active contacts, flag the character bodies that touch something else and
-/// accumulate per-body net contact forces (world frame) from the last constraint solve (no
-/// allocation).
-fn read_contacts(scene: &Scene, d: &Data, rows: &mut Rows<'_>) {
-    rows.contact_force.fill(0.0);
-    rows.contact_pairs.fill(0);
-    rows.touch.fill(0);
-    for (c, con) in d.contact().iter().enumerate() {
-        if con.efc_address < 0 {
-            continue; // excluded or inactive: no constraint force
-        }
-        let (g1, g2) = (con.geom[0], con.geom[1]);
-        if g1 < 0 || g2 < 0 {
-            continue; // flex contacts (none in these scenes)
-        }
-        let (o1, o2) = (scene.geom_owner[g1 as usize], scene.geom_owner[g2 as usize]);
-        if let Some(kind) = ContactPair::classify(o1, o2, &scene.body_part) {
-            rows.contact_pairs[kind as usize] = 1;
-        }
-        match (o1, o2) {
-            (GeomOwner::Body(_), GeomOwner::Body(_)) => {}
-            (GeomOwner::Body(x), _) | (_, GeomOwner::Body(x)) => rows.touch[x] = 1,
-            _ => {}
-        }
-        // force of geom1 on geom2, contact frame -> world (frame rows: normal, tangent, tangent)
-        let f = d.contact_force(c);
-        let fr = &con.frame;
-        let w = [
-            f[0] * fr[0] + f[1] * fr[3] + f[2] * fr[6],
-            f[0] * fr[1] + f[1] * fr[4] + f[2] * fr[7],
-            f[0] * fr[2] + f[1] * fr[5] + f[2] * fr[8],
-        ];
-        for (owner, sign) in [(o2, 1.0), (o1, -1.0)] {
-            let b = match owner {
-                GeomOwner::Body(b) => b,
-                GeomOwner::Ball => scene.num_character_bodies(),
-                GeomOwner::Object(k) => scene.object_body(k),
-                GeomOwner::Floor => continue,
-            };
-            for k in 0..3 {
-                rows.contact_force[3 * b + k] += sign * w[k];
             }
         }
     }

@@ -22,6 +22,7 @@ pub mod memory;
 pub mod mj_batch;
 pub mod mjcf;
 pub mod pause;
+mod readout;
 pub mod scene;
 pub mod scene_options;
 pub mod snapshot;
