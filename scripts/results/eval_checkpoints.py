@@ -77,7 +77,11 @@ def main() -> None:
         sys.exit(f"KINDS: unknown evaluation(s) {unknown}, expected some of {list(EVALS)}")
     table = run / "checkpoint_evals.jsonl"
     rows = {r["iteration"]: r for r in (json.loads(line) for line in (table.read_text().splitlines() if table.exists() else []) if line.strip())}
-    log = [json.loads(line) for line in (run / "log.jsonl").read_text().splitlines() if line.strip()]
+    log_file = run / "log.jsonl"
+    log = [json.loads(line) for line in (log_file.read_text().splitlines() if log_file.exists() else []) if line.strip()]
+    if not log:  # a run that has just started: nothing to evaluate yet (the evaluation loops call again)
+        print(f"eval_checkpoints.py: {log_file} has no iteration yet", file=sys.stderr)
+        return
     per_it = log[0]["samples"] // log[0]["iteration"]
     with tempfile.TemporaryDirectory() as tmp:
         for ck in sorted((run / "checkpoints").glob("iter_*.safetensors")):
