@@ -4,6 +4,7 @@ Usage: python3 scripts/experiments/hlc_multi_summary.py OUT_DIR"""
 
 from __future__ import annotations
 
+import gzip
 import json
 import pathlib
 import statistics as st
@@ -15,6 +16,9 @@ TASKS = ("heading", "circling")
 
 def rows(run: str) -> list[dict]:
     path = out / run / "log.jsonl"
+    if not path.exists() and path.with_suffix(".jsonl.gz").exists():  # a committed, gzipped copy
+        with gzip.open(path.with_suffix(".jsonl.gz"), "rt") as f:
+            return [json.loads(line) for line in f]
     return [json.loads(line) for line in open(path)] if path.exists() else []
 
 

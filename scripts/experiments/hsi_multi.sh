@@ -7,6 +7,13 @@
 # Stage 2: deterministic evaluation of the stage-1 policy on each base task alone (same layout).
 # Stage 3: policy adaptation to hsi_follow_carry (frozen base, new tokenizer, zero adapters, new
 #          critic), then the composition task's evaluation and the base tasks' evaluation again.
+# Stage 4 (UNGATED_ITERS=N > 0, off by default): the adaptation again with the released code's
+#          ungated adapters (ppo.token.gate_adapters=false) for N iterations into OUT/adapt_ungated,
+#          its evaluations, and the stage-1 policy's base-task evaluation with seed 2 (the
+#          evaluation-to-evaluation spread the ungated adapters' effect is read against).
+# Task reward only, so the released power penalty is off (POWER=0; docs/results-tokenhsi.md's
+# survival table shows that with it on and no style reward the policy learns to fall sooner);
+# POWER=5e-4 is the released weight.
 # Every stage resumes: an existing result is kept. ASSIGN=per_episode draws each stage-1 episode's
 # task at its reset (the released rule, env.multi.assign); default fixed.
 # Usage: scripts/experiments/hsi_multi.sh OUT_DIR [ITERATIONS] [ADAPT_ITERATIONS] [NUM_ENVS] [SEED]
@@ -19,7 +26,8 @@ seed=${5:-0}
 assign=${ASSIGN:-fixed}
 bin=$(dirname "$0")/../../target/release/skillmimic
 mkdir -p "$out"
-net=(--set ppo.policy=token_transformer --set ppo.token.layers=2 --set ppo.token.feedforward=256 --set "ppo.token.head=[256, 128]")
+power=${POWER:-0}
+net=(--set "env.hsi.power_coefficient=$power" --set ppo.policy=token_transformer --set ppo.token.layers=2 --set ppo.token.feedforward=256 --set "ppo.token.head=[256, 128]")
 base_groups='["hsi_follow", "hsi_sit", "hsi_carry", "hsi_climb"]'
 all_groups='["hsi_follow", "hsi_sit", "hsi_carry", "hsi_climb", "hsi_follow_carry"]'
 if [ ! -f "$out/multi/latest.safetensors" ]; then
@@ -41,4 +49,23 @@ fi
 for task in hsi_follow hsi_sit hsi_carry hsi_climb hsi_follow_carry; do
   evaluate "$out/adapt/latest.safetensors" "$task" "$all_groups" "$out/adapt/eval_$task.json"
 done
+ungated=${UNGATED_ITERS:-0}
+if [ "$ungated" -gt 0 ]; then
+  if [ ! -f "$out/adapt_ungated/latest.safetensors" ]; then
+    "$bin" train --preset tiny --task hsi_multi --num-envs "$envs" --iterations "$ungated" --seed "$seed" "${net[@]}" \
+      --set 'env.multi.tasks=["hsi_follow_carry"]' --set 'env.multi.mix=[]' --set "env.multi.groups=$all_groups" \
+      --set "ppo.token.adapt_from=\"$out/multi/latest.safetensors\"" --set ppo.token.gate_adapters=false \
+      --set run.save_every=50 --out "$out/adapt_ungated" --no-video > "$out/adapt_ungated.log" 2>&1
+  fi
+  for task in hsi_follow hsi_sit hsi_carry hsi_climb hsi_follow_carry; do
+    evaluate "$out/adapt_ungated/latest.safetensors" "$task" "$all_groups" "$out/adapt_ungated/eval_$task.json"
+  done
+  for task in hsi_follow hsi_sit hsi_carry hsi_climb; do
+    [ -f "$out/multi/eval_seed2_$task.json" ] || "$bin" eval --checkpoint "$out/multi/latest.safetensors" --set env.task=hsi_multi \
+      --set "env.multi.tasks=[\"$task\"]" --set "env.multi.mix=[]" --set "env.multi.groups=$base_groups" \
+      --num-envs 32 --episodes 64 --seed 2 --out "$out/multi/eval_seed2_$task.json" >> "$out/eval.log" 2>&1
+  done
+fi
 python3 "$(dirname "$0")/hsi_multi_summary.py" "$out"
+[ "$ungated" -gt 0 ] && python3 "$(dirname "$0")/hsi_multi_summary.py" "$out" adapt_ungated
+exit 0
