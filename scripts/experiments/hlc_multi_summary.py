@@ -4,22 +4,20 @@ Usage: python3 scripts/experiments/hlc_multi_summary.py OUT_DIR"""
 
 from __future__ import annotations
 
-import gzip
 import json
 import pathlib
 import statistics as st
 import sys
+
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "results"))
+from runlog import read_run_log  # noqa: E402 (scripts/results/runlog.py)
 
 out = pathlib.Path(sys.argv[1])
 TASKS = ("heading", "circling")
 
 
 def rows(run: str) -> list[dict]:
-    path = out / run / "log.jsonl"
-    if not path.exists() and path.with_suffix(".jsonl.gz").exists():  # a committed, gzipped copy
-        with gzip.open(path.with_suffix(".jsonl.gz"), "rt") as f:
-            return [json.loads(line) for line in f]
-    return [json.loads(line) for line in open(path)] if path.exists() else []
+    return read_run_log(out / run) or []
 
 
 def term(r: dict, name: str) -> float:

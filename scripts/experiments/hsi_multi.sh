@@ -34,36 +34,32 @@ if [ ! -f "$out/multi/latest.safetensors" ]; then
   "$bin" train --preset tiny --task hsi_multi --num-envs "$envs" --iterations "$iters" --seed "$seed" "${net[@]}" \
     --set "env.multi.assign=\"$assign\"" --set run.save_every=100 --out "$out/multi" --no-video > "$out/multi.log" 2>&1
 fi
-evaluate() { # checkpoint task groups out
+evaluate() { # checkpoint task groups out [seed, default 1]
   [ -f "$4" ] || "$bin" eval --checkpoint "$1" --set env.task=hsi_multi --set "env.multi.tasks=[\"$2\"]" --set "env.multi.mix=[]" \
-    --set "env.multi.groups=$3" --num-envs 32 --episodes 64 --seed 1 --out "$4" >> "$out/eval.log" 2>&1
+    --set "env.multi.groups=$3" --num-envs 32 --episodes 64 --seed "${5:-1}" --out "$4" >> "$out/eval.log" 2>&1
 }
 for task in hsi_follow hsi_sit hsi_carry hsi_climb; do
   evaluate "$out/multi/latest.safetensors" "$task" "$base_groups" "$out/multi/eval_$task.json"
 done
-if [ ! -f "$out/adapt/latest.safetensors" ]; then
-  "$bin" train --preset tiny --task hsi_multi --num-envs "$envs" --iterations "$adapt_iters" --seed "$seed" "${net[@]}" \
-    --set 'env.multi.tasks=["hsi_follow_carry"]' --set 'env.multi.mix=[]' --set "env.multi.groups=$all_groups" \
-    --set "ppo.token.adapt_from=\"$out/multi/latest.safetensors\"" --set run.save_every=50 --out "$out/adapt" --no-video > "$out/adapt.log" 2>&1
-fi
-for task in hsi_follow hsi_sit hsi_carry hsi_climb hsi_follow_carry; do
-  evaluate "$out/adapt/latest.safetensors" "$task" "$all_groups" "$out/adapt/eval_$task.json"
-done
-ungated=${UNGATED_ITERS:-0}
-if [ "$ungated" -gt 0 ]; then
-  if [ ! -f "$out/adapt_ungated/latest.safetensors" ]; then
-    "$bin" train --preset tiny --task hsi_multi --num-envs "$envs" --iterations "$ungated" --seed "$seed" "${net[@]}" \
+adapt() { # name iterations [--set ...]: adapt the stage-1 policy to hsi_follow_carry, then evaluate
+  local name=$1 n=$2
+  shift 2
+  if [ ! -f "$out/$name/latest.safetensors" ]; then
+    "$bin" train --preset tiny --task hsi_multi --num-envs "$envs" --iterations "$n" --seed "$seed" "${net[@]}" \
       --set 'env.multi.tasks=["hsi_follow_carry"]' --set 'env.multi.mix=[]' --set "env.multi.groups=$all_groups" \
-      --set "ppo.token.adapt_from=\"$out/multi/latest.safetensors\"" --set ppo.token.gate_adapters=false \
-      --set run.save_every=50 --out "$out/adapt_ungated" --no-video > "$out/adapt_ungated.log" 2>&1
+      --set "ppo.token.adapt_from=\"$out/multi/latest.safetensors\"" "$@" --set run.save_every=50 --out "$out/$name" \
+      --no-video > "$out/$name.log" 2>&1
   fi
   for task in hsi_follow hsi_sit hsi_carry hsi_climb hsi_follow_carry; do
-    evaluate "$out/adapt_ungated/latest.safetensors" "$task" "$all_groups" "$out/adapt_ungated/eval_$task.json"
+    evaluate "$out/$name/latest.safetensors" "$task" "$all_groups" "$out/$name/eval_$task.json"
   done
+}
+adapt adapt "$adapt_iters"
+ungated=${UNGATED_ITERS:-0}
+if [ "$ungated" -gt 0 ]; then
+  adapt adapt_ungated "$ungated" --set ppo.token.gate_adapters=false
   for task in hsi_follow hsi_sit hsi_carry hsi_climb; do
-    [ -f "$out/multi/eval_seed2_$task.json" ] || "$bin" eval --checkpoint "$out/multi/latest.safetensors" --set env.task=hsi_multi \
-      --set "env.multi.tasks=[\"$task\"]" --set "env.multi.mix=[]" --set "env.multi.groups=$base_groups" \
-      --num-envs 32 --episodes 64 --seed 2 --out "$out/multi/eval_seed2_$task.json" >> "$out/eval.log" 2>&1
+    evaluate "$out/multi/latest.safetensors" "$task" "$base_groups" "$out/multi/eval_seed2_$task.json" 2
   done
 fi
 python3 "$(dirname "$0")/hsi_multi_summary.py" "$out"

@@ -4,11 +4,13 @@ Usage: python3 scripts/experiments/hsi_multi_summary.py OUT_DIR [ADAPT_SUBDIR (d
 
 from __future__ import annotations
 
-import gzip
 import json
 import pathlib
 import statistics as st
 import sys
+
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "results"))
+from runlog import read_run_log  # noqa: E402 (scripts/results/runlog.py)
 
 out = pathlib.Path(sys.argv[1])
 TASKS = ("hsi_follow", "hsi_sit", "hsi_carry", "hsi_climb")
@@ -17,11 +19,10 @@ TASKS = ("hsi_follow", "hsi_sit", "hsi_carry", "hsi_climb")
 def rows(run: str) -> list[dict]:
     """Iterations 2.. of a run's log (iteration 1 starts every episode at once, which inflates its
     per-step reward: all environments are in their easy first steps)."""
-    path = out / run / "log.jsonl"
-    if not path.exists() and path.with_suffix(".jsonl.gz").exists():  # a committed, gzipped copy
-        with gzip.open(path.with_suffix(".jsonl.gz"), "rt") as f:
-            return [json.loads(line) for line in f][1:]
-    return [json.loads(line) for line in open(path)][1:]
+    log = read_run_log(out / run)
+    if log is None:
+        sys.exit(f"hsi_multi_summary.py: no log.jsonl(.gz) in {out / run}")
+    return log[1:]
 
 
 def term(r: dict, name: str) -> float:
@@ -54,7 +55,7 @@ print("|---|---|---|---|---|---|---|")
 for t in TASKS:
     print(f"| `{t}` | {ev(out / 'multi' / f'eval_{t}.json', t)} | {ev(out / (sys.argv[2] if len(sys.argv) > 2 else 'adapt') / f'eval_{t}.json', t)} |")
 ADAPT = sys.argv[2] if len(sys.argv) > 2 else "adapt"
-if (out / ADAPT / "log.jsonl").exists() or (out / ADAPT / "log.jsonl.gz").exists():
+if read_run_log(out / ADAPT) is not None:
     a = rows(ADAPT)
     print(f"\nadaptation to hsi_follow_carry ({sys.argv[2] if len(sys.argv) > 2 else 'adapt'}): {a[-1]['iteration']} iterations, {a[-1]['samples']} samples")
     print("| reward / step | " + " | ".join(f"it. {round(i * (len(a) - max(1, len(a) // 40)) / 5) + 2}" for i in range(6)) + " |")

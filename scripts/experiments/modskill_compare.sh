@@ -17,6 +17,9 @@ ITERS=${ITERS:-2000}
 SEED=${SEED:-0}
 STEER_ITERS=${STEER_ITERS:-300}
 BIN=${BIN:-target/release/skillmimic}
+clips=(--motion "$S/run" --motion "$S/layup" --motion "$S/lrun" --motion "$S/rrun")
+# the two families' shared settings (the steering baseline's controllers use them too)
+common=(--set env.num_envs=32 --set run.seed="$SEED" --set 'ppo.modular.controller=[128, 64]')
 [ -x "$BIN" ] || cargo build --release -p skillmimic-cli
 for task in tracking imitation; do
   for fam in gaussian_mlp modular_attention; do
@@ -24,11 +27,8 @@ for task in tracking imitation; do
     if [ -f "$out/summary.json" ]; then continue; fi
     resume=()
     if [ -f "$out/latest.safetensors" ]; then resume=(--resume latest); fi
-    "$BIN" train --preset tiny --task $task \
-      --motion "$S/run" --motion "$S/layup" --motion "$S/lrun" --motion "$S/rrun" \
-      --set env.num_envs=32 --set run.iterations="$ITERS" --set run.seed="$SEED" \
-      --set run.eval_episodes=16 --set run.save_every=100 \
-      --set ppo.policy=$fam --set 'ppo.modular.controller=[128, 64]' --out "$out" "${resume[@]}"
+    "$BIN" train --preset tiny --task $task "${clips[@]}" "${common[@]}" --set run.iterations="$ITERS" \
+      --set run.eval_episodes=16 --set run.save_every=100 --set ppo.policy=$fam --out "$out" "${resume[@]}"
   done
   "$BIN" plot --log "$OUT/$task-gaussian_mlp/log.jsonl" --log "$OUT/$task-modular_attention/log.jsonl" \
     --label gaussian_mlp --label modular_attention --smooth 50 --out "$OUT/$task-compare.png"
@@ -44,10 +44,8 @@ done
 # (the observation normaliser has seen that iteration's 512 samples)
 random_llc=$OUT/random-modular_attention/latest.safetensors
 if [ ! -f "$random_llc" ]; then
-  "$BIN" train --preset tiny --task tracking \
-    --motion "$S/run" --motion "$S/layup" --motion "$S/lrun" --motion "$S/rrun" \
-    --set env.num_envs=32 --set run.iterations=1 --set run.seed="$SEED" --set run.eval_episodes=0 --set ppo.lr=1e-30 \
-    --set ppo.policy=modular_attention --set 'ppo.modular.controller=[128, 64]' --out "$OUT/random-modular_attention" --no-video
+  "$BIN" train --preset tiny --task tracking "${clips[@]}" "${common[@]}" --set run.iterations=1 --set run.eval_episodes=0 \
+    --set ppo.lr=1e-30 --set ppo.policy=modular_attention --out "$OUT/random-modular_attention" --no-video
 fi
 for llc in tracking random; do
   out=$OUT/steering-$llc

@@ -11,21 +11,22 @@ over the iterations named; terms are the log's `reward_terms`."""
 
 from __future__ import annotations
 
-import gzip
 import json
 import pathlib
 import statistics as st
 import sys
 
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "results"))
+from runlog import read_run_log  # noqa: E402 (scripts/results/runlog.py)
+
 FAMILIES = ("gaussian_mlp", "modular_attention")
 
 
 def log(folder: pathlib.Path) -> list[dict]:
-    for name, opener in (("log.jsonl", open), ("log.jsonl.gz", gzip.open)):
-        if (folder / name).exists():
-            with opener(folder / name, "rt") as f:
-                return [json.loads(line) for line in f]
-    sys.exit(f"modskill_compare_summary.py: no log.jsonl(.gz) in {folder}")
+    rows = read_run_log(folder)
+    if rows is None:
+        sys.exit(f"modskill_compare_summary.py: no log.jsonl(.gz) in {folder}")
+    return rows
 
 
 def mean(rows: list[dict], first: int, last: int, key) -> float:
