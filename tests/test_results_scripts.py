@@ -155,3 +155,32 @@ def test_same_log_ignores_timings_and_names_the_first_difference(tmp_path):
     # more rows than the reference is a difference
     got = same_log.compare(ref[:1], ref[:2])
     assert got["first_difference"]["iteration"] == 2
+
+
+def test_follow_summary_blocks_and_evaluations(tmp_path):
+    """hsi_follow_summary.py on a hand-built 60-iteration run: one block of 50 and one of 10, two
+    evaluation files sorted by iteration, reference before rest; and the committed walks-20m
+    summary is what the script prints from the committed log and evaluations."""
+    terms = lambda i: [["follow", i / 100], ["power", -0.5], ["style", 1.0 if i <= 50 else 0.0]]  # noqa: E731
+    log = [
+        {"iteration": i, "samples": 100 * i, "samples_per_s": 10.0 * (1 + i % 2), "rollout_s": 30.0, "update_s": 6.0,
+         "episode_length": float(i), "early_terminations": 1.0 if i <= 50 else 0.5, "reward_terms": terms(i)}
+        for i in range(1, 61)
+    ]
+    (tmp_path / "log.jsonl").write_text("".join(json.dumps(r) + "\n" for r in log))
+    ev = {"mean_episode_length": 123.45, "early_termination_rate": 0.25, "metrics": {"error_m": 0.3},
+          "final_metrics": {"success": 0.75, "error_m": 0.5}}
+    for name in ("eval_rest_start_it60.json", "eval_reference_start_it60.json", "eval_reference_start_it5.json"):
+        (tmp_path / name).write_text(json.dumps(ev))
+    (tmp_path / "eval_reference_start.json").write_text(json.dumps(ev))  # no iteration: not listed
+    script = str(ROOT / "scripts/experiments/hsi_follow_summary.py")
+    lines = subprocess.run([sys.executable, script, str(tmp_path)], capture_output=True, text=True, check=True).stdout.splitlines()
+    assert lines[1] == "iters 60 samples 6000 mean samples/s 15 rollout + update 0.60 h"
+    # block 1-50: mean length 25.5, follow mean 0.255; block 51-60: length 55.5, follow 0.555
+    assert lines[2] == "it 1-50: eplen 25.5 early 1.000 follow 0.255 power -0.500 style 1.000"
+    assert lines[3] == "it 51-60: eplen 55.5 early 0.500 follow 0.555 power -0.500 style 0.000"
+    assert [ln.split(":")[0] for ln in lines[4:]] == ["it 5 reference starts", "it 60 reference starts", "it 60 rest starts"]
+    assert lines[5].endswith("len 123.5 ended early 0.250 success 0.7500 error mean 0.300 at end 0.500")
+    committed = ROOT / "docs/results/tokenhsi-follow/walks-20m"
+    out = subprocess.run([sys.executable, script, str(committed)], capture_output=True, text=True, check=True).stdout
+    assert out == (committed / "summary.txt").read_text()
