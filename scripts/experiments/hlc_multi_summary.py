@@ -10,7 +10,7 @@ import statistics as st
 import sys
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "results"))
-from runlog import read_run_log  # noqa: E402 (scripts/results/runlog.py)
+from runlog import read_run_log, reward_term  # noqa: E402 (scripts/results/runlog.py)
 
 out = pathlib.Path(sys.argv[1])
 TASKS = ("heading", "circling")
@@ -20,13 +20,9 @@ def rows(run: str) -> list[dict]:
     return read_run_log(out / run) or []
 
 
-def term(r: dict, name: str) -> float:
-    return dict((k, v) for k, v in r["reward_terms"])[name]
-
-
 def window(rs: list[dict], name: str, first: bool, w: int = 10) -> float:
     part = rs[:w] if first else rs[-w:]
-    return st.mean(term(r, name) for r in part)
+    return st.mean(reward_term(r, name) for r in part)
 
 
 def load(path: pathlib.Path) -> dict | None:

@@ -18,14 +18,9 @@ import statistics as st
 import sys
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "results"))
-from runlog import read_run_log  # noqa: E402 (scripts/results/runlog.py)
+from runlog import read_run_log, reward_term  # noqa: E402 (scripts/results/runlog.py)
 
 BLOCK = 50
-
-
-def term(row: dict, name: str) -> float:
-    """One per-step reward term of a log row (`reward_terms` is a list of [name, value] pairs)."""
-    return dict(row["reward_terms"])[name]
 
 
 def training_lines(rows: list[dict], log_name: str) -> list[str]:
@@ -42,7 +37,7 @@ def training_lines(rows: list[dict], log_name: str) -> list[str]:
             f"it {b[0]['iteration']}-{b[-1]['iteration']}: "
             f"eplen {st.mean(r['episode_length'] for r in b):.1f} "
             f"early {st.mean(r['early_terminations'] for r in b):.3f} "
-            + " ".join(f"{n} {st.mean(term(r, n) for r in b):.3f}" for n in ("follow", "power", "style"))
+            + " ".join(f"{n} {st.mean(reward_term(r, n) for r in b):.3f}" for n in ("follow", "power", "style"))
         )
     return out
 

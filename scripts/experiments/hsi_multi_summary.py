@@ -10,7 +10,7 @@ import statistics as st
 import sys
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "results"))
-from runlog import read_run_log  # noqa: E402 (scripts/results/runlog.py)
+from runlog import read_run_log, reward_term  # noqa: E402 (scripts/results/runlog.py)
 
 out = pathlib.Path(sys.argv[1])
 TASKS = ("hsi_follow", "hsi_sit", "hsi_carry", "hsi_climb")
@@ -25,14 +25,10 @@ def rows(run: str) -> list[dict]:
     return log[1:]
 
 
-def term(r: dict, name: str) -> float:
-    return dict((k, v) for k, v in r["reward_terms"])[name]
-
-
 def curve(rs: list[dict], name: str, points: int = 6) -> str:
     w = max(1, len(rs) // 40)
     idx = [round(i * (len(rs) - w) / (points - 1)) for i in range(points)]
-    return " | ".join(f"{st.mean(term(r, name) for r in rs[i:i + w]):.4f}" for i in idx)
+    return " | ".join(f"{st.mean(reward_term(r, name) for r in rs[i:i + w]):.4f}" for i in idx)
 
 
 def ev(path: pathlib.Path, task: str) -> str:

@@ -17,7 +17,7 @@ import statistics as st
 import sys
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "results"))
-from runlog import read_run_log  # noqa: E402 (scripts/results/runlog.py)
+from runlog import read_run_log, reward_term  # noqa: E402 (scripts/results/runlog.py)
 
 FAMILIES = ("gaussian_mlp", "modular_attention")
 
@@ -35,7 +35,7 @@ def mean(rows: list[dict], first: int, last: int, key) -> float:
 
 
 def term(name: str):
-    return lambda r: dict(r["reward_terms"])[name]
+    return lambda r: reward_term(r, name)
 
 
 def windows(n: int) -> list[tuple[int, int]]:

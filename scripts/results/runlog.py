@@ -17,3 +17,9 @@ def read_run_log(folder: pathlib.Path) -> list[dict] | None:
             with opener(path, "rt") as f:
                 return [json.loads(line) for line in f if line.strip()]
     return None
+
+
+def reward_term(row: dict, name: str) -> float:
+    """One per-step reward term of a log row (`reward_terms` is a list of [name, value] pairs);
+    a KeyError if the row has no such term."""
+    return dict(row["reward_terms"])[name]
