@@ -2,7 +2,9 @@
 TokenHSI character, not the SkillMimic humanoid — joint order, per-entry action → PD target map,
 gains and torque limits checked against the facts table of ``test_hsi_character`` (written from
 the facts file, independently of the Rust table), observation blocks 222 + task, 30 Hz over a
-1/120 s step — and onnxruntime gives our Rust inference on the task's observations."""
+1/120 s step — and onnxruntime gives our Rust inference on the task's observations. The same
+checkpoint's video is drawn at the character's 30 Hz policy rate (its saved configuration leaves
+``env.character`` empty, the task's default)."""
 
 from __future__ import annotations
 
@@ -42,3 +44,8 @@ def test_tokenhsi_policy_exports_with_the_characters_metadata(tmp_path, skillmim
     np.testing.assert_allclose(got["mu"], mu, rtol=1e-5, atol=1e-5)
     np.testing.assert_array_equal(got["actions"], np.clip(got["mu"], -1, 1))
     env.close()
+    # 30 policy steps at 30 Hz = 1 s: 31 states, every 2nd drawn for a 15 fps video (16 frames);
+    # at the SkillMimic humanoid's 60 Hz it would be every 4th (8 frames, played twice too fast)
+    r = run_cli(skillmimic_bin, "play", "--checkpoint", str(out / "latest.safetensors"), "--steps", "30", "--fps", "15",
+                "--video", str(tmp_path / "sit.gif"), "--width", "64", "--height", "48")
+    assert "(16 frames at 15 fps)" in r.stdout, r.stdout

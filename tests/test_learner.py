@@ -188,6 +188,11 @@ def test_cli_errors_are_one_line_messages(tmp_path, skillmimic_bin):
 
     assert "no such clip file or folder" in fails("train", "--preset", "tiny", "--motion", str(tmp_path / "nothing"))
     assert "unknown preset" in fails("train", "--preset", "huge")
+    # a part-wise family on a task whose character is its default (env.character empty): the error
+    # names the task's character, not the SkillMimic humanoid
+    err = fails("train", "--preset", "tiny", "--task", "hsi_follow", "--set", 'ppo.policy="modular_attention"',
+                "--set", "env.num_envs=8", "--no-video", "--out", str(tmp_path / "ma"))
+    assert "the tokenhsi character has no body split 'five'" in err, err
     assert "unknown field 'nope'" in fails("train", "--preset", "tiny", "--set", "ppo.nope=1")
     bad = tmp_path / "bad.safetensors"
     bad.write_bytes(b"not a checkpoint")

@@ -220,9 +220,11 @@ pub fn video_rate(rate: f64, fps: u32) -> (usize, u32) {
 }
 
 /// Policy steps per second of a task's environment: the character's control rate (60 Hz for
-/// the SkillMimic humanoid, 30 Hz for the SMPL humanoid) over the task's `steps_per_action`.
+/// the SkillMimic humanoid, 30 Hz for the SMPL humanoid and the TokenHSI character) over the
+/// task's `steps_per_action`. The character is the one the task runs on (the task's default
+/// when `env.character` is empty, as the `hsi_*` tasks' saved configurations have it).
 fn policy_rate(env: &dyn Env, cfg: &EnvConfig) -> anyhow::Result<f64> {
-    let spec = cfg.resolved_character()?.spec();
+    let spec = skillmimic_env::registry::character(cfg)?.spec();
     let dt = spec.timestep * spec.substeps as f64 * env.spec().steps_per_action.max(1) as f64;
     Ok(1.0 / dt)
 }

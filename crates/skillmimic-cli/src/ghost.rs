@@ -96,7 +96,7 @@ pub fn ghost_states(
     }
     // a library's clips fit the scene only on the BallPlay-M character (its own clips); other
     // tasks pose their clips themselves
-    let ballplay = cfg.resolved_character().is_ok_and(|c| c.plays_ballplay());
+    let ballplay = skillmimic_env::registry::character(cfg).is_ok_and(|c| c.plays_ballplay());
     let library = env.library().filter(|_| ballplay);
     if reference_fields(env).is_none() || (library.is_none() && env.reference_state(0, 0).is_none())
     {

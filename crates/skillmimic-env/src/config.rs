@@ -347,7 +347,8 @@ impl EnvConfig {
     }
 
     /// The character named by `character` (empty: the SkillMimic humanoid; the registry fills in
-    /// the task's default before a task is built).
+    /// the task's default before a task is built). Outside a task's constructor, where
+    /// `character` may still be empty, `registry::character` gives the task's character.
     pub fn resolved_character(&self) -> Result<skillmimic_sim::Character, ConfigError> {
         let name = if self.character.is_empty() { "skillmimic" } else { self.character.as_str() };
         skillmimic_sim::Character::by_name(name, self.hand_model()?).ok_or_else(|| {

@@ -55,7 +55,8 @@ pub fn build(
     let ppo = crate::policies::token_transformer::with_task_groups(&cfg.ppo, env.spec());
     let (mut policy, mut adam, mut progress) = match resume.filter(|_| rank == 0) {
         None => {
-            let character = ecfg.resolved_character().map_err(skillmimic_env::EnvError::from)?;
+            // the task's character (its default when env.character is empty)
+            let character = registry::character(&ecfg)?;
             let obs = crate::policies::ObsInfo::of_env(env.as_ref(), character);
             fresh_state(&cfg, &ppo, &obs, env.spec().action_space, &mut rng)?
         }
