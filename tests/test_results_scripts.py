@@ -184,3 +184,30 @@ def test_follow_summary_blocks_and_evaluations(tmp_path):
     committed = ROOT / "docs/results/tokenhsi-follow/walks-20m"
     out = subprocess.run([sys.executable, script, str(committed)], capture_output=True, text=True, check=True).stdout
     assert out == (committed / "summary.txt").read_text()
+
+
+def _merge_many(args: tuple[str, int, int]) -> None:
+    table, first, count = args
+    ev = load("scripts/results/eval_checkpoints.py")
+    for it in range(first, first + count):
+        ev.merge(pathlib.Path(table), it, {"iteration": it, "samples": it * 8, "x": it})
+
+
+def test_checkpoint_table_writers_keep_each_others_rows(tmp_path):
+    """scripts/results/eval_checkpoints.py: two evaluators of one run (a watcher beside
+    time_to_skill.sh's own pass) rewrite the table whole after each checkpoint; each rewrite
+    re-reads it under a lock, so neither drops the other's rows, and a later evaluation adds its
+    fields to a row without losing the earlier ones."""
+    import multiprocessing
+
+    ev = load("scripts/results/eval_checkpoints.py")
+    table = tmp_path / "checkpoint_evals.jsonl"
+    ev.merge(table, 25, {"iteration": 25, "samples": 200, "reward_per_step": 0.1, "acc_pct": 5.0})
+    row = ev.merge(table, 25, {"iteration": 25, "samples": 200, "reward_per_step": 0.2, "e_b_mm": 300.0})
+    assert row == {"iteration": 25, "samples": 200, "reward_per_step": 0.2, "acc_pct": 5.0, "e_b_mm": 300.0}
+    with multiprocessing.get_context("spawn").Pool(2) as pool:
+        pool.map(_merge_many, [(str(table), 1000, 60), (str(table), 2000, 60)])
+    rows = ev.read_rows(table)
+    assert sorted(rows) == [25, *range(1000, 1060), *range(2000, 2060)]
+    assert all(rows[it]["x"] == it for it in rows if it != 25)
+    assert [json.loads(line)["iteration"] for line in table.read_text().splitlines()] == sorted(rows)

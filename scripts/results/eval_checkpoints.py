@@ -19,6 +19,7 @@ A row that lacks an evaluation added later gets only that one run and is complet
 
 from __future__ import annotations
 
+import fcntl
 import json
 import os
 import pathlib
@@ -76,7 +77,6 @@ def main() -> None:
     if unknown := [k for k in kinds if k not in EVALS]:
         sys.exit(f"KINDS: unknown evaluation(s) {unknown}, expected some of {list(EVALS)}")
     table = run / "checkpoint_evals.jsonl"
-    rows = {r["iteration"]: r for r in (json.loads(line) for line in (table.read_text().splitlines() if table.exists() else []) if line.strip())}
     log_file = run / "log.jsonl"
     log = [json.loads(line) for line in (log_file.read_text().splitlines() if log_file.exists() else []) if line.strip()]
     if not log:  # a run that has just started: nothing to evaluate yet (the evaluation loops call again)
@@ -88,20 +88,36 @@ def main() -> None:
             it = int(ck.stem.removeprefix("iter_"))
             if it % every:
                 continue
-            row = rows.get(it) or {"iteration": it, "samples": it * per_it}
+            row = read_rows(table).get(it) or {"iteration": it, "samples": it * per_it}
             missing = [k for k in kinds if KEY[k] not in row]
             if not missing:
                 continue
             near = [r["mean_reward"] for r in log if it - 25 < r["iteration"] <= it]
-            row["reward_per_step"] = round(sum(near) / max(1, len(near)), 5)
+            new = {"reward_per_step": round(sum(near) / max(1, len(near)), 5)}
             for kind in missing:
-                row.update(fields(kind, evaluate(binary, ck, EVALS[kind], pathlib.Path(tmp))))
-            rows[it] = row
-            # rewritten whole after each checkpoint (a new file replaces the old: never half written)
-            part = table.with_suffix(".jsonl.part")
-            part.write_text("".join(json.dumps(rows[k]) + "\n" for k in sorted(rows)))
-            part.replace(table)
-            print(json.dumps(row), flush=True)
+                new.update(fields(kind, evaluate(binary, ck, EVALS[kind], pathlib.Path(tmp))))
+            print(json.dumps(merge(table, it, {"iteration": it, "samples": it * per_it, **new})), flush=True)
+
+
+def read_rows(table: pathlib.Path) -> dict[int, dict]:
+    """The table's rows by iteration ({} before the first)."""
+    lines = table.read_text().splitlines() if table.exists() else []
+    return {r["iteration"]: r for r in (json.loads(line) for line in lines if line.strip())}
+
+
+def merge(table: pathlib.Path, it: int, fields_: dict) -> dict:
+    """Add `fields_` to the row of iteration `it` and rewrite the table whole (a new file replaces
+    the old: never half written). The table is read again under an exclusive lock, so that two
+    evaluators of one run (a watcher beside time_to_skill.sh's own pass) keep each other's rows."""
+    with open(table.with_suffix(".jsonl.lock"), "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        rows = read_rows(table)
+        row = {**rows.get(it, {}), **fields_}
+        rows[it] = row
+        part = table.with_suffix(".jsonl.part")
+        part.write_text("".join(json.dumps(rows[k]) + "\n" for k in sorted(rows)))
+        part.replace(table)
+    return row
 
 
 if __name__ == "__main__":
