@@ -157,7 +157,7 @@ pub fn run(a: TrainArgs) -> anyhow::Result<()> {
         runs.push(Measured::new(other, &b)?);
     }
     // the raw mj_step anchor: the same scene, environments and simulation threads
-    let scene = Arc::new(Scene::new(cfg.env.scene_options()?)?);
+    let scene = Arc::new(Scene::new(skillmimic_env::registry::scene_options(&cfg.env)?)?);
     let n = cfg.env.num_envs;
     let threads = match skillmimic_env::config_range::capped_threads(cfg.env.threads, "env.threads")
     {

@@ -68,7 +68,7 @@ fn run_pretrain(a: PretrainArgs) -> anyhow::Result<()> {
     init_learner_threads(a.threads);
     let lib = load_motion_library(&a.motion)?;
     let env_cfg = EnvConfig { hands: a.hands.clone(), ..Default::default() };
-    let scene = Arc::new(Scene::new(env_cfg.scene_options()?)?);
+    let scene = Arc::new(Scene::new(skillmimic_env::registry::scene_options(&env_cfg)?)?);
     let features = reference_features(scene, &lib)?;
     let labels = (0..lib.len()).map(|c| lib.get(c).clip.skill).collect();
     let data = PretrainData::new(features, labels);

@@ -108,7 +108,8 @@ pub fn ghost_states(
             env.spec().name
         );
     }
-    let mut poser = ClipPoser::new(Arc::new(Scene::new(cfg.scene_options()?)?))?;
+    let mut poser =
+        ClipPoser::new(Arc::new(Scene::new(skillmimic_env::registry::scene_options(cfg)?)?))?;
     let mut out = Vec::with_capacity(refs.len());
     for r in refs {
         out.push(match (*r, library) {

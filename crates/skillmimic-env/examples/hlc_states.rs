@@ -370,7 +370,7 @@ fn scoring_cases(base: &Step, goal: [f64; 2]) -> Vec<Value> {
 fn main() -> Result<(), Error> {
     let out = std::env::args().nth(1).ok_or("usage: hlc_states OUT.json")?;
     let cfg = EnvConfig::default();
-    let scene = Arc::new(Scene::new(cfg.scene_options()?)?);
+    let scene = Arc::new(Scene::new(skillmimic_env::registry::scene_options(&cfg)?)?);
     let ball_radius = scene.options().ball.map_or(0.12, |b| b.radius);
     let lib = load_motion_library(&[workspace_root().join("motions")])?;
     let hlc = HlcConfig::default();

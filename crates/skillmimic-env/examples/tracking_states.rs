@@ -76,8 +76,8 @@ fn main() -> Result<(), Error> {
     }
     let c = smpl_tracking()?;
     let t = c.table::<TrackingConfig>().clone();
-    let ch = c.resolved_character()?;
-    let scene = Arc::new(Scene::new(c.scene_options()?)?);
+    let ch = skillmimic_env::registry::character(&c)?;
+    let scene = Arc::new(Scene::new(skillmimic_env::registry::scene_options(&c)?)?);
     let spec = scene.character().clone();
     let task = Tracking::new(&c, Motion::load(&c.motion, ch)?, scene.clone())?;
     let motion = Motion::load(&c.motion, ch)?;
@@ -186,8 +186,8 @@ fn main() -> Result<(), Error> {
 /// (`gt`), world frame, m, the character's body order; values to 9 significant digits.
 fn sequences(out: &str) -> Result<(), Error> {
     let c = smpl_tracking()?;
-    let ch = c.resolved_character()?;
-    let scene = Arc::new(Scene::new(c.scene_options()?)?);
+    let ch = skillmimic_env::registry::character(&c)?;
+    let scene = Arc::new(Scene::new(skillmimic_env::registry::scene_options(&c)?)?);
     let spec = scene.character().clone();
     let motion = Motion::load(&c.motion, ch)?;
     let task = Tracking::new(&c, Motion::load(&c.motion, ch)?, scene.clone())?;
@@ -238,8 +238,8 @@ fn sequences(out: &str) -> Result<(), Error> {
 fn prior_states(out: &str) -> Result<(), Error> {
     use skillmimic_env::tasks::tracking::prior::{SMPL_PRIOR_DIM, smpl_features};
     let c = smpl_tracking()?;
-    let ch = c.resolved_character()?;
-    let scene = Arc::new(Scene::new(c.scene_options()?)?);
+    let ch = skillmimic_env::registry::character(&c)?;
+    let scene = Arc::new(Scene::new(skillmimic_env::registry::scene_options(&c)?)?);
     let spec = scene.character().clone();
     let motion = Motion::load(&c.motion, ch)?;
     let (n, nd) = (spec.bodies.len(), spec.num_dofs);

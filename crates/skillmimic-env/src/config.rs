@@ -346,10 +346,13 @@ impl EnvConfig {
         }
     }
 
-    /// The character named by `character` (empty: the SkillMimic humanoid; the registry fills in
-    /// the task's default before a task is built). Outside a task's constructor, where
-    /// `character` may still be empty, `registry::character` gives the task's character.
-    pub fn resolved_character(&self) -> Result<skillmimic_sim::Character, ConfigError> {
+    /// The character named by `character` (empty: the SkillMimic humanoid). Crate-private on
+    /// purpose: an empty `character` means "the task's default", which only the registry knows
+    /// (`config` cannot import it: the registry imports `config`). Task constructors see the
+    /// field filled in by `registry::make`; every caller outside this crate asks
+    /// `registry::character` / `registry::scene_options`, so no caller can take the SkillMimic
+    /// humanoid for a TokenHSI or SMPL task whose saved configuration leaves the field empty.
+    pub(crate) fn resolved_character(&self) -> Result<skillmimic_sim::Character, ConfigError> {
         let name = if self.character.is_empty() { "skillmimic" } else { self.character.as_str() };
         skillmimic_sim::Character::by_name(name, self.hand_model()?).ok_or_else(|| {
             bad(
@@ -363,8 +366,9 @@ impl EnvConfig {
     }
 
     /// The scene of the configured character: the SkillMimic humanoid with the ball (after the
-    /// ball overrides), any other character bare.
-    pub fn scene_options(&self) -> Result<SceneOptions, ConfigError> {
+    /// ball overrides), any other character bare. Crate-private like [`Self::resolved_character`]:
+    /// outside this crate `registry::scene_options` resolves the task's character first.
+    pub(crate) fn scene_options(&self) -> Result<SceneOptions, ConfigError> {
         let character = self.resolved_character()?;
         if !character.plays_ballplay() {
             return Ok(SceneOptions {

@@ -24,8 +24,9 @@ fn kinematic_replay_scores_one_with_zero_error_on_every_character() {
     for character in ["skillmimic", "smpl"] {
         let mut c = config(1);
         c.character = character.into();
-        let ch = c.resolved_character().unwrap();
-        let scene = Arc::new(Scene::new(c.scene_options().unwrap()).unwrap());
+        let ch = skillmimic_env::registry::character(&c).unwrap();
+        let scene =
+            Arc::new(Scene::new(skillmimic_env::registry::scene_options(&c).unwrap()).unwrap());
         let motion = Motion::load(&c.motion, ch).unwrap();
         let spec = scene.character().clone();
         let frames: Vec<usize> = (0..motion.len()).map(|k| motion.frames(k)).collect();

@@ -67,8 +67,11 @@ pub fn disc_score(
     let cfg_err = |e: String| LearnError::Config(format!("scoring clip '{}': {e}", clip.name));
     let lib = MotionLibrary::from_clips(vec![clip.clone()]).map_err(|e| cfg_err(e.to_string()))?;
     let scene = Arc::new(
-        Scene::new(cfg.env.scene_options().map_err(|e| cfg_err(e.to_string()))?)
-            .map_err(|e| cfg_err(e.to_string()))?,
+        Scene::new(
+            skillmimic_env::registry::scene_options(&cfg.env)
+                .map_err(|e| cfg_err(e.to_string()))?,
+        )
+        .map_err(|e| cfg_err(e.to_string()))?,
     );
     let feats = clip_features(scene, &lib).map_err(|e| cfg_err(e.to_string()))?.remove(0);
     let (k, t) = (cfg.ppo.amp.window, clip.num_frames);

@@ -232,8 +232,10 @@ fn the_discriminator_filter_scores_generated_clips() {
         Clip::load(&skillmimic_motion::library::find_clip_files(&cfg.env.motion[0]).unwrap()[0])
             .unwrap();
     let lib = skillmimic_motion::MotionLibrary::from_clips(vec![clip.clone()]).unwrap();
-    let scene =
-        std::sync::Arc::new(skillmimic_sim::Scene::new(cfg.env.scene_options().unwrap()).unwrap());
+    let scene = std::sync::Arc::new(
+        skillmimic_sim::Scene::new(skillmimic_env::registry::scene_options(&cfg.env).unwrap())
+            .unwrap(),
+    );
     let f = clip_features(scene, &lib).unwrap().remove(0);
     let k = cfg.ppo.amp.window;
     let mut want = 0.0;

@@ -60,8 +60,11 @@ fn policy_windows(steps: usize) -> Vec<f32> {
 fn discriminator_separates_reference_from_random_policy_windows() {
     let c = EnvConfig { motion: motion(), ..Default::default() };
     let lib = load_motion_library(&c.motion).unwrap();
-    let rows =
-        clip_features(Arc::new(Scene::new(c.scene_options().unwrap()).unwrap()), &lib).unwrap();
+    let rows = clip_features(
+        Arc::new(Scene::new(skillmimic_env::registry::scene_options(&c).unwrap()).unwrap()),
+        &lib,
+    )
+    .unwrap();
     let sim = policy_windows(40);
     let n_sim = sim.len() / (K * FEATURE_DIM);
     let mut rng = ChaCha8Rng::seed_from_u64(1);
@@ -249,8 +252,11 @@ fn two_ranks_take_the_single_process_discriminator_step() {
     use skillmimic_learn::collective::threads::ThreadGroup;
     let c = EnvConfig { motion: motion(), ..Default::default() };
     let lib = load_motion_library(&c.motion).unwrap();
-    let rows =
-        clip_features(Arc::new(Scene::new(c.scene_options().unwrap()).unwrap()), &lib).unwrap();
+    let rows = clip_features(
+        Arc::new(Scene::new(skillmimic_env::registry::scene_options(&c).unwrap()).unwrap()),
+        &lib,
+    )
+    .unwrap();
     let sim = policy_windows(40);
     let w = K * FEATURE_DIM;
     let mut rng = ChaCha8Rng::seed_from_u64(4);

@@ -195,7 +195,7 @@ fn every_task_and_family_trains_on_two_ranks() {
         let env = skillmimic_env::registry::make(&c.env).unwrap();
         let obs = skillmimic_learn::policies::ObsInfo::of_env(
             env.as_ref(),
-            c.env.resolved_character().unwrap(),
+            skillmimic_env::registry::character(&c.env).unwrap(),
         );
         if !family.acts_on(&env.spec().action_space, &obs) {
             continue;

@@ -55,7 +55,10 @@ fn run_case(mut c: TrainConfig, family: &str) -> Result<(), Failed> {
     declarations_agree(&name, &c, env.as_ref())?;
     let mut rng = <rand_chacha::ChaCha8Rng as rand::SeedableRng>::seed_from_u64(1);
     let ppo = skillmimic_learn::policies::token_transformer::with_task_groups(&c.ppo, &spec);
-    let obs = ObsInfo::of_env(env.as_ref(), c.env.resolved_character().map_err(|e| e.to_string())?);
+    let obs = ObsInfo::of_env(
+        env.as_ref(),
+        skillmimic_env::registry::character(&c.env).map_err(|e| e.to_string())?,
+    );
     let policy = Policy::build_for(&obs, spec.action_space, &ppo, &mut rng)?;
     let mut buf = InferenceBuffers::default();
     let o = policy.actor_outputs();
@@ -172,7 +175,10 @@ fn resume_case(c: TrainConfig) -> Result<(), Failed> {
     let err = |e: skillmimic_env::EnvError| format!("{name}: {e}");
     let mut a = registry::make(&c.env).map_err(err)?;
     let spec = a.spec().clone();
-    let obs = ObsInfo::of_env(a.as_ref(), c.env.resolved_character().map_err(|e| e.to_string())?);
+    let obs = ObsInfo::of_env(
+        a.as_ref(),
+        skillmimic_env::registry::character(&c.env).map_err(|e| e.to_string())?,
+    );
     let family = FAMILIES
         .iter()
         .find(|f| f.acts_on(&spec.action_space, &obs))
@@ -280,7 +286,7 @@ fn main() {
             let probe = config(entry.name, character, "probe", &llc);
             let (space, obs) = match registry::make(&probe.env) {
                 Ok(env) => {
-                    let ch = probe.env.resolved_character().expect("a built task's character");
+                    let ch = registry::character(&probe.env).expect("a built task's character");
                     (env.spec().action_space, ObsInfo::of_env(env.as_ref(), ch))
                 }
                 Err(e) => {

@@ -24,7 +24,10 @@ fn pretrain_on(
     epochs: usize,
 ) -> (HistoryEncoder, skillmimic_learn::history_pretrain::PretrainReport) {
     let lib = load_motion_library(paths).unwrap();
-    let scene = Arc::new(Scene::new(EnvConfig::default().scene_options().unwrap()).unwrap());
+    let scene = Arc::new(
+        Scene::new(skillmimic_env::registry::scene_options(&EnvConfig::default()).unwrap())
+            .unwrap(),
+    );
     let features = reference_features(scene, &lib).unwrap();
     let labels = (0..lib.len()).map(|c| lib.get(c).clip.skill).collect();
     let data = PretrainData::new(features, labels);

@@ -19,7 +19,7 @@ use crate::tasks::multi;
 use crate::vec_env::Env;
 
 pub use list::TASKS;
-pub use skillmimic_sim::Character;
+pub use skillmimic_sim::{Character, SceneOptions};
 pub use tables::tables;
 
 /// A constructor over an already loaded motion library.
@@ -159,6 +159,16 @@ pub fn character(cfg: &EnvConfig) -> Result<Character, EnvError> {
     }
 }
 
+/// The scene `cfg` asks for, on the task's character ([`character`]): the SkillMimic humanoid
+/// with the ball (after the `[env.ball]` overrides), any other character bare; the solver of
+/// `[env.physics]`.
+pub fn scene_options(cfg: &EnvConfig) -> Result<SceneOptions, EnvError> {
+    let character = character(cfg)?;
+    let mut c = cfg.clone();
+    c.character = character.name().to_string();
+    Ok(c.scene_options()?)
+}
+
 /// The registered task called `name`.
 pub fn entry(name: &str) -> Option<&'static TaskEntry> {
     TASKS.iter().find(|t| t.name == name)
@@ -194,4 +204,30 @@ pub fn obs_blocks(cfg: &EnvConfig, obs_dim: usize) -> Result<Vec<ObsBlock>, EnvE
     let character = character(cfg)?;
     let entry = entry(&cfg.task).expect("checked by character()");
     Ok(entry.obs_layout.blocks(&character.spec(), obs_dim))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An empty `env.character` (every saved TokenHSI configuration) is the task's default: the
+    /// scene of `hsi_follow` is the bare TokenHSI character, not the SkillMimic humanoid with its
+    /// ball (the fallback of `EnvConfig::scene_options`, which is crate-private for that reason).
+    #[test]
+    fn an_empty_character_is_the_tasks_default_in_the_scene() {
+        let hsi = EnvConfig { task: "hsi_follow".into(), ..Default::default() };
+        assert!(hsi.character.is_empty());
+        let scene = scene_options(&hsi).unwrap();
+        assert_eq!(scene.character.name(), "tokenhsi");
+        assert!(scene.ball.is_none());
+        assert_eq!(character(&hsi).unwrap().name(), "tokenhsi");
+        let imitation = EnvConfig::default();
+        let scene = scene_options(&imitation).unwrap();
+        assert_eq!(scene.character.name(), "skillmimic");
+        assert!(scene.ball.is_some());
+        // a character the task does not run on is refused, naming the task's
+        let wrong = EnvConfig { character: "smpl".into(), ..hsi };
+        let err = scene_options(&wrong).unwrap_err().to_string();
+        assert!(err.contains("task 'hsi_follow' runs on tokenhsi"), "{err}");
+    }
 }

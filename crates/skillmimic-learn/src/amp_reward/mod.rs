@@ -234,7 +234,8 @@ impl AmpReward {
                 let lib = load_motion_library(&cfg.env.motion)?;
                 let scene = Arc::new(
                     Scene::new(
-                        cfg.env.scene_options().map_err(|e| LearnError::Config(e.to_string()))?,
+                        skillmimic_env::registry::scene_options(&cfg.env)
+                            .map_err(|e| LearnError::Config(e.to_string()))?,
                     )
                     .map_err(|e| LearnError::Config(e.to_string()))?,
                 );

@@ -173,7 +173,8 @@ impl DeployMeta {
         act_dim: usize,
         source: Source,
     ) -> Result<Self, LearnError> {
-        let scene = cfg.env.scene_options().map_err(|e| LearnError::Config(e.to_string()))?;
+        let scene = skillmimic_env::registry::scene_options(&cfg.env)
+            .map_err(|e| LearnError::Config(e.to_string()))?;
         let timestep = scene.character.spec().timestep;
         let box_hands = cfg.env.hand_model().map_err(|e| LearnError::Config(e.to_string()))?
             == skillmimic_sim::HandModel::Box;
