@@ -30,10 +30,15 @@ def _train(out: Path, iterations: int) -> list[str]:
     return [sys.executable, "-m", "skillmimic_rs", *_options(out, iterations)]
 
 
-# a program calling the tool as a function, which reports the interrupt it gets
+# a program calling the tool as a function, which reports the interrupt it gets; it installs
+# Python's default Ctrl-C handler itself, because a test run started as a background job of a
+# non-interactive shell (`./scripts/test.sh &`) hands its children SIGINT ignored, and Python
+# then keeps it ignored (the interrupt would never arrive and training would run to its end)
 _PROGRAM = """
+import signal
 import sys
 import skillmimic_rs as sm
+signal.signal(signal.SIGINT, signal.default_int_handler)
 try:
     sm.cli(*sys.argv[1:])
 except KeyboardInterrupt:
