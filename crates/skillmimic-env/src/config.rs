@@ -369,7 +369,15 @@ impl EnvConfig {
     /// ball overrides), any other character bare. Crate-private like [`Self::resolved_character`]:
     /// outside this crate `registry::scene_options` resolves the task's character first.
     pub(crate) fn scene_options(&self) -> Result<SceneOptions, ConfigError> {
-        let character = self.resolved_character()?;
+        self.scene_options_on(self.resolved_character()?)
+    }
+
+    /// The scene of `character` (already resolved by the caller) with this configuration's ball
+    /// and solver: what [`Self::scene_options`] builds for the configured character.
+    pub(crate) fn scene_options_on(
+        &self,
+        character: skillmimic_sim::Character,
+    ) -> Result<SceneOptions, ConfigError> {
         if !character.plays_ballplay() {
             return Ok(SceneOptions {
                 solver: self.physics.solver_options(),

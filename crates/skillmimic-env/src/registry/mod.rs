@@ -163,10 +163,7 @@ pub fn character(cfg: &EnvConfig) -> Result<Character, EnvError> {
 /// with the ball (after the `[env.ball]` overrides), any other character bare; the solver of
 /// `[env.physics]`.
 pub fn scene_options(cfg: &EnvConfig) -> Result<SceneOptions, EnvError> {
-    let character = character(cfg)?;
-    let mut c = cfg.clone();
-    c.character = character.name().to_string();
-    Ok(c.scene_options()?)
+    Ok(cfg.scene_options_on(character(cfg)?)?)
 }
 
 /// The registered task called `name`.
