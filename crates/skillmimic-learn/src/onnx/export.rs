@@ -42,13 +42,7 @@ pub fn export_checkpoint(
     }
     let source = source_of(ckpt, c.progress.iteration, c.progress.samples)?;
     let act = c.policy.actor.output_dim();
-    let mut meta =
-        DeployMeta::new("", c.policy.family.name(), &cfg, c.policy.obs_dim(), act, source)?;
-    if skillmimic_env::registry::character(&cfg.env).ok()
-        == Some(skillmimic_core::characters::tokenhsi::CHARACTER)
-    {
-        super::meta_hsi::describe_tokenhsi(&mut meta);
-    }
+    let meta = DeployMeta::new("", c.policy.family.name(), &cfg, c.policy.obs_dim(), act, source)?;
     let exported = if fused {
         let llc_path = match llc {
             Some(p) => p.to_path_buf(),

@@ -11,8 +11,8 @@ use sha2::{Digest, Sha256};
 use skillmimic_core::characters::skillmimic::{BODIES, NUM_BODIES, is_finger};
 use skillmimic_env::obs::OBS_LAYOUT_VERSION;
 use skillmimic_motion::clip::skill_name;
-use skillmimic_sim::batch::DEFAULT_SUBSTEPS;
 
+pub use super::meta_character::Gain;
 use crate::config::TrainConfig;
 use crate::error::{LearnError, io};
 
@@ -33,20 +33,6 @@ pub struct Block {
     pub name: String,
     pub start: usize,
     pub end: usize,
-}
-
-/// PD gains of one joint (the same on its 3 axes).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Gain {
-    pub joint: String,
-    /// N·m/rad.
-    pub kp: f64,
-    /// N·m·s/rad.
-    pub kd: f64,
-    /// Torque limit of this joint (N·m) where joints differ (the TokenHSI character); absent
-    /// where one `force_limit_nm` holds for every joint.
-    #[serde(skip_serializing_if = "Option::is_none", default)]
-    pub force_limit_nm: Option<f64>,
 }
 
 /// One discrete choice of a high-level policy.
@@ -109,25 +95,31 @@ pub struct DeployMeta {
     pub task: String,
     pub obs_layout_version: String,
     pub obs_dim: usize,
-    /// Width of the action row the graph's `actions` output drives the humanoid with (156), or,
-    /// for a high-level policy exported alone, its number of choices.
+    /// Width of the action row the graph's `actions` output drives the character with (156 for
+    /// the SkillMimic humanoid, 32 TokenHSI, 69 SMPL), or, for a high-level policy exported
+    /// alone, its number of choices.
     pub act_dim: usize,
     pub obs_blocks: Vec<Block>,
     pub inputs: Vec<Io>,
     pub outputs: Vec<Io>,
     pub normalizer: Normalizer,
-    /// The 52 actuated joints in action order (joint j = body j + 1, actions 3j..3j+3).
+    /// The actuated joints in action order (SkillMimic humanoid: the 52 ball joints, joint j =
+    /// body j + 1, actions 3j..3j+3; other characters: `action_to_pd_target` lists each joint's
+    /// action entries).
     pub joint_order: Vec<String>,
     pub action_to_pd_target: String,
     /// Per action entry `[offset, scale]` of `target = offset + scale · clamp(a, −1, 1)` (rad)
-    /// where the map is not π·a (the TokenHSI character); empty otherwise.
+    /// for every character but the SkillMimic humanoid (whose map is π·a); empty for it.
     #[serde(skip_serializing_if = "Vec::is_empty", default)]
     pub action_offset_scale: Vec<[f64; 2]>,
     pub pd_gains: Vec<Gain>,
-    /// `env.hands` of the training run (`full` or `box`).
+    /// `env.hands` of the training run (`full` or `box`; empty for a character with one hand
+    /// model).
     pub hands: String,
     /// Joints without actuators in this hand model (their action entries are ignored).
     pub welded_joints: Vec<String>,
+    /// The actuators' force limit (N·m); for a character with per-joint limits (`pd_gains`),
+    /// the largest of them.
     pub force_limit_nm: f64,
     /// Seconds per policy step (the simulator runs `substeps` steps of `sim_dt` per action).
     pub control_dt: f64,
@@ -175,14 +167,14 @@ impl DeployMeta {
     ) -> Result<Self, LearnError> {
         let scene = skillmimic_env::registry::scene_options(&cfg.env)
             .map_err(|e| LearnError::Config(e.to_string()))?;
-        let timestep = scene.character.spec().timestep;
+        let spec = scene.character.spec();
         let box_hands = cfg.env.hand_model().map_err(|e| LearnError::Config(e.to_string()))?
             == skillmimic_sim::HandModel::Box;
         let joints = &BODIES[1..NUM_BODIES];
         let entry = skillmimic_env::registry::entry(&cfg.env.task);
         let choices = entry.and_then(|e| e.high_level).map_or(&[][..], |h| h.choices);
         let name_of = |l: u32| skill_name(l).unwrap_or("unnamed").to_string();
-        let m = Self {
+        let mut m = Self {
             format: FORMAT.to_string(),
             format_version: FORMAT_VERSION,
             graph: graph.to_string(),
@@ -213,9 +205,9 @@ impl DeployMeta {
                 .map(|b| BODIES[b].name.to_string())
                 .collect(),
             force_limit_nm: skillmimic_core::characters::skillmimic::FORCE_LIMIT,
-            control_dt: timestep * DEFAULT_SUBSTEPS as f64,
-            sim_dt: timestep,
-            substeps: DEFAULT_SUBSTEPS,
+            control_dt: spec.timestep * spec.substeps as f64,
+            sim_dt: spec.timestep,
+            substeps: spec.substeps,
             skill_labels: skillmimic_motion::clip::SKILL_NAMES
                 .iter()
                 .map(|(l, n)| (l.to_string(), n.to_string()))
@@ -228,6 +220,19 @@ impl DeployMeta {
             source,
             skill_source: None,
         };
+        if scene.character.name() != skillmimic_core::characters::skillmimic::ENTRY.name {
+            let c = super::meta_character::describe_character(&spec);
+            m.obs_layout_version = c.obs_layout_version;
+            m.joint_order = c.joint_order;
+            m.action_to_pd_target = c.action_to_pd_target;
+            m.action_offset_scale = c.action_offset_scale;
+            m.pd_gains = c.pd_gains;
+            m.hands = String::new();
+            m.welded_joints = c.welded_joints;
+            m.force_limit_nm = c.force_limit_nm;
+            (m.sim_dt, m.substeps, m.control_dt) = (c.sim_dt, c.substeps, c.control_dt);
+            m.skill_labels.clear();
+        }
         Ok(m)
     }
 

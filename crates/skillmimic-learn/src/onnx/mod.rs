@@ -26,7 +26,7 @@ pub mod export;
 pub mod graph;
 pub mod latent;
 pub mod meta;
-pub mod meta_hsi;
+pub mod meta_character;
 pub mod modular;
 
 use std::path::{Path, PathBuf};
