@@ -211,3 +211,22 @@ def test_checkpoint_table_writers_keep_each_others_rows(tmp_path):
     assert sorted(rows) == [25, *range(1000, 1060), *range(2000, 2060)]
     assert all(rows[it]["x"] == it for it in rows if it != 25)
     assert [json.loads(line)["iteration"] for line in table.read_text().splitlines()] == sorted(rows)
+
+
+def test_tab3_heading_waits_for_a_skill_policy_that_dribbles_for_10_s(tmp_path):
+    """Issue 42 item 3: the heading policy is trained only once every dribble of the mixed policy
+    reaches the 10-s success threshold; otherwise the script says where each stands and stops."""
+    script = ROOT / "scripts/experiments/tab3_heading.sh"
+    env = {"PATH": "/usr/bin:/bin", "OUT": str(tmp_path / "runs"), "EVIDENCE": str(tmp_path / "evidence"), "BIN": "/bin/true"}
+    missing = subprocess.run(["bash", str(script), "3"], env=env, capture_output=True, text=True)
+    assert missing.returncode == 2 and "tab3-mixed-cpu-s3/latest.safetensors not found" in missing.stderr, missing.stderr
+    (tmp_path / "runs/tab3-mixed-cpu-s3").mkdir(parents=True)
+    (tmp_path / "runs/tab3-mixed-cpu-s3/latest.safetensors").write_bytes(b"")
+    (tmp_path / "evidence/tab3-mixed-cpu-s3").mkdir(parents=True)
+    rates = {"013": 0.9, "011": 0.3, "012": 0.95}
+    per_skill = {k: {"success_rate": r, "fall_rate": 1 - r} for k, r in rates.items()}
+    (tmp_path / "evidence/tab3-mixed-cpu-s3/eval-papers.json").write_text(json.dumps({"skillmimic": {"per_skill": per_skill}}))
+    p = subprocess.run(["bash", str(script), "3"], env=env, capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
+    assert "dribble left (011): SkillMimic 10-s success 30.0 %, falls 70.0 %" in p.stdout, p.stdout
+    assert "no high-level policy trained" in p.stdout and not (tmp_path / "runs/tab3-heading-cpu-s3").exists()
