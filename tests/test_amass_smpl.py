@@ -120,13 +120,19 @@ def _walk(path: pathlib.Path, frames: int = 60, fps: float = 30.0) -> None:
     np.savez(path, poses=poses, trans=trans, mocap_framerate=np.array(fps))
 
 
+def train_tiny_tracking(skillmimic_bin, npz: pathlib.Path, out: pathlib.Path) -> None:
+    """Two iterations of the tracking task on the SMPL humanoid with motion `npz` (8 environments,
+    a [32] network) into `out`."""
+    run_cli(skillmimic_bin, "train", "--preset", "tiny", "--task", "tracking", "--set", 'env.character="smpl"',
+            "--set", f'env.motion=["{npz}"]', "--set", "run.iterations=2", "--set", "env.num_envs=8", "--set", "ppo.minibatch=64",
+            "--set", "ppo.hidden=[32]", "--set", "run.eval_episodes=2", "--no-video", "--out", str(out))
+
+
 def test_amass_file_trains_and_evaluates_on_the_smpl_humanoid(tmp_path, skillmimic_bin):
     npz = tmp_path / "stand.npz"
     _walk(npz)
     out = tmp_path / "run"
-    run_cli(skillmimic_bin, "train", "--preset", "tiny", "--task", "tracking", "--set", 'env.character="smpl"',
-            "--set", f'env.motion=["{npz}"]', "--set", "run.iterations=2", "--set", "env.num_envs=8", "--set", "ppo.minibatch=64",
-            "--set", "ppo.hidden=[32]", "--set", "run.eval_episodes=2", "--no-video", "--out", str(out))
+    train_tiny_tracking(skillmimic_bin, npz, out)
     assert (out / "latest.safetensors").exists()
     metrics = tmp_path / "m.json"
     r = run_cli(skillmimic_bin, "eval", "--checkpoint", str(out / "latest.safetensors"), "--episodes", "4", "--start-frame", "0",

@@ -15,6 +15,18 @@ from test_hsi_character import JOINTS, action_maps
 from test_onnx_export import export, run
 
 
+def gentle_observations(env, steps: int = 5) -> np.ndarray:
+    """The observations of `steps` steps of small random actions (0.3 x uniform, action space
+    seeded 0) after a reset with seed 1, stacked as float32 rows."""
+    env.action_space.seed(0)
+    x, _ = env.reset(seed=1)
+    xs = [x]
+    for _ in range(steps):
+        x, *_ = env.step(env.action_space.sample() * 0.3)
+        xs.append(x)
+    return np.concatenate(xs).astype(np.float32)
+
+
 def test_tokenhsi_policy_exports_with_the_characters_metadata(tmp_path, skillmimic_bin):
     import skillmimic_rs
 
@@ -31,13 +43,7 @@ def test_tokenhsi_policy_exports_with_the_characters_metadata(tmp_path, skillmim
     assert (side["sim_dt"], side["substeps"]) == (1 / 120, 4) and abs(side["control_dt"] - 1 / 30) < 1e-15
     assert side["skill_labels"] == {} and side["welded_joints"] == []
     env = skillmimic_rs.VecEnv(num_envs=8, task="hsi_sit")
-    env.action_space.seed(0)
-    x, _ = env.reset(seed=1)
-    xs = [x]
-    for _ in range(5):
-        x, *_ = env.step(env.action_space.sample() * 0.3)
-        xs.append(x)
-    x = np.concatenate(xs).astype(np.float32)
+    x = gentle_observations(env)
     got = run(sess, x)
     mu, _ = skillmimic_rs._core.Policy.load(str(out / "latest.safetensors")).infer(x)
     print(f"onnxruntime on {len(x)} hsi_sit observations: max |d mu| vs Rust {np.abs(got['mu'] - mu).max():.2e}")

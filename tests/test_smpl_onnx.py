@@ -20,8 +20,8 @@ import math
 
 import numpy as np
 
-from conftest import run_cli
-from test_amass_smpl import FIXTURE, _walk
+from test_amass_smpl import FIXTURE, _walk, train_tiny_tracking
+from test_hsi_onnx import gentle_observations
 from test_onnx_export import export, run
 
 # (kp, kd) by body, SMPLSim's GAINS_PHC as ModSkill uses it (N·m/rad, N·m·s/rad)
@@ -42,9 +42,7 @@ def test_smpl_policy_exports_with_the_smpl_humanoids_metadata(tmp_path, repo_roo
     npz = tmp_path / "walk.npz"
     _walk(npz)
     out = tmp_path / "track"
-    run_cli(skillmimic_bin, "train", "--preset", "tiny", "--task", "tracking", "--set", 'env.character="smpl"',
-            "--set", f'env.motion=["{npz}"]', "--set", "run.iterations=2", "--set", "env.num_envs=8", "--set", "ppo.minibatch=64",
-            "--set", "ppo.hidden=[32]", "--set", "run.eval_episodes=1", "--no-video", "--out", str(out))
+    train_tiny_tracking(skillmimic_bin, npz, out)
     sess, side = export(skillmimic_bin, out / "latest.safetensors", tmp_path / "track.onnx")
     bodies = [b["name"] for b in FIXTURE["bodies"]]
     assert side["task"] == "tracking" and side["act_dim"] == 69 and side["obs_layout_version"] == "smpl-obs-1"
@@ -70,14 +68,8 @@ def test_smpl_policy_exports_with_the_smpl_humanoids_metadata(tmp_path, repo_roo
 
     # onnxruntime against our Rust inference on the task's own observations
     env = skillmimic_rs.VecEnv(num_envs=8, task="tracking", character="smpl", motion=[str(npz)], threads=1)
-    env.action_space.seed(0)
-    x, _ = env.reset(seed=1)
-    xs = [x]
-    for _ in range(5):
-        x, *_ = env.step(env.action_space.sample() * 0.3)
-        xs.append(x)
+    x = gentle_observations(env)
     env.close()
-    x = np.concatenate(xs).astype(np.float32)
     assert x.shape[1] == side["obs_dim"]
     got = run(sess, x)
     mu, _ = skillmimic_rs._core.Policy.load(str(out / "latest.safetensors")).infer(x)
