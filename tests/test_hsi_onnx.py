@@ -1,7 +1,8 @@
 """ONNX export of a policy trained on a TokenHSI task: the deployment metadata describes the 32-DoF
 TokenHSI character, not the SkillMimic humanoid — joint order, per-entry action → PD target map,
 gains and torque limits checked against the facts table of ``test_hsi_character`` (written from
-the facts file, independently of the Rust table), observation blocks 222 + task, 30 Hz over a
+the facts file, independently of the Rust table) and against PyPI mujoco's compile of
+``mjcf/tokenhsi.xml`` (actuators in action order, kp, damping, force range, time step), observation blocks 222 + task, 30 Hz over a
 1/120 s step — and onnxruntime gives our Rust inference on the task's observations. The same
 checkpoint's video is drawn at the character's 30 Hz policy rate (its saved configuration leaves
 ``env.character`` empty, the task's default)."""
@@ -27,7 +28,30 @@ def gentle_observations(env, steps: int = 5) -> np.ndarray:
     return np.concatenate(xs).astype(np.float32)
 
 
-def test_tokenhsi_policy_exports_with_the_characters_metadata(tmp_path, skillmimic_bin):
+def assert_pd_metadata_matches_model(side: dict, model) -> None:
+    """The export's joints, gains, force limits and time step against a compiled MuJoCo model of
+    the character: each joint of ``joint_order`` drives the actuators ``<joint>_x/_y/_z`` (three
+    hinges) or ``<joint>`` (one), which are the model's actuators in action order, with
+    kp = ``gainprm[0]``, force range ± the joint's limit and the hinges' damping = kd."""
+    import mujoco
+
+    names = [model.actuator(i).name for i in range(model.nu)]
+    order = []
+    for g in side["pd_gains"]:
+        axes = [f"{g['joint']}_{a}" for a in "xyz"]
+        acts = axes if axes[0] in names else [g["joint"]]
+        for a in acts:
+            act = model.actuator(a)
+            assert act.gainprm[0] == g["kp"] and tuple(act.forcerange) == (-g["force_limit_nm"], g["force_limit_nm"]), (g, a)
+            joint = model.actuator_trnid[act.id, 0]
+            assert model.jnt_type[joint] == mujoco.mjtJoint.mjJNT_HINGE and model.dof_damping[model.jnt_dofadr[joint]] == g["kd"], (g, a)
+        order += acts
+    assert order == names and len(side["action_offset_scale"]) == model.nu, (order, names)  # action column = actuator index
+    assert model.opt.timestep == side["sim_dt"]
+
+
+def test_tokenhsi_policy_exports_with_the_characters_metadata(tmp_path, repo_root, skillmimic_bin):
+    import mujoco
     import skillmimic_rs
 
     out = tmp_path / "sit"
@@ -42,6 +66,7 @@ def test_tokenhsi_policy_exports_with_the_characters_metadata(tmp_path, skillmim
     assert [(g["joint"], g["kp"], g["kd"], g["force_limit_nm"]) for g in side["pd_gains"]] == [(j[1], j[4], j[5], j[6]) for j in JOINTS]
     assert (side["sim_dt"], side["substeps"]) == (1 / 120, 4) and abs(side["control_dt"] - 1 / 30) < 1e-15
     assert side["skill_labels"] == {} and side["welded_joints"] == []
+    assert_pd_metadata_matches_model(side, mujoco.MjModel.from_xml_path(str(repo_root / "mjcf" / "tokenhsi.xml")))
     env = skillmimic_rs.VecEnv(num_envs=8, task="hsi_sit")
     x = gentle_observations(env)
     got = run(sess, x)

@@ -21,7 +21,7 @@ import math
 import numpy as np
 
 from test_amass_smpl import FIXTURE, _walk, train_tiny_tracking
-from test_hsi_onnx import gentle_observations
+from test_hsi_onnx import assert_pd_metadata_matches_model, gentle_observations
 from test_onnx_export import export, run
 
 # (kp, kd) by body, SMPLSim's GAINS_PHC as ModSkill uses it (N·m/rad, N·m·s/rad)
@@ -58,13 +58,8 @@ def test_smpl_policy_exports_with_the_smpl_humanoids_metadata(tmp_path, repo_roo
 
     # the simulated model (PyPI mujoco's compile of the shipped MJCF)
     model = mujoco.MjModel.from_xml_path(str(repo_root / "mjcf" / "smpl.xml"))
-    assert model.nu == 69 and model.opt.timestep == side["sim_dt"]
-    for j, g in enumerate(side["pd_gains"]):
-        for k, axis in enumerate("xyz"):
-            act = model.actuator(f"{g['joint']}_{axis}")
-            assert act.id == 3 * j + k, (g, axis)  # action column = actuator index
-            assert act.gainprm[0] == g["kp"] and tuple(act.forcerange) == (-g["force_limit_nm"], g["force_limit_nm"]), (g, axis)
-            assert model.dof_damping[model.jnt_dofadr[model.joint(f"{g['joint']}_{axis}").id]] == g["kd"], (g, axis)
+    assert model.nu == 69
+    assert_pd_metadata_matches_model(side, model)
 
     # onnxruntime against our Rust inference on the task's own observations
     env = skillmimic_rs.VecEnv(num_envs=8, task="tracking", character="smpl", motion=[str(npz)], threads=1)
