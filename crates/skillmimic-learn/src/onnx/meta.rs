@@ -230,7 +230,6 @@ impl DeployMeta {
             m.hands = String::new();
             m.welded_joints = c.welded_joints;
             m.force_limit_nm = c.force_limit_nm;
-            (m.sim_dt, m.substeps, m.control_dt) = (c.sim_dt, c.substeps, c.control_dt);
             m.skill_labels.clear();
         }
         Ok(m)

@@ -2,8 +2,8 @@
 //! (the TokenHSI character, the SMPL humanoid, any character registered later): every
 //! character-specific field of `DeployMeta` is read from the character's
 //! [`CharacterSpec`], so it describes exactly what the simulator builds — joint order, the
-//! per-entry action → PD target map, gains and torque limits per joint, welded joints and the
-//! time steps. The SkillMimic humanoid keeps its own description (`DeployMeta::new`: one
+//! per-entry action → PD target map, gains and torque limits per joint and welded joints (the
+//! time steps `DeployMeta::new` reads from the spec for every character). The SkillMimic humanoid keeps its own description (`DeployMeta::new`: one
 //! global force limit, π·a, box-hand welds), unchanged since format version 1.
 
 use serde::{Deserialize, Serialize};
@@ -17,13 +17,14 @@ pub struct Gain {
     pub kp: f64,
     /// N·m·s/rad.
     pub kd: f64,
-    /// Torque limit of this joint (N·m) where joints differ (every character but the SkillMimic humanoid); absent
-    /// where one `force_limit_nm` holds for every joint.
+    /// Torque limit of this joint (N·m) where joints differ (every character but the SkillMimic
+    /// humanoid); absent where one `force_limit_nm` holds for every joint.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub force_limit_nm: Option<f64>,
 }
 
-/// The character-specific fields of the deployment metadata (`DeployMeta`: the same names and units).
+/// The character-specific fields of the deployment metadata (`DeployMeta`: the same names and
+/// units); its time steps come from the spec for every character, so they are not repeated here.
 #[derive(Clone, Debug, PartialEq)]
 pub struct CharacterMeta {
     pub obs_layout_version: String,
@@ -33,9 +34,6 @@ pub struct CharacterMeta {
     pub pd_gains: Vec<Gain>,
     pub welded_joints: Vec<String>,
     pub force_limit_nm: f64,
-    pub control_dt: f64,
-    pub sim_dt: f64,
-    pub substeps: usize,
 }
 
 /// `obs_layout_version` of a policy on character `name` (`tokenhsi-obs-1`, `smpl-obs-1`); the
@@ -124,8 +122,5 @@ pub fn describe_character(spec: &CharacterSpec) -> CharacterMeta {
         pd_gains: gains,
         welded_joints,
         force_limit_nm,
-        control_dt: spec.timestep * spec.substeps as f64,
-        sim_dt: spec.timestep,
-        substeps: spec.substeps,
     }
 }
