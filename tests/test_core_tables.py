@@ -3,6 +3,8 @@ observation layout, reward-term and frame-metric names, dimensions."""
 
 from __future__ import annotations
 
+import pathlib
+
 import pytest
 
 import skillmimic_rs
@@ -37,6 +39,29 @@ def test_names_and_dims_match_the_environment(env):
     assert env.single_observation_space.shape == (skillmimic_rs.OBS_DIM,)
     assert env.single_action_space.shape == (skillmimic_rs.ACT_DIM,) == (156,)
     assert _core.CONFIG_PATH_KEYS == ("motion", "v2.history.encoder", "hlc.llc")
+
+
+def test_character_table_matches_the_shipped_scenes():
+    """``CHARACTERS`` against PyPI mujoco's compile of each character's scene in mjcf/ (one
+    actuator per action entry, the character's bodies under its root) and the widths the source
+    projects state: 823 (SkillMimic's humanoid observation), 222 (TokenHSI's), 358 (PHC's SMPL
+    self-observation without shape)."""
+    mujoco = require_module("mujoco")
+    chars = skillmimic_rs.CHARACTERS
+    assert list(chars) == ["skillmimic", "tokenhsi", "smpl"]
+    assert chars["skillmimic"]["act_dim"] == skillmimic_rs.ACT_DIM == 156
+    assert chars["skillmimic"]["hands"] == ("full", "boxhand") and chars["skillmimic"]["ballplay"]
+    assert {k: v["proprio_dim"] for k, v in chars.items()} == {"skillmimic": 823, "tokenhsi": 222, "smpl": 358}
+    assert chars["skillmimic"]["proprio_dim"] == _core.HUMANOID_DIM
+    scenes = {"skillmimic": "skillmimic_full", "tokenhsi": "tokenhsi", "smpl": "smpl"}
+    root = pathlib.Path(__file__).resolve().parents[1] / "mjcf"
+    for name, row in chars.items():
+        m = mujoco.MjModel.from_xml_path(str(root / f"{scenes[name]}.xml"))
+        assert m.nu == row["act_dim"], (name, m.nu, row)
+        under_root = sum(1 for b in range(1, m.nbody) if m.body_rootid[b] == m.body_rootid[1])
+        assert under_root == row["num_bodies"], (name, under_root, row)
+        assert not row["ballplay"] or name == "skillmimic"
+        assert row["summary"]
 
 
 def test_independent_reference_uses_the_same_term_names():

@@ -31,7 +31,7 @@ if "MUJOCO_GL" not in os.environ and not os.environ.get("DISPLAY"):
 import mujoco as _mujoco  # noqa: E402,F401  (load libmujoco before the extension)
 
 from . import _core  # noqa: E402
-from ._core import ACT_DIM, BUILTIN_DEMO, FRAME_METRIC_NAMES, HIGH_LEVEL_TASKS, OBS_DIM, POLICY_FAMILIES, TASKS, TERM_NAMES, core_version  # noqa: E402
+from ._core import ACT_DIM, BUILTIN_DEMO, CHARACTERS, FRAME_METRIC_NAMES, HIGH_LEVEL_TASKS, OBS_DIM, POLICY_FAMILIES, TASKS, TERM_NAMES, core_version  # noqa: E402
 from .motion import register_generator  # noqa: E402
 from .vec_env import VecEnv, load_config  # noqa: E402
 from .api import amass_to_smpl, cli, evaluate, play, retarget_amass, retarget_bvh, retarget_positions, train  # noqa: E402
@@ -62,6 +62,7 @@ __all__ = [
     "OBS_DIM",
     "OBS_BLOCKS",
     "ACT_DIM",
+    "CHARACTERS",
     "TERM_NAMES",
     "FRAME_METRIC_NAMES",
     "TASKS",

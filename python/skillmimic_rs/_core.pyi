@@ -13,7 +13,10 @@ CLIP_FORMAT_VERSION: int
 OBS_BLOCKS: dict[str, tuple[int, int]]
 HUMANOID_DIM: int
 STATE_DIM: int
+#: the SkillMimic humanoid's action width (156); other characters: ``CHARACTERS[name]["act_dim"]``
 ACT_DIM: int
+#: every registered character (``env.character``) -> act_dim, proprio_dim, num_bodies, hands, ballplay, summary
+CHARACTERS: dict[str, dict[str, Any]]
 HISTORY_FEATURE_DIM: int
 #: reward-term names of the imitation task (Rust ``reward::TERM_NAMES``), columns of its ``CoreEnv.reward_terms()``
 TERM_NAMES: tuple[str, ...]

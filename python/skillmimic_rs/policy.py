@@ -98,7 +98,12 @@ class _MlpActorCritic(nn.Module):
 
 
 class SkillMimicPolicy(_MlpActorCritic):
-    """``gaussian_mlp``, SkillMimic's actor–critic: action means from the actor, fixed log-std."""
+    """``gaussian_mlp``, SkillMimic's actor–critic: action means from the actor, fixed log-std.
+
+    The default widths are the SkillMimic humanoid's imitation task; for another character pass
+    ``act_dim=skillmimic_rs.CHARACTERS[name]["act_dim"]`` and the task's observation width (or
+    load a checkpoint, which carries both).
+    """
 
     def __init__(
         self,

@@ -37,6 +37,29 @@ fn resolve_config_path(written: PathBuf, config_dir: PathBuf) -> String {
     config_file::resolve_path(&written, &config_dir).to_string_lossy().into_owned()
 }
 
+/// Every registered character (`env.character`) by name, in listing order, with what a user
+/// building a policy or an action array by hand needs: `act_dim` (the action width: one entry per
+/// driven dof, the same for every hand model; welded fingers ignore theirs), `proprio_dim` (the
+/// width of its proprioception block, before any task part), `num_bodies` (including the root),
+/// `hands` (the hand models it comes in, `env.hands`), `ballplay` (whether BallPlay-M clips play
+/// on it as they are) and `summary`.
+fn characters(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
+    use skillmimic_core::characters::{Character, REGISTERED};
+    let out = PyDict::new(py);
+    for entry in REGISTERED {
+        let spec = Character::new(entry, entry.hands[0]).spec();
+        let row = PyDict::new(py);
+        row.set_item("act_dim", spec.num_dofs)?;
+        row.set_item("proprio_dim", spec.proprio_dim())?;
+        row.set_item("num_bodies", spec.num_bodies())?;
+        row.set_item("hands", PyTuple::new(py, entry.hands.iter().map(|h| h.name()))?)?;
+        row.set_item("ballplay", entry.ballplay)?;
+        row.set_item("summary", entry.summary)?;
+        out.set_item(entry.name, row)?;
+    }
+    Ok(out)
+}
+
 /// Add the constants and helper functions to the module.
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let py = m.py();
@@ -48,6 +71,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("HUMANOID_DIM", skillmimic_env::obs::layout::HUMANOID_DIM)?;
     m.add("STATE_DIM", skillmimic_env::obs::layout::STATE_DIM)?;
     m.add("ACT_DIM", skillmimic_core::characters::skillmimic::NUM_DOFS)?;
+    m.add("CHARACTERS", characters(py)?)?;
     m.add("HISTORY_FEATURE_DIM", skillmimic_env::v2::history::FEATURE_DIM)?;
     m.add("TERM_NAMES", PyTuple::new(py, skillmimic_env::reward::TERM_NAMES)?)?;
     m.add("FRAME_METRIC_NAMES", PyTuple::new(py, skillmimic_env::FRAME_METRIC_NAMES)?)?;
