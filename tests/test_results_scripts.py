@@ -91,6 +91,18 @@ def test_comparison_flags_a_lower_plateau_and_an_unmet_seed(runs):
     c = tts.compare(s)["run"]
     assert c["cpu_plateau_within_small_spread_or_better"] is False
     assert c["median_hours"]["small"] is None and c["ratio"] is None
+    # small seed 1 was evaluated to 6 M samples at 1000/s (1.667 h) without meeting it: small's
+    # median is at least (0.833 + 1.667) / 2 h and the ratio at most cpu's median over that
+    small_floor = round((round(3e6 / 1000 / 3600, 3) + 6e6 / 1000 / 3600) / 2, 4)
+    assert c["median_hours_at_least"]["small"] == small_floor
+    assert c["ratio_at_most"] == round(c["median_hours"]["cpu"] / small_floor, 3) and "ratio_at_least" not in c
+    # the other way round: an unmet cpu seed bounds the ratio from below
+    s[1]["criterion_hours"] = 4e6 / 1000 / 3600
+    s[2]["criterion_hours"] = None
+    c = tts.compare(s)["run"]
+    cpu_floor = round((3.5e6 / 1000 / 3600 + round(3e6 / 1000 / 3600, 3)) / 2, 4)
+    assert c["median_hours_at_least"]["cpu"] == cpu_floor
+    assert c["ratio_at_least"] == round(cpu_floor / c["median_hours"]["small"], 3) and "ratio_at_most" not in c
 
 
 def test_command_line_writes_the_comparison(runs, tmp_path):

@@ -25,7 +25,11 @@ Per clip, for run folders named CLIP-PRESET-sSEED (what time_to_skill.sh writes)
 issue's comparison: the median over seeds of each preset's hours to the criterion, their ratio
 (cpu ÷ small; the target is <= 1/3) and whether cpu's plateau metrics lie within the seed spread of
 small's or better (completion and Acc not lower than small's lowest seed, E_b not higher than its
-highest). A seed that has not met the criterion makes its preset's median unknown (None).
+highest). A seed that has not met the criterion makes its preset's median unknown (None); since it
+would meet it after the samples it was evaluated to, if at all, those samples bound its hours from
+below, and a median is non-decreasing in each seed's value, so the comparison also gives the
+median's lower bound (`median_hours_at_least`) and, where only one preset has such a seed, the bound
+this puts on the ratio (`ratio_at_most` when `small` has it, `ratio_at_least` when `cpu` has it).
 """
 
 from __future__ import annotations
@@ -116,6 +120,17 @@ def compare(results: list[dict], base: str = "small", fast: str = "cpu") -> dict
             continue
         hours = {p: [r["criterion_hours"] for r in presets[p]] for p in (base, fast)}
         med = {p: None if None in h else median(h) for p, h in hours.items()}
+        # unmet seeds at the hours they were evaluated to: a lower bound on each preset's median
+        floor = {
+            p: median([r["criterion_hours"] if r["criterion_hours"] is not None
+                       else r["evaluated_to_samples"] / r["rate_samples_per_s"] / 3600 for r in presets[p]])
+            for p in (base, fast)
+        }
+        bound = {}
+        if med[base] is None and med[fast] is not None:
+            bound["ratio_at_most"] = round(med[fast] / floor[base], 3)
+        if med[fast] is None and med[base] is not None:
+            bound["ratio_at_least"] = round(floor[fast] / med[base], 3)
         b = presets[base]
         spread_ok = all(
             min(r["plateau_completion_pct"] for r in b) <= f["plateau_completion_pct"]
@@ -128,6 +143,8 @@ def compare(results: list[dict], base: str = "small", fast: str = "cpu") -> dict
             "criterion_hours": hours,
             "median_hours": med,
             "ratio": round(med[fast] / med[base], 3) if med[fast] is not None and med[base] else None,
+            "median_hours_at_least": floor,
+            **bound,
             f"{fast}_plateau_within_{base}_spread_or_better": spread_ok,
         }
     return out
@@ -156,6 +173,10 @@ def main() -> None:
     comparison = compare(results)
     for clip, c in comparison.items():
         ratio = "unknown (a seed has not met the criterion)" if c["ratio"] is None else f"{c['ratio']:.3f}"
+        if "ratio_at_most" in c:
+            ratio += f", at most {c['ratio_at_most']:.3f} (small's unmet seeds at the samples evaluated)"
+        if "ratio_at_least" in c:
+            ratio += f", at least {c['ratio_at_least']:.3f} (cpu's unmet seeds at the samples evaluated)"
         print(f"{clip}: median hours to the criterion {c['median_hours']} over seeds {c['seeds']}; ratio cpu/small {ratio}; "
               f"cpu plateau within small's seed spread or better: {c['cpu_plateau_within_small_spread_or_better']}")
     if out_json:
