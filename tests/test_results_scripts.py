@@ -115,6 +115,10 @@ def test_command_line_writes_the_comparison(runs, tmp_path):
     data = json.loads(out.read_text())
     assert [r["run"] for r in data["runs"]] == [r.name for r in runs]
     assert data["comparison"]["run"]["ratio"] is not None
+    # the plateaus compare at equal samples: up to the 3.5 M of the shortest run (run-cpu-s0)
+    assert {r["run"]: r["plateau_end_samples"] for r in data["runs"]} == {r.name: 3_500_000 for r in runs} | {"run-small-s0": 3_000_000, "run-small-s1": 2_000_000}
+    small0 = next(r for r in data["runs"] if r["run"] == "run-small-s0")
+    assert small0["plateau_completion_pct"] == round((95 + 80 + 95) / 3, 2) and small0["final_completion_pct"] == round((96 + 90 + 92 + 95) / 4, 2)
     # a run folder without a rate is an error that names it
     rates.write_text(json.dumps({"run-small": 1000}))
     p = subprocess.run([sys.executable, str(ROOT / "scripts/experiments/time_to_skill.py"), str(rates), str(runs[2])],

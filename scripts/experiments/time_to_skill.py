@@ -14,7 +14,10 @@ Learning-curve screening: the mean reward per step over the 204 800 samples up t
 MARKS (the variants differ in samples per iteration, so the curves are compared per sample).
 
 Plateau metrics: the mean of the last K evaluated checkpoints (K = 4) of each run, so that a
-variant cannot win by stopping at a lower level than the baseline.
+variant cannot win by stopping at a lower level than the baseline. On the command line the runs of
+one clip are compared at equal samples: each run's last K checkpoints up to the samples the
+shortest of them was evaluated to (`plateau_end_samples`); a run's own last K beside them
+(`final_*`).
 
     python3 scripts/experiments/time_to_skill.py RATES.json RUN_DIR [RUN_DIR ...] [--json OUT]
 
@@ -76,16 +79,24 @@ def reward_at(log: list[dict], samples: float, window: float = 204800) -> float 
     return round(sum(near) / len(near), 4) if near and log[-1]["samples"] >= samples else None
 
 
-def summary(run: pathlib.Path, rate: float) -> dict:
+def summary(run: pathlib.Path, rate: float, end: float | None = None) -> dict:
+    """One run's time to the criterion and its plateau: the last K checkpoints up to `end`
+    samples (None: all), and its own last K (`final_*`)."""
     evals = rows(run / "checkpoint_evals.jsonl")
     log = rows(run / "log.jsonl")
     hit = first_meeting(evals)
-    tail = sorted(evals, key=lambda r: r["samples"])[-PLATEAU_K:]
-    mean = lambda k: round(sum(r[k] for r in tail) / len(tail), 2)  # noqa: E731
+    ordered = sorted(evals, key=lambda r: r["samples"])
+    tail = [r for r in ordered if end is None or r["samples"] <= end][-PLATEAU_K:]
+    mean = lambda k, rs=tail: round(sum(r[k] for r in rs) / len(rs), 2)  # noqa: E731
+    last = ordered[-PLATEAU_K:]
     out = {
         "run": run.name,
         "rate_samples_per_s": rate,
-        "evaluated_to_samples": max(r["samples"] for r in evals),
+        "evaluated_to_samples": ordered[-1]["samples"],
+        "plateau_end_samples": tail[-1]["samples"],
+        "final_completion_pct": mean("start_eps001_completed_pct", last),
+        "final_e_b_mm": mean("e_b_mm", last),
+        "final_acc_pct": mean("acc_pct", last),
         "criterion_samples": hit["samples"] if hit else None,
         "criterion_iteration": hit["iteration"] if hit else None,
         "criterion_hours": round(hit["samples"] / rate / 3600, 3) if hit else None,
@@ -160,16 +171,27 @@ def main() -> None:
     if len(args) < 2:
         sys.exit("usage: time_to_skill.py RATES.json RUN_DIR [RUN_DIR ...] [--json OUT]")
     rates = json.loads(pathlib.Path(args[0]).read_text())
+    dirs = list(map(pathlib.Path, args[1:]))
+    # per clip, the samples the shortest run was evaluated to: the plateaus compare there
+    ends: dict[str, float] = {}
+    for d in dirs:
+        m = NAME.match(d.name)
+        clip = m["clip"] if m else d.name
+        top = max(r["samples"] for r in rows(d / "checkpoint_evals.jsonl"))
+        ends[clip] = min(ends.get(clip, top), top)
     results = []
-    for d in map(pathlib.Path, args[1:]):
+    for d in dirs:
         prefix = max((p for p in rates if d.name.startswith(p)), key=len, default=None)
         if prefix is None:
             sys.exit(f"{args[0]}: no rate for run folder {d.name} (keys: {sorted(rates)})")
-        s = summary(d, float(rates[prefix]))
+        m = NAME.match(d.name)
+        s = summary(d, float(rates[prefix]), ends[m["clip"] if m else d.name])
         results.append(s)
         hit = f"{s['criterion_samples'] / 1e6:.2f} M samples, {s['criterion_hours']:.2f} h" if s["criterion_samples"] else "not met"
-        print(f"{s['run']}: criterion {hit} (evaluated to {s['evaluated_to_samples'] / 1e6:.2f} M); plateau (last {PLATEAU_K}) "
-              f"completion {s['plateau_completion_pct']} %, E_b {s['plateau_e_b_mm']} mm, Acc {s['plateau_acc_pct']} %")
+        print(f"{s['run']}: criterion {hit} (evaluated to {s['evaluated_to_samples'] / 1e6:.2f} M); plateau (last {PLATEAU_K} "
+              f"to {s['plateau_end_samples'] / 1e6:.2f} M) completion {s['plateau_completion_pct']} %, E_b {s['plateau_e_b_mm']} mm, "
+              f"Acc {s['plateau_acc_pct']} %; own last {PLATEAU_K}: {s['final_completion_pct']} %, {s['final_e_b_mm']} mm, "
+              f"{s['final_acc_pct']} %")
     comparison = compare(results)
     for clip, c in comparison.items():
         ratio = "unknown (a seed has not met the criterion)" if c["ratio"] is None else f"{c['ratio']:.3f}"

@@ -48,4 +48,7 @@ rates = {f"{sys.argv[3]}-{p}": float(re.search(rf"^{p}: median: end-to-end (\d+)
 open(sys.argv[2], "w").write(json.dumps(rates) + "\n")
 EOF
 fi
-python3 scripts/experiments/time_to_skill.py "$OUT/rates-$clip.json" "$OUT/$clip"-{small,cpu}-s*
+# the run folders only (OUT also holds each run's console log, CLIP-PRESET-sSEED.log)
+runs=()
+for d in "$OUT/$clip"-{small,cpu}-s*; do [ -d "$d" ] && runs+=("$d"); done
+python3 scripts/experiments/time_to_skill.py "$OUT/rates-$clip.json" "${runs[@]}"
