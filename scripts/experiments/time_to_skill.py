@@ -117,6 +117,12 @@ def summary(run: pathlib.Path, rate: float, end: float | None = None) -> dict:
 NAME = re.compile(r"^(?P<clip>.+)-(?P<preset>[^-]+)-s(?P<seed>\d+)$")
 
 
+def clip_of(name: str) -> str:
+    """The clip of a run folder named CLIP-PRESET-sSEED (any other name is its own group)."""
+    m = NAME.match(name)
+    return m["clip"] if m else name
+
+
 def compare(results: list[dict], base: str = "small", fast: str = "cpu") -> dict:
     """The issue's comparison per clip: median hours to the criterion per preset and their ratio,
     and whether `fast`'s plateau lies within `base`'s seed spread or better."""
@@ -175,17 +181,14 @@ def main() -> None:
     # per clip, the samples the shortest run was evaluated to: the plateaus compare there
     ends: dict[str, float] = {}
     for d in dirs:
-        m = NAME.match(d.name)
-        clip = m["clip"] if m else d.name
         top = max(r["samples"] for r in rows(d / "checkpoint_evals.jsonl"))
-        ends[clip] = min(ends.get(clip, top), top)
+        ends[clip_of(d.name)] = min(ends.get(clip_of(d.name), top), top)
     results = []
     for d in dirs:
         prefix = max((p for p in rates if d.name.startswith(p)), key=len, default=None)
         if prefix is None:
             sys.exit(f"{args[0]}: no rate for run folder {d.name} (keys: {sorted(rates)})")
-        m = NAME.match(d.name)
-        s = summary(d, float(rates[prefix]), ends[m["clip"] if m else d.name])
+        s = summary(d, float(rates[prefix]), ends[clip_of(d.name)])
         results.append(s)
         hit = f"{s['criterion_samples'] / 1e6:.2f} M samples, {s['criterion_hours']:.2f} h" if s["criterion_samples"] else "not met"
         print(f"{s['run']}: criterion {hit} (evaluated to {s['evaluated_to_samples'] / 1e6:.2f} M); plateau (last {PLATEAU_K} "

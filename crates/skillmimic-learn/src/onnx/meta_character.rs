@@ -3,8 +3,9 @@
 //! character-specific field of `DeployMeta` is read from the character's
 //! [`CharacterSpec`], so it describes exactly what the simulator builds — joint order, the
 //! per-entry action → PD target map, gains and torque limits per joint and welded joints (the
-//! time steps `DeployMeta::new` reads from the spec for every character). The SkillMimic humanoid keeps its own description (`DeployMeta::new`: one
-//! global force limit, π·a, box-hand welds), unchanged since format version 1.
+//! time steps `DeployMeta::new` reads from the spec for every character). The SkillMimic
+//! humanoid keeps its own description (`DeployMeta::new`: one global force limit, π·a, box-hand
+//! welds), unchanged since format version 1.
 
 use serde::{Deserialize, Serialize};
 use skillmimic_core::characters::{BodyDef, CharacterSpec, JointDef};
