@@ -143,6 +143,12 @@ def test_papers_table_row(tmp_path):
     row = p.stdout.strip().splitlines()[-1]
     assert row == ("| layup-small-s0 | 031 | 256 envs, [1024, 512, 512], 6 ep., lr 2e-05 | 8.19 M | 50.0 (37.5–62.5), falls 6.2 "
                    "| 25.0 | – | 12.5 | 0.432 | 40.0 (69.6) | 151 | 100 | 0.123 | 87.5 |")
+    # with the clip frames where the start test's falls ended (eval's per-skill fall_frames)
+    q = {"count": 8, "min": 88, "q1": 90, "median": 93, "q3": 95, "max": 120}
+    start = {"nominal": {"fall_rate": 0.125, "per_skill": {"031": {"fall_frames": q}}}}
+    (d / "eval-start-eps0.01.json").write_text(json.dumps(start))
+    p = subprocess.run([sys.executable, str(ROOT / "scripts/results/papers_table.py"), str(d)], capture_output=True, text=True, check=True)
+    assert p.stdout.strip().splitlines()[-1].endswith("| 87.5; falls at frame 93 (90–95) |")
     # a folder without the evaluation is an error that names the file
     (d / "eval-papers.json").unlink()
     p = subprocess.run([sys.executable, str(ROOT / "scripts/results/papers_table.py"), str(d)], capture_output=True, text=True)
@@ -227,6 +233,20 @@ def test_checkpoint_table_writers_keep_each_others_rows(tmp_path):
     assert sorted(rows) == [25, *range(1000, 1060), *range(2000, 2060)]
     assert all(rows[it]["x"] == it for it in rows if it != 25)
     assert [json.loads(line)["iteration"] for line in table.read_text().splitlines()] == sorted(rows)
+
+
+def test_checkpoint_row_of_the_start_test_names_where_falls_ended():
+    """eval_checkpoints.py's "eps" row: completion, E_b, the SkillMimic score and, per skill with
+    falls, the median clip frame where they ended (eval's per-skill fall_frames)."""
+    ev = load("scripts/results/eval_checkpoints.py")
+    q = {"count": 3, "min": 80, "q1": 88, "median": 91, "q3": 97, "max": 99}
+    n = {"fall_rate": 0.75, "e_b_mpjpe_mm": 212.34, "per_skill": {"031": {"v1_score": 0.5, "fall_frames": q},
+                                                                   "013": {"v1_score": 1.0, "fall_frames": None}}}
+    assert ev.fields("eps", n) == {"start_eps001_completed_pct": 25.0, "start_eps001_e_b_mm": 212.3, "start_eps001_v1_score": 0.75,
+                                   "start_eps001_fall_frame_median": {"031": 91}}
+    # a report written before eval had fall_frames: no medians, no error
+    old = {**n, "per_skill": {"031": {"v1_score": 0.5}}}
+    assert ev.fields("eps", old)["start_eps001_fall_frame_median"] == {}
 
 
 def test_tab3_heading_waits_for_a_skill_policy_that_dribbles_for_10_s(tmp_path):

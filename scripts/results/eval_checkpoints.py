@@ -8,7 +8,9 @@ Evaluations per checkpoint (64 episodes each, seed 7):
     are one trajectory;
   - "eps": the mean action from frame 2 with the start state perturbed by ε = 0.01 per component
     (`--init-noise`: 1 cm, 0.01 rad, 0.01 m/s, 0.01 rad/s), so that deterministic episodes
-    differ: completion rate and the skill's SkillMimic success score;
+    differ: completion rate, the skill's SkillMimic success score and, per skill with falls, the
+    median clip frame where they ended (`start_eps001_fall_frame_median`; rows evaluated before
+    stop 74 lack it);
   - "random": from random frames as in training: Acc, E_b/E_o-mpjpe, E_cg, NR, falls.
 A row that lacks an evaluation added later gets only that one run and is completed in place.
 
@@ -42,6 +44,11 @@ def v1_score(nominal: dict) -> float | None:
     return round(sum(scores) / len(scores), 4) if scores else None
 
 
+def fall_frame_medians(nominal: dict) -> dict[str, int]:
+    """Per skill with falls: the median clip frame where they ended (eval's `fall_frames`)."""
+    return {k: s["fall_frames"]["median"] for k, s in nominal["per_skill"].items() if s.get("fall_frames")}
+
+
 def fields(kind: str, n: dict) -> dict:
     """The row's fields of one evaluation's nominal report."""
     if kind == "sampled":
@@ -52,7 +59,7 @@ def fields(kind: str, n: dict) -> dict:
                 "start_mean_action_e_b_mm": round(n["e_b_mpjpe_mm"], 1), "start_mean_action_v1_score": v1_score(n)}
     if kind == "eps":
         return {"start_eps001_completed_pct": round(100 * (1 - n["fall_rate"]), 2), "start_eps001_e_b_mm": round(n["e_b_mpjpe_mm"], 1),
-                "start_eps001_v1_score": v1_score(n)}
+                "start_eps001_v1_score": v1_score(n), "start_eps001_fall_frame_median": fall_frame_medians(n)}
     return {"acc_pct": round(n["acc_percent"], 2), "e_b_mm": round(n["e_b_mpjpe_mm"], 1), "e_o_mm": round(n["e_o_mpjpe_mm"], 1),
             "e_cg": round(n["e_cg"], 4), "nr": round(n["nr"], 4), "falls_pct": round(100 * n["fall_rate"], 2)}
 

@@ -11,7 +11,8 @@ Columns (every number from the folder's eval-papers.json unless named otherwise)
   - SkillMimic-V2: SR and TSR (600 steps from frame 2, sampled actions), εNSR (ε 0.1), NR;
   - random frames: Acc (with the replay ceiling: the share of frames where the clip's own
     kinematic replay matches its contact labels), E_b/E_o-mpjpe (mm), E_cg;
-  - completion from the start: the project's test (eval-start-eps0.01.json), not a paper metric.
+  - completion from the start: the project's test (eval-start-eps0.01.json), not a paper metric,
+    with the clip frame where its falls ended (median and quartiles) where the file has them.
 """
 
 from __future__ import annotations
@@ -54,6 +55,8 @@ def rows(folder: pathlib.Path) -> list[str]:
         samples = f"{int(samples) / 1e6:.2f} M" if samples.isdigit() else samples
         tsr = v2["tsr_mean"]
         completion = "–" if start is None else f"{100 * (1 - start['fall_rate']):.1f}"
+        if q := (start or {}).get("per_skill", {}).get(skill, {}).get("fall_frames"):
+            completion += f"; falls at frame {q['median']} ({q['q1']}–{q['q3']})"
         out.append(
             f"| {folder.name} | {skill} | {settings(cfg)} | {samples} "
             f"| {pct(s['success_rate'])} ({pct(lo)}–{pct(hi)}), falls {pct(s['fall_rate'])} "
@@ -73,7 +76,7 @@ def main() -> None:
             sys.exit(f"papers_table.py: {f}/eval-papers.json not found (scripts/results/evidence.sh writes it)")
     print(
         "| run | skill | settings | samples | SkillMimic success % (95 % interval), 10-s falls % | V2 SR % | V2 TSR % "
-        "| V2 εNSR % | NR | Acc % (replay ceiling) | E_b mm | E_o mm | E_cg | completion from the start, ±0.01 (project test) % |"
+        "| V2 εNSR % | NR | Acc % (replay ceiling) | E_b mm | E_o mm | E_cg | completion from the start, ±0.01 (project test) %; falls' clip frame, median (quartiles) |"
     )
     print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for f in folders:

@@ -46,6 +46,7 @@ pub mod divergence;
 pub mod episode_eval;
 pub mod error;
 pub mod eval;
+pub mod eval_report;
 pub mod eval_skillmimic;
 pub mod history_pretrain;
 pub mod iteration_stats;

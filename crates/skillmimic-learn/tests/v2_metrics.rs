@@ -5,7 +5,7 @@
 //! one step = one policy step.
 
 use skillmimic_env::metrics::FrameState;
-use skillmimic_learn::eval::{EpisodeTally, EpisodeTracker, EvalReport, v2_rate};
+use skillmimic_learn::eval::{EpisodeTally, EpisodeTracker, EvalReport, FrameQuartiles, v2_rate};
 
 const RUN: u32 = 13;
 const LAYUP: u32 = 31;
@@ -184,4 +184,30 @@ fn copies_of_one_trajectory_are_counted_once() {
     });
     assert_eq!(report(tally).per_skill["013"].distinct_episodes, 1);
     assert_eq!((rep.per_skill["013"].episodes, rep.per_skill["013"].distinct_episodes), (4, 2));
+}
+
+#[test]
+fn fall_frames_are_the_quartiles_of_where_the_falls_ended() {
+    // five layups from frame 2 that fall at clip frames 95, 90, 120, 91, 93 and one that reaches
+    // the clip's end (frame 160, not a fall): the quartiles are those of the five falls
+    let mut tally = EpisodeTally::default();
+    for f in [95, 90, 120, 91, 93] {
+        let tr = episode(LAYUP, f - 2, 0.3, |t| if t + 3 < f - 2 { layup(t) } else { fallen() });
+        tally.finish_at(LAYUP, &tr, true, Some(f));
+    }
+    tally.finish_at(LAYUP, &episode(LAYUP, 158, 0.6, layup), false, Some(160));
+    // a fall the task reports no clip frame for is counted as a fall but has no frame
+    tally.finish(RUN, &episode(RUN, 10, 0.1, |_| fallen()), true);
+    let rep = report(tally);
+    let q = rep.per_skill["031"].fall_frames.expect("five falls");
+    // sorted 90 91 93 95 120: nearest ranks 0, 1, 2, 3, 4
+    let want = FrameQuartiles { count: 5, min: 90, q1: 91, median: 93, q3: 95, max: 120 };
+    assert_eq!(q, want);
+    assert!((rep.per_skill["031"].fall_rate - 5.0 / 6.0).abs() < 1e-12);
+    assert_eq!(rep.per_skill["013"].fall_frames, None);
+    assert_eq!(rep.per_skill["013"].fall_rate, 1.0);
+    // nearest rank with four frames: indices round(0.75) = 1, round(1.5) = 2, round(2.25) = 2
+    let even = FrameQuartiles::of(&[40, 10, 30, 20]).unwrap();
+    assert_eq!((even.min, even.q1, even.median, even.q3, even.max), (10, 20, 30, 30, 40));
+    assert_eq!(FrameQuartiles::of(&[]), None);
 }
