@@ -12,6 +12,9 @@
 #     frame 2, sampled actions, distinct trials counted), εNSR (ε 0.1) and NR;
 #   - eval-start-eps0.01.json: the project's completion test (mean action from frame 2, start
 #     states perturbed by 0.01, to the clip's end), not a paper metric;
+#   - episode.mp4: 5 s of the mean action from the clip's start (frame 2; episodes restart there
+#     when the clip ends or the character falls), the reference beside it (`skillmimic play`);
+#     skipped with a line in checkpoint.txt where no renderer is available, or with VIDEO=0;
 #   - checkpoint.txt: which checkpoint, its iteration and samples, and the commands.
 # scripts/results/papers_table.py prints the table of docs/results.md from these folders.
 set -euo pipefail
@@ -29,8 +32,13 @@ mkdir -p "$dest"
 papers=(eval --checkpoint "$ck" --episodes 64 --seed 7 --skillmimic --v2 --out "$dest/eval-papers.json")
 start=(eval --checkpoint "$ck" --episodes 64 --seed 7 --start-frame 2 --init-noise 0.01
   --set env.episode_length=100000 --out "$dest/eval-start-eps0.01.json")
+video=(play --checkpoint "$ck" --steps 300 --set 'env.state_init={frame=2}' --set env.episode_length=100000
+  --ghost beside --video "$dest/episode.mp4")
 "$BIN" "${papers[@]}"
 "$BIN" "${start[@]}"
+if [ "${VIDEO:-1}" = 0 ]; then video_line="no video (VIDEO=0)"
+elif "$BIN" "${video[@]}" > /dev/null 2>&1; then video_line="$BIN ${video[*]}"
+else video_line="no video (the renderer failed: $BIN ${video[*]})"; fi
 gzip -9 -n -c "$run/log.jsonl" > "$dest/log.jsonl.gz"
 cp "$run/config.toml" "$dest/config.toml"
 [ -f "$run/checkpoint_evals.jsonl" ] && cp "$run/checkpoint_evals.jsonl" "$dest/checkpoint_evals.jsonl"
@@ -49,5 +57,6 @@ PY
   echo "made by: scripts/results/evidence.sh $name $run $ck ($(git rev-parse --short HEAD))"
   echo "commands: $BIN ${papers[*]}"
   echo "          $BIN ${start[*]}"
+  echo "video: $video_line"
 } > "$dest/checkpoint.txt"
 python3 scripts/results/papers_table.py "$dest"
