@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import importlib.util
 import json
+import math
 import pathlib
 import subprocess
 import sys
@@ -266,3 +267,40 @@ def test_tab3_heading_waits_for_a_skill_policy_that_dribbles_for_10_s(tmp_path):
     assert p.returncode == 0, p.stderr
     assert "dribble left (011): SkillMimic 10-s success 30.0 %, falls 70.0 %" in p.stdout, p.stdout
     assert "no high-level policy trained" in p.stdout and not (tmp_path / "runs/tab3-heading-cpu-s3").exists()
+
+
+def test_trend_extrapolates_a_log_linear_curve_and_says_when_it_points_nowhere(tmp_path):
+    """scripts/results/trend.py on hand-made curves: a metric rising by 20 per tenfold samples from
+    10 at 1 M reaches 50 at 100 M; a falling error reaches its target where the line says; a flat
+    or receding curve gives no budget; a reached target is named, not extrapolated."""
+    tr = load("scripts/results/trend.py")
+    rising = [(s, 10 + 20 * math.log10(s / 1e6)) for s in (1e6, 2e6, 4e6, 8e6)]
+    got = tr.trend(rising, 50.0, last=1.0)
+    assert got["why"] == "extrapolated" and abs(got["extrapolated_samples"] - 1e8) / 1e8 < 1e-9, got
+    assert abs(got["slope_per_decade"] - 20) < 1e-9 and got["target_reached_at"] is None
+    # only the last half is fitted: an early plateau does not flatten the line
+    early = [(s, 0.0) for s in (1e5, 2e5, 3e5, 4e5)]
+    assert abs(tr.trend(early + rising, 50.0)["extrapolated_samples"] - 1e8) / 1e8 < 1e-9
+    # an error falling by 50 mm per decade from 400 mm at 1 M: 200 mm at 10^4 M
+    falling = [(s, 400 - 50 * math.log10(s / 1e6)) for s in (1e6, 3e6, 5e6, 9e6)]
+    assert abs(tr.trend(falling, 200.0)["extrapolated_samples"] - 1e10) / 1e10 < 1e-9
+    # flat, receding, reached, too short
+    assert tr.trend([(s, 30.0) for s in (1e6, 2e6, 3e6, 4e6)], 90.0)["why"] == "the trend does not move towards the target"
+    assert tr.trend([(s, 60 - s / 1e6) for s in (1e6, 2e6, 3e6, 4e6)], 90.0)["extrapolated_samples"] is None
+    reached = tr.trend(rising + [(9e6, 95.0)], 90.0, last=1.0)
+    assert reached["why"] == "reached" and reached["target_reached_at"] == 9e6
+    assert tr.trend(rising[:3], 50.0)["why"] == "fewer than 4 evaluated checkpoints"
+    # the direction comes from the run's first evaluation, not the fitted window: an error that fell
+    # from 400 to 150-160 mm has reached 200 mm at its second checkpoint
+    err = [(1e6, 400.0), (2e6, 190.0), *[(s, 160 - s / 1e7) for s in (3e6, 4e6, 5e6, 6e6)]]
+    assert tr.trend(err, 200.0)["target_reached_at"] == 2e6
+    assert tr.trend(err, 200.0, lower_is_better=False)["target_reached_at"] == 1e6
+    # the command line on a run folder, and a missing field named
+    (tmp_path / "checkpoint_evals.jsonl").write_text("".join(json.dumps({"iteration": i, "samples": s, "m": m}) + "\n"
+                                                               for i, (s, m) in enumerate(rising)))
+    script = str(ROOT / "scripts/results/trend.py")
+    out = subprocess.run([sys.executable, script, "--metric", "m", "--target", "50", "--last", "1", str(tmp_path)],
+                         capture_output=True, text=True, check=True)
+    assert json.loads(out.stdout)["extrapolated_samples"] == 100000000
+    bad = subprocess.run([sys.executable, script, "--metric", "acc", "--target", "50", str(tmp_path)], capture_output=True, text=True)
+    assert bad.returncode != 0 and "'acc'" in bad.stderr
