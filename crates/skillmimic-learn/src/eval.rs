@@ -42,30 +42,25 @@ pub fn target_heights(lib: &MotionLibrary) -> BTreeMap<u32, f64> {
     m
 }
 
-/// The imitation episode fields the evaluation reads ([`Env::episode_info`]: `clip`,
-/// `progress`, `skill`, `ref_frame`).
+/// The imitation episode fields the evaluation reads ([`Env::episode_info`]: `clip`, `skill`,
+/// `ref_frame`).
 struct Fields {
-    at: [Option<usize>; 4],
+    at: [Option<usize>; 3],
 }
 
 impl Fields {
     fn of(env: &dyn Env) -> Self {
         let names = &env.spec().episode_names;
-        let at =
-            ["clip", "progress", "skill", "ref_frame"].map(|k| names.iter().position(|n| *n == k));
+        let at = ["clip", "skill", "ref_frame"].map(|k| names.iter().position(|n| *n == k));
         Self { at }
     }
-    /// The clip frame environment `i`'s episode is at (`None` when the task reports none).
-    fn ref_frame(&self, env: &dyn Env, i: usize) -> Option<usize> {
-        let k = self.at[3]?;
-        env.episode_info(i).get(k).map(|&x| x.max(0) as usize)
-    }
-    /// (clip, progress, skill) of environment `i` (0 where the task does not report one).
-    fn get(&self, env: &dyn Env, i: usize) -> (usize, usize, u32) {
+    /// (clip, skill, clip frame) of environment `i`'s episode: clip and skill 0 and the frame
+    /// `None` where the task does not report one.
+    fn get(&self, env: &dyn Env, i: usize) -> (usize, u32, Option<usize>) {
         // evaluation only: one small vector per episode start and end
         let v = env.episode_info(i);
-        let f = |k: Option<usize>| k.and_then(|k| v.get(k)).map_or(0, |&x| x.max(0) as usize);
-        (f(self.at[0]), f(self.at[1]), f(self.at[2]) as u32)
+        let f = |k: Option<usize>| k.and_then(|k| v.get(k)).map(|&x| x.max(0) as usize);
+        (f(self.at[0]).unwrap_or(0), f(self.at[1]).unwrap_or(0) as u32, f(self.at[2]))
     }
 }
 
@@ -75,7 +70,7 @@ fn tracker(
     i: usize,
     heights: &BTreeMap<u32, f64>,
 ) -> EpisodeTracker {
-    let (clip, _, skill) = fields.get(env, i);
+    let (clip, skill, _) = fields.get(env, i);
     let target = heights.get(&skill).copied().unwrap_or_else(|| {
         env.library().filter(|l| clip < l.len()).map_or(0.0, |l| max_ball_height(&l.get(clip).clip))
     });
@@ -155,8 +150,8 @@ pub fn evaluate_with(
                 restart[i] = true;
             }
             if done && counted {
-                let frame = fields.ref_frame(env, i);
-                tally.finish_at(fields.get(env, i).2, tr, b.terminated[i] != 0, frame);
+                let (_, skill, frame) = fields.get(env, i);
+                tally.finish_at(skill, tr, b.terminated[i] != 0, frame);
             }
         }
     }
